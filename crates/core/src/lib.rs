@@ -1,0 +1,23 @@
+//! trace-bench core: the vocabulary every acceleration structure shares.
+//!
+//! - [`geom`]: rays, boxes, triangles and hits (`#[repr(C)]`, uploadable to the GPU unchanged);
+//! - [`tri`]: the two triangle tests (Möller–Trumbore 1997; Woop, Benthin, Wald 2013);
+//! - [`stats`]: the [`Counter`] trait with the zero-sized [`NoStats`] and [`TraversalStats`];
+//! - [`accel`]: the object-safe [`Accel`] interface (one virtual call per ray batch) and the
+//!   [`Kernel`] trait whose monomorphised variants a structure dispatches to;
+//! - [`oracle`]: brute force, the ground truth;
+//! - [`compare`]: the documented rule deciding whether a structure's answer matches the oracle.
+
+pub mod accel;
+pub mod compare;
+pub mod geom;
+pub mod oracle;
+pub mod stats;
+pub mod tri;
+
+pub use accel::{dispatch, Accel, BuildReport, Kernel, MemoryReport, Query, TraversalInfo};
+pub use compare::{compare_any, compare_closest, hex_f32, Mismatch, MismatchKind, T_REL_TOL};
+pub use geom::{Aabb, HitRecord, Ray, Triangle, Vec3};
+pub use oracle::BruteForce;
+pub use stats::{Counter, NoStats, StatsSummary, TraversalStats};
+pub use tri::{MollerTrumbore, TriTest, TriTestKind, Watertight};
