@@ -1,1 +1,1 @@
-//! TODO(helper): see lib.rs
+//! The shared oracle suite. TODO(helper B).

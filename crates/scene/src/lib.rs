@@ -51,8 +51,16 @@ pub struct Scene {
 impl Scene {
     /// A scene from triangles, computing bounds.
     pub fn from_triangles(source: impl Into<String>, triangles: Vec<Triangle>) -> Self {
-        let bounds = triangles.iter().fold(Aabb::EMPTY, |b, t| b.union(&t.bounds()));
-        Scene { source: source.into(), triangles, bounds, view: None, own_rays: Vec::new() }
+        let bounds = triangles
+            .iter()
+            .fold(Aabb::EMPTY, |b, t| b.union(&t.bounds()));
+        Scene {
+            source: source.into(),
+            triangles,
+            bounds,
+            view: None,
+            own_rays: Vec::new(),
+        }
     }
 
     /// Number of triangles with zero area.
@@ -73,7 +81,11 @@ pub fn load(source: &str, scenes_root: &Path) -> Result<Scene, SceneError> {
         builtin::load(spec)
     } else {
         let p = Path::new(source);
-        let path = if p.is_absolute() { p.to_path_buf() } else { scenes_root.join(p) };
+        let path = if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            scenes_root.join(p)
+        };
         let mut scene = loader::load_file(&path)?;
         scene.source = source.to_string();
         Ok(scene)

@@ -1,1 +1,1 @@
-//! TODO(helper): see lib.rs
+//! Ray batches. TODO(helper B).
