@@ -11,7 +11,8 @@ pub struct BruteForce {
     tris: Vec<Triangle>,
 }
 
-const TRAVERSALS: &[TraversalInfo] = &[TraversalInfo {
+/// The one traversal of brute force.
+pub const TRAVERSALS: &[TraversalInfo] = &[TraversalInfo {
     name: "linear",
     doc: "every triangle in index order (the oracle)",
 }];

@@ -1,10 +1,30 @@
 //! Built-in procedural scenes, addressed as `builtin:NAME?param=value&…`.
 //!
-//! TODO(helper A): the procedural generators (cornell, sphereflake, mount, tetra, soup,
-//! teapot-stadium). Stress scenes (`builtin:stress/NAME`) live in [`crate::stress`].
+//! The procedural scenes ([`PROCEDURAL`]):
+//! - `cornell`: the Cornell box (walls, area light as two triangles, short and tall block);
+//! - `sphereflake`, `mount`, `tetra`: Eric Haines' Standard Procedural Databases (SPD, 1987)
+//!   tessellated to triangles, in SPD's own coordinates (Z up);
+//! - `soup`: random small triangles in the unit cube;
+//! - `teapot`, `teapot-stadium`: the Utah teapot (Newell's 32 bicubic Bezier patches)
+//!   alone, or in the middle of a huge, coarse stadium ("teapot in a stadium").
+//!
+//! Every scene is deterministic (fixed seeds where random), reads all its parameters through
+//! [`Params`], refuses more than [`MAX_TRIANGLES`] triangles, and comes with a default
+//! [`crate::View`]: a 256x256 camera (row order), a point light, and an AO distance of 4% of
+//! the bounding-box diagonal. Stress scenes (`builtin:stress/NAME`) live in [`crate::stress`].
 
 use crate::{Scene, SceneError};
 use std::collections::BTreeMap;
+
+mod common;
+mod cornell;
+mod soup;
+mod spd;
+mod teapot;
+
+/// Largest triangle count a procedural scene may generate; larger parameters are an error
+/// (about 1.8 GB of triangles, before any acceleration structure).
+pub const MAX_TRIANGLES: u64 = 50_000_000;
 
 /// One built-in scene as listed by `trace-bench scenes`.
 #[derive(Clone, Copy, Debug)]
@@ -116,8 +136,67 @@ pub fn list() -> Vec<BuiltinInfo> {
     v
 }
 
-/// The procedural scenes (helper A fills this table).
-pub const PROCEDURAL: &[BuiltinInfo] = &[];
+/// The procedural scenes, with their parameters (`name=default: meaning`).
+pub const PROCEDURAL: &[BuiltinInfo] = &[
+    BuiltinInfo {
+        name: "cornell",
+        doc: "Cornell box (classic 0..555 dimensions): 5 walls, ceiling area light (2 triangles), \
+              short and tall rotated blocks; 32 triangles; point light just below the area light",
+        params: &["scale=1: multiply all coordinates (e.g. 0.0018 for a unit box)"],
+    },
+    BuiltinInfo {
+        name: "sphereflake",
+        doc: "SPD 'balls' (Haines 1987): sphere with 9 children of 1/3 radius, recursively, on a \
+              square floor; triangles = 20*4^tess * (9^(size+1)-1)/8 + 2 (defaults: 65,602)",
+        params: &[
+            "size=3: recursion depth; (9^(size+1)-1)/8 spheres (SPD's size factor), 0..=10",
+            "tess=1: icosphere subdivisions per sphere, 20*4^tess triangles each, 0..=12",
+        ],
+    },
+    BuiltinInfo {
+        name: "mount",
+        doc: "SPD 'mount' (Haines 1987) terrain: fractal mountain by midpoint displacement \
+              (diamond-square, fractal dimension 2.2) over a 2^size grid; 2*4^size triangles \
+              (default 8,192); SPD's glass spheres omitted",
+        params: &[
+            "size=6: subdivision levels, 2*4^size triangles, 0..=12",
+            "seed=1: random seed of the displacements",
+        ],
+    },
+    BuiltinInfo {
+        name: "tetra",
+        doc: "SPD 'tetra' (Haines 1987): recursive (Sierpinski) tetrahedron, 4^size tetrahedra \
+              of 4 triangles, 4^(size+1) triangles (default 4,096; SPD size factor = size+1)",
+        params: &["size=5: recursion depth, 4^(size+1) triangles, 0..=11"],
+    },
+    BuiltinInfo {
+        name: "soup",
+        doc: "random triangle soup in the unit cube: each triangle's vertices uniform in a cube \
+              of edge `size` around a uniform random centre (default 10,000 triangles)",
+        params: &[
+            "count=10000: number of triangles, 1..=50000000",
+            "size=0.05: edge of the cube each triangle lies in, (0, 1]",
+            "seed=1: random seed",
+        ],
+    },
+    BuiltinInfo {
+        name: "teapot",
+        doc: "Utah teapot (Newell's 32 bicubic Bezier patches, with bottom), K x K grid per \
+              patch; 64*K^2 - 8*K triangles (pole triangles dropped; default 16,256), Y up",
+        params: &["tess=16: grid resolution per patch edge, 1..=880"],
+    },
+    BuiltinInfo {
+        name: "teapot-stadium",
+        doc: "teapot in a stadium: the dense teapot on a ground square of 2 triangles inside a \
+              ring of coarse stands (4 triangles per segment) of radius `stadium` teapot sizes; \
+              camera close to the teapot (default 16,386 triangles)",
+        params: &[
+            "teapot_tess=16: teapot grid resolution per patch edge (64*K^2 - 8*K triangles)",
+            "stadium=1000: stadium inner radius in teapot sizes (largest teapot extent), (0, 1e6]",
+            "segments=32: segments of the stand ring, 3..=1000000",
+        ],
+    },
+];
 
 /// Load `NAME?params` (the part after `builtin:`).
 pub fn load(spec: &str) -> Result<Scene, SceneError> {
@@ -133,9 +212,19 @@ pub fn load(spec: &str) -> Result<Scene, SceneError> {
 }
 
 fn load_procedural(name: &str, params: &Params) -> Result<Scene, SceneError> {
-    let _ = params;
-    Err(SceneError::Builtin {
-        spec: name.into(),
-        message: format!("unknown built-in scene `{name}` (run `trace-bench scenes` for the list)"),
-    })
+    match name {
+        "cornell" => cornell::cornell(params),
+        "sphereflake" => spd::sphereflake(params),
+        "mount" => spd::mount(params),
+        "tetra" => spd::tetra(params),
+        "soup" => soup::soup(params),
+        "teapot" => teapot::teapot(params),
+        "teapot-stadium" => teapot::teapot_stadium(params),
+        _ => Err(SceneError::Builtin {
+            spec: name.into(),
+            message: format!(
+                "unknown built-in scene `{name}` (run `trace-bench scenes` for the list)"
+            ),
+        }),
+    }
 }

@@ -1,0 +1,312 @@
+//! Command-line front end of trace-bench (thin: every piece of work lives in `tb-harness`).
+
+use anyhow::{bail, Context, Result};
+use clap::{Parser, Subcommand};
+use std::ffi::OsString;
+use std::path::{Path, PathBuf};
+use tb_harness::config::{self, Overrides};
+use tb_harness::runner::{self, Mode, RunOptions};
+
+#[derive(Parser)]
+#[command(
+    name = "trace-bench",
+    version,
+    about = "Measure ray-tracing acceleration structures on the same rays, checked against brute force"
+)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Run an experiment: build, trace, count, validate; write results.csv and results.json.
+    Run {
+        /// The experiment config (TOML).
+        config: PathBuf,
+        /// Output directory (default: results/NAME/TIMESTAMP, or the newest one with --resume).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Thread counts, overriding the config's run.threads (0 = all cores).
+        #[arg(long, value_delimiter = ',')]
+        threads: Option<Vec<usize>>,
+        /// Timed repeats per combination, overriding run.repeat.
+        #[arg(long)]
+        repeat: Option<usize>,
+        /// Continue an interrupted run: keep its rows, skip finished combinations.
+        #[arg(long)]
+        resume: bool,
+        /// Root directory for scene files named in the config.
+        #[arg(long, env = "TRACE_BENCH_SCENES")]
+        scenes_root: Option<PathBuf>,
+        /// No progress output.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Compare every structure and traversal of a config with the brute-force oracle only;
+    /// exit 1 on any mismatch.
+    Validate {
+        config: PathBuf,
+        #[arg(long, env = "TRACE_BENCH_SCENES")]
+        scenes_root: Option<PathBuf>,
+        /// Mismatching rays printed per combination.
+        #[arg(long, default_value_t = 5)]
+        show: usize,
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Compare the deterministic counters of RESULTS with a baseline; exit 1 on a regression.
+    Check {
+        /// The baseline results.csv.
+        #[arg(long)]
+        baseline: PathBuf,
+        /// The results.csv to check.
+        results: PathBuf,
+        /// Relative growth allowed per counter.
+        #[arg(long, default_value_t = 0.01)]
+        tolerance: f64,
+    },
+    /// List the structures, their traversals and parameters.
+    List,
+    /// List the built-in scenes and their parameters.
+    Scenes,
+    /// Print a scene's triangles, bounds, zero-area count and memory.
+    Info {
+        /// `builtin:NAME?…` or a file path (relative to the scenes root).
+        scene: String,
+        #[arg(long, env = "TRACE_BENCH_SCENES")]
+        scenes_root: Option<PathBuf>,
+    },
+}
+
+/// Run the command line `args`; returns the process exit code.
+pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
+    let cli = match Cli::try_parse_from(args) {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() { 2 } else { 0 };
+        }
+    };
+    match dispatch(cli) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            1
+        }
+    }
+}
+
+fn dispatch(cli: Cli) -> Result<i32> {
+    match cli.cmd {
+        Cmd::Run {
+            config,
+            out,
+            threads,
+            repeat,
+            resume,
+            scenes_root,
+            quiet,
+        } => {
+            let ov = Overrides {
+                scenes_root,
+                threads,
+                repeat,
+            };
+            cmd_run(&config, out, ov, resume, quiet)
+        }
+        Cmd::Validate {
+            config,
+            scenes_root,
+            show,
+            quiet,
+        } => {
+            let ov = Overrides {
+                scenes_root,
+                ..Default::default()
+            };
+            cmd_validate(&config, ov, show, quiet)
+        }
+        Cmd::Check {
+            baseline,
+            results,
+            tolerance,
+        } => cmd_check(&baseline, &results, tolerance),
+        Cmd::List => {
+            print!("{}", tb_harness::registry::listing());
+            Ok(0)
+        }
+        Cmd::Scenes => {
+            for s in tb_scene::builtin::list() {
+                println!("builtin:{:<28} {}", s.name, s.doc);
+                for p in s.params {
+                    println!("    {p}");
+                }
+            }
+            Ok(0)
+        }
+        Cmd::Info { scene, scenes_root } => {
+            let root = scenes_root.unwrap_or_else(|| PathBuf::from("scenes"));
+            let s = tb_scene::load(&scene, &root)?;
+            let b = s.bounds;
+            println!("scene       {}", s.source);
+            println!("triangles   {}", s.triangles.len());
+            println!("zero-area   {}", s.degenerate_count());
+            println!(
+                "bounds      [{}, {}, {}] .. [{}, {}, {}]",
+                b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
+            );
+            println!("diagonal    {}", b.diagonal());
+            println!("memory      {} bytes (triangles)", s.memory_bytes());
+            if let Some(v) = &s.view {
+                let c = v.camera;
+                println!(
+                    "view        eye {:?} target {:?} fov {} {}x{}; light {:?}; ao distance {}",
+                    c.eye.to_array(),
+                    c.target.to_array(),
+                    c.fov,
+                    c.width,
+                    c.height,
+                    v.light.map(|l| l.to_array()),
+                    v.ao_distance
+                );
+            }
+            if !s.own_rays.is_empty() {
+                println!("own rays    {}", s.own_rays.len());
+            }
+            Ok(0)
+        }
+    }
+}
+
+fn load(config: &Path, ov: &Overrides, quiet: bool) -> Result<config::Experiment> {
+    let exp = config::load(config, ov, &mut |src| {
+        if !quiet {
+            eprintln!("loading {src}");
+        }
+    })?;
+    Ok(exp)
+}
+
+fn default_out(name: &str, resume: bool) -> Result<PathBuf> {
+    let base = PathBuf::from("results").join(name);
+    if resume {
+        // The newest run directory of this experiment.
+        let mut dirs: Vec<PathBuf> = std::fs::read_dir(&base)
+            .with_context(|| format!("{}: no earlier run to resume", base.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.join("results.csv").is_file())
+            .collect();
+        dirs.sort();
+        return dirs
+            .pop()
+            .with_context(|| format!("{}: no earlier run to resume", base.display()));
+    }
+    let stamp = tb_harness::meta::now_rfc3339().replace(':', "-");
+    Ok(base.join(stamp.trim_end_matches('Z')))
+}
+
+fn cmd_run(
+    config: &Path,
+    out: Option<PathBuf>,
+    ov: Overrides,
+    resume: bool,
+    quiet: bool,
+) -> Result<i32> {
+    let exp = load(config, &ov, quiet)?;
+    let out = match out {
+        Some(o) => o,
+        None => default_out(&exp.name, resume)?,
+    };
+    let opts = RunOptions {
+        out: out.clone(),
+        resume,
+        quiet,
+        mode: Mode::Run,
+        max_report: 5,
+    };
+    let summary = runner::run(&exp, &opts)?;
+    println!("{}", runner::table(&summary.rows));
+    for n in &summary.notes {
+        println!("note: {n}");
+    }
+    if summary.skipped > 0 {
+        println!(
+            "resumed: {} rows were already done and kept",
+            summary.skipped
+        );
+    }
+    for r in &summary.mismatch_reports {
+        println!("mismatch: {r}");
+    }
+    println!(
+        "wrote {} rows to {}",
+        summary.written,
+        out.join("results.csv").display()
+    );
+    println!("      and {}", out.join("results.json").display());
+    if !summary.failures.is_empty() {
+        for f in &summary.failures {
+            eprintln!("error: {f}");
+        }
+        return Ok(1);
+    }
+    Ok(0)
+}
+
+fn cmd_validate(config: &Path, ov: Overrides, show: usize, quiet: bool) -> Result<i32> {
+    let exp = load(config, &ov, quiet)?;
+    if exp.validate == config::Validate::Off {
+        bail!(
+            "{}: run.validate = \"off\": nothing to validate",
+            config.display()
+        );
+    }
+    let opts = RunOptions {
+        out: PathBuf::new(),
+        resume: false,
+        quiet,
+        mode: Mode::Validate,
+        max_report: show,
+    };
+    let summary = runner::run(&exp, &opts)?;
+    println!("{}", runner::table(&summary.rows));
+    for r in &summary.mismatch_reports {
+        println!("mismatch: {r}");
+    }
+    for f in &summary.failures {
+        eprintln!("error: {f}");
+    }
+    let checked: u64 = summary.rows.iter().filter_map(|r| r.validated_rays).sum();
+    println!(
+        "{} mismatches in {} validated rays",
+        summary.mismatches, checked
+    );
+    Ok(if summary.mismatches > 0 || !summary.failures.is_empty() {
+        1
+    } else {
+        0
+    })
+}
+
+fn cmd_check(baseline: &Path, results: &Path, tolerance: f64) -> Result<i32> {
+    let base = tb_harness::output::read_csv(baseline)?;
+    let cur = tb_harness::output::read_csv(results)?;
+    let findings = tb_harness::check::compare(&base, &cur, tolerance);
+    print!("{}", tb_harness::check::report(&findings));
+    let failed = findings.iter().filter(|f| f.failed).count();
+    if failed > 0 {
+        println!(
+            "check failed: {failed} regressions against {}",
+            baseline.display()
+        );
+        Ok(1)
+    } else {
+        println!(
+            "check passed: {} baseline rows, {} counters changed within tolerance or improved",
+            base.len(),
+            findings.len()
+        );
+        Ok(0)
+    }
+}

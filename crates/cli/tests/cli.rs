@@ -1,0 +1,339 @@
+//! End-to-end tests of the `trace-bench` command line: config errors, malformed scene files,
+//! interrupted runs resumed, and the baseline check.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use tb_harness::config::{self, Overrides};
+use tb_harness::output::read_csv;
+
+fn run(args: &[&str]) -> i32 {
+    let mut v: Vec<std::ffi::OsString> = vec!["trace-bench".into()];
+    v.extend(args.iter().map(|a| a.into()));
+    trace_bench::run(v)
+}
+
+fn parse_err(text: &str) -> String {
+    let file = Path::new("configs/test.toml");
+    match config::parse(file, text, &Overrides::default(), &mut |_| {}) {
+        Ok(_) => panic!("config should not parse:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+const GOOD: &str = r#"
+[run]
+threads = 1
+repeat = 1
+warmup = 0
+
+[[scene]]
+source = "builtin:stress/flat"
+rays = ["primary", "random"]
+random = { count = 500 }
+
+[[structure]]
+name = "bvh"
+"#;
+
+#[test]
+fn good_config_parses() {
+    let exp = config::parse(
+        Path::new("t.toml"),
+        GOOD,
+        &Overrides::default(),
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!(exp.scenes.len(), 1);
+    assert_eq!(exp.structures[0].param_sets.len(), 1);
+}
+
+#[test]
+fn config_errors_name_file_line_and_key() {
+    // Unknown key (line 3).
+    let e = parse_err("[run]\nthreads = 1\nthreds = 2\n");
+    assert!(
+        e.contains("configs/test.toml") && e.contains("line 3") && e.contains("threds"),
+        "{e}"
+    );
+    // Wrong type.
+    let e = parse_err("[run]\nrepeat = \"five\"\n");
+    assert!(
+        e.contains("line 2") && e.contains("repeat") || e.contains("line 2"),
+        "{e}"
+    );
+    // Unknown structure, on its line.
+    let text = GOOD.replace("name = \"bvh\"", "name = \"octree\"");
+    let e = parse_err(&text);
+    let line = text.lines().position(|l| l.contains("octree")).unwrap() + 1;
+    assert!(
+        e.contains(&format!(":{line}:")) && e.contains("unknown structure `octree`"),
+        "{e}"
+    );
+    // Unknown traversal.
+    let e = parse_err(&GOOD.replace(
+        "name = \"bvh\"",
+        "name = \"bvh\"\ntraversals = [\"kd-restart\"]",
+    ));
+    assert!(
+        e.contains("structure.traversals") && e.contains("kd-restart"),
+        "{e}"
+    );
+    // Unknown parameter and bad parameter value.
+    let e = parse_err(&GOOD.replace("name = \"bvh\"", "name = \"bvh\"\nparams = { leaf = 3 }"));
+    assert!(
+        e.contains("structure.params.leaf") && e.contains("unknown parameter"),
+        "{e}"
+    );
+    let e = parse_err(&GOOD.replace(
+        "name = \"bvh\"",
+        "name = \"bvh\"\nparams = { bins = [8, 1] }",
+    ));
+    assert!(
+        e.contains("structure.params.bins") && e.contains("out of range"),
+        "{e}"
+    );
+    // Missing scene file, naming the path.
+    let e = parse_err(&GOOD.replace("builtin:stress/flat", "no/such/scene.obj"));
+    assert!(
+        e.contains("scene.source") && e.contains("no/such/scene.obj") && e.contains("not found"),
+        "{e}"
+    );
+    // Unknown ray kind.
+    let e = parse_err(&GOOD.replace("\"random\"]", "\"randm\"]"));
+    assert!(e.contains("scene.rays") && e.contains("randm"), "{e}");
+    // Unknown built-in scene.
+    let e = parse_err(&GOOD.replace("builtin:stress/flat", "builtin:nosuch"));
+    assert!(e.contains("scene.source") && e.contains("nosuch"), "{e}");
+    // Malformed TOML.
+    let e = parse_err("[run\nthreads = 1\n");
+    assert!(
+        e.contains("configs/test.toml") && e.contains("line 1"),
+        "{e}"
+    );
+}
+
+fn write_config(dir: &Path, scene_source: &str) -> PathBuf {
+    let cfg = dir.join("c.toml");
+    let text = GOOD
+        .replace("builtin:stress/flat", scene_source)
+        .replace("rays = [\"primary\", \"random\"]", "rays = [\"random\"]");
+    fs::write(&cfg, text).unwrap();
+    cfg
+}
+
+#[test]
+fn malformed_scenes_fail_cleanly_without_results() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    fs::write(d.join("bad.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n").unwrap();
+    fs::write(d.join("junk.obj"), "v 0 0 zero\nf 1 2 3\n").unwrap();
+    // A truncated gzip stream.
+    {
+        use std::io::Write;
+        let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        e.write_all(
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+                .repeat(200)
+                .as_slice(),
+        )
+        .unwrap();
+        let bytes = e.finish().unwrap();
+        fs::write(d.join("cut.obj.gz"), &bytes[..bytes.len() / 2]).unwrap();
+    }
+    fs::write(
+        d.join("bad.gltf"),
+        "{ \"asset\": { \"version\": \"2.0\" }, \"meshes\": [ {",
+    )
+    .unwrap();
+    for name in ["bad.obj", "junk.obj", "cut.obj.gz", "bad.gltf"] {
+        let cfg = write_config(d, &d.join(name).display().to_string());
+        let out = d.join(format!("out-{name}"));
+        let code = run(&[
+            "run",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "-q",
+        ]);
+        assert_eq!(code, 1, "{name} must fail");
+        assert!(
+            !out.join("results.csv").exists(),
+            "{name}: no results file may claim success"
+        );
+        // The error message names the file.
+        let e = config::load(&cfg, &Overrides::default(), &mut |_| {})
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains(name), "{name}: {e}");
+    }
+}
+
+#[test]
+fn interrupted_run_resumes_to_the_same_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cfg = d.join("r.toml");
+    fs::write(
+        &cfg,
+        r#"
+[run]
+threads = [1, 2]
+repeat = 1
+warmup = 0
+triangle_test = ["watertight", "moller-trumbore"]
+
+[[scene]]
+source = "builtin:stress/flat"
+rays = ["primary", "random", "stress"]
+random = { count = 300 }
+
+[[structure]]
+name = "bvh"
+params = { max_leaf = [2, 4] }
+"#,
+    )
+    .unwrap();
+    let full = d.join("full");
+    assert_eq!(
+        run(&[
+            "run",
+            cfg.to_str().unwrap(),
+            "--out",
+            full.to_str().unwrap(),
+            "-q"
+        ]),
+        0
+    );
+    let all = read_csv(&full.join("results.csv")).unwrap();
+    assert_eq!(all.len(), 2 * 2 * 3 * 2, "params x tests x kinds x threads");
+
+    // Simulate an interruption: the first 5 rows and a torn sixth line.
+    let part = d.join("part");
+    fs::create_dir_all(&part).unwrap();
+    let text = fs::read_to_string(full.join("results.csv")).unwrap();
+    let mut lines: Vec<&str> = text.lines().take(6).collect();
+    let torn = &text.lines().nth(6).unwrap()[..20];
+    lines.push(torn);
+    fs::write(part.join("results.csv"), lines.join("\n")).unwrap();
+    // Without --resume the existing results are protected.
+    assert_eq!(
+        run(&[
+            "run",
+            cfg.to_str().unwrap(),
+            "--out",
+            part.to_str().unwrap(),
+            "-q"
+        ]),
+        1
+    );
+    assert_eq!(
+        run(&[
+            "run",
+            cfg.to_str().unwrap(),
+            "--out",
+            part.to_str().unwrap(),
+            "-q",
+            "--resume"
+        ]),
+        0
+    );
+    let resumed = read_csv(&part.join("results.csv")).unwrap();
+    let mut a: Vec<_> = all
+        .iter()
+        .map(|r| (r.key(), r.steps_per_ray, r.mismatches))
+        .collect();
+    let mut b: Vec<_> = resumed
+        .iter()
+        .map(|r| (r.key(), r.steps_per_ray, r.mismatches))
+        .collect();
+    a.sort_by(|x, y| x.0.cmp(&y.0));
+    b.sort_by(|x, y| x.0.cmp(&y.0));
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.0, y.0);
+        assert_eq!(x.1, y.1, "counters are deterministic");
+        assert_eq!(x.2, y.2);
+    }
+    // results.json holds the same rows and says the run completed.
+    let json: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(part.join("results.json")).unwrap()).unwrap();
+    assert_eq!(json["rows"].as_array().unwrap().len(), all.len());
+    assert_eq!(json["meta"]["status"], "complete");
+}
+
+#[test]
+fn check_fails_when_a_counter_grows_and_passes_when_not() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cfg = write_config(d, "builtin:stress/flat");
+    let out = d.join("out");
+    assert_eq!(
+        run(&[
+            "run",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "-q"
+        ]),
+        0
+    );
+    let results = out.join("results.csv");
+    // Baseline equal to the run: passes.
+    assert_eq!(
+        run(&[
+            "check",
+            "--baseline",
+            results.to_str().unwrap(),
+            results.to_str().unwrap()
+        ]),
+        0
+    );
+    // A baseline with fewer steps per ray: the run's counter grew, so it fails.
+    let mut rows = read_csv(&results).unwrap();
+    for r in &mut rows {
+        r.steps_per_ray = r.steps_per_ray.map(|s| s * 0.5);
+    }
+    let lower = d.join("lower.csv");
+    let mut w = csv::Writer::from_path(&lower).unwrap();
+    for r in &rows {
+        w.serialize(r).unwrap();
+    }
+    w.flush().unwrap();
+    assert_eq!(
+        run(&[
+            "check",
+            "--baseline",
+            lower.to_str().unwrap(),
+            results.to_str().unwrap()
+        ]),
+        1
+    );
+    // A baseline with more steps: the run improved, so it passes.
+    for r in &mut rows {
+        r.steps_per_ray = r.steps_per_ray.map(|s| s * 4.0);
+    }
+    let higher = d.join("higher.csv");
+    let mut w = csv::Writer::from_path(&higher).unwrap();
+    for r in &rows {
+        w.serialize(r).unwrap();
+    }
+    w.flush().unwrap();
+    assert_eq!(
+        run(&[
+            "check",
+            "--baseline",
+            higher.to_str().unwrap(),
+            results.to_str().unwrap()
+        ]),
+        0
+    );
+}
+
+#[test]
+fn validate_command_passes_on_a_stress_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write_config(dir.path(), "builtin:stress/flat");
+    assert_eq!(run(&["validate", cfg.to_str().unwrap(), "-q"]), 0);
+}

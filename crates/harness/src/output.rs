@@ -1,0 +1,215 @@
+//! Result rows and their exporters: `results.csv` (one flat row per combination, flushed as
+//! each finishes) and `results.json` (the same rows plus run metadata, rewritten atomically
+//! after each row so an interrupted run leaves a valid file).
+//!
+//! Column names are stable and carry units; README.md documents each ("Results columns").
+
+use crate::error::HarnessError;
+use serde::{Deserialize, Serialize};
+use std::fs::{File, OpenOptions};
+use std::path::{Path, PathBuf};
+
+/// One result row: one scene x structure x params x traversal x device x threads x triangle
+/// test x ray kind. Empty cells (`None`) mean "not measured", never zero.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Row {
+    pub scene: String,
+    pub source: String,
+    pub triangles: u64,
+    pub structure: String,
+    pub params: String,
+    pub traversal: String,
+    pub device: String,
+    pub threads: u32,
+    pub triangle_test: String,
+    pub ray_kind: String,
+    pub rays: u64,
+    pub build_ms: Option<f64>,
+    pub trace_ms_min: Option<f64>,
+    pub trace_ms_median: Option<f64>,
+    pub trace_ms_max: Option<f64>,
+    pub mrays_per_s: Option<f64>,
+    pub hit_rate: Option<f64>,
+    pub interior_per_ray: Option<f64>,
+    pub interior_max: Option<u32>,
+    pub leaves_per_ray: Option<f64>,
+    pub leaves_max: Option<u32>,
+    pub prims_per_ray: Option<f64>,
+    pub prims_max: Option<u32>,
+    pub boxes_per_ray: Option<f64>,
+    pub boxes_max: Option<u32>,
+    pub planes_per_ray: Option<f64>,
+    pub planes_max: Option<u32>,
+    pub restarts_per_ray: Option<f64>,
+    pub restarts_max: Option<u32>,
+    pub steps_per_ray: Option<f64>,
+    pub steps_max: Option<u32>,
+    pub memory_bytes: Option<u64>,
+    pub nodes: Option<u64>,
+    pub prim_refs: Option<u64>,
+    pub node_bytes: Option<u32>,
+    pub sah_cost: Option<f64>,
+    pub build_stats: String,
+    pub validated_rays: Option<u64>,
+    pub mismatches: Option<u64>,
+    pub note: String,
+}
+
+/// The columns that identify a row (for `--resume` and `check`).
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct RowKey {
+    pub scene: String,
+    pub structure: String,
+    pub params: String,
+    pub traversal: String,
+    pub device: String,
+    pub threads: u32,
+    pub triangle_test: String,
+    pub ray_kind: String,
+}
+
+impl Row {
+    pub fn key(&self) -> RowKey {
+        RowKey {
+            scene: self.scene.clone(),
+            structure: self.structure.clone(),
+            params: self.params.clone(),
+            traversal: self.traversal.clone(),
+            device: self.device.clone(),
+            threads: self.threads,
+            triangle_test: self.triangle_test.clone(),
+            ray_kind: self.ray_kind.clone(),
+        }
+    }
+}
+
+/// Read a results CSV.
+pub fn read_csv(path: &Path) -> Result<Vec<Row>, HarnessError> {
+    let mut r = csv::Reader::from_path(path).map_err(|e| HarnessError::io(path, e))?;
+    let mut rows = Vec::new();
+    for (i, row) in r.deserialize().enumerate() {
+        let row: Row = row.map_err(|e| HarnessError::io(path, format!("row {}: {e}", i + 2)))?;
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+/// Writes rows to `results.csv` and `results.json` in an output directory.
+pub struct Sink {
+    dir: PathBuf,
+    csv: csv::Writer<File>,
+    rows: Vec<Row>,
+    meta: serde_json::Value,
+}
+
+impl Sink {
+    /// Open the sink. With `resume`, existing rows of `results.csv` are kept (and returned by
+    /// [`Sink::rows`]); otherwise the directory must not hold results yet.
+    pub fn open(dir: &Path, meta: serde_json::Value, resume: bool) -> Result<Sink, HarnessError> {
+        std::fs::create_dir_all(dir).map_err(|e| HarnessError::io(dir, e))?;
+        let csv_path = dir.join("results.csv");
+        let existing = if csv_path.exists() {
+            if !resume {
+                return Err(HarnessError::io(
+                    &csv_path,
+                    "already exists: pass --resume to continue that run, or choose another --out",
+                ));
+            }
+            read_csv(&csv_path)?
+        } else {
+            Vec::new()
+        };
+        // Rewrite the CSV from the parsed rows (drops a torn last line of an interrupted run).
+        let file = OpenOptions::new()
+            .create(true)
+            .write(true)
+            .truncate(true)
+            .open(&csv_path)
+            .map_err(|e| HarnessError::io(&csv_path, e))?;
+        let mut csv = csv::WriterBuilder::new()
+            .has_headers(true)
+            .from_writer(file);
+        if existing.is_empty() {
+            // Header even for an empty file, so the columns are documented by the file itself.
+            csv.write_record(header())
+                .map_err(|e| HarnessError::io(&csv_path, e))?;
+            csv.flush().map_err(|e| HarnessError::io(&csv_path, e))?;
+            csv = csv::WriterBuilder::new().has_headers(false).from_writer(
+                OpenOptions::new()
+                    .append(true)
+                    .open(&csv_path)
+                    .map_err(|e| HarnessError::io(&csv_path, e))?,
+            );
+        } else {
+            for r in &existing {
+                csv.serialize(r)
+                    .map_err(|e| HarnessError::io(&csv_path, e))?;
+            }
+            csv.flush().map_err(|e| HarnessError::io(&csv_path, e))?;
+            csv = csv::WriterBuilder::new().has_headers(false).from_writer(
+                OpenOptions::new()
+                    .append(true)
+                    .open(&csv_path)
+                    .map_err(|e| HarnessError::io(&csv_path, e))?,
+            );
+        }
+        let mut sink = Sink {
+            dir: dir.to_path_buf(),
+            csv,
+            rows: existing,
+            meta,
+        };
+        sink.write_json()?;
+        Ok(sink)
+    }
+
+    /// Rows written so far (including resumed ones).
+    pub fn rows(&self) -> &[Row] {
+        &self.rows
+    }
+
+    /// Append a row to both files and flush.
+    pub fn push(&mut self, row: Row) -> Result<(), HarnessError> {
+        let p = self.dir.join("results.csv");
+        self.csv
+            .serialize(&row)
+            .map_err(|e| HarnessError::io(&p, e))?;
+        self.csv.flush().map_err(|e| HarnessError::io(&p, e))?;
+        self.rows.push(row);
+        self.write_json()
+    }
+
+    /// Record the end of the run in the JSON metadata.
+    pub fn finish(&mut self, status: &str) -> Result<(), HarnessError> {
+        if let Some(m) = self.meta.as_object_mut() {
+            m.insert("status".into(), serde_json::Value::String(status.into()));
+        }
+        self.write_json()
+    }
+
+    fn write_json(&mut self) -> Result<(), HarnessError> {
+        let path = self.dir.join("results.json");
+        let tmp = self.dir.join("results.json.tmp");
+        let doc = serde_json::json!({ "meta": self.meta, "rows": self.rows });
+        let text = serde_json::to_string_pretty(&doc).map_err(|e| HarnessError::io(&path, e))?;
+        std::fs::write(&tmp, text).map_err(|e| HarnessError::io(&tmp, e))?;
+        std::fs::rename(&tmp, &path).map_err(|e| HarnessError::io(&path, e))
+    }
+}
+
+/// The CSV header (the field names of [`Row`] in order).
+pub fn header() -> Vec<String> {
+    // Serialize a default row with a header to learn the field names.
+    let mut w = csv::WriterBuilder::new()
+        .has_headers(true)
+        .from_writer(Vec::new());
+    w.serialize(Row::default()).expect("serialize default row");
+    let bytes = w.into_inner().expect("flush");
+    let text = String::from_utf8(bytes).expect("utf8");
+    text.lines()
+        .next()
+        .unwrap_or("")
+        .split(',')
+        .map(str::to_string)
+        .collect()
+}
