@@ -1,1 +1,481 @@
+//! The project's baseline: a binned SAH bounding volume hierarchy over triangles.
+//!
+//! - **Build** ([`Bvh::build`], module `build`): top-down, splitting each node where the surface
+//!   area heuristic (SAH; Goldsmith and Salmon 1987, MacDonald and Booth 1990) is smallest
+//!   among the bin boundaries of the centroid bounds on all three axes (binned SAH, Wald 2007,
+//!   "On fast construction of SAH-based bounding volume hierarchies"). The builder sees one box
+//!   and its centre per triangle, partitions an array of primitive references in place (no
+//!   allocation per node), and falls back to object-median splits where SAH cannot separate
+//!   primitives (coincident centroids, zero-area nodes) so leaves never exceed `max_leaf`.
+//! - **Layout**: flattened to 32-byte [`BvhNode`]s with the two children of an interior node
+//!   adjacent (pbrt-v3 §4.3.4 "Compact BVH for traversal", with sibling pairs instead of
+//!   left-child-next); triangles are copied into leaf order, [`Bvh::prim_ids`] maps back to the
+//!   scene's indices. The arrays are plain `#[repr(C)]` data, uploadable to a GPU unchanged.
+//! - **Traversal** `ordered` (module `traverse`): depth-first with a fixed-size stack, both
+//!   children's boxes tested at their parent and the nearer visited first (pbrt-v3 §4.3.5), the
+//!   slab test made robust as in Ize 2013, "Robust BVH ray traversal" (see [`Aabb::intersect`]).
 
+mod build;
+mod traverse;
+
+use serde::{Deserialize, Serialize};
+use tb_core::{
+    dispatch, Aabb, Accel, BuildReport, HitRecord, MemoryReport, Query, Ray, TraversalInfo,
+    TraversalStats, TriTestKind, Triangle, Vec3,
+};
+
+pub use traverse::STACK_SIZE;
+
+/// The traversals every [`Bvh`] offers (index = position, as passed to [`Accel::trace`]).
+pub const TRAVERSALS: &[TraversalInfo] = &[TraversalInfo {
+    name: "ordered",
+    doc: "ordered depth-first with a stack, nearer child first (both child boxes tested at the \
+          parent; pbrt-v3 §4.3.5; robust slab test, Ize 2013)",
+}];
+
+/// Build parameters of [`Bvh::build`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BvhParams {
+    /// Number of bins per axis over a node's centroid bounds at which SAH split candidates are
+    /// evaluated (binned SAH, Wald 2007). 2..=256, default 16.
+    pub bins: u32,
+    /// Largest leaf: nodes with more primitives are always split (by the best SAH bin, or at
+    /// the object median where no bin separates them), so leaves never exceed it. Default 4.
+    pub max_leaf: u32,
+    /// Nodes with at most this many primitives always become leaves. Default 1.
+    pub min_leaf: u32,
+    /// SAH cost of a traversal step, `C_trav` (MacDonald and Booth 1990). Default 1.
+    pub c_trav: f32,
+    /// SAH cost of one ray–triangle test, `C_isect` (MacDonald and Booth 1990). Default 1.
+    pub c_isect: f32,
+}
+
+impl Default for BvhParams {
+    fn default() -> Self {
+        Self {
+            bins: 16,
+            max_leaf: 4,
+            min_leaf: 1,
+            c_trav: 1.0,
+            c_isect: 1.0,
+        }
+    }
+}
+
+impl BvhParams {
+    /// Check the parameters: `bins` in 2..=256, `max_leaf ≥ 1`, `min_leaf ≤ max_leaf`, both
+    /// costs finite and positive.
+    pub fn check(&self) -> Result<(), String> {
+        if !(2..=256).contains(&self.bins) {
+            return Err(format!("bins must be in 2..=256, got {}", self.bins));
+        }
+        if self.max_leaf < 1 {
+            return Err("max_leaf must be at least 1".into());
+        }
+        if self.min_leaf > self.max_leaf {
+            return Err(format!(
+                "min_leaf ({}) must not exceed max_leaf ({})",
+                self.min_leaf, self.max_leaf
+            ));
+        }
+        if !(self.c_trav > 0.0 && self.c_trav.is_finite()) {
+            return Err(format!(
+                "c_trav must be positive and finite, got {}",
+                self.c_trav
+            ));
+        }
+        if !(self.c_isect > 0.0 && self.c_isect.is_finite()) {
+            return Err(format!(
+                "c_isect must be positive and finite, got {}",
+                self.c_isect
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One node of the flattened tree, 32 bytes (`#[repr(C)]`, GPU-uploadable as 8 words).
+///
+/// | words | interior (`count == 0`) | leaf (`count > 0`) |
+/// |---|---|---|
+/// | 0..3 | box min | box min |
+/// | 3 | `index`: left child; the right child is `index + 1` | `index`: first triangle in [`Bvh::triangles`] |
+/// | 4..7 | box max | box max |
+/// | 7 | `count = 0` | `count`: number of triangles |
+///
+/// The root is node 0. Children are stored after their parent, sibling pairs adjacent.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BvhNode {
+    pub min: [f32; 3],
+    /// Interior: index of the left child (right child = `index + 1`). Leaf: first triangle.
+    pub index: u32,
+    pub max: [f32; 3],
+    /// 0 for an interior node, the number of triangles (> 0) for a leaf.
+    pub count: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
+const _: () = assert!(std::mem::align_of::<BvhNode>() == 4);
+
+impl BvhNode {
+    /// An interior node placeholder with an empty box.
+    pub(crate) const EMPTY: BvhNode = BvhNode {
+        min: [f32::INFINITY; 3],
+        index: 0,
+        max: [f32::NEG_INFINITY; 3],
+        count: 0,
+    };
+
+    #[inline(always)]
+    pub fn is_leaf(&self) -> bool {
+        self.count > 0
+    }
+
+    /// The node's box.
+    #[inline(always)]
+    pub fn bounds(&self) -> Aabb {
+        Aabb::new(Vec3::from_array(self.min), Vec3::from_array(self.max))
+    }
+
+    /// The triangle range `index .. index + count` of a leaf.
+    #[inline(always)]
+    pub fn prim_range(&self) -> std::ops::Range<usize> {
+        self.index as usize..self.index as usize + self.count as usize
+    }
+}
+
+/// A binned SAH BVH over triangles (see the crate doc for the papers).
+///
+/// Per-ray counters (`TraversalStats`) of the `ordered` traversal:
+/// - `boxes`: ray–box slab tests (1 for the root, then 2 per interior node visited);
+/// - `interior`: interior nodes visited; `leaves`: leaves visited;
+/// - `prims`: ray–triangle tests;
+/// - `steps`: nodes visited, interior or leaf (`steps == interior + leaves`); a stack entry
+///   discarded on pop because a closer hit was found meanwhile is not a step;
+/// - `planes`, `restarts`: always 0.
+#[derive(Clone, Debug)]
+pub struct Bvh {
+    nodes: Vec<BvhNode>,
+    triangles: Vec<Triangle>,
+    prim_ids: Vec<u32>,
+    params: BvhParams,
+}
+
+impl Bvh {
+    /// Build a BVH over `tris` with `params` (single-threaded). Panics if `params.check()`
+    /// fails or there are `u32::MAX` or more triangles.
+    ///
+    /// An empty input gives an empty BVH (no nodes) that misses every ray.
+    pub fn build(tris: &[Triangle], params: &BvhParams) -> Bvh {
+        if let Err(e) = params.check() {
+            panic!("invalid BVH parameters: {e}");
+        }
+        assert!(
+            tris.len() < u32::MAX as usize,
+            "a BVH holds fewer than 2^32 - 1 triangles"
+        );
+        let (nodes, order) = build::build(tris, params);
+        let triangles = order.iter().map(|&i| tris[i as usize]).collect();
+        Bvh {
+            nodes,
+            triangles,
+            prim_ids: order,
+            params: *params,
+        }
+    }
+
+    /// The flattened nodes, root first (see [`BvhNode`]). Empty for an empty scene (which
+    /// every ray misses).
+    #[inline(always)]
+    pub fn nodes(&self) -> &[BvhNode] {
+        &self.nodes
+    }
+
+    /// The triangles in leaf order (leaf `l` owns `triangles()[l.prim_range()]`).
+    pub fn triangles(&self) -> &[Triangle] {
+        &self.triangles
+    }
+
+    /// `prim_ids()[i]` is the scene index of `triangles()[i]`.
+    pub fn prim_ids(&self) -> &[u32] {
+        &self.prim_ids
+    }
+
+    /// The parameters it was built with.
+    pub fn params(&self) -> &BvhParams {
+        &self.params
+    }
+
+    /// Walk the tree: call `f(node_index, depth)` for every node reachable from the root,
+    /// depth-first (root depth 0). Assumes a valid tree (see [`Accel::validate`]).
+    fn walk(&self, mut f: impl FnMut(usize, u32)) {
+        let nodes = self.nodes();
+        if nodes.is_empty() {
+            return;
+        }
+        let mut stack = vec![(0usize, 0u32)];
+        while let Some((i, d)) = stack.pop() {
+            f(i, d);
+            let n = &nodes[i];
+            if !n.is_leaf() {
+                let l = n.index as usize;
+                stack.push((l + 1, d + 1));
+                stack.push((l, d + 1));
+            }
+        }
+    }
+
+    /// Tree figures: (interior count, leaf count, max depth, sum of leaf depths, max leaf size,
+    /// Σ interior area, Σ leaf area × size).
+    fn figures(&self) -> TreeFigures {
+        let mut t = TreeFigures::default();
+        let nodes = self.nodes();
+        self.walk(|i, d| {
+            let n = &nodes[i];
+            let a = n.bounds().area() as f64;
+            t.depth_max = t.depth_max.max(d);
+            if n.is_leaf() {
+                t.leaves += 1;
+                t.leaf_depth_sum += d as u64;
+                t.max_leaf = t.max_leaf.max(n.count);
+                t.leaf_area_prims += a * n.count as f64;
+            } else {
+                t.interior += 1;
+                t.interior_area += a;
+            }
+        });
+        t
+    }
+
+    fn check_invariants(&self) -> Result<(), String> {
+        let nodes = self.nodes();
+        let n_tris = self.triangles.len();
+        if self.prim_ids.len() != n_tris {
+            return Err(format!(
+                "{} prim_ids for {} triangles",
+                self.prim_ids.len(),
+                n_tris
+            ));
+        }
+        let mut seen = vec![false; n_tris];
+        for (i, &id) in self.prim_ids.iter().enumerate() {
+            let id = id as usize;
+            if id >= n_tris {
+                return Err(format!("prim_ids[{i}] = {id} out of range"));
+            }
+            if std::mem::replace(&mut seen[id], true) {
+                return Err(format!("triangle {id} appears twice in prim_ids"));
+            }
+        }
+        if n_tris == 0 {
+            return if nodes.is_empty() {
+                Ok(())
+            } else {
+                Err("an empty BVH must have no nodes".into())
+            };
+        }
+        if nodes.is_empty() {
+            return Err("no nodes for a non-empty scene".into());
+        }
+        // Every node is reached exactly once (no cycles, no shared or orphan nodes), every
+        // triangle slot is owned by exactly one leaf.
+        let mut visited = vec![false; nodes.len()];
+        let mut owned = vec![false; n_tris];
+        let mut stack = vec![(0usize, 0u32)];
+        while let Some((i, depth)) = stack.pop() {
+            if std::mem::replace(&mut visited[i], true) {
+                return Err(format!("node {i} reached twice (cycle or shared child)"));
+            }
+            if depth as usize > STACK_SIZE {
+                return Err(format!(
+                    "node {i} at depth {depth} exceeds the traversal stack ({STACK_SIZE})"
+                ));
+            }
+            let n = &nodes[i];
+            let b = n.bounds();
+            if n.is_leaf() {
+                let r = n.prim_range();
+                if r.end > n_tris {
+                    return Err(format!("leaf {i}: triangles {r:?} out of range ({n_tris})"));
+                }
+                for k in r.clone() {
+                    if std::mem::replace(&mut owned[k], true) {
+                        return Err(format!("triangle slot {k} in two leaves"));
+                    }
+                    if !b.contains_box(&self.triangles[k].bounds()) {
+                        return Err(format!("leaf {i}: triangle slot {k} outside the leaf box"));
+                    }
+                }
+                if n.count > self.params.max_leaf {
+                    let c0 = self.triangles[r.start].bounds().center();
+                    if r.clone().any(|k| self.triangles[k].bounds().center() != c0) {
+                        return Err(format!(
+                            "leaf {i} holds {} > max_leaf = {} triangles whose centroids differ",
+                            n.count, self.params.max_leaf
+                        ));
+                    }
+                }
+            } else {
+                let l = n.index as usize;
+                if l <= i || l + 1 >= nodes.len() {
+                    return Err(format!(
+                        "node {i}: children {l}, {} invalid ({} nodes; children follow parents)",
+                        l + 1,
+                        nodes.len()
+                    ));
+                }
+                for c in [l, l + 1] {
+                    if !b.contains_box(&nodes[c].bounds()) {
+                        return Err(format!("node {c} not inside its parent {i}"));
+                    }
+                    stack.push((c, depth + 1));
+                }
+            }
+        }
+        if let Some(i) = visited.iter().position(|v| !v) {
+            return Err(format!("node {i} is unreachable from the root"));
+        }
+        if let Some(k) = owned.iter().position(|v| !v) {
+            return Err(format!("triangle slot {k} is in no leaf"));
+        }
+        Ok(())
+    }
+}
+
+#[derive(Default)]
+struct TreeFigures {
+    interior: u64,
+    leaves: u64,
+    depth_max: u32,
+    leaf_depth_sum: u64,
+    max_leaf: u32,
+    interior_area: f64,
+    leaf_area_prims: f64,
+}
+
+impl Accel for Bvh {
+    fn name(&self) -> &'static str {
+        "bvh"
+    }
+
+    fn traversals(&self) -> &'static [TraversalInfo] {
+        TRAVERSALS
+    }
+
+    fn memory(&self) -> MemoryReport {
+        MemoryReport {
+            bytes: (std::mem::size_of_val(self.nodes())
+                + std::mem::size_of_val(self.triangles.as_slice())
+                + std::mem::size_of_val(self.prim_ids.as_slice())) as u64,
+            nodes: self.nodes().len() as u64,
+            prim_refs: self.prim_ids.len() as u64,
+            node_bytes: std::mem::size_of::<BvhNode>() as u32,
+        }
+    }
+
+    /// `sah_cost = (C_trav·Σ_interior A(n) + C_isect·Σ_leaves A(l)·|l|) / A(root)` with `A`
+    /// the surface area (`None` for an empty tree or a root of zero area); extra figures:
+    /// `nodes`, `leaves`, `depth_max` (root depth 0), `leaf_depth_mean`, `prims_per_leaf_mean`,
+    /// `leaf_size_max`.
+    fn build_report(&self) -> BuildReport {
+        let t = self.figures();
+        let root_area = self
+            .nodes()
+            .first()
+            .map_or(0.0, |n| n.bounds().area() as f64);
+        let sah = (self.params.c_trav as f64 * t.interior_area
+            + self.params.c_isect as f64 * t.leaf_area_prims)
+            / root_area;
+        let leaves = t.leaves.max(1) as f64;
+        BuildReport {
+            sah_cost: (root_area > 0.0 && sah.is_finite()).then_some(sah),
+            extra: vec![
+                ("nodes".into(), (t.interior + t.leaves) as f64),
+                ("leaves".into(), t.leaves as f64),
+                ("depth_max".into(), t.depth_max as f64),
+                ("leaf_depth_mean".into(), t.leaf_depth_sum as f64 / leaves),
+                (
+                    "prims_per_leaf_mean".into(),
+                    self.triangles.len() as f64 / leaves,
+                ),
+                ("leaf_size_max".into(), t.max_leaf as f64),
+            ],
+        }
+    }
+
+    /// Checks: node indices in range with children after their parent (so no cycles), every
+    /// node reachable exactly once, depth within the traversal stack, every child box inside
+    /// its parent's, every triangle's box inside its leaf's, every triangle slot in exactly
+    /// one leaf, `prim_ids` a permutation of the scene's indices, leaves of at most
+    /// `max_leaf` triangles unless all their centroids coincide.
+    fn validate(&self) -> Result<(), String> {
+        self.check_invariants()
+    }
+
+    fn trace(
+        &self,
+        traversal: usize,
+        query: Query,
+        tri: TriTestKind,
+        rays: &[Ray],
+        hits: &mut [HitRecord],
+        stats: Option<&mut [TraversalStats]>,
+    ) {
+        match traversal {
+            0 => dispatch(&traverse::Ordered(self), query, tri, rays, hits, stats),
+            _ => panic!(
+                "bvh: unknown traversal {traversal} ({} available)",
+                TRAVERSALS.len()
+            ),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid() -> Vec<Triangle> {
+        (0..64)
+            .map(|i| {
+                let p = Vec3::new((i % 8) as f32, (i / 8) as f32, (i % 3) as f32);
+                Triangle::new(p, p + Vec3::X * 0.9, p + Vec3::Y * 0.9)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn validate_finds_corruption() {
+        let good = Bvh::build(&grid(), &BvhParams::default());
+        assert_eq!(good.validate(), Ok(()));
+        let first_leaf = good.nodes().iter().position(|n| n.is_leaf()).unwrap();
+        let interior = good.nodes().iter().rposition(|n| !n.is_leaf()).unwrap();
+
+        let mut b = good.clone();
+        let left = b.nodes[0].index as usize;
+        b.nodes[left].max[0] += 100.0;
+        assert!(b.validate().unwrap_err().contains("not inside its parent"));
+
+        let mut b = good.clone();
+        b.nodes[first_leaf].min[1] += 0.5;
+        assert!(b.validate().is_err());
+
+        let mut b = good.clone();
+        b.prim_ids[1] = b.prim_ids[0];
+        assert!(b.validate().unwrap_err().contains("twice"));
+
+        let mut b = good.clone();
+        b.nodes[interior].index = 0;
+        assert!(b.validate().unwrap_err().contains("children"));
+
+        let mut b = good.clone();
+        b.nodes[first_leaf].count = 60;
+        assert!(b.validate().is_err());
+
+        let mut b = good.clone();
+        b.nodes.push(BvhNode::EMPTY);
+        assert!(b.validate().unwrap_err().contains("unreachable"));
+    }
+}

@@ -256,9 +256,13 @@ fn cmd_run(
 
 fn cmd_validate(config: &Path, ov: Overrides, show: usize, quiet: bool) -> Result<i32> {
     let exp = load(config, &ov, quiet)?;
-    if exp.validate == config::Validate::Off {
+    if exp
+        .scenes
+        .iter()
+        .all(|s| s.validate == config::Validate::Off)
+    {
         bail!(
-            "{}: run.validate = \"off\": nothing to validate",
+            "{}: validate = \"off\" for every scene: nothing to validate",
             config.display()
         );
     }

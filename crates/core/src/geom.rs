@@ -266,7 +266,8 @@ impl Triangle {
     }
 
     /// True when the triangle has zero area in `f32` (degenerate: collinear or repeated
-    /// vertices). Such triangles are kept (a structure must cope with them) but never hit.
+    /// vertices). Such triangles are kept: a structure must cope with them, and a triangle test
+    /// may still report a ray running exactly through the segment as a hit.
     pub fn is_degenerate(&self) -> bool {
         self.normal() == Vec3::ZERO
     }

@@ -133,9 +133,10 @@ impl TriTest for Watertight {
         tri: &Triangle,
         tmax: f32,
     ) -> Option<(f32, f32, f32)> {
-        let a = tri.v0 - ray.origin;
-        let b = tri.v1 - ray.origin;
-        let c = tri.v2 - ray.origin;
+        // Arrays, not glam's `Index` (a match per access), so the permutation is a plain load.
+        let a = (tri.v0 - ray.origin).to_array();
+        let b = (tri.v1 - ray.origin).to_array();
+        let c = (tri.v2 - ray.origin).to_array();
         let (az, bz, cz) = (a[p.kz], b[p.kz], c[p.kz]);
         let ax = a[p.kx] - p.sx * az;
         let ay = a[p.ky] - p.sy * az;
@@ -201,7 +202,9 @@ mod tests {
         )
     }
 
-    fn both(ray: &Ray, t: &Triangle) -> (Option<(f32, f32, f32)>, Option<(f32, f32, f32)>) {
+    type Tuv = Option<(f32, f32, f32)>;
+
+    fn both(ray: &Ray, t: &Triangle) -> (Tuv, Tuv) {
         (
             Watertight::intersect(&Watertight::prepare(ray), ray, t, ray.tmax),
             MollerTrumbore::intersect(&(), ray, t, ray.tmax),

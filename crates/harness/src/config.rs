@@ -57,6 +57,7 @@ struct RawScene {
     ao: Option<RawAo>,
     path: Option<RawPath>,
     random: Option<RawRandom>,
+    validate: Option<Spanned<toml::Value>>,
 }
 
 #[derive(Deserialize)]
@@ -163,6 +164,8 @@ pub struct SceneSpec {
     pub ao_distance: f32,
     pub bounces: u32,
     pub random_count: usize,
+    /// Oracle validation for this scene (the scene's `validate`, else `run.validate`).
+    pub validate: Validate,
 }
 
 /// A checked structure entry.
@@ -379,20 +382,7 @@ pub fn parse(
     };
     let validate = match &run.validate {
         None => Validate::All,
-        Some(v) => match v.get_ref() {
-            toml::Value::String(s) if s == "all" => Validate::All,
-            toml::Value::String(s) if s == "off" => Validate::Off,
-            toml::Value::Boolean(true) => Validate::All,
-            toml::Value::Boolean(false) => Validate::Off,
-            toml::Value::Integer(n) if *n > 0 => Validate::Sample(*n as usize),
-            other => {
-                return Err(cx.err(
-                    v.span(),
-                    "run.validate",
-                    format!("expected \"all\", \"off\" or a positive ray count, found {other}"),
-                ))
-            }
-        },
+        Some(v) => parse_validate(&cx, v, "run.validate")?,
     };
     let seed = run.seed.unwrap_or(1);
 
@@ -617,6 +607,10 @@ pub fn parse(
                 format!("two scenes are labelled `{label}`; give one a `name`"),
             ));
         }
+        let scene_validate = match &s.validate {
+            None => validate,
+            Some(v) => parse_validate(&cx, v, "scene.validate")?,
+        };
         scenes.push(SceneSpec {
             label,
             scene,
@@ -627,6 +621,7 @@ pub fn parse(
             ao_distance,
             bounces,
             random_count,
+            validate: scene_validate,
         });
     }
 
@@ -645,6 +640,23 @@ pub fn parse(
         seed,
         scenes,
         structures,
+    })
+}
+
+fn parse_validate(cx: &Ctx, v: &Spanned<toml::Value>, key: &str) -> Result<Validate, HarnessError> {
+    Ok(match v.get_ref() {
+        toml::Value::String(s) if s == "all" => Validate::All,
+        toml::Value::String(s) if s == "off" => Validate::Off,
+        toml::Value::Boolean(true) => Validate::All,
+        toml::Value::Boolean(false) => Validate::Off,
+        toml::Value::Integer(n) if *n > 0 => Validate::Sample(*n as usize),
+        other => {
+            return Err(cx.err(
+                v.span(),
+                key,
+                format!("expected \"all\", \"off\" or a positive ray count, found {other}"),
+            ))
+        }
     })
 }
 

@@ -85,13 +85,30 @@ impl Row {
 
 /// Read a results CSV.
 pub fn read_csv(path: &Path) -> Result<Vec<Row>, HarnessError> {
-    let mut r = csv::Reader::from_path(path).map_err(|e| HarnessError::io(path, e))?;
+    let text = std::fs::read_to_string(path).map_err(|e| HarnessError::io(path, e))?;
+    parse_csv(path, &text)
+}
+
+fn parse_csv(path: &Path, text: &str) -> Result<Vec<Row>, HarnessError> {
+    let mut r = csv::Reader::from_reader(text.as_bytes());
     let mut rows = Vec::new();
     for (i, row) in r.deserialize().enumerate() {
         let row: Row = row.map_err(|e| HarnessError::io(path, format!("row {}: {e}", i + 2)))?;
         rows.push(row);
     }
     Ok(rows)
+}
+
+/// Read the results CSV of an interrupted run. Every row is written with its newline in one
+/// flush, so an unterminated last line is a row torn by the interruption: it is dropped (and
+/// its combination run again), and the number of dropped lines is returned.
+pub fn read_csv_resume(path: &Path) -> Result<(Vec<Row>, usize), HarnessError> {
+    let text = std::fs::read_to_string(path).map_err(|e| HarnessError::io(path, e))?;
+    match text.rfind('\n') {
+        Some(end) if end + 1 < text.len() => Ok((parse_csv(path, &text[..=end])?, 1)),
+        None if !text.is_empty() => Ok((Vec::new(), 1)),
+        _ => Ok((parse_csv(path, &text)?, 0)),
+    }
 }
 
 /// Writes rows to `results.csv` and `results.json` in an output directory.
@@ -115,7 +132,14 @@ impl Sink {
                     "already exists: pass --resume to continue that run, or choose another --out",
                 ));
             }
-            read_csv(&csv_path)?
+            let (rows, torn) = read_csv_resume(&csv_path)?;
+            if torn > 0 {
+                eprintln!(
+                    "note: {}: dropped a torn last line; that row runs again",
+                    csv_path.display()
+                );
+            }
+            rows
         } else {
             Vec::new()
         };

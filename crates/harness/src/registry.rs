@@ -8,6 +8,9 @@
 use crate::params::{ParamKind, ParamSet, ParamSpec};
 use tb_core::{Accel, BruteForce, TraversalInfo, Triangle};
 
+/// A builder: triangles and checked parameters to a built structure, or why not.
+pub type BuildFn = fn(&[Triangle], &ParamSet) -> Result<Box<dyn Accel>, String>;
+
 /// One buildable structure.
 pub struct StructureInfo {
     /// Config name (`name = "bvh"` in a `[[structure]]` table).
@@ -18,7 +21,7 @@ pub struct StructureInfo {
     /// The traversals every build of it offers (index = position).
     pub traversals: &'static [TraversalInfo],
     /// Build from triangles with checked parameters.
-    pub build: fn(&[Triangle], &ParamSet) -> Result<Box<dyn Accel>, String>,
+    pub build: BuildFn,
 }
 
 const BVH_PARAMS: &[ParamSpec] = &[

@@ -459,9 +459,9 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
                     ));
 
                     // Validation against the oracle.
-                    if exp.validate != Validate::Off {
+                    if spec.validate != Validate::Off {
                         let c = checked.entry((ti, tri, bi)).or_insert_with(|| {
-                            let idx = sample(exp.validate, b.rays.len());
+                            let idx = sample(spec.validate, b.rays.len());
                             let sub: Vec<Ray> = idx.iter().map(|&i| b.rays[i]).collect();
                             let expected = oracle
                                 .entry((bi, tri))

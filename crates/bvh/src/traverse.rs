@@ -1,0 +1,308 @@
+//! The `ordered` traversal: depth-first with a fixed-size stack, nearer child first
+//! (pbrt-v3 §4.3.5), with both children's boxes tested at their parent.
+//!
+//! Per ray: `1/dir` and, per axis, which of the node's two planes is the near one (pbrt's
+//! `dirIsNeg`; here the ray's octant, a const parameter of the walk, so the choice costs
+//! nothing per node), and the slab test needs no min/max of plane pairs. The slab test is the one of
+//! [`tb_core::Aabb::intersect`]: a zero direction component gives `±inf`, and the `NaN` of
+//! `0·inf` (origin in a slab's plane) is ignored by the max/min folds, so a ray lying in a box
+//! face enters the box; the exit distance is scaled by `1 + 2·gamma(3)` (Ize 2013) so rounding
+//! never culls a box the ray touches. The root box is tested first; a ray missing it is done.
+//!
+//! Closest hit: children are tested against `[tmin, closest t so far]`; the farther child of a
+//! pair is pushed with its entry distance, and discarded on pop when a hit closer than that
+//! entry has been found meanwhile. Any hit: the same walk, returning at the first hit.
+
+use crate::{Bvh, BvhNode};
+use std::mem::MaybeUninit;
+use tb_core::geom::gamma;
+use tb_core::{Counter, HitRecord, Kernel, Ray, TriTest};
+
+/// Entries of the traversal stack. The builder bounds the leaf depth by this (only median
+/// splits below depth 32), and a walk never holds more entries than the depth of its node.
+pub const STACK_SIZE: usize = 64;
+
+/// `1 + 2·gamma(3)`: the exit-distance scaling of the robust slab test (Ize 2013).
+const EXIT_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+
+/// The `ordered` traversal of a [`Bvh`] (traversal index 0).
+pub(crate) struct Ordered<'a>(pub &'a Bvh);
+
+/// Per-ray data of the slab test. The ray's octant (sign of each `1/dir` component) is a
+/// const parameter of the traversal, so which plane of a slab is near is known at compile
+/// time (pbrt's `dirIsNeg`, resolved once per ray by [`Ordered::traverse`]).
+#[derive(Clone, Copy)]
+struct RayBox {
+    org: [f32; 3],
+    inv: [f32; 3],
+}
+
+impl RayBox {
+    /// Entry and exit distance of the node's box clipped to `[tmin, tmax]`; the box is hit
+    /// when `entry <= exit`. Bit `a` of `OCT` set means `inv[a] < 0` (a negative direction,
+    /// or −0 → −inf, as in `Aabb::intersect`): that slab is entered through its max plane.
+    #[inline(always)]
+    fn slab<const OCT: u8>(&self, n: &BvhNode, tmin: f32, tmax: f32) -> (f32, f32) {
+        let pick = |a: usize| {
+            if OCT & (1 << a) != 0 {
+                (n.max[a], n.min[a])
+            } else {
+                (n.min[a], n.max[a])
+            }
+        };
+        let (nx, fx) = pick(0);
+        let (ny, fy) = pick(1);
+        let (nz, fz) = pick(2);
+        let tx0 = (nx - self.org[0]) * self.inv[0];
+        let ty0 = (ny - self.org[1]) * self.inv[1];
+        let tz0 = (nz - self.org[2]) * self.inv[2];
+        let tx1 = (fx - self.org[0]) * self.inv[0];
+        let ty1 = (fy - self.org[1]) * self.inv[1];
+        let tz1 = (fz - self.org[2]) * self.inv[2];
+        let tn = max_num(max_num(max_num(tmin, tx0), ty0), tz0);
+        let tf = min_num(min_num(min_num(tmax, tx1), ty1), tz1) * EXIT_SCALE;
+        (tn, tf)
+    }
+}
+
+/// `max(acc, t)` ignoring a `NaN` `t` (as `f32::max` does for a non-NaN `acc`); one `maxss`.
+#[inline(always)]
+fn max_num(acc: f32, t: f32) -> f32 {
+    if t > acc {
+        t
+    } else {
+        acc
+    }
+}
+
+/// `min(acc, t)` ignoring a `NaN` `t`; one `minss`.
+#[inline(always)]
+fn min_num(acc: f32, t: f32) -> f32 {
+    if t < acc {
+        t
+    } else {
+        acc
+    }
+}
+
+impl Ordered<'_> {
+    /// Dispatch on the ray's octant to a walk specialised for it.
+    #[inline(always)]
+    fn traverse<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        let inv = ray.inv_dir().to_array();
+        let rb = RayBox {
+            org: ray.origin.to_array(),
+            inv,
+        };
+        let oct = (inv[0] < 0.0) as u8 | ((inv[1] < 0.0) as u8) << 1 | ((inv[2] < 0.0) as u8) << 2;
+        match oct {
+            0 => self.walk::<T, C, ANY, 0>(ray, &rb, c),
+            1 => self.walk::<T, C, ANY, 1>(ray, &rb, c),
+            2 => self.walk::<T, C, ANY, 2>(ray, &rb, c),
+            3 => self.walk::<T, C, ANY, 3>(ray, &rb, c),
+            4 => self.walk::<T, C, ANY, 4>(ray, &rb, c),
+            5 => self.walk::<T, C, ANY, 5>(ray, &rb, c),
+            6 => self.walk::<T, C, ANY, 6>(ray, &rb, c),
+            _ => self.walk::<T, C, ANY, 7>(ray, &rb, c),
+        }
+    }
+
+    #[inline(always)]
+    fn walk<T: TriTest, C: Counter, const ANY: bool, const OCT: u8>(
+        &self,
+        ray: &Ray,
+        rb: &RayBox,
+        c: &mut C,
+    ) -> HitRecord {
+        let bvh = self.0;
+        let nodes = bvh.nodes();
+        let tris = bvh.triangles.as_slice();
+        let Some(root) = nodes.first() else {
+            return HitRecord::MISS;
+        };
+        let tmin = ray.tmin;
+        let mut best_t = ray.tmax;
+        c.boxes(1);
+        let (tn, tf) = rb.slab::<OCT>(root, tmin, best_t);
+        let root_hit = tn <= tf;
+        if !root_hit {
+            return HitRecord::MISS;
+        }
+        let pre = T::prepare(ray);
+        let mut hit_slot = usize::MAX;
+        let (mut hit_u, mut hit_v) = (0.0f32, 0.0f32);
+        // Far children still to visit, with their entry distances.
+        let mut stack: [MaybeUninit<(u32, f32)>; STACK_SIZE] = [MaybeUninit::uninit(); STACK_SIZE];
+        let mut sp = 0usize;
+        let mut node = root;
+        'walk: loop {
+            if !node.is_leaf() {
+                c.interior();
+                c.steps(1);
+                c.boxes(2);
+                let l = node.index as usize;
+                // SAFETY: a `Bvh` is only made by `Bvh::build`, whose interior nodes have
+                // `index + 1 < nodes.len()` (checked by `validate`).
+                let (a, b) = unsafe { (nodes.get_unchecked(l), nodes.get_unchecked(l + 1)) };
+                let (an, af) = rb.slab::<OCT>(a, tmin, best_t);
+                let (bn, bf) = rb.slab::<OCT>(b, tmin, best_t);
+                let hit_a = an <= af;
+                let hit_b = bn <= bf;
+                if hit_a {
+                    if hit_b {
+                        let (near, far, far_t) = if an <= bn { (a, l + 1, bn) } else { (b, l, an) };
+                        // The builder bounds the depth by STACK_SIZE, and at most one entry
+                        // per level is pending, so this index is in range (checked anyway).
+                        stack[sp] = MaybeUninit::new((far as u32, far_t));
+                        sp += 1;
+                        node = near;
+                    } else {
+                        node = a;
+                    }
+                    continue 'walk;
+                } else if hit_b {
+                    node = b;
+                    continue 'walk;
+                }
+            } else {
+                c.leaf();
+                c.steps(1);
+                let first = node.index as usize;
+                // SAFETY: `Bvh::build` makes leaves whose ranges lie inside `triangles`
+                // (checked by `validate`).
+                let leaf = unsafe { tris.get_unchecked(first..first + node.count as usize) };
+                if ANY {
+                    for (k, tri) in leaf.iter().enumerate() {
+                        c.prims(1);
+                        if let Some((t, u, v)) = T::intersect(&pre, ray, tri, best_t) {
+                            return HitRecord {
+                                t,
+                                prim: bvh.prim_ids[first + k],
+                                u,
+                                v,
+                            };
+                        }
+                    }
+                } else {
+                    c.prims(node.count);
+                    for (k, tri) in leaf.iter().enumerate() {
+                        if let Some((t, u, v)) = T::intersect(&pre, ray, tri, best_t) {
+                            best_t = t;
+                            hit_slot = first + k;
+                            hit_u = u;
+                            hit_v = v;
+                        }
+                    }
+                }
+            }
+            // Pop the next pending subtree, skipping those entered beyond the closest hit.
+            loop {
+                if sp == 0 {
+                    break 'walk;
+                }
+                sp -= 1;
+                // SAFETY: entries below `sp` were written by the push above.
+                let (idx, entry) = unsafe { stack.get_unchecked(sp).assume_init() };
+                if ANY || entry <= best_t * EXIT_SCALE {
+                    // SAFETY: pushed indices are children of interior nodes (see above).
+                    node = unsafe { nodes.get_unchecked(idx as usize) };
+                    break;
+                }
+            }
+        }
+        if hit_slot == usize::MAX {
+            HitRecord::MISS
+        } else {
+            HitRecord {
+                t: best_t,
+                prim: bvh.prim_ids[hit_slot],
+                u: hit_u,
+                v: hit_v,
+            }
+        }
+    }
+}
+
+impl Kernel for Ordered<'_> {
+    #[inline]
+    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.traverse::<T, C, false>(ray, c)
+    }
+
+    #[inline]
+    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.traverse::<T, C, true>(ray, c)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tb_core::{Aabb, Vec3};
+
+    fn slab_any_octant(b: &Aabb, ray: &Ray) -> (f32, f32) {
+        let n = BvhNode {
+            min: b.min.to_array(),
+            index: 0,
+            max: b.max.to_array(),
+            count: 0,
+        };
+        let inv = ray.inv_dir().to_array();
+        let rb = RayBox {
+            org: ray.origin.to_array(),
+            inv,
+        };
+        let oct = (inv[0] < 0.0) as u8 | ((inv[1] < 0.0) as u8) << 1 | ((inv[2] < 0.0) as u8) << 2;
+        let (t, m) = (ray.tmin, ray.tmax);
+        match oct {
+            0 => rb.slab::<0>(&n, t, m),
+            1 => rb.slab::<1>(&n, t, m),
+            2 => rb.slab::<2>(&n, t, m),
+            3 => rb.slab::<3>(&n, t, m),
+            4 => rb.slab::<4>(&n, t, m),
+            5 => rb.slab::<5>(&n, t, m),
+            6 => rb.slab::<6>(&n, t, m),
+            _ => rb.slab::<7>(&n, t, m),
+        }
+    }
+
+    /// The specialised slab test gives exactly `Aabb::intersect`'s answer, including rays with
+    /// zero direction components (both signs) lying in face planes, and flat boxes.
+    #[test]
+    fn slab_matches_aabb_intersect() {
+        let vals = [-1.0f32, -0.0, 0.0, 0.5, 1.0, 2.0];
+        let dirs = [-1.0f32, -0.0, 0.0, 0.3, 1.0];
+        let boxes = [
+            Aabb::new(Vec3::ZERO, Vec3::ONE),
+            Aabb::new(Vec3::new(0.0, 0.0, 0.5), Vec3::new(1.0, 1.0, 0.5)),
+            Aabb::new(Vec3::splat(0.5), Vec3::splat(0.5)),
+        ];
+        let mut n = 0;
+        for b in &boxes {
+            for &ox in &vals {
+                for &oy in &vals {
+                    for &oz in &vals {
+                        for &dx in &dirs {
+                            for &dy in &dirs {
+                                for &dz in &dirs {
+                                    let d = Vec3::new(dx, dy, dz);
+                                    if d == Vec3::ZERO {
+                                        continue;
+                                    }
+                                    let ray = Ray::segment(Vec3::new(ox, oy, oz), d, 0.0, 10.0);
+                                    let want =
+                                        b.intersect(ray.origin, ray.inv_dir(), ray.tmin, ray.tmax);
+                                    let (tn, tf) = slab_any_octant(b, &ray);
+                                    let got = (tn <= tf).then_some((tn, tf));
+                                    assert_eq!(want, got, "{b:?} {ray:?}");
+                                    n += got.is_some() as u32;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(n > 1000);
+    }
+}

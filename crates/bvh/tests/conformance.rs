@@ -1,0 +1,36 @@
+//! The shared conformance suite (`tb_scene::conformance`): stress scenes and rays, against the
+//! oracle, for the default BVH and two extreme parameter sets.
+
+use tb_bvh::{Bvh, BvhParams};
+use tb_core::Accel;
+
+fn run(params: BvhParams) {
+    tb_scene::conformance::assert_conforms(&move |tris| {
+        let bvh = Bvh::build(tris, &params);
+        bvh.validate().expect("valid BVH");
+        Box::new(bvh) as Box<dyn Accel>
+    });
+}
+
+#[test]
+fn conforms_default() {
+    run(BvhParams::default());
+}
+
+#[test]
+fn conforms_bins4_leaf1() {
+    run(BvhParams {
+        bins: 4,
+        max_leaf: 1,
+        ..Default::default()
+    });
+}
+
+#[test]
+fn conforms_bins32_leaf8() {
+    run(BvhParams {
+        bins: 32,
+        max_leaf: 8,
+        ..Default::default()
+    });
+}

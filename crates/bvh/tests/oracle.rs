@@ -1,0 +1,78 @@
+//! The BVH against the brute-force oracle on random triangle soups and random rays: closest and
+//! any hit, both triangle tests, several build parameters. Zero mismatches allowed.
+
+mod common;
+
+use common::*;
+use tb_bvh::BvhParams;
+use tb_core::Vec3;
+
+fn param_sets() -> Vec<BvhParams> {
+    let d = BvhParams::default();
+    vec![
+        d,
+        BvhParams {
+            bins: 4,
+            max_leaf: 1,
+            ..d
+        },
+        BvhParams {
+            bins: 32,
+            max_leaf: 8,
+            ..d
+        },
+        BvhParams {
+            bins: 2,
+            max_leaf: 2,
+            min_leaf: 2,
+            ..d
+        },
+        BvhParams {
+            bins: 256,
+            c_trav: 10.0,
+            max_leaf: 16,
+            min_leaf: 3,
+            ..d
+        },
+    ]
+}
+
+#[test]
+fn random_soups_match_the_oracle() {
+    for (k, p) in param_sets().iter().enumerate() {
+        for (n, size) in [(1usize, 0.5f32), (7, 0.5), (300, 0.1), (1500, 0.05)] {
+            let tris = soup(n, 1.0, size, Vec3::ZERO, 10 + k as u64 + n as u64);
+            let rays = common::rays(&tris, 1500, 99 + n as u64);
+            let hits = check_against_oracle(&tris, &rays, p);
+            if n >= 300 {
+                assert!(hits > 100, "too few hits ({hits}) to mean anything");
+            }
+        }
+    }
+}
+
+#[test]
+fn large_triangles_overlapping_boxes() {
+    // Big, heavily overlapping triangles: many boxes overlap, ordering matters.
+    let tris = soup(400, 1.0, 1.5, Vec3::ZERO, 3);
+    let rays = common::rays(&tris, 3000, 4);
+    for p in param_sets() {
+        assert!(check_against_oracle(&tris, &rays, &p) > 1000);
+    }
+}
+
+#[test]
+fn far_from_the_origin_and_tiny_scale() {
+    // 1e6 translation: coordinates with few bits of fraction left.
+    let tris = soup(500, 1.0, 0.1, Vec3::splat(1.0e6), 5);
+    let rays = common::rays(&tris, 2000, 6);
+    check_against_oracle(&tris, &rays, &BvhParams::default());
+    // Tiny scale.
+    let tris = soup(500, 1e-5, 1e-6, Vec3::ZERO, 7);
+    let rays = common::rays(&tris, 2000, 8);
+    assert!(check_against_oracle(&tris, &rays, &BvhParams::default()) > 100);
+    // Huge scale.
+    let tris = soup(500, 1e7, 1e6, Vec3::splat(-5e6), 9);
+    let rays = common::rays(&tris, 2000, 10);
+    assert!(check_against_oracle(&tris, &rays, &BvhParams::default()) > 100);
+}
