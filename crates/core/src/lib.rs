@@ -16,7 +16,10 @@ pub mod stats;
 pub mod tri;
 
 pub use accel::{dispatch, Accel, BuildReport, Kernel, MemoryReport, Query, TraversalInfo};
-pub use compare::{compare_any, compare_closest, hex_f32, Mismatch, MismatchKind, T_REL_TOL};
+pub use compare::{
+    compare, compare_any, compare_closest, hex_f32, t_tolerance, Mismatch, MismatchKind, T_REL_TOL,
+    T_ULPS,
+};
 pub use geom::{Aabb, HitRecord, Ray, Triangle, Vec3};
 pub use oracle::BruteForce;
 pub use stats::{Counter, NoStats, StatsSummary, TraversalStats};

@@ -1,5 +1,5 @@
 //! The shared oracle suite: every structure x traversal must answer every ray of every suite
-//! scene as brute force does ([`tb_core::compare_closest`], [`tb_core::compare_any`]).
+//! scene as brute force does ([`tb_core::compare`]).
 //!
 //! A structure crate's test is one line:
 //! ```ignore
@@ -19,8 +19,7 @@ use crate::rays::{self, RayBatch, RayKind};
 use crate::Scene;
 use std::path::Path;
 use tb_core::{
-    compare_any, compare_closest, hex_f32, Accel, BruteForce, HitRecord, Mismatch, Query, Ray,
-    TriTestKind, Triangle,
+    compare, hex_f32, Accel, BruteForce, HitRecord, Mismatch, Query, Ray, TriTestKind, Triangle,
 };
 
 /// AO samples per primary hit.
@@ -252,10 +251,7 @@ pub fn check_scenes(
                 let mut mismatches = 0;
                 let mut first = Vec::new();
                 for (i, ((ray, e), g)) in batch.rays.iter().zip(expected).zip(&got).enumerate() {
-                    let kind = match query {
-                        Query::Closest => compare_closest(e, g),
-                        Query::Any => compare_any(e, g),
-                    };
+                    let kind = compare(query, ray, e, g);
                     if let Some(kind) = kind {
                         mismatches += 1;
                         if first.len() < 5 {

@@ -200,7 +200,8 @@ fn watertight_scene_every_ray_hits() {
     let mt_slipped = wt
         .iter()
         .zip(&mt)
-        .filter(|(w, m)| compare_closest(w, m).is_some())
+        .zip(&s.own_rays)
+        .filter(|((w, m), r)| compare_closest(r, w, m).is_some())
         .count();
     println!(
         "stress/watertight: {} own rays, watertight misses 0; moller-trumbore misses {mt_missed}, \
@@ -226,7 +227,8 @@ fn moller_trumbore_differences_reported() {
         let differ = wt
             .iter()
             .zip(&mt)
-            .filter(|(w, m)| compare_closest(w, m).is_some())
+            .zip(&s.own_rays)
+            .filter(|((w, m), r)| compare_closest(r, w, m).is_some())
             .count();
         let mt_miss = wt
             .iter()

@@ -5,8 +5,7 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use tb_bvh::{Bvh, BvhParams};
 use tb_core::{
-    compare_any, compare_closest, Aabb, Accel, BruteForce, HitRecord, Query, Ray, TriTestKind,
-    Triangle, Vec3,
+    compare, Aabb, Accel, BruteForce, HitRecord, Query, Ray, TriTestKind, Triangle, Vec3,
 };
 
 pub fn rng(seed: u64) -> Pcg64 {
@@ -126,10 +125,7 @@ pub fn check_against_oracle(tris: &[Triangle], rays: &[Ray], params: &BvhParams)
             let want = trace(&oracle, q, tri, rays);
             let got = trace(&bvh, q, tri, rays);
             for (i, (w, g)) in want.iter().zip(&got).enumerate() {
-                let m = match q {
-                    Query::Closest => compare_closest(w, g),
-                    Query::Any => compare_any(w, g),
-                };
+                let m = compare(q, &rays[i], w, g);
                 if let Some(kind) = m {
                     if tri == TriTestKind::MollerTrumbore {
                         // Möller–Trumbore is not conservative (e.g. t = 0 from cancellation
