@@ -263,6 +263,14 @@ params = { max_leaf = [2, 4] }
     assert_eq!(json["meta"]["status"], "complete");
 }
 
+fn write_rows(path: &Path, rows: &[tb_harness::output::Row]) {
+    let mut w = csv::Writer::from_path(path).unwrap();
+    for r in rows {
+        w.serialize(r).unwrap();
+    }
+    w.flush().unwrap();
+}
+
 #[test]
 fn check_fails_when_a_counter_grows_and_passes_when_not() {
     let dir = tempfile::tempdir().unwrap();
@@ -296,11 +304,7 @@ fn check_fails_when_a_counter_grows_and_passes_when_not() {
         r.steps_per_ray = r.steps_per_ray.map(|s| s * 0.5);
     }
     let lower = d.join("lower.csv");
-    let mut w = csv::Writer::from_path(&lower).unwrap();
-    for r in &rows {
-        w.serialize(r).unwrap();
-    }
-    w.flush().unwrap();
+    write_rows(&lower, &rows);
     assert_eq!(
         run(&[
             "check",
@@ -315,11 +319,7 @@ fn check_fails_when_a_counter_grows_and_passes_when_not() {
         r.steps_per_ray = r.steps_per_ray.map(|s| s * 4.0);
     }
     let higher = d.join("higher.csv");
-    let mut w = csv::Writer::from_path(&higher).unwrap();
-    for r in &rows {
-        w.serialize(r).unwrap();
-    }
-    w.flush().unwrap();
+    write_rows(&higher, &rows);
     assert_eq!(
         run(&[
             "check",

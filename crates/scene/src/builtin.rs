@@ -16,7 +16,7 @@
 use crate::{Scene, SceneError};
 use std::collections::BTreeMap;
 
-mod common;
+pub(crate) mod common;
 mod cornell;
 mod soup;
 mod spd;

@@ -296,47 +296,15 @@ impl Mesh {
 
 /// Unit icosphere about the origin, `sub` subdivisions (20·4^sub triangles), closed.
 fn icosphere(sub: u32) -> Mesh {
-    let p = (1.0 + 5.0f32.sqrt()) / 2.0;
     let mut m = Mesh {
-        v: [
-            (-1.0, p, 0.0),
-            (1.0, p, 0.0),
-            (-1.0, -p, 0.0),
-            (1.0, -p, 0.0),
-            (0.0, -1.0, p),
-            (0.0, 1.0, p),
-            (0.0, -1.0, -p),
-            (0.0, 1.0, -p),
-            (p, 0.0, -1.0),
-            (p, 0.0, 1.0),
-            (-p, 0.0, -1.0),
-            (-p, 0.0, 1.0),
-        ]
-        .iter()
-        .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
-        .collect(),
-        f: vec![
-            [0, 11, 5],
-            [0, 5, 1],
-            [0, 1, 7],
-            [0, 7, 10],
-            [0, 10, 11],
-            [1, 5, 9],
-            [5, 11, 4],
-            [11, 10, 2],
-            [10, 7, 6],
-            [7, 1, 8],
-            [3, 9, 4],
-            [3, 4, 2],
-            [3, 2, 6],
-            [3, 6, 8],
-            [3, 8, 9],
-            [4, 9, 5],
-            [2, 4, 11],
-            [6, 2, 10],
-            [8, 6, 7],
-            [9, 8, 1],
-        ],
+        v: crate::builtin::common::icosahedron_vertices()
+            .iter()
+            .map(|v| v.as_vec3())
+            .collect(),
+        f: crate::builtin::common::ICOSAHEDRON_FACES
+            .iter()
+            .map(|f| f.map(|i| i as u32))
+            .collect(),
     };
     for _ in 0..sub {
         let mut cache: HashMap<(u32, u32), u32> = HashMap::new();

@@ -21,45 +21,9 @@ fn v32(p: DVec3) -> Vec3 {
 /// The 20 faces of a unit icosphere subdivided `tess` times (20·4^tess triangles). Shared
 /// edges are split with the same arithmetic on both sides, so the mesh is watertight.
 fn unit_icosphere(tess: u32) -> Vec<[DVec3; 3]> {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let v = [
-        (-1.0, t, 0.0),
-        (1.0, t, 0.0),
-        (-1.0, -t, 0.0),
-        (1.0, -t, 0.0),
-        (0.0, -1.0, t),
-        (0.0, 1.0, t),
-        (0.0, -1.0, -t),
-        (0.0, 1.0, -t),
-        (t, 0.0, -1.0),
-        (t, 0.0, 1.0),
-        (-t, 0.0, -1.0),
-        (-t, 0.0, 1.0),
-    ]
-    .map(|(x, y, z)| DVec3::new(x, y, z).normalize());
-    const FACES: [[usize; 3]; 20] = [
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    let mut tris: Vec<[DVec3; 3]> = FACES.iter().map(|f| [v[f[0]], v[f[1]], v[f[2]]]).collect();
+    let v = super::common::icosahedron_vertices();
+    let faces = &super::common::ICOSAHEDRON_FACES;
+    let mut tris: Vec<[DVec3; 3]> = faces.iter().map(|f| [v[f[0]], v[f[1]], v[f[2]]]).collect();
     for _ in 0..tess {
         let mut next = Vec::with_capacity(tris.len() * 4);
         for [a, b, c] in tris {
