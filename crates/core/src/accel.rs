@@ -77,6 +77,18 @@ pub trait Accel: Send + Sync {
         BuildReport::default()
     }
 
+    /// Whether the counters of [`Accel::trace`] are meaningful. External libraries (peers
+    /// such as Embree) expose none: their rows leave the counter columns empty, not zero.
+    fn has_counters(&self) -> bool {
+        true
+    }
+
+    /// The triangle test the structure always uses, when it ignores the requested one
+    /// (Embree's own intersector); `None` for structures that honour [`TriTestKind`].
+    fn own_triangle_test(&self) -> Option<&'static str> {
+        None
+    }
+
     /// Check the structure's invariants; `Err` names the first violation.
     fn validate(&self) -> Result<(), String> {
         Ok(())

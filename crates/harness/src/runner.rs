@@ -445,6 +445,9 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
                         build_stats: build_stats.clone(),
                         ..row_base.clone()
                     };
+                    if let Some(own) = accel.own_triangle_test() {
+                        row.note = format!("uses its own triangle test ({own})");
+                    }
                     if let Some(why) = &b.skipped {
                         row.note = why.clone();
                         emit(&mut sink, &mut summary, row, &progress)?;
@@ -551,20 +554,22 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
                                 )
                             });
                         row.hit_rate = Some(hit_rate);
-                        row.interior_per_ray = Some(stats.mean[0]);
-                        row.interior_max = Some(stats.max[0]);
-                        row.leaves_per_ray = Some(stats.mean[1]);
-                        row.leaves_max = Some(stats.max[1]);
-                        row.prims_per_ray = Some(stats.mean[2]);
-                        row.prims_max = Some(stats.max[2]);
-                        row.boxes_per_ray = Some(stats.mean[3]);
-                        row.boxes_max = Some(stats.max[3]);
-                        row.planes_per_ray = Some(stats.mean[4]);
-                        row.planes_max = Some(stats.max[4]);
-                        row.restarts_per_ray = Some(stats.mean[5]);
-                        row.restarts_max = Some(stats.max[5]);
-                        row.steps_per_ray = Some(stats.mean[6]);
-                        row.steps_max = Some(stats.max[6]);
+                        if accel.has_counters() {
+                            row.interior_per_ray = Some(stats.mean[0]);
+                            row.interior_max = Some(stats.max[0]);
+                            row.leaves_per_ray = Some(stats.mean[1]);
+                            row.leaves_max = Some(stats.max[1]);
+                            row.prims_per_ray = Some(stats.mean[2]);
+                            row.prims_max = Some(stats.max[2]);
+                            row.boxes_per_ray = Some(stats.mean[3]);
+                            row.boxes_max = Some(stats.max[3]);
+                            row.planes_per_ray = Some(stats.mean[4]);
+                            row.planes_max = Some(stats.max[4]);
+                            row.restarts_per_ray = Some(stats.mean[5]);
+                            row.restarts_max = Some(stats.max[5]);
+                            row.steps_per_ray = Some(stats.mean[6]);
+                            row.steps_max = Some(stats.max[6]);
+                        }
 
                         // Timing, counters compiled out.
                         let pool = &pools.iter().find(|(n, _)| *n == th).expect("pool").1;

@@ -1,7 +1,7 @@
 //! Build time and single-thread throughput of the BVH.
 //!
 //! ```text
-//! cargo run --release -p tb-bvh --example bench -- [SCENE.obj[.gz] | soup:N] [--reps R]
+//! cargo run --release -p tb-bvh --example bvh_bench -- [SCENE.obj[.gz] | soup:N] [--reps R]
 //! ```
 //!
 //! Default scene: `../shared/scenes/conference/conference.obj.gz` with the standard conference

@@ -1,0 +1,598 @@
+//! Top-down SAH build with perfect splits (Havran 2000 §4; Wald and Havran 2006, "On building
+//! fast kd-trees for ray tracing, and on doing that in O(N log N)", §4).
+//!
+//! Every node keeps one [`Ref`] per triangle overlapping its cell: the triangle's index and a
+//! *conservative clipped box*, a box containing the part of the triangle inside the cell.
+//! Per node and axis the builder
+//! 1. makes the events of the boxes: `start` at `min`, `end` at `max`, `planar` where
+//!    `min == max`, sorted by position and then type (end < planar < start);
+//! 2. sweeps the events, keeping the counts left, right and in the plane (Wald–Havran Alg. 4),
+//!    and evaluates at every event position strictly inside the cell the SAH cost
+//!    `λ·(C_trav + C_isect·(P_L·N_L + P_R·N_R))`, `P = measure(child) / measure(node)`,
+//!    `λ = 1 − empty_bonus` when a side is empty, the planar triangles put on the side of
+//!    lower cost;
+//! 3. makes a leaf when the node has at most `min_leaf` triangles, is at the depth limit, has a
+//!    cell of measure 0, or when the leaf cost `C_isect·N` is at most the best split's;
+//!    otherwise classifies the references (as the sweep counted them: a box ending at the
+//!    plane goes left, one starting there right, a planar one in the plane to its chosen side)
+//!    and re-clips the triangles straddling the plane to each child cell.
+//!
+//! Clipping is Sutherland–Hodgman against the cell's six planes. An intersection point gets the
+//! clipping plane's coordinate exactly, but its other coordinates are rounded, so the bounds
+//! of the clipped polygon are grown by [`tolerance`] (64 ulps of the triangle's coordinate
+//! magnitude) and then cut back to the cell and to the reference's previous box: sides that lie
+//! on an original vertex or on a cell plane stay exact (axis-aligned triangles stay planar),
+//! the others become slightly conservative, so a triangle is referenced by every leaf cell it
+//! touches. Should clipping leave nothing (rounding), the cut-back box is kept.
+
+use crate::{intersect, split_cell, BoxMeasure, KdBuilder, KdNode, KdParams};
+use tb_core::{Aabb, Triangle, Vec3};
+
+pub(crate) struct Output {
+    pub nodes: Vec<KdNode>,
+    pub prim_refs: Vec<u32>,
+    pub bounds: Aabb,
+}
+
+/// A triangle reference of a node: its conservative clipped box and its scene index.
+#[derive(Clone, Copy)]
+struct Ref {
+    b: Aabb,
+    id: u32,
+}
+
+/// The rounding allowance of clipped boxes of a triangle with bounds `b`, per axis.
+pub(crate) fn tolerance(b: &Aabb) -> Vec3 {
+    let m = b.min.abs().max(b.max.abs());
+    m * (64.0 * f32::EPSILON) + Vec3::splat(f32::MIN_POSITIVE)
+}
+
+const MAX_POLY: usize = 16;
+
+/// Clip the convex polygon `inp[..n]` to the half-space `p[a] >= c` (`keep_ge`) or
+/// `p[a] <= c`; returns the new vertex count.
+fn clip_plane(
+    inp: &[Vec3; MAX_POLY],
+    n: usize,
+    out: &mut [Vec3; MAX_POLY],
+    a: usize,
+    c: f32,
+    keep_ge: bool,
+) -> usize {
+    let inside = |p: &Vec3| if keep_ge { p[a] >= c } else { p[a] <= c };
+    let mut m = 0;
+    for i in 0..n {
+        let p = inp[i];
+        let q = inp[if i + 1 == n { 0 } else { i + 1 }];
+        let (pin, qin) = (inside(&p), inside(&q));
+        if pin {
+            out[m] = p;
+            m += 1;
+        }
+        if pin != qin {
+            let t = (c - p[a]) / (q[a] - p[a]);
+            let mut x = p + (q - p) * t;
+            x[a] = c;
+            out[m] = x;
+            m += 1;
+        }
+    }
+    m
+}
+
+/// A conservative box of `tri ∩ cell`, inside `lim` (a conservative box of the triangle in a
+/// cell containing `cell`); empty when the triangle misses the cell.
+fn clip_box(tri: &Triangle, lim: &Aabb, cell: &Aabb) -> Aabb {
+    let lim = intersect(lim, cell);
+    if lim.is_empty() {
+        return Aabb::EMPTY;
+    }
+    let tb = tri.bounds();
+    if cell.contains_box(&tb) {
+        return intersect(&tb, &lim);
+    }
+    let mut a = [Vec3::ZERO; MAX_POLY];
+    let mut b = [Vec3::ZERO; MAX_POLY];
+    a[0] = tri.v0;
+    a[1] = tri.v1;
+    a[2] = tri.v2;
+    let mut n = 3;
+    for axis in 0..3 {
+        if tb.min[axis] < cell.min[axis] {
+            n = clip_plane(&a, n, &mut b, axis, cell.min[axis], true);
+            std::mem::swap(&mut a, &mut b);
+        }
+        if tb.max[axis] > cell.max[axis] {
+            n = clip_plane(&a, n, &mut b, axis, cell.max[axis], false);
+            std::mem::swap(&mut a, &mut b);
+        }
+    }
+    if n == 0 {
+        // The triangle misses the cell (its box only overlaps it).
+        return Aabb::EMPTY;
+    }
+    let mut pb = Aabb::EMPTY;
+    for p in &a[..n] {
+        pb.grow(*p);
+    }
+    let tol = tolerance(&tb);
+    let grown = Aabb::new(pb.min - tol, pb.max + tol);
+    let out = intersect(&grown, &lim);
+    if out.is_empty() {
+        lim
+    } else {
+        out
+    }
+}
+
+/// Sortable key of an event: the position's order-preserving bits, then the type.
+#[inline(always)]
+fn key(pos: f32, ty: u64) -> u64 {
+    let bits = (pos + 0.0).to_bits(); // -0 → +0
+    let ord = if bits >> 31 != 0 {
+        !bits
+    } else {
+        bits | 0x8000_0000
+    };
+    (ord as u64) << 2 | ty
+}
+
+#[inline(always)]
+fn key_pos(k: u64) -> f32 {
+    let ord = (k >> 2) as u32;
+    let bits = if ord >> 31 != 0 {
+        ord & 0x7fff_ffff
+    } else {
+        !ord
+    };
+    f32::from_bits(bits)
+}
+
+const END: u64 = 0;
+const PLANAR: u64 = 1;
+const START: u64 = 2;
+
+#[derive(Clone, Copy)]
+struct Split {
+    axis: usize,
+    pos: f32,
+    cost: f32,
+    planar_left: bool,
+}
+
+struct Builder<'a, M: BoxMeasure> {
+    tris: &'a [Triangle],
+    p: &'a KdParams,
+    m: &'a M,
+    depth_limit: u32,
+    nodes: Vec<KdNode>,
+    refs: Vec<u32>,
+    events: Vec<u64>,
+    /// Per-bin start and end counts of the binned builder.
+    bins: Vec<u32>,
+}
+
+impl<M: BoxMeasure> Builder<'_, M> {
+    fn find_split(
+        &mut self,
+        refs: &[Ref],
+        cell: &Aabb,
+        sorted: Option<&[Events; 3]>,
+    ) -> Option<Split> {
+        let area = self.m.measure(cell);
+        if !(area > 0.0 && area.is_finite()) {
+            return None;
+        }
+        let inv_area = 1.0 / area;
+        let (ct, ci) = (self.p.c_trav, self.p.c_isect);
+        let lambda = 1.0 - self.p.empty_bonus;
+        let n = refs.len() as u32;
+        let mut best: Option<Split> = None;
+        if self.p.builder == KdBuilder::Binned {
+            let bins = self.p.bins as usize;
+            for axis in 0..3 {
+                let (lo, hi) = (cell.min[axis], cell.max[axis]);
+                if lo >= hi {
+                    continue;
+                }
+                let scale = bins as f32 / (hi - lo);
+                let bin = |x: f32| (((x - lo) * scale) as usize).min(bins - 1);
+                let (starts, ends) = self.bins.split_at_mut(bins);
+                starts.fill(0);
+                ends.fill(0);
+                for r in refs {
+                    starts[bin(r.b.min[axis])] += 1;
+                    ends[bin(r.b.max[axis])] += 1;
+                }
+                // Boundary b: N_L = starts in bins < b, N_R = ends in bins >= b.
+                let (mut nl, mut nr) = (0u32, n);
+                for b in 1..bins {
+                    nl += starts[b - 1];
+                    nr -= ends[b - 1];
+                    let pos = lo + (hi - lo) * (b as f32 / bins as f32);
+                    if !(lo < pos && pos < hi) {
+                        continue;
+                    }
+                    let (lc, rc) = split_cell(cell, axis, pos);
+                    let pl = self.m.measure(&lc) * inv_area;
+                    let pr = self.m.measure(&rc) * inv_area;
+                    let mut c = ct + ci * (pl * nl as f32 + pr * nr as f32);
+                    if nl == 0 || nr == 0 {
+                        c *= lambda;
+                    }
+                    if c < best.map_or(f32::INFINITY, |b| b.cost) {
+                        best = Some(Split {
+                            axis,
+                            pos,
+                            cost: c,
+                            planar_left: true,
+                        });
+                    }
+                }
+            }
+            return best.filter(|b| b.cost < ci * n as f32);
+        }
+        for axis in 0..3 {
+            let (lo, hi) = (cell.min[axis], cell.max[axis]);
+            if lo >= hi {
+                continue;
+            }
+            let mut own = std::mem::take(&mut self.events);
+            let ev: &[u64] = match sorted {
+                Some(e) => &e[axis].keys,
+                None => {
+                    own.clear();
+                    for r in refs {
+                        let (a, b) = (r.b.min[axis], r.b.max[axis]);
+                        if a == b {
+                            own.push(key(a, PLANAR));
+                        } else {
+                            own.push(key(a, START));
+                            own.push(key(b, END));
+                        }
+                    }
+                    own.sort_unstable();
+                    &own
+                }
+            };
+            let (mut nl, mut nr) = (0u32, n);
+            let mut i = 0;
+            while i < ev.len() {
+                let k = ev[i] >> 2;
+                let (mut pe, mut pp, mut ps) = (0u32, 0u32, 0u32);
+                while i < ev.len() && ev[i] >> 2 == k {
+                    match ev[i] & 3 {
+                        END => pe += 1,
+                        PLANAR => pp += 1,
+                        _ => ps += 1,
+                    }
+                    i += 1;
+                }
+                let pos = key_pos(ev[i - 1]);
+                nr -= pp + pe;
+                if lo < pos && pos < hi {
+                    let (lc, rc) = split_cell(cell, axis, pos);
+                    let pl = self.m.measure(&lc) * inv_area;
+                    let pr = self.m.measure(&rc) * inv_area;
+                    let cost = |l: u32, r: u32| {
+                        let c = ct + ci * (pl * l as f32 + pr * r as f32);
+                        if l == 0 || r == 0 {
+                            c * lambda
+                        } else {
+                            c
+                        }
+                    };
+                    let (c_left, c_right) = (cost(nl + pp, nr), cost(nl, nr + pp));
+                    let (c, planar_left) = if c_left <= c_right {
+                        (c_left, true)
+                    } else {
+                        (c_right, false)
+                    };
+                    if c < best.map_or(f32::INFINITY, |b| b.cost) {
+                        best = Some(Split {
+                            axis,
+                            pos,
+                            cost: c,
+                            planar_left,
+                        });
+                    }
+                }
+                nl += ps + pp;
+            }
+            self.events = own;
+        }
+        best.filter(|b| b.cost < ci * n as f32)
+    }
+
+    fn node(&mut self, refs: Vec<Ref>, cell: Aabb, depth: u32) {
+        let split = if refs.len() as u32 <= self.p.min_leaf || depth >= self.depth_limit {
+            None
+        } else {
+            self.find_split(&refs, &cell, None)
+        };
+        let Some(s) = split else {
+            let offset = self.refs.len() as u32;
+            self.refs.extend(refs.iter().map(|r| r.id));
+            self.nodes.push(KdNode::leaf(offset, refs.len() as u32));
+            return;
+        };
+        let (lc, rc) = split_cell(&cell, s.axis, s.pos);
+        let mut left = Vec::with_capacity(refs.len() / 2 + 1);
+        let mut right = Vec::with_capacity(refs.len() / 2 + 1);
+        let a = s.axis;
+        for r in refs {
+            let (lo, hi) = (r.b.min[a], r.b.max[a]);
+            if lo == hi && lo == s.pos {
+                if s.planar_left {
+                    left.push(r);
+                } else {
+                    right.push(r);
+                }
+            } else if hi <= s.pos {
+                left.push(r);
+            } else if lo >= s.pos {
+                right.push(r);
+            } else {
+                let tri = &self.tris[r.id as usize];
+                let bl = clip_box(tri, &r.b, &lc);
+                if !bl.is_empty() {
+                    left.push(Ref { b: bl, id: r.id });
+                }
+                let br = clip_box(tri, &r.b, &rc);
+                if !br.is_empty() {
+                    right.push(Ref { b: br, id: r.id });
+                }
+            }
+        }
+        let idx = self.nodes.len();
+        self.nodes.push(KdNode::leaf(0, 0));
+        self.node(left, lc, depth + 1);
+        let right_idx = self.nodes.len();
+        assert!(right_idx < 1 << 30, "kd-tree: too many nodes");
+        self.nodes[idx] = KdNode::interior(a, s.pos, right_idx as u32);
+        self.node(right, rc, depth + 1);
+    }
+}
+
+/// Nodes with at most this many references are built by [`Builder::node`] (sorting their
+/// events) even by the O(N log N) sweep: the tree is the same, the lists cost more there.
+const SMALL_NODE: usize = 512;
+
+/// The events of one axis, sorted by key: the keys and the indices of their references.
+#[derive(Default)]
+struct Events {
+    keys: Vec<u64>,
+    refs: Vec<u32>,
+}
+
+impl Events {
+    /// The events of the references `which` of `refs` on `axis`, sorted.
+    fn of(refs: &[Ref], which: impl Iterator<Item = u32>, axis: usize) -> Events {
+        let mut ev: Vec<(u64, u32)> = Vec::new();
+        for i in which {
+            let b = &refs[i as usize].b;
+            let (lo, hi) = (b.min[axis], b.max[axis]);
+            if lo == hi {
+                ev.push((key(lo, PLANAR), i));
+            } else {
+                ev.push((key(lo, START), i));
+                ev.push((key(hi, END), i));
+            }
+        }
+        ev.sort_unstable_by_key(|e| e.0);
+        Events {
+            keys: ev.iter().map(|e| e.0).collect(),
+            refs: ev.iter().map(|e| e.1).collect(),
+        }
+    }
+
+    /// Merge two sorted event lists.
+    fn merge(a: Events, b: Events) -> Events {
+        if b.keys.is_empty() {
+            return a;
+        }
+        let n = a.keys.len() + b.keys.len();
+        let mut out = Events {
+            keys: Vec::with_capacity(n),
+            refs: Vec::with_capacity(n),
+        };
+        let (mut i, mut j) = (0, 0);
+        while i < a.keys.len() || j < b.keys.len() {
+            if j == b.keys.len() || (i < a.keys.len() && a.keys[i] <= b.keys[j]) {
+                out.keys.push(a.keys[i]);
+                out.refs.push(a.refs[i]);
+                i += 1;
+            } else {
+                out.keys.push(b.keys[j]);
+                out.refs.push(b.refs[j]);
+                j += 1;
+            }
+        }
+        out
+    }
+}
+
+impl<M: BoxMeasure> Builder<'_, M> {
+    /// [`Builder::node`] for the O(N log N) sweep (Wald and Havran 2006, §5): the events of
+    /// each axis are sorted once at the root and passed down; a child keeps its share of its
+    /// parent's sorted lists (a stable filter) and only the events of the re-clipped
+    /// straddling triangles are sorted and merged in. Builds the same tree as `sweep-nlog2n`.
+    fn node_sweep(&mut self, refs: Vec<Ref>, ev: [Events; 3], cell: Aabb, depth: u32) {
+        if refs.len() <= SMALL_NODE {
+            // Sorting a few events per node is cheaper than passing lists down; same tree.
+            drop(ev);
+            return self.node(refs, cell, depth);
+        }
+        let split = if refs.len() as u32 <= self.p.min_leaf || depth >= self.depth_limit {
+            None
+        } else {
+            self.find_split(&refs, &cell, Some(&ev))
+        };
+        let Some(s) = split else {
+            let offset = self.refs.len() as u32;
+            self.refs.extend(refs.iter().map(|r| r.id));
+            self.nodes.push(KdNode::leaf(offset, refs.len() as u32));
+            return;
+        };
+        let (lc, rc) = split_cell(&cell, s.axis, s.pos);
+        let mut left = Vec::with_capacity(refs.len() / 2 + 1);
+        let mut right = Vec::with_capacity(refs.len() / 2 + 1);
+        // New index of each reference in the left and right child (NONE: not there), and
+        // which child references are re-clipped straddlers (their events are new).
+        const NONE: u32 = u32::MAX;
+        let mut map_l = vec![NONE; refs.len()];
+        let mut map_r = vec![NONE; refs.len()];
+        let (mut new_l, mut new_r) = (Vec::new(), Vec::new());
+        let a = s.axis;
+        for (k, r) in refs.iter().enumerate() {
+            let (lo, hi) = (r.b.min[a], r.b.max[a]);
+            let to_left = if lo == hi && lo == s.pos {
+                Some(s.planar_left)
+            } else if hi <= s.pos {
+                Some(true)
+            } else if lo >= s.pos {
+                Some(false)
+            } else {
+                None
+            };
+            match to_left {
+                Some(true) => {
+                    map_l[k] = left.len() as u32;
+                    left.push(*r);
+                }
+                Some(false) => {
+                    map_r[k] = right.len() as u32;
+                    right.push(*r);
+                }
+                None => {
+                    let tri = &self.tris[r.id as usize];
+                    let bl = clip_box(tri, &r.b, &lc);
+                    if !bl.is_empty() {
+                        new_l.push(left.len() as u32);
+                        left.push(Ref { b: bl, id: r.id });
+                    }
+                    let br = clip_box(tri, &r.b, &rc);
+                    if !br.is_empty() {
+                        new_r.push(right.len() as u32);
+                        right.push(Ref { b: br, id: r.id });
+                    }
+                }
+            }
+        }
+        drop(refs);
+        let mut ev_l: [Events; 3] = Default::default();
+        let mut ev_r: [Events; 3] = Default::default();
+        for (axis, e) in ev.into_iter().enumerate() {
+            let (mut kl, mut kr) = (Events::default(), Events::default());
+            for (&k, &r) in e.keys.iter().zip(&e.refs) {
+                let (l, r) = (map_l[r as usize], map_r[r as usize]);
+                if l != NONE {
+                    kl.keys.push(k);
+                    kl.refs.push(l);
+                } else if r != NONE {
+                    kr.keys.push(k);
+                    kr.refs.push(r);
+                }
+            }
+            ev_l[axis] = Events::merge(kl, Events::of(&left, new_l.iter().copied(), axis));
+            ev_r[axis] = Events::merge(kr, Events::of(&right, new_r.iter().copied(), axis));
+        }
+        drop((map_l, map_r));
+        let idx = self.nodes.len();
+        self.nodes.push(KdNode::leaf(0, 0));
+        self.node_sweep(left, ev_l, lc, depth + 1);
+        let right_idx = self.nodes.len();
+        assert!(right_idx < 1 << 30, "kd-tree: too many nodes");
+        self.nodes[idx] = KdNode::interior(a, s.pos, right_idx as u32);
+        self.node_sweep(right, ev_r, rc, depth + 1);
+    }
+}
+
+/// Build the flat tree over the finite triangles of `tris`.
+pub(crate) fn build<M: BoxMeasure>(tris: &[Triangle], p: &KdParams, m: &M) -> Output {
+    let refs: Vec<Ref> = tris
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| t.v0.is_finite() && t.v1.is_finite() && t.v2.is_finite())
+        .map(|(i, t)| Ref {
+            b: t.bounds(),
+            id: i as u32,
+        })
+        .collect();
+    let bounds = refs.iter().fold(Aabb::EMPTY, |b, r| b.union(&r.b));
+    let mut b = Builder {
+        tris,
+        p,
+        m,
+        depth_limit: p.depth_limit(tris.len()),
+        nodes: Vec::new(),
+        refs: Vec::new(),
+        events: Vec::new(),
+        bins: vec![0; 2 * p.bins as usize],
+    };
+    if !refs.is_empty() {
+        if p.builder == KdBuilder::Sweep {
+            let ev = std::array::from_fn(|a| Events::of(&refs, 0..refs.len() as u32, a));
+            b.node_sweep(refs, ev, bounds, 0);
+        } else {
+            b.node(refs, bounds, 0);
+        }
+    }
+    Output {
+        nodes: b.nodes,
+        prim_refs: b.refs,
+        bounds,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_sort_as_floats() {
+        let v = [-3.5f32, -0.0, 0.0, 1e-30, 2.0, f32::MAX, -f32::MAX];
+        for &a in &v {
+            assert_eq!(key_pos(key(a, START)), a + 0.0);
+            for &b in &v {
+                if a < b {
+                    assert!(key(a, START) < key(b, END));
+                }
+            }
+        }
+        assert!(key(1.0, END) < key(1.0, PLANAR) && key(1.0, PLANAR) < key(1.0, START));
+    }
+
+    #[test]
+    fn clipping_is_conservative() {
+        let t = Triangle::new(
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(4.0, 0.0, 1.0),
+            Vec3::new(0.0, 4.0, 2.0),
+        );
+        let cell = Aabb::new(Vec3::new(1.0, 1.0, -1.0), Vec3::new(2.0, 2.0, 5.0));
+        let b = clip_box(&t, &t.bounds(), &cell);
+        // Points of the triangle inside the cell, sampled.
+        for i in 0..=40 {
+            for j in 0..=40 - i {
+                let (u, v) = (i as f32 / 40.0, j as f32 / 40.0);
+                let p = t.v0 + (t.v1 - t.v0) * u + (t.v2 - t.v0) * v;
+                if cell.contains_box(&Aabb::new(p, p)) {
+                    assert!(b.contains_box(&Aabb::new(p, p)), "{p} not in {b:?}");
+                }
+            }
+        }
+        assert!(b.max.x <= 2.0 && b.min.x >= 1.0 && b.max.z < 2.0);
+        // Axis-aligned triangles stay planar.
+        let f = Triangle::new(
+            Vec3::ZERO,
+            Vec3::new(4.0, 0.0, 0.0),
+            Vec3::new(0.0, 4.0, 0.0),
+        );
+        let b = clip_box(&f, &f.bounds(), &cell);
+        assert_eq!((b.min.z, b.max.z), (0.0, 0.0));
+        // A triangle missing the cell's box gives the empty box.
+        let far = Aabb::new(Vec3::splat(10.0), Vec3::splat(11.0));
+        assert!(clip_box(&t, &t.bounds(), &far).is_empty());
+    }
+}

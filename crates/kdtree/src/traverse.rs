@@ -1,0 +1,506 @@
+//! The traversal kernels (Hapala and Havran 2011, "Review: Kd-tree traversal algorithms for ray
+//! tracing", CGF 30(1); sections cited per kernel).
+//!
+//! Common to all: the ray is first clipped to the root cell with the robust slab test
+//! ([`tb_core::Aabb::intersect`]: zero direction components and origins in face planes handled,
+//! exit scaled by `1 + 2·gamma(3)`); a ray missing it is done. Triangle tests accept any `t` in
+//! `[tmin, closest so far)`, never only the leaf's interval, and a closest-hit walk skips
+//! only pending subtrees that start beyond the closest hit: a hit found in a leaf but beyond
+//! the leaf's exit does not end the walk. Each node is visited at most once, so no step cap
+//! is needed.
+
+use crate::{KdNode, KdTree};
+use tb_core::{Counter, HitRecord, Kernel, Ray, TriTest};
+
+/// Entries of the traversal stacks; the depth limit of the builder is at most this.
+pub const STACK_SIZE: usize = 64;
+
+/// Relative rounding allowance of plane distances: `t = (split − o)·(1/d)` is within
+/// `2·2^-24` of the exact distance relative to `t` (two roundings), so two planes through one
+/// point (a vertex at a cell corner) give distances within `4·2^-24·t`; decisions "near only"
+/// and "far only" are taken only when the distance clears the interval by this factor, and both
+/// children are visited otherwise (the split distance then clamped to the interval).
+const SLACK: f32 = 1.0 + 8.0 * f32::EPSILON;
+
+/// `max(acc, t)` ignoring a `NaN` `t`.
+#[inline(always)]
+fn max_num(acc: f32, t: f32) -> f32 {
+    if t > acc {
+        t
+    } else {
+        acc
+    }
+}
+
+/// `min(acc, t)` ignoring a `NaN` `t`.
+#[inline(always)]
+fn min_num(acc: f32, t: f32) -> f32 {
+    if t < acc {
+        t
+    } else {
+        acc
+    }
+}
+
+/// Per-ray data: origin, direction, reciprocal direction, and the ray's interval in the root
+/// cell.
+#[derive(Clone, Copy)]
+pub(crate) struct Setup {
+    pub(crate) org: [f32; 3],
+    pub(crate) dir: [f32; 3],
+    pub(crate) inv: [f32; 3],
+    /// `inv[a] < 0` (a negative direction, or −0 giving −inf): the upper child is near.
+    pub(crate) neg: [bool; 3],
+    pub(crate) t0: f32,
+    pub(crate) t1: f32,
+}
+
+#[inline(always)]
+pub(crate) fn setup(kd: &KdTree, ray: &Ray) -> Option<Setup> {
+    if kd.nodes.is_empty() {
+        return None;
+    }
+    let inv = ray.inv_dir();
+    let (t0, t1) = kd.bounds.intersect(ray.origin, inv, ray.tmin, ray.tmax)?;
+    let inv = inv.to_array();
+    Some(Setup {
+        org: ray.origin.to_array(),
+        dir: ray.dir.to_array(),
+        inv,
+        neg: [inv[0] < 0.0, inv[1] < 0.0, inv[2] < 0.0],
+        t0,
+        t1,
+    })
+}
+
+/// The closest hit so far.
+pub(crate) struct Best {
+    pub(crate) t: f32,
+    prim: u32,
+    u: f32,
+    v: f32,
+}
+
+impl Best {
+    #[inline(always)]
+    pub(crate) fn new(tmax: f32) -> Self {
+        Best {
+            t: tmax,
+            prim: u32::MAX,
+            u: 0.0,
+            v: 0.0,
+        }
+    }
+
+    #[inline(always)]
+    pub(crate) fn record(&self) -> HitRecord {
+        if self.prim == u32::MAX {
+            HitRecord::MISS
+        } else {
+            HitRecord {
+                t: self.t,
+                prim: self.prim,
+                u: self.u,
+                v: self.v,
+            }
+        }
+    }
+}
+
+/// Test the triangles of leaf `n` against `[ray.tmin, best.t)`, updating `best`; with `ANY`,
+/// returns `true` at the first hit.
+#[inline(always)]
+pub(crate) fn leaf<T: TriTest, C: Counter, const ANY: bool>(
+    kd: &KdTree,
+    n: KdNode,
+    pre: &T::Pre,
+    ray: &Ray,
+    best: &mut Best,
+    c: &mut C,
+) -> bool {
+    c.leaf();
+    c.steps(1);
+    let (o, k) = (n.offset(), n.count() as usize);
+    let refs = &kd.prim_refs[o..o + k];
+    if !ANY {
+        c.prims(k as u32);
+    }
+    for &id in refs {
+        if ANY {
+            c.prims(1);
+        }
+        // SAFETY: `KdTree::build` only makes references to existing triangles (checked by
+        // `validate`).
+        let tri = unsafe { kd.tris.get_unchecked(id as usize) };
+        if let Some((t, u, v)) = T::intersect(pre, ray, tri, best.t) {
+            *best = Best { t, prim: id, u, v };
+            if ANY {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// What to visit at an interior node.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Kind {
+    NearOnly,
+    FarOnly,
+    Both,
+}
+
+/// The decision of the direction-classified recursive traversal at interior node `idx` for the
+/// interval `[tn, tf]` (see [`RecursiveDirection`]). The children's intervals are always
+/// `[tn, min(tf, t)]` and `[max(tn, t), tf]` (a NaN `t` ignored), so the interval of a node is
+/// the slab interval of its cell whatever path led there (plane distances computed by the one
+/// formula, root faces counting as the root interval): the stackless traversals recompute it
+/// from a cell and reproduce exactly these decisions.
+#[derive(Clone, Copy)]
+pub(crate) struct Decision {
+    pub(crate) kind: Kind,
+    pub(crate) near: usize,
+    pub(crate) far: usize,
+    /// End of the near child's interval.
+    pub(crate) near_tf: f32,
+    /// Start of the far child's interval.
+    pub(crate) far_tn: f32,
+}
+
+#[inline(always)]
+pub(crate) fn decide(n: KdNode, idx: usize, s: &Setup, tn: f32, tf: f32) -> Decision {
+    let a = n.axis();
+    let t = (n.split() - s.org[a]) * s.inv[a];
+    let (near, far) = if s.neg[a] {
+        (n.right(), idx + 1)
+    } else {
+        (idx + 1, n.right())
+    };
+    let kind = if t > tf * SLACK {
+        Kind::NearOnly
+    } else if t * SLACK < tn {
+        Kind::FarOnly
+    } else {
+        Kind::Both
+    };
+    Decision {
+        kind,
+        near,
+        far,
+        near_tf: min_num(tf, t),
+        far_tn: max_num(tn, t),
+    }
+}
+
+/// `recursive-direction` (traversal 0): the stack-based algorithm with near/far children
+/// classified by the sign of the ray direction (Keller 1997, Wald 2004; review §3.2, Alg. 2
+/// with the direction-based classification). The stack holds the far child with its entry and
+/// exit distances. Per interior node: `t = (split − o_a)·(1/d_a)`; `t > t_exit·SLACK`: near
+/// child only; `t·SLACK < t_entry`: far child only; otherwise both, near first, so rays
+/// through cell edges and corners (up to rounding) visit every cell there ([`SLACK`]).
+///
+/// Zero direction components (the review's robustness fix, done without an epsilon): `1/±0`
+/// is `±inf` with the sign of the zero, which also decides near/far, so `t = ±inf` selects the
+/// half-space holding the ray; an origin exactly in the plane gives `t = NaN`, which fails both
+/// comparisons, and both children are visited over the whole interval (the NaN is ignored by
+/// the interval updates).
+pub(crate) struct RecursiveDirection<'a>(pub &'a KdTree);
+
+impl RecursiveDirection<'_> {
+    #[inline(always)]
+    fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        let kd = self.0;
+        c.boxes(1);
+        let Some(s) = setup(kd, ray) else {
+            return HitRecord::MISS;
+        };
+        let pre = T::prepare(ray);
+        let nodes = kd.nodes.as_slice();
+        let mut best = Best::new(ray.tmax);
+        let mut stack = [(0u32, 0f32, 0f32); STACK_SIZE];
+        let mut sp = 0usize;
+        let (mut idx, mut tn, mut tf) = (0usize, s.t0, s.t1);
+        loop {
+            // SAFETY: indices are the root and children written by the builder (checked by
+            // `validate`).
+            let n = unsafe { *nodes.get_unchecked(idx) };
+            if !n.is_leaf() {
+                c.interior();
+                c.steps(1);
+                c.planes(1);
+                let d = decide(n, idx, &s, tn, tf);
+                match d.kind {
+                    Kind::NearOnly => idx = d.near,
+                    Kind::FarOnly => idx = d.far,
+                    Kind::Both => {
+                        stack[sp] = (d.far as u32, d.far_tn, tf);
+                        sp += 1;
+                        idx = d.near;
+                        tf = d.near_tf;
+                    }
+                }
+                continue;
+            }
+            if leaf::<T, C, ANY>(kd, n, &pre, ray, &mut best, c) {
+                return best.record();
+            }
+            // Pop the next pending subtree, skipping those entered beyond the closest hit (not
+            // ending the walk there: a subtree pushed to be visited over its parent's whole
+            // interval may lie below entries that start later).
+            let (i, a, b) = loop {
+                if sp == 0 {
+                    return best.record();
+                }
+                sp -= 1;
+                let e = stack[sp];
+                if ANY || e.1 <= best.t {
+                    break e;
+                }
+            };
+            (idx, tn, tf) = (i as usize, a, b);
+        }
+    }
+}
+
+impl Kernel for RecursiveDirection<'_> {
+    #[inline]
+    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.walk::<T, C, false>(ray, c)
+    }
+
+    #[inline]
+    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.walk::<T, C, true>(ray, c)
+    }
+}
+
+/// A point on the ray: its parameter and coordinates.
+#[derive(Clone, Copy)]
+struct Pt {
+    t: f32,
+    p: [f32; 3],
+}
+
+/// The point at `t`, exact on axes of zero direction, clamped into the root cell.
+#[inline(always)]
+fn point(kd: &KdTree, s: &Setup, t: f32) -> [f32; 3] {
+    let b = &kd.bounds;
+    let mut p = [0.0; 3];
+    for a in 0..3 {
+        let x = if s.dir[a] == 0.0 {
+            s.org[a]
+        } else {
+            s.org[a] + t * s.dir[a]
+        };
+        p[a] = min_num(max_num(b.min[a], x), b.max[a]);
+    }
+    p
+}
+
+/// `havran` (traversal 1): Havran's robust recursive traversal TA^B_rec (Havran 2000, Appendix
+/// C; review §3.2). Entry and exit *points* (coordinates and distance) are kept for the
+/// current node and on the stack, and the children to visit are decided by comparing the
+/// entry and exit coordinates on the split axis with the split position (cases N1–N5, P1–P5,
+/// Z), without division; the distance to the plane is computed only when the ray crosses it
+/// (cases N4, P4), and the crossing point gets the split coordinate exactly. Case Z (the ray
+/// lies in the split plane) visits both children, so triangles touching the plane from either
+/// side are tested. The stored points are rounded (`o + t·d`), so a coordinate within
+/// `8·2^-24·(|o_a| + max |root cell|_a)` of the split counts as possibly on either side:
+/// an entry and exit both within it is case Z, one of them within it a crossing (near child by
+/// the direction's sign); points on axes of zero direction are exactly `o_a`.
+pub(crate) struct Havran<'a>(pub &'a KdTree);
+
+impl Havran<'_> {
+    #[inline(always)]
+    fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        let kd = self.0;
+        c.boxes(1);
+        let Some(s) = setup(kd, ray) else {
+            return HitRecord::MISS;
+        };
+        let pre = T::prepare(ray);
+        let nodes = kd.nodes.as_slice();
+        let mut best = Best::new(ray.tmax);
+        let zero = Pt {
+            t: 0.0,
+            p: [0.0; 3],
+        };
+        let mut stack = [(0u32, zero, zero); STACK_SIZE];
+        let mut sp = 0usize;
+        let mut idx = 0usize;
+        let mut en = Pt {
+            t: s.t0,
+            p: point(kd, &s, s.t0),
+        };
+        let mut ex = Pt {
+            t: s.t1,
+            p: point(kd, &s, s.t1),
+        };
+        // Rounding allowance of point coordinates on each axis.
+        let b = &kd.bounds;
+        let err: [f32; 3] = std::array::from_fn(|a| {
+            8.0 * f32::EPSILON * (s.org[a].abs() + b.min[a].abs().max(b.max[a].abs()))
+        });
+        loop {
+            // SAFETY: as in `RecursiveDirection::walk`.
+            let n = unsafe { *nodes.get_unchecked(idx) };
+            if !n.is_leaf() {
+                c.interior();
+                c.steps(1);
+                let a = n.axis();
+                let split = n.split();
+                let (left, right) = (idx + 1, n.right());
+                let (ea, xa) = (en.p[a], ex.p[a]);
+                let (lo, hi) = (split - err[a], split + err[a]);
+                // Entry/exit possibly on the left (at most `split` up to rounding), possibly
+                // on the right.
+                let (el, er) = (ea <= hi, ea >= lo);
+                let (xl, xr) = (xa <= hi, xa >= lo);
+                let far;
+                // A direction component of 0 gives ea == xa: only the first three cases.
+                if !er && !xr {
+                    idx = left; // N1, N2, N3 (and P5 beyond rounding)
+                    continue;
+                } else if !el && !xl {
+                    idx = right; // P1, P2, P3 (and N5 beyond rounding)
+                    continue;
+                } else if el && er && xl && xr {
+                    // Z: the ray lies in the plane (up to rounding): both children over the
+                    // whole interval.
+                    stack[sp] = (right as u32, en, ex);
+                    sp += 1;
+                    idx = left;
+                    continue;
+                } else if !s.neg[a] {
+                    // N4 (or a crossing within rounding): the ray runs left to right.
+                    far = right;
+                    idx = left;
+                } else {
+                    far = left; // P4
+                    idx = right;
+                }
+                c.planes(1);
+                let t = (split - s.org[a]) * s.inv[a];
+                let t = min_num(max_num(en.t, t), ex.t);
+                let mut p = point(kd, &s, t);
+                p[a] = split;
+                let mid = Pt { t, p };
+                stack[sp] = (far as u32, mid, ex);
+                sp += 1;
+                ex = mid;
+                continue;
+            }
+            if leaf::<T, C, ANY>(kd, n, &pre, ray, &mut best, c) {
+                return best.record();
+            }
+            // Pop as in `RecursiveDirection::walk`.
+            let (i, a, b) = loop {
+                if sp == 0 {
+                    return best.record();
+                }
+                sp -= 1;
+                let e = stack[sp];
+                if ANY || e.1.t <= best.t {
+                    break e;
+                }
+            };
+            (idx, en, ex) = (i as usize, a, b);
+        }
+    }
+}
+
+impl Kernel for Havran<'_> {
+    #[inline]
+    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.walk::<T, C, false>(ray, c)
+    }
+
+    #[inline]
+    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.walk::<T, C, true>(ray, c)
+    }
+}
+
+/// `recursive-origin` (traversal 2): the stack-based algorithm with near/far children
+/// classified by the side of the split plane holding the ray origin (Jansen 1986, Arvo 1988;
+/// review §3.2, Alg. 2 as printed): `t = (split − o_a)/d_a`; `t < 0` or `t > t_exit`: near
+/// only; `t < t_entry`: far only; otherwise both. An origin lying in a split plane (`o_a =
+/// split`, near = the upper child) gives `t = 0` and may send the ray to the wrong child: the
+/// algorithm is inherently not robust there (Havran et al. 1997), and kept as published.
+pub(crate) struct RecursiveOrigin<'a>(pub &'a KdTree);
+
+impl RecursiveOrigin<'_> {
+    #[inline(always)]
+    fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        let kd = self.0;
+        c.boxes(1);
+        let Some(s) = setup(kd, ray) else {
+            return HitRecord::MISS;
+        };
+        let pre = T::prepare(ray);
+        let nodes = kd.nodes.as_slice();
+        let mut best = Best::new(ray.tmax);
+        let mut stack = [(0u32, 0f32, 0f32); STACK_SIZE];
+        let mut sp = 0usize;
+        let (mut idx, mut tn, mut tf) = (0usize, s.t0, s.t1);
+        loop {
+            // SAFETY: as in `RecursiveDirection::walk`.
+            let n = unsafe { *nodes.get_unchecked(idx) };
+            if !n.is_leaf() {
+                c.interior();
+                c.steps(1);
+                c.planes(1);
+                let a = n.axis();
+                let split = n.split();
+                let t = (split - s.org[a]) * s.inv[a];
+                let (near, far) = if s.org[a] < split {
+                    (idx + 1, n.right())
+                } else {
+                    (n.right(), idx + 1)
+                };
+                if t < 0.0 || t > tf * SLACK {
+                    idx = near;
+                } else if t * SLACK < tn {
+                    idx = far;
+                } else {
+                    // Clamped into the interval; a NaN `t` (origin in the plane, direction
+                    // 0 on this axis) leaves both children the whole interval.
+                    stack[sp] = (far as u32, max_num(tn, t).min(tf), tf);
+                    sp += 1;
+                    idx = near;
+                    tf = min_num(tf, t).max(tn);
+                }
+                continue;
+            }
+            if leaf::<T, C, ANY>(kd, n, &pre, ray, &mut best, c) {
+                return best.record();
+            }
+            // Pop the next pending subtree, skipping those entered beyond the closest hit (not
+            // ending the walk there: a subtree pushed to be visited over its parent's whole
+            // interval may lie below entries that start later).
+            let (i, a, b) = loop {
+                if sp == 0 {
+                    return best.record();
+                }
+                sp -= 1;
+                let e = stack[sp];
+                if ANY || e.1 <= best.t {
+                    break e;
+                }
+            };
+            (idx, tn, tf) = (i as usize, a, b);
+        }
+    }
+}
+
+impl Kernel for RecursiveOrigin<'_> {
+    #[inline]
+    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.walk::<T, C, false>(ray, c)
+    }
+
+    #[inline]
+    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.walk::<T, C, true>(ray, c)
+    }
+}

@@ -1,0 +1,183 @@
+//! The shared conformance suite (`tb_scene::conformance`): stress scenes and rays, against the
+//! oracle, for every robust traversal; the inherently non-robust `recursive-origin` is run
+//! separately and its mismatches are reported, not asserted.
+
+use tb_core::{Accel, HitRecord, Query, Ray, TraversalInfo, TraversalStats, TriTestKind};
+use tb_kdtree::{KdParams, KdTree, TRAVERSALS};
+
+/// A kd-tree exposing only some of its traversals (`which`, indices into [`TRAVERSALS`]).
+struct Subset {
+    kd: KdTree,
+    which: &'static [usize],
+    infos: &'static [TraversalInfo],
+}
+
+impl Subset {
+    fn new(kd: KdTree, which: &'static [usize]) -> Self {
+        let infos: Vec<TraversalInfo> = which.iter().map(|&i| TRAVERSALS[i]).collect();
+        Subset {
+            kd,
+            which,
+            infos: Box::leak(infos.into_boxed_slice()),
+        }
+    }
+}
+
+impl Accel for Subset {
+    fn name(&self) -> &'static str {
+        self.kd.name()
+    }
+    fn traversals(&self) -> &'static [TraversalInfo] {
+        self.infos
+    }
+    fn memory(&self) -> tb_core::MemoryReport {
+        self.kd.memory()
+    }
+    fn validate(&self) -> Result<(), String> {
+        self.kd.validate()
+    }
+    fn trace(
+        &self,
+        traversal: usize,
+        query: Query,
+        tri: TriTestKind,
+        rays: &[Ray],
+        hits: &mut [HitRecord],
+        stats: Option<&mut [TraversalStats]>,
+    ) {
+        self.kd
+            .trace(self.which[traversal], query, tri, rays, hits, stats)
+    }
+}
+
+/// Index of a traversal by name.
+fn index(name: &str) -> usize {
+    TRAVERSALS.iter().position(|t| t.name == name).unwrap()
+}
+
+/// The robust traversals: all but `recursive-origin` (2), `sequential` (6) and `ropes` (8).
+const ROBUST: &[usize] = &[0, 1, 3, 4, 5, 7];
+/// The inherently non-robust ones, whose mismatches are reported.
+const NOT_ROBUST: &[&str] = &["recursive-origin", "sequential", "ropes"];
+
+fn run(params: KdParams) {
+    for (i, t) in TRAVERSALS.iter().enumerate() {
+        assert!(ROBUST.contains(&i) != NOT_ROBUST.contains(&t.name));
+    }
+    tb_scene::conformance::assert_conforms(&move |tris| {
+        let kd = KdTree::build(tris, &params);
+        kd.validate().expect("valid kd-tree");
+        Box::new(Subset::new(kd, ROBUST)) as Box<dyn Accel>
+    });
+}
+
+#[test]
+fn conforms_default() {
+    run(KdParams::default());
+}
+
+#[test]
+fn conforms_binned() {
+    run(KdParams {
+        builder: tb_kdtree::KdBuilder::Binned,
+        bins: 8,
+        ..Default::default()
+    });
+}
+
+#[test]
+fn conforms_shallow_big_leaves() {
+    run(KdParams {
+        max_depth: 6,
+        min_leaf: 8,
+        ..Default::default()
+    });
+}
+
+/// `recursive-origin` is not robust for origins in split planes (Havran et al. 1997), and
+/// `sequential` may skip a cell touched only at an edge or corner (one leaf located per step):
+/// their mismatches with brute force on the suite are counted and printed (run with
+/// `--nocapture`), not asserted beyond "nearly every ray matches".
+#[test]
+fn non_robust_mismatches_reported() {
+    for name in NOT_ROBUST {
+        let which: &'static [usize] = Box::leak(Box::new([index(name)]));
+        let params = KdParams::default();
+        let build = move |tris: &[tb_core::Triangle]| {
+            Box::new(Subset::new(KdTree::build(tris, &params), which)) as Box<dyn Accel>
+        };
+        let res = tb_scene::conformance::check(&build, TriTestKind::Watertight);
+        let total: usize = res.iter().map(|r| r.rays).sum();
+        let bad: usize = res.iter().map(|r| r.mismatches).sum();
+        println!("{name}, watertight: {bad} of {total} rays differ from brute force");
+        for r in res.iter().filter(|r| r.mismatches > 0) {
+            println!(
+                "  {} / {}: {} of {}",
+                r.scene, r.ray_kind, r.mismatches, r.rays
+            );
+        }
+        assert!(bad * 100 <= total, "{name}: {bad} of {total} rays differ");
+    }
+}
+
+/// The O(N log N) sweep builds exactly the tree of the O(N log² N) one.
+#[test]
+fn sweep_builders_agree() {
+    use tb_kdtree::KdBuilder;
+    for scene in tb_scene::conformance::suite_scenes() {
+        let a = KdTree::build(&scene.triangles, &KdParams::default());
+        let b = KdTree::build(
+            &scene.triangles,
+            &KdParams {
+                builder: KdBuilder::SweepNlog2n,
+                ..Default::default()
+            },
+        );
+        assert_eq!(KdParams::default().builder, KdBuilder::Sweep);
+        assert!(a.nodes() == b.nodes(), "{}: nodes differ", scene.source);
+        assert!(
+            a.prim_refs() == b.prim_refs(),
+            "{}: references differ",
+            scene.source
+        );
+    }
+}
+
+/// Counter identities: `steps = interior + leaves`, no restarts for the stack traversals, at
+/// least one per extra descent for the restart-type ones.
+#[test]
+fn counters_are_consistent() {
+    use tb_core::{Query, TraversalStats};
+    let scene = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new(".")).unwrap();
+    let kd = KdTree::build(&scene.triangles, &KdParams::default());
+    let rays = tb_scene::rays::random(&scene.bounds, 500, 3);
+    for (ti, info) in TRAVERSALS.iter().enumerate() {
+        let mut hits = vec![HitRecord::MISS; rays.len()];
+        let mut stats = vec![TraversalStats::default(); rays.len()];
+        kd.trace(
+            ti,
+            Query::Closest,
+            TriTestKind::Watertight,
+            &rays,
+            &mut hits,
+            Some(&mut stats),
+        );
+        for s in &stats {
+            assert_eq!(s.steps, s.interior + s.leaves, "{}", info.name);
+            assert!(s.boxes >= 1);
+            if ti < 3 {
+                assert_eq!(s.restarts, 0, "{}", info.name);
+                // Havran's algorithm computes a plane distance only where the ray crosses.
+                if info.name == "havran" {
+                    assert!(s.planes <= s.interior);
+                } else {
+                    assert_eq!(s.planes, s.interior, "{}", info.name);
+                }
+            }
+        }
+        let restarts: u32 = stats.iter().map(|s| s.restarts).sum();
+        if (3..8).contains(&ti) {
+            assert!(restarts > 0, "{}", info.name);
+        }
+    }
+}

@@ -1,0 +1,141 @@
+//! svenstaro's `bvh` crate: its SAH-bucketed BVH, closest hit computed from the candidate
+//! iterator (`traverse_iterator`) with our triangle test, as its users do.
+
+use bvh::aabb::{Aabb as BAabb, Bounded};
+use bvh::bounding_hierarchy::BHShape;
+use bvh::bvh::Bvh;
+use nalgebra::{Point3, Vector3};
+use tb_core::{
+    Accel, HitRecord, MemoryReport, MollerTrumbore, Query, Ray, TraversalInfo, TraversalStats,
+    TriTest, TriTestKind, Triangle, Watertight,
+};
+
+/// A triangle as a `bvh` shape.
+struct Shape {
+    index: u32,
+    bounds: BAabb<f32, 3>,
+    node: usize,
+}
+
+impl Bounded<f32, 3> for Shape {
+    fn aabb(&self) -> BAabb<f32, 3> {
+        self.bounds
+    }
+}
+
+impl BHShape<f32, 3> for Shape {
+    fn set_bh_node_index(&mut self, i: usize) {
+        self.node = i;
+    }
+    fn bh_node_index(&self) -> usize {
+        self.node
+    }
+}
+
+/// A `bvh::Bvh` over the triangles.
+pub struct BvhRsPeer {
+    bvh: Bvh<f32, 3>,
+    shapes: Vec<Shape>,
+    tris: Vec<Triangle>,
+}
+
+impl BvhRsPeer {
+    pub fn build(tris: &[Triangle]) -> Self {
+        let mut shapes: Vec<Shape> = tris
+            .iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let b = t.bounds();
+                Shape {
+                    index: i as u32,
+                    bounds: BAabb::with_bounds(
+                        Point3::new(b.min.x, b.min.y, b.min.z),
+                        Point3::new(b.max.x, b.max.y, b.max.z),
+                    ),
+                    node: 0,
+                }
+            })
+            .collect();
+        let bvh = Bvh::build(&mut shapes);
+        BvhRsPeer {
+            bvh,
+            shapes,
+            tris: tris.to_vec(),
+        }
+    }
+
+    fn trace_one<T: TriTest>(&self, query: Query, r: &Ray) -> HitRecord {
+        let pre = T::prepare(r);
+        let bray = bvh::ray::Ray::new(
+            Point3::new(r.origin.x, r.origin.y, r.origin.z),
+            Vector3::new(r.dir.x, r.dir.y, r.dir.z),
+        );
+        let mut best = HitRecord::MISS;
+        let mut tmax = r.tmax;
+        for s in self.bvh.traverse_iterator(&bray, &self.shapes) {
+            if let Some((t, u, v)) = T::intersect(&pre, r, &self.tris[s.index as usize], tmax) {
+                // Keep the first index among equal distances, as the oracle does.
+                if t < tmax || (t == tmax && s.index < best.prim) {
+                    best = HitRecord {
+                        t,
+                        prim: s.index,
+                        u,
+                        v,
+                    };
+                    tmax = t;
+                }
+                if query == Query::Any {
+                    break;
+                }
+            }
+        }
+        best
+    }
+}
+
+impl Accel for BvhRsPeer {
+    fn name(&self) -> &'static str {
+        "bvh-rs"
+    }
+
+    fn traversals(&self) -> &'static [TraversalInfo] {
+        crate::NATIVE
+    }
+
+    fn memory(&self) -> MemoryReport {
+        let nodes = self.bvh.nodes.len();
+        let node_bytes = std::mem::size_of_val(&self.bvh.nodes[0..nodes.min(1)]);
+        MemoryReport {
+            bytes: (std::mem::size_of_val(self.bvh.nodes.as_slice())
+                + self.shapes.len() * std::mem::size_of::<Shape>()
+                + std::mem::size_of_val(self.tris.as_slice())) as u64,
+            nodes: nodes as u64,
+            prim_refs: self.shapes.len() as u64,
+            node_bytes: node_bytes as u32,
+        }
+    }
+
+    fn has_counters(&self) -> bool {
+        false
+    }
+
+    fn trace(
+        &self,
+        _traversal: usize,
+        query: Query,
+        tri: TriTestKind,
+        rays: &[Ray],
+        hits: &mut [HitRecord],
+        stats: Option<&mut [TraversalStats]>,
+    ) {
+        for (r, h) in rays.iter().zip(hits.iter_mut()) {
+            *h = match tri {
+                TriTestKind::Watertight => self.trace_one::<Watertight>(query, r),
+                TriTestKind::MollerTrumbore => self.trace_one::<MollerTrumbore>(query, r),
+            };
+        }
+        if let Some(s) = stats {
+            s.fill(TraversalStats::default());
+        }
+    }
+}

@@ -1,0 +1,213 @@
+//! Intel Embree 3.13 through the `embree3` crate: one triangle geometry, single rays.
+
+use embree3::{
+    BufferUsage, BuildQuality, Config, Device, Format, GeometryKind, IntersectContext, RayHit,
+    Scene, SceneFlags,
+};
+use tb_core::{
+    Accel, BuildReport, HitRecord, MemoryReport, Query, Ray, TraversalInfo, TraversalStats,
+    TriTestKind, Triangle,
+};
+
+/// Embree build settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EmbreeParams {
+    /// `RTC_BUILD_QUALITY_LOW | MEDIUM | HIGH` (0, 1, 2); HIGH is SBVH-like spatial splits.
+    pub quality: u32,
+    /// `RTC_SCENE_FLAG_COMPACT`: a more compact, somewhat slower layout.
+    pub compact: bool,
+    /// `RTC_SCENE_FLAG_ROBUST`: robust traversal (no culling errors for edge cases).
+    pub robust: bool,
+    /// Embree build threads (0 = all hardware threads).
+    pub build_threads: u32,
+}
+
+impl Default for EmbreeParams {
+    fn default() -> Self {
+        EmbreeParams {
+            quality: 2,
+            compact: false,
+            robust: true,
+            build_threads: 1,
+        }
+    }
+}
+
+/// A committed Embree scene of the triangles (one unindexed triangle geometry; `primID` is
+/// the scene's triangle index).
+pub struct EmbreePeer {
+    // Field order: the scene must drop before the device.
+    scene: Scene<'static>,
+    _device: Device,
+    triangles: usize,
+}
+
+impl EmbreePeer {
+    /// Build with `params`; `Err` carries Embree's error.
+    pub fn build(tris: &[Triangle], params: &EmbreeParams) -> Result<Self, String> {
+        let config = Config {
+            threads: params.build_threads,
+            ..Default::default()
+        };
+        let device = Device::with_config(config).map_err(|e| format!("embree device: {e:?}"))?;
+        let mut scene = device
+            .create_scene()
+            .map_err(|e| format!("embree scene: {e:?}"))?;
+        let quality = match params.quality {
+            0 => BuildQuality::LOW,
+            1 => BuildQuality::MEDIUM,
+            _ => BuildQuality::HIGH,
+        };
+        scene.set_build_quality(quality);
+        let mut flags = SceneFlags::NONE;
+        if params.compact {
+            flags |= SceneFlags::COMPACT;
+        }
+        if params.robust {
+            flags |= SceneFlags::ROBUST;
+        }
+        scene.set_flags(flags);
+        if !tris.is_empty() {
+            let mut geom = device
+                .create_geometry(GeometryKind::TRIANGLE)
+                .map_err(|e| format!("embree geometry: {e:?}"))?;
+            geom.set_build_quality(quality);
+            {
+                let mut v = geom
+                    .set_new_buffer::<[f32; 3]>(
+                        BufferUsage::VERTEX,
+                        0,
+                        Format::FLOAT3,
+                        12,
+                        tris.len() * 3,
+                    )
+                    .map_err(|e| format!("embree vertex buffer: {e:?}"))?;
+                for (i, t) in tris.iter().enumerate() {
+                    v[3 * i] = t.v0.to_array();
+                    v[3 * i + 1] = t.v1.to_array();
+                    v[3 * i + 2] = t.v2.to_array();
+                }
+            }
+            {
+                let mut ix = geom
+                    .set_new_buffer::<[u32; 3]>(
+                        BufferUsage::INDEX,
+                        0,
+                        Format::UINT3,
+                        12,
+                        tris.len(),
+                    )
+                    .map_err(|e| format!("embree index buffer: {e:?}"))?;
+                for i in 0..tris.len() {
+                    let b = 3 * i as u32;
+                    ix[i] = [b, b + 1, b + 2];
+                }
+            }
+            let geom = geom.commit();
+            scene.attach_geometry(&geom);
+        }
+        scene.commit();
+        Ok(EmbreePeer {
+            scene,
+            _device: device,
+            triangles: tris.len(),
+        })
+    }
+}
+
+/// Embree's `RayK::valid()` (kernels/common/ray.h): every origin and direction component at
+/// most `FLT_LARGE = 1.844e18` in magnitude, `tnear` and `tfar` not NaN. Debian's build
+/// asserts it and aborts the process on a ray that fails (the `ray-limits` stress scene has
+/// origins at 1e20), so such rays are answered as misses without calling Embree; the oracle
+/// comparison then reports them.
+fn embree_valid(r: &Ray) -> bool {
+    const FLT_LARGE: f32 = 1.844e18;
+    r.origin.abs().max_element() <= FLT_LARGE
+        && r.dir.abs().max_element() <= FLT_LARGE
+        && !r.tmin.is_nan()
+        && !r.tmax.is_nan()
+        && r.tmin >= 0.0
+}
+
+impl Accel for EmbreePeer {
+    fn name(&self) -> &'static str {
+        "embree"
+    }
+
+    fn traversals(&self) -> &'static [TraversalInfo] {
+        crate::NATIVE
+    }
+
+    fn memory(&self) -> MemoryReport {
+        // Embree does not report its BVH size; the vertex and index buffers are ours.
+        MemoryReport {
+            bytes: (self.triangles * (36 + 12)) as u64,
+            nodes: 0,
+            prim_refs: self.triangles as u64,
+            node_bytes: 0,
+        }
+    }
+
+    fn build_report(&self) -> BuildReport {
+        BuildReport::default()
+    }
+
+    fn has_counters(&self) -> bool {
+        false
+    }
+
+    fn own_triangle_test(&self) -> Option<&'static str> {
+        Some("embree")
+    }
+
+    fn trace(
+        &self,
+        _traversal: usize,
+        query: Query,
+        _tri: TriTestKind,
+        rays: &[Ray],
+        hits: &mut [HitRecord],
+        stats: Option<&mut [TraversalStats]>,
+    ) {
+        let mut ctx = IntersectContext::incoherent();
+        for (r, h) in rays.iter().zip(hits.iter_mut()) {
+            if !embree_valid(r) {
+                *h = HitRecord::MISS;
+                continue;
+            }
+            let er = embree3::Ray::segment(r.origin.to_array(), r.dir.to_array(), r.tmin, r.tmax);
+            *h = match query {
+                Query::Closest => {
+                    let mut rh = RayHit::from(er);
+                    self.scene.intersect(&mut ctx, &mut rh);
+                    if rh.hit.is_valid() && rh.ray.tfar < r.tmax {
+                        HitRecord {
+                            t: rh.ray.tfar,
+                            prim: rh.hit.primID,
+                            u: rh.hit.u,
+                            v: rh.hit.v,
+                        }
+                    } else {
+                        HitRecord::MISS
+                    }
+                }
+                Query::Any => {
+                    let mut er = er;
+                    if self.scene.occluded(&mut ctx, &mut er) {
+                        HitRecord {
+                            t: 0.0,
+                            prim: 0,
+                            u: 0.0,
+                            v: 0.0,
+                        }
+                    } else {
+                        HitRecord::MISS
+                    }
+                }
+            };
+        }
+        if let Some(s) = stats {
+            s.fill(TraversalStats::default());
+        }
+    }
+}

@@ -1,0 +1,606 @@
+//! Construction: successive insertion of the triangles' boxes into a dynamic (arena) R-tree
+//! (Guttman 1984; R*-tree: Beckmann, Kriegel, Schneider and Seeger 1990), then packing into
+//! the complete level-order array of the paper's section 4 ([`pack`]).
+//!
+//! Measures in 3D follow the paper's section 3.1: Guttman's and Beckmann's *area* becomes the
+//! box volume, their *margin* (perimeter) the surface area, *overlap* the volume of the
+//! intersection of two boxes. All measures are evaluated in `f64` so that huge scenes
+//! (coordinates near `f32::MAX`) neither overflow nor produce `inf − inf`.
+
+use crate::{ChildOrder, RtreeNode, RtreeParams, Strategy, MAX_M};
+use tb_core::{Aabb, Triangle, Vec3};
+
+/// One entry of a dynamic node: the box of a child node (`level > 0`) or of a triangle
+/// (`level == 0`), and the child's arena index or the triangle's scene index.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Entry {
+    pub bb: Aabb,
+    pub id: u32,
+}
+
+const NO_ENTRY: Entry = Entry {
+    bb: Aabb::EMPTY,
+    id: u32::MAX,
+};
+
+/// A node of the dynamic tree: up to `M + 1` entries (one more than `M` while it overflows).
+#[derive(Clone, Copy)]
+pub(crate) struct DynNode {
+    /// Level `l`: 0 for leaves (entries are triangles), `l > 0` for intermediate nodes whose
+    /// entries are nodes of level `l − 1` (paper section 2.2).
+    pub level: u32,
+    pub len: u32,
+    pub e: [Entry; MAX_M + 1],
+}
+
+impl DynNode {
+    fn new(level: u32) -> Self {
+        DynNode {
+            level,
+            len: 0,
+            e: [NO_ENTRY; MAX_M + 1],
+        }
+    }
+
+    #[inline]
+    pub fn entries(&self) -> &[Entry] {
+        &self.e[..self.len as usize]
+    }
+
+    #[inline]
+    fn push(&mut self, e: Entry) {
+        self.e[self.len as usize] = e;
+        self.len += 1;
+    }
+
+    fn bounds(&self) -> Aabb {
+        self.entries()
+            .iter()
+            .fold(Aabb::EMPTY, |b, e| b.union(&e.bb))
+    }
+}
+
+/// `f64` extent of a box (zero for the empty box).
+#[inline]
+fn ext(b: &Aabb) -> [f64; 3] {
+    if b.is_empty() {
+        return [0.0; 3];
+    }
+    let e = [
+        b.max.x as f64 - b.min.x as f64,
+        b.max.y as f64 - b.min.y as f64,
+        b.max.z as f64 - b.min.z as f64,
+    ];
+    // A NaN extent (NaN coordinates) counts as zero so that measures stay comparable.
+    e.map(|v| if v.is_nan() { 0.0 } else { v })
+}
+
+/// Volume (Guttman's "area" in 3D).
+#[inline]
+pub(crate) fn volume(b: &Aabb) -> f64 {
+    let e = ext(b);
+    e[0] * e[1] * e[2]
+}
+
+/// Surface area (Beckmann's "margin" in 3D, paper section 3.1).
+#[inline]
+pub(crate) fn surface(b: &Aabb) -> f64 {
+    let e = ext(b);
+    2.0 * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0])
+}
+
+/// Volume of the intersection of two boxes ("overlap", paper section 3.1).
+#[inline]
+fn overlap(a: &Aabb, b: &Aabb) -> f64 {
+    let i = Aabb {
+        min: a.min.max(b.min),
+        max: a.max.min(b.max),
+    };
+    volume(&i)
+}
+
+/// Lexicographic "less than" of cost keys (NaN never wins).
+#[inline]
+fn less(a: &[f64; 4], b: &[f64; 4]) -> bool {
+    for k in 0..4 {
+        if a[k] < b[k] {
+            return true;
+        }
+        if a[k] > b[k] || a[k].is_nan() {
+            return false;
+        }
+    }
+    false
+}
+
+/// Counts reported by the build.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct BuildCounts {
+    pub splits: u64,
+    pub reinserts: u64,
+}
+
+/// The dynamic R-tree during construction.
+pub(crate) struct Builder<'p> {
+    p: &'p RtreeParams,
+    m: usize,
+    big_m: usize,
+    pub nodes: Vec<DynNode>,
+    pub root: u32,
+    /// `reinserted[l]`: forced reinsertion already done at level `l` during the current
+    /// insertion of a triangle (R*-tree OverflowTreatment, once per level per insertion).
+    reinserted: Vec<bool>,
+    pub counts: BuildCounts,
+}
+
+/// Path from the root to a node: `(node, slot)` pairs, `slot` being the entry followed.
+type Path = Vec<(u32, u32)>;
+
+impl<'p> Builder<'p> {
+    pub fn new(p: &'p RtreeParams) -> Self {
+        Builder {
+            p,
+            m: p.m as usize,
+            big_m: p.big_m as usize,
+            nodes: vec![DynNode::new(0)],
+            root: 0,
+            reinserted: vec![false],
+            counts: BuildCounts::default(),
+        }
+    }
+
+    /// Number of levels (`L + 1`).
+    pub fn height(&self) -> u32 {
+        self.nodes[self.root as usize].level + 1
+    }
+
+    /// InsertData (Beckmann et al. 1990): insert one triangle box at the leaf level.
+    pub fn insert_data(&mut self, bb: Aabb, id: u32) {
+        self.reinserted.iter_mut().for_each(|r| *r = false);
+        self.insert(Entry { bb, id }, 0);
+    }
+
+    /// Insert `e` into a node of level `level` chosen by ChooseSubtree.
+    fn insert(&mut self, e: Entry, level: u32) {
+        let mut path: Path = Vec::with_capacity(32);
+        let mut n = self.root;
+        while self.nodes[n as usize].level > level {
+            let s = self.choose_subtree(n, &e.bb);
+            path.push((n, s));
+            n = self.nodes[n as usize].e[s as usize].id;
+        }
+        self.nodes[n as usize].push(e);
+        for &(pn, s) in &path {
+            let x = &mut self.nodes[pn as usize].e[s as usize].bb;
+            *x = x.union(&e.bb);
+        }
+        if self.nodes[n as usize].len as usize > self.big_m {
+            self.overflow(n, &path);
+        }
+    }
+
+    /// ChooseSubtree: the entry of node `n` that receives a box `bb`, by the strategy.
+    fn choose_subtree(&self, n: u32, bb: &Aabb) -> u32 {
+        let node = &self.nodes[n as usize];
+        let children_are_leaves = node.level == 1;
+        let by_overlap = match self.p.strategy {
+            Strategy::MinOverlap => true,
+            Strategy::RStar | Strategy::RStarSrfc => children_are_leaves,
+            Strategy::MinVolume | Strategy::MinSurface | Strategy::Str => false,
+        };
+        let es = node.entries();
+        let mut best = 0u32;
+        let mut best_key = [f64::INFINITY; 4];
+        for (i, en) in es.iter().enumerate() {
+            let u = en.bb.union(bb);
+            let (v0, v1) = (volume(&en.bb), volume(&u));
+            let (s0, s1) = (surface(&en.bb), surface(&u));
+            let key = if by_overlap {
+                // Overlap enlargement (Beckmann et al. 1990), ties by least volume
+                // enlargement, then least volume, then least surface enlargement.
+                let mut d = 0.0;
+                for (j, other) in es.iter().enumerate() {
+                    if j != i {
+                        d += overlap(&u, &other.bb) - overlap(&en.bb, &other.bb);
+                    }
+                }
+                [d, v1 - v0, v0, s1 - s0]
+            } else {
+                let surf = match self.p.strategy {
+                    Strategy::MinSurface | Strategy::RStarSrfc | Strategy::Str => true,
+                    Strategy::MinVolume | Strategy::RStar | Strategy::MinOverlap => false,
+                };
+                if surf {
+                    [s1 - s0, s0, v1 - v0, 0.0]
+                } else {
+                    // Guttman: least volume enlargement, ties by least volume; then (for
+                    // flat boxes, whose volumes are all zero) least surface enlargement.
+                    [v1 - v0, v0, s1 - s0, s0]
+                }
+            };
+            if i == 0 || less(&key, &best_key) {
+                best = i as u32;
+                best_key = key;
+            }
+        }
+        best
+    }
+
+    /// OverflowTreatment (Beckmann et al. 1990): forced reinsertion once per level per
+    /// insertion (not at the root), otherwise split, propagating upwards.
+    fn overflow(&mut self, n: u32, path: &[(u32, u32)]) {
+        let level = self.nodes[n as usize].level;
+        if n != self.root && self.p.reinsert && !self.reinserted[level as usize] {
+            self.reinserted[level as usize] = true;
+            self.reinsert(n, path);
+            return;
+        }
+        let nn = self.split(n);
+        self.counts.splits += 1;
+        if n == self.root {
+            let mut r = DynNode::new(level + 1);
+            r.push(Entry {
+                bb: self.nodes[n as usize].bounds(),
+                id: n,
+            });
+            r.push(Entry {
+                bb: self.nodes[nn as usize].bounds(),
+                id: nn,
+            });
+            self.nodes.push(r);
+            self.root = self.nodes.len() as u32 - 1;
+            self.reinserted.push(false);
+            return;
+        }
+        let &(pn, s) = path.last().expect("a non-root node has a parent");
+        let bn = self.nodes[n as usize].bounds();
+        let bnn = self.nodes[nn as usize].bounds();
+        let parent = &mut self.nodes[pn as usize];
+        parent.e[s as usize].bb = bn;
+        parent.push(Entry { bb: bnn, id: nn });
+        // The parent's box is unchanged (n ∪ nn is the old n), so ancestors need no refit.
+        if parent.len as usize > self.big_m {
+            self.overflow(pn, &path[..path.len() - 1]);
+        }
+    }
+
+    /// Forced reinsertion: remove the `p` entries whose centres lie farthest from the centre
+    /// of the node's box, refit the path, and reinsert them at the same level, closest first
+    /// ("close reinsert", Beckmann et al. 1990).
+    fn reinsert(&mut self, n: u32, path: &[(u32, u32)]) {
+        self.counts.reinserts += 1;
+        let node = &mut self.nodes[n as usize];
+        let level = node.level;
+        let c = node.bounds().center();
+        let len = node.len as usize;
+        let p = self.p.reinsert_count();
+        let dist = |e: &Entry| {
+            let d = e.bb.center() - c;
+            let d = [d.x as f64, d.y as f64, d.z as f64];
+            let v = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            if v.is_nan() {
+                f64::INFINITY
+            } else {
+                v
+            }
+        };
+        // Sort by decreasing distance; the first `p` are ejected.
+        node.e[..len].sort_by(|a, b| dist(b).total_cmp(&dist(a)));
+        let mut removed: Vec<Entry> = node.e[..p].to_vec();
+        node.e.copy_within(p..len, 0);
+        node.len = (len - p) as u32;
+        for k in node.len as usize..len {
+            node.e[k] = NO_ENTRY;
+        }
+        // Refit the boxes on the path (they can only shrink).
+        let mut child = n;
+        for &(pn, s) in path.iter().rev() {
+            let b = self.nodes[child as usize].bounds();
+            self.nodes[pn as usize].e[s as usize].bb = b;
+            child = pn;
+        }
+        removed.reverse(); // closest of the ejected first
+        for e in removed {
+            self.insert(e, level);
+        }
+    }
+
+    /// R*-tree split of an overflowing node (`M + 1` entries): ChooseSplitAxis by the least
+    /// sum of surfaces ("margins") over all `2(M − 2m + 2)` distributions of both sorts (by
+    /// lower, then upper box bound) of the axis; ChooseSplitIndex on that axis by the least
+    /// overlap volume, ties by least volume sum, then least surface sum. The node keeps the
+    /// first group; the returned new node (same level) holds the second.
+    fn split(&mut self, n: u32) -> u32 {
+        let (m, big_m) = (self.m, self.big_m);
+        let node = self.nodes[n as usize];
+        let es = node.entries();
+        debug_assert_eq!(es.len(), big_m + 1);
+        let mut sorted: [[Vec<Entry>; 2]; 3] = Default::default();
+        let mut best_axis = 0;
+        let mut best_margin = f64::INFINITY;
+        let mut pre = vec![Aabb::EMPTY; big_m + 1];
+        let mut suf = vec![Aabb::EMPTY; big_m + 2];
+        let fill = |v: &[Entry], pre: &mut [Aabb], suf: &mut [Aabb]| {
+            let mut b = Aabb::EMPTY;
+            for (k, e) in v.iter().enumerate() {
+                b = b.union(&e.bb);
+                pre[k] = b; // box of entries 0..=k
+            }
+            let mut b = Aabb::EMPTY;
+            suf[v.len()] = b;
+            for k in (0..v.len()).rev() {
+                b = b.union(&v[k].bb);
+                suf[k] = b; // box of entries k..
+            }
+        };
+        for axis in 0..3 {
+            let mut margin = 0.0;
+            for (s, out) in sorted[axis].iter_mut().enumerate() {
+                let mut v = es.to_vec();
+                if s == 0 {
+                    v.sort_by(|a, b| {
+                        a.bb.min[axis]
+                            .total_cmp(&b.bb.min[axis])
+                            .then(a.bb.max[axis].total_cmp(&b.bb.max[axis]))
+                    });
+                } else {
+                    v.sort_by(|a, b| {
+                        a.bb.max[axis]
+                            .total_cmp(&b.bb.max[axis])
+                            .then(a.bb.min[axis].total_cmp(&b.bb.min[axis]))
+                    });
+                }
+                fill(&v, &mut pre, &mut suf);
+                for k in m..=big_m + 1 - m {
+                    margin += surface(&pre[k - 1]) + surface(&suf[k]);
+                }
+                *out = v;
+            }
+            if axis == 0 || margin < best_margin {
+                best_margin = margin;
+                best_axis = axis;
+            }
+        }
+        let mut best: Option<(usize, usize)> = None;
+        let mut best_key = [f64::INFINITY; 4];
+        for (s, v) in sorted[best_axis].iter().enumerate() {
+            fill(v, &mut pre, &mut suf);
+            for k in m..=big_m + 1 - m {
+                let (a, b) = (&pre[k - 1], &suf[k]);
+                let key = [
+                    overlap(a, b),
+                    volume(a) + volume(b),
+                    surface(a) + surface(b),
+                    0.0,
+                ];
+                if best.is_none() || less(&key, &best_key) {
+                    best = Some((s, k));
+                    best_key = key;
+                }
+            }
+        }
+        let (s, k) = best.expect("at least one distribution");
+        let v = &sorted[best_axis][s];
+        let level = node.level;
+        let mut a = DynNode::new(level);
+        let mut b = DynNode::new(level);
+        v[..k].iter().for_each(|e| a.push(*e));
+        v[k..].iter().for_each(|e| b.push(*e));
+        self.nodes[n as usize] = a;
+        self.nodes.push(b);
+        self.nodes.len() as u32 - 1
+    }
+}
+
+/// Sort-Tile-Recursive bulk loading (Leutenegger, Lopez and Edgington 1997, "STR: a simple
+/// and efficient algorithm for R-tree packing"), in 3D: at each level the `n` entries are
+/// sorted by box-centre x and cut into `S = ⌈P^(1/3)⌉` slabs of `S²·M` entries
+/// (`P = ⌈n/M⌉` nodes), each slab sorted by y and cut into slices of `S·M` entries, each
+/// slice sorted by z; the resulting sequence is cut into nodes of `M` entries. Slab and slice
+/// sizes are multiples of `M`, so only the last node can be short; when it would hold fewer
+/// than `m` entries, it takes entries from its predecessor (`M ≥ 2m` keeps both legal). Levels
+/// are built bottom-up until one node, the root, remains.
+pub(crate) fn bulk_load_str<'p>(tris: &[Triangle], p: &'p RtreeParams) -> Builder<'p> {
+    let mut b = Builder::new(p);
+    if tris.is_empty() {
+        return b;
+    }
+    b.nodes.clear();
+    let big_m = p.big_m as usize;
+    let m = p.m as usize;
+    let mut level_entries: Vec<Entry> = tris
+        .iter()
+        .enumerate()
+        .map(|(i, t)| Entry {
+            bb: t.bounds(),
+            id: i as u32,
+        })
+        .collect();
+    let mut level = 0u32;
+    loop {
+        str_order(&mut level_entries, big_m);
+        let n = level_entries.len();
+        let mut sizes = vec![big_m; n / big_m];
+        let rest = n % big_m;
+        if rest > 0 {
+            sizes.push(rest);
+        }
+        let k = sizes.len();
+        if k >= 2 && sizes[k - 1] < m {
+            let moved = m - sizes[k - 1];
+            sizes[k - 2] -= moved;
+            sizes[k - 1] = m;
+        }
+        let mut next = Vec::with_capacity(k);
+        let mut at = 0;
+        for s in sizes {
+            let mut node = DynNode::new(level);
+            level_entries[at..at + s].iter().for_each(|e| node.push(*e));
+            at += s;
+            let bb = node.bounds();
+            b.nodes.push(node);
+            next.push(Entry {
+                bb,
+                id: b.nodes.len() as u32 - 1,
+            });
+        }
+        if next.len() == 1 {
+            b.root = next[0].id;
+            break;
+        }
+        level_entries = next;
+        level += 1;
+    }
+    b
+}
+
+/// Reorder `es` into STR's sort-tile order (see [`bulk_load_str`]).
+fn str_order(es: &mut [Entry], big_m: usize) {
+    let key = |e: &Entry, a: usize| {
+        let c = e.bb.center()[a];
+        if c.is_nan() {
+            f32::INFINITY
+        } else {
+            c
+        }
+    };
+    let n = es.len();
+    let pages = n.div_ceil(big_m);
+    let mut s = (pages as f64).cbrt().ceil() as usize;
+    while s > 1 && (s - 1).pow(3) >= pages {
+        s -= 1;
+    }
+    let s = s.max(1);
+    es.sort_by(|a, b| key(a, 0).total_cmp(&key(b, 0)));
+    for slab in es.chunks_mut(s * s * big_m) {
+        slab.sort_by(|a, b| key(a, 1).total_cmp(&key(b, 1)));
+        for slice in slab.chunks_mut(s * big_m) {
+            slice.sort_by(|a, b| key(a, 2).total_cmp(&key(b, 2)));
+        }
+    }
+}
+
+/// Build the dynamic tree by successive insertion of every triangle's box, in scene order.
+pub(crate) fn insert_all<'p>(tris: &[Triangle], p: &'p RtreeParams) -> Builder<'p> {
+    let mut b = Builder::new(p);
+    for (i, t) in tris.iter().enumerate() {
+        b.insert_data(t.bounds(), i as u32);
+    }
+    b
+}
+
+/// The packed tree: complete level-order array with empty slots, triangles in leaf order.
+pub(crate) struct Packed {
+    pub nodes: Vec<RtreeNode>,
+    pub prim_ids: Vec<u32>,
+    /// `L`: level of the root (leaves are at level 0); the tree has `L + 1` levels.
+    pub root_level: u32,
+}
+
+/// `N = (M^(L+1) − 1) / (M − 1)` slots of a complete `M`-ary tree with `L + 1` levels, or
+/// `None` when it does not fit a `u32` index.
+pub(crate) fn slot_count(big_m: u32, root_level: u32) -> Option<u32> {
+    let mut n: u64 = 0;
+    let mut per_level: u64 = 1;
+    for _ in 0..=root_level {
+        n = n.checked_add(per_level)?;
+        per_level = per_level.checked_mul(big_m as u64)?;
+    }
+    (n < u32::MAX as u64).then_some(n as u32)
+}
+
+/// The sort key of an entry for [`ChildOrder`].
+fn order_entries(es: &mut [Entry], order: ChildOrder) {
+    let axis = match order {
+        ChildOrder::Insertion => return,
+        ChildOrder::SortedX => 0,
+        ChildOrder::SortedY => 1,
+        ChildOrder::SortedZ => 2,
+    };
+    es.sort_by(|a, b| {
+        let ca: Vec3 = a.bb.center();
+        let cb: Vec3 = b.bb.center();
+        ca[axis].total_cmp(&cb[axis])
+    });
+}
+
+/// Pack the dynamic tree into the level-order array of paper section 4: node `i`'s entries
+/// lie at `M·i + 1 … M·i + M` (the paper's `n_e(n) = (n − Δ_L(l))·M + Δ_L(l−1)`), non-empty
+/// entries first in [`ChildOrder`], the rest empty slots. Leaves point at runs of the
+/// triangle array, which is in leaf (level) order.
+pub(crate) fn pack(b: &Builder, tris: &[Triangle], order: ChildOrder, big_m: u32) -> Packed {
+    let root_level = b.height() - 1;
+    let n = slot_count(big_m, root_level).unwrap_or_else(|| {
+        panic!(
+            "R-tree with M = {big_m} and {} levels needs more than 2^32 - 1 slots",
+            root_level + 1
+        )
+    });
+    let mut nodes = vec![RtreeNode::EMPTY; n as usize];
+    let mut prim_ids = Vec::with_capacity(tris.len());
+    if tris.is_empty() {
+        return Packed {
+            nodes: Vec::new(),
+            prim_ids,
+            root_level: 0,
+        };
+    }
+    // Level by level (breadth first), so leaves and their triangles come in slot order.
+    let mut cur: Vec<(u32, u32)> = vec![(0, b.root)]; // (slot, arena node)
+    let m = big_m as usize;
+    while !cur.is_empty() {
+        let mut next = Vec::with_capacity(cur.len() * m);
+        for &(slot, id) in &cur {
+            let dn = &b.nodes[id as usize];
+            let mut es: Vec<Entry> = dn.entries().to_vec();
+            order_entries(&mut es, order);
+            let node = &mut nodes[slot as usize];
+            node.count = es.len() as u32;
+            if dn.level == 0 {
+                node.index = prim_ids.len() as u32;
+                prim_ids.extend(es.iter().map(|e| e.id));
+            } else {
+                node.index = 0;
+                for (k, e) in es.iter().enumerate() {
+                    next.push((slot * big_m + 1 + k as u32, e.id));
+                }
+            }
+        }
+        cur = next;
+    }
+    // Minimal boxes bottom-up (children have larger slot indices than their parents).
+    for i in (0..n as usize).rev() {
+        let node = nodes[i];
+        if node.count == 0 {
+            continue;
+        }
+        let bb = if (i as u64) >= first_leaf(big_m, root_level) as u64 {
+            let r = node.index as usize..(node.index + node.count) as usize;
+            prim_ids[r]
+                .iter()
+                .fold(Aabb::EMPTY, |b, &t| b.union(&tris[t as usize].bounds()))
+        } else {
+            let c = i * m + 1;
+            nodes[c..c + node.count as usize]
+                .iter()
+                .fold(Aabb::EMPTY, |b, c| b.union(&c.bounds()))
+        };
+        nodes[i].min = bb.min.to_array();
+        nodes[i].max = bb.max.to_array();
+    }
+    Packed {
+        nodes,
+        prim_ids,
+        root_level,
+    }
+}
+
+/// `Δ_L(0)`: the slot of the first leaf (paper section 4), i.e. the number of slots above
+/// the leaf level.
+pub(crate) fn first_leaf(big_m: u32, root_level: u32) -> u32 {
+    if root_level == 0 {
+        0
+    } else {
+        slot_count(big_m, root_level - 1).expect("fits, as the whole tree does")
+    }
+}

@@ -1,0 +1,817 @@
+//! R-trees for ray tracing (Feldmann 2015, "Accelerated Ray Tracing using R-Trees").
+//!
+//! - **Build** ([`Rtree::build`], module `build`): successive insertion of the triangles'
+//!   boxes into a dynamic tree (paper section 2.2.1): ChooseSubtree by a [`Strategy`] of the
+//!   paper's section 5.1 (Guttman 1984; Beckmann et al. 1990), overflow treatment by forced
+//!   reinsertion once per level per insertion and the R*-tree split. The tree is
+//!   height-balanced: all leaves lie at level `l = 0`, the root at level `L`; every node but
+//!   the root holds `m ≤ n ≤ M` entries.
+//! - **Layout** (paper section 4, Figure 4): the tree is packed into one array in level order
+//!   *including empty nodes*, a complete `M`-ary tree of `N = (M^(L+1) − 1)/(M − 1)` slots
+//!   whose node `i` has its entries at `M·i + 1 … M·i + M` (the paper's
+//!   `n_e(n) = (n − Δ_L(l))·M + Δ_L(l−1)`), its parent at `⌊(i − 1)/M⌋` (`n_p`) and its
+//!   position in the parent `χ(i) = (i − 1) mod M`. Non-empty entries come first within a
+//!   node, in [`ChildOrder`]; empty slots hold the empty box and `count = 0`. Leaves (level 0)
+//!   hold their triangles as a run of [`Rtree::triangles`] (copied in leaf order;
+//!   [`Rtree::prim_ids`] maps back to scene indices).
+//! - **Traversals** (module `traverse`, [`TRAVERSALS`]): `stackless` (Listing 1), `ordered`
+//!   (Listing 2) and `stack` (the conventional stack-based scheme of Table 3).
+
+mod build;
+mod traverse;
+
+use serde::{Deserialize, Serialize};
+use tb_core::{
+    dispatch, Aabb, Accel, BuildReport, HitRecord, MemoryReport, Query, Ray, TraversalInfo,
+    TraversalStats, TriTestKind, Triangle, Vec3,
+};
+
+/// Largest `M` supported (node capacity of the builder, size of the per-level stacks).
+pub const MAX_M: usize = 16;
+
+/// Most levels a packed tree can have (`L + 1`): with `M ≥ 4` a complete tree of more than
+/// 16 levels needs more than `2^32` slots, which [`Rtree::build`] refuses.
+pub const MAX_LEVELS: usize = 17;
+
+/// The traversals every [`Rtree`] offers (index = position, as passed to [`Accel::trace`]).
+pub const TRAVERSALS: &[TraversalInfo] = &[
+    TraversalInfo {
+        name: "stackless",
+        doc: "stackless depth-first by implicit index arithmetic, next sibling or parent \
+              (Feldmann 2015 §4.1, Listing 1)",
+    },
+    TraversalInfo {
+        name: "ordered",
+        doc: "per-level stacks of at most M entries sorted by entry distance with insertion \
+              sort, nearest first (Feldmann 2015 §4.2, Listing 2)",
+    },
+    TraversalInfo {
+        name: "stack",
+        doc: "conventional depth-first with one stack, skipping boxes entered beyond the \
+              closest hit (Feldmann 2015 §5.2, Table 3)",
+    },
+];
+
+/// ChooseSubtree criterion of the insertion build (paper section 5.1). In 3D, Guttman's
+/// "area" is the box volume and the "margin" its surface (section 3.1); *overlap
+/// enlargement* of an entry is the growth of the summed overlap volume with its siblings
+/// (Beckmann et al. 1990). Remaining ties fall to further keys listed per variant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Strategy {
+    /// `min-volume`: least volume enlargement at every level, ties by least volume (Guttman
+    /// 1984), then least surface enlargement.
+    MinVolume,
+    /// `min-surface`: least surface enlargement at every level (the SAH's measure), ties by
+    /// least surface, then least volume enlargement.
+    MinSurface,
+    /// `min-overlap`: least overlap enlargement at every level, ties by least volume
+    /// enlargement, least volume, least surface enlargement.
+    MinOverlap,
+    /// `r-star`: R*-tree (Beckmann et al. 1990): least volume enlargement at intermediate
+    /// levels, least overlap enlargement where the entries are leaves.
+    RStar,
+    /// `r-star-srfc`: the paper's R*-treeSrfc: least surface enlargement at intermediate
+    /// levels, least overlap enlargement where the entries are leaves (best in Table 1).
+    RStarSrfc,
+    /// `str`: no insertion; Sort-Tile-Recursive bulk loading (Leutenegger, Lopez and
+    /// Edgington 1997), the bulk loading the paper's conclusion suggests (section 6). Nodes
+    /// are full (`M` entries) but for the last of each level; `reinsert` is ignored.
+    Str,
+}
+
+impl Strategy {
+    pub const ALL: [Strategy; 6] = [
+        Strategy::MinVolume,
+        Strategy::MinSurface,
+        Strategy::MinOverlap,
+        Strategy::RStar,
+        Strategy::RStarSrfc,
+        Strategy::Str,
+    ];
+
+    /// The kebab-case config name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Strategy::MinVolume => "min-volume",
+            Strategy::MinSurface => "min-surface",
+            Strategy::MinOverlap => "min-overlap",
+            Strategy::RStar => "r-star",
+            Strategy::RStarSrfc => "r-star-srfc",
+            Strategy::Str => "str",
+        }
+    }
+
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == s)
+    }
+}
+
+/// Order of the entries within a packed node (paper section 3.1, Figure 3: the order in
+/// which children are visited by the `stackless` and `stack` traversals).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ChildOrder {
+    /// `insertion`: as the build left them.
+    Insertion,
+    /// `sorted-x`: by increasing box centre x.
+    SortedX,
+    /// `sorted-y`: by increasing box centre y.
+    SortedY,
+    /// `sorted-z`: by increasing box centre z.
+    SortedZ,
+}
+
+impl ChildOrder {
+    pub const ALL: [ChildOrder; 4] = [
+        ChildOrder::Insertion,
+        ChildOrder::SortedX,
+        ChildOrder::SortedY,
+        ChildOrder::SortedZ,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            ChildOrder::Insertion => "insertion",
+            ChildOrder::SortedX => "sorted-x",
+            ChildOrder::SortedY => "sorted-y",
+            ChildOrder::SortedZ => "sorted-z",
+        }
+    }
+
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == s)
+    }
+
+    /// Sorted along `axis` (0, 1, 2).
+    pub fn sorted(axis: usize) -> Self {
+        match axis {
+            0 => ChildOrder::SortedX,
+            1 => ChildOrder::SortedY,
+            _ => ChildOrder::SortedZ,
+        }
+    }
+}
+
+/// Build parameters of [`Rtree::build`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RtreeParams {
+    /// `m`: least entries of a node other than the root (paper section 2.2). `2 ≤ m ≤ M/2`,
+    /// default 2 (section 5).
+    pub m: u32,
+    /// `M`: most entries of a node (paper section 2.2). `4 ≤ M ≤ 16`, default 4 (section 5).
+    pub big_m: u32,
+    /// ChooseSubtree criterion (section 5.1, Table 1), or bulk loading ([`Strategy::Str`]).
+    /// Default [`Strategy::RStarSrfc`].
+    pub strategy: Strategy,
+    /// Forced reinsertion on overflow, once per level per insertion (R*-tree; section 2.2.1,
+    /// Table 2). Default `true`.
+    pub reinsert: bool,
+    /// Share `p/M` of the entries ejected by a forced reinsertion (Beckmann et al. 1990
+    /// recommend 30 %): `p = clamp(round(share·M), 1, M + 1 − m)`. `0 < share ≤ 0.5`,
+    /// default 0.3.
+    pub reinsert_share: f32,
+    /// Order of the entries within a packed node. Default [`ChildOrder::Insertion`].
+    pub child_order: ChildOrder,
+}
+
+impl Default for RtreeParams {
+    fn default() -> Self {
+        Self {
+            m: 2,
+            big_m: 4,
+            strategy: Strategy::RStarSrfc,
+            reinsert: true,
+            reinsert_share: 0.3,
+            child_order: ChildOrder::Insertion,
+        }
+    }
+}
+
+impl RtreeParams {
+    /// Check the parameters: `4 ≤ M ≤ 16`, `2 ≤ m ≤ M/2`, `0 < reinsert_share ≤ 0.5`.
+    pub fn check(&self) -> Result<(), String> {
+        if !(4..=MAX_M as u32).contains(&self.big_m) {
+            return Err(format!("big_m (M) must be in 4..=16, got {}", self.big_m));
+        }
+        if self.m < 2 || self.m > self.big_m / 2 {
+            return Err(format!(
+                "m must be in 2..=M/2 = {}, got {}",
+                self.big_m / 2,
+                self.m
+            ));
+        }
+        if !(self.reinsert_share > 0.0 && self.reinsert_share <= 0.5) {
+            return Err(format!(
+                "reinsert_share must be in (0, 0.5], got {}",
+                self.reinsert_share
+            ));
+        }
+        Ok(())
+    }
+
+    /// `p`, the number of entries a forced reinsertion ejects.
+    pub fn reinsert_count(&self) -> usize {
+        let p = (self.reinsert_share as f64 * self.big_m as f64).round() as usize;
+        p.clamp(1, (self.big_m + 1 - self.m) as usize)
+    }
+}
+
+/// One slot of the packed level-order array, 32 bytes (`#[repr(C)]`, GPU-uploadable as 8
+/// words). Whether a slot is a leaf follows from its index (slots `≥ Δ_L(0)` are leaves).
+///
+/// | words | intermediate node | leaf | empty slot |
+/// |---|---|---|---|
+/// | 0..3 | box min | box min | `+inf` |
+/// | 3 | `index`: 0 (entries at `M·i + 1 …`) | `index`: first triangle in [`Rtree::triangles`] | 0 |
+/// | 4..7 | box max | box max | `−inf` |
+/// | 7 | `count`: entries (non-empty first) | `count`: triangles | 0 |
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RtreeNode {
+    pub min: [f32; 3],
+    pub index: u32,
+    pub max: [f32; 3],
+    pub count: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<RtreeNode>() == 32);
+
+impl RtreeNode {
+    /// An empty slot: the empty box, no entries.
+    pub const EMPTY: RtreeNode = RtreeNode {
+        min: [f32::INFINITY; 3],
+        index: 0,
+        max: [f32::NEG_INFINITY; 3],
+        count: 0,
+    };
+
+    /// Whether this is an empty slot of the complete layout (paper: `isEmptyNode`).
+    #[inline(always)]
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    #[inline(always)]
+    pub fn bounds(&self) -> Aabb {
+        Aabb::new(Vec3::from_array(self.min), Vec3::from_array(self.max))
+    }
+}
+
+/// An R-tree over triangles in the paper's implicit level-order layout.
+///
+/// Per-ray counters (`TraversalStats`), the same for the three traversals:
+/// - `boxes`: ray–box slab tests; `interior`: intermediate nodes whose entries were examined
+///   (entered); `leaves`: leaves whose triangles were tested; `prims`: ray–triangle tests;
+/// - `steps`: iterations of the traversal's main loop, one per node slot the walk is
+///   positioned at (`stackless`: every non-empty slot reached by the index arithmetic, hit or
+///   missed, so `steps == boxes`; `ordered`, `stack`: the root when its box is hit and
+///   every entry taken from a stack and not discarded as farther than the closest hit, so
+///   `steps == interior + leaves`);
+/// - `restarts`: `stackless` only, climbs to a parent (`n_p`) when no next sibling remains;
+/// - `planes`: always 0.
+#[derive(Clone, Debug)]
+pub struct Rtree {
+    nodes: Vec<RtreeNode>,
+    triangles: Vec<Triangle>,
+    prim_ids: Vec<u32>,
+    /// `L`: the root's level; leaves are at level 0.
+    root_level: u32,
+    /// `Δ_L(0)`: first leaf slot.
+    first_leaf: u32,
+    params: RtreeParams,
+    splits: u64,
+    reinserts: u64,
+}
+
+impl Rtree {
+    /// Build an R-tree over `tris` by successive insertion (single-threaded). Panics if
+    /// `params.check()` fails, if there are `u32::MAX` or more triangles, or if the complete
+    /// layout would need `2^32 − 1` or more slots.
+    ///
+    /// An empty input gives an empty tree (no slots) that misses every ray.
+    pub fn build(tris: &[Triangle], params: &RtreeParams) -> Rtree {
+        if let Err(e) = params.check() {
+            panic!("invalid R-tree parameters: {e}");
+        }
+        assert!(
+            tris.len() < u32::MAX as usize,
+            "an R-tree holds fewer than 2^32 - 1 triangles"
+        );
+        let b = match params.strategy {
+            Strategy::Str => build::bulk_load_str(tris, params),
+            _ => build::insert_all(tris, params),
+        };
+        let counts = b.counts;
+        let packed = build::pack(&b, tris, params.child_order, params.big_m);
+        drop(b);
+        assert!((packed.root_level as usize) < MAX_LEVELS);
+        let triangles = packed.prim_ids.iter().map(|&i| tris[i as usize]).collect();
+        Rtree {
+            first_leaf: build::first_leaf(params.big_m, packed.root_level),
+            nodes: packed.nodes,
+            triangles,
+            prim_ids: packed.prim_ids,
+            root_level: packed.root_level,
+            params: *params,
+            splits: counts.splits,
+            reinserts: counts.reinserts,
+        }
+    }
+
+    /// The level-order slots, root first, empty slots included.
+    #[inline(always)]
+    pub fn nodes(&self) -> &[RtreeNode] {
+        &self.nodes
+    }
+
+    /// The triangles in leaf order.
+    pub fn triangles(&self) -> &[Triangle] {
+        &self.triangles
+    }
+
+    /// `prim_ids()[i]` is the scene index of `triangles()[i]`.
+    pub fn prim_ids(&self) -> &[u32] {
+        &self.prim_ids
+    }
+
+    /// `L`, the level of the root (the tree has `L + 1` levels).
+    pub fn root_level(&self) -> u32 {
+        self.root_level
+    }
+
+    /// `Δ_L(0)`, the slot of the first leaf.
+    pub fn first_leaf(&self) -> u32 {
+        self.first_leaf
+    }
+
+    pub fn params(&self) -> &RtreeParams {
+        &self.params
+    }
+
+    /// `M` as `usize`.
+    #[inline(always)]
+    pub(crate) fn big_m(&self) -> usize {
+        self.params.big_m as usize
+    }
+
+    fn check_invariants(&self) -> Result<(), String> {
+        let n_tris = self.triangles.len();
+        let nodes = &self.nodes;
+        let big_m = self.params.big_m;
+        let m = self.big_m();
+        if self.prim_ids.len() != n_tris {
+            return Err(format!(
+                "{} prim_ids for {n_tris} triangles",
+                self.prim_ids.len()
+            ));
+        }
+        let mut seen = vec![false; n_tris];
+        for (i, &id) in self.prim_ids.iter().enumerate() {
+            let id = id as usize;
+            if id >= n_tris {
+                return Err(format!("prim_ids[{i}] = {id} out of range"));
+            }
+            if std::mem::replace(&mut seen[id], true) {
+                return Err(format!("triangle {id} appears twice in prim_ids"));
+            }
+        }
+        if n_tris == 0 {
+            return if nodes.is_empty() {
+                Ok(())
+            } else {
+                Err("an empty R-tree must have no slots".into())
+            };
+        }
+        let want = build::slot_count(big_m, self.root_level);
+        if want != Some(nodes.len() as u32) {
+            return Err(format!(
+                "{} slots, a complete {big_m}-ary tree of {} levels has {want:?}",
+                nodes.len(),
+                self.root_level + 1
+            ));
+        }
+        if self.first_leaf != build::first_leaf(big_m, self.root_level) {
+            return Err("first leaf slot is not Δ_L(0)".into());
+        }
+        if nodes[0].is_empty() {
+            return Err("the root of a non-empty tree is empty".into());
+        }
+        let same = |a: f32, b: f32| a == b || (a.is_nan() && b.is_nan());
+        let same_box = |a: &Aabb, b: &Aabb| {
+            (0..3).all(|k| same(a.min[k], b.min[k]) && same(a.max[k], b.max[k]))
+        };
+        let mut owned = vec![false; n_tris];
+        for (i, n) in nodes.iter().enumerate() {
+            let is_leaf = i as u32 >= self.first_leaf;
+            let parent_empty = i > 0 && nodes[(i - 1) / m].is_empty();
+            if n.is_empty() {
+                if *n != RtreeNode::EMPTY {
+                    return Err(format!("empty slot {i} is not the empty node"));
+                }
+                continue;
+            }
+            if parent_empty {
+                return Err(format!("slot {i} is non-empty under an empty parent"));
+            }
+            if i > 0 {
+                // Non-empty entries come first: the previous sibling is non-empty.
+                if (i - 1) % m != 0 && nodes[i - 1].is_empty() {
+                    return Err(format!("slot {i} follows an empty sibling"));
+                }
+            }
+            let count = n.count as usize;
+            let lo = if i == 0 {
+                if is_leaf {
+                    1
+                } else {
+                    2
+                }
+            } else {
+                self.params.m as usize
+            };
+            if count < lo || count > m {
+                return Err(format!(
+                    "node {i} ({}) has {count} entries, outside {lo}..={m}",
+                    if is_leaf { "leaf" } else { "intermediate" }
+                ));
+            }
+            let bb = if is_leaf {
+                let r = n.index as usize..n.index as usize + count;
+                if r.end > n_tris {
+                    return Err(format!("leaf {i}: triangles {r:?} out of range"));
+                }
+                let mut bb = Aabb::EMPTY;
+                for k in r {
+                    if std::mem::replace(&mut owned[k], true) {
+                        return Err(format!("triangle slot {k} in two leaves"));
+                    }
+                    bb = bb.union(&self.triangles[k].bounds());
+                }
+                bb
+            } else {
+                let c = i * m + 1;
+                let ch = &nodes[c..c + m];
+                if let Some(k) = (0..count).find(|&k| ch[k].is_empty()) {
+                    return Err(format!("node {i}: entry {k} of {count} is empty"));
+                }
+                if let Some(k) = (count..m).find(|&k| !ch[k].is_empty()) {
+                    return Err(format!("node {i}: slot {k} beyond {count} entries is used"));
+                }
+                ch[..count]
+                    .iter()
+                    .fold(Aabb::EMPTY, |b, c| b.union(&c.bounds()))
+            };
+            if !same_box(&bb, &n.bounds()) {
+                return Err(format!(
+                    "node {i}: box {:?} is not the minimal box {bb:?} of its entries",
+                    n.bounds()
+                ));
+            }
+        }
+        if let Some(k) = owned.iter().position(|v| !v) {
+            return Err(format!("triangle slot {k} is in no leaf"));
+        }
+        Ok(())
+    }
+
+    /// Tree figures over non-empty slots.
+    fn figures(&self) -> Figures {
+        let mut f = Figures::default();
+        for (i, n) in self.nodes.iter().enumerate() {
+            if n.is_empty() {
+                f.empty += 1;
+                continue;
+            }
+            let a = n.bounds().area() as f64;
+            if i as u32 >= self.first_leaf {
+                f.leaves += 1;
+                f.leaf_entries += n.count as u64;
+                f.leaf_area_prims += a * n.count as f64;
+            } else {
+                f.interior += 1;
+                f.interior_entries += n.count as u64;
+                f.interior_area += a;
+            }
+        }
+        f
+    }
+}
+
+#[derive(Default)]
+struct Figures {
+    interior: u64,
+    leaves: u64,
+    empty: u64,
+    interior_entries: u64,
+    leaf_entries: u64,
+    interior_area: f64,
+    leaf_area_prims: f64,
+}
+
+impl Accel for Rtree {
+    fn name(&self) -> &'static str {
+        "rtree"
+    }
+
+    fn traversals(&self) -> &'static [TraversalInfo] {
+        TRAVERSALS
+    }
+
+    /// Bytes of the slot array *including empty slots* (paper section 4), the triangles in
+    /// leaf order and the index map; `nodes` counts every slot.
+    fn memory(&self) -> MemoryReport {
+        MemoryReport {
+            bytes: (std::mem::size_of_val(self.nodes.as_slice())
+                + std::mem::size_of_val(self.triangles.as_slice())
+                + std::mem::size_of_val(self.prim_ids.as_slice())) as u64,
+            nodes: self.nodes.len() as u64,
+            prim_refs: self.prim_ids.len() as u64,
+            node_bytes: std::mem::size_of::<RtreeNode>() as u32,
+        }
+    }
+
+    /// `sah_cost = (Σ_intermediate A(n) + Σ_leaves A(l)·|l|) / A(root)` (`C_trav = C_isect =
+    /// 1`, as the BVH's); extra figures: `levels` (`L + 1`), `slots` (all, empty included),
+    /// `empty_slots`, `empty_share` (empty / all slots), `intermediate`, `leaves`,
+    /// `fill_intermediate` and `fill_leaves` (mean entries per node), `splits`, `reinserts`
+    /// (forced reinsertions during the build).
+    fn build_report(&self) -> BuildReport {
+        let f = self.figures();
+        let root_area = self.nodes.first().map_or(0.0, |n| n.bounds().area() as f64);
+        let sah = (root_area > 0.0 && root_area.is_finite())
+            .then(|| (f.interior_area + f.leaf_area_prims) / root_area);
+        let slots = self.nodes.len() as f64;
+        BuildReport {
+            sah_cost: sah,
+            extra: vec![
+                ("levels".into(), (self.root_level + 1) as f64),
+                ("slots".into(), slots),
+                ("empty_slots".into(), f.empty as f64),
+                ("empty_share".into(), f.empty as f64 / slots.max(1.0)),
+                ("intermediate".into(), f.interior as f64),
+                ("leaves".into(), f.leaves as f64),
+                (
+                    "fill_intermediate".into(),
+                    f.interior_entries as f64 / (f.interior as f64).max(1.0),
+                ),
+                (
+                    "fill_leaves".into(),
+                    f.leaf_entries as f64 / (f.leaves as f64).max(1.0),
+                ),
+                ("splits".into(), self.splits as f64),
+                ("reinserts".into(), self.reinserts as f64),
+            ],
+        }
+    }
+
+    /// Checks: the slot array is the complete `M`-ary layout of `L + 1` levels; every
+    /// non-empty slot lies under a non-empty parent and after non-empty siblings (so every
+    /// leaf is at level 0: height balance); every node but the root has `m..=M` entries (the
+    /// root 2..=M, or 1..=M when it is a leaf); every box is exactly the minimal box of its
+    /// entries; every triangle is in exactly one leaf and `prim_ids` is a permutation.
+    fn validate(&self) -> Result<(), String> {
+        self.check_invariants()
+    }
+
+    fn trace(
+        &self,
+        traversal: usize,
+        query: Query,
+        tri: TriTestKind,
+        rays: &[Ray],
+        hits: &mut [HitRecord],
+        stats: Option<&mut [TraversalStats]>,
+    ) {
+        match traversal {
+            0 => dispatch(&traverse::Stackless(self), query, tri, rays, hits, stats),
+            1 => dispatch(&traverse::Ordered(self), query, tri, rays, hits, stats),
+            2 => dispatch(&traverse::Stack(self), query, tri, rays, hits, stats),
+            _ => panic!(
+                "rtree: unknown traversal {traversal} ({} available)",
+                TRAVERSALS.len()
+            ),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(n: usize) -> Vec<Triangle> {
+        (0..n)
+            .map(|i| {
+                let p = Vec3::new((i % 8) as f32, ((i / 8) % 8) as f32, (i / 64) as f32);
+                Triangle::new(p, p + Vec3::X * 0.9, p + Vec3::Y * 0.9)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn builds_valid_trees_for_every_strategy_and_size() {
+        for s in Strategy::ALL {
+            for reinsert in [false, true] {
+                for (m, big_m) in [(2, 4), (2, 5), (3, 8), (8, 16)] {
+                    for n in [0, 1, 3, 4, 5, 17, 64, 300] {
+                        let p = RtreeParams {
+                            m,
+                            big_m,
+                            strategy: s,
+                            reinsert,
+                            ..Default::default()
+                        };
+                        let t = Rtree::build(&grid(n), &p);
+                        t.validate()
+                            .unwrap_or_else(|e| panic!("{p:?}, {n} triangles: {e}"));
+                        assert_eq!(t.prim_ids().len(), n);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn forced_reinsertion_switches() {
+        let get = |t: &Rtree, k: &str| {
+            let r = t.build_report();
+            r.extra.iter().find(|e| e.0 == k).unwrap().1
+        };
+        let on = Rtree::build(&grid(500), &RtreeParams::default());
+        let off = Rtree::build(
+            &grid(500),
+            &RtreeParams {
+                reinsert: false,
+                ..Default::default()
+            },
+        );
+        assert!(get(&on, "reinserts") > 0.0);
+        assert_eq!(get(&off, "reinserts"), 0.0);
+        assert!(get(&off, "splits") > 0.0);
+        let bulk = Rtree::build(
+            &grid(500),
+            &RtreeParams {
+                strategy: Strategy::Str,
+                ..Default::default()
+            },
+        );
+        assert_eq!(get(&bulk, "splits") + get(&bulk, "reinserts"), 0.0);
+        // STR fills nodes: 500 triangles in ceil(500/4) = 125 leaves.
+        assert_eq!(get(&bulk, "leaves"), 125.0);
+        for t in [&on, &off, &bulk] {
+            t.validate().unwrap();
+        }
+    }
+
+    /// The paper's `Δ_L(l)`, `n_e`, `n_p` and `χ` (section 4) are the heap arithmetic the
+    /// traversals use: entries of `i` at `M·i + 1 …`, parent `⌊(i − 1)/M⌋`.
+    #[test]
+    fn implicit_index_relations_match_the_paper() {
+        for big_m in [4usize, 5, 16] {
+            let top = 4usize; // L
+            let delta = |l: usize| -> usize {
+                if l == top {
+                    0
+                } else {
+                    (0..top - l).map(|i| big_m.pow(i as u32)).sum()
+                }
+            };
+            for l in 1..=top {
+                for n in delta(l)..delta(l - 1) {
+                    let ne = (n - delta(l)) * big_m + delta(l - 1);
+                    assert_eq!(ne, big_m * n + 1);
+                    for k in 0..big_m {
+                        let c = ne + k;
+                        let np = (c - delta(l - 1)) / big_m + delta(l);
+                        assert_eq!(np, (c - 1) / big_m);
+                        assert_eq!((c - delta(l - 1)) % big_m, (c - 1) % big_m);
+                        assert_eq!((c - 1) % big_m, k);
+                    }
+                }
+            }
+            let p = RtreeParams {
+                big_m: big_m as u32,
+                ..Default::default()
+            };
+            assert_eq!(
+                build::first_leaf(p.big_m, top as u32) as usize,
+                delta(0),
+                "Δ_L(0)"
+            );
+        }
+    }
+
+    /// Counter identities documented on [`Rtree`], and the three traversals agree.
+    #[test]
+    fn counters_are_consistent() {
+        let tris = grid(400);
+        let t = Rtree::build(&tris, &RtreeParams::default());
+        let rays: Vec<Ray> = (0..256)
+            .map(|i| {
+                let f = i as f32;
+                let o = Vec3::new(-2.0 + (f * 0.37) % 12.0, -2.0 + (f * 0.71) % 12.0, 10.0);
+                let d = Vec3::new((f * 0.13).sin(), (f * 0.29).cos(), -3.0).normalize();
+                Ray::new(o, d)
+            })
+            .collect();
+        let mut answers = Vec::new();
+        for ti in 0..TRAVERSALS.len() {
+            for q in [Query::Closest, Query::Any] {
+                let mut hits = vec![HitRecord::MISS; rays.len()];
+                let mut st = vec![TraversalStats::default(); rays.len()];
+                t.trace(
+                    ti,
+                    q,
+                    TriTestKind::Watertight,
+                    &rays,
+                    &mut hits,
+                    Some(&mut st),
+                );
+                for s in &st {
+                    assert_eq!(s.planes, 0);
+                    if ti == 0 {
+                        assert_eq!(s.steps, s.boxes, "stackless: one box per step");
+                        assert!(s.interior + s.leaves <= s.steps);
+                    } else {
+                        assert_eq!(s.steps, s.interior + s.leaves, "{}", TRAVERSALS[ti].name);
+                        assert_eq!(s.restarts, 0);
+                    }
+                }
+                if q == Query::Closest {
+                    answers.push(hits.iter().map(|h| h.t).collect::<Vec<_>>());
+                }
+            }
+        }
+        assert!(answers[0].iter().any(|t| t.is_finite()));
+        assert_eq!(answers[0], answers[1]);
+        assert_eq!(answers[0], answers[2]);
+    }
+
+    #[test]
+    fn names_round_trip() {
+        for s in Strategy::ALL {
+            assert_eq!(Strategy::from_name(s.name()), Some(s));
+        }
+        for o in ChildOrder::ALL {
+            assert_eq!(ChildOrder::from_name(o.name()), Some(o));
+        }
+    }
+
+    #[test]
+    fn params_check() {
+        assert!(RtreeParams::default().check().is_ok());
+        for (m, big_m) in [(1, 4), (3, 4), (2, 3), (2, 17), (9, 16)] {
+            let p = RtreeParams {
+                m,
+                big_m,
+                ..Default::default()
+            };
+            assert!(p.check().is_err(), "{m} {big_m}");
+        }
+        let p = RtreeParams {
+            reinsert_share: 0.0,
+            ..Default::default()
+        };
+        assert!(p.check().is_err());
+        assert_eq!(RtreeParams::default().reinsert_count(), 1);
+        let p = RtreeParams {
+            big_m: 16,
+            m: 8,
+            ..Default::default()
+        };
+        assert_eq!(p.reinsert_count(), 5);
+    }
+
+    #[test]
+    fn layout_is_complete_with_empty_slots() {
+        let t = Rtree::build(&grid(300), &RtreeParams::default());
+        let m = 4u64;
+        let l = t.root_level();
+        assert_eq!(t.nodes().len() as u64, (m.pow(l + 1) - 1) / (m - 1));
+        let r = t.build_report();
+        let get = |k: &str| r.extra.iter().find(|e| e.0 == k).unwrap().1;
+        assert!(get("empty_share") > 0.0 && get("empty_share") < 1.0);
+        assert_eq!(t.memory().nodes, t.nodes().len() as u64);
+    }
+
+    #[test]
+    fn validate_finds_corruption() {
+        let good = Rtree::build(&grid(300), &RtreeParams::default());
+        assert_eq!(good.validate(), Ok(()));
+        let mut b = good.clone();
+        b.nodes[1].max[0] += 1.0;
+        assert!(b.validate().unwrap_err().contains("minimal"));
+        let mut b = good.clone();
+        b.prim_ids[1] = b.prim_ids[0];
+        assert!(b.validate().unwrap_err().contains("twice"));
+        let mut b = good.clone();
+        let leaf = b.first_leaf as usize;
+        let leaf = leaf + b.nodes[leaf..].iter().position(|n| !n.is_empty()).unwrap();
+        b.nodes[leaf].count = 0;
+        assert!(b.validate().is_err());
+        let mut b = good.clone();
+        b.nodes.push(RtreeNode::EMPTY);
+        assert!(b.validate().is_err());
+    }
+}

@@ -1,0 +1,509 @@
+//! The three traversals of an [`Rtree`] (paper sections 4.1, 4.2 and 5.2).
+//!
+//! All use the slab test of [`tb_core::Aabb::intersect`] (near/far planes chosen by the sign
+//! of `1/dir`, the `NaN` of `0·inf` ignored by the max/min folds, the exit distance scaled by
+//! `1 + 2·gamma(3)`, Ize 2013), clipped to `[tmin, closest hit so far]`: a box entered beyond
+//! the closest hit is culled (the paper's `t < t_min` test). Any hit: the same walks,
+//! returning at the first triangle hit.
+
+use crate::{Rtree, RtreeNode, MAX_LEVELS, MAX_M};
+use std::mem::MaybeUninit;
+use tb_core::geom::gamma;
+use tb_core::{Counter, HitRecord, Kernel, Ray, TriTest};
+
+/// `1 + 2·gamma(3)`: the exit-distance scaling of the robust slab test (Ize 2013), also
+/// applied when comparing a stored entry distance with the closest hit.
+const EXIT_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+
+/// Per-ray data of the slab test. The ray's octant (sign of each `1/dir` component) is a
+/// const parameter of the walks (`OCT`, bit `a` set when `inv[a] < 0`, as `Aabb::intersect`
+/// decides), so which plane of a slab is near is known at compile time (pbrt's `dirIsNeg`).
+#[derive(Clone, Copy)]
+struct RayBox {
+    org: [f32; 3],
+    inv: [f32; 3],
+}
+
+impl RayBox {
+    #[inline(always)]
+    fn new(ray: &Ray) -> (Self, u8) {
+        let inv = ray.inv_dir().to_array();
+        let oct = (inv[0] < 0.0) as u8 | ((inv[1] < 0.0) as u8) << 1 | ((inv[2] < 0.0) as u8) << 2;
+        (
+            RayBox {
+                org: ray.origin.to_array(),
+                inv,
+            },
+            oct,
+        )
+    }
+
+    /// Entry and exit distance of the slot's box clipped to `[tmin, tmax]`; hit when
+    /// `entry <= exit` (an empty box is never hit).
+    #[inline(always)]
+    fn slab<const OCT: u8>(&self, n: &RtreeNode, tmin: f32, tmax: f32) -> (f32, f32) {
+        let pick = |a: usize| {
+            if OCT & (1 << a) != 0 {
+                (n.max[a], n.min[a])
+            } else {
+                (n.min[a], n.max[a])
+            }
+        };
+        let (nx, fx) = pick(0);
+        let (ny, fy) = pick(1);
+        let (nz, fz) = pick(2);
+        let tx0 = (nx - self.org[0]) * self.inv[0];
+        let ty0 = (ny - self.org[1]) * self.inv[1];
+        let tz0 = (nz - self.org[2]) * self.inv[2];
+        let tx1 = (fx - self.org[0]) * self.inv[0];
+        let ty1 = (fy - self.org[1]) * self.inv[1];
+        let tz1 = (fz - self.org[2]) * self.inv[2];
+        let tn = max_num(max_num(max_num(tmin, tx0), ty0), tz0);
+        let tf = min_num(min_num(min_num(tmax, tx1), ty1), tz1) * EXIT_SCALE;
+        (tn, tf)
+    }
+}
+
+/// `max(acc, t)` ignoring a `NaN` `t` (origin in the slab's plane), one `maxss`.
+#[inline(always)]
+fn max_num(acc: f32, t: f32) -> f32 {
+    if t > acc {
+        t
+    } else {
+        acc
+    }
+}
+
+/// `min(acc, t)` ignoring a `NaN` `t`, one `minss`.
+#[inline(always)]
+fn min_num(acc: f32, t: f32) -> f32 {
+    if t < acc {
+        t
+    } else {
+        acc
+    }
+}
+
+/// Call `$walk::<T, C, ANY, OCT>($ray, &rb, c)` for the ray's octant.
+macro_rules! by_octant {
+    ($self:ident, $ray:ident, $c:ident, $any:expr) => {{
+        let (rb, oct) = RayBox::new($ray);
+        match oct {
+            0 => $self.walk::<T, C, $any, 0>($ray, &rb, $c),
+            1 => $self.walk::<T, C, $any, 1>($ray, &rb, $c),
+            2 => $self.walk::<T, C, $any, 2>($ray, &rb, $c),
+            3 => $self.walk::<T, C, $any, 3>($ray, &rb, $c),
+            4 => $self.walk::<T, C, $any, 4>($ray, &rb, $c),
+            5 => $self.walk::<T, C, $any, 5>($ray, &rb, $c),
+            6 => $self.walk::<T, C, $any, 6>($ray, &rb, $c),
+            _ => $self.walk::<T, C, $any, 7>($ray, &rb, $c),
+        }
+    }};
+}
+
+/// The `Kernel` impl of a traversal type with a `walk::<T, C, ANY, OCT>` method.
+macro_rules! kernel {
+    ($ty:ident) => {
+        impl Kernel for $ty<'_> {
+            #[inline]
+            fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+                by_octant!(self, ray, c, false)
+            }
+
+            #[inline]
+            fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+                by_octant!(self, ray, c, true)
+            }
+        }
+    };
+}
+
+/// The closest hit found so far.
+struct Best {
+    t: f32,
+    slot: usize,
+    u: f32,
+    v: f32,
+}
+
+impl Best {
+    #[inline(always)]
+    fn new(ray: &Ray) -> Self {
+        Best {
+            t: ray.tmax,
+            slot: usize::MAX,
+            u: 0.0,
+            v: 0.0,
+        }
+    }
+
+    #[inline(always)]
+    fn record(&self, tree: &Rtree) -> HitRecord {
+        if self.slot == usize::MAX {
+            HitRecord::MISS
+        } else {
+            HitRecord {
+                t: self.t,
+                prim: tree.prim_ids[self.slot],
+                u: self.u,
+                v: self.v,
+            }
+        }
+    }
+}
+
+/// Test the triangles of leaf `node`; with `ANY`, return the first hit.
+#[inline(always)]
+fn leaf<T: TriTest, C: Counter, const ANY: bool>(
+    tree: &Rtree,
+    node: &RtreeNode,
+    pre: &T::Pre,
+    ray: &Ray,
+    best: &mut Best,
+    c: &mut C,
+) -> Option<HitRecord> {
+    c.leaf();
+    let first = node.index as usize;
+    // SAFETY: `Rtree::build` makes leaves whose runs lie inside `triangles` (checked by
+    // `validate`).
+    let tris = unsafe {
+        tree.triangles
+            .get_unchecked(first..first + node.count as usize)
+    };
+    if ANY {
+        for (k, tri) in tris.iter().enumerate() {
+            c.prims(1);
+            if let Some((t, u, v)) = T::intersect(pre, ray, tri, best.t) {
+                return Some(HitRecord {
+                    t,
+                    prim: tree.prim_ids[first + k],
+                    u,
+                    v,
+                });
+            }
+        }
+    } else {
+        c.prims(node.count);
+        for (k, tri) in tris.iter().enumerate() {
+            if let Some((t, u, v)) = T::intersect(pre, ray, tri, best.t) {
+                *best = Best {
+                    t,
+                    slot: first + k,
+                    u,
+                    v,
+                };
+            }
+        }
+    }
+    None
+}
+
+/// `stackless` (paper section 4.1, Listing 1): depth-first over the implicit layout with no
+/// stack. At slot `n`: if its box is hit within `[tmin, t_min]`, an intermediate node
+/// proceeds with its first entry `n_e(n) = M·n + 1`, a leaf tests its triangles; otherwise
+/// (or after a leaf) the walk moves to the next sibling `n + 1`, climbing to the parent
+/// `n_p(n) = ⌊(n − 1)/M⌋` while `n` is the last entry (`χ(n) = M − 1`) and ending when it
+/// climbs back to the root. Since non-empty entries come first in a node, an empty next
+/// sibling ends the node's entries as `χ(n) = M − 1` does (the paper visits the remaining
+/// empty slots one by one; they are skipped here without changing the result).
+pub(crate) struct Stackless<'a>(pub &'a Rtree);
+
+impl Stackless<'_> {
+    #[inline(always)]
+    fn walk<T: TriTest, C: Counter, const ANY: bool, const OCT: u8>(
+        &self,
+        ray: &Ray,
+        rb: &RayBox,
+        c: &mut C,
+    ) -> HitRecord {
+        let tree = self.0;
+        let nodes = tree.nodes();
+        if nodes.is_empty() {
+            return HitRecord::MISS;
+        }
+        let m = tree.big_m();
+        // `n_p` by a shift when `M` is a power of two (the default `M = 4`).
+        let shift = m.is_power_of_two().then(|| m.trailing_zeros());
+        let first_leaf = tree.first_leaf as usize;
+        let pre = T::prepare(ray);
+        let mut best = Best::new(ray);
+        let mut n = 0usize;
+        'walk: loop {
+            c.steps(1);
+            // SAFETY: `n` is the root, an entry `M·n + 1` of an intermediate node (which the
+            // complete layout always holds) or a sibling `n + 1` within the same node.
+            let node = unsafe { nodes.get_unchecked(n) };
+            c.boxes(1);
+            let (tn, tf) = rb.slab::<OCT>(node, ray.tmin, best.t);
+            if tn <= tf {
+                if n < first_leaf {
+                    c.interior();
+                    n = n * m + 1;
+                    continue;
+                }
+                if let Some(h) = leaf::<T, C, ANY>(tree, node, &pre, ray, &mut best, c) {
+                    return h;
+                }
+            }
+            // Next sibling, climbing past last entries.
+            loop {
+                if n == 0 {
+                    break 'walk;
+                }
+                let parent = match shift {
+                    Some(s) => (n - 1) >> s,
+                    None => (n - 1) / m,
+                };
+                let last = n == parent * m + m;
+                // SAFETY: `n` is not its parent's last entry, so `n + 1` is a sibling slot.
+                if !last && !unsafe { nodes.get_unchecked(n + 1) }.is_empty() {
+                    n += 1;
+                    break;
+                }
+                c.restart();
+                n = parent;
+            }
+        }
+        best.record(tree)
+    }
+}
+
+kernel!(Stackless);
+
+/// `ordered` (paper section 4.2, Listing 2): one stack of at most `M` entries per level. At
+/// an intermediate node of level `l`, the boxes of its entries are tested and those hit are
+/// pushed on stack `l` with their entry distance, kept sorted by insertion sort so that the
+/// nearest is on top. The walk continues with the top of the lowest non-empty stack, climbing
+/// a level when a stack runs empty, and ends when the root level's stack is empty. Closest
+/// hit: a popped entry farther than the closest hit found meanwhile empties its whole stack
+/// (the stack is sorted, so every entry below it is farther still).
+pub(crate) struct Ordered<'a>(pub &'a Rtree);
+
+impl Ordered<'_> {
+    #[inline(always)]
+    fn walk<T: TriTest, C: Counter, const ANY: bool, const OCT: u8>(
+        &self,
+        ray: &Ray,
+        rb: &RayBox,
+        c: &mut C,
+    ) -> HitRecord {
+        let tree = self.0;
+        let nodes = tree.nodes();
+        let Some(root) = nodes.first() else {
+            return HitRecord::MISS;
+        };
+        let m = tree.big_m();
+        let top = tree.root_level as usize;
+        let pre = T::prepare(ray);
+        let mut best = Best::new(ray);
+        c.boxes(1);
+        let (tn, tf) = rb.slab::<OCT>(root, ray.tmin, best.t);
+        if tn > tf {
+            return HitRecord::MISS;
+        }
+        c.steps(1);
+        let mut stacks: [[MaybeUninit<(u32, f32)>; MAX_M]; MAX_LEVELS] =
+            [[MaybeUninit::uninit(); MAX_M]; MAX_LEVELS];
+        let mut sp = [0u8; MAX_LEVELS + 1];
+        let mut n = 0usize;
+        let mut l = top;
+        'walk: loop {
+            // SAFETY: `n` is the root or an entry pushed from an intermediate node.
+            let node = unsafe { nodes.get_unchecked(n) };
+            if l > 0 {
+                c.interior();
+                let st = &mut stacks[l];
+                let mut k = 0usize;
+                let first = n * m + 1;
+                // SAFETY: the entries `M·n + 1 … M·n + count` of an intermediate node exist in
+                // the complete layout (`count ≤ M`).
+                let children = unsafe { nodes.get_unchecked(first..first + node.count as usize) };
+                for (i, child) in children.iter().enumerate() {
+                    c.boxes(1);
+                    let (tn, tf) = rb.slab::<OCT>(child, ray.tmin, best.t);
+                    if tn <= tf {
+                        // Insertion sort: decreasing distance from bottom to top.
+                        let mut j = k;
+                        while j > 0 {
+                            // SAFETY: entries below `k` were written in this loop.
+                            let below = unsafe { st[j - 1].assume_init() };
+                            if below.1 >= tn {
+                                break;
+                            }
+                            st[j] = MaybeUninit::new(below);
+                            j -= 1;
+                        }
+                        st[j] = MaybeUninit::new(((first + i) as u32, tn));
+                        k += 1;
+                    }
+                }
+                sp[l] = k as u8;
+            } else if let Some(h) = leaf::<T, C, ANY>(tree, node, &pre, ray, &mut best, c) {
+                return h;
+            }
+            // The next node: top of the lowest non-empty stack.
+            loop {
+                while l <= top && sp[l] == 0 {
+                    l += 1;
+                }
+                if l > top {
+                    break 'walk;
+                }
+                sp[l] -= 1;
+                // SAFETY: entries below the stack pointer were written when pushed.
+                let (child, d) = unsafe { stacks[l][sp[l] as usize].assume_init() };
+                if ANY || d <= best.t * EXIT_SCALE {
+                    n = child as usize;
+                    l -= 1;
+                    c.steps(1);
+                    break;
+                }
+                sp[l] = 0;
+            }
+        }
+        best.record(tree)
+    }
+}
+
+kernel!(Ordered);
+
+/// Entries of the `stack` traversal's stack: at most `M − 1` pending entries per level above
+/// the current node and `M` at its own.
+const STACK_SIZE: usize = MAX_LEVELS * MAX_M;
+
+/// `stack` (paper section 5.2, Table 3 third column): conventional depth-first with one
+/// stack. At an intermediate node the boxes of its entries are tested; those hit are pushed
+/// with their entry distance in reverse memory order (so entries are visited in memory order,
+/// as by `stackless`); an entry popped after a hit closer than its entry distance has been
+/// found is skipped (the paper's "skip AABBs further away than any intersection already
+/// encountered").
+pub(crate) struct Stack<'a>(pub &'a Rtree);
+
+impl Stack<'_> {
+    #[inline(always)]
+    fn walk<T: TriTest, C: Counter, const ANY: bool, const OCT: u8>(
+        &self,
+        ray: &Ray,
+        rb: &RayBox,
+        c: &mut C,
+    ) -> HitRecord {
+        let tree = self.0;
+        let nodes = tree.nodes();
+        let Some(root) = nodes.first() else {
+            return HitRecord::MISS;
+        };
+        let m = tree.big_m();
+        let first_leaf = tree.first_leaf as usize;
+        let pre = T::prepare(ray);
+        let mut best = Best::new(ray);
+        c.boxes(1);
+        let (tn, tf) = rb.slab::<OCT>(root, ray.tmin, best.t);
+        if tn > tf {
+            return HitRecord::MISS;
+        }
+        c.steps(1);
+        let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); STACK_SIZE];
+        let mut sp = 0usize;
+        let mut n = 0usize;
+        'walk: loop {
+            // SAFETY: `n` is the root or an entry pushed from an intermediate node.
+            let node = unsafe { nodes.get_unchecked(n) };
+            if n < first_leaf {
+                c.interior();
+                let first = n * m + 1;
+                for i in (0..node.count as usize).rev() {
+                    // SAFETY: as in `Ordered`: entries of an intermediate node exist.
+                    let child = unsafe { nodes.get_unchecked(first + i) };
+                    c.boxes(1);
+                    let (tn, tf) = rb.slab::<OCT>(child, ray.tmin, best.t);
+                    if tn <= tf {
+                        stack[sp] = MaybeUninit::new(((first + i) as u32, tn));
+                        sp += 1;
+                    }
+                }
+            } else if let Some(h) = leaf::<T, C, ANY>(tree, node, &pre, ray, &mut best, c) {
+                return h;
+            }
+            loop {
+                if sp == 0 {
+                    break 'walk;
+                }
+                sp -= 1;
+                // SAFETY: entries below `sp` were written by the push above.
+                let (child, d) = unsafe { stack[sp].assume_init() };
+                if ANY || d <= best.t * EXIT_SCALE {
+                    n = child as usize;
+                    c.steps(1);
+                    break;
+                }
+            }
+        }
+        best.record(tree)
+    }
+}
+
+kernel!(Stack);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tb_core::{Aabb, Vec3};
+
+    fn slab_any_octant(n: &RtreeNode, ray: &Ray) -> (f32, f32) {
+        let (rb, oct) = RayBox::new(ray);
+        let (t, m) = (ray.tmin, ray.tmax);
+        match oct {
+            0 => rb.slab::<0>(n, t, m),
+            1 => rb.slab::<1>(n, t, m),
+            2 => rb.slab::<2>(n, t, m),
+            3 => rb.slab::<3>(n, t, m),
+            4 => rb.slab::<4>(n, t, m),
+            5 => rb.slab::<5>(n, t, m),
+            6 => rb.slab::<6>(n, t, m),
+            _ => rb.slab::<7>(n, t, m),
+        }
+    }
+
+    /// The slab test gives exactly `Aabb::intersect`'s answer, including rays with zero
+    /// direction components (both signs) lying in face planes, flat boxes and the empty box.
+    #[test]
+    fn slab_matches_aabb_intersect() {
+        let vals = [-1.0f32, -0.0, 0.0, 0.5, 1.0, 2.0];
+        let dirs = [-1.0f32, -0.0, 0.0, 0.3, 1.0];
+        let boxes = [
+            Aabb::new(Vec3::ZERO, Vec3::ONE),
+            Aabb::new(Vec3::new(0.0, 0.0, 0.5), Vec3::new(1.0, 1.0, 0.5)),
+            Aabb::EMPTY,
+        ];
+        for b in &boxes {
+            let n = RtreeNode {
+                min: b.min.to_array(),
+                index: 0,
+                max: b.max.to_array(),
+                count: 1,
+            };
+            for &ox in &vals {
+                for &oy in &vals {
+                    for &oz in &vals {
+                        for &dx in &dirs {
+                            for &dy in &dirs {
+                                for &dz in &dirs {
+                                    let d = Vec3::new(dx, dy, dz);
+                                    if d == Vec3::ZERO {
+                                        continue;
+                                    }
+                                    let ray = Ray::segment(Vec3::new(ox, oy, oz), d, 0.0, 10.0);
+                                    let want =
+                                        b.intersect(ray.origin, ray.inv_dir(), ray.tmin, ray.tmax);
+                                    let (tn, tf) = slab_any_octant(&n, &ray);
+                                    let got = (tn <= tf).then_some((tn, tf));
+                                    assert_eq!(want, got, "{b:?} {ray:?}");
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
