@@ -13,77 +13,17 @@
 //! pair is pushed with its entry distance, and discarded on pop when a hit closer than that
 //! entry has been found meanwhile. Any hit: the same walk, returning at the first hit.
 
-use crate::{Bvh, BvhNode};
+use crate::Bvh;
 use std::mem::MaybeUninit;
-use tb_core::geom::gamma;
+use tb_core::slab::{RayBox, EXIT_SCALE};
 use tb_core::{Counter, HitRecord, Kernel, Ray, TriTest};
 
 /// Entries of the traversal stack. The builder bounds the leaf depth by this (only median
 /// splits below depth 32), and a walk never holds more entries than the depth of its node.
 pub const STACK_SIZE: usize = 64;
 
-/// `1 + 2·gamma(3)`: the exit-distance scaling of the robust slab test (Ize 2013).
-const EXIT_SCALE: f32 = 1.0 + 2.0 * gamma(3);
-
 /// The `ordered` traversal of a [`Bvh`] (traversal index 0).
 pub(crate) struct Ordered<'a>(pub &'a Bvh);
-
-/// Per-ray data of the slab test. The ray's octant (sign of each `1/dir` component) is a
-/// const parameter of the traversal, so which plane of a slab is near is known at compile
-/// time (pbrt's `dirIsNeg`, resolved once per ray by [`Ordered::traverse`]).
-#[derive(Clone, Copy)]
-struct RayBox {
-    org: [f32; 3],
-    inv: [f32; 3],
-}
-
-impl RayBox {
-    /// Entry and exit distance of the node's box clipped to `[tmin, tmax]`; the box is hit
-    /// when `entry <= exit`. Bit `a` of `OCT` set means `inv[a] < 0` (a negative direction,
-    /// or −0 → −inf, as in `Aabb::intersect`): that slab is entered through its max plane.
-    #[inline(always)]
-    fn slab<const OCT: u8>(&self, n: &BvhNode, tmin: f32, tmax: f32) -> (f32, f32) {
-        let pick = |a: usize| {
-            if OCT & (1 << a) != 0 {
-                (n.max[a], n.min[a])
-            } else {
-                (n.min[a], n.max[a])
-            }
-        };
-        let (nx, fx) = pick(0);
-        let (ny, fy) = pick(1);
-        let (nz, fz) = pick(2);
-        let tx0 = (nx - self.org[0]) * self.inv[0];
-        let ty0 = (ny - self.org[1]) * self.inv[1];
-        let tz0 = (nz - self.org[2]) * self.inv[2];
-        let tx1 = (fx - self.org[0]) * self.inv[0];
-        let ty1 = (fy - self.org[1]) * self.inv[1];
-        let tz1 = (fz - self.org[2]) * self.inv[2];
-        let tn = max_num(max_num(max_num(tmin, tx0), ty0), tz0);
-        let tf = min_num(min_num(min_num(tmax, tx1), ty1), tz1) * EXIT_SCALE;
-        (tn, tf)
-    }
-}
-
-/// `max(acc, t)` ignoring a `NaN` `t` (as `f32::max` does for a non-NaN `acc`); one `maxss`.
-#[inline(always)]
-fn max_num(acc: f32, t: f32) -> f32 {
-    if t > acc {
-        t
-    } else {
-        acc
-    }
-}
-
-/// `min(acc, t)` ignoring a `NaN` `t`; one `minss`.
-#[inline(always)]
-fn min_num(acc: f32, t: f32) -> f32 {
-    if t < acc {
-        t
-    } else {
-        acc
-    }
-}
 
 impl Ordered<'_> {
     /// Dispatch on the ray's octant to a walk specialised for it.
@@ -123,7 +63,7 @@ impl Ordered<'_> {
         let tmin = ray.tmin;
         let mut best_t = ray.tmax;
         c.boxes(1);
-        let (tn, tf) = rb.slab::<OCT>(root, tmin, best_t);
+        let (tn, tf) = rb.slab::<OCT>(&root.min, &root.max, tmin, best_t);
         let root_hit = tn <= tf;
         if !root_hit {
             return HitRecord::MISS;
@@ -144,8 +84,8 @@ impl Ordered<'_> {
                 // SAFETY: a `Bvh` is only made by `Bvh::build`, whose interior nodes have
                 // `index + 1 < nodes.len()` (checked by `validate`).
                 let (a, b) = unsafe { (nodes.get_unchecked(l), nodes.get_unchecked(l + 1)) };
-                let (an, af) = rb.slab::<OCT>(a, tmin, best_t);
-                let (bn, bf) = rb.slab::<OCT>(b, tmin, best_t);
+                let (an, af) = rb.slab::<OCT>(&a.min, &a.max, tmin, best_t);
+                let (bn, bf) = rb.slab::<OCT>(&b.min, &b.max, tmin, best_t);
                 let hit_a = an <= af;
                 let hit_b = bn <= bf;
                 if hit_a {
@@ -238,6 +178,7 @@ impl Kernel for Ordered<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::BvhNode;
     use tb_core::{Aabb, Vec3};
 
     fn slab_any_octant(b: &Aabb, ray: &Ray) -> (f32, f32) {
@@ -255,14 +196,14 @@ mod tests {
         let oct = (inv[0] < 0.0) as u8 | ((inv[1] < 0.0) as u8) << 1 | ((inv[2] < 0.0) as u8) << 2;
         let (t, m) = (ray.tmin, ray.tmax);
         match oct {
-            0 => rb.slab::<0>(&n, t, m),
-            1 => rb.slab::<1>(&n, t, m),
-            2 => rb.slab::<2>(&n, t, m),
-            3 => rb.slab::<3>(&n, t, m),
-            4 => rb.slab::<4>(&n, t, m),
-            5 => rb.slab::<5>(&n, t, m),
-            6 => rb.slab::<6>(&n, t, m),
-            _ => rb.slab::<7>(&n, t, m),
+            0 => rb.slab::<0>(&n.min, &n.max, t, m),
+            1 => rb.slab::<1>(&n.min, &n.max, t, m),
+            2 => rb.slab::<2>(&n.min, &n.max, t, m),
+            3 => rb.slab::<3>(&n.min, &n.max, t, m),
+            4 => rb.slab::<4>(&n.min, &n.max, t, m),
+            5 => rb.slab::<5>(&n.min, &n.max, t, m),
+            6 => rb.slab::<6>(&n.min, &n.max, t, m),
+            _ => rb.slab::<7>(&n.min, &n.max, t, m),
         }
     }
 

@@ -6,12 +6,14 @@
 //! - [`accel`]: the object-safe [`Accel`] interface (one virtual call per ray batch) and the
 //!   [`Kernel`] trait whose monomorphised variants a structure dispatches to;
 //! - [`oracle`]: brute force, the ground truth;
+//! - [`slab`]: the octant-specialised, NaN-safe slab test of the hierarchy traversals;
 //! - [`compare`]: the documented rule deciding whether a structure's answer matches the oracle.
 
 pub mod accel;
 pub mod compare;
 pub mod geom;
 pub mod oracle;
+pub mod slab;
 pub mod stats;
 pub mod tri;
 

@@ -8,81 +8,8 @@
 
 use crate::{Rtree, RtreeNode, MAX_LEVELS, MAX_M};
 use std::mem::MaybeUninit;
-use tb_core::geom::gamma;
+use tb_core::slab::{RayBox, EXIT_SCALE};
 use tb_core::{Counter, HitRecord, Kernel, Ray, TriTest};
-
-/// `1 + 2·gamma(3)`: the exit-distance scaling of the robust slab test (Ize 2013), also
-/// applied when comparing a stored entry distance with the closest hit.
-const EXIT_SCALE: f32 = 1.0 + 2.0 * gamma(3);
-
-/// Per-ray data of the slab test. The ray's octant (sign of each `1/dir` component) is a
-/// const parameter of the walks (`OCT`, bit `a` set when `inv[a] < 0`, as `Aabb::intersect`
-/// decides), so which plane of a slab is near is known at compile time (pbrt's `dirIsNeg`).
-#[derive(Clone, Copy)]
-struct RayBox {
-    org: [f32; 3],
-    inv: [f32; 3],
-}
-
-impl RayBox {
-    #[inline(always)]
-    fn new(ray: &Ray) -> (Self, u8) {
-        let inv = ray.inv_dir().to_array();
-        let oct = (inv[0] < 0.0) as u8 | ((inv[1] < 0.0) as u8) << 1 | ((inv[2] < 0.0) as u8) << 2;
-        (
-            RayBox {
-                org: ray.origin.to_array(),
-                inv,
-            },
-            oct,
-        )
-    }
-
-    /// Entry and exit distance of the slot's box clipped to `[tmin, tmax]`; hit when
-    /// `entry <= exit` (an empty box is never hit).
-    #[inline(always)]
-    fn slab<const OCT: u8>(&self, n: &RtreeNode, tmin: f32, tmax: f32) -> (f32, f32) {
-        let pick = |a: usize| {
-            if OCT & (1 << a) != 0 {
-                (n.max[a], n.min[a])
-            } else {
-                (n.min[a], n.max[a])
-            }
-        };
-        let (nx, fx) = pick(0);
-        let (ny, fy) = pick(1);
-        let (nz, fz) = pick(2);
-        let tx0 = (nx - self.org[0]) * self.inv[0];
-        let ty0 = (ny - self.org[1]) * self.inv[1];
-        let tz0 = (nz - self.org[2]) * self.inv[2];
-        let tx1 = (fx - self.org[0]) * self.inv[0];
-        let ty1 = (fy - self.org[1]) * self.inv[1];
-        let tz1 = (fz - self.org[2]) * self.inv[2];
-        let tn = max_num(max_num(max_num(tmin, tx0), ty0), tz0);
-        let tf = min_num(min_num(min_num(tmax, tx1), ty1), tz1) * EXIT_SCALE;
-        (tn, tf)
-    }
-}
-
-/// `max(acc, t)` ignoring a `NaN` `t` (origin in the slab's plane), one `maxss`.
-#[inline(always)]
-fn max_num(acc: f32, t: f32) -> f32 {
-    if t > acc {
-        t
-    } else {
-        acc
-    }
-}
-
-/// `min(acc, t)` ignoring a `NaN` `t`, one `minss`.
-#[inline(always)]
-fn min_num(acc: f32, t: f32) -> f32 {
-    if t < acc {
-        t
-    } else {
-        acc
-    }
-}
 
 /// Call `$walk::<T, C, ANY, OCT>($ray, &rb, c)` for the ray's octant.
 macro_rules! by_octant {
@@ -234,7 +161,7 @@ impl Stackless<'_> {
             // complete layout always holds) or a sibling `n + 1` within the same node.
             let node = unsafe { nodes.get_unchecked(n) };
             c.boxes(1);
-            let (tn, tf) = rb.slab::<OCT>(node, ray.tmin, best.t);
+            let (tn, tf) = rb.slab::<OCT>(&node.min, &node.max, ray.tmin, best.t);
             if tn <= tf {
                 if n < first_leaf {
                     c.interior();
@@ -297,7 +224,7 @@ impl Ordered<'_> {
         let pre = T::prepare(ray);
         let mut best = Best::new(ray);
         c.boxes(1);
-        let (tn, tf) = rb.slab::<OCT>(root, ray.tmin, best.t);
+        let (tn, tf) = rb.slab::<OCT>(&root.min, &root.max, ray.tmin, best.t);
         if tn > tf {
             return HitRecord::MISS;
         }
@@ -320,7 +247,7 @@ impl Ordered<'_> {
                 let children = unsafe { nodes.get_unchecked(first..first + node.count as usize) };
                 for (i, child) in children.iter().enumerate() {
                     c.boxes(1);
-                    let (tn, tf) = rb.slab::<OCT>(child, ray.tmin, best.t);
+                    let (tn, tf) = rb.slab::<OCT>(&child.min, &child.max, ray.tmin, best.t);
                     if tn <= tf {
                         // Insertion sort: decreasing distance from bottom to top.
                         let mut j = k;
@@ -397,7 +324,7 @@ impl Stack<'_> {
         let pre = T::prepare(ray);
         let mut best = Best::new(ray);
         c.boxes(1);
-        let (tn, tf) = rb.slab::<OCT>(root, ray.tmin, best.t);
+        let (tn, tf) = rb.slab::<OCT>(&root.min, &root.max, ray.tmin, best.t);
         if tn > tf {
             return HitRecord::MISS;
         }
@@ -415,7 +342,7 @@ impl Stack<'_> {
                     // SAFETY: as in `Ordered`: entries of an intermediate node exist.
                     let child = unsafe { nodes.get_unchecked(first + i) };
                     c.boxes(1);
-                    let (tn, tf) = rb.slab::<OCT>(child, ray.tmin, best.t);
+                    let (tn, tf) = rb.slab::<OCT>(&child.min, &child.max, ray.tmin, best.t);
                     if tn <= tf {
                         stack[sp] = MaybeUninit::new(((first + i) as u32, tn));
                         sp += 1;
@@ -453,14 +380,14 @@ mod tests {
         let (rb, oct) = RayBox::new(ray);
         let (t, m) = (ray.tmin, ray.tmax);
         match oct {
-            0 => rb.slab::<0>(n, t, m),
-            1 => rb.slab::<1>(n, t, m),
-            2 => rb.slab::<2>(n, t, m),
-            3 => rb.slab::<3>(n, t, m),
-            4 => rb.slab::<4>(n, t, m),
-            5 => rb.slab::<5>(n, t, m),
-            6 => rb.slab::<6>(n, t, m),
-            _ => rb.slab::<7>(n, t, m),
+            0 => rb.slab::<0>(&n.min, &n.max, t, m),
+            1 => rb.slab::<1>(&n.min, &n.max, t, m),
+            2 => rb.slab::<2>(&n.min, &n.max, t, m),
+            3 => rb.slab::<3>(&n.min, &n.max, t, m),
+            4 => rb.slab::<4>(&n.min, &n.max, t, m),
+            5 => rb.slab::<5>(&n.min, &n.max, t, m),
+            6 => rb.slab::<6>(&n.min, &n.max, t, m),
+            _ => rb.slab::<7>(&n.min, &n.max, t, m),
         }
     }
 
