@@ -27,6 +27,7 @@
 
 use crate::traverse::{decide, leaf, setup, Best, Kind, Setup};
 use crate::{BackNode, KdNode, KdTree};
+use tb_core::slab::{max_num, min_num};
 use tb_core::{Counter, HitRecord, Kernel, Ray, TriTest};
 
 /// Steps (nodes visited, backtracking steps included) after which a ray is ended.
@@ -95,26 +96,6 @@ fn passes(s: &Setup, mut pass: impl FnMut(u8) -> (bool, u8)) {
         if m & !zero == 0 && pass(m).0 {
             return;
         }
-    }
-}
-
-/// `max(acc, t)` ignoring a `NaN` `t`.
-#[inline(always)]
-fn max_num(acc: f32, t: f32) -> f32 {
-    if t > acc {
-        t
-    } else {
-        acc
-    }
-}
-
-/// `min(acc, t)` ignoring a `NaN` `t`.
-#[inline(always)]
-fn min_num(acc: f32, t: f32) -> f32 {
-    if t < acc {
-        t
-    } else {
-        acc
     }
 }
 

@@ -10,6 +10,7 @@
 //! is needed.
 
 use crate::{KdNode, KdTree};
+use tb_core::slab::{max_num, min_num};
 use tb_core::{Counter, HitRecord, Kernel, Ray, TriTest};
 
 /// Entries of the traversal stacks; the depth limit of the builder is at most this.
@@ -22,24 +23,25 @@ pub const STACK_SIZE: usize = 64;
 /// children are visited otherwise (the split distance then clamped to the interval).
 const SLACK: f32 = 1.0 + 8.0 * f32::EPSILON;
 
-/// `max(acc, t)` ignoring a `NaN` `t`.
+/// Pop the next pending subtree `(node, entry, exit)` off `stack[..*sp]`, skipping those whose
+/// entry distance (`entry_t`) lies beyond the closest hit `best_t` (any-hit queries skip
+/// nothing). Skipped entries do not end the walk: a subtree pushed to be visited over its
+/// parent's whole interval may lie below entries that start later. `None` when empty.
 #[inline(always)]
-fn max_num(acc: f32, t: f32) -> f32 {
-    if t > acc {
-        t
-    } else {
-        acc
+fn pop_pending<E: Copy, const ANY: bool>(
+    stack: &[(u32, E, E)],
+    sp: &mut usize,
+    best_t: f32,
+    entry_t: impl Fn(&E) -> f32,
+) -> Option<(u32, E, E)> {
+    while *sp > 0 {
+        *sp -= 1;
+        let e = stack[*sp];
+        if ANY || entry_t(&e.1) <= best_t {
+            return Some(e);
+        }
     }
-}
-
-/// `min(acc, t)` ignoring a `NaN` `t`.
-#[inline(always)]
-fn min_num(acc: f32, t: f32) -> f32 {
-    if t < acc {
-        t
-    } else {
-        acc
-    }
+    None
 }
 
 /// Per-ray data: origin, direction, reciprocal direction, and the ray's interval in the root
@@ -244,18 +246,8 @@ impl RecursiveDirection<'_> {
             if leaf::<T, C, ANY>(kd, n, &pre, ray, &mut best, c) {
                 return best.record();
             }
-            // Pop the next pending subtree, skipping those entered beyond the closest hit (not
-            // ending the walk there: a subtree pushed to be visited over its parent's whole
-            // interval may lie below entries that start later).
-            let (i, a, b) = loop {
-                if sp == 0 {
-                    return best.record();
-                }
-                sp -= 1;
-                let e = stack[sp];
-                if ANY || e.1 <= best.t {
-                    break e;
-                }
+            let Some((i, a, b)) = pop_pending::<f32, ANY>(&stack, &mut sp, best.t, |t| *t) else {
+                return best.record();
             };
             (idx, tn, tf) = (i as usize, a, b);
         }
@@ -393,16 +385,8 @@ impl Havran<'_> {
             if leaf::<T, C, ANY>(kd, n, &pre, ray, &mut best, c) {
                 return best.record();
             }
-            // Pop as in `RecursiveDirection::walk`.
-            let (i, a, b) = loop {
-                if sp == 0 {
-                    return best.record();
-                }
-                sp -= 1;
-                let e = stack[sp];
-                if ANY || e.1.t <= best.t {
-                    break e;
-                }
+            let Some((i, a, b)) = pop_pending::<Pt, ANY>(&stack, &mut sp, best.t, |p| p.t) else {
+                return best.record();
             };
             (idx, en, ex) = (i as usize, a, b);
         }
@@ -475,18 +459,8 @@ impl RecursiveOrigin<'_> {
             if leaf::<T, C, ANY>(kd, n, &pre, ray, &mut best, c) {
                 return best.record();
             }
-            // Pop the next pending subtree, skipping those entered beyond the closest hit (not
-            // ending the walk there: a subtree pushed to be visited over its parent's whole
-            // interval may lie below entries that start later).
-            let (i, a, b) = loop {
-                if sp == 0 {
-                    return best.record();
-                }
-                sp -= 1;
-                let e = stack[sp];
-                if ANY || e.1 <= best.t {
-                    break e;
-                }
+            let Some((i, a, b)) = pop_pending::<f32, ANY>(&stack, &mut sp, best.t, |t| *t) else {
+                return best.record();
             };
             (idx, tn, tf) = (i as usize, a, b);
         }
