@@ -178,33 +178,17 @@ impl Kernel for Ordered<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::BvhNode;
     use tb_core::{Aabb, Vec3};
 
     fn slab_any_octant(b: &Aabb, ray: &Ray) -> (f32, f32) {
-        let n = BvhNode {
-            min: b.min.to_array(),
-            index: 0,
-            max: b.max.to_array(),
-            count: 0,
-        };
-        let inv = ray.inv_dir().to_array();
-        let rb = RayBox {
-            org: ray.origin.to_array(),
-            inv,
-        };
-        let oct = (inv[0] < 0.0) as u8 | ((inv[1] < 0.0) as u8) << 1 | ((inv[2] < 0.0) as u8) << 2;
-        let (t, m) = (ray.tmin, ray.tmax);
-        match oct {
-            0 => rb.slab::<0>(&n.min, &n.max, t, m),
-            1 => rb.slab::<1>(&n.min, &n.max, t, m),
-            2 => rb.slab::<2>(&n.min, &n.max, t, m),
-            3 => rb.slab::<3>(&n.min, &n.max, t, m),
-            4 => rb.slab::<4>(&n.min, &n.max, t, m),
-            5 => rb.slab::<5>(&n.min, &n.max, t, m),
-            6 => rb.slab::<6>(&n.min, &n.max, t, m),
-            _ => rb.slab::<7>(&n.min, &n.max, t, m),
-        }
+        let (rb, oct) = RayBox::new(ray);
+        rb.slab_dyn(
+            oct,
+            &b.min.to_array(),
+            &b.max.to_array(),
+            ray.tmin,
+            ray.tmax,
+        )
     }
 
     /// The specialised slab test gives exactly `Aabb::intersect`'s answer, including rays with

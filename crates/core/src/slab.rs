@@ -71,6 +71,30 @@ impl RayBox {
     }
 }
 
+impl RayBox {
+    /// [`RayBox::slab`] with the octant chosen at run time (for tests and one-off queries;
+    /// kernels make `OCT` a const parameter instead).
+    pub fn slab_dyn(
+        &self,
+        oct: u8,
+        min: &[f32; 3],
+        max: &[f32; 3],
+        tmin: f32,
+        tmax: f32,
+    ) -> (f32, f32) {
+        match oct {
+            0 => self.slab::<0>(min, max, tmin, tmax),
+            1 => self.slab::<1>(min, max, tmin, tmax),
+            2 => self.slab::<2>(min, max, tmin, tmax),
+            3 => self.slab::<3>(min, max, tmin, tmax),
+            4 => self.slab::<4>(min, max, tmin, tmax),
+            5 => self.slab::<5>(min, max, tmin, tmax),
+            6 => self.slab::<6>(min, max, tmin, tmax),
+            _ => self.slab::<7>(min, max, tmin, tmax),
+        }
+    }
+}
+
 /// `max(acc, t)` ignoring a `NaN` `t` (for a non-NaN `acc`); one `maxss`.
 #[inline(always)]
 pub fn max_num(acc: f32, t: f32) -> f32 {
@@ -96,20 +120,6 @@ mod tests {
     use super::*;
     use crate::geom::{Aabb, Vec3};
 
-    fn any_octant(rb: &RayBox, oct: u8, b: &Aabb, tmin: f32, tmax: f32) -> (f32, f32) {
-        let (min, max) = (b.min.to_array(), b.max.to_array());
-        match oct {
-            0 => rb.slab::<0>(&min, &max, tmin, tmax),
-            1 => rb.slab::<1>(&min, &max, tmin, tmax),
-            2 => rb.slab::<2>(&min, &max, tmin, tmax),
-            3 => rb.slab::<3>(&min, &max, tmin, tmax),
-            4 => rb.slab::<4>(&min, &max, tmin, tmax),
-            5 => rb.slab::<5>(&min, &max, tmin, tmax),
-            6 => rb.slab::<6>(&min, &max, tmin, tmax),
-            _ => rb.slab::<7>(&min, &max, tmin, tmax),
-        }
-    }
-
     #[test]
     fn agrees_with_aabb_intersect_including_face_planes() {
         let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
@@ -130,7 +140,8 @@ mod tests {
             for &o in &origins {
                 let r = Ray::new(o, d);
                 let (rb, oct) = RayBox::new(&r);
-                let (tn, tf) = any_octant(&rb, oct, &b, r.tmin, r.tmax);
+                let (tn, tf) =
+                    rb.slab_dyn(oct, &b.min.to_array(), &b.max.to_array(), r.tmin, r.tmax);
                 let hit = tn <= tf;
                 assert_eq!(
                     hit,

@@ -378,17 +378,7 @@ mod tests {
 
     fn slab_any_octant(n: &RtreeNode, ray: &Ray) -> (f32, f32) {
         let (rb, oct) = RayBox::new(ray);
-        let (t, m) = (ray.tmin, ray.tmax);
-        match oct {
-            0 => rb.slab::<0>(&n.min, &n.max, t, m),
-            1 => rb.slab::<1>(&n.min, &n.max, t, m),
-            2 => rb.slab::<2>(&n.min, &n.max, t, m),
-            3 => rb.slab::<3>(&n.min, &n.max, t, m),
-            4 => rb.slab::<4>(&n.min, &n.max, t, m),
-            5 => rb.slab::<5>(&n.min, &n.max, t, m),
-            6 => rb.slab::<6>(&n.min, &n.max, t, m),
-            _ => rb.slab::<7>(&n.min, &n.max, t, m),
-        }
+        rb.slab_dyn(oct, &n.min, &n.max, ray.tmin, ray.tmax)
     }
 
     /// The slab test gives exactly `Aabb::intersect`'s answer, including rays with zero
