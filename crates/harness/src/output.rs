@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 /// One result row: one scene x structure x params x traversal x device x threads x triangle
 /// test x ray kind. Empty cells (`None`) mean "not measured", never zero.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct Row {
     pub scene: String,
     pub source: String,
@@ -20,6 +21,8 @@ pub struct Row {
     pub params: String,
     pub traversal: String,
     pub device: String,
+    /// GPU rows: adapter name, backend and driver; empty on the CPU.
+    pub adapter: String,
     pub threads: u32,
     pub triangle_test: String,
     pub ray_kind: String,
@@ -29,6 +32,10 @@ pub struct Row {
     pub trace_ms_median: Option<f64>,
     pub trace_ms_max: Option<f64>,
     pub mrays_per_s: Option<f64>,
+    /// GPU rows: host-to-device copy of the structure and rays (median), not in `trace_ms_*`.
+    pub upload_ms: Option<f64>,
+    /// GPU rows: device-to-host copy of the hits (median), not in `trace_ms_*`.
+    pub readback_ms: Option<f64>,
     pub hit_rate: Option<f64>,
     pub interior_per_ray: Option<f64>,
     pub interior_max: Option<u32>,
@@ -44,6 +51,8 @@ pub struct Row {
     pub restarts_max: Option<u32>,
     pub steps_per_ray: Option<f64>,
     pub steps_max: Option<u32>,
+    /// Rays ended by a traversal's per-ray step cap (restart-family kd-tree traversals).
+    pub capped_rays: Option<u64>,
     pub memory_bytes: Option<u64>,
     pub nodes: Option<u64>,
     pub prim_refs: Option<u64>,
