@@ -192,8 +192,7 @@ fn build_rtree(tris: &[Triangle], p: &ParamSet) -> Result<Box<dyn Accel>, String
         child_order: tb_rtree::ChildOrder::from_name(p.str("child_order"))
             .ok_or("unknown child order")?,
     };
-    params.check()?;
-    Ok(Box::new(tb_rtree::Rtree::build(tris, &params)))
+    Ok(Box::new(tb_rtree::Rtree::try_build(tris, &params)?))
 }
 
 #[cfg(feature = "embree")]

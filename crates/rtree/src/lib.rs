@@ -33,6 +33,11 @@ pub const MAX_M: usize = 16;
 /// 16 levels needs more than `2^32` slots, which [`Rtree::build`] refuses.
 pub const MAX_LEVELS: usize = 17;
 
+/// Largest packed layout [`Rtree::try_build`] allocates: 8 GiB of 32-byte slots. The
+/// complete `M`-ary layout holds `(M^(L+1) − 1)/(M − 1)` slots however few are used (with
+/// `M = 4`, Conference's 331K triangles already take 695 MiB, 99 % empty).
+pub const MAX_LAYOUT_BYTES: u64 = 8 << 30;
+
 /// The traversals every [`Rtree`] offers (index = position, as passed to [`Accel::trace`]).
 pub const TRAVERSALS: &[TraversalInfo] = &[
     TraversalInfo {
@@ -286,29 +291,61 @@ pub struct Rtree {
 }
 
 impl Rtree {
-    /// Build an R-tree over `tris` by successive insertion (single-threaded). Panics if
-    /// `params.check()` fails, if there are `u32::MAX` or more triangles, or if the complete
-    /// layout would need `2^32 − 1` or more slots.
+    /// Build an R-tree over `tris` by successive insertion (single-threaded). Panics where
+    /// [`Rtree::try_build`] returns an error.
     ///
     /// An empty input gives an empty tree (no slots) that misses every ray.
     pub fn build(tris: &[Triangle], params: &RtreeParams) -> Rtree {
-        if let Err(e) = params.check() {
-            panic!("invalid R-tree parameters: {e}");
+        Self::try_build(tris, params).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// Build an R-tree over `tris` by successive insertion (single-threaded), or say why not:
+    /// `params.check()` fails, there are `u32::MAX` or more triangles, or the complete
+    /// level-order layout of section 4 (which grows as `M^(L+1)`, empty slots included) would
+    /// need `2^32 − 1` or more slots or more than [`MAX_LAYOUT_BYTES`].
+    pub fn try_build(tris: &[Triangle], params: &RtreeParams) -> Result<Rtree, String> {
+        Self::build_within(tris, params, MAX_LAYOUT_BYTES)
+    }
+
+    /// [`Rtree::try_build`] with a layout limit of `max_bytes`.
+    fn build_within(
+        tris: &[Triangle],
+        params: &RtreeParams,
+        max_bytes: u64,
+    ) -> Result<Rtree, String> {
+        params
+            .check()
+            .map_err(|e| format!("invalid R-tree parameters: {e}"))?;
+        if tris.len() >= u32::MAX as usize {
+            return Err("an R-tree holds fewer than 2^32 - 1 triangles".into());
         }
-        assert!(
-            tris.len() < u32::MAX as usize,
-            "an R-tree holds fewer than 2^32 - 1 triangles"
-        );
         let b = match params.strategy {
             Strategy::Str => build::bulk_load_str(tris, params),
             _ => build::insert_all(tris, params),
         };
+        let levels = b.height();
+        let bytes = build::slot_count(params.big_m, levels - 1)
+            .map(|n| n as u64 * std::mem::size_of::<RtreeNode>() as u64);
+        match bytes {
+            Some(bytes) if bytes <= max_bytes => {}
+            _ => {
+                let gib = (params.big_m as f64).powi(levels as i32) / (params.big_m as f64 - 1.0)
+                    * std::mem::size_of::<RtreeNode>() as f64
+                    / (1u64 << 30) as f64;
+                return Err(format!(
+                    "the complete {}-ary level-order layout of {levels} levels needs {gib:.3} GiB \
+                     of slots (empty ones included), over the {:.3} GiB limit; use a smaller M",
+                    params.big_m,
+                    max_bytes as f64 / (1u64 << 30) as f64
+                ));
+            }
+        }
         let counts = b.counts;
         let packed = build::pack(&b, tris, params.child_order, params.big_m);
         drop(b);
         assert!((packed.root_level as usize) < MAX_LEVELS);
         let triangles = packed.prim_ids.iter().map(|&i| tris[i as usize]).collect();
-        Rtree {
+        Ok(Rtree {
             first_leaf: build::first_leaf(params.big_m, packed.root_level),
             nodes: packed.nodes,
             triangles,
@@ -317,7 +354,7 @@ impl Rtree {
             params: *params,
             splits: counts.splits,
             reinserts: counts.reinserts,
-        }
+        })
     }
 
     /// The level-order slots, root first, empty slots included.
@@ -630,6 +667,18 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn refuses_a_layout_over_the_limit_and_says_why() {
+        let p = RtreeParams::default();
+        let t = Rtree::build_within(&grid(300), &p, u64::MAX).unwrap();
+        let need = t.nodes().len() as u64 * 32;
+        assert!(Rtree::build_within(&grid(300), &p, need).is_ok());
+        let e = Rtree::build_within(&grid(300), &p, need - 1).unwrap_err();
+        assert!(e.contains("4-ary level-order layout"), "{e}");
+        let e = Rtree::try_build(&grid(3), &RtreeParams { m: 3, ..p }).unwrap_err();
+        assert!(e.contains("m must be in 2..=M/2"), "{e}");
     }
 
     #[test]
