@@ -49,6 +49,36 @@ fn good_config_parses() {
 }
 
 #[test]
+fn optional_scenes_that_are_absent_are_skipped_with_a_note() {
+    let text = format!(
+        "{GOOD}\n[[scene]]\nsource = \"no-such-dir/fairy-forest.obj.gz\"\noptional = true\n"
+    );
+    let ov = Overrides {
+        scenes_root: Some(PathBuf::from("/nonexistent-scenes-root")),
+        ..Default::default()
+    };
+    let exp = config::parse(Path::new("t.toml"), &text, &ov, &mut |_| {}).unwrap();
+    assert_eq!(exp.scenes.len(), 1);
+    assert_eq!(exp.skipped_scenes.len(), 1);
+    assert!(
+        exp.skipped_scenes[0].contains("fairy-forest") && exp.skipped_scenes[0].contains("skipped"),
+        "{:?}",
+        exp.skipped_scenes
+    );
+    // Without `optional`, the same scene is an error naming the line; with only absent
+    // optional scenes there is nothing to run, also an error.
+    let e = parse_err(&format!(
+        "{GOOD}\n[[scene]]\nsource = \"no-such-dir/fairy-forest.obj.gz\"\n"
+    ));
+    assert!(e.contains("scene.source") && e.contains("not found"), "{e}");
+    let only = "[[scene]]\nsource = \"no-such-dir/x.obj\"\noptional = true\n\n[[structure]]\nname = \"bvh\"\n";
+    match config::parse(Path::new("t.toml"), only, &ov, &mut |_| {}) {
+        Ok(_) => panic!("a config whose scenes are all absent should not parse"),
+        Err(e) => assert!(e.to_string().contains("no scene to run"), "{e}"),
+    }
+}
+
+#[test]
 fn config_errors_name_file_line_and_key() {
     // Unknown key (line 3).
     let e = parse_err("[run]\nthreads = 1\nthreds = 2\n");

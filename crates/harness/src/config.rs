@@ -58,6 +58,7 @@ struct RawScene {
     path: Option<RawPath>,
     random: Option<RawRandom>,
     validate: Option<Spanned<toml::Value>>,
+    optional: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -194,6 +195,8 @@ pub struct Experiment {
     pub seed: u64,
     pub scenes: Vec<SceneSpec>,
     pub structures: Vec<StructureSpec>,
+    /// Why scenes marked `optional = true` were left out (file not under the scenes root).
+    pub skipped_scenes: Vec<String>,
 }
 
 /// Overrides from the command line.
@@ -458,6 +461,7 @@ pub fn parse(
         return Err(cx.err(0..0, "scene", "the config names no [[scene]]"));
     }
     let mut scenes = Vec::new();
+    let mut skipped_scenes = Vec::new();
     for s in &raw.scenes {
         let src = s.source.get_ref();
         let span = s.source.span();
@@ -494,6 +498,14 @@ pub fn parse(
             } else {
                 scenes_root.join(p)
             };
+            if !full.is_file() && s.optional == Some(true) {
+                skipped_scenes.push(format!(
+                    "{}: skipped, not found under the scenes root {} (optional = true)",
+                    s.name.clone().unwrap_or_else(|| scene_label(src)),
+                    scenes_root.display()
+                ));
+                continue;
+            }
             if !full.is_file() {
                 return Err(cx.err(
                     span,
@@ -625,6 +637,12 @@ pub fn parse(
         });
     }
 
+    if scenes.is_empty() {
+        return Err(HarnessError::ConfigSyntax {
+            file: file.into(),
+            message: format!("no scene to run: {}", skipped_scenes.join("; ")),
+        });
+    }
     Ok(Experiment {
         name,
         file: file.to_path_buf(),
@@ -640,6 +658,7 @@ pub fn parse(
         seed,
         scenes,
         structures,
+        skipped_scenes,
     })
 }
 

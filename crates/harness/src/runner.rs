@@ -311,6 +311,10 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
         .sum();
     let progress = Progress::new((combos_per_batch * total_batches) as u64, opts.quiet);
 
+    for n in &exp.skipped_scenes {
+        progress.line(&format!("note: {n}"));
+        summary.notes.push(n.clone());
+    }
     for spec in &exp.scenes {
         progress.step(&format!("{}: generating rays", spec.label));
         let batches = generate_batches(spec, exp.seed, &mut summary.notes);
