@@ -118,7 +118,11 @@ mod tests {
         let k = reference_key(&tris, &cam, &ao, 64, 1);
         assert_eq!(k.len(), 16);
         assert_eq!(k, reference_key(&tris, &cam, &ao, 64, 1));
-        let moved = vec![Triangle::new(Vec3::ZERO, Vec3::X, Vec3::new(0.0, 1.0, 1e-7))];
+        let moved = vec![Triangle::new(
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::new(0.0, 1.0, 1e-7),
+        )];
         assert_ne!(k, reference_key(&moved, &cam, &ao, 64, 1));
         let wide = Camera { width: 5, ..cam };
         assert_ne!(k, reference_key(&tris, &wide, &ao, 64, 1));

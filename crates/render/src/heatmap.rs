@@ -148,13 +148,15 @@ pub fn heatmap(values: &[f32], width: u32, height: u32, max: f32) -> Rgb8 {
 }
 
 /// A difference map `b − a` of two row-major images of the same rays: blue where `b` is below
-/// `a`, white where equal, red where above, saturating at `±max` (default: the largest
-/// `|b − a|`, at least 1). Returns the image and the scale used.
+/// `a`, white where equal, red where above, saturating at `±max` (default: the 99th
+/// percentile of `|b − a|`, at least 1, so a few outliers do not wash out the map). Returns the
+/// image and the scale used.
 pub fn diff_map(a: &[f32], b: &[f32], width: u32, height: u32, max: Option<f32>) -> (Rgb8, f32) {
     let d: Vec<f32> = a.iter().zip(b).map(|(x, y)| y - x).collect();
-    let max = max
-        .filter(|m| *m > 0.0)
-        .unwrap_or_else(|| d.iter().fold(1.0f32, |m, v| m.max(v.abs())));
+    let max = max.filter(|m| *m > 0.0).unwrap_or_else(|| {
+        let abs: Vec<f32> = d.iter().map(|v| v.abs()).collect();
+        percentile99(&abs)
+    });
     let colours: Vec<[u8; 3]> = d.iter().map(|&v| diverging(v / max)).collect();
     let img = with_bar(
         &colours,

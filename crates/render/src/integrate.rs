@@ -248,7 +248,15 @@ mod tests {
             traversal: 0,
             tri: TriTestKind::Watertight,
         };
-        let ao = render(&tris, cam, Integrator::Ao { distance: 1.0 }, 1, 4, &tracer, 1000);
+        let ao = render(
+            &tris,
+            cam,
+            Integrator::Ao { distance: 1.0 },
+            1,
+            4,
+            &tracer,
+            1000,
+        );
         assert!(ao.iter().all(|&v| v == 1.0), "nothing above the floor");
         // One bounce off the floor into the sky: radiance = albedo exactly.
         let pt = Integrator::Path {

@@ -37,7 +37,10 @@ mod tests {
         let tris = [Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y)];
         let rays = [
             Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::new(0.0, 0.0, -1.0)),
-            Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::new(1.0, 0.0, -1.0).normalize()),
+            Ray::new(
+                Vec3::new(0.2, 0.2, 1.0),
+                Vec3::new(1.0, 0.0, -1.0).normalize(),
+            ),
             Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::Z),
         ];
         let hit = HitRecord {
