@@ -320,12 +320,10 @@ impl Runner {
         let mut old = Vec::new();
         if resume && path.is_file() {
             let mut r = csv::Reader::from_path(&path).map_err(|e| HarnessError::io(&path, e))?;
-            for row in r.deserialize::<ConvergenceRow>() {
-                // A torn last line of an interrupted run is dropped (its combination redone).
-                if let Ok(row) = row {
-                    done.insert(row.combo());
-                    old.push(row);
-                }
+            // A torn last line of an interrupted run is dropped (its combination redone).
+            for row in r.deserialize::<ConvergenceRow>().flatten() {
+                done.insert(row.combo());
+                old.push(row);
             }
         }
         std::fs::create_dir_all(out).map_err(|e| HarnessError::io(out, e))?;
