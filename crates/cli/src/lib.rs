@@ -66,6 +66,23 @@ enum Cmd {
         #[arg(long, default_value_t = 0.01)]
         tolerance: f64,
     },
+    /// Difference map of one counter of two heat-map EXRs of the same rays (B − A): PNG with
+    /// a colour bar (blue: B lower, red: B higher), and the means.
+    Diff {
+        /// The first EXR (`images/<scene>/<structure>-p<i>-<traversal>-<test>.exr`).
+        a: PathBuf,
+        /// The second EXR, of the same rays.
+        b: PathBuf,
+        /// The channel (counter) to compare.
+        #[arg(long, default_value = "steps")]
+        channel: String,
+        /// Saturate the colours at ±MAX (default: the 99th percentile of |B − A|).
+        #[arg(long)]
+        max: Option<f32>,
+        /// The PNG to write.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// List the structures, their traversals and parameters.
     List,
     /// List the built-in scenes and their parameters.
@@ -132,6 +149,13 @@ fn dispatch(cli: Cli) -> Result<i32> {
             results,
             tolerance,
         } => cmd_check(&baseline, &results, tolerance),
+        Cmd::Diff {
+            a,
+            b,
+            channel,
+            max,
+            out,
+        } => cmd_diff(&a, &b, &channel, max, &out),
         Cmd::List => {
             print!("{}", tb_harness::registry::listing());
             Ok(0)
@@ -313,4 +337,45 @@ fn cmd_check(baseline: &Path, results: &Path, tolerance: f64) -> Result<i32> {
         );
         Ok(0)
     }
+}
+
+fn cmd_diff(a: &Path, b: &Path, channel: &str, max: Option<f32>, out: &Path) -> Result<i32> {
+    let ia = tb_render::Channels::read_exr(a)?;
+    let ib = tb_render::Channels::read_exr(b)?;
+    if (ia.width, ia.height) != (ib.width, ib.height) {
+        bail!(
+            "{}: {}x{} pixels, but {} has {}x{}: not the same rays",
+            b.display(),
+            ib.width,
+            ib.height,
+            a.display(),
+            ia.width,
+            ia.height
+        );
+    }
+    let get = |img: &tb_render::Channels, p: &Path| -> Result<Vec<f32>> {
+        match img.get(channel) {
+            Some(v) => Ok(v.to_vec()),
+            None => bail!(
+                "{}: no channel `{channel}` (has: {})",
+                p.display(),
+                img.names().join(", ")
+            ),
+        }
+    };
+    let (va, vb) = (get(&ia, a)?, get(&ib, b)?);
+    if max.is_some_and(|m| !(m > 0.0 && m.is_finite())) {
+        bail!("--max: must be positive");
+    }
+    let (png, scale) = tb_render::heatmap::diff_map(&va, &vb, ia.width, ia.height, max);
+    png.write_png(out)?;
+    let mean = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>() / v.len().max(1) as f64;
+    let (ma, mb) = (mean(&va), mean(&vb));
+    println!(
+        "{channel}: mean A {ma:.3}, mean B {mb:.3}, B - A {:+.3} ({:+.1}%)",
+        mb - ma,
+        100.0 * (mb - ma) / ma.max(1e-12)
+    );
+    println!("wrote {} (colour scale ±{scale})", out.display());
+    Ok(0)
 }

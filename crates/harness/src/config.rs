@@ -31,6 +31,7 @@ struct RawConfig {
     scenes: Vec<RawScene>,
     #[serde(default, rename = "structure")]
     structures: Vec<RawStructure>,
+    convergence: Option<Spanned<crate::convergence::RawConvergence>>,
 }
 
 #[derive(Deserialize, Default)]
@@ -44,6 +45,8 @@ struct RawRun {
     devices: Option<Spanned<OneOrMany<String>>>,
     validate: Option<Spanned<toml::Value>>,
     seed: Option<u64>,
+    images: Option<bool>,
+    heatmap_max: Option<Spanned<toml::Value>>,
 }
 
 #[derive(Deserialize)]
@@ -197,6 +200,10 @@ pub struct Experiment {
     pub structures: Vec<StructureSpec>,
     /// Why scenes marked `optional = true` were left out (file not under the scenes root).
     pub skipped_scenes: Vec<String>,
+    /// `[run] images = true`: heat maps of primary rays ([`crate::images`]).
+    pub images: Option<crate::images::ImageSpec>,
+    /// `[convergence]`: error against run time ([`crate::convergence`]).
+    pub convergence: Option<crate::convergence::ConvergenceSpec>,
 }
 
 /// Overrides from the command line.
@@ -216,13 +223,15 @@ pub fn line_of(text: &str, pos: usize) -> usize {
         + 1
 }
 
-struct Ctx<'a> {
-    file: &'a Path,
-    text: &'a str,
+/// Where a config came from, for errors naming its file and line.
+pub(crate) struct Ctx<'a> {
+    pub(crate) file: &'a Path,
+    pub(crate) text: &'a str,
 }
 
 impl Ctx<'_> {
-    fn err(
+    /// A config error at byte range `span` of the file.
+    pub(crate) fn err(
         &self,
         span: std::ops::Range<usize>,
         key: &str,
@@ -643,6 +652,12 @@ pub fn parse(
             message: format!("no scene to run: {}", skipped_scenes.join("; ")),
         });
     }
+    let images = crate::images::check(&cx, run.images, run.heatmap_max.as_ref())?;
+    let convergence = match &raw.convergence {
+        None => None,
+        Some(c) => Some(crate::convergence::check(&cx, c, &scenes)?),
+    };
+
     Ok(Experiment {
         name,
         file: file.to_path_buf(),
@@ -659,6 +674,8 @@ pub fn parse(
         scenes,
         structures,
         skipped_scenes,
+        images,
+        convergence,
     })
 }
 

@@ -11,7 +11,9 @@
 
 pub mod check;
 pub mod config;
+pub mod convergence;
 pub mod error;
+pub mod images;
 pub mod meta;
 pub mod output;
 pub mod params;

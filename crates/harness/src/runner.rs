@@ -310,6 +310,10 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
         })
         .sum();
     let progress = Progress::new((combos_per_batch * total_batches) as u64, opts.quiet);
+    let mut conv = match opts.mode {
+        Mode::Run => crate::convergence::Runner::open(exp, &opts.out, opts.resume)?,
+        Mode::Validate => None,
+    };
 
     for n in &exp.skipped_scenes {
         progress.line(&format!("note: {n}"));
@@ -318,6 +322,11 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
     for spec in &exp.scenes {
         progress.step(&format!("{}: generating rays", spec.label));
         let batches = generate_batches(spec, exp.seed, &mut summary.notes);
+        if let (Some(_), Mode::Run) = (&exp.images, opts.mode) {
+            summary
+                .notes
+                .extend(crate::images::write_scene(spec, &opts.out)?);
+        }
         for n in summary.notes.iter().filter(|n| n.starts_with(&spec.label)) {
             progress.line(&format!("note: {n}"));
         }
@@ -330,7 +339,7 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
         let brute = BruteForce::new(tris);
 
         for st in &exp.structures {
-            for params in &st.param_sets {
+            for (param_index, params) in st.param_sets.iter().enumerate() {
                 let params_s = params.to_string();
                 let row_base = Row {
                     scene: spec.label.clone(),
@@ -423,6 +432,31 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
                     .map(|(k, v)| format!("{k}={}", (v * 1000.0).round() / 1000.0))
                     .collect::<Vec<_>>()
                     .join(";");
+                if let (Some(img), Mode::Run) = (&exp.images, opts.mode) {
+                    progress.step(&format!("{}: heat maps {}", spec.label, st.info.name));
+                    summary.notes.extend(crate::images::write_build(
+                        spec,
+                        img,
+                        &opts.out,
+                        accel.as_ref(),
+                        param_index,
+                        &params_s,
+                        &st.traversals,
+                        &exp.triangle_tests,
+                    )?);
+                }
+                if let Some(c) = conv.as_mut() {
+                    summary.notes.extend(c.build_done(
+                        spec,
+                        accel.as_ref(),
+                        &params_s,
+                        build_ms,
+                        &st.traversals,
+                        &exp.triangle_tests,
+                        &devices,
+                        &progress,
+                    )?);
+                }
 
                 // Counting and validation do not depend on device or thread count: do them once
                 // per (traversal, test, batch).

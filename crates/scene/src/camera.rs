@@ -45,13 +45,20 @@ impl Camera {
 
     /// The primary ray through the centre of pixel `(x, y)`, direction normalised.
     pub fn ray(&self, x: u32, y: u32) -> Ray {
+        self.ray_at(x as f32 + 0.5, y as f32 + 0.5)
+    }
+
+    /// The primary ray through the continuous image point `(fx, fy)` in pixel units (`(0, 0)`
+    /// the top-left corner of the image, `(x + 0.5, y + 0.5)` the centre of pixel `(x, y)`);
+    /// progressive renderers jitter within the pixel with it.
+    pub fn ray_at(&self, fx: f32, fy: f32) -> Ray {
         let forward = (self.target - self.eye).normalize();
         let right = forward.cross(self.up).normalize();
         let up = right.cross(forward);
         let half_h = (self.fov.to_radians() * 0.5).tan();
         let half_w = half_h * self.width as f32 / self.height as f32;
-        let sx = ((x as f32 + 0.5) / self.width as f32) * 2.0 - 1.0;
-        let sy = 1.0 - ((y as f32 + 0.5) / self.height as f32) * 2.0;
+        let sx = (fx / self.width as f32) * 2.0 - 1.0;
+        let sy = 1.0 - (fy / self.height as f32) * 2.0;
         let dir = (forward + right * (sx * half_w) + up * (sy * half_h)).normalize();
         Ray::new(self.eye, dir)
     }

@@ -111,8 +111,9 @@ pub fn primary(camera: &Camera) -> Vec<Ray> {
 }
 
 /// The hit point from barycentrics, the geometric normal facing against `ray.dir`, and the
-/// robustly offset origin. `None` for a miss or a hit on a degenerate triangle.
-fn hit_frame(tris: &[Triangle], ray: &Ray, hit: &HitRecord) -> Option<(Vec3, Vec3)> {
+/// robustly offset origin: `(origin, normal)`. `None` for a miss or a hit on a degenerate
+/// triangle. Integrators (tb-render) continue paths from it exactly as the batches here do.
+pub fn hit_frame(tris: &[Triangle], ray: &Ray, hit: &HitRecord) -> Option<(Vec3, Vec3)> {
     if !hit.is_hit() {
         return None;
     }

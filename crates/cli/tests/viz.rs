@@ -1,0 +1,209 @@
+//! End-to-end tests of the pictures and convergence outputs: `[run] images = true`,
+//! `[convergence]`, `trace-bench diff`, and the errors of their config keys.
+
+use std::fs;
+use std::path::Path;
+use tb_harness::config::{self, Overrides};
+use tb_harness::convergence::ConvergenceRow;
+use tb_render::Channels;
+
+fn run(args: &[&str]) -> i32 {
+    let mut v: Vec<std::ffi::OsString> = vec!["trace-bench".into()];
+    v.extend(args.iter().map(|a| a.into()));
+    trace_bench::run(v)
+}
+
+fn parse_err(text: &str) -> String {
+    let file = Path::new("configs/test.toml");
+    match config::parse(file, text, &Overrides::default(), &mut |_| {}) {
+        Ok(_) => panic!("config should not parse:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+const SCENE: &str = "[[scene]]\nsource = \"builtin:cornell\"\n\n[[structure]]\nname = \"bvh\"\n";
+
+#[test]
+fn image_and_convergence_keys_are_checked() {
+    let cases = [
+        (
+            "[run]\nimages = true\nheatmap_max = -3\n",
+            "3",
+            "run.heatmap_max",
+        ),
+        ("[run]\nheatmap_max = 100\n", "2", "no effect without"),
+        (
+            "[convergence]\nintegrators = [\"ao\", \"bdpt\"]\n",
+            "2",
+            "unknown integrator `bdpt`",
+        ),
+        ("[convergence]\npasses = 0\n", "2", "convergence.passes"),
+        (
+            "[convergence]\nschedule = \"random\"\n",
+            "2",
+            "convergence.schedule",
+        ),
+        ("[convergence]\nalbedo = 1.5\n", "2", "convergence.albedo"),
+        (
+            "[convergence]\nframe_budget_ms = [10, -1]\n",
+            "2",
+            "convergence.frame_budget_ms",
+        ),
+        ("[convergence]\npasses = 40\n", "1", "at most 2^20"),
+    ];
+    for (head, line, what) in cases {
+        let e = parse_err(&format!("{head}\n{SCENE}"));
+        assert!(
+            e.starts_with(&format!("configs/test.toml:{line}:")) && e.contains(what),
+            "{head}: {e}"
+        );
+    }
+    // A scene file without a camera cannot be rendered.
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("t.obj");
+    fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let e = parse_err(&format!(
+        "[convergence]\n\n[[scene]]\nsource = \"{}\"\nrays = [\"random\"]\n\n[[structure]]\nname = \"bvh\"\n",
+        obj.display()
+    ));
+    assert!(e.contains("has no camera"), "{e}");
+}
+
+#[test]
+fn images_convergence_and_diff_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let cfg = dir.path().join("viz.toml");
+    fs::write(
+        &cfg,
+        format!(
+            r#"
+[run]
+threads = 1
+repeat = 1
+warmup = 0
+validate = "off"
+images = true
+heatmap_max = 64
+
+[convergence]
+integrators = ["ao"]
+passes = 4
+reference_spp = 256
+frame_budget_ms = [200]
+cache = "{}"
+
+[[scene]]
+source = "builtin:cornell"
+camera = {{ width = 24, height = 20, order = "morton" }}
+ao = {{ distance = 150 }}
+
+[[structure]]
+name = "bvh"
+
+[[structure]]
+name = "kdtree"
+traversals = ["havran", "restart"]
+"#,
+            cache.display()
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let o = out.to_str().unwrap();
+    assert_eq!(run(&["run", cfg.to_str().unwrap(), "--out", o, "-q"]), 0);
+
+    let img = out.join("images/cornell");
+    for f in [
+        "render.png",
+        "render.exr",
+        "bvh-p0-ordered-watertight.exr",
+        "bvh-p0-ordered-watertight-steps.png",
+        "kdtree-p0-restart-watertight-prims.png",
+    ] {
+        let p = img.join(f);
+        assert!(p.is_file(), "{} missing", p.display());
+    }
+    let bvh = Channels::read_exr(&img.join("bvh-p0-ordered-watertight.exr")).unwrap();
+    assert_eq!((bvh.width, bvh.height), (24, 20));
+    let steps = bvh.get("steps").unwrap();
+    assert!(
+        steps.iter().any(|&s| s > 1.0),
+        "rays into the box descend the tree"
+    );
+    // The mean of the heat map is the steps_per_ray of the results row (Morton order mapped back
+    // to pixels loses nothing).
+    let rows = tb_harness::output::read_csv(&out.join("results.csv")).unwrap();
+    let row = rows
+        .iter()
+        .find(|r| r.structure == "bvh" && r.ray_kind == "primary")
+        .unwrap();
+    let mean = steps.iter().map(|&s| s as f64).sum::<f64>() / steps.len() as f64;
+    assert!((mean - row.steps_per_ray.unwrap()).abs() < 1e-9);
+    let index = fs::read_to_string(out.join("images/index.csv")).unwrap();
+    assert!(index.contains("images/cornell/kdtree-p0-havran-watertight-steps.png,cornell,kdtree"));
+
+    // Convergence: 4 passes x 3 traversals, plus one budget row each; RMSE falls.
+    let mut r = csv::Reader::from_path(out.join("convergence.csv")).unwrap();
+    let conv: Vec<ConvergenceRow> = r.deserialize().map(|x| x.unwrap()).collect();
+    assert_eq!(conv.len(), 3 * 5);
+    for t in ["ordered", "havran", "restart"] {
+        let prog: Vec<&ConvergenceRow> = conv
+            .iter()
+            .filter(|c| c.traversal == t && c.budget_ms.is_none())
+            .collect();
+        let spp: Vec<u32> = prog.iter().map(|c| c.spp).collect();
+        assert_eq!(spp, [1, 2, 4, 8]);
+        assert!(prog.windows(2).all(|w| w[1].rmse < w[0].rmse), "{prog:?}");
+        assert!(prog.windows(2).all(|w| w[1].elapsed_ms > w[0].elapsed_ms));
+        let budget = conv
+            .iter()
+            .find(|c| c.traversal == t && c.budget_ms.is_some())
+            .unwrap();
+        assert!(budget.spp >= 1 && budget.rmse.is_some());
+    }
+    let cached: Vec<_> = fs::read_dir(&cache).unwrap().collect();
+    assert_eq!(
+        cached.len(),
+        1,
+        "one reference for one scene and integrator"
+    );
+
+    // A second run reuses the reference: same key, same errors.
+    let out2 = dir.path().join("out2");
+    assert_eq!(
+        run(&[
+            "run",
+            cfg.to_str().unwrap(),
+            "--out",
+            out2.to_str().unwrap(),
+            "-q"
+        ]),
+        0
+    );
+    let mut r = csv::Reader::from_path(out2.join("convergence.csv")).unwrap();
+    let conv2: Vec<ConvergenceRow> = r.deserialize().map(|x| x.unwrap()).collect();
+    assert_eq!(conv2[0].reference_key, conv[0].reference_key);
+    assert_eq!(conv2[0].rmse, conv[0].rmse);
+    assert_eq!(fs::read_dir(&cache).unwrap().count(), 1);
+
+    // Difference map of two traversals on the same rays.
+    let a = img.join("kdtree-p0-havran-watertight.exr");
+    let b = img.join("kdtree-p0-restart-watertight.exr");
+    let d = dir.path().join("d.png");
+    let args = |ch: &str| {
+        vec![
+            "diff".to_string(),
+            a.display().to_string(),
+            b.display().to_string(),
+            "--channel".into(),
+            ch.into(),
+            "--out".into(),
+            d.display().to_string(),
+        ]
+    };
+    let call = |v: Vec<String>| run(&v.iter().map(|s| s.as_str()).collect::<Vec<_>>());
+    assert_eq!(call(args("steps")), 0);
+    assert!(d.is_file());
+    assert_eq!(call(args("nope")), 1);
+}

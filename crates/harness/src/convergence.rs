@@ -1,0 +1,586 @@
+//! `[convergence]`: image error against run time, for ambient occlusion and path tracing.
+//!
+//! Per scene x structure x parameter set x traversal x triangle test x device x integrator, a
+//! progressive render ([`tb_render::Progressive`]) runs `passes` passes through that structure
+//! (every batch traced by it, so the structure's speed decides how fast the error falls); after
+//! each pass a row of `convergence.csv` records the render time so far, the samples per pixel
+//! and the error against a reference image (RMSE and relative MSE, [`tb_render::metrics`]).
+//! Passes add `spp_per_pass` samples (`schedule = "linear"`), or double the total
+//! (`"doubling"`, the default: `s, 2s, 4s, …`, evenly spaced on a log axis).
+//!
+//! The reference has `reference_spp` samples per pixel, another seed than the measured renders
+//! (so their samples are independent), and is rendered once by the default BVH and cached
+//! under `cache` with a content hash of scene, camera, integrator and sample count
+//! ([`tb_render::cache`]).
+//!
+//! `frame_budget_ms = [100, 50, 33.3]` adds, per budget, a row with the samples per pixel a
+//! frame reaches within that time, build time included, and its error: the irregular-grid
+//! paper's Table 4 (AO samples per pixel at 10, 20 and 30 frames per second). Passes of one
+//! sample run while the build time plus the render time so far plus the slowest pass so far
+//! stays within the budget; `elapsed_ms` reports the time actually spent (build included).
+//!
+//! Renders run on the largest thread count of `run.threads`.
+
+use crate::config::{Ctx, Device, Experiment, SceneSpec};
+use crate::error::HarnessError;
+use crate::progress::Progress;
+use serde::{Deserialize, Serialize};
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use tb_core::{Accel, TriTestKind};
+use tb_render::cache::{load_or_render, reference_key, reference_path, Origin};
+use tb_render::integrate::{render, Integrator, Progressive};
+use tb_render::metrics::{rel_mse, rmse};
+use tb_render::{AccelTracer, Tracer};
+use toml::Spanned;
+
+/// The `[convergence]` table as written.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawConvergence {
+    integrators: Option<Spanned<Vec<String>>>,
+    passes: Option<Spanned<u32>>,
+    spp_per_pass: Option<Spanned<u32>>,
+    schedule: Option<Spanned<String>>,
+    reference_spp: Option<Spanned<u32>>,
+    frame_budget_ms: Option<Spanned<Vec<f64>>>,
+    max_seconds: Option<Spanned<f64>>,
+    albedo: Option<Spanned<f32>>,
+    resolution: Option<Spanned<[u32; 2]>>,
+    cache: Option<String>,
+}
+
+/// Which integrator a convergence run uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IntegratorKind {
+    /// Ambient occlusion with the scene's `ao.distance`.
+    Ao,
+    /// Diffuse path tracing with the scene's `path.bounces` and the section's `albedo`.
+    Path,
+}
+
+/// A checked `[convergence]` section.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConvergenceSpec {
+    pub integrators: Vec<IntegratorKind>,
+    /// Passes per render.
+    pub passes: u32,
+    /// Samples per pixel of the first pass (and of every pass with the linear schedule).
+    pub spp_per_pass: u32,
+    /// Whether each pass doubles the samples so far (else adds `spp_per_pass`).
+    pub doubling: bool,
+    pub reference_spp: u32,
+    /// Frame budgets, ms (build time included).
+    pub frame_budget_ms: Vec<f64>,
+    /// No further pass starts once a render has taken this long.
+    pub max_seconds: f64,
+    /// Grey albedo of every surface for path tracing.
+    pub albedo: f32,
+    /// Overrides the cameras' resolution.
+    pub resolution: Option<(u32, u32)>,
+    /// Directory of cached reference images.
+    pub cache: PathBuf,
+}
+
+impl ConvergenceSpec {
+    /// Samples per pixel added by pass `k` (0-based).
+    pub fn pass_spp(&self, k: u32) -> u32 {
+        if self.doubling && k > 0 {
+            self.spp_per_pass.saturating_mul(1 << (k - 1).min(30))
+        } else {
+            self.spp_per_pass
+        }
+    }
+}
+
+/// Check a `[convergence]` table; every scene must have a camera.
+pub(crate) fn check(
+    cx: &Ctx,
+    raw: &Spanned<RawConvergence>,
+    scenes: &[SceneSpec],
+) -> Result<ConvergenceSpec, HarnessError> {
+    let r = raw.get_ref();
+    let span = raw.span();
+    let mut integrators = Vec::new();
+    match &r.integrators {
+        None => integrators = vec![IntegratorKind::Ao, IntegratorKind::Path],
+        Some(list) => {
+            for n in list.get_ref() {
+                let k = match n.as_str() {
+                    "ao" => IntegratorKind::Ao,
+                    "path" => IntegratorKind::Path,
+                    other => {
+                        return Err(cx.err(
+                            list.span(),
+                            "convergence.integrators",
+                            format!("unknown integrator `{other}` (known: ao, path)"),
+                        ))
+                    }
+                };
+                if !integrators.contains(&k) {
+                    integrators.push(k);
+                }
+            }
+            if integrators.is_empty() {
+                return Err(cx.err(
+                    list.span(),
+                    "convergence.integrators",
+                    "needs at least one integrator",
+                ));
+            }
+        }
+    }
+    let int = |v: &Option<Spanned<u32>>, key: &str, default: u32, max: u32| match v {
+        None => Ok(default),
+        Some(s) if (1..=max).contains(s.get_ref()) => Ok(*s.get_ref()),
+        Some(s) => Err(cx.err(
+            s.span(),
+            &format!("convergence.{key}"),
+            format!("{} is out of range 1..={max}", s.get_ref()),
+        )),
+    };
+    let passes = int(&r.passes, "passes", 8, 64)?;
+    let spp_per_pass = int(&r.spp_per_pass, "spp_per_pass", 1, 1 << 16)?;
+    let reference_spp = int(&r.reference_spp, "reference_spp", 1024, 1 << 20)?;
+    let doubling = match &r.schedule {
+        None => true,
+        Some(s) => match s.get_ref().as_str() {
+            "doubling" => true,
+            "linear" => false,
+            other => {
+                return Err(cx.err(
+                    s.span(),
+                    "convergence.schedule",
+                    format!("unknown schedule `{other}` (known: doubling, linear)"),
+                ))
+            }
+        },
+    };
+    let spec_tmp = ConvergenceSpec {
+        integrators: Vec::new(),
+        passes,
+        spp_per_pass,
+        doubling,
+        reference_spp,
+        frame_budget_ms: Vec::new(),
+        max_seconds: 0.0,
+        albedo: 0.0,
+        resolution: None,
+        cache: PathBuf::new(),
+    };
+    let total: u64 = (0..passes).map(|k| spec_tmp.pass_spp(k) as u64).sum();
+    if total > 1 << 20 {
+        return Err(cx.err(
+            span,
+            "convergence.passes",
+            format!("{passes} passes reach {total} samples per pixel (at most 2^20)"),
+        ));
+    }
+    let mut frame_budget_ms = Vec::new();
+    if let Some(b) = &r.frame_budget_ms {
+        for &ms in b.get_ref() {
+            if !(ms > 0.0 && ms.is_finite()) {
+                return Err(cx.err(
+                    b.span(),
+                    "convergence.frame_budget_ms",
+                    format!("{ms} is not a positive time"),
+                ));
+            }
+            frame_budget_ms.push(ms);
+        }
+    }
+    let max_seconds = match &r.max_seconds {
+        None => 60.0,
+        Some(s) if *s.get_ref() > 0.0 && s.get_ref().is_finite() => *s.get_ref(),
+        Some(s) => {
+            return Err(cx.err(
+                s.span(),
+                "convergence.max_seconds",
+                "must be positive and finite",
+            ))
+        }
+    };
+    let albedo = match &r.albedo {
+        None => 0.7,
+        Some(a) if (0.0..1.0).contains(a.get_ref()) => *a.get_ref(),
+        Some(a) => {
+            return Err(cx.err(
+                a.span(),
+                "convergence.albedo",
+                format!("{} is outside [0, 1)", a.get_ref()),
+            ))
+        }
+    };
+    let resolution = match &r.resolution {
+        None => None,
+        Some(s) => {
+            let [w, h] = *s.get_ref();
+            if w == 0 || h == 0 || w as u64 * h as u64 > 16 << 20 {
+                return Err(cx.err(
+                    s.span(),
+                    "convergence.resolution",
+                    "width and height must be positive, at most 16M pixels",
+                ));
+            }
+            Some((w, h))
+        }
+    };
+    for s in scenes {
+        if s.camera.is_none() {
+            return Err(cx.err(
+                span.clone(),
+                "convergence",
+                format!(
+                    "scene `{}` has no camera (convergence renders need one)",
+                    s.label
+                ),
+            ));
+        }
+    }
+    Ok(ConvergenceSpec {
+        integrators,
+        frame_budget_ms,
+        max_seconds,
+        albedo,
+        resolution,
+        cache: PathBuf::from(r.cache.as_deref().unwrap_or("results/.cache")),
+        ..spec_tmp
+    })
+}
+
+/// One row of `convergence.csv`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ConvergenceRow {
+    pub scene: String,
+    pub structure: String,
+    pub params: String,
+    pub traversal: String,
+    pub triangle_test: String,
+    pub device: String,
+    pub threads: u32,
+    /// `ao` or `path`.
+    pub integrator: String,
+    pub width: u32,
+    pub height: u32,
+    /// Passes done (for a budget row: passes that fit).
+    pub pass: u32,
+    /// Samples per pixel so far.
+    pub spp: u32,
+    /// Render time so far, ms (budget rows: build time included).
+    pub elapsed_ms: f64,
+    pub build_ms: f64,
+    /// Empty for a budget row whose build alone used up the budget (no sample).
+    pub rmse: Option<f64>,
+    pub rel_mse: Option<f64>,
+    /// The frame budget of a budget row; empty for the progressive rows.
+    pub budget_ms: Option<f64>,
+    pub reference_spp: u32,
+    /// Content hash of the reference (its file is `<cache>/<integrator>-<key>.exr`).
+    pub reference_key: String,
+}
+
+impl ConvergenceRow {
+    fn combo(&self) -> [String; 7] {
+        [
+            self.scene.clone(),
+            self.structure.clone(),
+            self.params.clone(),
+            self.traversal.clone(),
+            self.triangle_test.clone(),
+            self.device.clone(),
+            self.integrator.clone(),
+        ]
+    }
+}
+
+/// Writes `convergence.csv` and keeps the reference images of the run.
+pub struct Runner {
+    spec: ConvergenceSpec,
+    path: PathBuf,
+    writer: csv::Writer<std::fs::File>,
+    pool: rayon::ThreadPool,
+    threads: usize,
+    seed: u64,
+    /// Combinations already in the file (kept on `--resume`).
+    done: HashSet<[String; 7]>,
+    /// References by (scene, integrator key): image and content hash.
+    refs: HashMap<(String, String), (Vec<f32>, String)>,
+}
+
+impl Runner {
+    /// Open `<out>/convergence.csv` when the experiment has a `[convergence]` section; with
+    /// `resume`, keep its rows and skip their combinations.
+    pub fn open(exp: &Experiment, out: &Path, resume: bool) -> Result<Option<Self>, HarnessError> {
+        let Some(spec) = exp.convergence.clone() else {
+            return Ok(None);
+        };
+        let path = out.join("convergence.csv");
+        let mut done = HashSet::new();
+        let mut old = Vec::new();
+        if resume && path.is_file() {
+            let mut r = csv::Reader::from_path(&path).map_err(|e| HarnessError::io(&path, e))?;
+            // A torn last line of an interrupted run is dropped (its combination redone).
+            for row in r.deserialize::<ConvergenceRow>().flatten() {
+                done.insert(row.combo());
+                old.push(row);
+            }
+        }
+        std::fs::create_dir_all(out).map_err(|e| HarnessError::io(out, e))?;
+        let mut writer = csv::Writer::from_path(&path).map_err(|e| HarnessError::io(&path, e))?;
+        for row in &old {
+            writer
+                .serialize(row)
+                .map_err(|e| HarnessError::io(&path, e))?;
+        }
+        writer.flush().map_err(|e| HarnessError::io(&path, e))?;
+        let threads = exp.threads.iter().copied().max().unwrap_or(1);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| HarnessError::Other(format!("cannot start {threads} threads: {e}")))?;
+        Ok(Some(Runner {
+            spec,
+            path,
+            writer,
+            pool,
+            threads,
+            seed: exp.seed,
+            done,
+            refs: HashMap::new(),
+        }))
+    }
+
+    fn push(&mut self, row: &ConvergenceRow) -> Result<(), HarnessError> {
+        self.writer
+            .serialize(row)
+            .map_err(|e| HarnessError::io(&self.path, e))?;
+        self.writer
+            .flush()
+            .map_err(|e| HarnessError::io(&self.path, e))
+    }
+
+    /// The integrator of `kind` for `scene`.
+    fn integrator(&self, kind: IntegratorKind, scene: &SceneSpec) -> Integrator {
+        match kind {
+            IntegratorKind::Ao => Integrator::Ao {
+                distance: scene.ao_distance,
+            },
+            IntegratorKind::Path => Integrator::Path {
+                bounces: scene.bounces,
+                albedo: self.spec.albedo,
+            },
+        }
+    }
+
+    /// The convergence renders of one built structure: every traversal x triangle test x
+    /// device x integrator. Returns notes (references rendered or reused, renders cut short).
+    pub fn build_done(
+        &mut self,
+        scene: &SceneSpec,
+        accel: &dyn Accel,
+        params: &str,
+        build_ms: f64,
+        traversals: &[usize],
+        tests: &[TriTestKind],
+        devices: &[Device],
+        progress: &Progress,
+    ) -> Result<Vec<String>, HarnessError> {
+        let mut notes = Vec::new();
+        let mut camera = scene.camera.expect("checked: every scene has a camera");
+        if let Some((w, h)) = self.spec.resolution {
+            camera.width = w;
+            camera.height = h;
+        }
+        let tris = &scene.scene.triangles;
+        for kind in self.spec.integrators.clone() {
+            let integrator = self.integrator(kind, scene);
+            let ref_key = (scene.label.clone(), integrator.key());
+            if !self.refs.contains_key(&ref_key) {
+                let spp = self.spec.reference_spp;
+                let key = reference_key(tris, &camera, &integrator, spp, self.seed);
+                let file = reference_path(&self.spec.cache, &integrator, &key);
+                let seed = self.seed ^ 0x5245_4645_5245_4e43; // "REFERENC": independent samples
+                progress.step(&format!(
+                    "{}: reference {} ({spp} spp)",
+                    scene.label,
+                    integrator.name()
+                ));
+                let (img, origin) = load_or_render(&file, camera.width, camera.height, || {
+                    let gen = crate::registry::generator(tris);
+                    let t = AccelTracer {
+                        accel: gen.as_ref(),
+                        traversal: 0,
+                        tri: TriTestKind::Watertight,
+                    };
+                    self.pool
+                        .install(|| render(tris, camera, integrator, seed, spp, &t, 1 << 21))
+                })
+                .map_err(|e| HarnessError::Other(e.to_string()))?;
+                notes.push(format!(
+                    "{}: {} reference {} {}",
+                    scene.label,
+                    integrator.name(),
+                    file.display(),
+                    match origin {
+                        Origin::Cached => "reused from the cache",
+                        Origin::Rendered => "rendered and cached",
+                    }
+                ));
+                self.refs.insert(ref_key.clone(), (img, key));
+            }
+            let (reference, rkey) = self.refs[&ref_key].clone();
+            for &ti in traversals {
+                let tname = accel.traversals()[ti].name;
+                for &tri in tests {
+                    for &dev in devices {
+                        let base = ConvergenceRow {
+                            scene: scene.label.clone(),
+                            structure: accel.name().to_string(),
+                            params: params.to_string(),
+                            traversal: tname.to_string(),
+                            triangle_test: tri.name().to_string(),
+                            device: dev.name().to_string(),
+                            threads: self.threads as u32,
+                            integrator: integrator.name().to_string(),
+                            width: camera.width,
+                            height: camera.height,
+                            build_ms,
+                            reference_spp: self.spec.reference_spp,
+                            reference_key: rkey.clone(),
+                            ..Default::default()
+                        };
+                        if self.done.contains(&base.combo()) {
+                            continue;
+                        }
+                        progress.step(&format!(
+                            "{}: convergence {} {} {} {}",
+                            scene.label,
+                            integrator.name(),
+                            accel.name(),
+                            tname,
+                            tri.name()
+                        ));
+                        let tracer: Box<dyn Tracer> = match dev {
+                            Device::Cpu => Box::new(AccelTracer {
+                                accel,
+                                traversal: ti,
+                                tri,
+                            }),
+                        };
+                        let rows = self.measure(
+                            tris,
+                            camera,
+                            integrator,
+                            tracer.as_ref(),
+                            &reference,
+                            &base,
+                            &mut notes,
+                        );
+                        for r in rows {
+                            self.push(&r)?;
+                        }
+                    }
+                }
+            }
+        }
+        Ok(notes)
+    }
+
+    /// The progressive render and the budget renders of one combination.
+    fn measure(
+        &self,
+        tris: &[tb_core::Triangle],
+        camera: tb_scene::Camera,
+        integrator: Integrator,
+        tracer: &dyn Tracer,
+        reference: &[f32],
+        base: &ConvergenceRow,
+        notes: &mut Vec<String>,
+    ) -> Vec<ConvergenceRow> {
+        let mut rows = Vec::new();
+        let mut r = Progressive::new(tris, camera, integrator, self.seed);
+        let mut elapsed = 0.0f64;
+        for k in 0..self.spec.passes {
+            if elapsed > self.spec.max_seconds * 1e3 {
+                notes.push(format!(
+                    "{} {} {} {}: stopped after {k} passes (max_seconds = {})",
+                    base.scene,
+                    base.structure,
+                    base.traversal,
+                    base.integrator,
+                    self.spec.max_seconds
+                ));
+                break;
+            }
+            let t0 = Instant::now();
+            self.pool.install(|| r.pass(tracer, self.spec.pass_spp(k)));
+            elapsed += t0.elapsed().as_secs_f64() * 1e3;
+            let img = r.image();
+            rows.push(ConvergenceRow {
+                pass: k + 1,
+                spp: r.spp(),
+                elapsed_ms: elapsed,
+                rmse: Some(rmse(&img, reference)),
+                rel_mse: Some(rel_mse(&img, reference)),
+                ..base.clone()
+            });
+        }
+        for &budget in &self.spec.frame_budget_ms {
+            let mut r = Progressive::new(tris, camera, integrator, self.seed);
+            let mut spent = base.build_ms;
+            let mut slowest = 0.0f64;
+            let mut passes = 0;
+            while spent + slowest <= budget && passes < 1 << 16 {
+                let t0 = Instant::now();
+                self.pool.install(|| r.pass(tracer, 1));
+                let ms = t0.elapsed().as_secs_f64() * 1e3;
+                slowest = slowest.max(ms);
+                spent += ms;
+                passes += 1;
+            }
+            let (e, rel) = if r.spp() == 0 {
+                (None, None)
+            } else {
+                let img = r.image();
+                (Some(rmse(&img, reference)), Some(rel_mse(&img, reference)))
+            };
+            rows.push(ConvergenceRow {
+                pass: passes,
+                spp: r.spp(),
+                elapsed_ms: spent,
+                rmse: e,
+                rel_mse: rel,
+                budget_ms: Some(budget),
+                ..base.clone()
+            });
+        }
+        rows
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn schedules() {
+        let mut s = ConvergenceSpec {
+            integrators: vec![IntegratorKind::Ao],
+            passes: 4,
+            spp_per_pass: 2,
+            doubling: true,
+            reference_spp: 64,
+            frame_budget_ms: vec![],
+            max_seconds: 1.0,
+            albedo: 0.5,
+            resolution: None,
+            cache: PathBuf::new(),
+        };
+        let d: Vec<u32> = (0..4).map(|k| s.pass_spp(k)).collect();
+        assert_eq!(d, [2, 2, 4, 8], "totals 2, 4, 8, 16");
+        s.doubling = false;
+        let l: Vec<u32> = (0..4).map(|k| s.pass_spp(k)).collect();
+        assert_eq!(l, [2, 2, 2, 2]);
+    }
+}

@@ -1,0 +1,272 @@
+//! `[run] images = true`: pictures of where the cost goes, for primary rays.
+//!
+//! Per scene with a camera, `images/<scene>/render.{exr,png}`: the primary hits of the default
+//! BVH shaded `|n·d|` grey (EXR channel `Y`, PNG sRGB). Per scene x structure x parameter set x
+//! traversal x triangle test, one counting pass over the same primary rays writes
+//! `images/<scene>/<structure>-p<i>-<traversal>-<test>.exr` (every counter of
+//! [`tb_core::TraversalStats`] as a raw `f32` channel: `interior`, `leaves`, `prims`, `boxes`,
+//! `planes`, `restarts`, `steps`) and one false-colour PNG with a colour bar per counter of
+//! [`PNG_COUNTERS`], `…-<test>-<counter>.png` (jet, dark blue at 0 to dark red at
+//! `heatmap_max` and above, as the sparse-boxes paper's Figure 5). `<i>` is the index of the
+//! parameter set in the structure's sweep, in config order; `images/index.csv` maps every file
+//! to its scene, structure, full parameters, traversal, test, counter and scale.
+//! `trace-bench diff A.exr B.exr` draws the difference of two such EXRs.
+
+use crate::config::{Ctx, SceneSpec};
+use crate::error::HarnessError;
+use rayon::prelude::*;
+use std::fs::OpenOptions;
+use std::path::{Path, PathBuf};
+use tb_core::{Accel, HitRecord, Query, TraversalStats, TriTestKind};
+use tb_render::colormap::srgb;
+use tb_render::heatmap::{counter_channels, heatmap, percentile99, to_row_major};
+use tb_render::{Channels, Rgb8};
+use tb_scene::rays;
+use toml::Spanned;
+
+/// Counters drawn as PNG heat maps (every counter is in the EXR).
+pub const PNG_COUNTERS: [&str; 4] = ["interior", "leaves", "prims", "steps"];
+
+/// The top of the heat maps' colour scale.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum HeatMax {
+    /// A fixed count for every counter (`heatmap_max = 255`, the default, as in the
+    /// sparse-boxes paper's Figure 5).
+    Fixed(f32),
+    /// Per image, the 99th percentile of its values (`heatmap_max = "auto"`).
+    Auto,
+}
+
+/// What `[run] images = true` asks for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImageSpec {
+    pub max: HeatMax,
+}
+
+/// Check `run.images` and `run.heatmap_max`.
+pub(crate) fn check(
+    cx: &Ctx,
+    images: Option<bool>,
+    max: Option<&Spanned<toml::Value>>,
+) -> Result<Option<ImageSpec>, HarnessError> {
+    let max = match max {
+        None => HeatMax::Fixed(255.0),
+        Some(v) => {
+            let bad = || {
+                cx.err(
+                    v.span(),
+                    "run.heatmap_max",
+                    format!(
+                        "expected a positive count or \"auto\", found {}",
+                        v.get_ref()
+                    ),
+                )
+            };
+            let m = match v.get_ref() {
+                toml::Value::String(s) if s == "auto" => HeatMax::Auto,
+                toml::Value::Integer(n) if *n > 0 => HeatMax::Fixed(*n as f32),
+                toml::Value::Float(f) if *f > 0.0 && f.is_finite() => HeatMax::Fixed(*f as f32),
+                _ => return Err(bad()),
+            };
+            if images != Some(true) {
+                return Err(cx.err(
+                    v.span(),
+                    "run.heatmap_max",
+                    "has no effect without `images = true`",
+                ));
+            }
+            m
+        }
+    };
+    Ok(images.unwrap_or(false).then_some(ImageSpec { max }))
+}
+
+/// A file-name-safe form of a label: characters other than ASCII letters, digits, `.`, `_`
+/// and `-` become `_` (`stress/flat?x=1` → `stress_flat_x_1`).
+pub fn safe_name(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// The directory of a scene's images under the run's output directory.
+pub fn scene_dir(out: &Path, scene: &str) -> PathBuf {
+    out.join("images").join(safe_name(scene))
+}
+
+fn err(e: impl std::fmt::Display) -> HarnessError {
+    HarnessError::Other(e.to_string())
+}
+
+/// Append one line to `images/index.csv` (header first when the file is new).
+fn index(out: &Path, fields: [&str; 8]) -> Result<(), HarnessError> {
+    let path = out.join("images").join("index.csv");
+    let new = !path.is_file();
+    let f = OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&path)
+        .map_err(|e| HarnessError::io(&path, e))?;
+    let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(f);
+    if new {
+        w.write_record([
+            "file",
+            "scene",
+            "structure",
+            "params",
+            "traversal",
+            "triangle_test",
+            "counter",
+            "scale_max",
+        ])
+        .map_err(|e| HarnessError::io(&path, e))?;
+    }
+    w.write_record(fields)
+        .map_err(|e| HarnessError::io(&path, e))?;
+    w.flush().map_err(|e| HarnessError::io(&path, e))
+}
+
+fn rel(out: &Path, p: &Path) -> String {
+    p.strip_prefix(out).unwrap_or(p).display().to_string()
+}
+
+/// Write `images/<scene>/render.{exr,png}` (primary hits of the default BVH, `|n·d|` grey).
+/// Returns a note when the scene has no camera (nothing written).
+pub fn write_scene(spec: &SceneSpec, out: &Path) -> Result<Option<String>, HarnessError> {
+    let Some(cam) = spec.camera else {
+        return Ok(Some(format!(
+            "{}: no images: the scene has no camera",
+            spec.label
+        )));
+    };
+    let dir = scene_dir(out, &spec.label);
+    std::fs::create_dir_all(&dir).map_err(|e| HarnessError::io(&dir, e))?;
+    let tris = &spec.scene.triangles;
+    let pixels = cam.pixels();
+    let prim = rays::primary(&cam);
+    let gen = crate::registry::generator(tris);
+    let tracer = tb_render::AccelTracer {
+        accel: gen.as_ref(),
+        traversal: 0,
+        tri: TriTestKind::Watertight,
+    };
+    let mut hits = vec![HitRecord::MISS; prim.len()];
+    tb_render::Tracer::trace(&tracer, Query::Closest, &prim, &mut hits);
+    let grey = to_row_major(
+        &pixels,
+        &tb_render::shade::eye_light(tris, &prim, &hits),
+        cam.width,
+        cam.height,
+    );
+    let mut c = Channels::new(cam.width, cam.height);
+    c.push("Y", grey.clone()).map_err(err)?;
+    let exr = dir.join("render.exr");
+    c.write_exr(&exr).map_err(err)?;
+    let mut png = Rgb8::filled(cam.width, cam.height, [0, 0, 0]);
+    for (i, v) in grey.iter().enumerate() {
+        let g = srgb(*v);
+        png.set(i as u32 % cam.width, i as u32 / cam.width, [g, g, g]);
+    }
+    let pngp = dir.join("render.png");
+    png.write_png(&pngp).map_err(err)?;
+    for p in [&exr, &pngp] {
+        index(out, [&rel(out, p), &spec.label, "bvh", "", "", "", "Y", ""])?;
+    }
+    Ok(None)
+}
+
+/// One built structure's heat maps: for each traversal and triangle test, count over the
+/// primary rays and write the EXR and the PNGs. Returns a note when nothing is written (no
+/// camera, or a structure without counters).
+pub fn write_build(
+    spec: &SceneSpec,
+    images: &ImageSpec,
+    out: &Path,
+    accel: &dyn Accel,
+    param_index: usize,
+    params: &str,
+    traversals: &[usize],
+    tests: &[TriTestKind],
+) -> Result<Option<String>, HarnessError> {
+    let Some(cam) = spec.camera else {
+        return Ok(None);
+    };
+    if !accel.has_counters() {
+        return Ok(Some(format!(
+            "{}: no heat maps for {}: it exposes no counters",
+            spec.label,
+            accel.name()
+        )));
+    }
+    let dir = scene_dir(out, &spec.label);
+    std::fs::create_dir_all(&dir).map_err(|e| HarnessError::io(&dir, e))?;
+    let pixels = cam.pixels();
+    let prim = rays::primary(&cam);
+    for &ti in traversals {
+        let tname = accel.traversals()[ti].name;
+        for &tri in tests {
+            let mut hits = vec![HitRecord::MISS; prim.len()];
+            let mut stats = vec![TraversalStats::default(); prim.len()];
+            prim.par_chunks(crate::runner::CHUNK)
+                .zip(hits.par_chunks_mut(crate::runner::CHUNK))
+                .zip(stats.par_chunks_mut(crate::runner::CHUNK))
+                .for_each(|((r, h), s)| accel.trace(ti, Query::Closest, tri, r, h, Some(s)));
+            let c = counter_channels(&pixels, &stats, cam.width, cam.height);
+            let stem = format!(
+                "{}-p{param_index}-{}-{}",
+                safe_name(accel.name()),
+                tname,
+                tri.name()
+            );
+            let exr = dir.join(format!("{stem}.exr"));
+            c.write_exr(&exr).map_err(err)?;
+            let row = |file: &Path, counter: &str, max: String| {
+                index(
+                    out,
+                    [
+                        &rel(out, file),
+                        &spec.label,
+                        accel.name(),
+                        params,
+                        tname,
+                        tri.name(),
+                        counter,
+                        &max,
+                    ],
+                )
+            };
+            row(&exr, "all", String::new())?;
+            for counter in PNG_COUNTERS {
+                let v = c.get(counter).expect("every counter is a channel");
+                let max = match images.max {
+                    HeatMax::Fixed(m) => m,
+                    HeatMax::Auto => percentile99(v),
+                };
+                let png = dir.join(format!("{stem}-{counter}.png"));
+                heatmap(v, cam.width, cam.height, max)
+                    .write_png(&png)
+                    .map_err(err)?;
+                row(&png, counter, max.to_string())?;
+            }
+        }
+    }
+    Ok(None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn safe_names() {
+        assert_eq!(safe_name("stress/flat?x=1"), "stress_flat_x_1");
+        assert_eq!(safe_name("conference"), "conference");
+        assert_eq!(safe_name("a.b-c_d"), "a.b-c_d");
+    }
+}
