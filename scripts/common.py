@@ -24,7 +24,10 @@ def params_of(row):
 
 
 def column(row, name):
-    """Value of `name` in a row: a CSV column, or `param:KEY` for one parameter."""
+    """Value of `name` in a row: a CSV column, `param:KEY` for one parameter, or several of
+    these joined by `+` (their values joined by `/`, empty ones left out)."""
+    if "+" in name:
+        return "/".join(v for v in (column(row, n) for n in name.split("+")) if v)
     if name.startswith("param:"):
         return params_of(row).get(name[len("param:"):], "")
     if name not in row:
@@ -41,12 +44,14 @@ def number(s):
 
 
 def apply_filters(rows, filters):
-    """Keep rows where every `COLUMN=VALUE` filter holds (COLUMN may be `param:KEY`)."""
+    """Keep rows where every `COLUMN=VALUE` filter holds (COLUMN may be `param:KEY`; VALUE may
+    list alternatives `A|B`, and an empty alternative matches rows without that parameter)."""
     for f in filters or []:
         if "=" not in f:
             sys.exit(f"error: --filter {f}: expected COLUMN=VALUE")
         k, v = f.split("=", 1)
-        rows = [r for r in rows if column(r, k) == v]
+        allowed = set(v.split("|"))
+        rows = [r for r in rows if column(r, k) in allowed]
     return rows
 
 

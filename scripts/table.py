@@ -6,10 +6,12 @@ other column, as the papers print them.
     python3 scripts/table.py RESULTS.csv --rows scene --cols param:max_leaf \\
         --value mrays_per_s --baseline 4 [--filter ray_kind=primary] [--format text|markdown]
 
---rows / --cols take a CSV column or `param:KEY` (one parameter of the `params` column). Every
-cell must come from exactly one row: when several rows fall in one cell, narrow them with
---filter COLUMN=VALUE (the error names the columns that differ). A percentage is
-100 · (value − baseline) / baseline of the same row.
+--rows / --cols take a CSV column or `param:KEY` (one parameter of the `params` column), or
+several joined by `+` (`--cols structure+traversal`). Every cell must come from exactly one
+row: when several rows fall in one cell, narrow them with --filter COLUMN=VALUE (VALUE may list
+alternatives `A|B`; the error names the columns that differ), or add them up with --sum COLUMN
+(e.g. `--sum ray_kind`: the R-tree paper's "primary and shadow rays" times are the sum of the
+two batches). A percentage is 100 · (value − baseline) / baseline of the same row.
 """
 
 import argparse
@@ -38,11 +40,23 @@ def build(rows, args):
     for r in rows:
         key = (column(r, args.rows), column(r, args.cols))
         cells.setdefault(key, []).append(r)
+    summed = {}
     for key, rs in cells.items():
+        if args.sum and len(rs) > 1 and len({r[args.sum] for r in rs}) == len(rs):
+            vals = [number(column(r, args.value)) for r in rs]
+            summed[key] = None if None in vals else sum(vals)
+            continue
         if len(rs) > 1:
             differ = [c for c in KEYS if c in rs[0] and len({r[c] for r in rs}) > 1]
             sys.exit(f"error: {len(rs)} rows for {args.rows}={key[0]}, {args.cols}={key[1]}; "
                      f"narrow with --filter on one of: {', '.join(differ) or '(identical rows)'}")
+    def value(key):
+        if key not in cells:
+            return None
+        if key in summed:
+            return summed[key]
+        return number(column(cells[key][0], args.value))
+
     row_keys = list(dict.fromkeys(k[0] for k in cells))
     col_keys = list(dict.fromkeys(k[1] for k in cells))
     try:
@@ -54,10 +68,10 @@ def build(rows, args):
                  f"(values: {', '.join(col_keys)})")
     table = []
     for rk in row_keys:
-        base = number(column(cells[(rk, args.baseline)][0], args.value)) if (rk, args.baseline) in cells else None
+        base = value((rk, args.baseline))
         line = [rk]
         for ck in col_keys:
-            v = number(column(cells[(rk, ck)][0], args.value)) if (rk, ck) in cells else None
+            v = value((rk, ck))
             line.append(fmt(v, args.digits))
             if ck != args.baseline:
                 if v is None or base in (None, 0):
@@ -93,6 +107,8 @@ def main(argv):
     p.add_argument("--value", default="mrays_per_s")
     p.add_argument("--baseline", required=True, help="the column value the others are compared with")
     p.add_argument("--filter", action="append", metavar="COLUMN=VALUE")
+    p.add_argument("--sum", metavar="COLUMN",
+                   help="add up the rows of a cell that differ only in this column")
     p.add_argument("--digits", type=int, default=2)
     p.add_argument("--format", default="text", choices=["text", "markdown"])
     args = p.parse_args(argv)
@@ -104,6 +120,8 @@ def main(argv):
     title = f"{args.value}, rows {args.rows}, columns {args.cols}, baseline {args.baseline}"
     if args.filter:
         title += f" ({', '.join(args.filter)})"
+    if args.sum:
+        title += f", summed over {args.sum}"
     print(title)
     print(render(header, table, args.format))
 
