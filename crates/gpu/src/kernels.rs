@@ -21,6 +21,9 @@ const HIT_BYTES: u64 = 16;
 /// Dispatch sizes are multiples of this many rays, so every per-dispatch buffer offset is a
 /// multiple of 256 bytes (the largest `min_storage_buffer_offset_alignment` WebGPU allows).
 const RAY_ALIGN: u64 = 256;
+/// Triangles brute force handles on llvmpipe: its loop unrolled 8 times (brute.wgsl), under
+/// llvmpipe's limit of 65535 loop iterations per invocation.
+const LLVMPIPE_BRUTE_MAX: u64 = 8 * 65_000;
 
 /// A structure to upload: which kernel traces it, and its flat arrays.
 #[derive(Clone, Copy)]
@@ -305,6 +308,15 @@ impl Gpu {
         let tri_bytes: &[u8] = bytemuck::cast_slice(&flat);
         let node_bytes: &[u8] = bytemuck::cast_slice(&nodes);
         let id_bytes: &[u8] = bytemuck::cast_slice(prim_ids);
+        if kind == Kind::Brute
+            && self.summary.driver.contains("llvmpipe")
+            && tris.len() as u64 > LLVMPIPE_BRUTE_MAX
+        {
+            return Err(GpuError::Unsupported(format!(
+                "brute force over {} triangles on llvmpipe: it ends a shader's loops after 65535 iterations, so at most {LLVMPIPE_BRUTE_MAX} triangles",
+                tris.len()
+            )));
+        }
         self.fits("the triangle array", tri_bytes.len() as u64, true)?;
         self.fits("the BVH node array", node_bytes.len() as u64, true)?;
         self.fits("the primitive-id array", id_bytes.len() as u64, true)?;

@@ -56,6 +56,9 @@ pub enum GpuError {
         limit: u64,
         max_buffer: u64,
     },
+    /// The adapter cannot run this kernel on this input correctly.
+    #[error("{0}")]
+    Unsupported(String),
     /// wgpu reported a validation or out-of-memory error.
     #[error("GPU error: {0}")]
     Wgpu(String),

@@ -5,6 +5,14 @@
 //! `ordered`) ray for ray. The Stanford Bunny (paper scenes) is checked the same way on
 //! random rays. Without an adapter the tests print a notice and pass, unless
 //! `TRACE_BENCH_REQUIRE_GPU=1`, which makes them fail.
+//!
+//! Tolerance: with the watertight test the GPU must repeat the CPU bit for bit (hits and
+//! counters of every ray). With Möller–Trumbore, Vulkan lets a driver contract `a*b + c` into
+//! one FMA (naga emits no `NoContraction`), and lavapipe does in that kernel's cross and dot
+//! products: a ray grazing an edge may then hit or miss a triangle the CPU missed or hit (a
+//! CPU emulation with `f32::mul_add` reproduces the GPU's answers). Those rays are counted and
+//! printed, and may be at most [`MT_DIFF_SHARE`] of a batch, with no more oracle mismatches
+//! than the CPU's own plus that share.
 
 use std::path::PathBuf;
 use tb_bvh::{Bvh, BvhParams};
@@ -17,6 +25,11 @@ use tb_scene::conformance;
 /// Brute force on the GPU and the CPU oracle cost `rays x triangles` tests; batches are
 /// sampled evenly down to this budget so the suite stays fast on lavapipe.
 const BRUTE_BUDGET: usize = 20_000_000;
+
+/// Möller–Trumbore only: the share of a batch whose GPU answer or counters may differ from
+/// the CPU's (FMA contraction, see the module doc). The stress scene `watertight`, whose rays
+/// all aim at shared edges, shows the most on lavapipe: 1.3%.
+const MT_DIFF_SHARE: f64 = 0.02;
 
 fn gpu() -> Option<Gpu> {
     match Gpu::new(&AdapterChoice::default()) {
@@ -46,19 +59,26 @@ fn cpu_trace(
     (hits, stats)
 }
 
-fn sample(rays: &[Ray], max: usize) -> Vec<Ray> {
-    if rays.len() <= max {
-        return rays.to_vec();
+/// Indices of an even sample of at most `max` of `n` rays.
+fn sample(n: usize, max: usize) -> Vec<usize> {
+    if n <= max {
+        return (0..n).collect();
     }
-    (0..max).map(|i| rays[i * rays.len() / max]).collect()
+    (0..max).map(|i| i * n / max).collect()
 }
 
 /// Differences of one (structure, batch) case.
 #[derive(Default)]
 struct Diff {
     rays: usize,
+    /// Rays compared with the oracle.
+    validated: usize,
     /// Rays whose GPU answer mismatches the oracle.
     mismatches: usize,
+    /// Rays whose CPU answer (same structure and test) mismatches the oracle.
+    cpu_mismatches: usize,
+    /// Rays whose hit or counters differ between GPU and CPU.
+    differing: usize,
     /// Rays whose GPU counters differ from the CPU's.
     counter_diffs: usize,
     /// Rays whose GPU hit record is not bit-identical to the CPU structure's.
@@ -70,7 +90,7 @@ fn check_case(
     gpu: &Gpu,
     gs: &GpuStructure,
     cpu: &dyn Accel,
-    oracle: &[HitRecord],
+    oracle: &[Option<HitRecord>],
     query: Query,
     tri: TriTestKind,
     rays: &[Ray],
@@ -92,17 +112,23 @@ fn check_case(
             hits[i], timed_hits[i],
             "ray {i}: the timed and counting variants disagree"
         );
-        let bad_oracle = compare(query, &rays[i], &oracle[i], &hits[i]).is_some();
+        let mut bad_oracle = false;
+        if let Some(o) = &oracle[i] {
+            d.validated += 1;
+            bad_oracle = compare(query, &rays[i], o, &hits[i]).is_some();
+            d.cpu_mismatches += compare(query, &rays[i], o, &want_hits[i]).is_some() as usize;
+        }
         let bad_stats = stats[i] != want_stats[i];
         let bad_hit = hits[i] != want_hits[i];
         d.mismatches += bad_oracle as usize;
         d.counter_diffs += bad_stats as usize;
         d.hit_diffs += bad_hit as usize;
+        d.differing += (bad_stats || bad_hit) as usize;
         if (bad_oracle || bad_stats || bad_hit) && d.first.len() < 3 {
             d.first.push(format!(
-                "ray {i} {}: oracle {:?} cpu {:?} gpu {:?} cpu stats {:?} gpu stats {:?}",
+                "ray {i} {}: oracle {} cpu {:?} gpu {:?} cpu stats {:?} gpu stats {:?}",
                 conformance::format_ray(&rays[i]),
-                oracle[i],
+                oracle[i].map_or("-".to_string(), |o| format!("{o:?}")),
                 want_hits[i],
                 hits[i],
                 want_stats[i],
@@ -128,26 +154,47 @@ fn check_scene(
     let g_bvh = gpu.upload(Structure::Bvh(&bvh)).unwrap();
     let max_rays = (BRUTE_BUDGET / tris.len().max(1)).max(64);
     let mut failures = Vec::new();
-    for (kind, query, rays) in batches {
-        let rays = sample(rays, max_rays);
-        let (oracle, _) = cpu_trace(&brute, *query, TriTestKind::Watertight, &rays);
-        for (sname, gs, cpu) in [
-            ("brute-force", &g_brute, &brute as &dyn Accel),
-            ("bvh", &g_bvh, &bvh as &dyn Accel),
+    for (kind, query, all) in batches {
+        // Brute force (GPU and oracle) on an even sample; the BVH on every ray, compared with
+        // the CPU BVH on every ray and with the oracle on the sample.
+        let idx = sample(all.len(), max_rays);
+        let sub: Vec<Ray> = idx.iter().map(|&i| all[i]).collect();
+        let (expected, _) = cpu_trace(&brute, *query, TriTestKind::Watertight, &sub);
+        let sub_oracle: Vec<_> = expected.iter().copied().map(Some).collect();
+        let mut all_oracle = vec![None; all.len()];
+        for (&i, e) in idx.iter().zip(&expected) {
+            all_oracle[i] = Some(*e);
+        }
+        for (sname, gs, cpu, rays, oracle) in [
+            (
+                "brute-force",
+                &g_brute,
+                &brute as &dyn Accel,
+                &sub,
+                &sub_oracle,
+            ),
+            ("bvh", &g_bvh, &bvh as &dyn Accel, all, &all_oracle),
         ] {
-            let d = check_case(gpu, gs, cpu, &oracle, *query, tri, &rays);
+            let d = check_case(gpu, gs, cpu, oracle, *query, tri, rays);
             println!(
-                "{name:<28} {kind:<8} {sname:<12} {:<16} {:>6} rays  mismatches {:>3}  counter diffs {:>3}  hit diffs {:>3}",
+                "{name:<28} {kind:<8} {sname:<12} {:<16} {:>6} rays ({:>6} validated)  mismatches gpu {:>3} cpu {:>3}  counter diffs {:>3}  hit diffs {:>3}",
                 tri.name(),
                 d.rays,
+                d.validated,
                 d.mismatches,
+                d.cpu_mismatches,
                 d.counter_diffs,
                 d.hit_diffs
             );
-            // Möller–Trumbore's own misses are findings, not failures; the GPU must still
-            // repeat the CPU's answers and counters exactly.
-            let oracle_bad = tri == TriTestKind::Watertight && d.mismatches > 0;
-            if oracle_bad || d.counter_diffs > 0 || d.hit_diffs > 0 {
+            let bad = match tri {
+                TriTestKind::Watertight => d.mismatches > 0 || d.differing > 0,
+                // Its own misses are findings, not failures (see the module doc).
+                TriTestKind::MollerTrumbore => {
+                    let share = (MT_DIFF_SHARE * d.rays as f64) as usize;
+                    d.differing > share || d.mismatches > d.cpu_mismatches + share
+                }
+            };
+            if bad {
                 failures.push(format!(
                     "{name} {kind} {sname} {}: {} mismatches, {} counter diffs, {} hit diffs of {} rays\n  {}",
                     tri.name(),
