@@ -12,6 +12,7 @@
 pub mod check;
 pub mod config;
 pub mod error;
+pub mod gpu;
 pub mod meta;
 pub mod output;
 pub mod params;
