@@ -6,10 +6,13 @@ use std::sync::{Arc, Mutex};
 /// A wgpu backend the user may ask for (`--backend`, `run.gpu_backend`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Backend {
+    /// Vulkan (Linux, Windows, Android; lavapipe is Mesa's software Vulkan).
     Vulkan,
     /// OpenGL / OpenGL ES (EGL on Linux).
     Gl,
+    /// Metal (macOS, iOS).
     Metal,
+    /// Direct3D 12 (Windows).
     Dx12,
 }
 
@@ -55,6 +58,7 @@ pub struct AdapterChoice {
 /// What a result row and the run metadata say about the adapter.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct AdapterSummary {
+    /// Adapter name as the driver reports it (e.g. `llvmpipe (LLVM 15.0.6, 256 bits)`).
     pub name: String,
     /// wgpu backend (`vulkan`, `gl`, …).
     pub backend: String,

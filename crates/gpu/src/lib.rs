@@ -47,13 +47,22 @@ pub enum GpuError {
     NoAdapter(String),
     /// The adapter refused to open a device.
     #[error("GPU adapter {adapter}: cannot open a device: {message}")]
-    RequestDevice { adapter: String, message: String },
+    RequestDevice {
+        /// The adapter's name.
+        adapter: String,
+        /// wgpu's reason, on one line.
+        message: String,
+    },
     /// An array is larger than one storage binding may be on this adapter.
     #[error("{what} needs {bytes} bytes, over the adapter's max_storage_buffer_binding_size of {limit} bytes (max_buffer_size {max_buffer}); the scene cannot be traced on this GPU")]
     TooLarge {
+        /// Which array.
         what: &'static str,
+        /// Its size.
         bytes: u64,
+        /// The adapter's `max_storage_buffer_binding_size`.
         limit: u64,
+        /// The adapter's `max_buffer_size`.
         max_buffer: u64,
     },
     /// The adapter cannot run this kernel on this input correctly.

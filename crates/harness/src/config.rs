@@ -117,12 +117,14 @@ pub enum Validate {
 /// A device the rays are traced on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Device {
+    /// The host CPU, on a rayon pool per thread count.
     Cpu,
     /// A wgpu adapter (crate tb-gpu), chosen by [`GpuSpec`].
     Gpu,
 }
 
 impl Device {
+    /// Config and column name: `cpu` or `gpu`.
     pub fn name(self) -> &'static str {
         match self {
             Device::Cpu => "cpu",
