@@ -414,6 +414,10 @@ impl Accel for Bvh {
         self.check_invariants()
     }
 
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
+    }
+
     fn trace(
         &self,
         traversal: usize,

@@ -4,7 +4,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
-use tb_harness::config::{self, Overrides};
+use tb_harness::config::{self, Device, Overrides};
 use tb_harness::runner::{self, Mode, RunOptions};
 
 #[derive(Parser)]
@@ -33,6 +33,16 @@ enum Cmd {
         /// Timed repeats per combination, overriding run.repeat.
         #[arg(long)]
         repeat: Option<usize>,
+        /// Devices, overriding run.devices: `cpu`, `gpu` or `cpu,gpu`; naming `gpu` makes a
+        /// GPU failure fail the run.
+        #[arg(long, value_delimiter = ',', value_parser = parse_device)]
+        device: Option<Vec<Device>>,
+        /// GPU adapter: a substring of its name (case-insensitive), overriding run.gpu_adapter.
+        #[arg(long)]
+        adapter: Option<String>,
+        /// GPU backend, overriding run.gpu_backend: vulkan, gl, metal or dx12.
+        #[arg(long, value_parser = parse_backend)]
+        backend: Option<tb_gpu::Backend>,
         /// Continue an interrupted run: keep its rows, skip finished combinations.
         #[arg(long)]
         resume: bool,
@@ -121,6 +131,9 @@ fn dispatch(cli: Cli) -> Result<i32> {
             out,
             threads,
             repeat,
+            device,
+            adapter,
+            backend,
             resume,
             scenes_root,
             quiet,
@@ -129,6 +142,9 @@ fn dispatch(cli: Cli) -> Result<i32> {
                 scenes_root,
                 threads,
                 repeat,
+                devices: device,
+                adapter,
+                backend,
             };
             cmd_run(&config, out, ov, resume, quiet)
         }
@@ -378,4 +394,13 @@ fn cmd_diff(a: &Path, b: &Path, channel: &str, max: Option<f32>, out: &Path) -> 
     );
     println!("wrote {} (colour scale ±{scale})", out.display());
     Ok(0)
+}
+
+fn parse_device(s: &str) -> std::result::Result<Device, String> {
+    Device::from_name(s).ok_or_else(|| format!("unknown device `{s}` (known: cpu, gpu)"))
+}
+
+fn parse_backend(s: &str) -> std::result::Result<tb_gpu::Backend, String> {
+    tb_gpu::Backend::from_name(s)
+        .ok_or_else(|| format!("unknown backend `{s}` (known: vulkan, gl, metal, dx12)"))
 }

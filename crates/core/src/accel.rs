@@ -94,6 +94,12 @@ pub trait Accel: Send + Sync {
         Ok(())
     }
 
+    /// The concrete structure, for devices that trace it with their own kernels (the GPU
+    /// crate uploads a `tb_bvh::Bvh`'s arrays); `None` where no other device supports it.
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        None
+    }
+
     /// Trace `rays` with traversal number `traversal`, writing one record per ray to `hits`
     /// and, when `stats` is given, one counter record per ray. Single-threaded.
     fn trace(

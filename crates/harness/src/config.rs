@@ -43,6 +43,9 @@ struct RawRun {
     build_repeat: Option<u32>,
     triangle_test: Option<Spanned<OneOrMany<String>>>,
     devices: Option<Spanned<OneOrMany<String>>>,
+    gpu_adapter: Option<String>,
+    gpu_backend: Option<Spanned<String>>,
+    gpu_required: Option<bool>,
     validate: Option<Spanned<toml::Value>>,
     seed: Option<u64>,
     images: Option<bool>,
@@ -118,15 +121,38 @@ pub enum Validate {
 /// A device the rays are traced on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Device {
+    /// The host CPU, on a rayon pool per thread count.
     Cpu,
+    /// A wgpu adapter (crate tb-gpu), chosen by [`GpuSpec`].
+    Gpu,
 }
 
 impl Device {
+    /// Config and column name: `cpu` or `gpu`.
     pub fn name(self) -> &'static str {
         match self {
             Device::Cpu => "cpu",
+            Device::Gpu => "gpu",
         }
     }
+
+    /// The device called `s` (`cpu` or `gpu`).
+    pub fn from_name(s: &str) -> Option<Device> {
+        [Device::Cpu, Device::Gpu]
+            .into_iter()
+            .find(|d| d.name() == s)
+    }
+}
+
+/// Which GPU adapter the `gpu` device uses, and whether a GPU failure fails the run.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct GpuSpec {
+    /// Adapter name substring and backend (`run.gpu_adapter`, `run.gpu_backend`, or
+    /// `--adapter`, `--backend`).
+    pub choice: tb_gpu::AdapterChoice,
+    /// Exit non-zero when the GPU cannot be used (no adapter, device lost, validation error).
+    /// True unless the config sets `run.gpu_required = false`; `--device gpu` forces it.
+    pub required: bool,
 }
 
 /// A ray kind a scene asks for.
@@ -194,6 +220,7 @@ pub struct Experiment {
     pub build_repeat: usize,
     pub triangle_tests: Vec<TriTestKind>,
     pub devices: Vec<Device>,
+    pub gpu: GpuSpec,
     pub validate: Validate,
     pub seed: u64,
     pub scenes: Vec<SceneSpec>,
@@ -212,6 +239,12 @@ pub struct Overrides {
     pub scenes_root: Option<PathBuf>,
     pub threads: Option<Vec<usize>>,
     pub repeat: Option<usize>,
+    /// `--device`: replaces run.devices; listing `gpu` makes the GPU required.
+    pub devices: Option<Vec<Device>>,
+    /// `--adapter`: replaces run.gpu_adapter.
+    pub adapter: Option<String>,
+    /// `--backend`: replaces run.gpu_backend.
+    pub backend: Option<tb_gpu::Backend>,
 }
 
 /// 1-based line of byte offset `pos` in `text`.
@@ -368,20 +401,14 @@ pub fn parse(
             };
             let mut out = Vec::new();
             for n in names {
-                match n.as_str() {
-                    "cpu" => out.push(Device::Cpu),
-                    "gpu" => {
+                match Device::from_name(&n) {
+                    Some(d) if !out.contains(&d) => out.push(d),
+                    Some(_) => {}
+                    None => {
                         return Err(cx.err(
                             span.clone(),
                             "run.devices",
-                            "device `gpu` is not available in this build yet (only `cpu`)",
-                        ))
-                    }
-                    other => {
-                        return Err(cx.err(
-                            span.clone(),
-                            "run.devices",
-                            format!("unknown device `{other}` (known: cpu)"),
+                            format!("unknown device `{n}` (known: cpu, gpu)"),
                         ))
                     }
                 }
@@ -391,6 +418,32 @@ pub fn parse(
             }
             out
         }
+    };
+    let devices = ov.devices.clone().unwrap_or(devices);
+    let backend = match (&ov.backend, &run.gpu_backend) {
+        (Some(b), _) => Some(*b),
+        (None, None) => None,
+        (None, Some(b)) => Some(tb_gpu::Backend::from_name(b.get_ref()).ok_or_else(|| {
+            cx.err(
+                b.span(),
+                "run.gpu_backend",
+                format!(
+                    "unknown backend `{}` (known: vulkan, gl, metal, dx12)",
+                    b.get_ref()
+                ),
+            )
+        })?),
+    };
+    let gpu = GpuSpec {
+        choice: tb_gpu::AdapterChoice {
+            name: ov.adapter.clone().or_else(|| run.gpu_adapter.clone()),
+            backend,
+        },
+        required: run.gpu_required.unwrap_or(true)
+            || ov
+                .devices
+                .as_ref()
+                .is_some_and(|d| d.contains(&Device::Gpu)),
     };
     let validate = match &run.validate {
         None => Validate::All,
@@ -669,6 +722,7 @@ pub fn parse(
         build_repeat,
         triangle_tests,
         devices,
+        gpu,
         validate,
         seed,
         scenes,

@@ -384,6 +384,7 @@ impl Runner {
         traversals: &[usize],
         tests: &[TriTestKind],
         devices: &[Device],
+        gpu: Option<&crate::gpu::GpuDevice>,
         progress: &Progress,
     ) -> Result<Vec<String>, HarnessError> {
         let mut notes = Vec::new();
@@ -461,12 +462,29 @@ impl Runner {
                             tname,
                             tri.name()
                         ));
-                        let tracer: Box<dyn Tracer> = match dev {
+                        let tracer: Box<dyn Tracer + '_> = match dev {
                             Device::Cpu => Box::new(AccelTracer {
                                 accel,
                                 traversal: ti,
                                 tri,
                             }),
+                            Device::Gpu => {
+                                let t = gpu
+                                    .ok_or_else(|| "the GPU was not opened".to_string())
+                                    .and_then(|g| g.tracer(accel, tname, tris, tri));
+                                match t {
+                                    Ok(t) => Box::new(t),
+                                    Err(e) => {
+                                        notes.push(format!(
+                                            "{}: convergence of {} {} on the gpu skipped: {e}",
+                                            scene.label,
+                                            accel.name(),
+                                            tname
+                                        ));
+                                        continue;
+                                    }
+                                }
+                            }
                         };
                         let rows = self.measure(
                             tris,

@@ -13,6 +13,7 @@ pub mod check;
 pub mod config;
 pub mod convergence;
 pub mod error;
+pub mod gpu;
 pub mod images;
 pub mod meta;
 pub mod output;

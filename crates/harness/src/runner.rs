@@ -6,6 +6,7 @@
 
 use crate::config::{Device, Experiment, RayKindSpec, SceneSpec, Validate};
 use crate::error::HarnessError;
+use crate::gpu::{GpuBuild, GpuDevice};
 use crate::output::{Row, RowKey, Sink};
 use crate::progress::Progress;
 use rayon::prelude::*;
@@ -212,7 +213,52 @@ fn sample(v: Validate, n: usize) -> Vec<usize> {
     }
 }
 
-fn median(v: &mut [f64]) -> f64 {
+/// The oracle's answers for the validated sample `sub` of batch `bi` (computed on first use).
+fn oracle_hits(
+    oracle: &mut HashMap<usize, Vec<HitRecord>>,
+    bi: usize,
+    brute: &BruteForce,
+    b: &Batch,
+    sub: &[Ray],
+    label: &str,
+    progress: &Progress,
+) -> Vec<HitRecord> {
+    oracle
+        .entry(bi)
+        .or_insert_with(|| {
+            progress.step(&format!(
+                "{label}: oracle for {} ({} rays)",
+                b.name,
+                sub.len()
+            ));
+            trace_par(brute, 0, b.query, TriTestKind::Watertight, sub)
+        })
+        .clone()
+}
+
+/// The thread counts rows are written for on `dev`: the run's on the CPU; one row, `threads
+/// = 0`, on the GPU (one host thread drives it; the column counts CPU worker threads).
+fn threads_of(dev: Device, threads: &[usize]) -> Vec<usize> {
+    match dev {
+        Device::Cpu => threads.to_vec(),
+        Device::Gpu => vec![0],
+    }
+}
+
+/// Record a GPU failure once: a failure of the run when the GPU was required, else a note.
+fn gpu_failed(summary: &mut RunSummary, gpu: Option<&GpuDevice>, e: &str) {
+    let msg = format!("gpu: {e}");
+    if gpu.is_some_and(|g| g.required) {
+        summary.failures.push(msg);
+    } else {
+        summary.notes.push(format!(
+            "{msg} (GPU rows carry the error; gpu_required = false)"
+        ));
+    }
+}
+
+/// Median of `v` (sorted in place).
+pub(crate) fn median(v: &mut [f64]) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
     let n = v.len();
     if n % 2 == 1 {
@@ -256,10 +302,19 @@ struct Checked {
 /// stay written).
 pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessError> {
     let mut summary = RunSummary::default();
+    // The GPU is opened once, before any work, so results.json names the adapter.
+    let mut gpu = (opts.mode == Mode::Run && exp.devices.contains(&Device::Gpu))
+        .then(|| GpuDevice::open(&exp.gpu));
+    if let Some(Err(e)) = gpu.as_ref().map(GpuDevice::describe) {
+        gpu_failed(&mut summary, gpu.as_ref(), &e);
+    }
     let mut sink = match opts.mode {
         Mode::Run => {
-            let meta =
+            let mut meta =
                 crate::meta::collect(&exp.file.display().to_string(), &exp.text, &exp.threads);
+            if let Some(g) = &gpu {
+                meta["adapter"] = g.meta();
+            }
             Some(Sink::open(&opts.out, meta, opts.resume)?)
         }
         Mode::Validate => None,
@@ -291,8 +346,10 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
         .map(|s| s.param_sets.len() * s.traversals.len())
         .sum::<usize>()
         * exp.triangle_tests.len()
-        * threads_for_rows.len()
-        * devices.len();
+        * devices
+            .iter()
+            .map(|&d| threads_of(d, &threads_for_rows).len())
+            .sum::<usize>();
     let total_batches: usize = exp
         .scenes
         .iter()
@@ -355,7 +412,7 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
                     for &tri in &exp.triangle_tests {
                         for (bi, b) in batches.iter().enumerate() {
                             for &dev in &devices {
-                                for &th in &threads_for_rows {
+                                for th in threads_of(dev, &threads_for_rows) {
                                     let key = RowKey {
                                         scene: spec.label.clone(),
                                         structure: st.info.name.to_string(),
@@ -454,6 +511,7 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
                         &st.traversals,
                         &exp.triangle_tests,
                         &devices,
+                        gpu.as_ref(),
                         &progress,
                     )?);
                 }
@@ -463,6 +521,7 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
                 let mut counted: HashMap<(usize, TriTestKind, usize), (StatsSummary, f64)> =
                     HashMap::new();
                 let mut checked: HashMap<(usize, TriTestKind, usize), Checked> = HashMap::new();
+                let mut gpu_build = GpuBuild::default();
 
                 for (ti, tri, bi, dev, th) in todo {
                     let b = &batches[bi];
@@ -501,23 +560,101 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
                         th
                     ));
 
+                    if dev == Device::Gpu {
+                        let g = gpu
+                            .as_mut()
+                            .expect("the GPU is opened when a device is gpu");
+                        if !crate::gpu::has_kernel(st.info.name, tname) {
+                            row.note = format!("no GPU kernel for {} {tname} yet", st.info.name);
+                            emit(&mut sink, &mut summary, row, &progress)?;
+                            continue;
+                        }
+                        let validation = (spec.validate != Validate::Off).then(|| {
+                            let idx = sample(spec.validate, b.rays.len());
+                            let sub: Vec<Ray> = idx.iter().map(|&i| b.rays[i]).collect();
+                            let e = oracle_hits(
+                                &mut oracle,
+                                bi,
+                                &brute,
+                                b,
+                                &sub,
+                                &spec.label,
+                                &progress,
+                            );
+                            (idx, e)
+                        });
+                        let r = g.measure(
+                            &mut gpu_build,
+                            accel.as_ref(),
+                            tris,
+                            bi,
+                            &b.rays,
+                            b.query,
+                            tri,
+                            exp.warmup,
+                            exp.repeat,
+                            validation
+                                .as_ref()
+                                .map(|(i, e)| (i.as_slice(), e.as_slice())),
+                            opts.max_report,
+                            &mut row,
+                        );
+                        match r {
+                            Ok(out) if !out.first.is_empty() => {
+                                let mut rep = format!(
+                                    "{} {} [{}] {} {} {} gpu: {} of {} rays mismatch",
+                                    spec.label,
+                                    st.info.name,
+                                    params_s,
+                                    tname,
+                                    tri.name(),
+                                    b.name,
+                                    row.mismatches.unwrap_or(0),
+                                    row.validated_rays.unwrap_or(0)
+                                );
+                                for m in &out.first {
+                                    rep.push_str("\n    ");
+                                    rep.push_str(&fmt_mismatch(m));
+                                }
+                                summary.mismatch_reports.push(rep);
+                            }
+                            Ok(_) => {}
+                            Err(e) => {
+                                let first = summary.failures.iter().all(|f| !f.contains(&e))
+                                    && summary.notes.iter().all(|n| !n.contains(&e));
+                                if first {
+                                    progress.line(&format!("error: gpu: {e}"));
+                                    gpu_failed(&mut summary, Some(g), &e);
+                                }
+                                row = Row {
+                                    note: format!("gpu failed: {e}"),
+                                    ..row_base.clone()
+                                };
+                                row.traversal = tname.to_string();
+                                row.device = dev.name().into();
+                                row.triangle_test = tri.name().into();
+                                row.ray_kind = b.name.clone();
+                                row.rays = b.rays.len() as u64;
+                            }
+                        }
+                        emit(&mut sink, &mut summary, row, &progress)?;
+                        continue;
+                    }
+
                     // Validation against the oracle.
                     if spec.validate != Validate::Off {
                         let c = checked.entry((ti, tri, bi)).or_insert_with(|| {
                             let idx = sample(spec.validate, b.rays.len());
                             let sub: Vec<Ray> = idx.iter().map(|&i| b.rays[i]).collect();
-                            let expected = oracle
-                                .entry(bi)
-                                .or_insert_with(|| {
-                                    progress.step(&format!(
-                                        "{}: oracle for {} ({} rays)",
-                                        spec.label,
-                                        b.name,
-                                        sub.len()
-                                    ));
-                                    trace_par(&brute, 0, b.query, TriTestKind::Watertight, &sub)
-                                })
-                                .clone();
+                            let expected = oracle_hits(
+                                &mut oracle,
+                                bi,
+                                &brute,
+                                b,
+                                &sub,
+                                &spec.label,
+                                &progress,
+                            );
                             let got = trace_par(accel.as_ref(), ti, b.query, tri, &sub);
                             let mut first = Vec::new();
                             let mut n = 0u64;
@@ -674,7 +811,7 @@ pub fn table(rows: &[Row]) -> String {
         "structure",
         "traversal",
         "test",
-        "thr",
+        "dev",
         "rays",
         "count",
         "MRays/s",
@@ -696,7 +833,12 @@ pub fn table(rows: &[Row]) -> String {
             } else {
                 "mt"
             },
-            r.threads,
+            // CPU rows: the thread count; GPU rows: `gpu`.
+            if r.device == "gpu" {
+                "gpu".to_string()
+            } else {
+                r.threads.to_string()
+            },
             truncate(&r.ray_kind, 8),
             r.rays,
             f(r.mrays_per_s, 2),

@@ -1,0 +1,168 @@
+//! `trace-bench run` with `devices = ["cpu", "gpu"]` (configs/gpu.toml): both rows for every
+//! combination, GPU rows validated with zero mismatches and counters equal to the CPU rows';
+//! structures without a GPU kernel get a note; a missing adapter fails the run only when the
+//! GPU is required, and the CPU rows are written either way.
+
+use std::path::{Path, PathBuf};
+use tb_harness::output::{read_csv, Row};
+
+fn run(args: &[&str]) -> i32 {
+    let mut v: Vec<std::ffi::OsString> = vec!["trace-bench".into()];
+    v.extend(args.iter().map(|a| a.into()));
+    trace_bench::run(v)
+}
+
+fn gpu_config() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/gpu.toml")
+}
+
+fn counters(r: &Row) -> Vec<Option<f64>> {
+    vec![
+        r.interior_per_ray,
+        r.leaves_per_ray,
+        r.prims_per_ray,
+        r.boxes_per_ray,
+        r.steps_per_ray,
+        r.interior_max.map(f64::from),
+        r.leaves_max.map(f64::from),
+        r.prims_max.map(f64::from),
+        r.boxes_max.map(f64::from),
+        r.steps_max.map(f64::from),
+        r.hit_rate,
+    ]
+}
+
+#[test]
+fn gpu_config_writes_cpu_and_gpu_rows_that_agree() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let code = run(&[
+        "run",
+        gpu_config().to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    let rows = read_csv(&out.join("results.csv")).unwrap();
+    let cpu: Vec<&Row> = rows.iter().filter(|r| r.device == "cpu").collect();
+    let gpu: Vec<&Row> = rows.iter().filter(|r| r.device == "gpu").collect();
+    assert!(!cpu.is_empty());
+    assert!(cpu.iter().all(|r| r.note.is_empty()));
+    assert!(cpu
+        .iter()
+        .filter(|r| r.triangle_test == "watertight")
+        .all(|r| r.mismatches == Some(0)));
+    // One GPU row per CPU row (one thread count in the config).
+    assert_eq!(cpu.len(), gpu.len());
+    let no_gpu = gpu
+        .iter()
+        .filter(|r| r.structure != "kdtree")
+        .all(|r| r.note.starts_with("gpu failed"));
+    if no_gpu {
+        assert_eq!(code, 1, "the config requires the GPU");
+        assert!(
+            !tb_gpu::gpu_required_by_env(),
+            "no GPU adapter but TRACE_BENCH_REQUIRE_GPU is set: {}",
+            gpu[0].note
+        );
+        println!("skipped the GPU checks: {}", gpu[0].note);
+        return;
+    }
+    assert_eq!(code, 0);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert!(
+        json["meta"]["adapter"]["name"].is_string(),
+        "{}",
+        json["meta"]
+    );
+    // As in tb-gpu's oracle tests: exact with the watertight test where its fallback runs in
+    // f64 as on the CPU; else a bounded share of rays may differ (FMA contraction, f32).
+    let exact_wt = json["meta"]["adapter"]["watertight_fallback"] == "f64";
+    for c in &cpu {
+        let g = gpu
+            .iter()
+            .find(|g| {
+                (
+                    &g.scene,
+                    &g.structure,
+                    &g.traversal,
+                    &g.triangle_test,
+                    &g.ray_kind,
+                ) == (
+                    &c.scene,
+                    &c.structure,
+                    &c.traversal,
+                    &c.triangle_test,
+                    &c.ray_kind,
+                )
+            })
+            .unwrap_or_else(|| panic!("no GPU row for {:?}", c.key()));
+        assert_eq!(g.threads, 0);
+        if c.structure == "kdtree" {
+            assert!(g.note.contains("no GPU kernel"), "{}", g.note);
+            assert!(g.trace_ms_median.is_none());
+            continue;
+        }
+        assert!(g.note.is_empty(), "{}", g.note);
+        assert!(!g.adapter.is_empty());
+        assert!(g.upload_ms.is_some() && g.readback_ms.is_some());
+        assert!(g.trace_ms_median.is_some_and(|t| t >= 0.0));
+        assert_eq!(g.validated_rays, Some(g.rays));
+        if g.triangle_test == "watertight" && exact_wt {
+            assert_eq!(g.mismatches, Some(0), "{:?}", g.key());
+            assert_eq!(counters(g), counters(c), "{:?}", g.key());
+        } else {
+            // Möller–Trumbore's own misses are findings on both devices; a driver contracting
+            // products into FMA may change up to 2% of the answers (tb-gpu's tests).
+            let slack = g.rays / 50;
+            assert!(
+                g.mismatches.unwrap() <= c.mismatches.unwrap() + slack,
+                "{:?}: {:?} vs {:?}",
+                g.key(),
+                g.mismatches,
+                c.mismatches
+            );
+        }
+    }
+}
+
+#[test]
+fn missing_adapter_fails_only_when_required_and_keeps_cpu_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(gpu_config())
+        .unwrap()
+        .replace("name = \"gpu\"", "name = \"gpu-optional\"");
+    let optional = text.replace("[run]\n", "[run]\ngpu_required = false\n");
+    for (name, cfg, want) in [("required", &text, 1), ("optional", &optional, 0)] {
+        let path = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&path, cfg).unwrap();
+        let out = dir.path().join(name);
+        let code = run(&[
+            "run",
+            path.to_str().unwrap(),
+            "--adapter",
+            "no-such-adapter-anywhere",
+            "--repeat",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+            "-q",
+        ]);
+        assert_eq!(code, want, "{name}");
+        let rows = read_csv(&out.join("results.csv")).unwrap();
+        assert!(rows
+            .iter()
+            .filter(|r| r.device == "cpu")
+            .all(|r| r.trace_ms_median.is_some()));
+        let gpu: Vec<&Row> = rows.iter().filter(|r| r.device == "gpu").collect();
+        assert!(!gpu.is_empty());
+        for r in gpu {
+            assert!(
+                r.note.contains("no GPU kernel") || r.note.contains("no-such-adapter-anywhere"),
+                "{}",
+                r.note
+            );
+        }
+    }
+}

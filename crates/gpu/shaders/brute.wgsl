@@ -1,0 +1,76 @@
+// Brute force (tb_core::BruteForce, the oracle): every triangle in index order, each gated by
+// the robust slab test of its own bounding box; one thread per ray. Counters as on the CPU:
+// closest hit counts 1 leaf and `boxes = steps = triangles` up front, `prims` per box passed;
+// any hit counts box, step and (box passed) prim per triangle until the first hit.
+//
+// The loop is unrolled by UNROLL: llvmpipe (lavapipe) ends a shader invocation's loops after
+// 65535 iterations in all, so a plain loop would stop early on scenes of more triangles; the
+// host refuses brute force on llvmpipe beyond UNROLL * 65535 triangles.
+
+const UNROLL: u32 = 8u;
+
+// The walk's state, updated by `visit`.
+struct Walk { best: Hit, tmax: f32, st: Stats, done: bool }
+
+fn visit(k: u32, r: Ray, p: Pre, rb: RayBox, w: ptr<function, Walk>) {
+    if (*w).done {
+        return;
+    }
+    let v0 = vertex(k, 0u);
+    let v1 = vertex(k, 1u);
+    let v2 = vertex(k, 2u);
+    if ANY {
+        (*w).st.boxes += 1u;
+        (*w).st.steps += 1u;
+    }
+    let s = slab(rb, min(min(v0, v1), v2), max(max(v0, v1), v2), r.tmin, (*w).tmax);
+    if !(s.x <= s.y) {
+        return;
+    }
+    (*w).st.prims += 1u;
+    let h = intersect(p, r, k, (*w).tmax);
+    if h.w != 0.0 {
+        (*w).best = Hit(h.x, k, h.y, h.z);
+        if ANY {
+            (*w).done = true;
+        } else {
+            (*w).tmax = h.x;
+        }
+    }
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= arrayLength(&rays) {
+        return;
+    }
+    let r = rays[i];
+    let n = meta_.counts.x;
+    let p = prepare(r);
+    let rb = ray_box(r);
+    var w = Walk(miss(), r.tmax, zero_stats(), false);
+    w.st.leaves = 1u;
+    if !ANY {
+        w.st.boxes = n;
+        w.st.steps = n;
+    }
+    let whole = n / UNROLL * UNROLL;
+    for (var k = 0u; k < whole && !w.done; k += UNROLL) {
+        visit(k, r, p, rb, &w);
+        visit(k + 1u, r, p, rb, &w);
+        visit(k + 2u, r, p, rb, &w);
+        visit(k + 3u, r, p, rb, &w);
+        visit(k + 4u, r, p, rb, &w);
+        visit(k + 5u, r, p, rb, &w);
+        visit(k + 6u, r, p, rb, &w);
+        visit(k + 7u, r, p, rb, &w);
+    }
+    for (var k = whole; k < n && !w.done; k++) {
+        visit(k, r, p, rb, &w);
+    }
+    hits[i] = w.best;
+    if COUNT {
+        stats[i] = w.st;
+    }
+}

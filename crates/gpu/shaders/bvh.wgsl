@@ -1,0 +1,124 @@
+// The BVH `ordered` traversal (tb_bvh, pbrt-v3 §4.3.5): depth-first with a fixed stack, both
+// children's boxes tested at their parent, the nearer child first, the farther pushed with its
+// entry distance and skipped on pop when a closer hit was found meanwhile. One thread per ray
+// (the reference kernel; Aila and Laine 2009's persistent threads are not used). It visits the
+// nodes in exactly the CPU's order, so the counters agree ray for ray: boxes (1 for the root,
+// 2 per interior node), interior, leaves, prims, steps = interior + leaves.
+
+// tb_bvh::BvhNode, 32 bytes: interior (count == 0): index = left child, right = index + 1;
+// leaf: triangles index .. index + count of the leaf-ordered triangle array.
+struct Node { bmin: vec3<f32>, index: u32, bmax: vec3<f32>, count: u32 }
+
+@group(0) @binding(5) var<storage, read> nodes: array<Node>;
+@group(0) @binding(6) var<storage, read> prim_ids: array<u32>;
+
+fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
+    if meta_.counts.y == 0u {
+        return miss();
+    }
+    let rb = ray_box(r);
+    let tmin = r.tmin;
+    var best_t = r.tmax;
+    (*st).boxes += 1u;
+    let root = nodes[0];
+    let rs = slab(rb, root.bmin, root.bmax, tmin, best_t);
+    if !(rs.x <= rs.y) {
+        return miss();
+    }
+    let p = prepare(r);
+    var hit_slot = MISS_PRIM;
+    var hit_u = 0.0;
+    var hit_v = 0.0;
+    // Pending far children: (node index, bits of the entry distance).
+    var stack: array<vec2<u32>, STACK_SIZE>;
+    var sp = 0u;
+    var node = root;
+    loop {
+        if node.count == 0u {
+            (*st).interior += 1u;
+            (*st).steps += 1u;
+            (*st).boxes += 2u;
+            let l = node.index;
+            let a = nodes[l];
+            let b = nodes[l + 1u];
+            let sa = slab(rb, a.bmin, a.bmax, tmin, best_t);
+            let sb = slab(rb, b.bmin, b.bmax, tmin, best_t);
+            let hit_a = sa.x <= sa.y;
+            let hit_b = sb.x <= sb.y;
+            if hit_a {
+                if hit_b {
+                    if sa.x <= sb.x {
+                        stack[sp] = vec2<u32>(l + 1u, bitcast<u32>(sb.x));
+                        node = a;
+                    } else {
+                        stack[sp] = vec2<u32>(l, bitcast<u32>(sa.x));
+                        node = b;
+                    }
+                    sp += 1u;
+                } else {
+                    node = a;
+                }
+                continue;
+            } else if hit_b {
+                node = b;
+                continue;
+            }
+        } else {
+            (*st).leaves += 1u;
+            (*st).steps += 1u;
+            let first = node.index;
+            if !ANY {
+                (*st).prims += node.count;
+            }
+            for (var k = 0u; k < node.count; k++) {
+                if ANY {
+                    (*st).prims += 1u;
+                }
+                let h = intersect(p, r, first + k, best_t);
+                if h.w != 0.0 {
+                    if ANY {
+                        return Hit(h.x, prim_ids[first + k], h.y, h.z);
+                    }
+                    best_t = h.x;
+                    hit_slot = first + k;
+                    hit_u = h.y;
+                    hit_v = h.z;
+                }
+            }
+        }
+        // Pop the next pending subtree, skipping those entered beyond the closest hit.
+        var popped = false;
+        loop {
+            if sp == 0u {
+                break;
+            }
+            sp -= 1u;
+            let e = stack[sp];
+            if ANY || bitcast<f32>(e.y) <= best_t * EXIT_SCALE {
+                node = nodes[e.x];
+                popped = true;
+                break;
+            }
+        }
+        if !popped {
+            break;
+        }
+    }
+    if hit_slot == MISS_PRIM {
+        return miss();
+    }
+    return Hit(best_t, prim_ids[hit_slot], hit_u, hit_v);
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= arrayLength(&rays) {
+        return;
+    }
+    var st = zero_stats();
+    hits[i] = walk(rays[i], &st);
+    if COUNT {
+        stats[i] = st;
+    }
+}

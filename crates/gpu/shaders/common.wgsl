@@ -1,0 +1,184 @@
+// Shared declarations of the trace-bench kernels: the buffers (uploaded unchanged from the
+// CPU's #[repr(C)] arrays), the robust slab test and the two triangle tests, written to round
+// exactly as tb-core's Rust code does (same operations in the same order; no builtin dot/cross
+// whose evaluation order is unspecified). The host prepends `const STACK_SIZE` and appends one
+// `edge_fallback` (f64 where the adapter has SHADER_F64, else f32).
+
+struct Ray { origin: vec3<f32>, tmin: f32, dir: vec3<f32>, tmax: f32 }   // tb_core::Ray, 32 B
+struct Hit { t: f32, prim: u32, u: f32, v: f32 }                          // tb_core::HitRecord
+struct Stats {                                                            // tb_core::TraversalStats
+    interior: u32, leaves: u32, prims: u32, boxes: u32, planes: u32, restarts: u32, steps: u32,
+}
+// x: triangles, y: nodes (0 for brute force).
+struct Meta { counts: vec4<u32> }
+
+// Pipeline variants (WGSL override constants, fixed at pipeline creation).
+override ANY: bool = false;          // Query::Any (stop at the first hit) vs Query::Closest
+override COUNT: bool = false;        // counting pass (TraversalStats) vs timed pass
+override WATERTIGHT: bool = true;    // Woop et al. 2013 vs Moller-Trumbore 1997
+override EXIT_SCALE: f32 = 1.0;      // tb_core::slab::EXIT_SCALE = 1 + 2 gamma(3), set by the host
+
+@group(0) @binding(0) var<storage, read> rays: array<Ray>;
+@group(0) @binding(1) var<storage, read_write> hits: array<Hit>;
+@group(0) @binding(2) var<storage, read_write> stats: array<Stats>;
+@group(0) @binding(3) var<storage, read> tris: array<f32>;               // 9 floats per triangle
+@group(0) @binding(4) var<uniform> meta_: Meta;
+
+const MISS_PRIM: u32 = 0xffffffffu;
+
+fn miss() -> Hit {
+    return Hit(bitcast<f32>(0x7f800000u), MISS_PRIM, 0.0, 0.0);
+}
+
+fn zero_stats() -> Stats {
+    return Stats(0u, 0u, 0u, 0u, 0u, 0u, 0u);
+}
+
+fn vertex(i: u32, k: u32) -> vec3<f32> {
+    let b = 9u * i + 3u * k;
+    return vec3<f32>(tris[b], tris[b + 1u], tris[b + 2u]);
+}
+
+// tb_core::slab::max_num / min_num: ignore a NaN `t` (origin in a slab plane, zero direction).
+fn max_num(acc: f32, t: f32) -> f32 { return select(acc, t, t > acc); }
+fn min_num(acc: f32, t: f32) -> f32 { return select(acc, t, t < acc); }
+
+// True for +-inf and NaN (WGSL has no isfinite; a bit test survives any fast-math folding).
+fn not_finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
+}
+
+// Per-ray data of the slab test (tb_core::slab::RayBox): origin, 1/dir, octant as booleans.
+struct RayBox { org: vec3<f32>, inv: vec3<f32>, neg: vec3<bool> }
+
+fn ray_box(r: Ray) -> RayBox {
+    let inv = vec3<f32>(1.0 / r.dir.x, 1.0 / r.dir.y, 1.0 / r.dir.z);
+    return RayBox(r.origin, inv, inv < vec3<f32>(0.0));
+}
+
+// RayBox::slab: (entry, exit) of [bmin, bmax] clipped to [tmin, tmax]; hit when entry <= exit.
+fn slab(rb: RayBox, bmin: vec3<f32>, bmax: vec3<f32>, tmin: f32, tmax: f32) -> vec2<f32> {
+    let near = select(bmin, bmax, rb.neg);
+    let far = select(bmax, bmin, rb.neg);
+    let t0 = (near - rb.org) * rb.inv;
+    let t1 = (far - rb.org) * rb.inv;
+    let tn = max_num(max_num(max_num(tmin, t0.x), t0.y), t0.z);
+    let tf = min_num(min_num(min_num(tmax, t1.x), t1.y), t1.z) * EXIT_SCALE;
+    return vec2<f32>(tn, tf);
+}
+
+// glam's Vec3::cross and Vec3::dot, operation for operation.
+fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(a.y * b.z - b.y * a.z, a.z * b.x - b.z * a.x, a.x * b.y - b.x * a.y);
+}
+fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    return ((a.x * b.x) + (a.y * b.y)) + (a.z * b.z);
+}
+
+// tb_core::tri::WatertightPre.
+struct Pre { kx: u32, ky: u32, kz: u32, s: vec3<f32> }
+
+fn prepare(r: Ray) -> Pre {
+    let a = abs(r.dir);
+    var kz = 2u;
+    if a.x >= a.y && a.x >= a.z {
+        kz = 0u;
+    } else if a.y >= a.z {
+        kz = 1u;
+    }
+    var kx = (kz + 1u) % 3u;
+    var ky = (kx + 1u) % 3u;
+    if r.dir[kz] < 0.0 {
+        let k = kx;
+        kx = ky;
+        ky = k;
+    }
+    let dz = r.dir[kz];
+    return Pre(kx, ky, kz, vec3<f32>(r.dir[kx] / dz, r.dir[ky] / dz, 1.0 / dz));
+}
+
+// Result of a triangle test: x = t, y = u, z = v, w = 1 for a hit, 0 for none.
+fn watertight(p: Pre, r: Ray, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmax: f32) -> vec4<f32> {
+    let none = vec4<f32>(0.0);
+    let a = v0 - r.origin;
+    let b = v1 - r.origin;
+    let c = v2 - r.origin;
+    let az = a[p.kz];
+    let bz = b[p.kz];
+    let cz = c[p.kz];
+    let ax = a[p.kx] - p.s.x * az;
+    let ay = a[p.ky] - p.s.y * az;
+    let bx = b[p.kx] - p.s.x * bz;
+    let by = b[p.ky] - p.s.y * bz;
+    let cx = c[p.kx] - p.s.x * cz;
+    let cy = c[p.ky] - p.s.y * cz;
+    var u = cx * by - cy * bx;
+    var v = ax * cy - ay * cx;
+    var w = bx * ay - by * ax;
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        let e = edge_fallback(ax, ay, bx, by, cx, cy);
+        u = e.x;
+        v = e.y;
+        w = e.z;
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return none;
+    }
+    let det = u + v + w;
+    if det == 0.0 || not_finite(det) {
+        return none;
+    }
+    let tt = (u * (p.s.z * az) + v * (p.s.z * bz)) + w * (p.s.z * cz);
+    var tt_s = tt;
+    var det_s = det;
+    if det < 0.0 {
+        tt_s = -tt;
+        det_s = -det;
+    }
+    if tt_s < r.tmin * det_s || tt_s >= tmax * det_s {
+        return none;
+    }
+    let inv = 1.0 / det;
+    let t = tt * inv;
+    if t < r.tmin || t >= tmax {
+        return none;
+    }
+    return vec4<f32>(t, v * inv, w * inv, 1.0);
+}
+
+fn moller_trumbore(r: Ray, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmax: f32) -> vec4<f32> {
+    let none = vec4<f32>(0.0);
+    let e1 = v1 - v0;
+    let e2 = v2 - v0;
+    let p = cross3(r.dir, e2);
+    let det = dot3(e1, p);
+    if det == 0.0 || not_finite(det) {
+        return none;
+    }
+    let inv = 1.0 / det;
+    let s = r.origin - v0;
+    let u = dot3(s, p) * inv;
+    if !(u >= 0.0 && u <= 1.0) {
+        return none;
+    }
+    let q = cross3(s, e1);
+    let v = dot3(r.dir, q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return none;
+    }
+    let t = dot3(e2, q) * inv;
+    if t >= r.tmin && t < tmax {
+        return vec4<f32>(t, u, v, 1.0);
+    }
+    return none;
+}
+
+fn intersect(p: Pre, r: Ray, i: u32, tmax: f32) -> vec4<f32> {
+    let v0 = vertex(i, 0u);
+    let v1 = vertex(i, 1u);
+    let v2 = vertex(i, 2u);
+    if WATERTIGHT {
+        return watertight(p, r, v0, v1, v2, tmax);
+    }
+    return moller_trumbore(r, v0, v1, v2, tmax);
+}
