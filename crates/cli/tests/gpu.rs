@@ -166,3 +166,74 @@ fn missing_adapter_fails_only_when_required_and_keeps_cpu_rows() {
         }
     }
 }
+
+#[test]
+fn convergence_on_the_gpu_renders_the_same_images_as_on_the_cpu() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("conv.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            r#"name = "conv-gpu"
+[run]
+threads = 1
+repeat = 1
+warmup = 0
+validate = "off"
+devices = ["cpu", "gpu"]
+gpu_required = false
+[convergence]
+integrators = ["ao", "path"]
+passes = 3
+reference_spp = 16
+resolution = [16, 16]
+cache = "{}"
+[[scene]]
+source = "builtin:cornell"
+[[structure]]
+name = "bvh"
+"#,
+            dir.path().join("cache").display()
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let code = run(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(code, 0);
+    let text = std::fs::read_to_string(out.join("convergence.csv")).unwrap();
+    let mut rdr = csv::Reader::from_reader(text.as_bytes());
+    let head = rdr.headers().unwrap().clone();
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    let (dev, integ, spp, rmse) = (col("device"), col("integrator"), col("spp"), col("rmse"));
+    let rows: Vec<csv::StringRecord> = rdr.records().map(|r| r.unwrap()).collect();
+    let of = |d: &str| -> Vec<(String, String, String)> {
+        rows.iter()
+            .filter(|r| &r[dev] == d && !r[rmse].is_empty())
+            .map(|r| {
+                (
+                    r[integ].to_string(),
+                    r[spp].to_string(),
+                    r[rmse].to_string(),
+                )
+            })
+            .collect()
+    };
+    let (cpu, gpu) = (of("cpu"), of("gpu"));
+    assert!(!cpu.is_empty());
+    if gpu.is_empty() {
+        assert!(
+            !tb_gpu::gpu_required_by_env(),
+            "no GPU convergence rows but TRACE_BENCH_REQUIRE_GPU is set"
+        );
+        println!("skipped the GPU convergence check: no adapter");
+        return;
+    }
+    // The same samples through the GPU BVH: the same hits, so the same error at every spp.
+    assert_eq!(cpu, gpu);
+}
