@@ -21,7 +21,7 @@ pub const STACK_SIZE: usize = 64;
 /// point (a vertex at a cell corner) give distances within `4·2^-24·t`; decisions "near only"
 /// and "far only" are taken only when the distance clears the interval by this factor, and both
 /// children are visited otherwise (the split distance then clamped to the interval).
-const SLACK: f32 = 1.0 + 8.0 * f32::EPSILON;
+pub(crate) const SLACK: f32 = 1.0 + 8.0 * f32::EPSILON;
 
 /// Pop the next pending subtree `(node, entry, exit)` off `stack[..*sp]`, skipping those whose
 /// entry distance (`entry_t`) lies beyond the closest hit `best_t` (any-hit queries skip
