@@ -94,6 +94,18 @@ pub const TRAVERSALS: &[TraversalInfo] = &[
               it (MacDonald & Booth 1990, Havran et al. 1998, Popov et al. 2007; Hapala & \
               Havran 2011 §3.3)",
     },
+    TraversalInfo {
+        name: "branchless",
+        doc: "recursive-direction with a branchless node step: far and near written to the \
+              stack, the pointer moved by the two comparisons (Hapala 2009; Hapala & Havran \
+              2011 §5.5, Alg. 5)",
+    },
+    TraversalInfo {
+        name: "stack-spilling",
+        doc: "short circular stack of `short_stack` entries whose oldest entry is spilled to a \
+              full memory stack on overflow and refilled on underflow, never restarting \
+              (Novák 2009; Hapala & Havran 2011 §5.2, Fig. 8)",
+    },
 ];
 
 /// The traversals that end a ray after [`KdParams::step_cap`] steps.
@@ -718,6 +730,15 @@ impl Accel for KdTree {
             ),
             8 => dispatch(
                 &stackless::Stackless::<{ stackless::ROPES }>(self),
+                query,
+                tri,
+                rays,
+                hits,
+                stats,
+            ),
+            9 => dispatch(&traverse::Branchless(self), query, tri, rays, hits, stats),
+            10 => dispatch(
+                &traverse::StackSpilling(self),
                 query,
                 tri,
                 rays,

@@ -232,3 +232,47 @@ fn step_cap_fires_and_is_counted() {
     assert!(!kd.has_step_cap(index("recursive-direction")));
     assert!(kd.has_step_cap(index("sequential")));
 }
+
+/// `branchless` and `stack-spilling` (with a one-entry short stack, so it spills) visit
+/// exactly the nodes of `recursive-direction`, ray by ray.
+#[test]
+fn branchless_and_spilling_visit_the_recursive_nodes() {
+    use tb_core::{Query, TraversalStats};
+    let scene = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new(".")).unwrap();
+    let kd = KdTree::build(
+        &scene.triangles,
+        &KdParams {
+            short_stack: 1,
+            ..Default::default()
+        },
+    );
+    let rays = tb_scene::rays::random(&scene.bounds, 500, 11);
+    let count = |ti: usize| {
+        let mut hits = vec![HitRecord::MISS; rays.len()];
+        let mut stats = vec![TraversalStats::default(); rays.len()];
+        kd.trace(
+            ti,
+            Query::Closest,
+            TriTestKind::Watertight,
+            &rays,
+            &mut hits,
+            Some(&mut stats),
+        );
+        stats
+    };
+    let base = count(index("recursive-direction"));
+    for name in ["branchless", "stack-spilling"] {
+        let other = count(index(name));
+        for (a, b) in base.iter().zip(&other) {
+            assert_eq!(
+                (a.interior, a.leaves, a.prims),
+                (b.interior, b.leaves, b.prims),
+                "{name}"
+            );
+        }
+        if name == "stack-spilling" {
+            // Spills and refills happened (counted in `boxes` beyond the root test).
+            assert!(other.iter().any(|s| s.boxes > 1));
+        }
+    }
+}
