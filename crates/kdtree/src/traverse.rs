@@ -521,7 +521,9 @@ impl Branchless<'_> {
                 // Left child idx + 1, right child `right`; near = left unless neg.
                 let kids = [idx + 1, node.right()];
                 let (near, far) = (kids[neg], kids[1 - neg]);
-                let go_far = !(t > tf * SLACK) as usize;
+                // `t > tf·SLACK` is false for a NaN `t`: both children.
+                let near_only = t > tf * SLACK;
+                let go_far = (!near_only) as usize;
                 let far_only = (t * SLACK < tn) as usize & go_far;
                 stack[n - 1] = (far as u32, max_num(tn, t), tf);
                 n += go_far;
