@@ -83,6 +83,12 @@ pub trait Accel: Send + Sync {
         true
     }
 
+    /// Whether `traversal` ends rays after a per-ray step cap (and counts them with
+    /// [`crate::Counter::capped`]); its rows then report `capped_rays`.
+    fn has_step_cap(&self, _traversal: usize) -> bool {
+        false
+    }
+
     /// The triangle test the structure always uses, when it ignores the requested one
     /// (Embree's own intersector); `None` for structures that honour [`TriTestKind`].
     fn own_triangle_test(&self) -> Option<&'static str> {

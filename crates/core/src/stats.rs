@@ -14,7 +14,9 @@
 //! - `planes`: ray–splitting-plane computations (kd-trees);
 //! - `restarts`: restarts from the root or backtracks up the tree;
 //! - `steps`: a structure-defined traversal step, documented on each structure (for a BVH,
-//!   one step per node visited, interior or leaf).
+//!   one step per node visited, interior or leaf);
+//! - `capped`: the ray was ended by the traversal's per-ray step cap (traversals that may
+//!   revisit nodes; see [`crate::Accel::has_step_cap`]).
 
 use serde::{Deserialize, Serialize};
 
@@ -29,6 +31,8 @@ pub trait Counter: Default + Send {
     fn planes(&mut self, n: u32);
     fn restart(&mut self);
     fn steps(&mut self, n: u32);
+    /// The ray was ended by a traversal's step cap (at most once per ray).
+    fn capped(&mut self);
 }
 
 /// The counter that counts nothing (zero-sized; used for timing).
@@ -51,9 +55,11 @@ impl Counter for NoStats {
     fn restart(&mut self) {}
     #[inline(always)]
     fn steps(&mut self, _: u32) {}
+    #[inline(always)]
+    fn capped(&mut self) {}
 }
 
-/// Per-ray traversal counts (28 bytes, `#[repr(C)]` so a GPU kernel can write the same record).
+/// Per-ray traversal counts (32 bytes, `#[repr(C)]` so a GPU kernel can write the same record).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct TraversalStats {
@@ -64,6 +70,9 @@ pub struct TraversalStats {
     pub planes: u32,
     pub restarts: u32,
     pub steps: u32,
+    /// 1 when the ray was ended by the traversal's step cap, else 0 (not one of
+    /// [`TraversalStats::fields`]: summed, not averaged, in [`StatsSummary::capped`]).
+    pub capped: u32,
 }
 
 impl Counter for TraversalStats {
@@ -96,6 +105,10 @@ impl Counter for TraversalStats {
     fn steps(&mut self, n: u32) {
         self.steps += n;
     }
+    #[inline(always)]
+    fn capped(&mut self) {
+        self.capped = 1;
+    }
 }
 
 impl TraversalStats {
@@ -119,6 +132,8 @@ pub struct StatsSummary {
     pub rays: u64,
     pub mean: [f64; 7],
     pub max: [u32; 7],
+    /// Rays ended by a step cap.
+    pub capped: u64,
 }
 
 impl StatsSummary {
@@ -130,7 +145,9 @@ impl StatsSummary {
     pub fn from_stats(stats: &[TraversalStats]) -> Self {
         let mut sum = [0u64; 7];
         let mut max = [0u32; 7];
+        let mut capped = 0u64;
         for s in stats {
+            capped += (s.capped != 0) as u64;
             for (i, (_, v)) in s.fields().into_iter().enumerate() {
                 sum[i] += v as u64;
                 max[i] = max[i].max(v);
@@ -141,6 +158,7 @@ impl StatsSummary {
             rays: stats.len() as u64,
             mean: sum.map(|s| s as f64 / n),
             max,
+            capped,
         }
     }
 }
@@ -164,9 +182,11 @@ mod tests {
         let b = TraversalStats {
             interior: 4,
             steps: 1,
+            capped: 1,
             ..Default::default()
         };
         let s = StatsSummary::from_stats(&[a, b]);
+        assert_eq!(s.capped, 1);
         assert_eq!(s.mean[0], 3.0);
         assert_eq!(s.max[0], 4);
         assert_eq!(s.mean[6], 2.5);

@@ -161,6 +161,15 @@ const KD_PARAMS: &[ParamSpec] = &[
         default: "4",
         doc: "entries of the short stack (`short-stack` traversal; Horn et al. 2007)",
     },
+    ParamSpec {
+        name: "step_cap",
+        kind: ParamKind::Int {
+            min: 1,
+            max: 1 << 30,
+        },
+        default: "100000",
+        doc: "per-ray step cap of the restart-type traversals; capped rays are counted",
+    },
 ];
 
 fn build_kdtree(tris: &[Triangle], p: &ParamSet) -> Result<Box<dyn Accel>, String> {
@@ -177,6 +186,7 @@ fn build_kdtree(tris: &[Triangle], p: &ParamSet) -> Result<Box<dyn Accel>, Strin
         max_depth: p.int("max_depth") as u32,
         min_leaf: p.int("min_leaf") as u32,
         short_stack: p.int("short_stack") as u32,
+        step_cap: p.int("step_cap") as u32,
     };
     params.check()?;
     Ok(Box::new(tb_kdtree::KdTree::build(tris, &params)))

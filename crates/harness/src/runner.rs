@@ -745,6 +745,9 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
                             row.steps_per_ray = Some(stats.mean[6]);
                             row.steps_max = Some(stats.max[6]);
                         }
+                        if accel.has_step_cap(ti) {
+                            row.capped_rays = Some(stats.capped);
+                        }
 
                         // Timing, counters compiled out.
                         let pool = &pools.iter().find(|(n, _)| *n == th).expect("pool").1;

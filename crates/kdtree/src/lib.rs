@@ -15,9 +15,8 @@
 //!   §3.2 (`recursive-direction`, `havran` (TA^B_rec), `recursive-origin`); module
 //!   `stackless`, the restart-type ones of §3.1, §3.3, §5.1, §5.2 (`restart`, `push-down`,
 //!   `short-stack`, `sequential`, `backtrack`, `ropes`). `recursive-origin` (origins in split
-//!   planes), `sequential` and `ropes` (one leaf located per step: cells touched only at an
-//!   edge or corner, up to rounding, can be skipped) are inherently not robust; the others
-//!   answer every ray of the conformance suite as brute force does.
+//!   planes) is inherently not robust; the others answer every ray of the conformance suite
+//!   as brute force does.
 //!
 //! Robustness: triangle tests are never restricted to a leaf's interval (only to
 //! `[tmin, closest hit)`), and traversal stops only when the next node to visit starts beyond
@@ -79,7 +78,8 @@ pub const TRAVERSALS: &[TraversalInfo] = &[
         name: "sequential",
         doc: "Kaplan's sequential traversal: locate the leaf holding the ray point at the entry \
               distance from the root, leave it through its cell's exit (Kaplan 1985; Hapala & \
-              Havran 2011 §3.1, Alg. 1), by distances, without an epsilon step",
+              Havran 2011 §3.1, Alg. 1), no epsilon step: crossed faces' coordinates exact, \
+              rays a point cannot decide (edges, corners) handed to `restart`",
     },
     TraversalInfo {
         name: "backtrack",
@@ -94,6 +94,28 @@ pub const TRAVERSALS: &[TraversalInfo] = &[
               it (MacDonald & Booth 1990, Havran et al. 1998, Popov et al. 2007; Hapala & \
               Havran 2011 §3.3)",
     },
+    TraversalInfo {
+        name: "branchless",
+        doc: "recursive-direction with a branchless node step: far and near written to the \
+              stack, the pointer moved by the two comparisons (Hapala 2009; Hapala & Havran \
+              2011 §5.5, Alg. 5)",
+    },
+    TraversalInfo {
+        name: "stack-spilling",
+        doc: "short circular stack of `short_stack` entries whose oldest entry is spilled to a \
+              full memory stack on overflow and refilled on underflow, never restarting \
+              (Novák 2009; Hapala & Havran 2011 §5.2, Fig. 8)",
+    },
+];
+
+/// The traversals that end a ray after [`KdParams::step_cap`] steps.
+const CAPPED: &[&str] = &[
+    "restart",
+    "push-down",
+    "short-stack",
+    "sequential",
+    "backtrack",
+    "ropes",
 ];
 
 /// Which split-search algorithm the builder uses.
@@ -140,6 +162,11 @@ pub struct KdParams {
     /// Entries of the circular stack of the `short-stack` traversal (Horn et al. 2007). In
     /// `1..=MAX_SHORT_STACK` (32); default 4.
     pub short_stack: u32,
+    /// Per-ray step cap of the restart-type traversals (`restart` … `ropes`): after this many
+    /// steps (nodes visited) a ray is ended with its closest hit so far and counted in
+    /// `capped_rays` (review §3.1: an epsilon step can loop forever; these walks provably end,
+    /// the cap is a guard). At least 1; default [`STEP_CAP`] (100 000).
+    pub step_cap: u32,
 }
 
 impl Default for KdParams {
@@ -153,6 +180,7 @@ impl Default for KdParams {
             max_depth: 0,
             min_leaf: 1,
             short_stack: 4,
+            step_cap: STEP_CAP,
         }
     }
 }
@@ -198,6 +226,9 @@ impl KdParams {
                 "short_stack must be in 1..={MAX_SHORT_STACK}, got {}",
                 self.short_stack
             ));
+        }
+        if self.step_cap == 0 {
+            return Err("step_cap must be at least 1".into());
         }
         Ok(())
     }
@@ -540,6 +571,14 @@ impl Accel for KdTree {
         TRAVERSALS
     }
 
+    /// The restart-type traversals (`restart`, `push-down`, `short-stack`, `sequential`,
+    /// `backtrack`, `ropes`) end a ray after [`KdParams::step_cap`] steps.
+    fn has_step_cap(&self, traversal: usize) -> bool {
+        TRAVERSALS
+            .get(traversal)
+            .is_some_and(|t| CAPPED.contains(&t.name))
+    }
+
     /// All arrays any traversal reads: nodes, references, triangles, and the auxiliary arrays
     /// of `backtrack` and `ropes` (32 + 24 bytes per node; their sizes are also in the build
     /// report, to subtract for the other traversals).
@@ -691,6 +730,15 @@ impl Accel for KdTree {
             ),
             8 => dispatch(
                 &stackless::Stackless::<{ stackless::ROPES }>(self),
+                query,
+                tri,
+                rays,
+                hits,
+                stats,
+            ),
+            9 => dispatch(&traverse::Branchless(self), query, tri, rays, hits, stats),
+            10 => dispatch(
+                &traverse::StackSpilling(self),
                 query,
                 tri,
                 rays,

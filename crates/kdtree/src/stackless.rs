@@ -15,72 +15,35 @@
 //! strictly forward in the depth-first order, so a walk ends; [`STEP_CAP`] steps end a ray
 //! anyway (defensive; the ray keeps its closest hit so far).
 //!
-//! `sequential` (and `ropes`, which locates leaves the same way below a rope) is Kaplan's
-//! leaf location at the entry distance, by distances with exact comparisons (a leaf's exit is
-//! strictly beyond its entry, so it progresses without an epsilon), and without the slack: a
-//! ray passing (up to rounding) through a cell edge or corner may skip a cell it only touches
-//! there, which is inherent to locating one leaf per step; the mismatches are reported by the
-//! tests, not hidden. Rays lying in a split plane
-//! (`t = NaN`) need both children, which no single front-to-back walk can do: such a walk
-//! takes the left child and records the axis, and the walk is repeated for each combination
-//! of sides on the zero-direction axes where that happened (at most 4 walks).
+//! `sequential` and `ropes` are Kaplan's point location (review §3.1, Alg. 1) of the ray
+//! point at the entry distance, from the root or below a rope, without an epsilon step: the
+//! root cause of their failures was a point that rounds back: the plane distances of the exit
+//! face and of a plane one ulp beyond it (a one-ulp-thin cell, Sibenik) round to the same
+//! `t`, and locating "the point at `t`" skipped the thin cell; likewise a ray far from a
+//! small cluster (`t` ulps coarser than its cells) cannot be located by distances at all. So
+//! the located point's coordinate on each axis whose exit face was crossed is that face's
+//! coordinate exactly (`Walk::floor`: planes at or before it are behind, compared as
+//! coordinates), and every other plane is behind only when its distance is below `t` by more
+//! than the rounding [`SLACK`]. Each step crosses one exit face strictly beyond the last on
+//! its axis, so a walk ends. Where a single point cannot decide (a plane distance within
+//! [`SLACK`] of the located point, or two exit faces tied: a ray through a cell edge or
+//! corner, or in a split plane off the zero-direction case), the walk stops and the ray is
+//! handed to `restart` from the root, keeping its closest hit (counted as one restart): the
+//! answer is then exactly the robust one. Rays lying in a split plane (`t = NaN`) take the
+//! left child and record the axis, and the walk is repeated for each combination of sides on
+//! the zero-direction axes where that happened (at most 4 walks).
 
-use crate::traverse::{decide, leaf, setup, Best, Kind, Setup};
-use crate::{BackNode, KdNode, KdTree};
+use crate::traverse::{decide, leaf, setup, Best, Kind, Setup, SLACK};
+use crate::{BackNode, KdTree};
 use tb_core::slab::{max_num, min_num};
 use tb_core::{Counter, HitRecord, Kernel, Ray, TriTest};
 
-/// Steps (nodes visited, backtracking steps included) after which a ray is ended.
+/// The default per-ray step cap ([`crate::KdParams::step_cap`]): steps (nodes visited,
+/// backtracking steps included) after which a restart-type walk ends a ray.
 pub const STEP_CAP: u32 = 100_000;
 
 /// Largest short stack of the `short-stack` traversal.
 pub const MAX_SHORT_STACK: usize = 32;
-
-/// The child holding the ray point at distance `tn` below interior node `idx` (exact
-/// comparisons: a plane at `t <= tn` is behind); for a ray in the split plane the side chosen
-/// by `mask`, the axis recorded in `seen`.
-#[inline(always)]
-fn classify(n: KdNode, idx: usize, s: &Setup, tn: f32, mask: u8, seen: &mut u8) -> usize {
-    let a = n.axis();
-    let t = (n.split() - s.org[a]) * s.inv[a];
-    let (left, right) = (idx + 1, n.right());
-    if t.is_nan() {
-        *seen |= 1 << a;
-        return if mask >> a & 1 != 0 { right } else { left };
-    }
-    let (near, far) = if s.neg[a] {
-        (right, left)
-    } else {
-        (left, right)
-    };
-    if t <= tn {
-        far
-    } else {
-        near
-    }
-}
-
-/// The exit distance of the ray from `cell`: the smallest distance to its far planes, the
-/// root cell's faces counting as the ray's root exit `s.t1` (see the module doc).
-#[inline(always)]
-fn cell_exit(kd: &KdTree, s: &Setup, min: &[f32; 3], max: &[f32; 3]) -> f32 {
-    let b = &kd.bounds;
-    let mut tf = s.t1;
-    for a in 0..3 {
-        let (far, root) = if s.neg[a] {
-            (min[a], b.min[a])
-        } else {
-            (max[a], b.max[a])
-        };
-        if far != root {
-            let t = (far - s.org[a]) * s.inv[a];
-            if t < tf {
-                tf = t;
-            }
-        }
-    }
-    tf
-}
 
 /// Run `pass(mask)` (returns `(stop, seen)`) for mask 0, then, if some walk met a split plane
 /// containing the ray, for every other combination of sides on the zero-direction axes.
@@ -204,8 +167,8 @@ pub(crate) fn build_ropes(kd: &KdTree) -> Vec<[u32; 6]> {
 /// - `sequential` (Kaplan 1985; review §3.1, Alg. 1): see the module doc;
 /// - `ropes` (MacDonald and Booth 1990, Havran et al. 1998, Popov et al. 2007; review §3.3):
 ///   from a leaf, follow the pushed-down rope of its exit face and locate the next leaf
-///   below it, by distances as `sequential` (and like it, not robust at cell edges and
-///   corners, where the exit face is a tie).
+///   below it as `sequential` does (the same hand-over to `restart` where a point cannot
+///   decide).
 ///
 /// Counters: `interior`, `leaves`, `planes` as the stack traversals, nodes revisited by a
 /// restart or climbed by `backtrack` included; `restarts`: restarts (from the root or the
@@ -226,32 +189,64 @@ impl<const M: u8> Stackless<'_, M> {
         let pre = T::prepare(ray);
         let mut best = Best::new(ray.tmax);
         if M == SEQUENTIAL || M == ROPES {
+            let root = &kd.bounds;
+            let floor: [f32; 3] =
+                std::array::from_fn(|a| if s.neg[a] { root.max[a] } else { root.min[a] });
             let mut steps = 0u32;
+            let mut ambiguous = false;
             passes(&s, |mask| {
-                let mut seen = 0u8;
-                let stop = if M == ROPES {
-                    self.ropes::<T, C, ANY>(
-                        &s, ray, &pre, &mut best, c, mask, &mut seen, &mut steps,
-                    )
-                } else {
-                    self.sequential::<T, C, ANY>(
-                        &s, ray, &pre, &mut best, c, mask, &mut seen, &mut steps,
-                    )
+                let mut w = Walk {
+                    kd,
+                    s: &s,
+                    floor,
+                    mask,
+                    seen: 0,
+                    steps,
+                    cap: kd.params.step_cap,
+                    ambiguous: false,
                 };
-                (stop, seen)
+                let stop = if M == ROPES {
+                    self.crawl::<T, C, ANY, true>(&mut w, ray, &pre, &mut best, c)
+                } else {
+                    self.crawl::<T, C, ANY, false>(&mut w, ray, &pre, &mut best, c)
+                };
+                steps = w.steps;
+                ambiguous = stop.is_none();
+                (stop.unwrap_or(true), w.seen)
             });
-            return best.record();
+            if !ambiguous {
+                return best.record();
+            }
+            // Point location was ambiguous within rounding: hand the ray to kd-restart.
+            c.restart();
+            return self.stackless::<T, C, ANY, RESTART>(&s, ray, &pre, best, steps, c);
         }
+        self.stackless::<T, C, ANY, M>(&s, ray, &pre, best, 0, c)
+    }
+
+    /// The restart-type walk `K` (`RESTART`, `PUSH_DOWN`, `SHORT_STACK`, `BACKTRACK`) of one
+    /// ray from the root, starting with the closest hit `best` and `steps` steps taken.
+    #[inline(always)]
+    fn stackless<T: TriTest, C: Counter, const ANY: bool, const K: u8>(
+        &self,
+        s: &Setup,
+        ray: &Ray,
+        pre: &T::Pre,
+        mut best: Best,
+        mut steps: u32,
+        c: &mut C,
+    ) -> HitRecord {
+        let kd = self.0;
+        let s = *s;
         let nodes = kd.nodes.as_slice();
         let back = kd.back.as_slice();
         let size = kd.params.short_stack as usize;
         let mut stack = [(0u32, 0f32, 0f32); MAX_SHORT_STACK];
         // Circular short stack: `count` entries, the newest at `top - 1` (mod `size`).
         let (mut top, mut count) = (0usize, 0usize);
-        let mut steps = 0u32;
         // The pushed-down node and its interval, and whether it may still be pushed down.
         let (mut pd, mut pd_tn, mut pd_tf) = (0usize, s.t0, s.t1);
-        let mut push = M == PUSH_DOWN || M == SHORT_STACK;
+        let mut push = K == PUSH_DOWN || K == SHORT_STACK;
         let (mut idx, mut tn, mut tf) = (0usize, s.t0, s.t1);
         loop {
             // Descend to the first leaf of the subtree, near first.
@@ -269,7 +264,7 @@ impl<const M: u8> Stackless<'_, M> {
                     Kind::NearOnly => idx = d.near,
                     Kind::FarOnly => idx = d.far,
                     Kind::Both => {
-                        if M == SHORT_STACK {
+                        if K == SHORT_STACK {
                             stack[top] = (d.far as u32, d.far_tn, tf);
                             top = if top + 1 == size { 0 } else { top + 1 };
                             count = (count + 1).min(size);
@@ -284,14 +279,15 @@ impl<const M: u8> Stackless<'_, M> {
                 }
             }
             steps += 1;
-            if leaf::<T, C, ANY>(kd, nodes[idx], &pre, ray, &mut best, c) {
+            if leaf::<T, C, ANY>(kd, nodes[idx], pre, ray, &mut best, c) {
                 return best.record();
             }
-            if steps >= STEP_CAP {
+            if steps >= kd.params.step_cap {
+                c.capped();
                 return best.record();
             }
             let last = idx;
-            if M == SHORT_STACK {
+            if K == SHORT_STACK {
                 let mut popped = false;
                 while count > 0 {
                     top = if top == 0 { size - 1 } else { top - 1 };
@@ -308,7 +304,7 @@ impl<const M: u8> Stackless<'_, M> {
                 }
             }
             c.restart();
-            let next = if M == BACKTRACK {
+            let next = if K == BACKTRACK {
                 // Climb from the leaf.
                 let mut child = last;
                 let mut x = back[last].parent as usize;
@@ -361,130 +357,174 @@ impl<const M: u8> Stackless<'_, M> {
                 return best.record();
             };
             (idx, tn, tf) = (f, a, b);
-            push = alone && (M == PUSH_DOWN || M == SHORT_STACK);
+            push = alone && (K == PUSH_DOWN || K == SHORT_STACK);
             if push {
                 (pd, pd_tn, pd_tf) = (idx, tn, tf);
             }
         }
     }
 
-    /// One walk of `ropes`: locate the entry leaf from the root, then from each leaf follow
-    /// the rope of its exit face and locate the next leaf below the rope's node.
+    /// One walk of `sequential` (`ROPE == false`) or `ropes` (`ROPE == true`): locate the
+    /// entry leaf from the root, then repeatedly leave the leaf through its exit face and
+    /// locate the next leaf, from the root (`sequential`) or below the exit face's rope
+    /// (`ropes`), with [`Walk::locate`]. Returns `true` when the ray is done (any-hit found, or
+    /// the step cap reached).
     #[inline(always)]
-    fn ropes<T: TriTest, C: Counter, const ANY: bool>(
+    fn crawl<T: TriTest, C: Counter, const ANY: bool, const ROPE: bool>(
         &self,
-        s: &Setup,
+        w: &mut Walk<'_>,
         ray: &Ray,
         pre: &T::Pre,
         best: &mut Best,
         c: &mut C,
-        mask: u8,
-        seen: &mut u8,
-        steps: &mut u32,
-    ) -> bool {
+    ) -> Option<bool> {
         let kd = self.0;
-        let nodes = kd.nodes.as_slice();
+        let s = w.s;
         let r = &kd.bounds;
+        let (mut idx, mut min, mut max) = w.locate_root(s.t0, w.floor, c);
         let mut tn = s.t0;
-        let mut idx = 0usize;
         loop {
-            // Leaf location of the ray point at `tn` below `idx`.
-            loop {
-                let n = nodes[idx];
-                if n.is_leaf() {
-                    break;
-                }
-                c.interior();
-                c.steps(1);
-                c.planes(1);
-                *steps += 1;
-                idx = classify(n, idx, s, tn, mask, seen);
+            if w.ambiguous {
+                return None;
             }
-            *steps += 1;
-            if leaf::<T, C, ANY>(kd, nodes[idx], pre, ray, best, c) {
-                return true;
+            w.steps += 1;
+            if leaf::<T, C, ANY>(kd, kd.nodes[idx], pre, ray, best, c) {
+                return Some(true);
             }
-            // The exit face: the nearest far plane that is not a root face.
+            if w.steps >= w.cap {
+                c.capped();
+                return Some(true);
+            }
+            // The exit: the nearest far plane that is not a root face. Another far plane
+            // within rounding of it (a ray through a cell edge or corner) is an ambiguity.
             c.boxes(1);
-            let b = &kd.back[idx];
-            let (mut tf, mut face) = (s.t1, usize::MAX);
+            let mut ts = [f32::INFINITY; 3];
+            let (mut tf, mut face) = (f32::INFINITY, 3usize);
             for a in 0..3 {
-                let (far, root, side) = if s.neg[a] {
-                    (b.min[a], r.min[a], 0)
+                let (far, root) = if s.neg[a] {
+                    (min[a], r.min[a])
                 } else {
-                    (b.max[a], r.max[a], 1)
+                    (max[a], r.max[a])
                 };
                 if far != root {
                     let t = (far - s.org[a]) * s.inv[a];
+                    ts[a] = t;
                     if t < tf {
                         tf = t;
-                        face = 2 * a + side;
+                        face = a;
                     }
                 }
             }
-            if best.t <= tf || face == usize::MAX || *steps >= STEP_CAP {
-                return *steps >= STEP_CAP;
+            if face == 3 || best.t <= tf || tf > s.t1 * SLACK {
+                return Some(false);
             }
-            let rope = kd.ropes[idx][face];
-            if rope == NO_ROPE {
-                return false;
+            let reach = tf + (SLACK - 1.0) * tf.abs();
+            if (0..3).any(|a| a != face && ts[a] <= reach) {
+                return None;
             }
-            tn = tn.max(tf);
-            idx = rope as usize;
+            w.floor[face] = if s.neg[face] { min[face] } else { max[face] };
+            tn = max_num(tn, tf);
+            if ROPE {
+                let side = if s.neg[face] { 0 } else { 1 };
+                let rope = kd.ropes[idx][2 * face + side];
+                if rope == NO_ROPE {
+                    return Some(false);
+                }
+                let b = &kd.back[rope as usize];
+                (idx, min, max) = w.locate(rope as usize, b.min, b.max, tn, w.floor, c);
+            } else {
+                c.restart();
+                (idx, min, max) = w.locate_root(tn, w.floor, c);
+            }
         }
     }
+}
 
-    /// One walk of `sequential`.
+/// The state of one `sequential` or `ropes` walk (see the module doc).
+struct Walk<'a> {
+    kd: &'a KdTree,
+    s: &'a Setup,
+    /// Per axis, the coordinate of the last exit face crossed on that axis (initially the
+    /// root's entry face): every plane at or before it in the direction of travel is behind.
+    floor: [f32; 3],
+    /// For rays lying in a split plane: the side to take per axis, and the axes met.
+    mask: u8,
+    seen: u8,
+    steps: u32,
+    cap: u32,
+    /// A plane distance within rounding of the located point was met.
+    ambiguous: bool,
+}
+
+impl Walk<'_> {
+    /// [`Walk::locate`] from the root.
     #[inline(always)]
-    fn sequential<T: TriTest, C: Counter, const ANY: bool>(
-        &self,
-        s: &Setup,
-        ray: &Ray,
-        pre: &T::Pre,
-        best: &mut Best,
+    fn locate_root<C: Counter>(
+        &mut self,
+        tn: f32,
+        floor: [f32; 3],
         c: &mut C,
-        mask: u8,
-        seen: &mut u8,
-        steps: &mut u32,
-    ) -> bool {
-        let kd = self.0;
-        let nodes = kd.nodes.as_slice();
-        let mut tn = s.t0;
+    ) -> (usize, [f32; 3], [f32; 3]) {
+        let b = &self.kd.bounds;
+        self.locate(0, b.min.to_array(), b.max.to_array(), tn, floor, c)
+    }
+
+    /// Kaplan's point location (review §3.1) below node `idx` with cell `min..max` of the ray
+    /// point at distance `tn`, the point's coordinate on an axis whose exit face was crossed
+    /// being that face's coordinate *exactly* (`floor`), not `o + tn·d` rounded: a plane at
+    /// or before `floor[a]` in the direction of travel is behind; any other plane is behind
+    /// only when its distance is below `tn` by more than the rounding [`SLACK`], so a cell
+    /// that a plane distance rounded onto `tn` would skip (one-ulp-thin cells, planes crossed
+    /// at the same rounded distance) is visited. Returns the leaf and its cell.
+    #[inline(always)]
+    fn locate<C: Counter>(
+        &mut self,
+        mut idx: usize,
+        mut min: [f32; 3],
+        mut max: [f32; 3],
+        tn: f32,
+        floor: [f32; 3],
+        c: &mut C,
+    ) -> (usize, [f32; 3], [f32; 3]) {
+        let s = self.s;
+        let nodes = self.kd.nodes.as_slice();
+        let below = tn - (SLACK - 1.0) * tn.abs();
+        let above = tn + (SLACK - 1.0) * tn.abs();
         loop {
-            // Leaf location of the ray point at `tn`, keeping the cell.
-            let mut idx = 0usize;
-            let (mut min, mut max) = (kd.bounds.min.to_array(), kd.bounds.max.to_array());
-            loop {
-                let n = nodes[idx];
-                if n.is_leaf() {
-                    break;
-                }
-                c.interior();
-                c.steps(1);
-                c.planes(1);
-                *steps += 1;
-                let child = classify(n, idx, s, tn, mask, seen);
-                if child == idx + 1 {
-                    max[n.axis()] = n.split();
+            let n = nodes[idx];
+            if n.is_leaf() {
+                return (idx, min, max);
+            }
+            c.interior();
+            c.steps(1);
+            c.planes(1);
+            self.steps += 1;
+            let a = n.axis();
+            let sp = n.split();
+            let t = (sp - s.org[a]) * s.inv[a];
+            let left = if t.is_nan() {
+                // The ray lies in the plane: the side chosen by the pass (see `passes`).
+                self.seen |= 1 << a;
+                self.mask >> a & 1 == 0
+            } else {
+                let behind = if s.neg[a] {
+                    sp >= floor[a]
                 } else {
-                    min[n.axis()] = n.split();
+                    sp <= floor[a]
+                };
+                if !behind && t >= below && t <= above {
+                    self.ambiguous = true;
                 }
-                idx = child;
+                // The near child (left for a positive direction) unless the plane is behind.
+                (behind || t < below) == s.neg[a]
+            };
+            if left {
+                max[a] = sp;
+                idx += 1;
+            } else {
+                min[a] = sp;
+                idx = n.right();
             }
-            *steps += 1;
-            if leaf::<T, C, ANY>(kd, nodes[idx], pre, ray, best, c) {
-                return true;
-            }
-            c.boxes(1);
-            let tf = cell_exit(kd, s, &min, &max);
-            if best.t <= tf || tf >= s.t1 || tf <= tn {
-                return false;
-            }
-            if *steps >= STEP_CAP {
-                return true;
-            }
-            tn = tf;
-            c.restart();
         }
     }
 }

@@ -21,7 +21,7 @@ pub const STACK_SIZE: usize = 64;
 /// point (a vertex at a cell corner) give distances within `4·2^-24·t`; decisions "near only"
 /// and "far only" are taken only when the distance clears the interval by this factor, and both
 /// children are visited otherwise (the split distance then clamped to the interval).
-const SLACK: f32 = 1.0 + 8.0 * f32::EPSILON;
+pub(crate) const SLACK: f32 = 1.0 + 8.0 * f32::EPSILON;
 
 /// Pop the next pending subtree `(node, entry, exit)` off `stack[..*sp]`, skipping those whose
 /// entry distance (`entry_t`) lies beyond the closest hit `best_t` (any-hit queries skip
@@ -468,6 +468,180 @@ impl RecursiveOrigin<'_> {
 }
 
 impl Kernel for RecursiveOrigin<'_> {
+    #[inline]
+    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.walk::<T, C, false>(ray, c)
+    }
+
+    #[inline]
+    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.walk::<T, C, true>(ray, c)
+    }
+}
+
+/// `branchless` (traversal 9): the direction-classified recursive traversal with the
+/// interior-node step written without branches (Hapala 2009; Hapala and Havran 2011 §5.5,
+/// Algorithm 5 and Table 2; Benthin 2006): the far child is always written to the stack
+/// slot of the current node and the stack pointer advanced by `c = (t ≤ t_exit)`, then the
+/// near child written to the new top and the pointer moved back by `d = (t < t_entry)`, so
+/// "near only", "far only" and "both" need no branch; the next node is the top of the
+/// stack. The comparisons carry the rounding slack of [`RecursiveDirection`] (`c` unless
+/// `t > t_exit·SLACK`, `d` when `t·SLACK < t_entry`; a NaN `t` gives both children over the
+/// whole interval), so it visits exactly the same nodes. Extra memory: the stack, one entry
+/// more than `recursive-direction`'s.
+pub(crate) struct Branchless<'a>(pub &'a KdTree);
+
+impl Branchless<'_> {
+    #[inline(always)]
+    fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        let kd = self.0;
+        c.boxes(1);
+        let Some(s) = setup(kd, ray) else {
+            return HitRecord::MISS;
+        };
+        let pre = T::prepare(ray);
+        let nodes = kd.nodes.as_slice();
+        let mut best = Best::new(ray.tmax);
+        let mut stack = [(0u32, 0f32, 0f32); STACK_SIZE + 1];
+        // `n` entries; the top, `stack[n - 1]`, is the node being processed.
+        stack[0] = (0, s.t0, s.t1);
+        let mut n = 1usize;
+        loop {
+            let (idx, tn, tf) = stack[n - 1];
+            let idx = idx as usize;
+            // SAFETY: as in `RecursiveDirection::walk`.
+            let node = unsafe { *nodes.get_unchecked(idx) };
+            if !node.is_leaf() {
+                c.interior();
+                c.steps(1);
+                c.planes(1);
+                let a = node.axis();
+                let t = (node.split() - s.org[a]) * s.inv[a];
+                let neg = s.neg[a] as usize;
+                // Left child idx + 1, right child `right`; near = left unless neg.
+                let kids = [idx + 1, node.right()];
+                let (near, far) = (kids[neg], kids[1 - neg]);
+                // `t > tf·SLACK` is false for a NaN `t`: both children.
+                let near_only = t > tf * SLACK;
+                let go_far = (!near_only) as usize;
+                let far_only = (t * SLACK < tn) as usize & go_far;
+                stack[n - 1] = (far as u32, max_num(tn, t), tf);
+                n += go_far;
+                stack[n - 1] = (near as u32, tn, min_num(tf, t));
+                n -= far_only;
+                continue;
+            }
+            if leaf::<T, C, ANY>(kd, node, &pre, ray, &mut best, c) {
+                return best.record();
+            }
+            n -= 1;
+            while n > 0 && !ANY && stack[n - 1].1 > best.t {
+                n -= 1;
+            }
+            if n == 0 {
+                return best.record();
+            }
+        }
+    }
+}
+
+impl Kernel for Branchless<'_> {
+    #[inline]
+    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.walk::<T, C, false>(ray, c)
+    }
+
+    #[inline]
+    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.walk::<T, C, true>(ray, c)
+    }
+}
+
+/// `stack-spilling` (traversal 10): `recursive-direction` with a short circular stack of
+/// [`crate::KdParams::short_stack`] entries whose oldest entry, on overflow, is *spilled* to a
+/// full stack in memory instead of being discarded; on underflow the full stack is popped
+/// before the walk ends, so no restart is ever needed (Novák 2009; Hapala and Havran 2011
+/// §5.2, Figure 8, Table 3 "stack spilling"). Visits exactly the nodes of
+/// `recursive-direction`; `boxes` counts 1 plus one per entry spilled or refilled (the
+/// traffic to the memory stack). Extra memory: the short stack and a full stack per ray.
+pub(crate) struct StackSpilling<'a>(pub &'a KdTree);
+
+impl StackSpilling<'_> {
+    #[inline(always)]
+    fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        let kd = self.0;
+        c.boxes(1);
+        let Some(s) = setup(kd, ray) else {
+            return HitRecord::MISS;
+        };
+        let pre = T::prepare(ray);
+        let nodes = kd.nodes.as_slice();
+        let mut best = Best::new(ray.tmax);
+        let size = kd.params.short_stack as usize;
+        let mut short = [(0u32, 0f32, 0f32); crate::MAX_SHORT_STACK];
+        // Circular: `count` entries, the newest at `top - 1` (mod `size`).
+        let (mut top, mut count) = (0usize, 0usize);
+        let mut spill = [(0u32, 0f32, 0f32); STACK_SIZE];
+        let mut sn = 0usize;
+        let (mut idx, mut tn, mut tf) = (0usize, s.t0, s.t1);
+        loop {
+            // SAFETY: as in `RecursiveDirection::walk`.
+            let n = unsafe { *nodes.get_unchecked(idx) };
+            if !n.is_leaf() {
+                c.interior();
+                c.steps(1);
+                c.planes(1);
+                let d = decide(n, idx, &s, tn, tf);
+                match d.kind {
+                    Kind::NearOnly => idx = d.near,
+                    Kind::FarOnly => idx = d.far,
+                    Kind::Both => {
+                        if count == size {
+                            // Overflow: spill the oldest entry.
+                            let oldest = (top + size - count) % size;
+                            spill[sn] = short[oldest];
+                            sn += 1;
+                            count -= 1;
+                            c.boxes(1);
+                        }
+                        short[top] = (d.far as u32, d.far_tn, tf);
+                        top = if top + 1 == size { 0 } else { top + 1 };
+                        count += 1;
+                        idx = d.near;
+                        tf = d.near_tf;
+                    }
+                }
+                continue;
+            }
+            if leaf::<T, C, ANY>(kd, n, &pre, ray, &mut best, c) {
+                return best.record();
+            }
+            let next = loop {
+                let e = if count > 0 {
+                    top = if top == 0 { size - 1 } else { top - 1 };
+                    count -= 1;
+                    short[top]
+                } else if sn > 0 {
+                    // Underflow: refill from the memory stack.
+                    sn -= 1;
+                    c.boxes(1);
+                    spill[sn]
+                } else {
+                    break None;
+                };
+                if ANY || e.1 <= best.t {
+                    break Some(e);
+                }
+            };
+            let Some((i, a, b)) = next else {
+                return best.record();
+            };
+            (idx, tn, tf) = (i as usize, a, b);
+        }
+    }
+}
+
+impl Kernel for StackSpilling<'_> {
     #[inline]
     fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         self.walk::<T, C, false>(ray, c)

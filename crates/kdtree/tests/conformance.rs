@@ -36,6 +36,9 @@ impl Accel for Subset {
     fn validate(&self) -> Result<(), String> {
         self.kd.validate()
     }
+    fn has_step_cap(&self, traversal: usize) -> bool {
+        self.kd.has_step_cap(self.which[traversal])
+    }
     fn trace(
         &self,
         traversal: usize,
@@ -55,19 +58,23 @@ fn index(name: &str) -> usize {
     TRAVERSALS.iter().position(|t| t.name == name).unwrap()
 }
 
-/// The robust traversals: all but `recursive-origin` (2), `sequential` (6) and `ropes` (8).
-const ROBUST: &[usize] = &[0, 1, 3, 4, 5, 7];
+/// The robust traversals: all but `recursive-origin`.
+fn robust() -> &'static [usize] {
+    let v: Vec<usize> = (0..TRAVERSALS.len())
+        .filter(|&i| !NOT_ROBUST.contains(&TRAVERSALS[i].name))
+        .collect();
+    Box::leak(v.into_boxed_slice())
+}
 /// The inherently non-robust ones, whose mismatches are reported.
-const NOT_ROBUST: &[&str] = &["recursive-origin", "sequential", "ropes"];
+const NOT_ROBUST: &[&str] = &["recursive-origin"];
 
 fn run(params: KdParams) {
-    for (i, t) in TRAVERSALS.iter().enumerate() {
-        assert!(ROBUST.contains(&i) != NOT_ROBUST.contains(&t.name));
-    }
+    let which = robust();
+    assert_eq!(which.len() + NOT_ROBUST.len(), TRAVERSALS.len());
     tb_scene::conformance::assert_conforms(&move |tris| {
         let kd = KdTree::build(tris, &params);
         kd.validate().expect("valid kd-tree");
-        Box::new(Subset::new(kd, ROBUST)) as Box<dyn Accel>
+        Box::new(Subset::new(kd, which)) as Box<dyn Accel>
     });
 }
 
@@ -94,9 +101,8 @@ fn conforms_shallow_big_leaves() {
     });
 }
 
-/// `recursive-origin` is not robust for origins in split planes (Havran et al. 1997), and
-/// `sequential` may skip a cell touched only at an edge or corner (one leaf located per step):
-/// their mismatches with brute force on the suite are counted and printed (run with
+/// `recursive-origin` is not robust for origins in split planes (Havran et al. 1997): its
+/// mismatches with brute force on the suite are counted and printed (run with
 /// `--nocapture`), not asserted beyond "nearly every ray matches".
 #[test]
 fn non_robust_mismatches_reported() {
@@ -178,6 +184,95 @@ fn counters_are_consistent() {
         let restarts: u32 = stats.iter().map(|s| s.restarts).sum();
         if (3..8).contains(&ti) {
             assert!(restarts > 0, "{}", info.name);
+        }
+    }
+}
+
+/// The step cap ends rays and counts them: with a cap of 3 steps every restart-type traversal
+/// caps some rays (and keeps the hits found before), with the default cap none; the stack
+/// traversals have no cap.
+#[test]
+fn step_cap_fires_and_is_counted() {
+    use tb_core::{Query, TraversalStats};
+    let scene = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new(".")).unwrap();
+    let rays = tb_scene::rays::random(&scene.bounds, 500, 5);
+    for cap in [3, tb_kdtree::STEP_CAP] {
+        let params = KdParams {
+            step_cap: cap,
+            ..Default::default()
+        };
+        let kd = KdTree::build(&scene.triangles, &params);
+        for (ti, info) in TRAVERSALS.iter().enumerate() {
+            let mut hits = vec![HitRecord::MISS; rays.len()];
+            let mut stats = vec![TraversalStats::default(); rays.len()];
+            kd.trace(
+                ti,
+                Query::Closest,
+                TriTestKind::Watertight,
+                &rays,
+                &mut hits,
+                Some(&mut stats),
+            );
+            let summary = tb_core::StatsSummary::from_stats(&stats);
+            if !kd.has_step_cap(ti) {
+                assert_eq!(summary.capped, 0, "{}", info.name);
+                continue;
+            }
+            if cap == 3 {
+                assert!(summary.capped > 0, "{}: no ray capped", info.name);
+                for s in stats.iter().filter(|s| s.capped != 0) {
+                    assert!(s.steps >= 3, "{}", info.name);
+                }
+            } else {
+                assert_eq!(summary.capped, 0, "{}", info.name);
+            }
+        }
+    }
+    let kd = KdTree::build(&scene.triangles, &KdParams::default());
+    assert!(!kd.has_step_cap(index("recursive-direction")));
+    assert!(kd.has_step_cap(index("sequential")));
+}
+
+/// `branchless` and `stack-spilling` (with a one-entry short stack, so it spills) visit
+/// exactly the nodes of `recursive-direction`, ray by ray.
+#[test]
+fn branchless_and_spilling_visit_the_recursive_nodes() {
+    use tb_core::{Query, TraversalStats};
+    let scene = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new(".")).unwrap();
+    let kd = KdTree::build(
+        &scene.triangles,
+        &KdParams {
+            short_stack: 1,
+            ..Default::default()
+        },
+    );
+    let rays = tb_scene::rays::random(&scene.bounds, 500, 11);
+    let count = |ti: usize| {
+        let mut hits = vec![HitRecord::MISS; rays.len()];
+        let mut stats = vec![TraversalStats::default(); rays.len()];
+        kd.trace(
+            ti,
+            Query::Closest,
+            TriTestKind::Watertight,
+            &rays,
+            &mut hits,
+            Some(&mut stats),
+        );
+        stats
+    };
+    let base = count(index("recursive-direction"));
+    for name in ["branchless", "stack-spilling"] {
+        let other = count(index(name));
+        for (a, b) in base.iter().zip(&other) {
+            assert_eq!(
+                (a.interior, a.leaves, a.prims),
+                (b.interior, b.leaves, b.prims),
+                "{name}"
+            );
+        }
+        if name == "stack-spilling" {
+            // Spills and refills happened (counted in `boxes` beyond the root test).
+            assert!(other.iter().any(|s| s.boxes > 1));
         }
     }
 }
