@@ -8,6 +8,7 @@ struct Ray { origin: vec3<f32>, tmin: f32, dir: vec3<f32>, tmax: f32 }   // tb_c
 struct Hit { t: f32, prim: u32, u: f32, v: f32 }                          // tb_core::HitRecord
 struct Stats {                                                            // tb_core::TraversalStats
     interior: u32, leaves: u32, prims: u32, boxes: u32, planes: u32, restarts: u32, steps: u32,
+    capped: u32,   // always 0: the GPU traversals have no step cap
 }
 // x: triangles, y: nodes (0 for brute force).
 struct Meta { counts: vec4<u32> }
@@ -31,7 +32,7 @@ fn miss() -> Hit {
 }
 
 fn zero_stats() -> Stats {
-    return Stats(0u, 0u, 0u, 0u, 0u, 0u, 0u);
+    return Stats(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
 }
 
 fn vertex(i: u32, k: u32) -> vec3<f32> {

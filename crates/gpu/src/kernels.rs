@@ -102,7 +102,7 @@ struct GpuHit {
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct GpuStats([u32; 7]);
+struct GpuStats([u32; 8]);
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -582,6 +582,7 @@ impl Gpu {
                 planes: a[4],
                 restarts: a[5],
                 steps: a[6],
+                capped: a[7],
             })
             .collect();
         Ok((stats, ms))

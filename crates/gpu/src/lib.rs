@@ -84,4 +84,4 @@ pub fn gpu_required_by_env() -> bool {
 /// Bytes of one [`TraversalStats`] record as the kernels write it.
 pub const STATS_BYTES: u64 = std::mem::size_of::<TraversalStats>() as u64;
 
-const _: () = assert!(STATS_BYTES == 28);
+const _: () = assert!(STATS_BYTES == 32);
