@@ -1,24 +1,13 @@
 //! End-to-end tests of the `trace-bench` command line: config errors, malformed scene files,
 //! interrupted runs resumed, and the baseline check.
 
+mod common;
+use common::*;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 use tb_harness::config::{self, Overrides};
 use tb_harness::output::read_csv;
-
-fn run(args: &[&str]) -> i32 {
-    let mut v: Vec<std::ffi::OsString> = vec!["trace-bench".into()];
-    v.extend(args.iter().map(|a| a.into()));
-    trace_bench::run(v)
-}
-
-fn parse_err(text: &str) -> String {
-    let file = Path::new("configs/test.toml");
-    match config::parse(file, text, &Overrides::default(), &mut |_| {}) {
-        Ok(_) => panic!("config should not parse:\n{text}"),
-        Err(e) => e.to_string(),
-    }
-}
 
 const GOOD: &str = r#"
 [run]
@@ -179,13 +168,7 @@ fn malformed_scenes_fail_cleanly_without_results() {
     for name in ["bad.obj", "junk.obj", "cut.obj.gz", "bad.gltf"] {
         let cfg = write_config(d, &d.join(name).display().to_string());
         let out = d.join(format!("out-{name}"));
-        let code = run(&[
-            "run",
-            cfg.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "-q",
-        ]);
+        let code = run_quiet(&cfg, &out);
         assert_eq!(code, 1, "{name} must fail");
         assert!(
             !out.join("results.csv").exists(),

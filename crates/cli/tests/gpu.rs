@@ -3,14 +3,11 @@
 //! structures without a GPU kernel get a note; a missing adapter fails the run only when the
 //! GPU is required, and the CPU rows are written either way.
 
+mod common;
+use common::*;
+
 use std::path::{Path, PathBuf};
 use tb_harness::output::{read_csv, Row};
-
-fn run(args: &[&str]) -> i32 {
-    let mut v: Vec<std::ffi::OsString> = vec!["trace-bench".into()];
-    v.extend(args.iter().map(|a| a.into()));
-    trace_bench::run(v)
-}
 
 fn gpu_config() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/gpu.toml")
@@ -36,13 +33,7 @@ fn counters(r: &Row) -> Vec<Option<f64>> {
 fn gpu_config_writes_cpu_and_gpu_rows_that_agree() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let code = run(&[
-        "run",
-        gpu_config().to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "-q",
-    ]);
+    let code = run_quiet(&gpu_config(), &out);
     let rows = read_csv(&out.join("results.csv")).unwrap();
     let cpu: Vec<&Row> = rows.iter().filter(|r| r.device == "cpu").collect();
     let gpu: Vec<&Row> = rows.iter().filter(|r| r.device == "gpu").collect();
@@ -198,13 +189,7 @@ name = "bvh"
     )
     .unwrap();
     let out = dir.path().join("out");
-    let code = run(&[
-        "run",
-        cfg.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "-q",
-    ]);
+    let code = run_quiet(&cfg, &out);
     assert_eq!(code, 0);
     let text = std::fs::read_to_string(out.join("convergence.csv")).unwrap();
     let mut rdr = csv::Reader::from_reader(text.as_bytes());

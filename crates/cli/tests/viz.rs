@@ -1,25 +1,12 @@
 //! End-to-end tests of the pictures and convergence outputs: `[run] images = true`,
 //! `[convergence]`, `trace-bench diff`, and the errors of their config keys.
 
+mod common;
+use common::*;
+
 use std::fs;
-use std::path::Path;
-use tb_harness::config::{self, Overrides};
 use tb_harness::convergence::ConvergenceRow;
 use tb_render::Channels;
-
-fn run(args: &[&str]) -> i32 {
-    let mut v: Vec<std::ffi::OsString> = vec!["trace-bench".into()];
-    v.extend(args.iter().map(|a| a.into()));
-    trace_bench::run(v)
-}
-
-fn parse_err(text: &str) -> String {
-    let file = Path::new("configs/test.toml");
-    match config::parse(file, text, &Overrides::default(), &mut |_| {}) {
-        Ok(_) => panic!("config should not parse:\n{text}"),
-        Err(e) => e.to_string(),
-    }
-}
 
 const SCENE: &str = "[[scene]]\nsource = \"builtin:cornell\"\n\n[[structure]]\nname = \"bvh\"\n";
 

@@ -127,6 +127,19 @@ impl GpuDevice {
     }
 }
 
+/// The arrays a GPU kernel reads for `accel` (one with a kernel: [`has_kernel`]).
+fn structure_of<'a>(accel: &'a dyn Accel, tris: &'a [Triangle]) -> Result<Structure<'a>, String> {
+    Ok(match accel.name() {
+        "bvh" => Structure::Bvh(
+            accel
+                .as_any()
+                .and_then(|a| a.downcast_ref::<Bvh>())
+                .ok_or("the bvh build is not a tb_bvh::Bvh")?,
+        ),
+        _ => Structure::BruteForce(tris),
+    })
+}
+
 impl GpuDevice {
     /// A [`tb_render::Tracer`] for the convergence renders of one build: the structure is
     /// uploaded once; each batch of rays is uploaded, traced (timed kernel, no counters) and
@@ -146,16 +159,9 @@ impl GpuDevice {
                 accel.name()
             ));
         }
-        let structure = match accel.name() {
-            "bvh" => Structure::Bvh(
-                accel
-                    .as_any()
-                    .and_then(|a| a.downcast_ref::<Bvh>())
-                    .ok_or("the bvh build is not a tb_bvh::Bvh")?,
-            ),
-            _ => Structure::BruteForce(tris),
-        };
-        let s = gpu.upload(structure).map_err(|e| e.to_string())?;
+        let s = gpu
+            .upload(structure_of(accel, tris)?)
+            .map_err(|e| e.to_string())?;
         Ok(GpuTracer {
             gpu,
             s,
@@ -217,16 +223,8 @@ fn measure_on(
     let s = build
         .structure
         .get_or_insert_with(|| {
-            let structure = match accel.name() {
-                "bvh" => Structure::Bvh(
-                    accel
-                        .as_any()
-                        .and_then(|a| a.downcast_ref::<Bvh>())
-                        .ok_or("the bvh build is not a tb_bvh::Bvh")?,
-                ),
-                _ => Structure::BruteForce(tris),
-            };
-            gpu.upload(structure).map_err(|e| e.to_string())
+            gpu.upload(structure_of(accel, tris)?)
+                .map_err(|e| e.to_string())
         })
         .as_ref()
         .map_err(|e| e.clone())?;
