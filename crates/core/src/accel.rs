@@ -69,8 +69,16 @@ pub trait Accel: Send + Sync {
     /// The traversal algorithms this build supports; the index into this slice selects one.
     fn traversals(&self) -> &'static [TraversalInfo];
 
-    /// Memory of the built structure.
+    /// Memory of the built structure: every array any of its traversals reads.
     fn memory(&self) -> MemoryReport;
+
+    /// Memory that traversal number `traversal` reads: [`Accel::memory`] less the auxiliary
+    /// arrays only other traversals need (the kd-tree review's Table 3 "additional memory"
+    /// shows up as the difference between traversals). Default: all of it.
+    fn memory_for(&self, traversal: usize) -> MemoryReport {
+        let _ = traversal;
+        self.memory()
+    }
 
     /// Build figures (SAH cost and others).
     fn build_report(&self) -> BuildReport {

@@ -534,7 +534,7 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
                         ray_kind: b.name.clone(),
                         rays: b.rays.len() as u64,
                         build_ms: Some(build_ms),
-                        memory_bytes: Some(mem.bytes),
+                        memory_bytes: Some(accel.memory_for(ti).bytes),
                         nodes: Some(mem.nodes),
                         prim_refs: Some(mem.prim_refs),
                         node_bytes: Some(mem.node_bytes),

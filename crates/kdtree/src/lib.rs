@@ -595,6 +595,21 @@ impl Accel for KdTree {
         }
     }
 
+    /// Nodes, references and triangles for every traversal; `backtrack` adds the cell and
+    /// parent per node, `ropes` those and the six ropes per node (review Table 3, "additional
+    /// memory").
+    fn memory_for(&self, traversal: usize) -> MemoryReport {
+        let mut m = self.memory();
+        let back = std::mem::size_of_val(self.back.as_slice()) as u64;
+        let ropes = std::mem::size_of_val(self.ropes.as_slice()) as u64;
+        m.bytes -= match TRAVERSALS.get(traversal).map(|t| t.name) {
+            Some("ropes") => 0,
+            Some("backtrack") => ropes,
+            _ => back + ropes,
+        };
+        m
+    }
+
     /// `sah_cost = (C_trav·Σ_interior A(n) + C_isect·Σ_leaves A(l)·|l|) / A(root)` with `A` the
     /// surface area of the cells (`None` for an empty tree or a root of zero area); extra
     /// figures: `nodes`, `leaves`, `empty_leaves`, `references`, `depth_max` (root 0),
