@@ -1150,9 +1150,9 @@ fn plane_origins(seed: u64) -> (Vec<Triangle>, Vec<Ray>, ViewFn) {
 /// Review §3.1: "for scenes with very large models and/or ones that lead to kd-trees with
 /// cells having one extent equal to zero a choice of a wrong epsilon can lead to an endless
 /// loop". 16 layers `z = offset + k·ulp` (`ulp` = the spacing of f32 at `offset`: 0.0625 at
-/// 1e6), each a 4x4 grid of quads over `offset + [0, 8]²` plus, in the same plane, a strip
-/// shifted per layer (coplanar pieces, so the builder cuts one-ulp cells between the layers
-/// and splits inside them); rays cross all layers steeply and at grazing angles (a step
+/// 1e6), each a 4x4 grid of quads over a staircase `offset + [k/2, 8] x [0, 8]` plus, in the
+/// same plane, a strip shifted per layer (coplanar pieces), so the builder cuts cells one to
+/// a few ulps thick between the layers; rays cross all layers steeply and at grazing angles (a step
 /// `ε·t` far smaller than an ulp of the coordinates), lie exactly in a layer (`d.z = ±0`), and
 /// start on a layer (`tmin = 0`) going up, down or along it.
 fn thin_layers(seed: u64, offset: f32) -> (Vec<Triangle>, Vec<Ray>, ViewFn) {
@@ -1162,7 +1162,10 @@ fn thin_layers(seed: u64, offset: f32) -> (Vec<Triangle>, Vec<Ray>, ViewFn) {
     let (x0, x1) = (offset, offset + 8.0);
     let mut m = Mesh::default();
     for k in 0..16u32 {
-        m.append(&quad_grid(2, z(k), (x0, x0), (x1, x1), 4));
+        // A staircase: layer `k` starts at `x0 + k/2`, so above the column `x0 + [j, j + 1]/2`
+        // only layers `0..=j` lie: the SAH cuts off the empty space above layer `j` (empty
+        // bonus), leaving cells `j` ulps thick (one ulp at `j = 1`).
+        m.append(&quad_grid(2, z(k), (x0 + 0.5 * k as f32, x0), (x1, x1), 4));
         let s = x0 + 0.5 * k as f32;
         m.append(&quad_grid(2, z(k), (s, x1 + 1.0), (s + 0.5, x1 + 2.0), 1));
     }
