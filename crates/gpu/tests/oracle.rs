@@ -1,4 +1,4 @@
-//! GPU kernels against the CPU: on every conformance-suite scene (the ten stress scenes and
+//! GPU kernels against the CPU: on every conformance-suite scene (the stress scenes and
 //! the small procedural ones) and every ray kind, GPU brute force and the GPU BVH must answer
 //! as the CPU oracle does (`tb_core::compare`, watertight test), and their per-ray counters
 //! must equal the CPU's (brute force: `tb_core::BruteForce`; BVH: `tb_bvh::Bvh`, traversal

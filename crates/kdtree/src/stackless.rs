@@ -25,9 +25,14 @@
 //! coordinate exactly (`Walk::floor`: planes at or before it are behind, compared as
 //! coordinates), and every other plane is behind only when its distance is below `t` by more
 //! than the rounding [`SLACK`]. Each step crosses one exit face strictly beyond the last on
-//! its axis, so a walk ends. Where a single point cannot decide (a plane distance within
-//! [`SLACK`] of the located point, or two exit faces tied: a ray through a cell edge or
-//! corner, or in a split plane off the zero-direction case), the walk stops and the ray is
+//! its axis, so a walk ends. The point at `t = 0` is the ray origin itself, exact on every
+//! axis (review §3.1's ray origin in a splitting plane, e.g. a camera eye at `z = 0`): there
+//! planes are compared with the origin's coordinates, and a plane through the origin puts the
+//! origin in the near cell (which the ray touches there: a hit at `t = 0` counts), whose exit
+//! is that plane at `t = 0`; the next point location finds the plane at the floor, so the ray
+//! leaves it to the side its direction points to, without the fallback. Where a single point
+//! cannot decide (a plane distance within [`SLACK`] of a located point other than the origin,
+//! or two exit faces tied: a ray through a cell edge or corner), the walk stops and the ray is
 //! handed to `restart` from the root, keeping its closest hit (counted as one restart): the
 //! answer is then exactly the robust one. Rays lying in a split plane (`t = NaN`) take the
 //! left child and record the axis, and the walk is repeated for each combination of sides on
@@ -488,6 +493,8 @@ impl Walk<'_> {
     ) -> (usize, [f32; 3], [f32; 3]) {
         let s = self.s;
         let nodes = self.kd.nodes.as_slice();
+        // At `tn = 0` the located point is the ray origin itself, exact on every axis.
+        let origin = tn == 0.0;
         let below = tn - (SLACK - 1.0) * tn.abs();
         let above = tn + (SLACK - 1.0) * tn.abs();
         loop {
@@ -512,11 +519,25 @@ impl Walk<'_> {
                 } else {
                     sp <= floor[a]
                 };
-                if !behind && t >= below && t <= above {
-                    self.ambiguous = true;
-                }
+                let behind = if origin {
+                    // The point is the origin exactly: compare coordinates. A plane through
+                    // it is not behind: the ray leaves it toward the far side, but touches
+                    // the near cell at the origin (a hit at `t = 0` there counts), so the
+                    // near cell is visited first and its exit is that plane at `t = 0`.
+                    behind
+                        || if s.neg[a] {
+                            sp > s.org[a]
+                        } else {
+                            sp < s.org[a]
+                        }
+                } else {
+                    if !behind && t >= below && t <= above {
+                        self.ambiguous = true;
+                    }
+                    behind || t < below
+                };
                 // The near child (left for a positive direction) unless the plane is behind.
-                (behind || t < below) == s.neg[a]
+                behind == s.neg[a]
             };
             if left {
                 max[a] = sp;

@@ -21,6 +21,8 @@
 //! | `nested` | a cluster nested inside copies of itself scaled by 1000 and 1e6 |
 //! | `ray-limits` | origins on surfaces with `tmin = 0`, `tmax` exactly at a hit, huge and empty intervals, denormal, signed-zero and scaled directions |
 //! | `duplicates` | identical, permuted, coplanar-overlapping and co-centred triangles (ties, unsplittable clusters) |
+//! | `plane-origins` | a lattice of boxes whose faces are split planes; origins exactly in those planes, on their edges and corners, directions with and without a normal component |
+//! | `thin-layers` | coplanar layers one ulp apart at coordinates ~1e6; rays crossing many one-ulp cells, grazing them and lying in them |
 
 use crate::builtin::{BuiltinInfo, Params};
 use crate::rays::ray_rng;
@@ -92,6 +94,19 @@ pub const LIST: &[BuiltinInfo] = &[
         doc: "64 identical copies of a quad, permuted-vertex copies, 200 overlapping coplanar triangles, 400 triangles sharing one centroid: ties and unsplittable clusters",
         params: &["seed=1: random seed"],
     },
+    BuiltinInfo {
+        name: "stress/plane-origins",
+        doc: "a 3x3x3 lattice of unit boxes whose faces become split planes; ray origins exactly in those planes (on faces and in the gaps, on edges and corners) with tmin = 0, directions with a non-zero, a signed-zero and an axis-parallel normal component",
+        params: &["seed=1: random seed"],
+    },
+    BuiltinInfo {
+        name: "stress/thin-layers",
+        doc: "16 coplanar layers of quads one ulp apart (0.0625) at coordinates ~`offset` (1e6) with strips in each layer; rays crossing all the one-ulp cells steeply and at grazing angles, lying in the layers, from origins on them",
+        params: &[
+            "seed=1: random seed",
+            "offset=1000000: position of the layers on x, y and z (1000..=1e7)",
+        ],
+    },
 ];
 
 /// Load stress scene `name` (the part after `stress/`).
@@ -132,6 +147,15 @@ pub fn load(name: &str, params: &Params) -> Result<Scene, SceneError> {
         }
         "ray-limits" => ray_limits(seed),
         "duplicates" => duplicates(seed),
+        "plane-origins" => plane_origins(seed),
+        "thin-layers" => {
+            let offset = params.f32("offset", 1e6)?;
+            params.check(
+                (1e3..=1e7).contains(&offset),
+                "offset must be in [1000, 1e7]",
+            )?;
+            thin_layers(seed, offset)
+        }
         _ => {
             return Err(SceneError::Builtin {
                 spec: format!("stress/{name}"),
@@ -1057,6 +1081,129 @@ fn duplicates(seed: u64) -> (Vec<Triangle>, Vec<Ray>, ViewFn) {
         rays.extend(aim(t + unit(&mut r) * 3.0, t));
     }
     (tris, rays, view_from(Vec3::new(0.3, 0.8, 1.0)))
+}
+
+/// Review §3.1 (Hapala and Havran 2011: a ray origin embedded in a splitting plane) and §3.2
+/// (the origin-classified traversal fails there, Havran et al. 1997): a 3x3x3 lattice of unit
+/// boxes `[2i, 2i + 1]³` (faces in 2x2 quads), so the integer coordinates 0..=5 become split
+/// planes, and every ray starts (`tmin = 0`) exactly in one of them: on a box face (a hit at
+/// `t = 0`), in the gap between boxes, on a cell edge or corner (two or three planes), with a
+/// random direction whose normal component is non-zero (either sign, also tiny), exactly `±0`
+/// (the ray lies in the plane: review §3.1's zero-extent case), or axis-parallel along the
+/// normal or along the plane (along cell faces and edges).
+fn plane_origins(seed: u64) -> (Vec<Triangle>, Vec<Ray>, ViewFn) {
+    let mut r = rng(seed, 9);
+    let mut m = Mesh::default();
+    for k in 0..27u32 {
+        let lo = Vec3::new(
+            2.0 * (k % 3) as f32,
+            2.0 * (k / 3 % 3) as f32,
+            2.0 * (k / 9) as f32,
+        );
+        m.append(&grid_box(lo, lo + Vec3::ONE, 2));
+    }
+    let tris = m.tris();
+    let (lo, hi) = (Vec3::splat(-1.0), Vec3::splat(6.0));
+    let mut rays = Vec::new();
+    for a in 0..3 {
+        for c in 0..=5 {
+            for k in 0..48u32 {
+                let mut o = in_box(&mut r, lo, hi);
+                o[a] = c as f32;
+                // In one plane, on a cell edge (two planes) or on a corner (three): the other
+                // coordinates snapped onto planes too.
+                let (u, v) = ((a + 1) % 3, (a + 2) % 3);
+                if k / 16 >= 1 {
+                    o[u] = r.gen_range(0..=5) as f32;
+                }
+                if k / 16 == 2 {
+                    o[v] = r.gen_range(0..=5) as f32;
+                }
+                let s = if k / 8 % 2 == 0 { 1.0 } else { -1.0 };
+                let d = match k % 8 {
+                    // The normal component non-zero, of either sign.
+                    0..=2 => {
+                        let mut d = unit(&mut r);
+                        d[a] = s * d[a].abs().max(0.05);
+                        d
+                    }
+                    // A tiny normal component: leaves the plane at a grazing angle.
+                    3 => {
+                        let mut d = in_plane_dir(&mut r, a);
+                        d[a] = s * 1e-6;
+                        d
+                    }
+                    // Lying in the plane.
+                    4 | 5 => in_plane_dir(&mut r, a),
+                    // Axis-parallel along the normal.
+                    6 => axis_dir(a, s),
+                    // Axis-parallel along the plane: along a cell face (or edge when snapped).
+                    _ => axis_dir(if r.gen::<bool>() { u } else { v }, s),
+                };
+                rays.push(Ray::new(o, d));
+            }
+        }
+    }
+    (tris, rays, view_from(Vec3::new(-0.7, 0.5, 1.0)))
+}
+
+/// Review §3.1: "for scenes with very large models and/or ones that lead to kd-trees with
+/// cells having one extent equal to zero a choice of a wrong epsilon can lead to an endless
+/// loop". 16 layers `z = offset + k·ulp` (`ulp` = the spacing of f32 at `offset`: 0.0625 at
+/// 1e6), each a 4x4 grid of quads over a staircase `offset + [k/2, 8] x [0, 8]` plus, in the
+/// same plane, a strip shifted per layer (coplanar pieces), so the builder cuts cells one to
+/// a few ulps thick between the layers; rays cross all layers steeply and at grazing angles (a step
+/// `ε·t` far smaller than an ulp of the coordinates), lie exactly in a layer (`d.z = ±0`), and
+/// start on a layer (`tmin = 0`) going up, down or along it.
+fn thin_layers(seed: u64, offset: f32) -> (Vec<Triangle>, Vec<Ray>, ViewFn) {
+    let mut r = rng(seed, 10);
+    let ulp = f32::from_bits(offset.to_bits() + 1) - offset;
+    let z = |k: u32| offset + ulp * k as f32;
+    let (x0, x1) = (offset, offset + 8.0);
+    let mut m = Mesh::default();
+    for k in 0..16u32 {
+        // A staircase: layer `k` starts at `x0 + k/2`, so above the column `x0 + [j, j + 1]/2`
+        // only layers `0..=j` lie: the SAH cuts off the empty space above layer `j` (empty
+        // bonus), leaving cells `j` ulps thick (one ulp at `j = 1`).
+        m.append(&quad_grid(2, z(k), (x0 + 0.5 * k as f32, x0), (x1, x1), 4));
+        let s = x0 + 0.5 * k as f32;
+        m.append(&quad_grid(2, z(k), (s, x1 + 1.0), (s + 0.5, x1 + 2.0), 1));
+    }
+    let tris = m.tris();
+    let mut rays = Vec::new();
+    let at = |r: &mut Pcg64, zc: f32| Vec3::new(range(r, x0, x1 + 2.0), range(r, x0, x1 + 2.0), zc);
+    for k in 0..1600u32 {
+        let s = if k % 2 == 0 { 1.0 } else { -1.0 };
+        let layer = r.gen_range(0..16u32);
+        let (o, d) = match k % 5 {
+            // Steep, from below or above every layer.
+            0 => {
+                let o = at(&mut r, if s > 0.0 { z(0) - 4.0 } else { z(15) + 4.0 });
+                let mut d = unit(&mut r);
+                d.z = s * d.z.abs().max(0.3);
+                (o, d)
+            }
+            // Grazing: from far outside, crossing the stack over a long stretch.
+            1 => {
+                let o = at(&mut r, if s > 0.0 { z(0) - 0.1 } else { z(15) + 0.1 });
+                let mut d = in_plane_dir(&mut r, 2);
+                d.z = s * range(&mut r, 1e-4, 2e-2);
+                (o - Vec3::new(d.x, d.y, 0.0) * 4.0, d)
+            }
+            // Lying exactly in a layer.
+            2 => (at(&mut r, z(layer)), in_plane_dir(&mut r, 2)),
+            // Starting on a layer, leaving it up or down.
+            3 => {
+                let mut d = unit(&mut r);
+                d.z = s * d.z.abs().max(1e-3);
+                (at(&mut r, z(layer)), d)
+            }
+            // Axis-parallel through the stack.
+            _ => (at(&mut r, z(layer)), axis_dir(2, s)),
+        };
+        rays.push(Ray::new(o, d));
+    }
+    (tris, rays, view_from(Vec3::new(0.6, 0.4, 1.0)))
 }
 
 #[cfg(test)]
