@@ -16,7 +16,7 @@
 use crate::Bvh;
 use std::mem::MaybeUninit;
 use tb_core::slab::{RayBox, EXIT_SCALE};
-use tb_core::{Counter, HitRecord, Kernel, Ray, TriTest};
+use tb_core::{Counter, HitRecord, Ray, TriTest};
 
 /// Entries of the traversal stack. The builder bounds the leaf depth by this (only median
 /// splits below depth 32), and a walk never holds more entries than the depth of its node.
@@ -163,17 +163,7 @@ impl Ordered<'_> {
     }
 }
 
-impl Kernel for Ordered<'_> {
-    #[inline]
-    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.traverse::<T, C, false>(ray, c)
-    }
-
-    #[inline]
-    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.traverse::<T, C, true>(ray, c)
-    }
-}
+tb_core::kernel_by_query!(traverse: [] Ordered<'_>);
 
 #[cfg(test)]
 mod tests {

@@ -135,6 +135,34 @@ pub trait Kernel: Sync {
     fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord;
 }
 
+/// Implement [`Kernel`] for traversal types whose one method `$walk::<T, C, ANY>(ray, c)`
+/// serves both queries (`ANY = false`: closest hit, `true`: any hit). Each type is written
+/// `[generics] Type`, e.g. `kernel_by_query!(walk: [] Havran<'_>, [const M: u8] Walk<'_, M>)`.
+#[macro_export]
+macro_rules! kernel_by_query {
+    ($walk:ident: $([$($gen:tt)*] $ty:ty),+ $(,)?) => {$(
+        impl<$($gen)*> $crate::Kernel for $ty {
+            #[inline]
+            fn closest<T: $crate::TriTest, C: $crate::Counter>(
+                &self,
+                ray: &$crate::Ray,
+                c: &mut C,
+            ) -> $crate::HitRecord {
+                self.$walk::<T, C, false>(ray, c)
+            }
+
+            #[inline]
+            fn any<T: $crate::TriTest, C: $crate::Counter>(
+                &self,
+                ray: &$crate::Ray,
+                c: &mut C,
+            ) -> $crate::HitRecord {
+                self.$walk::<T, C, true>(ray, c)
+            }
+        }
+    )+};
+}
+
 #[inline(always)]
 fn run<K: Kernel, T: TriTest, C: Counter>(k: &K, query: Query, ray: &Ray, c: &mut C) -> HitRecord {
     match query {

@@ -41,7 +41,7 @@
 use crate::traverse::{decide, leaf, setup, Best, Kind, Setup, SLACK};
 use crate::{BackNode, KdTree};
 use tb_core::slab::{max_num, min_num};
-use tb_core::{Counter, HitRecord, Kernel, Ray, TriTest};
+use tb_core::{Counter, HitRecord, Ray, TriTest};
 
 /// The default per-ray step cap ([`crate::KdParams::step_cap`]): steps (nodes visited,
 /// backtracking steps included) after which a restart-type walk ends a ray.
@@ -550,14 +550,4 @@ impl Walk<'_> {
     }
 }
 
-impl<const M: u8> Kernel for Stackless<'_, M> {
-    #[inline]
-    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.walk::<T, C, false>(ray, c)
-    }
-
-    #[inline]
-    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.walk::<T, C, true>(ray, c)
-    }
-}
+tb_core::kernel_by_query!(walk: [const M: u8] Stackless<'_, M>);

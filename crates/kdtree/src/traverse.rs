@@ -11,7 +11,7 @@
 
 use crate::{KdNode, KdTree};
 use tb_core::slab::{max_num, min_num};
-use tb_core::{Counter, HitRecord, Kernel, Ray, TriTest};
+use tb_core::{Counter, HitRecord, Ray, TriTest};
 
 /// Entries of the traversal stacks; the depth limit of the builder is at most this.
 pub const STACK_SIZE: usize = 64;
@@ -254,17 +254,7 @@ impl RecursiveDirection<'_> {
     }
 }
 
-impl Kernel for RecursiveDirection<'_> {
-    #[inline]
-    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.walk::<T, C, false>(ray, c)
-    }
-
-    #[inline]
-    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.walk::<T, C, true>(ray, c)
-    }
-}
+tb_core::kernel_by_query!(walk: [] RecursiveDirection<'_>);
 
 /// A point on the ray: its parameter and coordinates.
 #[derive(Clone, Copy)]
@@ -393,17 +383,7 @@ impl Havran<'_> {
     }
 }
 
-impl Kernel for Havran<'_> {
-    #[inline]
-    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.walk::<T, C, false>(ray, c)
-    }
-
-    #[inline]
-    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.walk::<T, C, true>(ray, c)
-    }
-}
+tb_core::kernel_by_query!(walk: [] Havran<'_>);
 
 /// `recursive-origin` (traversal 2): the stack-based algorithm with near/far children
 /// classified by the side of the split plane holding the ray origin (Jansen 1986, Arvo 1988;
@@ -467,17 +447,7 @@ impl RecursiveOrigin<'_> {
     }
 }
 
-impl Kernel for RecursiveOrigin<'_> {
-    #[inline]
-    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.walk::<T, C, false>(ray, c)
-    }
-
-    #[inline]
-    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.walk::<T, C, true>(ray, c)
-    }
-}
+tb_core::kernel_by_query!(walk: [] RecursiveOrigin<'_>);
 
 /// `branchless` (traversal 9): the direction-classified recursive traversal with the
 /// interior-node step written without branches (Hapala 2009; Hapala and Havran 2011 §5.5,
@@ -545,17 +515,7 @@ impl Branchless<'_> {
     }
 }
 
-impl Kernel for Branchless<'_> {
-    #[inline]
-    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.walk::<T, C, false>(ray, c)
-    }
-
-    #[inline]
-    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.walk::<T, C, true>(ray, c)
-    }
-}
+tb_core::kernel_by_query!(walk: [] Branchless<'_>);
 
 /// `stack-spilling` (traversal 10): `recursive-direction` with a short circular stack of
 /// [`crate::KdParams::short_stack`] entries whose oldest entry, on overflow, is *spilled* to a
@@ -641,14 +601,4 @@ impl StackSpilling<'_> {
     }
 }
 
-impl Kernel for StackSpilling<'_> {
-    #[inline]
-    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.walk::<T, C, false>(ray, c)
-    }
-
-    #[inline]
-    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.walk::<T, C, true>(ray, c)
-    }
-}
+tb_core::kernel_by_query!(walk: [] StackSpilling<'_>);
