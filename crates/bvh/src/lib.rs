@@ -252,23 +252,7 @@ impl Bvh {
     fn check_invariants(&self) -> Result<(), String> {
         let nodes = self.nodes();
         let n_tris = self.triangles.len();
-        if self.prim_ids.len() != n_tris {
-            return Err(format!(
-                "{} prim_ids for {} triangles",
-                self.prim_ids.len(),
-                n_tris
-            ));
-        }
-        let mut seen = vec![false; n_tris];
-        for (i, &id) in self.prim_ids.iter().enumerate() {
-            let id = id as usize;
-            if id >= n_tris {
-                return Err(format!("prim_ids[{i}] = {id} out of range"));
-            }
-            if std::mem::replace(&mut seen[id], true) {
-                return Err(format!("triangle {id} appears twice in prim_ids"));
-            }
-        }
+        tb_core::accel::check_permutation(&self.prim_ids, n_tris)?;
         if n_tris == 0 {
             return if nodes.is_empty() {
                 Ok(())

@@ -135,6 +135,28 @@ pub trait Kernel: Sync {
     fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord;
 }
 
+/// A `validate()` check shared by structures that store triangles in leaf order with a map
+/// back to scene indices: `prim_ids` must be a permutation of `0..n_tris`.
+pub fn check_permutation(prim_ids: &[u32], n_tris: usize) -> Result<(), String> {
+    if prim_ids.len() != n_tris {
+        return Err(format!(
+            "{} prim_ids for {n_tris} triangles",
+            prim_ids.len()
+        ));
+    }
+    let mut seen = vec![false; n_tris];
+    for (i, &id) in prim_ids.iter().enumerate() {
+        let id = id as usize;
+        if id >= n_tris {
+            return Err(format!("prim_ids[{i}] = {id} out of range"));
+        }
+        if std::mem::replace(&mut seen[id], true) {
+            return Err(format!("triangle {id} appears twice in prim_ids"));
+        }
+    }
+    Ok(())
+}
+
 /// Implement [`Kernel`] for traversal types whose one method `$walk::<T, C, ANY>(ray, c)`
 /// serves both queries (`ANY = false`: closest hit, `true`: any hit). Each type is written
 /// `[generics] Type`, e.g. `kernel_by_query!(walk: [] Havran<'_>, [const M: u8] Walk<'_, M>)`.

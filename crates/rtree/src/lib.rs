@@ -398,22 +398,7 @@ impl Rtree {
         let nodes = &self.nodes;
         let big_m = self.params.big_m;
         let m = self.big_m();
-        if self.prim_ids.len() != n_tris {
-            return Err(format!(
-                "{} prim_ids for {n_tris} triangles",
-                self.prim_ids.len()
-            ));
-        }
-        let mut seen = vec![false; n_tris];
-        for (i, &id) in self.prim_ids.iter().enumerate() {
-            let id = id as usize;
-            if id >= n_tris {
-                return Err(format!("prim_ids[{i}] = {id} out of range"));
-            }
-            if std::mem::replace(&mut seen[id], true) {
-                return Err(format!("triangle {id} appears twice in prim_ids"));
-            }
-        }
+        tb_core::accel::check_permutation(&self.prim_ids, n_tris)?;
         if n_tris == 0 {
             return if nodes.is_empty() {
                 Ok(())
