@@ -170,6 +170,18 @@ const KD_PARAMS: &[ParamSpec] = &[
         default: "100000",
         doc: "per-ray step cap of the restart-type traversals; capped rays are counted",
     },
+    ParamSpec {
+        name: "layout",
+        kind: ParamKind::Choice(&["depth-first", "treelet"]),
+        default: "depth-first",
+        doc: "node layout: left child next to its parent, or subtrees in aligned blocks (Havran 1999; Hapala and Havran 2011, section 6)",
+    },
+    ParamSpec {
+        name: "treelet_height",
+        kind: ParamKind::Int { min: 2, max: 8 },
+        default: "3",
+        doc: "levels per treelet block, 2^h 8-byte slots (3 = one 64-byte cache line)",
+    },
 ];
 
 fn build_kdtree(tris: &[Triangle], p: &ParamSet) -> Result<Box<dyn Accel>, String> {
@@ -187,6 +199,11 @@ fn build_kdtree(tris: &[Triangle], p: &ParamSet) -> Result<Box<dyn Accel>, Strin
         min_leaf: p.int("min_leaf") as u32,
         short_stack: p.int("short_stack") as u32,
         step_cap: p.int("step_cap") as u32,
+        layout: match p.str("layout") {
+            "treelet" => tb_kdtree::KdLayout::Treelet,
+            _ => tb_kdtree::KdLayout::DepthFirst,
+        },
+        treelet_height: p.int("treelet_height") as u32,
     };
     params.check()?;
     Ok(Box::new(tb_kdtree::KdTree::build(tris, &params)))

@@ -9,8 +9,11 @@
 //!   that in O(N log N)"): start, end and planar events per axis, planar triangles put on the
 //!   cheaper side, an empty-space bonus, termination when the leaf is not costlier than the
 //!   best split or at the depth limit. The cost measure is pluggable ([`BoxMeasure`]).
-//! - **Layout** (review §6): flattened depth-first to 8-byte [`KdNode`]s, the left child next to
-//!   its parent, leaves pointing into [`KdTree::prim_refs`] (original triangle indices).
+//! - **Layout** (review §6, module `layout`): 8-byte [`KdNode`]s, leaves pointing into
+//!   [`KdTree::prim_refs`] (original triangle indices), in depth-first order with the left
+//!   child next to its parent (§6.1, the default) or in treelets: subtrees of a few levels in
+//!   aligned blocks, children inside a block addressed implicitly (§6.2, Havran 1999).
+//!   Every traversal is compiled per layout ([`Layout`]) and visits the same nodes in both.
 //! - **Traversals** ([`TRAVERSALS`]): module `traverse`, the stack-based algorithms of review
 //!   §3.2 (`recursive-direction`, `havran` (TA^B_rec), `recursive-origin`); module
 //!   `stackless`, the restart-type ones of §3.1, §3.3, §5.1, §5.2 (`restart`, `push-down`,
@@ -25,6 +28,7 @@
 //! referenced in every leaf cell it touches.
 
 mod build;
+mod layout;
 mod stackless;
 mod traverse;
 
@@ -34,6 +38,7 @@ use tb_core::{
     TraversalStats, TriTestKind, Triangle,
 };
 
+pub use layout::{DepthFirst, KdLayout, Layout, Nodes, Treelet};
 pub use stackless::{MAX_SHORT_STACK, STEP_CAP};
 pub use traverse::STACK_SIZE;
 
@@ -167,6 +172,13 @@ pub struct KdParams {
     /// `capped_rays` (review §3.1: an epsilon step can loop forever; these walks provably end,
     /// the cap is a guard). At least 1; default [`STEP_CAP`] (100 000).
     pub step_cap: u32,
+    /// Node layout (review §6): `depth-first` (left child next to its parent) or `treelet`
+    /// (subtrees of `treelet_height` levels in aligned blocks, Havran 1999). Every traversal
+    /// runs on either and visits the same nodes. Default `depth-first`.
+    pub layout: KdLayout,
+    /// Levels per treelet block of the `treelet` layout: blocks of `2^h` 8-byte slots (3: one
+    /// 64-byte cache line). In `2..=8`; default 3.
+    pub treelet_height: u32,
 }
 
 impl Default for KdParams {
@@ -181,6 +193,8 @@ impl Default for KdParams {
             min_leaf: 1,
             short_stack: 4,
             step_cap: STEP_CAP,
+            layout: KdLayout::DepthFirst,
+            treelet_height: 3,
         }
     }
 }
@@ -230,6 +244,12 @@ impl KdParams {
         if self.step_cap == 0 {
             return Err("step_cap must be at least 1".into());
         }
+        if !(2..=8).contains(&self.treelet_height) {
+            return Err(format!(
+                "treelet_height must be in 2..=8, got {}",
+                self.treelet_height
+            ));
+        }
         Ok(())
     }
 
@@ -265,10 +285,12 @@ impl BoxMeasure for SurfaceArea {
 ///
 /// | | `bits` | `data` |
 /// |---|---|---|
-/// | interior | `right << 2 \| axis` (axis 0, 1, 2); the left child is the next node | split position (`f32` bits) |
+/// | interior | `link << 2 \| axis` (axis 0, 1, 2) | split position (`f32` bits) |
 /// | leaf | `count << 2 \| 3` | offset of the first reference in [`KdTree::prim_refs`] |
 ///
-/// The root is node 0; nodes are in depth-first order (left subtree, then right subtree).
+/// The root is node 0. Where the children are depends on the layout ([`Layout`]): in the
+/// default depth-first order the left child is the next node and the link is the right
+/// child's index; in the treelet layout the link is used only on a block's lowest level.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct KdNode {
@@ -279,11 +301,11 @@ pub struct KdNode {
 const _: () = assert!(std::mem::size_of::<KdNode>() == 8);
 
 impl KdNode {
-    /// An interior node splitting `axis` at `split`, with its right child at `right`.
-    pub fn interior(axis: usize, split: f32, right: u32) -> KdNode {
-        debug_assert!(axis < 3 && right < (1 << 30));
+    /// An interior node splitting `axis` at `split`, with link `link` (see [`Layout`]).
+    pub fn interior(axis: usize, split: f32, link: u32) -> KdNode {
+        debug_assert!(axis < 3 && link < (1 << 30));
         KdNode {
-            bits: right << 2 | axis as u32,
+            bits: link << 2 | axis as u32,
             data: split.to_bits(),
         }
     }
@@ -314,9 +336,10 @@ impl KdNode {
         f32::from_bits(self.data)
     }
 
-    /// Right child of an interior node (the left child is the node's index + 1).
+    /// Link of an interior node: the right child in the depth-first layout (the left child is
+    /// the node's index + 1), the first child slot on a treelet block's lowest level.
     #[inline(always)]
-    pub fn right(&self) -> usize {
+    pub fn link(&self) -> usize {
         (self.bits >> 2) as usize
     }
 
@@ -346,7 +369,7 @@ impl KdNode {
 /// - `restarts`: 0.
 #[derive(Clone, Debug)]
 pub struct KdTree {
-    nodes: Vec<KdNode>,
+    nodes: Nodes,
     prim_refs: Vec<u32>,
     tris: Vec<Triangle>,
     bounds: Aabb,
@@ -389,8 +412,14 @@ impl KdTree {
             "a kd-tree holds fewer than 2^30 triangles"
         );
         let out = build::build(tris, params, m);
+        let nodes = match params.layout {
+            KdLayout::DepthFirst => Nodes::from_slice(&out.nodes),
+            KdLayout::Treelet => {
+                Nodes::from_slice(&layout::to_treelets(&out.nodes, params.treelet_height))
+            }
+        };
         let mut kd = KdTree {
-            nodes: out.nodes,
+            nodes,
             prim_refs: out.prim_refs,
             tris: tris.to_vec(),
             bounds: out.bounds,
@@ -410,10 +439,10 @@ impl KdTree {
         kd.walk(|i, cell, _| {
             back[i].min = cell.min.to_array();
             back[i].max = cell.max.to_array();
-            let n = kd.nodes[i];
-            if !n.is_leaf() {
-                back[i + 1].parent = i as u32;
-                back[n.right()].parent = i as u32;
+            if !kd.nodes[i].is_leaf() {
+                let (l, r) = kd.children(i);
+                back[l].parent = i as u32;
+                back[r].parent = i as u32;
             }
         });
         kd.back = back;
@@ -454,6 +483,16 @@ impl KdTree {
         &self.params
     }
 
+    /// The children `(left, right)` of interior node `i` in this tree's layout (for code off
+    /// the traversals' hot paths; the kernels are compiled per [`Layout`]).
+    pub fn children(&self, i: usize) -> (usize, usize) {
+        let n = self.nodes[i];
+        match self.params.layout {
+            KdLayout::DepthFirst => DepthFirst.children(i, n),
+            KdLayout::Treelet => Treelet::new(self.params.treelet_height).children(i, n),
+        }
+    }
+
     /// Call `f(node_index, cell, depth)` for every node, depth-first from the root.
     fn walk(&self, mut f: impl FnMut(usize, &Aabb, u32)) {
         if self.nodes.is_empty() {
@@ -465,8 +504,9 @@ impl KdTree {
             let n = self.nodes[i];
             if !n.is_leaf() {
                 let (l, r) = split_cell(&cell, n.axis(), n.split());
-                stack.push((n.right(), r, d + 1));
-                stack.push((i + 1, l, d + 1));
+                let (li, ri) = self.children(i);
+                stack.push((ri, r, d + 1));
+                stack.push((li, l, d + 1));
             }
         }
     }
@@ -520,20 +560,24 @@ impl KdTree {
                     }
                 }
             } else {
-                let (r, s) = (n.right(), n.split());
+                let ((l, r), s) = (self.children(i), n.split());
                 let a = n.axis();
-                if r <= i + 1 || r >= nodes.len() {
-                    return Err(format!("node {i}: right child {r} invalid"));
+                // Children after their parent (so no cycles), distinct, in range.
+                if l <= i || r <= l || r >= nodes.len() {
+                    return Err(format!("node {i}: children {l}, {r} invalid"));
                 }
                 if !(s >= cell.min[a] && s <= cell.max[a]) {
                     return Err(format!("node {i}: split {s} outside its cell on axis {a}"));
                 }
                 let (lc, rc) = split_cell(&cell, a, s);
                 stack.push((r, rc, depth + 1));
-                stack.push((i + 1, lc, depth + 1));
+                stack.push((l, lc, depth + 1));
             }
         }
-        if let Some(i) = visited.iter().position(|v| !v) {
+        // Every node is reachable; the treelet layout's unused slots stay empty.
+        let unused =
+            |i: usize| self.params.layout == KdLayout::Treelet && nodes[i] == layout::EMPTY_SLOT;
+        if let Some(i) = (0..nodes.len()).find(|&i| !visited[i] && !unused(i)) {
             return Err(format!("node {i} is unreachable from the root"));
         }
         for (k, t) in self.tris.iter().enumerate() {
@@ -584,7 +628,7 @@ impl Accel for KdTree {
     /// report, to subtract for the other traversals).
     fn memory(&self) -> MemoryReport {
         MemoryReport {
-            bytes: (std::mem::size_of_val(self.nodes.as_slice())
+            bytes: (self.nodes.bytes()
                 + std::mem::size_of_val(self.prim_refs.as_slice())
                 + std::mem::size_of_val(self.tris.as_slice())
                 + std::mem::size_of_val(self.back.as_slice())
@@ -612,7 +656,8 @@ impl Accel for KdTree {
 
     /// `sah_cost = (C_trav·Σ_interior A(n) + C_isect·Σ_leaves A(l)·|l|) / A(root)` with `A` the
     /// surface area of the cells (`None` for an empty tree or a root of zero area); extra
-    /// figures: `nodes`, `leaves`, `empty_leaves`, `references`, `depth_max` (root 0),
+    /// figures: `nodes`, `slots` (entries of the node array: `nodes` depth-first, more in the
+    /// treelet layout, whose unused slots count in the memory), `leaves`, `empty_leaves`, `references`, `depth_max` (root 0),
     /// `leaf_depth_mean`, `refs_per_leaf_mean` (over non-empty leaves), `leaf_size_max`, and
     /// the bytes of the auxiliary arrays included in [`Accel::memory`]: `backtrack_aux_bytes`
     /// (cell and parent per node, read by `backtrack` and `ropes`) and `ropes_aux_bytes` (six
@@ -642,6 +687,7 @@ impl Accel for KdTree {
             sah_cost: (!self.nodes.is_empty() && root > 0.0 && sah.is_finite()).then_some(sah),
             extra: vec![
                 ("nodes".into(), (interior + leaves) as f64),
+                ("slots".into(), self.nodes.len() as f64),
                 ("leaves".into(), leaves as f64),
                 ("empty_leaves".into(), empty as f64),
                 ("references".into(), self.prim_refs.len() as f64),
@@ -667,8 +713,8 @@ impl Accel for KdTree {
         }
     }
 
-    /// Checks: node and reference indices in range, right children after their left sibling
-    /// (so no cycles), every node reachable exactly once, depth within the limit and the
+    /// Checks: node and reference indices in range, children after their parent and distinct
+    /// (so no cycles), the treelet layout's unused slots empty, every node reachable exactly once, depth within the limit and the
     /// traversal stack, split positions inside their cells, every referenced triangle's box
     /// overlapping its leaf cell (up to the builder's rounding tolerance), every finite
     /// triangle referenced by at least one leaf.
@@ -685,18 +731,47 @@ impl Accel for KdTree {
         hits: &mut [HitRecord],
         stats: Option<&mut [TraversalStats]>,
     ) {
-        match traversal {
-            0 => dispatch(
-                &traverse::RecursiveDirection(self),
+        match self.params.layout {
+            KdLayout::DepthFirst => {
+                self.trace_in(DepthFirst, traversal, query, tri, rays, hits, stats)
+            }
+            KdLayout::Treelet => self.trace_in(
+                Treelet::new(self.params.treelet_height),
+                traversal,
                 query,
                 tri,
                 rays,
                 hits,
                 stats,
             ),
-            1 => dispatch(&traverse::Havran(self), query, tri, rays, hits, stats),
+        }
+    }
+}
+
+impl KdTree {
+    /// [`Accel::trace`] with the kernels compiled for layout `l`.
+    fn trace_in<L: Layout>(
+        &self,
+        l: L,
+        traversal: usize,
+        query: Query,
+        tri: TriTestKind,
+        rays: &[Ray],
+        hits: &mut [HitRecord],
+        stats: Option<&mut [TraversalStats]>,
+    ) {
+        match traversal {
+            0 => dispatch(
+                &traverse::RecursiveDirection(self, l),
+                query,
+                tri,
+                rays,
+                hits,
+                stats,
+            ),
+            1 => dispatch(&traverse::Havran(self, l), query, tri, rays, hits, stats),
             2 => dispatch(
-                &traverse::RecursiveOrigin(self),
+                &traverse::RecursiveOrigin(self, l),
                 query,
                 tri,
                 rays,
@@ -704,7 +779,7 @@ impl Accel for KdTree {
                 stats,
             ),
             3 => dispatch(
-                &stackless::Stackless::<{ stackless::RESTART }>(self),
+                &stackless::Stackless::<_, { stackless::RESTART }>(self, l),
                 query,
                 tri,
                 rays,
@@ -712,7 +787,7 @@ impl Accel for KdTree {
                 stats,
             ),
             4 => dispatch(
-                &stackless::Stackless::<{ stackless::PUSH_DOWN }>(self),
+                &stackless::Stackless::<_, { stackless::PUSH_DOWN }>(self, l),
                 query,
                 tri,
                 rays,
@@ -720,7 +795,7 @@ impl Accel for KdTree {
                 stats,
             ),
             5 => dispatch(
-                &stackless::Stackless::<{ stackless::SHORT_STACK }>(self),
+                &stackless::Stackless::<_, { stackless::SHORT_STACK }>(self, l),
                 query,
                 tri,
                 rays,
@@ -728,7 +803,7 @@ impl Accel for KdTree {
                 stats,
             ),
             6 => dispatch(
-                &stackless::Stackless::<{ stackless::SEQUENTIAL }>(self),
+                &stackless::Stackless::<_, { stackless::SEQUENTIAL }>(self, l),
                 query,
                 tri,
                 rays,
@@ -736,7 +811,7 @@ impl Accel for KdTree {
                 stats,
             ),
             7 => dispatch(
-                &stackless::Stackless::<{ stackless::BACKTRACK }>(self),
+                &stackless::Stackless::<_, { stackless::BACKTRACK }>(self, l),
                 query,
                 tri,
                 rays,
@@ -744,16 +819,23 @@ impl Accel for KdTree {
                 stats,
             ),
             8 => dispatch(
-                &stackless::Stackless::<{ stackless::ROPES }>(self),
+                &stackless::Stackless::<_, { stackless::ROPES }>(self, l),
                 query,
                 tri,
                 rays,
                 hits,
                 stats,
             ),
-            9 => dispatch(&traverse::Branchless(self), query, tri, rays, hits, stats),
+            9 => dispatch(
+                &traverse::Branchless(self, l),
+                query,
+                tri,
+                rays,
+                hits,
+                stats,
+            ),
             10 => dispatch(
-                &traverse::StackSpilling(self),
+                &traverse::StackSpilling(self, l),
                 query,
                 tri,
                 rays,
@@ -786,7 +868,7 @@ mod tests {
     fn node_layout() {
         let n = KdNode::interior(2, 1.5, 7);
         assert!(!n.is_leaf());
-        assert_eq!((n.axis(), n.split(), n.right()), (2, 1.5, 7));
+        assert_eq!((n.axis(), n.split(), n.link()), (2, 1.5, 7));
         let l = KdNode::leaf(40, 3);
         assert!(l.is_leaf());
         assert_eq!((l.offset(), l.count()), (40, 3));
@@ -840,7 +922,7 @@ mod tests {
 
         let mut b = good.clone();
         b.nodes[0] = KdNode::interior(b.nodes[0].axis(), b.nodes[0].split(), 0);
-        assert!(b.validate().unwrap_err().contains("right child"));
+        assert!(b.validate().unwrap_err().contains("children"));
 
         let mut b = good.clone();
         b.prim_refs[0] = 1000;
@@ -852,7 +934,9 @@ mod tests {
         assert!(b.validate().is_err());
 
         let mut b = good.clone();
-        b.nodes.push(KdNode::leaf(0, 0));
+        let mut v = b.nodes().to_vec();
+        v.push(KdNode::leaf(0, 1));
+        b.nodes = Nodes::from_slice(&v);
         assert!(b.validate().unwrap_err().contains("unreachable"));
 
         // A reference far from its leaf's cell.
@@ -865,6 +949,36 @@ mod tests {
         let o = b.nodes[leaf].offset();
         b.prim_refs[o] = 64;
         assert!(b.validate().is_err());
+    }
+
+    #[test]
+    fn validate_checks_the_treelet_layout() {
+        let p = KdParams {
+            layout: KdLayout::Treelet,
+            ..Default::default()
+        };
+        let good = KdTree::build(&grid(), &p);
+        assert_eq!(good.validate(), Ok(()));
+        // An unused slot that is not empty.
+        let free = good
+            .nodes()
+            .iter()
+            .position(|n| *n == layout::EMPTY_SLOT)
+            .unwrap();
+        let mut b = good.clone();
+        b.nodes[free] = KdNode::leaf(0, 1);
+        assert!(b.validate().unwrap_err().contains("unreachable"));
+        // A lowest-level link pointing back into the tree.
+        let low = (0..good.nodes().len())
+            .find(|&i| !good.nodes()[i].is_leaf() && i % 8 >= 3)
+            .unwrap();
+        let mut b = good.clone();
+        let n = b.nodes[low];
+        b.nodes[low] = KdNode::interior(n.axis(), n.split(), 0);
+        assert!(b.validate().unwrap_err().contains("children"));
+        // The same tree in fewer bytes depth-first.
+        let dfs = KdTree::build(&grid(), &KdParams::default());
+        assert!(good.memory().bytes > dfs.memory().bytes);
     }
 
     #[test]

@@ -5,15 +5,19 @@
 //! `short-stack` and `backtrack` visit exactly the leaves of `recursive-direction`, in the same
 //! order, with the same decisions ([`decide`]: rounding slack at cell edges and corners, both
 //! children for rays in a split plane): the state kept between leaves is the *last leaf
-//! visited* (its index) instead of a distance. A restart descends from the root (or the
-//! pushed-down node) toward that leaf (the depth-first layout tells which child holds it:
-//! the left subtree of node `i` is `i + 1 .. right`), recomputing each node's decision and
-//! interval, and continues in the far child of the deepest node where the ray went both ways
-//! and the last leaf lies in the near child: the next subtree the stack traversal would pop.
-//! A node's interval is the slab interval of its cell whatever the path (see [`decide`]), so
-//! `backtrack` recomputes it from the cell stored with the parent links. Every restart moves
-//! strictly forward in the depth-first order, so a walk ends; [`STEP_CAP`] steps end a ray
-//! anyway (defensive; the ray keeps its closest hit so far).
+//! visited* instead of a distance: the depth of each node on its path that sent the ray both
+//! ways with the walk in the near child (one bit per depth), and which child the path takes
+//! (the index in the depth-first layout, whose subtrees are index ranges; one bit per depth in
+//! the treelet layout). A restart descends from the root (or the pushed-down node) along that
+//! path, recomputing each node's decision and interval, down to the deepest such node, and
+//! continues in the far child of the deepest one whose far side starts before the closest hit:
+//! the next subtree the stack traversal would pop. So per leaf it visits the nodes on the
+//! root's path to the *next* leaf, as Foley and Sugerman's restart with `t_min` set to the
+//! exit does, not those above the last one (a test checks `restart` and `sequential` visit the
+//! same nodes). A node's interval is the slab interval of its cell whatever the path (see
+//! [`decide`]), so `backtrack` recomputes it from the cell stored with the parent links. Every
+//! restart moves strictly forward in the depth-first order of the tree, so a walk ends;
+//! [`STEP_CAP`] steps end a ray anyway (defensive; the ray keeps its closest hit so far).
 //!
 //! `sequential` and `ropes` are Kaplan's point location (review §3.1, Alg. 1) of the ray
 //! point at the entry distance, from the root or below a rope, without an epsilon step: the
@@ -39,7 +43,7 @@
 //! the zero-direction axes where that happened (at most 4 walks).
 
 use crate::traverse::{decide, leaf, setup, Best, Kind, Setup, SLACK};
-use crate::{BackNode, KdTree};
+use crate::{BackNode, KdTree, Layout};
 use tb_core::slab::{max_num, min_num};
 use tb_core::{Counter, HitRecord, Ray, TriTest};
 
@@ -89,6 +93,16 @@ fn cell_interval(kd: &KdTree, s: &Setup, b: &BackNode) -> (f32, f32) {
     (tn, tf)
 }
 
+/// The depth, `both` and `path` bits (see `Stackless::stackless`) of the far child of a node
+/// on the way to the last leaf: `at` is that node's depth `<< 1 |` 1 for the right child;
+/// bits from the node's depth on are cleared (it no longer sends the walk both ways ahead).
+#[inline(always)]
+fn below(both: u64, path: u64, at: u32) -> (u32, u64, u64) {
+    let pd = at >> 1;
+    let keep = (1u64 << pd) - 1;
+    (pd + 1, both & keep, path & keep | ((at & 1) as u64) << pd)
+}
+
 pub(crate) const RESTART: u8 = 0;
 pub(crate) const PUSH_DOWN: u8 = 1;
 pub(crate) const SHORT_STACK: u8 = 2;
@@ -118,7 +132,8 @@ pub(crate) fn build_ropes(kd: &KdTree) -> Vec<[u32; 6]> {
                 break;
             }
             let (a, s) = (n.axis(), n.split());
-            let (left, right) = (t + 1, n.right() as u32);
+            let (left, right) = kd.children(t as usize);
+            let (left, right) = (left as u32, right as u32);
             t = if a == f / 2 {
                 if f % 2 == 1 {
                     left
@@ -145,11 +160,12 @@ pub(crate) fn build_ropes(kd: &KdTree) -> Vec<[u32; 6]> {
         let n = nodes[i];
         if !n.is_leaf() {
             let a = n.axis();
+            let (left, right) = kd.children(i);
             let (mut rl, mut rr) = (r, r);
-            rl[2 * a + 1] = n.right() as u32;
-            rr[2 * a] = i as u32 + 1;
-            stack.push((n.right(), rr));
-            stack.push((i + 1, rl));
+            rl[2 * a + 1] = right as u32;
+            rr[2 * a] = left as u32;
+            stack.push((right, rr));
+            stack.push((left, rl));
         }
     }
     out
@@ -181,9 +197,9 @@ pub(crate) fn build_ropes(kd: &KdTree) -> Vec<[u32; 6]> {
 /// for the root plus one per cell interval or exit computed (`sequential`, `backtrack`,
 /// `ropes`); `steps`:
 /// nodes visited, `interior + leaves`.
-pub(crate) struct Stackless<'a, const M: u8>(pub &'a KdTree);
+pub(crate) struct Stackless<'a, L, const M: u8>(pub &'a KdTree, pub L);
 
-impl<const M: u8> Stackless<'_, M> {
+impl<L: Layout, const M: u8> Stackless<'_, L, M> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let kd = self.0;
@@ -202,8 +218,10 @@ impl<const M: u8> Stackless<'_, M> {
             passes(&s, |mask| {
                 let mut w = Walk {
                     kd,
+                    l: self.1,
                     s: &s,
                     floor,
+                    exact: 3,
                     mask,
                     seen: 0,
                     steps,
@@ -231,6 +249,11 @@ impl<const M: u8> Stackless<'_, M> {
 
     /// The restart-type walk `K` (`RESTART`, `PUSH_DOWN`, `SHORT_STACK`, `BACKTRACK`) of one
     /// ray from the root, starting with the closest hit `best` and `steps` steps taken.
+    ///
+    /// The restarts find the last leaf again: in the depth-first layout by its index (the
+    /// subtree of a node is a range of indices), otherwise by its *path* from the root (bit
+    /// `k` set when the walk went to the right child at depth `k`; the depth limit is at most
+    /// 64).
     #[inline(always)]
     fn stackless<T: TriTest, C: Counter, const ANY: bool, const K: u8>(
         &self,
@@ -241,18 +264,26 @@ impl<const M: u8> Stackless<'_, M> {
         mut steps: u32,
         c: &mut C,
     ) -> HitRecord {
-        let kd = self.0;
+        let (kd, l) = (self.0, self.1);
         let s = *s;
         let nodes = kd.nodes.as_slice();
         let back = kd.back.as_slice();
         let size = kd.params.short_stack as usize;
-        let mut stack = [(0u32, 0f32, 0f32); MAX_SHORT_STACK];
+        // Far child, its interval, and its parent's depth `<< 1 |` whether it is the right child.
+        let mut stack = [(0u32, 0f32, 0f32, 0u32); MAX_SHORT_STACK];
         // Circular short stack: `count` entries, the newest at `top - 1` (mod `size`).
         let (mut top, mut count) = (0usize, 0usize);
-        // The pushed-down node and its interval, and whether it may still be pushed down.
-        let (mut pd, mut pd_tn, mut pd_tf) = (0usize, s.t0, s.t1);
+        // The pushed-down node, its interval and depth, and whether it may still be pushed down.
+        let (mut pd, mut pd_tn, mut pd_tf, mut pd_depth) = (0usize, s.t0, s.t1, 0u32);
         let mut push = K == PUSH_DOWN || K == SHORT_STACK;
         let (mut idx, mut tn, mut tf) = (0usize, s.t0, s.t1);
+        // Depth of `idx`; `both`: bit `k` set when the node at depth `k` on the way to `idx`
+        // sent the ray both ways and the walk went to the near child (the candidates of the
+        // next restart); `path`: bit `k` set when the walk went to the right child at depth
+        // `k` (treelet layout only: in the depth-first one, indices tell the subtree). Bits at
+        // and beyond `depth` are zero. `backtrack` climbs parent links and keeps none.
+        let track = K != BACKTRACK;
+        let (mut depth, mut both, mut path) = (0u32, 0u64, 0u64);
         loop {
             // Descend to the first leaf of the subtree, near first.
             loop {
@@ -264,23 +295,41 @@ impl<const M: u8> Stackless<'_, M> {
                 c.steps(1);
                 c.planes(1);
                 steps += 1;
-                let d = decide(n, idx, &s, tn, tf);
-                match d.kind {
-                    Kind::NearOnly => idx = d.near,
-                    Kind::FarOnly => idx = d.far,
+                let d = decide(l, n, idx, &s, tn, tf);
+                let near_right = s.neg[n.axis()];
+                let go_right = match d.kind {
+                    Kind::NearOnly => {
+                        idx = d.near;
+                        near_right
+                    }
+                    Kind::FarOnly => {
+                        idx = d.far;
+                        !near_right
+                    }
                     Kind::Both => {
                         if K == SHORT_STACK {
-                            stack[top] = (d.far as u32, d.far_tn, tf);
+                            stack[top] =
+                                (d.far as u32, d.far_tn, tf, depth << 1 | !near_right as u32);
                             top = if top + 1 == size { 0 } else { top + 1 };
                             count = (count + 1).min(size);
                         }
                         push = false;
                         idx = d.near;
                         tf = d.near_tf;
+                        if track {
+                            both |= 1 << depth;
+                        }
+                        near_right
                     }
+                };
+                if track {
+                    if !L::DEPTH_FIRST {
+                        path |= (go_right as u64) << depth;
+                    }
+                    depth += 1;
                 }
                 if push {
-                    (pd, pd_tn, pd_tf) = (idx, tn, tf);
+                    (pd, pd_tn, pd_tf, pd_depth) = (idx, tn, tf, depth);
                 }
             }
             steps += 1;
@@ -297,9 +346,10 @@ impl<const M: u8> Stackless<'_, M> {
                 while count > 0 {
                     top = if top == 0 { size - 1 } else { top - 1 };
                     count -= 1;
-                    let (i, a, b) = stack[top];
+                    let (i, a, b, at) = stack[top];
                     if ANY || a <= best.t {
                         (idx, tn, tf) = (i as usize, a, b);
+                        (depth, both, path) = below(both, path, at);
                         popped = true;
                         break;
                     }
@@ -320,9 +370,9 @@ impl<const M: u8> Stackless<'_, M> {
                     c.boxes(1);
                     steps += 1;
                     let (xn, xf) = cell_interval(kd, &s, &back[x]);
-                    let d = decide(nodes[x], x, &s, xn, xf);
+                    let d = decide(l, nodes[x], x, &s, xn, xf);
                     if d.kind == Kind::Both && child == d.near && (ANY || d.far_tn <= best.t) {
-                        break Some((d.far, d.far_tn, xf, false));
+                        break Some((d.far, d.far_tn, xf, false, 0));
                     }
                     if x == 0 {
                         break None;
@@ -331,22 +381,48 @@ impl<const M: u8> Stackless<'_, M> {
                     x = back[x].parent as usize;
                 }
             } else {
-                // Descend from the pushed-down node toward the last leaf.
-                let (mut x, mut xn, mut xf) = (pd, pd_tn, pd_tf);
+                // Descend from the pushed-down node toward the last leaf, down to the deepest
+                // node that sent the ray both ways (no further: Foley and Sugerman's restart
+                // visits the nodes above the next subtree, not those above the last leaf),
+                // and continue in the far child of the deepest one whose far side starts
+                // before the closest hit. None below the pushed-down node: the ray is done.
+                let live = if pd_depth >= 64 {
+                    0
+                } else {
+                    both >> pd_depth << pd_depth
+                };
+                let deepest = 63u32.saturating_sub(live.leading_zeros());
+                let (mut x, mut xn, mut xf, mut xd) = (pd, pd_tn, pd_tf, pd_depth);
                 let mut cand = None;
                 let mut pending = 0u32;
-                while x != last {
+                while live != 0 && xd <= deepest {
                     let n = nodes[x];
                     c.interior();
                     c.steps(1);
                     c.planes(1);
                     steps += 1;
-                    let d = decide(n, x, &s, xn, xf);
-                    let toward = if last < n.right() { x + 1 } else { n.right() };
+                    let d = decide(l, n, x, &s, xn, xf);
+                    let toward = if L::DEPTH_FIRST {
+                        // The left subtree of `x` is `x + 1 .. link`.
+                        if last < n.link() {
+                            x + 1
+                        } else {
+                            n.link()
+                        }
+                    } else {
+                        let (left, right) = l.children(x, n);
+                        if path >> xd & 1 == 1 {
+                            right
+                        } else {
+                            left
+                        }
+                    };
+                    let toward_near = toward == d.near;
                     if d.kind == Kind::Both {
-                        if toward == d.near {
+                        if toward_near {
                             if ANY || d.far_tn <= best.t {
-                                cand = Some((d.far, d.far_tn, xf));
+                                let far_right = !s.neg[n.axis()];
+                                cand = Some((d.far, d.far_tn, xf, xd << 1 | far_right as u32));
                                 pending += 1;
                             }
                             xf = d.near_tf;
@@ -355,16 +431,20 @@ impl<const M: u8> Stackless<'_, M> {
                         }
                     }
                     x = toward;
+                    xd += 1;
                 }
-                cand.map(|(f, a, b)| (f, a, b, pending == 1))
+                cand.map(|(f, a, b, at)| (f, a, b, pending == 1, at))
             };
-            let Some((f, a, b, alone)) = next else {
+            let Some((f, a, b, alone, at)) = next else {
                 return best.record();
             };
             (idx, tn, tf) = (f, a, b);
+            if track {
+                (depth, both, path) = below(both, path, at);
+            }
             push = alone && (K == PUSH_DOWN || K == SHORT_STACK);
             if push {
-                (pd, pd_tn, pd_tf) = (idx, tn, tf);
+                (pd, pd_tn, pd_tf, pd_depth) = (idx, tn, tf, depth);
             }
         }
     }
@@ -377,7 +457,7 @@ impl<const M: u8> Stackless<'_, M> {
     #[inline(always)]
     fn crawl<T: TriTest, C: Counter, const ANY: bool, const ROPE: bool>(
         &self,
-        w: &mut Walk<'_>,
+        w: &mut Walk<'_, L>,
         ray: &Ray,
         pre: &T::Pre,
         best: &mut Best,
@@ -428,6 +508,7 @@ impl<const M: u8> Stackless<'_, M> {
                 return None;
             }
             w.floor[face] = if s.neg[face] { min[face] } else { max[face] };
+            w.exact = face;
             tn = max_num(tn, tf);
             if ROPE {
                 let side = if s.neg[face] { 0 } else { 1 };
@@ -446,12 +527,17 @@ impl<const M: u8> Stackless<'_, M> {
 }
 
 /// The state of one `sequential` or `ropes` walk (see the module doc).
-struct Walk<'a> {
+struct Walk<'a, L> {
     kd: &'a KdTree,
+    l: L,
     s: &'a Setup,
     /// Per axis, the coordinate of the last exit face crossed on that axis (initially the
     /// root's entry face): every plane at or before it in the direction of travel is behind.
     floor: [f32; 3],
+    /// The axis of the exit face just crossed (3 before the first): the located point lies on
+    /// that face, so on this axis its coordinate is `floor` exactly and planes beyond it are
+    /// ahead, however close their distance.
+    exact: usize,
     /// For rays lying in a split plane: the side to take per axis, and the axes met.
     mask: u8,
     seen: u8,
@@ -461,7 +547,7 @@ struct Walk<'a> {
     ambiguous: bool,
 }
 
-impl Walk<'_> {
+impl<L: Layout> Walk<'_, L> {
     /// [`Walk::locate`] from the root.
     #[inline(always)]
     fn locate_root<C: Counter>(
@@ -477,7 +563,8 @@ impl Walk<'_> {
     /// Kaplan's point location (review §3.1) below node `idx` with cell `min..max` of the ray
     /// point at distance `tn`, the point's coordinate on an axis whose exit face was crossed
     /// being that face's coordinate *exactly* (`floor`), not `o + tn·d` rounded: a plane at
-    /// or before `floor[a]` in the direction of travel is behind; any other plane is behind
+    /// or before `floor[a]` in the direction of travel is behind, one beyond it on the axis of
+    /// the face just crossed (`exact`) is ahead; any other plane is behind
     /// only when its distance is below `tn` by more than the rounding [`SLACK`], so a cell
     /// that a plane distance rounded onto `tn` would skip (one-ulp-thin cells, planes crossed
     /// at the same rounded distance) is visited. Returns the leaf and its cell.
@@ -530,6 +617,8 @@ impl Walk<'_> {
                         } else {
                             sp < s.org[a]
                         }
+                } else if a == self.exact {
+                    behind
                 } else {
                     if !behind && t >= below && t <= above {
                         self.ambiguous = true;
@@ -539,15 +628,16 @@ impl Walk<'_> {
                 // The near child (left for a positive direction) unless the plane is behind.
                 behind == s.neg[a]
             };
+            let (l, r) = self.l.children(idx, n);
             if left {
                 max[a] = sp;
-                idx += 1;
+                idx = l;
             } else {
                 min[a] = sp;
-                idx = n.right();
+                idx = r;
             }
         }
     }
 }
 
-tb_core::kernel_by_query!(walk: [const M: u8] Stackless<'_, M>);
+tb_core::kernel_by_query!(walk: [L: Layout, const M: u8] Stackless<'_, L, M>);

@@ -9,7 +9,7 @@
 //! the leaf's exit does not end the walk. Each node is visited at most once, so no step cap
 //! is needed.
 
-use crate::{KdNode, KdTree};
+use crate::{KdNode, KdTree, Layout};
 use tb_core::slab::{max_num, min_num};
 use tb_core::{Counter, HitRecord, Ray, TriTest};
 
@@ -170,13 +170,21 @@ pub(crate) struct Decision {
 }
 
 #[inline(always)]
-pub(crate) fn decide(n: KdNode, idx: usize, s: &Setup, tn: f32, tf: f32) -> Decision {
+pub(crate) fn decide<L: Layout>(
+    l: L,
+    n: KdNode,
+    idx: usize,
+    s: &Setup,
+    tn: f32,
+    tf: f32,
+) -> Decision {
     let a = n.axis();
     let t = (n.split() - s.org[a]) * s.inv[a];
+    let (left, right) = l.children(idx, n);
     let (near, far) = if s.neg[a] {
-        (n.right(), idx + 1)
+        (right, left)
     } else {
-        (idx + 1, n.right())
+        (left, right)
     };
     let kind = if t > tf * SLACK {
         Kind::NearOnly
@@ -206,9 +214,9 @@ pub(crate) fn decide(n: KdNode, idx: usize, s: &Setup, tn: f32, tf: f32) -> Deci
 /// half-space holding the ray; an origin exactly in the plane gives `t = NaN`, which fails both
 /// comparisons, and both children are visited over the whole interval (the NaN is ignored by
 /// the interval updates).
-pub(crate) struct RecursiveDirection<'a>(pub &'a KdTree);
+pub(crate) struct RecursiveDirection<'a, L>(pub &'a KdTree, pub L);
 
-impl RecursiveDirection<'_> {
+impl<L: Layout> RecursiveDirection<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let kd = self.0;
@@ -230,7 +238,7 @@ impl RecursiveDirection<'_> {
                 c.interior();
                 c.steps(1);
                 c.planes(1);
-                let d = decide(n, idx, &s, tn, tf);
+                let d = decide(self.1, n, idx, &s, tn, tf);
                 match d.kind {
                     Kind::NearOnly => idx = d.near,
                     Kind::FarOnly => idx = d.far,
@@ -254,7 +262,7 @@ impl RecursiveDirection<'_> {
     }
 }
 
-tb_core::kernel_by_query!(walk: [] RecursiveDirection<'_>);
+tb_core::kernel_by_query!(walk: [L: Layout] RecursiveDirection<'_, L>);
 
 /// A point on the ray: its parameter and coordinates.
 #[derive(Clone, Copy)]
@@ -290,9 +298,9 @@ fn point(kd: &KdTree, s: &Setup, t: f32) -> [f32; 3] {
 /// `8·2^-24·(|o_a| + max |root cell|_a)` of the split counts as possibly on either side:
 /// an entry and exit both within it is case Z, one of them within it a crossing (near child by
 /// the direction's sign); points on axes of zero direction are exactly `o_a`.
-pub(crate) struct Havran<'a>(pub &'a KdTree);
+pub(crate) struct Havran<'a, L>(pub &'a KdTree, pub L);
 
-impl Havran<'_> {
+impl<L: Layout> Havran<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let kd = self.0;
@@ -331,7 +339,7 @@ impl Havran<'_> {
                 c.steps(1);
                 let a = n.axis();
                 let split = n.split();
-                let (left, right) = (idx + 1, n.right());
+                let (left, right) = self.1.children(idx, n);
                 let (ea, xa) = (en.p[a], ex.p[a]);
                 let (lo, hi) = (split - err[a], split + err[a]);
                 // Entry/exit possibly on the left (at most `split` up to rounding), possibly
@@ -383,7 +391,7 @@ impl Havran<'_> {
     }
 }
 
-tb_core::kernel_by_query!(walk: [] Havran<'_>);
+tb_core::kernel_by_query!(walk: [L: Layout] Havran<'_, L>);
 
 /// `recursive-origin` (traversal 2): the stack-based algorithm with near/far children
 /// classified by the side of the split plane holding the ray origin (Jansen 1986, Arvo 1988;
@@ -391,9 +399,9 @@ tb_core::kernel_by_query!(walk: [] Havran<'_>);
 /// only; `t < t_entry`: far only; otherwise both. An origin lying in a split plane (`o_a =
 /// split`, near = the upper child) gives `t = 0` and may send the ray to the wrong child: the
 /// algorithm is inherently not robust there (Havran et al. 1997), and kept as published.
-pub(crate) struct RecursiveOrigin<'a>(pub &'a KdTree);
+pub(crate) struct RecursiveOrigin<'a, L>(pub &'a KdTree, pub L);
 
-impl RecursiveOrigin<'_> {
+impl<L: Layout> RecursiveOrigin<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let kd = self.0;
@@ -417,10 +425,11 @@ impl RecursiveOrigin<'_> {
                 let a = n.axis();
                 let split = n.split();
                 let t = (split - s.org[a]) * s.inv[a];
+                let (left, right) = self.1.children(idx, n);
                 let (near, far) = if s.org[a] < split {
-                    (idx + 1, n.right())
+                    (left, right)
                 } else {
-                    (n.right(), idx + 1)
+                    (right, left)
                 };
                 if t < 0.0 || t > tf * SLACK {
                     idx = near;
@@ -447,7 +456,7 @@ impl RecursiveOrigin<'_> {
     }
 }
 
-tb_core::kernel_by_query!(walk: [] RecursiveOrigin<'_>);
+tb_core::kernel_by_query!(walk: [L: Layout] RecursiveOrigin<'_, L>);
 
 /// `branchless` (traversal 9): the direction-classified recursive traversal with the
 /// interior-node step written without branches (Hapala 2009; Hapala and Havran 2011 §5.5,
@@ -459,9 +468,9 @@ tb_core::kernel_by_query!(walk: [] RecursiveOrigin<'_>);
 /// `t > t_exit·SLACK`, `d` when `t·SLACK < t_entry`; a NaN `t` gives both children over the
 /// whole interval), so it visits exactly the same nodes. Extra memory: the stack, one entry
 /// more than `recursive-direction`'s.
-pub(crate) struct Branchless<'a>(pub &'a KdTree);
+pub(crate) struct Branchless<'a, L>(pub &'a KdTree, pub L);
 
-impl Branchless<'_> {
+impl<L: Layout> Branchless<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let kd = self.0;
@@ -488,8 +497,9 @@ impl Branchless<'_> {
                 let a = node.axis();
                 let t = (node.split() - s.org[a]) * s.inv[a];
                 let neg = s.neg[a] as usize;
-                // Left child idx + 1, right child `right`; near = left unless neg.
-                let kids = [idx + 1, node.right()];
+                // Near = left unless neg.
+                let (left, right) = self.1.children(idx, node);
+                let kids = [left, right];
                 let (near, far) = (kids[neg], kids[1 - neg]);
                 // `t > tf·SLACK` is false for a NaN `t`: both children.
                 let near_only = t > tf * SLACK;
@@ -515,7 +525,7 @@ impl Branchless<'_> {
     }
 }
 
-tb_core::kernel_by_query!(walk: [] Branchless<'_>);
+tb_core::kernel_by_query!(walk: [L: Layout] Branchless<'_, L>);
 
 /// `stack-spilling` (traversal 10): `recursive-direction` with a short circular stack of
 /// [`crate::KdParams::short_stack`] entries whose oldest entry, on overflow, is *spilled* to a
@@ -524,9 +534,9 @@ tb_core::kernel_by_query!(walk: [] Branchless<'_>);
 /// §5.2, Figure 8, Table 3 "stack spilling"). Visits exactly the nodes of
 /// `recursive-direction`; `boxes` counts 1 plus one per entry spilled or refilled (the
 /// traffic to the memory stack). Extra memory: the short stack and a full stack per ray.
-pub(crate) struct StackSpilling<'a>(pub &'a KdTree);
+pub(crate) struct StackSpilling<'a, L>(pub &'a KdTree, pub L);
 
-impl StackSpilling<'_> {
+impl<L: Layout> StackSpilling<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let kd = self.0;
@@ -551,7 +561,7 @@ impl StackSpilling<'_> {
                 c.interior();
                 c.steps(1);
                 c.planes(1);
-                let d = decide(n, idx, &s, tn, tf);
+                let d = decide(self.1, n, idx, &s, tn, tf);
                 match d.kind {
                     Kind::NearOnly => idx = d.near,
                     Kind::FarOnly => idx = d.far,
@@ -601,4 +611,4 @@ impl StackSpilling<'_> {
     }
 }
 
-tb_core::kernel_by_query!(walk: [] StackSpilling<'_>);
+tb_core::kernel_by_query!(walk: [L: Layout] StackSpilling<'_, L>);
