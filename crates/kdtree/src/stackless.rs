@@ -284,6 +284,8 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
         // and beyond `depth` are zero. `backtrack` climbs parent links and keeps none.
         let track = K != BACKTRACK;
         let (mut depth, mut both, mut path) = (0u32, 0u64, 0u64);
+        // The ray lies in a split plane it met (its children overlap in `t`).
+        let mut in_plane = false;
         loop {
             // Descend to the first leaf of the subtree, near first.
             loop {
@@ -307,6 +309,8 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
                         !near_right
                     }
                     Kind::Both => {
+                        // `far_tn < near_tf` only for `t = NaN` (see `decide`).
+                        in_plane |= d.far_tn < d.near_tf;
                         if K == SHORT_STACK {
                             stack[top] =
                                 (d.far as u32, d.far_tn, tf, depth << 1 | !near_right as u32);
@@ -334,6 +338,14 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
             }
             steps += 1;
             if leaf::<T, C, ANY>(kd, nodes[idx], pre, ray, &mut best, c) {
+                return best.record();
+            }
+            // A hit before the end of the leaf's interval ends the ray (Foley and Sugerman's
+            // early exit): every pending subtree starts at or beyond that end (`tf`, the near
+            // interval of the deepest node that sent the ray both ways), so the stack
+            // traversal would skip them all and a restart would find none. Not for a ray
+            // lying in a split plane: both of that node's children span its whole interval.
+            if best.t < tf && !in_plane {
                 return best.record();
             }
             if steps >= kd.params.step_cap {

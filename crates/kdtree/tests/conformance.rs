@@ -450,3 +450,50 @@ fn sponza_ropes_hand_few_rays_to_restart() {
         assert_eq!(hits[k * 64].prim, w.prim, "ray {}", k * 64);
     }
 }
+
+/// `restart`, `push-down`, `short-stack` and `backtrack` visit exactly the leaves of
+/// `recursive-direction` (same leaves, same triangle tests, same hits), ray by ray, on the
+/// suite's scenes and every ray kind, closest hit: they differ only in the interior nodes
+/// they revisit (Hapala and Havran 2011 §5). The early exit after a leaf (a hit before the
+/// leaf's exit) keeps that: the stack traversal would skip every pending subtree too.
+#[test]
+fn restart_family_visits_the_recursive_leaves() {
+    use tb_core::{Query, TraversalStats};
+    let base = index("recursive-direction");
+    let others = ["restart", "push-down", "short-stack", "backtrack"].map(index);
+    let mut compared = 0;
+    for scene in tb_scene::conformance::suite_scenes() {
+        let kd = KdTree::build(&scene.triangles, &KdParams::default());
+        for b in tb_scene::conformance::batches(&scene, TriTestKind::Watertight) {
+            let trace = |ti: usize| {
+                let mut hits = vec![HitRecord::MISS; b.rays.len()];
+                let mut stats = vec![TraversalStats::default(); b.rays.len()];
+                kd.trace(
+                    ti,
+                    Query::Closest,
+                    TriTestKind::Watertight,
+                    &b.rays,
+                    &mut hits,
+                    Some(&mut stats),
+                );
+                (hits, stats)
+            };
+            let (h0, s0) = trace(base);
+            for &ti in &others {
+                let (h, s) = trace(ti);
+                assert_eq!(h, h0, "{}: {}", scene.source, TRAVERSALS[ti].name);
+                for (a, b) in s.iter().zip(&s0) {
+                    assert_eq!(
+                        (a.leaves, a.prims),
+                        (b.leaves, b.prims),
+                        "{}: {}",
+                        scene.source,
+                        TRAVERSALS[ti].name
+                    );
+                }
+            }
+            compared += b.rays.len();
+        }
+    }
+    assert!(compared > 100_000, "{compared}");
+}
