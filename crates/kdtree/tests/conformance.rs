@@ -58,6 +58,21 @@ fn index(name: &str) -> usize {
     TRAVERSALS.iter().position(|t| t.name == name).unwrap()
 }
 
+/// Trace `rays` with traversal `ti` of `kd` (watertight test), with per-ray counters.
+fn traced(kd: &KdTree, ti: usize, q: Query, rays: &[Ray]) -> (Vec<HitRecord>, Vec<TraversalStats>) {
+    let mut hits = vec![HitRecord::MISS; rays.len()];
+    let mut stats = vec![TraversalStats::default(); rays.len()];
+    kd.trace(
+        ti,
+        q,
+        TriTestKind::Watertight,
+        rays,
+        &mut hits,
+        Some(&mut stats),
+    );
+    (hits, stats)
+}
+
 /// The robust traversals: all but `recursive-origin`.
 fn robust() -> &'static [usize] {
     let v: Vec<usize> = (0..TRAVERSALS.len())
@@ -153,21 +168,11 @@ fn sweep_builders_agree() {
 /// least one per extra descent for the restart-type ones.
 #[test]
 fn counters_are_consistent() {
-    use tb_core::{Query, TraversalStats};
     let scene = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new(".")).unwrap();
     let kd = KdTree::build(&scene.triangles, &KdParams::default());
     let rays = tb_scene::rays::random(&scene.bounds, 500, 3);
     for (ti, info) in TRAVERSALS.iter().enumerate() {
-        let mut hits = vec![HitRecord::MISS; rays.len()];
-        let mut stats = vec![TraversalStats::default(); rays.len()];
-        kd.trace(
-            ti,
-            Query::Closest,
-            TriTestKind::Watertight,
-            &rays,
-            &mut hits,
-            Some(&mut stats),
-        );
+        let (_, stats) = traced(&kd, ti, Query::Closest, &rays);
         for s in &stats {
             assert_eq!(s.steps, s.interior + s.leaves, "{}", info.name);
             assert!(s.boxes >= 1);
@@ -193,7 +198,6 @@ fn counters_are_consistent() {
 /// traversals have no cap.
 #[test]
 fn step_cap_fires_and_is_counted() {
-    use tb_core::{Query, TraversalStats};
     let scene = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new(".")).unwrap();
     let rays = tb_scene::rays::random(&scene.bounds, 500, 5);
     for cap in [3, tb_kdtree::STEP_CAP] {
@@ -203,16 +207,7 @@ fn step_cap_fires_and_is_counted() {
         };
         let kd = KdTree::build(&scene.triangles, &params);
         for (ti, info) in TRAVERSALS.iter().enumerate() {
-            let mut hits = vec![HitRecord::MISS; rays.len()];
-            let mut stats = vec![TraversalStats::default(); rays.len()];
-            kd.trace(
-                ti,
-                Query::Closest,
-                TriTestKind::Watertight,
-                &rays,
-                &mut hits,
-                Some(&mut stats),
-            );
+            let (_, stats) = traced(&kd, ti, Query::Closest, &rays);
             let summary = tb_core::StatsSummary::from_stats(&stats);
             if !kd.has_step_cap(ti) {
                 assert_eq!(summary.capped, 0, "{}", info.name);
@@ -237,7 +232,6 @@ fn step_cap_fires_and_is_counted() {
 /// exactly the nodes of `recursive-direction`, ray by ray.
 #[test]
 fn branchless_and_spilling_visit_the_recursive_nodes() {
-    use tb_core::{Query, TraversalStats};
     let scene = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new(".")).unwrap();
     let kd = KdTree::build(
         &scene.triangles,
@@ -248,16 +242,7 @@ fn branchless_and_spilling_visit_the_recursive_nodes() {
     );
     let rays = tb_scene::rays::random(&scene.bounds, 500, 11);
     let count = |ti: usize| {
-        let mut hits = vec![HitRecord::MISS; rays.len()];
-        let mut stats = vec![TraversalStats::default(); rays.len()];
-        kd.trace(
-            ti,
-            Query::Closest,
-            TriTestKind::Watertight,
-            &rays,
-            &mut hits,
-            Some(&mut stats),
-        );
+        let (_, stats) = traced(&kd, ti, Query::Closest, &rays);
         stats
     };
     let base = count(index("recursive-direction"));
@@ -290,22 +275,8 @@ fn conforms_treelet() {
 /// the layout holds every node once, in more slots.
 #[test]
 fn treelet_layout_visits_the_same_nodes() {
-    use tb_core::{Query, TraversalStats};
     let scene = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new(".")).unwrap();
     let rays = tb_scene::rays::random(&scene.bounds, 400, 17);
-    let trace = |kd: &KdTree, ti: usize, q: Query| {
-        let mut hits = vec![HitRecord::MISS; rays.len()];
-        let mut stats = vec![TraversalStats::default(); rays.len()];
-        kd.trace(
-            ti,
-            q,
-            TriTestKind::Watertight,
-            &rays,
-            &mut hits,
-            Some(&mut stats),
-        );
-        (hits, stats)
-    };
     let dfs = KdTree::build(&scene.triangles, &KdParams::default());
     let count = |kd: &KdTree| kd.build_report().extra[0].1;
     for h in [2, 3, 5] {
@@ -323,8 +294,8 @@ fn treelet_layout_visits_the_same_nodes() {
         assert_eq!(tl.nodes().as_ptr() as usize % 64, 0);
         for (ti, info) in TRAVERSALS.iter().enumerate() {
             for q in [Query::Closest, Query::Any] {
-                let (ha, sa) = trace(&dfs, ti, q);
-                let (hb, sb) = trace(&tl, ti, q);
+                let (ha, sa) = traced(&dfs, ti, q, &rays);
+                let (hb, sb) = traced(&tl, ti, q, &rays);
                 assert_eq!(ha, hb, "h = {h}: {} hits", info.name);
                 assert_eq!(sa, sb, "h = {h}: {} counters", info.name);
             }
@@ -338,7 +309,6 @@ fn treelet_layout_visits_the_same_nodes() {
 /// restart, both visit the same interior nodes, ray by ray.
 #[test]
 fn restart_visits_the_root_paths_of_its_leaves() {
-    use tb_core::{Query, TraversalStats};
     let scene = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new(".")).unwrap();
     let rays = tb_scene::rays::random(&scene.bounds, 2000, 23);
     for layout in [
@@ -352,19 +322,7 @@ fn restart_visits_the_root_paths_of_its_leaves() {
                 ..Default::default()
             },
         );
-        let trace = |ti: usize| {
-            let mut hits = vec![HitRecord::MISS; rays.len()];
-            let mut stats = vec![TraversalStats::default(); rays.len()];
-            kd.trace(
-                ti,
-                Query::Closest,
-                TriTestKind::Watertight,
-                &rays,
-                &mut hits,
-                Some(&mut stats),
-            );
-            (hits, stats)
-        };
+        let trace = |ti: usize| traced(&kd, ti, Query::Closest, &rays);
         let (hits, rs) = trace(index("restart"));
         let (_, ss) = trace(index("sequential"));
         let (mut same, mut compared) = (0, 0);
@@ -392,7 +350,7 @@ fn restart_visits_the_root_paths_of_its_leaves() {
 /// notice, without the paper scenes.
 #[test]
 fn sponza_ropes_hand_few_rays_to_restart() {
-    use tb_core::{Accel, Query, TraversalStats, Vec3};
+    use tb_core::Vec3;
     let root = std::env::var_os("TRACE_BENCH_SCENES")
         .map(std::path::PathBuf::from)
         .unwrap_or_else(|| {
@@ -419,16 +377,7 @@ fn sponza_ropes_hand_few_rays_to_restart() {
         order: Default::default(),
     };
     let rays = tb_scene::rays::primary(&cam);
-    let mut hits = vec![HitRecord::MISS; rays.len()];
-    let mut stats = vec![TraversalStats::default(); rays.len()];
-    kd.trace(
-        index("ropes"),
-        Query::Closest,
-        TriTestKind::Watertight,
-        &rays,
-        &mut hits,
-        Some(&mut stats),
-    );
+    let (hits, stats) = traced(&kd, index("ropes"), Query::Closest, &rays);
     let fell = stats.iter().filter(|s| s.restarts > 0).count();
     println!(
         "sponza ropes: {fell} of {} primary rays handed to restart",
@@ -458,26 +407,13 @@ fn sponza_ropes_hand_few_rays_to_restart() {
 /// leaf's exit) keeps that: the stack traversal would skip every pending subtree too.
 #[test]
 fn restart_family_visits_the_recursive_leaves() {
-    use tb_core::{Query, TraversalStats};
     let base = index("recursive-direction");
     let others = ["restart", "push-down", "short-stack", "backtrack"].map(index);
     let mut compared = 0;
     for scene in tb_scene::conformance::suite_scenes() {
         let kd = KdTree::build(&scene.triangles, &KdParams::default());
         for b in tb_scene::conformance::batches(&scene, TriTestKind::Watertight) {
-            let trace = |ti: usize| {
-                let mut hits = vec![HitRecord::MISS; b.rays.len()];
-                let mut stats = vec![TraversalStats::default(); b.rays.len()];
-                kd.trace(
-                    ti,
-                    Query::Closest,
-                    TriTestKind::Watertight,
-                    &b.rays,
-                    &mut hits,
-                    Some(&mut stats),
-                );
-                (hits, stats)
-            };
+            let trace = |ti: usize| traced(&kd, ti, Query::Closest, &b.rays);
             let (h0, s0) = trace(base);
             for &ti in &others {
                 let (h, s) = trace(ti);
