@@ -213,17 +213,20 @@ fn sample(v: Validate, n: usize) -> Vec<usize> {
     }
 }
 
-/// The oracle's answers for the validated sample `sub` of batch `bi` (computed on first use).
-fn oracle_hits(
+/// The validated sample of batch `bi` under `validate`: the ray indices, the rays, and the
+/// oracle's answers for them (computed on first use, then shared by every row of the batch).
+fn oracle_sample(
     oracle: &mut HashMap<usize, Vec<HitRecord>>,
     bi: usize,
     brute: &BruteForce,
     b: &Batch,
-    sub: &[Ray],
+    validate: Validate,
     label: &str,
     progress: &Progress,
-) -> Vec<HitRecord> {
-    oracle
+) -> (Vec<usize>, Vec<Ray>, Vec<HitRecord>) {
+    let idx = sample(validate, b.rays.len());
+    let sub: Vec<Ray> = idx.iter().map(|&i| b.rays[i]).collect();
+    let expected = oracle
         .entry(bi)
         .or_insert_with(|| {
             progress.step(&format!(
@@ -231,9 +234,10 @@ fn oracle_hits(
                 b.name,
                 sub.len()
             ));
-            trace_par(brute, 0, b.query, TriTestKind::Watertight, sub)
+            trace_par(brute, 0, b.query, TriTestKind::Watertight, &sub)
         })
-        .clone()
+        .clone();
+    (idx, sub, expected)
 }
 
 /// The thread counts rows are written for on `dev`: the run's on the CPU; one row, `threads
@@ -570,14 +574,12 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
                             continue;
                         }
                         let validation = (spec.validate != Validate::Off).then(|| {
-                            let idx = sample(spec.validate, b.rays.len());
-                            let sub: Vec<Ray> = idx.iter().map(|&i| b.rays[i]).collect();
-                            let e = oracle_hits(
+                            let (idx, _, e) = oracle_sample(
                                 &mut oracle,
                                 bi,
                                 &brute,
                                 b,
-                                &sub,
+                                spec.validate,
                                 &spec.label,
                                 &progress,
                             );
@@ -644,14 +646,12 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
                     // Validation against the oracle.
                     if spec.validate != Validate::Off {
                         let c = checked.entry((ti, tri, bi)).or_insert_with(|| {
-                            let idx = sample(spec.validate, b.rays.len());
-                            let sub: Vec<Ray> = idx.iter().map(|&i| b.rays[i]).collect();
-                            let expected = oracle_hits(
+                            let (idx, sub, expected) = oracle_sample(
                                 &mut oracle,
                                 bi,
                                 &brute,
                                 b,
-                                &sub,
+                                spec.validate,
                                 &spec.label,
                                 &progress,
                             );

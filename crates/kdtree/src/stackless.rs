@@ -42,7 +42,7 @@
 //! left child and record the axis, and the walk is repeated for each combination of sides on
 //! the zero-direction axes where that happened (at most 4 walks).
 
-use crate::traverse::{decide, leaf, setup, Best, Kind, Setup, SLACK};
+use crate::traverse::{decide, leaf, start, Best, Kind, Setup, SLACK};
 use crate::{BackNode, KdTree, Layout};
 use tb_core::slab::{max_num, min_num};
 use tb_core::{Counter, HitRecord, Ray, TriTest};
@@ -203,12 +203,9 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let kd = self.0;
-        c.boxes(1);
-        let Some(s) = setup(kd, ray) else {
+        let Some((s, pre, mut best)) = start::<T, C>(kd, ray, c) else {
             return HitRecord::MISS;
         };
-        let pre = T::prepare(ray);
-        let mut best = Best::new(ray.tmax);
         if M == SEQUENTIAL || M == ROPES {
             let root = &kd.bounds;
             let floor: [f32; 3] =

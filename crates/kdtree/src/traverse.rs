@@ -57,8 +57,21 @@ pub(crate) struct Setup {
     pub(crate) t1: f32,
 }
 
+/// The start of every kernel: count the root cell's test, clip the ray to it (`None`: the ray
+/// misses the tree), prepare the triangle test, and no hit yet (closest so far `ray.tmax`).
 #[inline(always)]
-pub(crate) fn setup(kd: &KdTree, ray: &Ray) -> Option<Setup> {
+pub(crate) fn start<T: TriTest, C: Counter>(
+    kd: &KdTree,
+    ray: &Ray,
+    c: &mut C,
+) -> Option<(Setup, T::Pre, Best)> {
+    c.boxes(1);
+    let s = setup(kd, ray)?;
+    Some((s, T::prepare(ray), Best::new(ray.tmax)))
+}
+
+#[inline(always)]
+fn setup(kd: &KdTree, ray: &Ray) -> Option<Setup> {
     if kd.nodes.is_empty() {
         return None;
     }
@@ -220,13 +233,10 @@ impl<L: Layout> RecursiveDirection<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let kd = self.0;
-        c.boxes(1);
-        let Some(s) = setup(kd, ray) else {
+        let Some((s, pre, mut best)) = start::<T, C>(kd, ray, c) else {
             return HitRecord::MISS;
         };
-        let pre = T::prepare(ray);
         let nodes = kd.nodes.as_slice();
-        let mut best = Best::new(ray.tmax);
         let mut stack = [(0u32, 0f32, 0f32); STACK_SIZE];
         let mut sp = 0usize;
         let (mut idx, mut tn, mut tf) = (0usize, s.t0, s.t1);
@@ -304,13 +314,10 @@ impl<L: Layout> Havran<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let kd = self.0;
-        c.boxes(1);
-        let Some(s) = setup(kd, ray) else {
+        let Some((s, pre, mut best)) = start::<T, C>(kd, ray, c) else {
             return HitRecord::MISS;
         };
-        let pre = T::prepare(ray);
         let nodes = kd.nodes.as_slice();
-        let mut best = Best::new(ray.tmax);
         let zero = Pt {
             t: 0.0,
             p: [0.0; 3],
@@ -405,13 +412,10 @@ impl<L: Layout> RecursiveOrigin<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let kd = self.0;
-        c.boxes(1);
-        let Some(s) = setup(kd, ray) else {
+        let Some((s, pre, mut best)) = start::<T, C>(kd, ray, c) else {
             return HitRecord::MISS;
         };
-        let pre = T::prepare(ray);
         let nodes = kd.nodes.as_slice();
-        let mut best = Best::new(ray.tmax);
         let mut stack = [(0u32, 0f32, 0f32); STACK_SIZE];
         let mut sp = 0usize;
         let (mut idx, mut tn, mut tf) = (0usize, s.t0, s.t1);
@@ -474,13 +478,10 @@ impl<L: Layout> Branchless<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let kd = self.0;
-        c.boxes(1);
-        let Some(s) = setup(kd, ray) else {
+        let Some((s, pre, mut best)) = start::<T, C>(kd, ray, c) else {
             return HitRecord::MISS;
         };
-        let pre = T::prepare(ray);
         let nodes = kd.nodes.as_slice();
-        let mut best = Best::new(ray.tmax);
         let mut stack = [(0u32, 0f32, 0f32); STACK_SIZE + 1];
         // `n` entries; the top, `stack[n - 1]`, is the node being processed.
         stack[0] = (0, s.t0, s.t1);
@@ -540,13 +541,10 @@ impl<L: Layout> StackSpilling<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let kd = self.0;
-        c.boxes(1);
-        let Some(s) = setup(kd, ray) else {
+        let Some((s, pre, mut best)) = start::<T, C>(kd, ray, c) else {
             return HitRecord::MISS;
         };
-        let pre = T::prepare(ray);
         let nodes = kd.nodes.as_slice();
-        let mut best = Best::new(ray.tmax);
         let size = kd.params.short_stack as usize;
         let mut short = [(0u32, 0f32, 0f32); crate::MAX_SHORT_STACK];
         // Circular: `count` entries, the newest at `top - 1` (mod `size`).

@@ -13,35 +13,27 @@
 /// The `ε` of the relative MSE.
 pub const REL_MSE_EPSILON: f64 = 0.01;
 
-/// Root-mean-square error of `x` against `r` (same length; a NaN sample makes it NaN).
-pub fn rmse(x: &[f32], r: &[f32]) -> f64 {
+/// The mean over pixels of `err(x_i, r_i)` (in `f64`; images of one size).
+fn mean_error(x: &[f32], r: &[f32], err: impl Fn(f64, f64) -> f64) -> f64 {
     assert_eq!(x.len(), r.len(), "images of one size");
     let n = x.len().max(1) as f64;
     let s: f64 = x
         .iter()
         .zip(r)
-        .map(|(&a, &b)| {
-            let d = a as f64 - b as f64;
-            d * d
-        })
+        .map(|(&a, &b)| err(a as f64, b as f64))
         .sum();
-    (s / n).sqrt()
+    s / n
+}
+
+/// Root-mean-square error of `x` against `r` (same length; a NaN sample makes it NaN).
+pub fn rmse(x: &[f32], r: &[f32]) -> f64 {
+    mean_error(x, r, |a, b| (a - b) * (a - b)).sqrt()
 }
 
 /// Relative mean squared error of `x` against `r`: `mean((x − r)² / (r² + ε))`, `ε` =
 /// [`REL_MSE_EPSILON`].
 pub fn rel_mse(x: &[f32], r: &[f32]) -> f64 {
-    assert_eq!(x.len(), r.len(), "images of one size");
-    let n = x.len().max(1) as f64;
-    let s: f64 = x
-        .iter()
-        .zip(r)
-        .map(|(&a, &b)| {
-            let (a, b) = (a as f64, b as f64);
-            (a - b) * (a - b) / (b * b + REL_MSE_EPSILON)
-        })
-        .sum();
-    s / n
+    mean_error(x, r, |a, b| (a - b) * (a - b) / (b * b + REL_MSE_EPSILON))
 }
 
 #[cfg(test)]
