@@ -5,20 +5,31 @@
 //! x counter), so no virtual call or branch on configuration happens per node
 //! (STYLE.md, "dynamic dispatch only at the batch edge").
 //!
+//! The seam a structure crate implements is [`Structure`]: its name, its traversal table
+//! ([`Traversal`]: the facts of each traversal in a [`TraversalInfo`], its CPU kernel and, where
+//! it has one, its [`GpuProgram`]) and its figures. [`Accel`], the object-safe interface the
+//! harness, renderer and tests use, is derived from it; [`Family`] (one `static` per crate) is
+//! what the harness's registry lists: name, doc, parameter table ([`crate::params`]) and
+//! builder.
+//!
 //! How the interface fits the structures of the five papers:
-//! - one build serves several traversals: [`Accel::traversals`] lists them and
-//!   [`Accel::trace`] takes the index (kd-tree review: sequential, restart, push-down, …;
-//!   R-trees: stackless, ordered, stack);
+//! - one build serves several traversals: the table lists them and [`Accel::trace`] takes the
+//!   index (kd-tree review: sequential, restart, push-down, …; R-trees: stackless, ordered,
+//!   stack); traversals that need extra build data name it in [`TraversalInfo::aux`] and
+//!   build it on first use ([`Accel::prepare`]);
 //! - a kernel sees one ray at a time and may keep any per-ray state (entry/exit intervals,
 //!   restarts, short stacks, the tree chosen by direction for multi-kd-trees, a start node for
 //!   sparse boxes, the cell walk of irregular grids);
 //! - threading is the caller's: the runner splits a batch across threads and calls `trace` on
 //!   each chunk, so structures contain no threading code.
 
-use crate::geom::{HitRecord, Ray};
-use crate::stats::{Counter, NoStats, TraversalStats};
+use crate::geom::{HitRecord, Ray, Triangle};
+use crate::gpu::GpuProgram;
+use crate::params::{defaults_of, ParamError, ParamSet, ParamSpec, Params};
+use crate::stats::{Counter, CounterSet, NoStats, TraversalStats};
 use crate::tri::{MollerTrumbore, TriTest, TriTestKind, Watertight};
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 /// Which query a batch asks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -30,13 +41,102 @@ pub enum Query {
     Any,
 }
 
-/// A traversal algorithm a structure offers, as listed by `trace-bench list`.
+/// A traversal algorithm a structure offers: everything the harness and `trace-bench list`
+/// need to know about it, declared once in the structure's traversal table ([`Traversal`]).
 #[derive(Clone, Copy, Debug)]
 pub struct TraversalInfo {
     /// Config name, kebab-case (e.g. `ordered`, `short-stack`).
     pub name: &'static str,
-    /// One line: the algorithm and its paper/section.
+    /// One line: the algorithm and its papers.
     pub doc: &'static str,
+    /// The paper and section it reproduces (e.g. `Hapala & Havran 2011 §5.1`).
+    pub paper: &'static str,
+    /// It ends rays after a per-ray step cap and counts them ([`crate::Counter::capped`]);
+    /// its rows report `capped_rays`.
+    pub step_cap: bool,
+    /// Auxiliary arrays it reads beyond the structure's own ([`Structure::aux_bytes`] names
+    /// their sizes; [`Accel::prepare`] builds them): its memory is the structure's plus these
+    /// (the kd-tree review's Table 3 "additional memory").
+    pub aux: &'static [&'static str],
+    /// The counters it reports; the others' columns stay empty (peers report none).
+    pub counters: CounterSet,
+    /// The triangle test it always uses when it ignores the requested one (Embree's own
+    /// intersector); `None` when it honours [`TriTestKind`].
+    pub own_triangle_test: Option<&'static str>,
+}
+
+impl TraversalInfo {
+    /// A traversal reporting every counter, no step cap, no auxiliary arrays.
+    pub const fn new(name: &'static str, paper: &'static str, doc: &'static str) -> Self {
+        TraversalInfo {
+            name,
+            doc,
+            paper,
+            step_cap: false,
+            aux: &[],
+            counters: CounterSet::ALL,
+            own_triangle_test: None,
+        }
+    }
+
+    /// With a per-ray step cap.
+    pub const fn capped(mut self) -> Self {
+        self.step_cap = true;
+        self
+    }
+
+    /// Reading the auxiliary arrays `aux`.
+    pub const fn reads(mut self, aux: &'static [&'static str]) -> Self {
+        self.aux = aux;
+        self
+    }
+
+    /// Reporting only `counters`.
+    pub const fn counting(mut self, counters: CounterSet) -> Self {
+        self.counters = counters;
+        self
+    }
+
+    /// Always using its own triangle test `name`.
+    pub const fn own_test(mut self, name: &'static str) -> Self {
+        self.own_triangle_test = Some(name);
+        self
+    }
+}
+
+/// Traces a batch with one traversal of structure `S` (single-threaded; see [`Accel::trace`]).
+pub type TraceFn<S> =
+    fn(&S, Query, TriTestKind, &[Ray], &mut [HitRecord], Option<&mut [TraversalStats]>);
+
+/// The GPU program of one traversal of a build of `S`.
+pub type GpuFn<S> = for<'a> fn(&'a S) -> GpuProgram<'a>;
+
+/// One row of a structure's traversal table: the facts, the CPU kernel and, where there is
+/// one, the GPU program. Listing, dispatch, memory and GPU support all derive from the table.
+pub struct Traversal<S> {
+    pub info: TraversalInfo,
+    pub trace: TraceFn<S>,
+    pub gpu: Option<GpuFn<S>>,
+}
+
+impl<S> Traversal<S> {
+    /// A row with a CPU kernel only.
+    pub const fn cpu(info: TraversalInfo, trace: TraceFn<S>) -> Self {
+        Traversal {
+            info,
+            trace,
+            gpu: None,
+        }
+    }
+
+    /// A row with a CPU kernel and a GPU program.
+    pub const fn with_gpu(info: TraversalInfo, trace: TraceFn<S>, gpu: GpuFn<S>) -> Self {
+        Traversal {
+            info,
+            trace,
+            gpu: Some(gpu),
+        }
+    }
 }
 
 /// Memory used by a built structure, including every auxiliary array a traversal needs.
@@ -61,23 +161,55 @@ pub struct BuildReport {
     pub extra: Vec<(String, f64)>,
 }
 
-/// A built acceleration structure, object-safe. Implemented with [`dispatch`].
-pub trait Accel: Send + Sync {
-    /// Registry name of the structure (e.g. `bvh`).
-    fn name(&self) -> &'static str;
+/// Why a structure could not be built or is not sound (one line each).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum AccelError {
+    /// A parameter set that does not convert or fails the structure's own checks.
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    /// Parameters that are each in range but not together (e.g. R-tree `m > M/2`).
+    #[error("{0}")]
+    Params(String),
+    /// The scene exceeds what the structure can index.
+    #[error("{what}: {count} is over the limit of {limit}")]
+    TooLarge {
+        what: &'static str,
+        count: u64,
+        limit: u64,
+    },
+    /// [`Accel::validate`] found a broken invariant.
+    #[error("invalid structure: {0}")]
+    Invalid(String),
+    /// An external library (a peer) refused.
+    #[error("{library}: {message}")]
+    Library {
+        library: &'static str,
+        message: String,
+    },
+}
 
-    /// The traversal algorithms this build supports; the index into this slice selects one.
-    fn traversals(&self) -> &'static [TraversalInfo];
+/// What a structure crate implements: the structure's name, its traversal table and its
+/// figures. Not object-safe; [`Accel`], its object-safe form, is implemented for every
+/// `Structure` (one virtual call per ray batch, the table's kernel inside).
+pub trait Structure: Send + Sync + Sized + 'static {
+    /// Registry name (e.g. `bvh`).
+    const NAME: &'static str;
+    /// The traversal table; the index into it selects a traversal.
+    const TRAVERSALS: &'static [Traversal<Self>];
 
-    /// Memory of the built structure: every array any of its traversals reads.
+    /// Memory of the arrays every traversal reads (nodes, references, triangles).
     fn memory(&self) -> MemoryReport;
 
-    /// Memory that traversal number `traversal` reads: [`Accel::memory`] less the auxiliary
-    /// arrays only other traversals need (the kd-tree review's Table 3 "additional memory"
-    /// shows up as the difference between traversals). Default: all of it.
-    fn memory_for(&self, traversal: usize) -> MemoryReport {
-        let _ = traversal;
-        self.memory()
+    /// Bytes of auxiliary array `aux` (one named in a [`TraversalInfo::aux`]), built or not.
+    fn aux_bytes(&self, aux: &str) -> u64 {
+        let _ = aux;
+        0
+    }
+
+    /// Build auxiliary array `aux` now, if not yet built (traversals build what they read on
+    /// first use otherwise).
+    fn prepare_aux(&self, aux: &str) {
+        let _ = aux;
     }
 
     /// Build figures (SAH cost and others).
@@ -85,34 +217,37 @@ pub trait Accel: Send + Sync {
         BuildReport::default()
     }
 
-    /// Whether the counters of [`Accel::trace`] are meaningful. External libraries (peers
-    /// such as Embree) expose none: their rows leave the counter columns empty, not zero.
-    fn has_counters(&self) -> bool {
-        true
-    }
-
-    /// Whether `traversal` ends rays after a per-ray step cap (and counts them with
-    /// [`crate::Counter::capped`]); its rows then report `capped_rays`.
-    fn has_step_cap(&self, _traversal: usize) -> bool {
-        false
-    }
-
-    /// The triangle test the structure always uses, when it ignores the requested one
-    /// (Embree's own intersector); `None` for structures that honour [`TriTestKind`].
-    fn own_triangle_test(&self) -> Option<&'static str> {
-        None
-    }
-
-    /// Check the structure's invariants; `Err` names the first violation.
-    fn validate(&self) -> Result<(), String> {
+    /// Check the structure's invariants.
+    fn validate(&self) -> Result<(), AccelError> {
         Ok(())
     }
+}
 
-    /// The concrete structure, for devices that trace it with their own kernels (the GPU
-    /// crate uploads a `tb_bvh::Bvh`'s arrays); `None` where no other device supports it.
-    fn as_any(&self) -> Option<&dyn std::any::Any> {
-        None
-    }
+/// A built acceleration structure, object-safe: derived from [`Structure`] for every
+/// structure (a blanket implementation), implemented by hand only by test wrappers.
+pub trait Accel: Send + Sync {
+    /// Registry name of the structure (e.g. `bvh`).
+    fn name(&self) -> &'static str;
+
+    /// The traversal algorithms this build supports; the index selects one.
+    fn traversals(&self) -> Vec<&'static TraversalInfo>;
+
+    /// Memory of the arrays every traversal reads.
+    fn memory(&self) -> MemoryReport;
+
+    /// Memory that traversal number `traversal` reads: [`Accel::memory`] plus its auxiliary
+    /// arrays (the kd-tree review's Table 3 "additional memory").
+    fn memory_for(&self, traversal: usize) -> MemoryReport;
+
+    /// Build figures (SAH cost and others).
+    fn build_report(&self) -> BuildReport;
+
+    /// Check the structure's invariants; `Err` names the first violation.
+    fn validate(&self) -> Result<(), AccelError>;
+
+    /// Build the auxiliary arrays traversal number `traversal` reads, so that its first
+    /// traced batch does not pay for them.
+    fn prepare(&self, traversal: usize);
 
     /// Trace `rays` with traversal number `traversal`, writing one record per ray to `hits`
     /// and, when `stats` is given, one counter record per ray. Single-threaded.
@@ -125,6 +260,123 @@ pub trait Accel: Send + Sync {
         hits: &mut [HitRecord],
         stats: Option<&mut [TraversalStats]>,
     );
+
+    /// The GPU program of traversal number `traversal`, `None` where it has no GPU kernel.
+    fn gpu_program(&self, traversal: usize) -> Option<GpuProgram<'_>>;
+}
+
+fn row<S: Structure>(traversal: usize) -> &'static Traversal<S> {
+    S::TRAVERSALS.get(traversal).unwrap_or_else(|| {
+        panic!(
+            "{}: no traversal {traversal} ({} available)",
+            S::NAME,
+            S::TRAVERSALS.len()
+        )
+    })
+}
+
+impl<S: Structure> Accel for S {
+    fn name(&self) -> &'static str {
+        S::NAME
+    }
+
+    fn traversals(&self) -> Vec<&'static TraversalInfo> {
+        infos_of::<S>()
+    }
+
+    fn memory(&self) -> MemoryReport {
+        Structure::memory(self)
+    }
+
+    fn memory_for(&self, traversal: usize) -> MemoryReport {
+        let mut m = Structure::memory(self);
+        m.bytes += row::<S>(traversal)
+            .info
+            .aux
+            .iter()
+            .map(|a| self.aux_bytes(a))
+            .sum::<u64>();
+        m
+    }
+
+    fn build_report(&self) -> BuildReport {
+        Structure::build_report(self)
+    }
+
+    fn validate(&self) -> Result<(), AccelError> {
+        Structure::validate(self)
+    }
+
+    fn prepare(&self, traversal: usize) {
+        for a in row::<S>(traversal).info.aux {
+            self.prepare_aux(a);
+        }
+    }
+
+    fn trace(
+        &self,
+        traversal: usize,
+        query: Query,
+        tri: TriTestKind,
+        rays: &[Ray],
+        hits: &mut [HitRecord],
+        stats: Option<&mut [TraversalStats]>,
+    ) {
+        (row::<S>(traversal).trace)(self, query, tri, rays, hits, stats)
+    }
+
+    fn gpu_program(&self, traversal: usize) -> Option<GpuProgram<'_>> {
+        row::<S>(traversal).gpu.map(|g| g(self))
+    }
+}
+
+/// The traversal infos of structure `S`, in table order.
+pub fn infos_of<S: Structure>() -> Vec<&'static TraversalInfo> {
+    S::TRAVERSALS.iter().map(|t| &t.info).collect()
+}
+
+/// Builds a structure from the scene's triangles (shared, so several trees or a structure and
+/// its oracle need no copies) and a checked parameter set.
+pub type BuildFn = fn(&Arc<[Triangle]>, &ParamSet) -> Result<Box<dyn Accel>, AccelError>;
+
+/// A structure family as the registry lists it: one `static` per structure crate, the only
+/// thing the harness needs to know about it.
+pub struct Family {
+    /// Config name (`name = "bvh"` in a `[[structure]]` table).
+    pub name: &'static str,
+    /// One line: what it is and its paper.
+    pub doc: &'static str,
+    /// Its parameter table.
+    pub params: &'static [ParamSpec],
+    /// Its default parameters.
+    pub defaults: fn() -> ParamSet,
+    /// Its traversals (the index selects one in every build).
+    pub traversals: fn() -> Vec<&'static TraversalInfo>,
+    /// Build it.
+    pub build: BuildFn,
+}
+
+impl Family {
+    /// The family of structure `S` with params `P`, built by `build`.
+    pub const fn new<S: Structure, P: Params>(doc: &'static str, build: BuildFn) -> Family {
+        Family {
+            name: S::NAME,
+            doc,
+            params: P::SPECS,
+            defaults: defaults_of::<P>,
+            traversals: infos_of::<S>,
+            build,
+        }
+    }
+}
+
+/// Convert a checked set to `P` and build with `f` (the usual body of a [`BuildFn`]).
+pub fn build_with<P: Params, S: Structure>(
+    set: &ParamSet,
+    f: impl FnOnce(&P) -> Result<S, AccelError>,
+) -> Result<Box<dyn Accel>, AccelError> {
+    let p = P::from_set(set)?;
+    Ok(Box::new(f(&p)?))
 }
 
 /// One traversal algorithm for one ray, generic over the triangle test and the counter.
@@ -137,9 +389,10 @@ pub trait Kernel: Sync {
 
 /// A `validate()` check shared by structures that store triangles in leaf order with a map
 /// back to scene indices: `prim_ids` must be a permutation of `0..n_tris`.
-pub fn check_permutation(prim_ids: &[u32], n_tris: usize) -> Result<(), String> {
+pub fn check_permutation(prim_ids: &[u32], n_tris: usize) -> Result<(), AccelError> {
+    let err = |m: String| Err(AccelError::Invalid(m));
     if prim_ids.len() != n_tris {
-        return Err(format!(
+        return err(format!(
             "{} prim_ids for {n_tris} triangles",
             prim_ids.len()
         ));
@@ -148,10 +401,10 @@ pub fn check_permutation(prim_ids: &[u32], n_tris: usize) -> Result<(), String> 
     for (i, &id) in prim_ids.iter().enumerate() {
         let id = id as usize;
         if id >= n_tris {
-            return Err(format!("prim_ids[{i}] = {id} out of range"));
+            return err(format!("prim_ids[{i}] = {id} out of range"));
         }
         if std::mem::replace(&mut seen[id], true) {
-            return Err(format!("triangle {id} appears twice in prim_ids"));
+            return err(format!("triangle {id} appears twice in prim_ids"));
         }
     }
     Ok(())

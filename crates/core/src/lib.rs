@@ -5,6 +5,8 @@
 //! - [`stats`]: the [`Counter`] trait with the zero-sized [`NoStats`] and [`TraversalStats`];
 //! - [`accel`]: the object-safe [`Accel`] interface (one virtual call per ray batch) and the
 //!   [`Kernel`] trait whose monomorphised variants a structure dispatches to;
+//! - [`params`]: parameter tables declared next to the fields ([`params!`], [`choice!`]);
+//! - [`gpu`]: the wgpu-free description of a structure's GPU program;
 //! - [`oracle`]: brute force, the ground truth;
 //! - [`slab`]: the octant-specialised, NaN-safe slab test of the hierarchy traversals;
 //! - [`compare`]: the documented rule deciding whether a structure's answer matches the oracle.
@@ -12,17 +14,26 @@
 pub mod accel;
 pub mod compare;
 pub mod geom;
+pub mod gpu;
 pub mod oracle;
+pub mod params;
 pub mod slab;
 pub mod stats;
 pub mod tri;
 
-pub use accel::{dispatch, Accel, BuildReport, Kernel, MemoryReport, Query, TraversalInfo};
+pub use accel::{
+    build_with, dispatch, Accel, AccelError, BuildFn, BuildReport, Family, Kernel, MemoryReport,
+    Query, Structure, TraceFn, Traversal, TraversalInfo,
+};
 pub use compare::{
     compare, compare_any, compare_closest, hex_f32, t_tolerance, Mismatch, MismatchKind, T_REL_TOL,
     T_ULPS,
 };
 pub use geom::{Aabb, HitRecord, Ray, Triangle, Vec3};
+pub use gpu::{GpuBuffer, GpuProgram};
 pub use oracle::BruteForce;
-pub use stats::{Counter, NoStats, StatsSummary, TraversalStats};
+pub use params::{ParamError, ParamKind, ParamSet, ParamSpec, ParamType, ParamValue, Params};
+pub use stats::{
+    Counter, CounterDef, CounterSet, NoStats, StatsSummary, TraversalStats, COUNTERS, N_COUNTERS,
+};
 pub use tri::{MollerTrumbore, TriTest, TriTestKind, Watertight};

@@ -1,9 +1,12 @@
 //! Brute force: every ray against every triangle. The ground truth of every oracle test.
 
-use crate::accel::{dispatch, Accel, Kernel, MemoryReport, Query, TraversalInfo};
+use crate::accel::{
+    build_with, dispatch, Family, Kernel, MemoryReport, Structure, Traversal, TraversalInfo,
+};
 use crate::geom::{Aabb, HitRecord, Ray, Triangle};
-use crate::stats::{Counter, TraversalStats};
-use crate::tri::{TriTest, TriTestKind};
+use crate::stats::Counter;
+use crate::tri::TriTest;
+use std::sync::Arc;
 
 /// The oracle: tests every triangle in index order, keeping the smallest `t` (the first index
 /// wins ties). `steps` counts one per triangle tested.
@@ -16,22 +19,37 @@ use crate::tri::{TriTest, TriTestKind};
 /// from the watertight test). Such a hit is a numerical false positive that every structure
 /// culling by boxes rejects, so the oracle rejects it too. `boxes` counts one per triangle.
 pub struct BruteForce {
-    tris: Vec<Triangle>,
+    tris: Arc<[Triangle]>,
     boxes: Vec<Aabb>,
 }
 
-/// The one traversal of brute force.
-pub const TRAVERSALS: &[TraversalInfo] = &[TraversalInfo {
-    name: "linear",
-    doc: "every triangle in index order (the oracle)",
-}];
+crate::params! {
+    /// Parameters of a structure that takes none.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct NoParams {}
+}
+
+/// Brute force in the registry.
+pub static FAMILY: Family = Family::new::<BruteForce, NoParams>(
+    "every ray against every triangle: the oracle",
+    |tris, set| build_with(set, |_: &NoParams| Ok(BruteForce::shared(tris.clone()))),
+);
 
 impl BruteForce {
+    /// Brute force over a copy of `tris`.
     pub fn new(tris: &[Triangle]) -> Self {
-        Self {
-            tris: tris.to_vec(),
-            boxes: tris.iter().map(Triangle::bounds).collect(),
-        }
+        Self::shared(tris.into())
+    }
+
+    /// Brute force over shared triangles.
+    pub fn shared(tris: Arc<[Triangle]>) -> Self {
+        let boxes = tris.iter().map(Triangle::bounds).collect();
+        Self { tris, boxes }
+    }
+
+    /// The triangles, in the scene's order.
+    pub fn triangles(&self) -> &[Triangle] {
+        &self.tris
     }
 }
 
@@ -88,34 +106,24 @@ impl Kernel for BruteForce {
     }
 }
 
-impl Accel for BruteForce {
-    fn name(&self) -> &'static str {
-        "brute-force"
-    }
-
-    fn traversals(&self) -> &'static [TraversalInfo] {
-        TRAVERSALS
-    }
+impl Structure for BruteForce {
+    const NAME: &'static str = "brute-force";
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+        TraversalInfo::new(
+            "linear",
+            "ground truth",
+            "every triangle in index order (the oracle)",
+        ),
+        |b, query, tri, rays, hits, stats| dispatch(b, query, tri, rays, hits, stats),
+    )];
 
     fn memory(&self) -> MemoryReport {
         MemoryReport {
-            bytes: (std::mem::size_of_val(self.tris.as_slice())
+            bytes: (std::mem::size_of_val(&*self.tris)
                 + std::mem::size_of_val(self.boxes.as_slice())) as u64,
             nodes: 1,
             prim_refs: self.tris.len() as u64,
             node_bytes: 0,
         }
-    }
-
-    fn trace(
-        &self,
-        _traversal: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
-        dispatch(self, query, tri, rays, hits, stats)
     }
 }

@@ -5,18 +5,10 @@
 //! per ray, kept in a local and written out once per ray (pbrt-v4's per-thread counters,
 //! madmann91/bvh's `if constexpr (CaptureStats)`).
 //!
-//! Counter definitions (the same for every structure; sparse-boxes paper Table 1 names them
-//! N_I, N_L and r_ITM):
-//! - `interior`: interior nodes visited (popped or descended into and processed);
-//! - `leaves`: leaves visited (non-empty or empty);
-//! - `prims`: ray–primitive tests performed;
-//! - `boxes`: ray–box (slab) tests performed;
-//! - `planes`: ray–splitting-plane computations (kd-trees);
-//! - `restarts`: restarts from the root or backtracks up the tree;
-//! - `steps`: a structure-defined traversal step, documented on each structure (for a BVH,
-//!   one step per node visited, interior or leaf);
-//! - `capped`: the ray was ended by the traversal's per-ray step cap (traversals that may
-//!   revisit nodes; see [`crate::Accel::has_step_cap`]).
+//! The counters and their definitions are listed once, in [`for_each_counter!`] (the same for
+//! every structure; the sparse-boxes paper's Table 1 names `interior`, `leaves` and `prims`
+//! N_I, N_L and r_ITM). `capped` marks a ray ended by its traversal's per-ray step cap
+//! (traversals that may revisit nodes; [`crate::TraversalInfo::step_cap`]).
 
 use serde::{Deserialize, Serialize};
 
@@ -59,21 +51,84 @@ impl Counter for NoStats {
     fn capped(&mut self) {}
 }
 
-/// Per-ray traversal counts (32 bytes, `#[repr(C)]` so a GPU kernel can write the same record).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct TraversalStats {
-    pub interior: u32,
-    pub leaves: u32,
-    pub prims: u32,
-    pub boxes: u32,
-    pub planes: u32,
-    pub restarts: u32,
-    pub steps: u32,
-    /// 1 when the ray was ended by the traversal's step cap, else 0 (not one of
-    /// [`TraversalStats::fields`]: summed, not averaged, in [`StatsSummary::capped`]).
-    pub capped: u32,
+/// Calls `$callback! { $($prefix)* name, per_ray_column, max_column, "definition"; … }` with
+/// the list of per-ray counters: **the one place the counter set is written**. Everything
+/// else derives from it: [`TraversalStats`]'s fields, [`COUNTERS`], [`StatsSummary`], the
+/// harness's result columns and baseline check, the GPU kernels' `Stats` record
+/// ([`wgsl_stats_struct`]). A new counter (a grid's cells, a multi-kd-tree's plane steps) is
+/// one line here; structures that do not report it leave it out of their
+/// [`crate::TraversalInfo::counters`] and their rows leave its columns empty.
+#[macro_export]
+macro_rules! for_each_counter {
+    ($callback:ident ! { $($prefix:tt)* }) => {
+        $callback! { $($prefix)*
+            interior, interior_per_ray, interior_max,
+                "interior nodes visited (popped or descended into and processed)";
+            leaves, leaves_per_ray, leaves_max, "leaves visited (empty ones included)";
+            prims, prims_per_ray, prims_max, "ray-primitive tests performed";
+            boxes, boxes_per_ray, boxes_max, "ray-box (slab) tests performed";
+            planes, planes_per_ray, planes_max, "ray-splitting-plane distances computed";
+            restarts, restarts_per_ray, restarts_max,
+                "restarts from the root or a pushed-down node, and backtracks up the tree";
+            steps, steps_per_ray, steps_max,
+                "traversal steps, as each structure defines them (for trees: nodes visited)";
+        }
+    };
 }
+
+/// One per-ray counter: its name and definition.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CounterDef {
+    /// Field and column stem (`interior` → `interior_per_ray`, `interior_max`).
+    pub name: &'static str,
+    /// Column of its mean per ray.
+    pub per_ray: &'static str,
+    /// Column of its maximum over the rays.
+    pub max: &'static str,
+    /// What it counts (the same for every structure; README "Results columns").
+    pub doc: &'static str,
+}
+
+macro_rules! define_stats {
+    ($($name:ident, $per:ident, $max:ident, $doc:literal;)*) => {
+        /// Per-ray traversal counts (`#[repr(C)]`, one `u32` per counter of
+        /// [`for_each_counter!`] and then `capped`, so a GPU kernel writes the same record).
+        #[repr(C)]
+        #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+        pub struct TraversalStats {
+            $( #[doc = $doc] pub $name: u32, )*
+            /// 1 when the ray was ended by the traversal's step cap, else 0 (not one of
+            /// [`COUNTERS`]: summed, not averaged, in [`StatsSummary::capped`]).
+            pub capped: u32,
+        }
+
+        /// The per-ray counters, in record order.
+        pub const COUNTERS: &[CounterDef] = &[$(
+            CounterDef {
+                name: stringify!($name),
+                per_ray: stringify!($per),
+                max: stringify!($max),
+                doc: $doc,
+            },
+        )*];
+
+        impl TraversalStats {
+            /// The counters' values in the order of [`COUNTERS`].
+            pub fn values(&self) -> [u32; N_COUNTERS] {
+                [$(self.$name),*]
+            }
+
+            /// A record from the `u32` words a GPU kernel wrote ([`COUNTERS`] then `capped`).
+            pub fn from_words(w: &[u32; N_COUNTERS + 1]) -> Self {
+                let mut it = w.iter().copied();
+                let mut next = || it.next().unwrap_or(0);
+                TraversalStats { $( $name: next(), )* capped: next() }
+            }
+        }
+    };
+}
+
+for_each_counter!(define_stats! {});
 
 impl Counter for TraversalStats {
     const ENABLED: bool = true;
@@ -111,18 +166,56 @@ impl Counter for TraversalStats {
     }
 }
 
+/// Number of per-ray counters ([`COUNTERS`]).
+pub const N_COUNTERS: usize = COUNTERS.len();
+
+const _: () = assert!(
+    std::mem::size_of::<TraversalStats>() == 4 * (N_COUNTERS + 1),
+    "TraversalStats is one u32 per counter plus capped"
+);
+
 impl TraversalStats {
-    /// The counters in a fixed order, with the names used for result columns.
-    pub fn fields(&self) -> [(&'static str, u32); 7] {
-        [
-            ("interior", self.interior),
-            ("leaves", self.leaves),
-            ("prims", self.prims),
-            ("boxes", self.boxes),
-            ("planes", self.planes),
-            ("restarts", self.restarts),
-            ("steps", self.steps),
-        ]
+    /// `(name, value)` of every counter, in the order of [`COUNTERS`].
+    pub fn fields(&self) -> [(&'static str, u32); N_COUNTERS] {
+        let v = self.values();
+        std::array::from_fn(|i| (COUNTERS[i].name, v[i]))
+    }
+}
+
+/// The GPU kernels' per-ray counter record, generated from [`COUNTERS`] so that it always
+/// matches [`TraversalStats`] word for word: `struct Stats { interior: u32, …, capped: u32 }`
+/// and `fn zero_stats() -> Stats`.
+pub fn wgsl_stats_struct() -> String {
+    let fields: Vec<String> = COUNTERS
+        .iter()
+        .map(|c| format!("{}: u32", c.name))
+        .chain(["capped: u32".to_string()])
+        .collect();
+    let zeros = vec!["0u"; N_COUNTERS + 1].join(", ");
+    format!(
+        "struct Stats {{ {} }}\nfn zero_stats() -> Stats {{ return Stats({zeros}); }}\n",
+        fields.join(", ")
+    )
+}
+
+/// A set of counters (a bit per entry of [`COUNTERS`]): the ones a traversal reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct CounterSet(pub u32);
+
+impl CounterSet {
+    /// Every counter of [`COUNTERS`] (structures that count with [`TraversalStats`]).
+    pub const ALL: CounterSet = CounterSet((1 << N_COUNTERS) - 1);
+    /// None (libraries that expose no counters, such as the peers).
+    pub const NONE: CounterSet = CounterSet(0);
+
+    /// Whether counter number `i` of [`COUNTERS`] is in the set.
+    pub const fn contains(self, i: usize) -> bool {
+        self.0 >> i & 1 == 1
+    }
+
+    /// Whether the set is empty.
+    pub const fn is_empty(self) -> bool {
+        self.0 == 0
     }
 }
 
@@ -130,25 +223,20 @@ impl TraversalStats {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct StatsSummary {
     pub rays: u64,
-    pub mean: [f64; 7],
-    pub max: [u32; 7],
+    pub mean: [f64; N_COUNTERS],
+    pub max: [u32; N_COUNTERS],
     /// Rays ended by a step cap.
     pub capped: u64,
 }
 
 impl StatsSummary {
-    /// Column stems in the order of [`TraversalStats::fields`].
-    pub const NAMES: [&'static str; 7] = [
-        "interior", "leaves", "prims", "boxes", "planes", "restarts", "steps",
-    ];
-
     pub fn from_stats(stats: &[TraversalStats]) -> Self {
-        let mut sum = [0u64; 7];
-        let mut max = [0u32; 7];
+        let mut sum = [0u64; N_COUNTERS];
+        let mut max = [0u32; N_COUNTERS];
         let mut capped = 0u64;
         for s in stats {
             capped += (s.capped != 0) as u64;
-            for (i, (_, v)) in s.fields().into_iter().enumerate() {
+            for (i, v) in s.values().into_iter().enumerate() {
                 sum[i] += v as u64;
                 max[i] = max[i].max(v);
             }
