@@ -19,74 +19,68 @@ mod build;
 mod traverse;
 
 use serde::{Deserialize, Serialize};
+use tb_core::params::ParamKind;
 use tb_core::{
-    dispatch, Aabb, Accel, BuildReport, HitRecord, MemoryReport, Query, Ray, TraversalInfo,
-    TraversalStats, TriTestKind, Triangle, Vec3,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Family, MemoryReport, Structure,
+    Traversal, TraversalInfo, Triangle, Vec3,
 };
 
 pub use traverse::STACK_SIZE;
 
-/// The traversals every [`Bvh`] offers (index = position, as passed to [`Accel::trace`]).
-pub const TRAVERSALS: &[TraversalInfo] = &[TraversalInfo {
-    name: "ordered",
-    doc: "ordered depth-first with a stack, nearer child first (both child boxes tested at the \
-          parent; pbrt-v3 §4.3.5; robust slab test, Ize 2013)",
-}];
+/// The BVH in the registry.
+pub static FAMILY: Family = Family::new::<Bvh, BvhParams>(
+    "binned SAH BVH, 32-byte flat nodes (MacDonald and Booth 1990; Wald 2007)",
+    |tris, set| {
+        build_with(set, |p: &BvhParams| {
+            p.check()?;
+            Bvh::try_build(tris, p)
+        })
+    },
+);
 
-/// Build parameters of [`Bvh::build`].
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct BvhParams {
-    /// Number of bins per axis over a node's centroid bounds at which SAH split candidates are
-    /// evaluated (binned SAH, Wald 2007). 2..=256, default 16.
-    pub bins: u32,
-    /// Largest leaf: nodes with more primitives are always split (by the best SAH bin, or at
-    /// the object median where no bin separates them), so leaves never exceed it. Default 4.
-    pub max_leaf: u32,
-    /// Nodes with at most this many primitives always become leaves. Default 1.
-    pub min_leaf: u32,
-    /// SAH cost of a traversal step, `C_trav` (MacDonald and Booth 1990). Default 1.
-    pub c_trav: f32,
-    /// SAH cost of one ray–triangle test, `C_isect` (MacDonald and Booth 1990). Default 1.
-    pub c_isect: f32,
-}
-
-impl Default for BvhParams {
-    fn default() -> Self {
-        Self {
-            bins: 16,
-            max_leaf: 4,
-            min_leaf: 1,
-            c_trav: 1.0,
-            c_isect: 1.0,
-        }
+tb_core::params! {
+    /// Build parameters of [`Bvh::build`].
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct BvhParams {
+        /// SAH bins per axis over a node's centroid bounds (Wald 2007, binned SAH)
+        bins: u32 = 16, ParamKind::Int { min: 2, max: 256 };
+        /// largest leaf; larger nodes are always split (by the best SAH bin, or at the object
+        /// median where no bin separates them)
+        max_leaf: u32 = 4, ParamKind::Int { min: 1, max: 255 };
+        /// nodes this small always become leaves
+        min_leaf: u32 = 1, ParamKind::Int { min: 1, max: 255 };
+        /// SAH cost of a traversal step, C_trav (MacDonald and Booth 1990)
+        c_trav: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
+        /// SAH cost of a triangle test, C_isect
+        c_isect: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
     }
 }
 
 impl BvhParams {
     /// Check the parameters: `bins` in 2..=256, `max_leaf ≥ 1`, `min_leaf ≤ max_leaf`, both
     /// costs finite and positive.
-    pub fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), AccelError> {
+        let err = |m: String| Err(AccelError::Params(m));
         if !(2..=256).contains(&self.bins) {
-            return Err(format!("bins must be in 2..=256, got {}", self.bins));
+            return err(format!("bins must be in 2..=256, got {}", self.bins));
         }
         if self.max_leaf < 1 {
-            return Err("max_leaf must be at least 1".into());
+            return err("max_leaf must be at least 1".into());
         }
         if self.min_leaf > self.max_leaf {
-            return Err(format!(
+            return err(format!(
                 "min_leaf ({}) must not exceed max_leaf ({})",
                 self.min_leaf, self.max_leaf
             ));
         }
         if !(self.c_trav > 0.0 && self.c_trav.is_finite()) {
-            return Err(format!(
+            return err(format!(
                 "c_trav must be positive and finite, got {}",
                 self.c_trav
             ));
         }
         if !(self.c_isect > 0.0 && self.c_isect.is_finite()) {
-            return Err(format!(
+            return err(format!(
                 "c_isect must be positive and finite, got {}",
                 self.c_isect
             ));
@@ -172,18 +166,27 @@ impl Bvh {
         if let Err(e) = params.check() {
             panic!("invalid BVH parameters: {e}");
         }
-        assert!(
-            tris.len() < u32::MAX as usize,
-            "a BVH holds fewer than 2^32 - 1 triangles"
-        );
+        Self::try_build(tris, params).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// [`Bvh::build`] with an error instead of a panic for too many triangles (parameters
+    /// must pass [`BvhParams::check`]).
+    pub fn try_build(tris: &[Triangle], params: &BvhParams) -> Result<Bvh, AccelError> {
+        if tris.len() >= u32::MAX as usize {
+            return Err(AccelError::TooLarge {
+                what: "BVH triangles",
+                count: tris.len() as u64,
+                limit: u32::MAX as u64 - 1,
+            });
+        }
         let (nodes, order) = build::build(tris, params);
         let triangles = order.iter().map(|&i| tris[i as usize]).collect();
-        Bvh {
+        Ok(Bvh {
             nodes,
             triangles,
             prim_ids: order,
             params: *params,
-        }
+        })
     }
 
     /// The flattened nodes, root first (see [`BvhNode`]). Empty for an empty scene (which
@@ -209,7 +212,7 @@ impl Bvh {
     }
 
     /// Walk the tree: call `f(node_index, depth)` for every node reachable from the root,
-    /// depth-first (root depth 0). Assumes a valid tree (see [`Accel::validate`]).
+    /// depth-first (root depth 0). Assumes a valid tree (see [`Structure::validate`]).
     fn walk(&self, mut f: impl FnMut(usize, u32)) {
         let nodes = self.nodes();
         if nodes.is_empty() {
@@ -252,7 +255,7 @@ impl Bvh {
     fn check_invariants(&self) -> Result<(), String> {
         let nodes = self.nodes();
         let n_tris = self.triangles.len();
-        tb_core::accel::check_permutation(&self.prim_ids, n_tris)?;
+        tb_core::accel::check_permutation(&self.prim_ids, n_tris).map_err(|e| e.to_string())?;
         if n_tris == 0 {
             return if nodes.is_empty() {
                 Ok(())
@@ -339,14 +342,19 @@ struct TreeFigures {
     leaf_area_prims: f64,
 }
 
-impl Accel for Bvh {
-    fn name(&self) -> &'static str {
-        "bvh"
-    }
-
-    fn traversals(&self) -> &'static [TraversalInfo] {
-        TRAVERSALS
-    }
+impl Structure for Bvh {
+    const NAME: &'static str = "bvh";
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+        TraversalInfo::new(
+            "ordered",
+            "pbrt-v3 §4.3.5; Ize 2013",
+            "ordered depth-first with a stack, nearer child first (both child boxes tested at \
+             the parent; pbrt-v3 §4.3.5; robust slab test, Ize 2013)",
+        ),
+        |b, query, tri, rays, hits, stats| {
+            dispatch(&traverse::Ordered(b), query, tri, rays, hits, stats)
+        },
+    )];
 
     fn memory(&self) -> MemoryReport {
         MemoryReport {
@@ -394,30 +402,8 @@ impl Accel for Bvh {
     /// its parent's, every triangle's box inside its leaf's, every triangle slot in exactly
     /// one leaf, `prim_ids` a permutation of the scene's indices, leaves of at most
     /// `max_leaf` triangles unless all their centroids coincide.
-    fn validate(&self) -> Result<(), String> {
-        self.check_invariants()
-    }
-
-    fn as_any(&self) -> Option<&dyn std::any::Any> {
-        Some(self)
-    }
-
-    fn trace(
-        &self,
-        traversal: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
-        match traversal {
-            0 => dispatch(&traverse::Ordered(self), query, tri, rays, hits, stats),
-            _ => panic!(
-                "bvh: unknown traversal {traversal} ({} available)",
-                TRAVERSALS.len()
-            ),
-        }
+    fn validate(&self) -> Result<(), AccelError> {
+        self.check_invariants().map_err(AccelError::Invalid)
     }
 }
 
@@ -438,13 +424,14 @@ mod tests {
     fn validate_finds_corruption() {
         let good = Bvh::build(&grid(), &BvhParams::default());
         assert_eq!(good.validate(), Ok(()));
+        let err = |b: &Bvh| b.validate().unwrap_err().to_string();
         let first_leaf = good.nodes().iter().position(|n| n.is_leaf()).unwrap();
         let interior = good.nodes().iter().rposition(|n| !n.is_leaf()).unwrap();
 
         let mut b = good.clone();
         let left = b.nodes[0].index as usize;
         b.nodes[left].max[0] += 100.0;
-        assert!(b.validate().unwrap_err().contains("not inside its parent"));
+        assert!(err(&b).contains("not inside its parent"));
 
         let mut b = good.clone();
         b.nodes[first_leaf].min[1] += 0.5;
@@ -452,11 +439,11 @@ mod tests {
 
         let mut b = good.clone();
         b.prim_ids[1] = b.prim_ids[0];
-        assert!(b.validate().unwrap_err().contains("twice"));
+        assert!(err(&b).contains("twice"));
 
         let mut b = good.clone();
         b.nodes[interior].index = 0;
-        assert!(b.validate().unwrap_err().contains("children"));
+        assert!(err(&b).contains("children"));
 
         let mut b = good.clone();
         b.nodes[first_leaf].count = 60;
@@ -464,6 +451,6 @@ mod tests {
 
         let mut b = good.clone();
         b.nodes.push(BvhNode::EMPTY);
-        assert!(b.validate().unwrap_err().contains("unreachable"));
+        assert!(err(&b).contains("unreachable"));
     }
 }
