@@ -12,6 +12,7 @@ pub mod camera;
 pub mod conformance;
 pub mod error;
 pub mod loader;
+pub mod procedural;
 pub mod rays;
 pub mod stress;
 

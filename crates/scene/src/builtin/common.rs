@@ -1,6 +1,7 @@
 //! Helpers shared by the procedural generators.
 
-use super::{Params, MAX_TRIANGLES};
+use super::MAX_TRIANGLES;
+use crate::procedural::Params;
 use crate::{Camera, PixelOrder, Scene, SceneError, View};
 use tb_core::{Triangle, Vec3};
 
@@ -59,47 +60,3 @@ pub(super) fn quad(out: &mut Vec<Triangle>, a: Vec3, b: Vec3, c: Vec3, d: Vec3) 
 pub(super) fn pow(base: u64, exp: u32) -> u64 {
     base.saturating_pow(exp)
 }
-
-/// The 12 vertices of the unit icosahedron (normalised), shared by every sphere generator.
-pub(crate) fn icosahedron_vertices() -> [glam::DVec3; 12] {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    [
-        (-1.0, t, 0.0),
-        (1.0, t, 0.0),
-        (-1.0, -t, 0.0),
-        (1.0, -t, 0.0),
-        (0.0, -1.0, t),
-        (0.0, 1.0, t),
-        (0.0, -1.0, -t),
-        (0.0, 1.0, -t),
-        (t, 0.0, -1.0),
-        (t, 0.0, 1.0),
-        (-t, 0.0, -1.0),
-        (-t, 0.0, 1.0),
-    ]
-    .map(|(x, y, z)| glam::DVec3::new(x, y, z).normalize())
-}
-
-/// The 20 faces of the icosahedron over [`icosahedron_vertices`], counter-clockwise outside.
-pub(crate) const ICOSAHEDRON_FACES: [[usize; 3]; 20] = [
-    [0, 11, 5],
-    [0, 5, 1],
-    [0, 1, 7],
-    [0, 7, 10],
-    [0, 10, 11],
-    [1, 5, 9],
-    [5, 11, 4],
-    [11, 10, 2],
-    [10, 7, 6],
-    [7, 1, 8],
-    [3, 9, 4],
-    [3, 4, 2],
-    [3, 2, 6],
-    [3, 6, 8],
-    [3, 8, 9],
-    [4, 9, 5],
-    [2, 4, 11],
-    [6, 2, 10],
-    [8, 6, 7],
-    [9, 8, 1],
-];

@@ -8,7 +8,7 @@
 //! (20 triangles). 32 triangles in all.
 
 use super::common::{camera, quad, scene};
-use super::Params;
+use crate::procedural::Params;
 use crate::{Scene, SceneError};
 use tb_core::{Triangle, Vec3};
 

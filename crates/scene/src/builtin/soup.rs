@@ -1,7 +1,8 @@
 //! Random triangle soup.
 
 use super::common::{budget, camera, scene};
-use super::{Params, MAX_TRIANGLES};
+use super::MAX_TRIANGLES;
+use crate::procedural::Params;
 use crate::{Scene, SceneError};
 use rand::{Rng, SeedableRng};
 use tb_core::{Triangle, Vec3};

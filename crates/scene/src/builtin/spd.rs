@@ -5,7 +5,7 @@
 //! `f64` and rounded to `f32` once.
 
 use super::common::{budget, camera, pow, quad, scene};
-use super::Params;
+use crate::procedural::Params;
 use crate::{Scene, SceneError};
 use glam::{DMat3, DVec3};
 use rand::{Rng, SeedableRng};
@@ -21,8 +21,8 @@ fn v32(p: DVec3) -> Vec3 {
 /// The 20 faces of a unit icosphere subdivided `tess` times (20·4^tess triangles). Shared
 /// edges are split with the same arithmetic on both sides, so the mesh is watertight.
 fn unit_icosphere(tess: u32) -> Vec<[DVec3; 3]> {
-    let v = super::common::icosahedron_vertices();
-    let faces = &super::common::ICOSAHEDRON_FACES;
+    let v = crate::procedural::icosahedron_vertices();
+    let faces = &crate::procedural::ICOSAHEDRON_FACES;
     let mut tris: Vec<[DVec3; 3]> = faces.iter().map(|f| [v[f[0]], v[f[1]], v[f[2]]]).collect();
     for _ in 0..tess {
         let mut next = Vec::with_capacity(tris.len() * 4);

@@ -8,7 +8,7 @@
 //! has 64·K² − 8·K triangles.
 
 use super::common::{budget, camera, quad, scene};
-use super::Params;
+use crate::procedural::Params;
 use crate::{Scene, SceneError};
 use glam::DVec3;
 use tb_core::{Aabb, Triangle, Vec3};
