@@ -177,6 +177,10 @@ pub enum AccelError {
         count: u64,
         limit: u64,
     },
+    /// The structure cannot be built for this input with these parameters (the message says
+    /// why and what to change).
+    #[error("{0}")]
+    Unsupported(String),
     /// [`Accel::validate`] found a broken invariant.
     #[error("invalid structure: {0}")]
     Invalid(String),

@@ -295,6 +295,9 @@ macro_rules! choice {
             /// The config names, in declaration order.
             pub const NAMES: &'static [&'static str] = &[$($cfg),*];
 
+            /// Every variant, in declaration order.
+            pub const ALL: &'static [Self] = &[$(Self::$variant),*];
+
             /// The config name.
             pub fn name(&self) -> &'static str {
                 match self { $( Self::$variant => $cfg, )* }

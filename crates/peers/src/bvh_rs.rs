@@ -5,10 +5,17 @@ use bvh::aabb::{Aabb as BAabb, Bounded};
 use bvh::bounding_hierarchy::BHShape;
 use bvh::bvh::Bvh;
 use nalgebra::{Point3, Vector3};
+use tb_core::oracle::NoParams;
 use tb_core::{
-    Accel, HitRecord, MemoryReport, MollerTrumbore, Query, Ray, TraversalInfo, TraversalStats,
-    TriTest, TriTestKind, Triangle, Watertight,
+    build_with, Family, HitRecord, MemoryReport, MollerTrumbore, Query, Ray, Structure, Traversal,
+    TraversalStats, TriTest, TriTestKind, Triangle, Watertight,
 };
+
+/// The `bvh` crate in the registry (feature `bvh-rs`).
+pub static FAMILY: Family = Family::new::<BvhRsPeer, NoParams>(
+    "peer: the `bvh` crate (svenstaro), closest hit from its candidates (feature `bvh-rs`)",
+    |tris, set| build_with(set, |_: &NoParams| Ok(BvhRsPeer::build(tris))),
+);
 
 /// A triangle as a `bvh` shape.
 struct Shape {
@@ -93,14 +100,22 @@ impl BvhRsPeer {
     }
 }
 
-impl Accel for BvhRsPeer {
-    fn name(&self) -> &'static str {
-        "bvh-rs"
-    }
-
-    fn traversals(&self) -> &'static [TraversalInfo] {
-        crate::NATIVE
-    }
+impl Structure for BvhRsPeer {
+    const NAME: &'static str = "bvh-rs";
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+        crate::NATIVE,
+        |p, query, tri, rays, hits, stats| {
+            for (r, h) in rays.iter().zip(hits.iter_mut()) {
+                *h = match tri {
+                    TriTestKind::Watertight => p.trace_one::<Watertight>(query, r),
+                    TriTestKind::MollerTrumbore => p.trace_one::<MollerTrumbore>(query, r),
+                };
+            }
+            if let Some(s) = stats {
+                s.fill(TraversalStats::default());
+            }
+        },
+    )];
 
     fn memory(&self) -> MemoryReport {
         let nodes = self.bvh.nodes.len();
@@ -112,30 +127,6 @@ impl Accel for BvhRsPeer {
             nodes: nodes as u64,
             prim_refs: self.shapes.len() as u64,
             node_bytes: node_bytes as u32,
-        }
-    }
-
-    fn has_counters(&self) -> bool {
-        false
-    }
-
-    fn trace(
-        &self,
-        _traversal: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
-        for (r, h) in rays.iter().zip(hits.iter_mut()) {
-            *h = match tri {
-                TriTestKind::Watertight => self.trace_one::<Watertight>(query, r),
-                TriTestKind::MollerTrumbore => self.trace_one::<MollerTrumbore>(query, r),
-            };
-        }
-        if let Some(s) = stats {
-            s.fill(TraversalStats::default());
         }
     }
 }

@@ -4,32 +4,43 @@ use embree3::{
     BufferUsage, BuildQuality, Config, Device, Format, GeometryKind, IntersectContext, RayHit,
     Scene, SceneFlags,
 };
+use tb_core::params::ParamKind;
 use tb_core::{
-    Accel, BuildReport, HitRecord, MemoryReport, Query, Ray, TraversalInfo, TraversalStats,
-    TriTestKind, Triangle,
+    build_with, AccelError, Family, HitRecord, MemoryReport, Query, Ray, Structure, Traversal,
+    TraversalStats, Triangle,
 };
 
-/// Embree build settings.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct EmbreeParams {
-    /// `RTC_BUILD_QUALITY_LOW | MEDIUM | HIGH` (0, 1, 2); HIGH is SBVH-like spatial splits.
-    pub quality: u32,
-    /// `RTC_SCENE_FLAG_COMPACT`: a more compact, somewhat slower layout.
-    pub compact: bool,
-    /// `RTC_SCENE_FLAG_ROBUST`: robust traversal (no culling errors for edge cases).
-    pub robust: bool,
-    /// Embree build threads (0 = all hardware threads).
-    pub build_threads: u32,
+/// Embree in the registry (feature `embree`).
+pub static FAMILY: Family = Family::new::<EmbreePeer, EmbreeParams>(
+    "peer: Intel Embree 3 single rays (feature `embree`)",
+    |tris, set| build_with(set, |p: &EmbreeParams| EmbreePeer::build(tris, p)),
+);
+
+tb_core::choice! {
+    /// `RTC_BUILD_QUALITY_*`.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Quality {
+        /// `RTC_BUILD_QUALITY_LOW`: Morton-code build.
+        Low = "low",
+        /// `RTC_BUILD_QUALITY_MEDIUM`: binned SAH.
+        Medium = "medium",
+        /// `RTC_BUILD_QUALITY_HIGH`: binned SAH with spatial splits (SBVH-like).
+        High = "high",
+    }
 }
 
-impl Default for EmbreeParams {
-    fn default() -> Self {
-        EmbreeParams {
-            quality: 2,
-            compact: false,
-            robust: true,
-            build_threads: 1,
-        }
+tb_core::params! {
+    /// Embree build settings.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub struct EmbreeParams {
+        /// RTC_BUILD_QUALITY (high: spatial splits)
+        quality: Quality = Quality::High, ParamKind::Choice(Quality::NAMES);
+        /// RTC_SCENE_FLAG_COMPACT: a more compact, somewhat slower layout
+        compact: bool = false, ParamKind::Bool;
+        /// RTC_SCENE_FLAG_ROBUST: robust traversal (no culling errors for edge cases)
+        robust: bool = true, ParamKind::Bool;
+        /// Embree build threads (0 = all; 1 compares with our single-threaded builders)
+        build_threads: u32 = 1, ParamKind::Int { min: 0, max: 1024 };
     }
 }
 
@@ -44,7 +55,14 @@ pub struct EmbreePeer {
 
 impl EmbreePeer {
     /// Build with `params`; `Err` carries Embree's error.
-    pub fn build(tris: &[Triangle], params: &EmbreeParams) -> Result<Self, String> {
+    pub fn build(tris: &[Triangle], params: &EmbreeParams) -> Result<Self, AccelError> {
+        Self::build_embree(tris, params).map_err(|message| AccelError::Library {
+            library: "embree",
+            message,
+        })
+    }
+
+    fn build_embree(tris: &[Triangle], params: &EmbreeParams) -> Result<Self, String> {
         let config = Config {
             threads: params.build_threads,
             ..Default::default()
@@ -54,9 +72,9 @@ impl EmbreePeer {
             .create_scene()
             .map_err(|e| format!("embree scene: {e:?}"))?;
         let quality = match params.quality {
-            0 => BuildQuality::LOW,
-            1 => BuildQuality::MEDIUM,
-            _ => BuildQuality::HIGH,
+            Quality::Low => BuildQuality::LOW,
+            Quality::Medium => BuildQuality::MEDIUM,
+            Quality::High => BuildQuality::HIGH,
         };
         scene.set_build_quality(quality);
         let mut flags = SceneFlags::NONE;
@@ -129,14 +147,17 @@ fn embree_valid(r: &Ray) -> bool {
         && r.tmin >= 0.0
 }
 
-impl Accel for EmbreePeer {
-    fn name(&self) -> &'static str {
-        "embree"
-    }
-
-    fn traversals(&self) -> &'static [TraversalInfo] {
-        crate::NATIVE
-    }
+impl Structure for EmbreePeer {
+    const NAME: &'static str = "embree";
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+        crate::NATIVE.own_test("embree"),
+        |e, query, _tri, rays, hits, stats| {
+            e.trace(query, rays, hits);
+            if let Some(s) = stats {
+                s.fill(TraversalStats::default());
+            }
+        },
+    )];
 
     fn memory(&self) -> MemoryReport {
         // Embree does not report its BVH size; the vertex and index buffers are ours.
@@ -147,28 +168,10 @@ impl Accel for EmbreePeer {
             node_bytes: 0,
         }
     }
+}
 
-    fn build_report(&self) -> BuildReport {
-        BuildReport::default()
-    }
-
-    fn has_counters(&self) -> bool {
-        false
-    }
-
-    fn own_triangle_test(&self) -> Option<&'static str> {
-        Some("embree")
-    }
-
-    fn trace(
-        &self,
-        _traversal: usize,
-        query: Query,
-        _tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
+impl EmbreePeer {
+    fn trace(&self, query: Query, rays: &[Ray], hits: &mut [HitRecord]) {
         let mut ctx = IntersectContext::incoherent();
         for (r, h) in rays.iter().zip(hits.iter_mut()) {
             if !embree_valid(r) {
@@ -205,9 +208,6 @@ impl Accel for EmbreePeer {
                     }
                 }
             };
-        }
-        if let Some(s) = stats {
-            s.fill(TraversalStats::default());
         }
     }
 }

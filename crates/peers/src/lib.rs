@@ -8,8 +8,8 @@
 //! - `bvh`: svenstaro's `bvh` crate, closest hit computed from its candidate iterator as its
 //!   users do.
 //!
-//! Peers expose no traversal counters (`has_counters() == false`: their rows leave the counter
-//! columns empty). obvhs and bvh call our triangle test on their candidates, so they honour the
+//! Peers expose no traversal counters (their traversal reports [`CounterSet::NONE`]: their rows
+//! leave the counter columns empty). obvhs and bvh call our triangle test on their candidates, so they honour the
 //! experiment's `triangle_test`; Embree uses its own intersector.
 
 #[cfg(feature = "bvh")]
@@ -19,10 +19,12 @@ pub mod embree;
 #[cfg(feature = "obvhs")]
 pub mod obvhs;
 
-use tb_core::TraversalInfo;
+use tb_core::{CounterSet, TraversalInfo};
 
-/// The single traversal a peer offers: the library's own.
-pub const NATIVE: &[TraversalInfo] = &[TraversalInfo {
-    name: "native",
-    doc: "the library's own traversal",
-}];
+/// The single traversal a peer offers: the library's own, with no counters.
+pub const NATIVE: TraversalInfo = TraversalInfo::new(
+    "native",
+    "the library's documentation",
+    "the library's own traversal",
+)
+.counting(CounterSet::NONE);

@@ -6,10 +6,38 @@ use obvhs::cwbvh::CwBvh;
 use obvhs::ray::Ray as ORay;
 use obvhs::BvhBuildParams;
 use obvhs_glam::Vec3A;
+use tb_core::params::ParamKind;
 use tb_core::{
-    Accel, HitRecord, MemoryReport, MollerTrumbore, Query, Ray, TraversalInfo, TraversalStats,
-    TriTest, TriTestKind, Triangle, Watertight,
+    build_with, Family, HitRecord, MemoryReport, MollerTrumbore, Query, Ray, Structure, Traversal,
+    TraversalStats, TriTest, TriTestKind, Triangle, Watertight,
 };
+
+/// obvhs in the registry (feature `obvhs`).
+pub static FAMILY: Family = Family::new::<ObvhsPeer, ObvhsParams>(
+    "peer: obvhs PLOC-built compressed wide BVH8 (feature `obvhs`)",
+    |tris, set| build_with(set, |p: &ObvhsParams| Ok(ObvhsPeer::build(tris, p.preset))),
+);
+
+tb_core::choice! {
+    /// obvhs build presets (`BvhBuildParams::*_build`).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Preset {
+        VeryFast = "very-fast",
+        Fast = "fast",
+        Medium = "medium",
+        Slow = "slow",
+        VerySlow = "very-slow",
+    }
+}
+
+tb_core::params! {
+    /// obvhs build settings.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub struct ObvhsParams {
+        /// obvhs BvhBuildParams preset
+        preset: Preset = Preset::Medium, ParamKind::Choice(Preset::NAMES);
+    }
+}
 
 /// A CWBVH of the triangles.
 pub struct ObvhsPeer {
@@ -17,19 +45,15 @@ pub struct ObvhsPeer {
     tris: Vec<Triangle>,
 }
 
-/// obvhs build presets (`BvhBuildParams::*_build`).
-pub const PRESETS: &[&str] = &["very-fast", "fast", "medium", "slow", "very-slow"];
-
 impl ObvhsPeer {
-    /// Build with one of [`PRESETS`].
-    pub fn build(tris: &[Triangle], preset: &str) -> Result<Self, String> {
+    /// Build with one of the presets.
+    pub fn build(tris: &[Triangle], preset: Preset) -> Self {
         let params = match preset {
-            "very-fast" => BvhBuildParams::very_fast_build(),
-            "fast" => BvhBuildParams::fast_build(),
-            "medium" => BvhBuildParams::medium_build(),
-            "slow" => BvhBuildParams::slow_build(),
-            "very-slow" => BvhBuildParams::very_slow_build(),
-            other => return Err(format!("unknown obvhs preset `{other}`")),
+            Preset::VeryFast => BvhBuildParams::very_fast_build(),
+            Preset::Fast => BvhBuildParams::fast_build(),
+            Preset::Medium => BvhBuildParams::medium_build(),
+            Preset::Slow => BvhBuildParams::slow_build(),
+            Preset::VerySlow => BvhBuildParams::very_slow_build(),
         };
         let otris: Vec<obvhs::triangle::Triangle> = tris
             .iter()
@@ -41,10 +65,10 @@ impl ObvhsPeer {
             .collect();
         let mut core = std::time::Duration::default();
         let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&otris, params, &mut core);
-        Ok(ObvhsPeer {
+        ObvhsPeer {
             bvh,
             tris: tris.to_vec(),
-        })
+        }
     }
 
     fn trace_one<T: TriTest>(&self, query: Query, r: &Ray) -> HitRecord {
@@ -89,14 +113,22 @@ impl ObvhsPeer {
     }
 }
 
-impl Accel for ObvhsPeer {
-    fn name(&self) -> &'static str {
-        "obvhs"
-    }
-
-    fn traversals(&self) -> &'static [TraversalInfo] {
-        crate::NATIVE
-    }
+impl Structure for ObvhsPeer {
+    const NAME: &'static str = "obvhs";
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+        crate::NATIVE,
+        |p, query, tri, rays, hits, stats| {
+            for (r, h) in rays.iter().zip(hits.iter_mut()) {
+                *h = match tri {
+                    TriTestKind::Watertight => p.trace_one::<Watertight>(query, r),
+                    TriTestKind::MollerTrumbore => p.trace_one::<MollerTrumbore>(query, r),
+                };
+            }
+            if let Some(s) = stats {
+                s.fill(TraversalStats::default());
+            }
+        },
+    )];
 
     fn memory(&self) -> MemoryReport {
         let nodes = self.bvh.nodes.len();
@@ -108,30 +140,6 @@ impl Accel for ObvhsPeer {
             nodes: nodes as u64,
             prim_refs: self.bvh.primitive_indices.len() as u64,
             node_bytes: node_bytes as u32,
-        }
-    }
-
-    fn has_counters(&self) -> bool {
-        false
-    }
-
-    fn trace(
-        &self,
-        _traversal: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
-        for (r, h) in rays.iter().zip(hits.iter_mut()) {
-            *h = match tri {
-                TriTestKind::Watertight => self.trace_one::<Watertight>(query, r),
-                TriTestKind::MollerTrumbore => self.trace_one::<MollerTrumbore>(query, r),
-            };
-        }
-        if let Some(s) = stats {
-            s.fill(TraversalStats::default());
         }
     }
 }

@@ -38,7 +38,10 @@ fn report(name: &str, build: &dyn Fn(&[Triangle]) -> Box<dyn Accel>) {
 #[test]
 fn obvhs_against_the_oracle() {
     report("obvhs", &|t: &[Triangle]| -> Box<dyn Accel> {
-        Box::new(tb_peers::obvhs::ObvhsPeer::build(t, "medium").expect("obvhs build"))
+        Box::new(tb_peers::obvhs::ObvhsPeer::build(
+            t,
+            tb_peers::obvhs::Preset::Medium,
+        ))
     });
 }
 

@@ -21,10 +21,17 @@ mod build;
 mod traverse;
 
 use serde::{Deserialize, Serialize};
+use tb_core::params::ParamKind;
 use tb_core::{
-    dispatch, Aabb, Accel, BuildReport, HitRecord, MemoryReport, Query, Ray, TraversalInfo,
-    TraversalStats, TriTestKind, Triangle, Vec3,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Family, MemoryReport, Structure,
+    Traversal, TraversalInfo, Triangle, Vec3,
 };
+
+/// The R-tree in the registry.
+pub static FAMILY: Family = Family::new::<Rtree, RtreeParams>(
+    "R-tree by successive insertion, packed level-order layout (Feldmann, R-trees)",
+    |tris, set| build_with(set, |p: &RtreeParams| Rtree::try_build(tris, p)),
+);
 
 /// Largest `M` supported (node capacity of the builder, size of the per-level stacks).
 pub const MAX_M: usize = 16;
@@ -38,116 +45,52 @@ pub const MAX_LEVELS: usize = 17;
 /// `M = 4`, Conference's 331K triangles already take 695 MiB, 99 % empty).
 pub const MAX_LAYOUT_BYTES: u64 = 8 << 30;
 
-/// The traversals every [`Rtree`] offers (index = position, as passed to [`Accel::trace`]).
-pub const TRAVERSALS: &[TraversalInfo] = &[
-    TraversalInfo {
-        name: "stackless",
-        doc: "stackless depth-first by implicit index arithmetic, next sibling or parent \
-              (Feldmann 2015 §4.1, Listing 1)",
-    },
-    TraversalInfo {
-        name: "ordered",
-        doc: "per-level stacks of at most M entries sorted by entry distance with insertion \
-              sort, nearest first (Feldmann 2015 §4.2, Listing 2)",
-    },
-    TraversalInfo {
-        name: "stack",
-        doc: "conventional depth-first with one stack, skipping boxes entered beyond the \
-              closest hit (Feldmann 2015 §5.2, Table 3)",
-    },
-];
-
-/// ChooseSubtree criterion of the insertion build (paper section 5.1). In 3D, Guttman's
-/// "area" is the box volume and the "margin" its surface (section 3.1); *overlap
-/// enlargement* of an entry is the growth of the summed overlap volume with its siblings
-/// (Beckmann et al. 1990). Remaining ties fall to further keys listed per variant.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Strategy {
-    /// `min-volume`: least volume enlargement at every level, ties by least volume (Guttman
-    /// 1984), then least surface enlargement.
-    MinVolume,
-    /// `min-surface`: least surface enlargement at every level (the SAH's measure), ties by
-    /// least surface, then least volume enlargement.
-    MinSurface,
-    /// `min-overlap`: least overlap enlargement at every level, ties by least volume
-    /// enlargement, least volume, least surface enlargement.
-    MinOverlap,
-    /// `r-star`: R*-tree (Beckmann et al. 1990): least volume enlargement at intermediate
-    /// levels, least overlap enlargement where the entries are leaves.
-    RStar,
-    /// `r-star-srfc`: the paper's R*-treeSrfc: least surface enlargement at intermediate
-    /// levels, least overlap enlargement where the entries are leaves (best in Table 1).
-    RStarSrfc,
-    /// `str`: no insertion; Sort-Tile-Recursive bulk loading (Leutenegger, Lopez and
-    /// Edgington 1997), the bulk loading the paper's conclusion suggests (section 6). Nodes
-    /// are full (`M` entries) but for the last of each level; `reinsert` is ignored.
-    Str,
-}
-
-impl Strategy {
-    pub const ALL: [Strategy; 6] = [
-        Strategy::MinVolume,
-        Strategy::MinSurface,
-        Strategy::MinOverlap,
-        Strategy::RStar,
-        Strategy::RStarSrfc,
-        Strategy::Str,
-    ];
-
-    /// The kebab-case config name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Strategy::MinVolume => "min-volume",
-            Strategy::MinSurface => "min-surface",
-            Strategy::MinOverlap => "min-overlap",
-            Strategy::RStar => "r-star",
-            Strategy::RStarSrfc => "r-star-srfc",
-            Strategy::Str => "str",
-        }
-    }
-
-    pub fn from_name(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|k| k.name() == s)
+tb_core::choice! {
+    /// ChooseSubtree criterion of the insertion build (paper section 5.1). In 3D, Guttman's
+    /// "area" is the box volume and the "margin" its surface (section 3.1); *overlap
+    /// enlargement* of an entry is the growth of the summed overlap volume with its siblings
+    /// (Beckmann et al. 1990). Remaining ties fall to further keys listed per variant.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+    pub enum Strategy {
+        /// `min-volume`: least volume enlargement at every level, ties by least volume
+        /// (Guttman 1984), then least surface enlargement.
+        MinVolume = "min-volume",
+        /// `min-surface`: least surface enlargement at every level (the SAH's measure), ties
+        /// by least surface, then least volume enlargement.
+        MinSurface = "min-surface",
+        /// `min-overlap`: least overlap enlargement at every level, ties by least volume
+        /// enlargement, least volume, least surface enlargement.
+        MinOverlap = "min-overlap",
+        /// `r-star`: R*-tree (Beckmann et al. 1990): least volume enlargement at intermediate
+        /// levels, least overlap enlargement where the entries are leaves.
+        RStar = "r-star",
+        /// `r-star-srfc`: the paper's R*-treeSrfc: least surface enlargement at intermediate
+        /// levels, least overlap enlargement where the entries are leaves (best in Table 1).
+        RStarSrfc = "r-star-srfc",
+        /// `str`: no insertion; Sort-Tile-Recursive bulk loading (Leutenegger, Lopez and
+        /// Edgington 1997), the bulk loading the paper's conclusion suggests (section 6).
+        /// Nodes are full (`M` entries) but for the last of each level; `reinsert` is ignored.
+        Str = "str",
     }
 }
 
-/// Order of the entries within a packed node (paper section 3.1, Figure 3: the order in
-/// which children are visited by the `stackless` and `stack` traversals).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum ChildOrder {
-    /// `insertion`: as the build left them.
-    Insertion,
-    /// `sorted-x`: by increasing box centre x.
-    SortedX,
-    /// `sorted-y`: by increasing box centre y.
-    SortedY,
-    /// `sorted-z`: by increasing box centre z.
-    SortedZ,
+tb_core::choice! {
+    /// Order of the entries within a packed node (paper section 3.1, Figure 3: the order in
+    /// which children are visited by the `stackless` and `stack` traversals).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+    pub enum ChildOrder {
+        /// `insertion`: as the build left them.
+        Insertion = "insertion",
+        /// `sorted-x`: by increasing box centre x.
+        SortedX = "sorted-x",
+        /// `sorted-y`: by increasing box centre y.
+        SortedY = "sorted-y",
+        /// `sorted-z`: by increasing box centre z.
+        SortedZ = "sorted-z",
+    }
 }
 
 impl ChildOrder {
-    pub const ALL: [ChildOrder; 4] = [
-        ChildOrder::Insertion,
-        ChildOrder::SortedX,
-        ChildOrder::SortedY,
-        ChildOrder::SortedZ,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            ChildOrder::Insertion => "insertion",
-            ChildOrder::SortedX => "sorted-x",
-            ChildOrder::SortedY => "sorted-y",
-            ChildOrder::SortedZ => "sorted-z",
-        }
-    }
-
-    pub fn from_name(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|k| k.name() == s)
-    }
-
     /// Sorted along `axis` (0, 1, 2).
     pub fn sorted(axis: usize) -> Self {
         match axis {
@@ -158,57 +101,44 @@ impl ChildOrder {
     }
 }
 
-/// Build parameters of [`Rtree::build`].
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct RtreeParams {
-    /// `m`: least entries of a node other than the root (paper section 2.2). `2 ≤ m ≤ M/2`,
-    /// default 2 (section 5).
-    pub m: u32,
-    /// `M`: most entries of a node (paper section 2.2). `4 ≤ M ≤ 16`, default 4 (section 5).
-    pub big_m: u32,
-    /// ChooseSubtree criterion (section 5.1, Table 1), or bulk loading ([`Strategy::Str`]).
-    /// Default [`Strategy::RStarSrfc`].
-    pub strategy: Strategy,
-    /// Forced reinsertion on overflow, once per level per insertion (R*-tree; section 2.2.1,
-    /// Table 2). Default `true`.
-    pub reinsert: bool,
-    /// Share `p/M` of the entries ejected by a forced reinsertion (Beckmann et al. 1990
-    /// recommend 30 %): `p = clamp(round(share·M), 1, M + 1 − m)`. `0 < share ≤ 0.5`,
-    /// default 0.3.
-    pub reinsert_share: f32,
-    /// Order of the entries within a packed node. Default [`ChildOrder::Insertion`].
-    pub child_order: ChildOrder,
-}
-
-impl Default for RtreeParams {
-    fn default() -> Self {
-        Self {
-            m: 2,
-            big_m: 4,
-            strategy: Strategy::RStarSrfc,
-            reinsert: true,
-            reinsert_share: 0.3,
-            child_order: ChildOrder::Insertion,
-        }
+tb_core::params! {
+    /// Build parameters of [`Rtree::build`].
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct RtreeParams {
+        /// least entries per node, m (Feldmann section 2.2; 2 <= m <= M/2; default 2 as in
+        /// section 5)
+        m: u32 = 2, ParamKind::Int { min: 2, max: 8 };
+        /// most entries per node, M (Feldmann section 2.2; default 4 as in section 5)
+        big_m: u32 = 4, ParamKind::Int { min: 4, max: 16 };
+        /// ChooseSubtree strategy (section 5.1, Table 1), or Sort-Tile-Recursive bulk loading
+        strategy: Strategy = Strategy::RStarSrfc, ParamKind::Choice(Strategy::NAMES);
+        /// forced reinsertion on overflow, once per level per insertion (R*-tree; section
+        /// 2.2.1, Table 2)
+        reinsert: bool = true, ParamKind::Bool;
+        /// share p/M of the entries a forced reinsertion ejects (Beckmann et al. 1990: 30%;
+        /// p = clamp(round(share M), 1, M + 1 - m))
+        reinsert_share: f32 = 0.3, ParamKind::Float { min: 0.01, max: 0.5 };
+        /// order of the entries within a packed node (section 3.1, Figure 3)
+        child_order: ChildOrder = ChildOrder::Insertion, ParamKind::Choice(ChildOrder::NAMES);
     }
 }
 
 impl RtreeParams {
     /// Check the parameters: `4 ≤ M ≤ 16`, `2 ≤ m ≤ M/2`, `0 < reinsert_share ≤ 0.5`.
-    pub fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), AccelError> {
+        let err = |m: String| Err(AccelError::Params(m));
         if !(4..=MAX_M as u32).contains(&self.big_m) {
-            return Err(format!("big_m (M) must be in 4..=16, got {}", self.big_m));
+            return err(format!("big_m (M) must be in 4..=16, got {}", self.big_m));
         }
         if self.m < 2 || self.m > self.big_m / 2 {
-            return Err(format!(
+            return err(format!(
                 "m must be in 2..=M/2 = {}, got {}",
                 self.big_m / 2,
                 self.m
             ));
         }
         if !(self.reinsert_share > 0.0 && self.reinsert_share <= 0.5) {
-            return Err(format!(
+            return err(format!(
                 "reinsert_share must be in (0, 0.5], got {}",
                 self.reinsert_share
             ));
@@ -303,7 +233,7 @@ impl Rtree {
     /// `params.check()` fails, there are `u32::MAX` or more triangles, or the complete
     /// level-order layout of section 4 (which grows as `M^(L+1)`, empty slots included) would
     /// need `2^32 − 1` or more slots or more than [`MAX_LAYOUT_BYTES`].
-    pub fn try_build(tris: &[Triangle], params: &RtreeParams) -> Result<Rtree, String> {
+    pub fn try_build(tris: &[Triangle], params: &RtreeParams) -> Result<Rtree, AccelError> {
         Self::build_within(tris, params, MAX_LAYOUT_BYTES)
     }
 
@@ -312,12 +242,14 @@ impl Rtree {
         tris: &[Triangle],
         params: &RtreeParams,
         max_bytes: u64,
-    ) -> Result<Rtree, String> {
-        params
-            .check()
-            .map_err(|e| format!("invalid R-tree parameters: {e}"))?;
+    ) -> Result<Rtree, AccelError> {
+        params.check()?;
         if tris.len() >= u32::MAX as usize {
-            return Err("an R-tree holds fewer than 2^32 - 1 triangles".into());
+            return Err(AccelError::TooLarge {
+                what: "R-tree triangles",
+                count: tris.len() as u64,
+                limit: u32::MAX as u64 - 1,
+            });
         }
         let b = match params.strategy {
             Strategy::Str => build::bulk_load_str(tris, params),
@@ -332,12 +264,12 @@ impl Rtree {
                 let gib = (params.big_m as f64).powi(levels as i32) / (params.big_m as f64 - 1.0)
                     * std::mem::size_of::<RtreeNode>() as f64
                     / (1u64 << 30) as f64;
-                return Err(format!(
+                return Err(AccelError::Unsupported(format!(
                     "the complete {}-ary level-order layout of {levels} levels needs {gib:.3} GiB \
                      of slots (empty ones included), over the {:.3} GiB limit; use a smaller M",
                     params.big_m,
                     max_bytes as f64 / (1u64 << 30) as f64
-                ));
+                )));
             }
         }
         let counts = b.counts;
@@ -398,7 +330,7 @@ impl Rtree {
         let nodes = &self.nodes;
         let big_m = self.params.big_m;
         let m = self.big_m();
-        tb_core::accel::check_permutation(&self.prim_ids, n_tris)?;
+        tb_core::accel::check_permutation(&self.prim_ids, n_tris).map_err(|e| e.to_string())?;
         if n_tris == 0 {
             return if nodes.is_empty() {
                 Ok(())
@@ -532,14 +464,43 @@ struct Figures {
     leaf_area_prims: f64,
 }
 
-impl Accel for Rtree {
-    fn name(&self) -> &'static str {
-        "rtree"
-    }
-
-    fn traversals(&self) -> &'static [TraversalInfo] {
-        TRAVERSALS
-    }
+impl Structure for Rtree {
+    const NAME: &'static str = "rtree";
+    const TRAVERSALS: &'static [Traversal<Self>] = &[
+        Traversal::cpu(
+            TraversalInfo::new(
+                "stackless",
+                "Feldmann 2015 §4.1, Listing 1",
+                "stackless depth-first by implicit index arithmetic, next sibling or parent \
+                 (Feldmann 2015 §4.1, Listing 1)",
+            ),
+            |t, query, tri, rays, hits, stats| {
+                dispatch(&traverse::Stackless(t), query, tri, rays, hits, stats)
+            },
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "ordered",
+                "Feldmann 2015 §4.2, Listing 2",
+                "per-level stacks of at most M entries sorted by entry distance with insertion \
+                 sort, nearest first (Feldmann 2015 §4.2, Listing 2)",
+            ),
+            |t, query, tri, rays, hits, stats| {
+                dispatch(&traverse::Ordered(t), query, tri, rays, hits, stats)
+            },
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "stack",
+                "Feldmann 2015 §5.2, Table 3",
+                "conventional depth-first with one stack, skipping boxes entered beyond the \
+                 closest hit (Feldmann 2015 §5.2, Table 3)",
+            ),
+            |t, query, tri, rays, hits, stats| {
+                dispatch(&traverse::Stack(t), query, tri, rays, hits, stats)
+            },
+        ),
+    ];
 
     /// Bytes of the slot array *including empty slots* (paper section 4), the triangles in
     /// leaf order and the index map; `nodes` counts every slot.
@@ -593,28 +554,8 @@ impl Accel for Rtree {
     /// leaf is at level 0: height balance); every node but the root has `m..=M` entries (the
     /// root 2..=M, or 1..=M when it is a leaf); every box is exactly the minimal box of its
     /// entries; every triangle is in exactly one leaf and `prim_ids` is a permutation.
-    fn validate(&self) -> Result<(), String> {
-        self.check_invariants()
-    }
-
-    fn trace(
-        &self,
-        traversal: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
-        match traversal {
-            0 => dispatch(&traverse::Stackless(self), query, tri, rays, hits, stats),
-            1 => dispatch(&traverse::Ordered(self), query, tri, rays, hits, stats),
-            2 => dispatch(&traverse::Stack(self), query, tri, rays, hits, stats),
-            _ => panic!(
-                "rtree: unknown traversal {traversal} ({} available)",
-                TRAVERSALS.len()
-            ),
-        }
+    fn validate(&self) -> Result<(), AccelError> {
+        self.check_invariants().map_err(AccelError::Invalid)
     }
 }
 
@@ -660,9 +601,13 @@ mod tests {
         let t = Rtree::build_within(&grid(300), &p, u64::MAX).unwrap();
         let need = t.nodes().len() as u64 * 32;
         assert!(Rtree::build_within(&grid(300), &p, need).is_ok());
-        let e = Rtree::build_within(&grid(300), &p, need - 1).unwrap_err();
+        let e = Rtree::build_within(&grid(300), &p, need - 1)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("4-ary level-order layout"), "{e}");
-        let e = Rtree::try_build(&grid(3), &RtreeParams { m: 3, ..p }).unwrap_err();
+        let e = Rtree::try_build(&grid(3), &RtreeParams { m: 3, ..p })
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("m must be in 2..=M/2"), "{e}");
     }
 
@@ -784,10 +729,10 @@ mod tests {
 
     #[test]
     fn names_round_trip() {
-        for s in Strategy::ALL {
+        for &s in Strategy::ALL {
             assert_eq!(Strategy::from_name(s.name()), Some(s));
         }
-        for o in ChildOrder::ALL {
+        for &o in ChildOrder::ALL {
             assert_eq!(ChildOrder::from_name(o.name()), Some(o));
         }
     }
@@ -833,12 +778,13 @@ mod tests {
     fn validate_finds_corruption() {
         let good = Rtree::build(&grid(300), &RtreeParams::default());
         assert_eq!(good.validate(), Ok(()));
+        let err = |b: &Rtree| b.validate().unwrap_err().to_string();
         let mut b = good.clone();
         b.nodes[1].max[0] += 1.0;
-        assert!(b.validate().unwrap_err().contains("minimal"));
+        assert!(err(&b).contains("minimal"));
         let mut b = good.clone();
         b.prim_ids[1] = b.prim_ids[0];
-        assert!(b.validate().unwrap_err().contains("twice"));
+        assert!(err(&b).contains("twice"));
         let mut b = good.clone();
         let leaf = b.first_leaf as usize;
         let leaf = leaf + b.nodes[leaf..].iter().position(|n| !n.is_empty()).unwrap();
