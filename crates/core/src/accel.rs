@@ -265,6 +265,9 @@ pub trait Accel: Send + Sync {
         stats: Option<&mut [TraversalStats]>,
     );
 
+    /// Whether traversal number `traversal` has a GPU kernel (without building its program).
+    fn has_gpu_program(&self, traversal: usize) -> bool;
+
     /// The GPU program of traversal number `traversal`, `None` where it has no GPU kernel.
     fn gpu_program(&self, traversal: usize) -> Option<GpuProgram<'_>>;
 }
@@ -327,6 +330,10 @@ impl<S: Structure> Accel for S {
         stats: Option<&mut [TraversalStats]>,
     ) {
         (row::<S>(traversal).trace)(self, query, tri, rays, hits, stats)
+    }
+
+    fn has_gpu_program(&self, traversal: usize) -> bool {
+        row::<S>(traversal).gpu.is_some()
     }
 
     fn gpu_program(&self, traversal: usize) -> Option<GpuProgram<'_>> {
