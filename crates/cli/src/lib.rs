@@ -173,7 +173,7 @@ fn dispatch(cli: Cli) -> Result<i32> {
             out,
         } => cmd_diff(&a, &b, &channel, max, &out),
         Cmd::List => {
-            print!("{}", tb_harness::registry::listing());
+            print!("{}", tb_harness::registry::Registry::builtin().listing());
             Ok(0)
         }
         Cmd::Scenes => {

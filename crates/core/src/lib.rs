@@ -8,6 +8,7 @@
 //! - [`params`]: parameter tables declared next to the fields ([`params!`], [`choice!`]);
 //! - [`gpu`]: the wgpu-free description of a structure's GPU program;
 //! - [`oracle`]: brute force, the ground truth;
+//! - [`par`]: the one way a batch is traced on the CPU (rayon, chunks of rays);
 //! - [`slab`]: the octant-specialised, NaN-safe slab test of the hierarchy traversals;
 //! - [`compare`]: the documented rule deciding whether a structure's answer matches the oracle.
 
@@ -16,6 +17,7 @@ pub mod compare;
 pub mod geom;
 pub mod gpu;
 pub mod oracle;
+pub mod par;
 pub mod params;
 pub mod slab;
 pub mod stats;

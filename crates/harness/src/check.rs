@@ -9,31 +9,20 @@
 use crate::output::Row;
 use std::collections::BTreeMap;
 
-/// Counters compared, by column name.
-pub const COUNTERS: &[&str] = &[
-    "interior_per_ray",
-    "leaves_per_ray",
-    "prims_per_ray",
-    "boxes_per_ray",
-    "planes_per_ray",
-    "restarts_per_ray",
-    "steps_per_ray",
-    "steps_max",
-    "mismatches",
-];
+/// Counters compared, by column name: the mean per ray of every counter
+/// ([`tb_core::COUNTERS`]), the largest `steps` of a ray, and the oracle mismatches.
+pub fn counter_columns() -> Vec<&'static str> {
+    tb_core::COUNTERS
+        .iter()
+        .map(|c| c.per_ray)
+        .chain(["steps_max", "mismatches"])
+        .collect()
+}
 
 fn counter(r: &Row, name: &str) -> Option<f64> {
     match name {
-        "interior_per_ray" => r.interior_per_ray,
-        "leaves_per_ray" => r.leaves_per_ray,
-        "prims_per_ray" => r.prims_per_ray,
-        "boxes_per_ray" => r.boxes_per_ray,
-        "planes_per_ray" => r.planes_per_ray,
-        "restarts_per_ray" => r.restarts_per_ray,
-        "steps_per_ray" => r.steps_per_ray,
-        "steps_max" => r.steps_max.map(f64::from),
         "mismatches" => r.mismatches.map(|m| m as f64),
-        _ => None,
+        column => r.counter(column),
     }
 }
 
@@ -87,7 +76,7 @@ pub fn compare(baseline: &[Row], current: &[Row], tolerance: f64) -> Vec<Finding
             });
             continue;
         };
-        for &name in COUNTERS {
+        for name in counter_columns() {
             let (bv, cv) = (counter(b, name), counter(c, name));
             match (bv, cv) {
                 (None, None) => {}

@@ -12,74 +12,19 @@
 //! to its scene, structure, full parameters, traversal, test, counter and scale.
 //! `trace-bench diff A.exr B.exr` draws the difference of two such EXRs.
 
-use crate::config::{Ctx, SceneSpec};
+use crate::config::images::{HeatMax, ImageSpec};
+use crate::config::SceneSpec;
 use crate::error::HarnessError;
-use rayon::prelude::*;
 use std::fs::OpenOptions;
 use std::path::{Path, PathBuf};
-use tb_core::{Accel, HitRecord, Query, TraversalStats, TriTestKind};
+use tb_core::{Accel, Query, TriTestKind};
 use tb_render::colormap::srgb;
 use tb_render::heatmap::{counter_channels, heatmap, percentile99, to_row_major};
 use tb_render::{Channels, Rgb8};
 use tb_scene::rays;
-use toml::Spanned;
 
 /// Counters drawn as PNG heat maps (every counter is in the EXR).
 pub const PNG_COUNTERS: [&str; 4] = ["interior", "leaves", "prims", "steps"];
-
-/// The top of the heat maps' colour scale.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum HeatMax {
-    /// A fixed count for every counter (`heatmap_max = 255`, the default, as in the
-    /// sparse-boxes paper's Figure 5).
-    Fixed(f32),
-    /// Per image, the 99th percentile of its values (`heatmap_max = "auto"`).
-    Auto,
-}
-
-/// What `[run] images = true` asks for.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ImageSpec {
-    pub max: HeatMax,
-}
-
-/// Check `run.images` and `run.heatmap_max`.
-pub(crate) fn check(
-    cx: &Ctx,
-    images: Option<bool>,
-    max: Option<&Spanned<toml::Value>>,
-) -> Result<Option<ImageSpec>, HarnessError> {
-    let max = match max {
-        None => HeatMax::Fixed(255.0),
-        Some(v) => {
-            let bad = || {
-                cx.err(
-                    v.span(),
-                    "run.heatmap_max",
-                    format!(
-                        "expected a positive count or \"auto\", found {}",
-                        v.get_ref()
-                    ),
-                )
-            };
-            let m = match v.get_ref() {
-                toml::Value::String(s) if s == "auto" => HeatMax::Auto,
-                toml::Value::Integer(n) if *n > 0 => HeatMax::Fixed(*n as f32),
-                toml::Value::Float(f) if *f > 0.0 && f.is_finite() => HeatMax::Fixed(*f as f32),
-                _ => return Err(bad()),
-            };
-            if images != Some(true) {
-                return Err(cx.err(
-                    v.span(),
-                    "run.heatmap_max",
-                    "has no effect without `images = true`",
-                ));
-            }
-            m
-        }
-    };
-    Ok(images.unwrap_or(false).then_some(ImageSpec { max }))
-}
 
 /// A file-name-safe form of a label: characters other than ASCII letters, digits, `.`, `_`
 /// and `-` become `_` (`stress/flat?x=1` → `stress_flat_x_1`).
@@ -151,13 +96,13 @@ pub fn write_scene(spec: &SceneSpec, out: &Path) -> Result<Option<String>, Harne
     let pixels = cam.pixels();
     let prim = rays::primary(&cam);
     let gen = crate::registry::generator(tris);
-    let tracer = tb_render::AccelTracer {
-        accel: gen.as_ref(),
-        traversal: 0,
-        tri: TriTestKind::Watertight,
-    };
-    let mut hits = vec![HitRecord::MISS; prim.len()];
-    tb_render::Tracer::trace(&tracer, Query::Closest, &prim, &mut hits);
+    let hits = crate::device::cpu::trace(
+        gen.as_ref(),
+        0,
+        Query::Closest,
+        TriTestKind::Watertight,
+        &prim,
+    );
     let grey = to_row_major(
         &pixels,
         &tb_render::shade::eye_light(tris, &prim, &hits),
@@ -197,7 +142,10 @@ pub fn write_build(
     let Some(cam) = spec.camera else {
         return Ok(None);
     };
-    if !accel.has_counters() {
+    if traversals
+        .iter()
+        .all(|&ti| accel.traversals()[ti].counters.is_empty())
+    {
         return Ok(Some(format!(
             "{}: no heat maps for {}: it exposes no counters",
             spec.label,
@@ -211,12 +159,7 @@ pub fn write_build(
     for &ti in traversals {
         let tname = accel.traversals()[ti].name;
         for &tri in tests {
-            let mut hits = vec![HitRecord::MISS; prim.len()];
-            let mut stats = vec![TraversalStats::default(); prim.len()];
-            prim.par_chunks(crate::runner::CHUNK)
-                .zip(hits.par_chunks_mut(crate::runner::CHUNK))
-                .zip(stats.par_chunks_mut(crate::runner::CHUNK))
-                .for_each(|((r, h), s)| accel.trace(ti, Query::Closest, tri, r, h, Some(s)));
+            let (_, stats) = crate::device::cpu::count(accel, ti, Query::Closest, tri, &prim);
             let c = counter_channels(&pixels, &stats, cam.width, cam.height);
             let stem = format!(
                 "{}-p{param_index}-{}-{}",

@@ -12,8 +12,8 @@
 pub mod check;
 pub mod config;
 pub mod convergence;
+pub mod device;
 pub mod error;
-pub mod gpu;
 pub mod images;
 pub mod meta;
 pub mod output;
@@ -21,5 +21,7 @@ pub mod params;
 pub mod progress;
 pub mod registry;
 pub mod runner;
+pub mod timing;
+pub mod validation;
 
 pub use error::HarnessError;

@@ -6,63 +6,93 @@
 
 use crate::error::HarnessError;
 use serde::{Deserialize, Serialize};
+use tb_core::{CounterSet, StatsSummary};
 use std::fs::{File, OpenOptions};
 use std::path::{Path, PathBuf};
 
-/// One result row: one scene x structure x params x traversal x device x threads x triangle
-/// test x ray kind. Empty cells (`None`) mean "not measured", never zero.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct Row {
-    pub scene: String,
-    pub source: String,
-    pub triangles: u64,
-    pub structure: String,
-    pub params: String,
-    pub traversal: String,
-    pub device: String,
-    /// GPU rows: adapter name, backend and driver; empty on the CPU.
-    pub adapter: String,
-    pub threads: u32,
-    pub triangle_test: String,
-    pub ray_kind: String,
-    pub rays: u64,
-    pub build_ms: Option<f64>,
-    pub trace_ms_min: Option<f64>,
-    pub trace_ms_median: Option<f64>,
-    pub trace_ms_max: Option<f64>,
-    pub mrays_per_s: Option<f64>,
-    /// GPU rows: host-to-device copy of the structure and rays (median), not in `trace_ms_*`.
-    pub upload_ms: Option<f64>,
-    /// GPU rows: device-to-host copy of the hits (median), not in `trace_ms_*`.
-    pub readback_ms: Option<f64>,
-    pub hit_rate: Option<f64>,
-    pub interior_per_ray: Option<f64>,
-    pub interior_max: Option<u32>,
-    pub leaves_per_ray: Option<f64>,
-    pub leaves_max: Option<u32>,
-    pub prims_per_ray: Option<f64>,
-    pub prims_max: Option<u32>,
-    pub boxes_per_ray: Option<f64>,
-    pub boxes_max: Option<u32>,
-    pub planes_per_ray: Option<f64>,
-    pub planes_max: Option<u32>,
-    pub restarts_per_ray: Option<f64>,
-    pub restarts_max: Option<u32>,
-    pub steps_per_ray: Option<f64>,
-    pub steps_max: Option<u32>,
-    /// Rays ended by a traversal's per-ray step cap (restart-family kd-tree traversals).
-    pub capped_rays: Option<u64>,
-    pub memory_bytes: Option<u64>,
-    pub nodes: Option<u64>,
-    pub prim_refs: Option<u64>,
-    pub node_bytes: Option<u32>,
-    pub sah_cost: Option<f64>,
-    pub build_stats: String,
-    pub validated_rays: Option<u64>,
-    pub mismatches: Option<u64>,
-    pub note: String,
+macro_rules! define_row {
+    ($($name:ident, $per:ident, $max:ident, $doc:literal;)*) => {
+        /// One result row: one scene x structure x params x traversal x device x threads x
+        /// triangle test x ray kind. Empty cells (`None`) mean "not measured", never zero. The
+        /// counter columns (`<counter>_per_ray`, `<counter>_max`) come from
+        /// [`tb_core::for_each_counter!`].
+        #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+        #[serde(default)]
+        pub struct Row {
+            pub scene: String,
+            pub source: String,
+            pub triangles: u64,
+            pub structure: String,
+            pub params: String,
+            pub traversal: String,
+            pub device: String,
+            /// GPU rows: adapter name, backend and driver; empty on the CPU.
+            pub adapter: String,
+            pub threads: u32,
+            pub triangle_test: String,
+            pub ray_kind: String,
+            pub rays: u64,
+            pub build_ms: Option<f64>,
+            pub trace_ms_min: Option<f64>,
+            pub trace_ms_median: Option<f64>,
+            pub trace_ms_max: Option<f64>,
+            pub mrays_per_s: Option<f64>,
+            /// GPU rows: host-to-device copy of the structure and rays (median), not in
+            /// `trace_ms_*`.
+            pub upload_ms: Option<f64>,
+            /// GPU rows: device-to-host copy of the hits (median), not in `trace_ms_*`.
+            pub readback_ms: Option<f64>,
+            pub hit_rate: Option<f64>,
+            $(
+                #[doc = concat!("Mean per ray: ", $doc, ".")]
+                pub $per: Option<f64>,
+                #[doc = concat!("Maximum over the rays: ", $doc, ".")]
+                pub $max: Option<u32>,
+            )*
+            /// Rays ended by a traversal's per-ray step cap (restart-family kd-tree
+            /// traversals).
+            pub capped_rays: Option<u64>,
+            pub memory_bytes: Option<u64>,
+            pub nodes: Option<u64>,
+            pub prim_refs: Option<u64>,
+            pub node_bytes: Option<u32>,
+            pub sah_cost: Option<f64>,
+            pub build_stats: String,
+            pub validated_rays: Option<u64>,
+            pub mismatches: Option<u64>,
+            pub note: String,
+        }
+
+        impl Row {
+            /// Fill the counter columns of the counters in `set` from `s` (the others stay
+            /// empty: the structure does not report them).
+            pub fn set_counters(&mut self, s: &StatsSummary, set: CounterSet) {
+                let mut i = 0;
+                $(
+                    if set.contains(i) {
+                        self.$per = Some(s.mean[i]);
+                        self.$max = Some(s.max[i]);
+                    }
+                    i += 1;
+                )*
+                let _ = i;
+            }
+
+            /// The value of counter column `column` (`<counter>_per_ray` or `<counter>_max`).
+            pub fn counter(&self, column: &str) -> Option<f64> {
+                match column {
+                    $(
+                        stringify!($per) => self.$per,
+                        stringify!($max) => self.$max.map(f64::from),
+                    )*
+                    _ => None,
+                }
+            }
+        }
+    };
 }
+
+tb_core::for_each_counter!(define_row! {});
 
 /// The columns that identify a row (for `--resume` and `check`).
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]

@@ -1,173 +1,37 @@
-//! Structure parameters: typed specs with defaults, checked config values, sweeps.
-//!
-//! A builder declares its parameters as [`ParamSpec`]s (name, kind with range, default, doc
-//! citing the paper's symbol). A config's `params` table gives each a value or a list of
-//! values; lists expand into the cartesian product of parameter sets (a sweep), in the order of
-//! the specs.
+//! A config's `params` table to parameter sets: checked against the structure's own table
+//! ([`tb_core::params`], declared next to its params struct), defaults from the structure.
+//! Each key gives a value or a list of values; lists expand into the cartesian product of
+//! parameter sets (a sweep), in the order of the specs.
 
-use std::fmt;
+use tb_core::params::{ParamKind, ParamSet, ParamSpec, ParamValue};
 
-/// The type and range of a parameter.
-#[derive(Clone, Copy, Debug)]
-pub enum ParamKind {
-    Int { min: i64, max: i64 },
-    Float { min: f64, max: f64 },
-    Bool,
-    Choice(&'static [&'static str]),
-}
-
-/// One declared parameter.
-#[derive(Clone, Copy, Debug)]
-pub struct ParamSpec {
-    pub name: &'static str,
-    pub kind: ParamKind,
-    /// Default, written as in a config (`"16"`, `"1.0"`, `"true"`, `"sah"`).
-    pub default: &'static str,
-    pub doc: &'static str,
-}
-
-/// A parameter value.
-#[derive(Clone, Debug, PartialEq)]
-pub enum ParamValue {
-    Int(i64),
-    Float(f64),
-    Bool(bool),
-    Str(String),
-}
-
-impl fmt::Display for ParamValue {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ParamValue::Int(v) => write!(f, "{v}"),
-            ParamValue::Float(v) => write!(f, "{v}"),
-            ParamValue::Bool(v) => write!(f, "{v}"),
-            ParamValue::Str(v) => write!(f, "{v}"),
-        }
-    }
-}
-
-impl ParamSpec {
-    /// Check and convert one TOML value against this spec.
-    pub fn convert(&self, v: &toml::Value) -> Result<ParamValue, String> {
-        match (self.kind, v) {
-            (ParamKind::Int { min, max }, toml::Value::Integer(i)) => {
-                if *i < min || *i > max {
-                    Err(format!("{i} is out of range {min}..={max}"))
-                } else {
-                    Ok(ParamValue::Int(*i))
-                }
-            }
-            (ParamKind::Float { min, max }, toml::Value::Integer(_) | toml::Value::Float(_)) => {
-                let x = match v {
-                    toml::Value::Integer(i) => *i as f64,
-                    toml::Value::Float(x) => *x,
-                    _ => unreachable!(),
-                };
-                if !(x >= min && x <= max) {
-                    Err(format!("{x} is out of range {min}..={max}"))
-                } else {
-                    Ok(ParamValue::Float(x))
-                }
-            }
-            (ParamKind::Bool, toml::Value::Boolean(b)) => Ok(ParamValue::Bool(*b)),
-            (ParamKind::Choice(options), toml::Value::String(s)) => {
-                if options.contains(&s.as_str()) {
-                    Ok(ParamValue::Str(s.clone()))
-                } else {
-                    Err(format!("`{s}` is not one of {}", options.join(", ")))
-                }
-            }
-            (kind, v) => Err(format!(
+/// Check and convert one TOML value against `spec` (kind and range).
+pub fn convert(spec: &ParamSpec, v: &toml::Value) -> Result<ParamValue, String> {
+    let value = match (spec.kind, v) {
+        (ParamKind::Int { .. }, toml::Value::Integer(i)) => ParamValue::Int(*i),
+        (ParamKind::Float { .. }, toml::Value::Integer(i)) => ParamValue::Float(*i as f64),
+        (ParamKind::Float { .. }, toml::Value::Float(x)) => ParamValue::Float(*x),
+        (ParamKind::Bool, toml::Value::Boolean(b)) => ParamValue::Bool(*b),
+        (ParamKind::Choice(_), toml::Value::String(s)) => ParamValue::Str(s.clone()),
+        (kind, v) => {
+            return Err(format!(
                 "expected {}, found {}",
-                kind_name(kind),
+                kind.describe(),
                 v.type_str()
-            )),
+            ))
         }
-    }
-
-    /// The default as a value.
-    pub fn default_value(&self) -> ParamValue {
-        let v: toml::Value = match self.kind {
-            ParamKind::Choice(_) => toml::Value::String(self.default.to_string()),
-            _ => toml::from_str::<toml::Table>(&format!("v = {}", self.default))
-                .ok()
-                .and_then(|t| t.get("v").cloned())
-                .unwrap_or(toml::Value::String(self.default.into())),
-        };
-        self.convert(&v)
-            .unwrap_or_else(|e| panic!("default of `{}` is invalid: {e}", self.name))
-    }
-}
-
-fn kind_name(k: ParamKind) -> String {
-    match k {
-        ParamKind::Int { .. } => "an integer".into(),
-        ParamKind::Float { .. } => "a number".into(),
-        ParamKind::Bool => "true or false".into(),
-        ParamKind::Choice(o) => format!("one of \"{}\"", o.join("\", \"")),
-    }
-}
-
-/// A full set of parameter values, in spec order.
-#[derive(Clone, Debug, PartialEq, Default)]
-pub struct ParamSet(pub Vec<(&'static str, ParamValue)>);
-
-impl ParamSet {
-    fn get(&self, name: &str) -> &ParamValue {
-        &self
-            .0
-            .iter()
-            .find(|(n, _)| *n == name)
-            .unwrap_or_else(|| panic!("no parameter `{name}`"))
-            .1
-    }
-
-    pub fn int(&self, name: &str) -> i64 {
-        match self.get(name) {
-            ParamValue::Int(v) => *v,
-            v => panic!("parameter `{name}` is not an integer: {v}"),
-        }
-    }
-
-    pub fn float(&self, name: &str) -> f64 {
-        match self.get(name) {
-            ParamValue::Float(v) => *v,
-            ParamValue::Int(v) => *v as f64,
-            v => panic!("parameter `{name}` is not a number: {v}"),
-        }
-    }
-
-    pub fn bool(&self, name: &str) -> bool {
-        match self.get(name) {
-            ParamValue::Bool(v) => *v,
-            v => panic!("parameter `{name}` is not a bool: {v}"),
-        }
-    }
-
-    pub fn str(&self, name: &str) -> &str {
-        match self.get(name) {
-            ParamValue::Str(v) => v,
-            v => panic!("parameter `{name}` is not a string: {v}"),
-        }
-    }
-}
-
-impl fmt::Display for ParamSet {
-    /// `name=value;name=value` in spec order (the `params` column).
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for (i, (n, v)) in self.0.iter().enumerate() {
-            if i > 0 {
-                write!(f, ";")?;
-            }
-            write!(f, "{n}={v}")?;
-        }
-        Ok(())
-    }
+    };
+    spec.check(&value)?;
+    Ok(value)
 }
 
 /// Expand a config's `params` table into parameter sets. `Err((key, message))` names the
 /// offending key.
-pub fn expand(specs: &[ParamSpec], table: &toml::Table) -> Result<Vec<ParamSet>, (String, String)> {
+pub fn expand(
+    specs: &[ParamSpec],
+    defaults: &ParamSet,
+    table: &toml::Table,
+) -> Result<Vec<ParamSet>, (String, String)> {
     for key in table.keys() {
         if !specs.iter().any(|s| s.name == key) {
             let known: Vec<&str> = specs.iter().map(|s| s.name).collect();
@@ -182,18 +46,21 @@ pub fn expand(specs: &[ParamSpec], table: &toml::Table) -> Result<Vec<ParamSet>,
     let mut axes: Vec<(&'static str, Vec<ParamValue>)> = Vec::new();
     for spec in specs {
         let values = match table.get(spec.name) {
-            None => vec![spec.default_value()],
+            None => vec![defaults
+                .get(spec.name)
+                .cloned()
+                .ok_or_else(|| (spec.name.to_string(), "has no default".to_string()))?],
             Some(toml::Value::Array(list)) => {
                 if list.is_empty() {
                     return Err((spec.name.into(), "an empty list sweeps over nothing".into()));
                 }
                 let mut out = Vec::new();
                 for v in list {
-                    out.push(spec.convert(v).map_err(|m| (spec.name.to_string(), m))?);
+                    out.push(convert(spec, v).map_err(|m| (spec.name.to_string(), m))?);
                 }
                 out
             }
-            Some(v) => vec![spec.convert(v).map_err(|m| (spec.name.to_string(), m))?],
+            Some(v) => vec![convert(spec, v).map_err(|m| (spec.name.to_string(), m))?],
         };
         axes.push((spec.name, values));
     }
@@ -215,55 +82,46 @@ pub fn expand(specs: &[ParamSpec], table: &toml::Table) -> Result<Vec<ParamSet>,
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tb_core::Params;
 
-    const SPECS: &[ParamSpec] = &[
-        ParamSpec {
-            name: "bins",
-            kind: ParamKind::Int { min: 2, max: 256 },
-            default: "16",
-            doc: "",
-        },
-        ParamSpec {
-            name: "c_trav",
-            kind: ParamKind::Float { min: 0.0, max: 1e3 },
-            default: "1.0",
-            doc: "",
-        },
-        ParamSpec {
-            name: "split",
-            kind: ParamKind::Choice(&["sah", "median"]),
-            default: "sah",
-            doc: "",
-        },
-    ];
+    tb_core::choice! {
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        enum Split { Sah = "sah", Median = "median" }
+    }
+
+    tb_core::params! {
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        struct P {
+            bins: u32 = 16, ParamKind::Int { min: 2, max: 256 };
+            c_trav: f32 = 1.0, ParamKind::Float { min: 0.0, max: 1e3 };
+            split: Split = Split::Sah, ParamKind::Choice(Split::NAMES);
+        }
+    }
+
+    fn expand_p(t: &str) -> Result<Vec<ParamSet>, (String, String)> {
+        let t: toml::Table = toml::from_str(t).unwrap();
+        expand(P::SPECS, &P::default().to_set(), &t)
+    }
 
     #[test]
     fn sweeps_expand_in_spec_order() {
-        let t: toml::Table =
-            toml::from_str("bins = [4, 8]\nsplit = [\"sah\", \"median\"]").unwrap();
-        let sets = expand(SPECS, &t).unwrap();
+        let sets = expand_p("bins = [4, 8]\nsplit = [\"sah\", \"median\"]").unwrap();
         assert_eq!(sets.len(), 4);
         assert_eq!(sets[0].to_string(), "bins=4;c_trav=1;split=sah");
         assert_eq!(sets[3].to_string(), "bins=8;c_trav=1;split=median");
-        assert_eq!(sets[1].int("bins"), 4);
-        assert_eq!(sets[1].float("c_trav"), 1.0);
+        let p = P::from_set(&sets[3]).unwrap();
+        assert_eq!((p.bins, p.c_trav, p.split), (8, 1.0, Split::Median));
     }
 
     #[test]
     fn bad_values_name_the_key() {
-        let t: toml::Table = toml::from_str("bins = 1").unwrap();
-        assert_eq!(expand(SPECS, &t).unwrap_err().0, "bins");
-        let t: toml::Table = toml::from_str("bins = \"x\"").unwrap();
-        assert!(expand(SPECS, &t)
+        assert_eq!(expand_p("bins = 1").unwrap_err().0, "bins");
+        assert!(expand_p("bins = \"x\"")
             .unwrap_err()
             .1
             .contains("expected an integer"));
-        let t: toml::Table = toml::from_str("leaf = 3").unwrap();
-        assert!(expand(SPECS, &t)
-            .unwrap_err()
-            .1
-            .contains("unknown parameter"));
-        let t: toml::Table = toml::from_str("split = \"x\"").unwrap();
-        assert!(expand(SPECS, &t).unwrap_err().1.contains("not one of"));
+        assert!(expand_p("leaf = 3").unwrap_err().1.contains("unknown parameter"));
+        assert!(expand_p("split = \"x\"").unwrap_err().1.contains("not one of"));
+        assert!(expand_p("bins = []").unwrap_err().1.contains("empty list"));
     }
 }

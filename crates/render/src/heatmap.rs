@@ -18,8 +18,8 @@ pub fn to_row_major(pixels: &[(u32, u32)], values: &[f32], width: u32, height: u
     out
 }
 
-/// Every counter of [`TraversalStats`] as a row-major `f32` channel named as in the result
-/// columns (`interior`, `leaves`, `prims`, `boxes`, `planes`, `restarts`, `steps`). `stats[i]`
+/// Every counter of [`TraversalStats`] ([`tb_core::COUNTERS`]) as a row-major `f32` channel
+/// named as in the result columns (`interior`, `leaves`, `prims`, …). `stats[i]`
 /// belongs to `pixels[i]`.
 pub fn counter_channels(
     pixels: &[(u32, u32)],
@@ -28,9 +28,9 @@ pub fn counter_channels(
     height: u32,
 ) -> Channels {
     let mut c = Channels::new(width, height);
-    for (k, name) in tb_core::StatsSummary::NAMES.iter().enumerate() {
-        let v: Vec<f32> = stats.iter().map(|s| s.fields()[k].1 as f32).collect();
-        c.push(name, to_row_major(pixels, &v, width, height))
+    for (k, counter) in tb_core::COUNTERS.iter().enumerate() {
+        let v: Vec<f32> = stats.iter().map(|s| s.values()[k] as f32).collect();
+        c.push(counter.name, to_row_major(pixels, &v, width, height))
             .expect("one value per pixel");
     }
     c

@@ -2,11 +2,7 @@
 //! this trait, so they run on every structure ([`AccelTracer`] over any `&dyn Accel`) and on any
 //! device: a GPU device implements `Tracer` (or passes a closure) and needs nothing else.
 
-use rayon::prelude::*;
 use tb_core::{Accel, HitRecord, Query, Ray, TriTestKind};
-
-/// Rays per [`Accel::trace`] call when [`AccelTracer`] splits a batch across threads.
-pub const CHUNK: usize = 1024;
 
 /// Traces a batch of rays: one hit record per ray (closest or any hit, as `query` asks).
 pub trait Tracer: Sync {
@@ -23,8 +19,8 @@ where
     }
 }
 
-/// A CPU tracer: traversal `traversal` of `accel` with triangle test `tri`, the batch split in
-/// chunks of [`CHUNK`] rays over the current rayon pool (install a pool to pick the threads).
+/// A CPU tracer: traversal `traversal` of `accel` with triangle test `tri`, the batch traced by
+/// [`tb_core::par`] over the current rayon pool (install a pool to pick the threads).
 pub struct AccelTracer<'a> {
     pub accel: &'a dyn Accel,
     pub traversal: usize,
@@ -33,12 +29,6 @@ pub struct AccelTracer<'a> {
 
 impl Tracer for AccelTracer<'_> {
     fn trace(&self, query: Query, rays: &[Ray], hits: &mut [HitRecord]) {
-        assert_eq!(rays.len(), hits.len(), "one hit record per ray");
-        rays.par_chunks(CHUNK)
-            .zip(hits.par_chunks_mut(CHUNK))
-            .for_each(|(r, h)| {
-                self.accel
-                    .trace(self.traversal, query, self.tri, r, h, None)
-            });
+        tb_core::par::trace_into(self.accel, self.traversal, query, self.tri, rays, hits, None);
     }
 }

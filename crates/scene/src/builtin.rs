@@ -13,8 +13,9 @@
 //! [`crate::View`]: a 256x256 camera (row order), a point light, and an AO distance of 4% of
 //! the bounding-box diagonal. Stress scenes (`builtin:stress/NAME`) live in [`crate::stress`].
 
+use crate::error::SceneError;
 pub use crate::procedural::{BuiltinInfo, Params};
-use crate::{Scene, SceneError};
+use crate::scene::Scene;
 
 mod common;
 mod cornell;

@@ -1,5 +1,5 @@
 //! The shared oracle suite: every structure x traversal must answer every ray of every suite
-//! scene as brute force does ([`tb_core::compare`]).
+//! scene as brute force does ([`mod@tb_core::compare`]).
 //!
 //! A structure crate's test is one line:
 //! ```ignore
@@ -16,10 +16,10 @@
 //! the oracle's hits with the triangle test under check, with the fixed seeds below.
 
 use crate::rays::{self, RayBatch, RayKind};
-use crate::Scene;
+use crate::scene::Scene;
 use std::path::Path;
 use tb_core::{
-    compare, hex_f32, Accel, BruteForce, HitRecord, Mismatch, Query, Ray, TriTestKind, Triangle,
+    compare, hex_f32, Accel, BruteForce, HitRecord, Mismatch, Ray, TriTestKind, Triangle,
 };
 
 /// AO samples per primary hit.
@@ -66,14 +66,14 @@ pub fn suite_scenes() -> Vec<Scene> {
     let mut out = Vec::new();
     for info in crate::stress::LIST {
         let src = format!("builtin:{}", info.name);
-        match crate::load(&src, Path::new(".")) {
+        match crate::source::load(&src, Path::new(".")) {
             Ok(s) => out.push(s),
             Err(e) => panic!("stress scene {src} does not load: {e}"),
         }
     }
     for spec in PROCEDURAL {
         let src = format!("builtin:{spec}");
-        match crate::load(&src, Path::new(".")) {
+        match crate::source::load(&src, Path::new(".")) {
             Ok(s) if !s.triangles.is_empty() && s.triangles.len() <= MAX_SUITE_TRIANGLES => {
                 out.push(shrink_camera(s))
             }
@@ -102,32 +102,7 @@ fn shrink_camera(mut s: Scene) -> Scene {
     s
 }
 
-/// Trace a batch with `accel`'s traversal `traversal`, split across the available cores (the
-/// structure is `Sync`; each chunk is one `trace` call, as the runner does).
-fn trace_par(
-    accel: &dyn Accel,
-    traversal: usize,
-    query: Query,
-    tri: TriTestKind,
-    rays: &[Ray],
-) -> Vec<HitRecord> {
-    let mut hits = vec![HitRecord::MISS; rays.len()];
-    let threads = std::thread::available_parallelism()
-        .map(|n| n.get())
-        .unwrap_or(1)
-        .min(8);
-    if threads <= 1 || rays.len() < 256 {
-        accel.trace(traversal, query, tri, rays, &mut hits, None);
-        return hits;
-    }
-    let chunk = rays.len().div_ceil(threads);
-    std::thread::scope(|s| {
-        for (r, h) in rays.chunks(chunk).zip(hits.chunks_mut(chunk)) {
-            s.spawn(move || accel.trace(traversal, query, tri, r, h, None));
-        }
-    });
-    hits
-}
+use tb_core::par::trace as trace_par;
 
 /// The batches of `scene` with the oracle's answers for the triangle test `tri`.
 fn batches_with_oracle(

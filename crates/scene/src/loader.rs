@@ -19,7 +19,8 @@
 //! Malformed input never panics: every problem is one [`SceneError::File`] with a one-line
 //! message naming the file and, for OBJ, the line where it is known.
 
-use crate::{Scene, SceneError};
+use crate::error::SceneError;
+use crate::scene::Scene;
 use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 use tb_core::{Triangle, Vec3};

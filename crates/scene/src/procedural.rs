@@ -6,7 +6,7 @@
 //! The dependencies go one way: [`crate::builtin`] uses this module and dispatches
 //! `builtin:stress/NAME` to [`crate::stress`], which uses this module too.
 
-use crate::SceneError;
+use crate::error::SceneError;
 use std::collections::BTreeMap;
 
 /// One built-in scene as listed by `trace-bench scenes`.

@@ -22,7 +22,7 @@
 //! along the geometric normal facing the incoming ray with [`offset_origin_scaled`]
 //! (Wächter and Binder's integer-ulp offset), so secondary rays use `tmin = 0`.
 
-use crate::Camera;
+use crate::camera::Camera;
 use rand::Rng;
 use rand_pcg::Pcg64;
 use std::f32::consts::PI;
@@ -337,22 +337,20 @@ pub fn offset_origin_scaled(p: Vec3, n: Vec3, scale: Vec3) -> Vec3 {
     out
 }
 
-/// Trace `rays` with traversal 0 of `accel`, single-threaded, and return the hits.
+/// Trace `rays` with traversal 0 of `accel` ([`tb_core::par`]) and return the hits.
 pub fn trace_all(
     accel: &dyn Accel,
     query: Query,
     tri: TriTestKind,
     rays: &[Ray],
 ) -> Vec<HitRecord> {
-    let mut hits = vec![HitRecord::MISS; rays.len()];
-    accel.trace(0, query, tri, rays, &mut hits, None);
-    hits
+    tb_core::par::trace(accel, 0, query, tri, rays)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::PixelOrder;
+    use crate::camera::PixelOrder;
     use tb_core::BruteForce;
 
     fn camera() -> Camera {

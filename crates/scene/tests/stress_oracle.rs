@@ -4,8 +4,8 @@
 
 use std::path::Path;
 use tb_core::{
-    compare_closest, Accel, BruteForce, HitRecord, MemoryReport, Query, Ray, TraversalInfo,
-    TraversalStats, TriTestKind, Triangle,
+    compare_closest, Accel, AccelError, BruteForce, HitRecord, MemoryReport, Query, Ray, Structure,
+    Traversal, TraversalInfo, TraversalStats, TriTestKind, Triangle,
 };
 use tb_scene::conformance::{self, assert_conforms, check};
 use tb_scene::rays::trace_all;
@@ -61,42 +61,37 @@ fn brute_force_conforms() {
 /// Brute force that ignores every 7th triangle and misses rays with `dir.x == 0`.
 struct Broken(BruteForce);
 
-const BROKEN: &[TraversalInfo] = &[
-    TraversalInfo {
-        name: "broken-a",
-        doc: "drops triangles",
-    },
-    TraversalInfo {
-        name: "broken-b",
-        doc: "the same",
-    },
-];
+/// Brute force, then every ray with `dir.x == 0` turned into a miss.
+fn broken_trace(
+    b: &Broken,
+    query: Query,
+    tri: TriTestKind,
+    rays: &[Ray],
+    hits: &mut [HitRecord],
+    stats: Option<&mut [TraversalStats]>,
+) {
+    b.0.trace(0, query, tri, rays, hits, stats);
+    for (r, h) in rays.iter().zip(hits.iter_mut()) {
+        if r.dir.x == 0.0 {
+            *h = HitRecord::MISS;
+        }
+    }
+}
 
-impl Accel for Broken {
-    fn name(&self) -> &'static str {
-        "broken"
-    }
-    fn traversals(&self) -> &'static [TraversalInfo] {
-        BROKEN
-    }
+impl Structure for Broken {
+    const NAME: &'static str = "broken";
+    const TRAVERSALS: &'static [Traversal<Self>] = &[
+        Traversal::cpu(
+            TraversalInfo::new("broken-a", "none", "drops triangles"),
+            broken_trace,
+        ),
+        Traversal::cpu(
+            TraversalInfo::new("broken-b", "none", "the same"),
+            broken_trace,
+        ),
+    ];
     fn memory(&self) -> MemoryReport {
         MemoryReport::default()
-    }
-    fn trace(
-        &self,
-        traversal: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
-        self.0.trace(traversal, query, tri, rays, hits, stats);
-        for (r, h) in rays.iter().zip(hits.iter_mut()) {
-            if r.dir.x == 0.0 {
-                *h = HitRecord::MISS;
-            }
-        }
     }
 }
 
@@ -138,29 +133,17 @@ fn a_broken_structure_is_caught() {
 
 struct Invalid(BruteForce);
 
-impl Accel for Invalid {
-    fn name(&self) -> &'static str {
-        "invalid"
-    }
-    fn traversals(&self) -> &'static [TraversalInfo] {
-        self.0.traversals()
-    }
+impl Structure for Invalid {
+    const NAME: &'static str = "invalid";
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+        TraversalInfo::new("linear", "none", "brute force"),
+        |v, query, tri, rays, hits, stats| v.0.trace(0, query, tri, rays, hits, stats),
+    )];
     fn memory(&self) -> MemoryReport {
         MemoryReport::default()
     }
-    fn validate(&self) -> Result<(), String> {
-        Err("node 3 out of bounds".into())
-    }
-    fn trace(
-        &self,
-        traversal: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
-        self.0.trace(traversal, query, tri, rays, hits, stats)
+    fn validate(&self) -> Result<(), AccelError> {
+        Err(AccelError::Invalid("node 3 out of bounds".into()))
     }
 }
 

@@ -1,8 +1,12 @@
 //! Helpers shared by the procedural generators.
 
 use super::MAX_TRIANGLES;
+use crate::camera::Camera;
+use crate::camera::PixelOrder;
+use crate::error::SceneError;
 use crate::procedural::Params;
-use crate::{Camera, PixelOrder, Scene, SceneError, View};
+use crate::scene::Scene;
+use crate::scene::View;
 use tb_core::{Triangle, Vec3};
 
 /// Default resolution of the built-in cameras.

@@ -8,8 +8,9 @@
 //! (20 triangles). 32 triangles in all.
 
 use super::common::{camera, quad, scene};
+use crate::error::SceneError;
 use crate::procedural::Params;
-use crate::{Scene, SceneError};
+use crate::scene::Scene;
 use tb_core::{Triangle, Vec3};
 
 /// A block standing on the floor: `size`, rotated by `degrees` about Y around its corner at the

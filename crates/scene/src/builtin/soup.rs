@@ -2,8 +2,9 @@
 
 use super::common::{budget, camera, scene};
 use super::MAX_TRIANGLES;
+use crate::error::SceneError;
 use crate::procedural::Params;
-use crate::{Scene, SceneError};
+use crate::scene::Scene;
 use rand::{Rng, SeedableRng};
 use tb_core::{Triangle, Vec3};
 

@@ -5,8 +5,9 @@
 //! `f64` and rounded to `f32` once.
 
 use super::common::{budget, camera, pow, quad, scene};
+use crate::error::SceneError;
 use crate::procedural::Params;
-use crate::{Scene, SceneError};
+use crate::scene::Scene;
 use glam::{DMat3, DVec3};
 use rand::{Rng, SeedableRng};
 use tb_core::{Triangle, Vec3};

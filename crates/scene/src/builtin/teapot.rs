@@ -8,8 +8,9 @@
 //! has 64·K² − 8·K triangles.
 
 use super::common::{budget, camera, quad, scene};
+use crate::error::SceneError;
 use crate::procedural::Params;
-use crate::{Scene, SceneError};
+use crate::scene::Scene;
 use glam::DVec3;
 use tb_core::{Aabb, Triangle, Vec3};
 
@@ -231,7 +232,7 @@ fn check_tess(params: &Params, key: &str, k: u32) -> Result<u64, SceneError> {
 }
 
 /// Camera close to the teapot so that it fills the view.
-fn teapot_camera() -> crate::Camera {
+fn teapot_camera() -> crate::camera::Camera {
     camera(
         Vec3::new(4.5, 5.0, 9.0),
         Vec3::new(0.25, 1.4, 0.0),

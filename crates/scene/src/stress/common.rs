@@ -2,8 +2,10 @@
 //! unit vectors, points in a box, directions entering a surface, in a plane or along an axis),
 //! rays aimed at a target, and the view every scene gets.
 
+use crate::camera::Camera;
+use crate::camera::PixelOrder;
 use crate::rays::ray_rng;
-use crate::{Camera, PixelOrder, View};
+use crate::scene::View;
 use rand::Rng;
 use rand_pcg::Pcg64;
 use tb_core::{Aabb, Ray, Triangle, Vec3};

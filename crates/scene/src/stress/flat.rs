@@ -3,8 +3,8 @@
 
 use super::common::{aim, in_box, in_plane_dir, range, rng, unit, view_from, Generated};
 use super::mesh::quad_grid;
+use crate::error::SceneError;
 use crate::procedural::{BuiltinInfo, Params};
-use crate::SceneError;
 use rand_pcg::Pcg64;
 use tb_core::{Ray, Triangle, Vec3};
 

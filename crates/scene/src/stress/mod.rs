@@ -41,8 +41,9 @@ mod thin_layers;
 mod transformed;
 mod watertight;
 
+use crate::error::SceneError;
 use crate::procedural::{BuiltinInfo, Params};
-use crate::{Scene, SceneError};
+use crate::scene::Scene;
 use tb_core::{Ray, Vec3};
 
 /// The stress scenes.

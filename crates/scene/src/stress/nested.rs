@@ -3,8 +3,8 @@
 
 use super::common::{aim, camera_view, in_box, range, rng, unit, Generated, ViewFn};
 use super::mesh::{grid_box, icosphere, quad_grid, Mesh};
+use crate::error::SceneError;
 use crate::procedural::{BuiltinInfo, Params};
-use crate::SceneError;
 use rand::Rng;
 use tb_core::{Aabb, Ray, Vec3};
 

@@ -3,8 +3,8 @@
 
 use super::common::{aim, in_box, range, rng, unit, view_from, Generated};
 use super::mesh::{grid_box, icosphere, quad_grid, Mesh};
+use crate::error::SceneError;
 use crate::procedural::{BuiltinInfo, Params};
-use crate::SceneError;
 use rand::Rng;
 use rand_pcg::Pcg64;
 use tb_core::Vec3;

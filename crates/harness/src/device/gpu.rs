@@ -1,5 +1,6 @@
-//! The `gpu` device of the runner: opens the adapter once per run, uploads each build's
-//! arrays once and each ray batch once per build, then per row times the timed kernel
+//! The `gpu` device of the runner: opens the adapter once per run, uploads each build's GPU
+//! program ([`tb_core::Accel::gpu_program`], the structure's own) once per traversal and each
+//! ray batch once per build, then per row times the timed kernel
 //! (warm-up, repeats), reads the hits back (validated against the oracle like CPU rows), and
 //! runs the counting kernel for the counter columns.
 //!
@@ -12,40 +13,28 @@
 //! line, writes the GPU rows with the error as `note`, still writes every CPU row, and fails
 //! (exit 1) only when the GPU was required ([`crate::config::GpuSpec::required`]).
 
+use super::{Device, Job, Outcome};
 use crate::config::GpuSpec;
 use crate::output::Row;
+use crate::validation::{self, Sample};
 use std::collections::HashMap;
-use tb_bvh::Bvh;
-use tb_core::compare::{compare, Mismatch};
-use tb_core::{Accel, HitRecord, Query, Ray, StatsSummary, TriTestKind, Triangle};
-use tb_gpu::{Gpu, GpuRays, GpuStructure, Structure};
+use tb_core::{Accel, HitRecord, Query, Ray, StatsSummary, TriTestKind};
+use tb_gpu::{Gpu, GpuRays, GpuStructure};
 
 /// The run's GPU, or why there is none.
 pub struct GpuDevice {
     gpu: Result<Gpu, String>,
     /// Whether the GPU was demanded (a failure fails the run).
     pub required: bool,
+    /// The current build's uploaded programs (per traversal) and ray batches.
+    build: GpuBuild,
 }
 
-/// What one GPU row produced besides its columns.
-pub struct GpuOutcome {
-    /// The first mismatching rays (at most `max_report`).
-    pub first: Vec<Mismatch>,
-}
-
-/// Per-build GPU state: the uploaded structure and ray batches.
+/// Per-build GPU state: the uploaded program of each traversal and the ray batches.
 #[derive(Default)]
-pub struct GpuBuild {
-    structure: Option<Result<GpuStructure, String>>,
+struct GpuBuild {
+    programs: HashMap<usize, Result<GpuStructure, String>>,
     rays: HashMap<usize, GpuRays>,
-}
-
-/// The structures and traversals with a GPU kernel.
-pub fn has_kernel(structure: &str, traversal: &str) -> bool {
-    matches!(
-        (structure, traversal),
-        ("brute-force", "linear") | ("bvh", "ordered")
-    )
 }
 
 impl GpuDevice {
@@ -54,6 +43,7 @@ impl GpuDevice {
         GpuDevice {
             gpu: Gpu::new(&spec.choice).map_err(|e| e.to_string()),
             required: spec.required,
+            build: GpuBuild::default(),
         }
     }
 
@@ -84,60 +74,39 @@ impl GpuDevice {
         }
     }
 
-    /// Fill a GPU row. `validation` is the oracle sample (indices into `rays`, expected
-    /// hits). `Err` is a GPU failure, after which the device is unusable for the run.
-    #[allow(clippy::too_many_arguments)]
-    pub fn measure(
+}
+
+impl Device for GpuDevice {
+    fn name(&self) -> &'static str {
+        "gpu"
+    }
+
+    fn begin_build(&mut self) {
+        self.build = GpuBuild::default();
+    }
+
+    fn measure(
         &mut self,
-        build: &mut GpuBuild,
-        accel: &dyn Accel,
-        tris: &[Triangle],
-        batch_index: usize,
-        rays: &[Ray],
-        query: Query,
-        tri: TriTestKind,
-        warmup: usize,
-        repeat: usize,
-        validation: Option<(&[usize], &[HitRecord])>,
-        max_report: usize,
+        job: &Job,
+        sample: Option<&Sample>,
         row: &mut Row,
-    ) -> Result<GpuOutcome, String> {
+    ) -> Result<Outcome, String> {
+        if !job.accel.has_gpu_program(job.traversal) {
+            return Ok(Outcome::Unsupported(format!(
+                "no GPU kernel for {} {} yet",
+                job.accel.name(),
+                job.info.name
+            )));
+        }
         let gpu = self.gpu.as_ref().map_err(|e| e.clone())?;
         row.adapter = gpu.adapter().label();
-        let r = measure_on(
-            gpu,
-            build,
-            accel,
-            tris,
-            batch_index,
-            rays,
-            query,
-            tri,
-            warmup,
-            repeat,
-            validation,
-            max_report,
-            row,
-        );
+        let r = measure_on(gpu, &mut self.build, job, sample, row);
         if let Err(e) = &r {
             // A device error leaves the device unusable: later GPU rows name the same cause.
             self.gpu = Err(e.clone());
         }
         r
     }
-}
-
-/// The arrays a GPU kernel reads for `accel` (one with a kernel: [`has_kernel`]).
-fn structure_of<'a>(accel: &'a dyn Accel, tris: &'a [Triangle]) -> Result<Structure<'a>, String> {
-    Ok(match accel.name() {
-        "bvh" => Structure::Bvh(
-            accel
-                .as_any()
-                .and_then(|a| a.downcast_ref::<Bvh>())
-                .ok_or("the bvh build is not a tb_bvh::Bvh")?,
-        ),
-        _ => Structure::BruteForce(tris),
-    })
 }
 
 impl GpuDevice {
@@ -148,20 +117,15 @@ impl GpuDevice {
     pub fn tracer<'a>(
         &'a self,
         accel: &dyn Accel,
-        traversal: &str,
-        tris: &[Triangle],
+        traversal: usize,
         tri: TriTestKind,
     ) -> Result<GpuTracer<'a>, String> {
         let gpu = self.gpu.as_ref().map_err(|e| e.clone())?;
-        if !has_kernel(accel.name(), traversal) {
-            return Err(format!(
-                "no GPU kernel for {} {traversal} yet",
-                accel.name()
-            ));
-        }
-        let s = gpu
-            .upload(structure_of(accel, tris)?)
-            .map_err(|e| e.to_string())?;
+        let program = accel.gpu_program(traversal).ok_or_else(|| {
+            let t = accel.traversals()[traversal].name;
+            format!("no GPU kernel for {} {t} yet", accel.name())
+        })?;
+        let s = gpu.upload(&program).map_err(|e| e.to_string())?;
         Ok(GpuTracer {
             gpu,
             s,
@@ -204,93 +168,56 @@ impl tb_render::Tracer for GpuTracer<'_> {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
+/// Upload (once per build and traversal, once per batch), time, read back, validate, count.
 fn measure_on(
     gpu: &Gpu,
     build: &mut GpuBuild,
-    accel: &dyn Accel,
-    tris: &[Triangle],
-    batch_index: usize,
-    rays: &[Ray],
-    query: Query,
-    tri: TriTestKind,
-    warmup: usize,
-    repeat: usize,
-    validation: Option<(&[usize], &[HitRecord])>,
-    max_report: usize,
+    job: &Job,
+    sample: Option<&Sample>,
     row: &mut Row,
-) -> Result<GpuOutcome, String> {
+) -> Result<Outcome, String> {
+    let (b, query, tri) = (job.batch, job.batch.query, job.tri);
     let s = build
-        .structure
-        .get_or_insert_with(|| {
-            gpu.upload(structure_of(accel, tris)?)
-                .map_err(|e| e.to_string())
+        .programs
+        .entry(job.traversal)
+        .or_insert_with(|| {
+            let program = job
+                .accel
+                .gpu_program(job.traversal)
+                .ok_or("no GPU program")?;
+            gpu.upload(&program).map_err(|e| e.to_string())
         })
         .as_ref()
         .map_err(|e| e.clone())?;
-    if let std::collections::hash_map::Entry::Vacant(v) = build.rays.entry(batch_index) {
-        v.insert(gpu.upload_rays(rays).map_err(|e| e.to_string())?);
+    if let std::collections::hash_map::Entry::Vacant(v) = build.rays.entry(job.batch_index) {
+        v.insert(gpu.upload_rays(&b.rays).map_err(|e| e.to_string())?);
     }
-    let g_rays = &build.rays[&batch_index];
+    let g_rays = &build.rays[&job.batch_index];
     row.upload_ms = Some(s.upload_ms + g_rays.upload_ms);
 
-    let mut times = Vec::with_capacity(repeat);
-    for i in 0..warmup + repeat.max(1) {
+    let mut times = Vec::with_capacity(job.repeat);
+    for i in 0..job.warmup + job.repeat.max(1) {
         let t = gpu
             .trace(s, g_rays, query, tri, false)
             .map_err(|e| e.to_string())?;
-        if i >= warmup {
+        if i >= job.warmup {
             times.push(t.kernel_ms);
         }
     }
     let (hits, readback_ms) = gpu.read_hits(g_rays).map_err(|e| e.to_string())?;
-    let med = crate::runner::median(&mut times);
-    row.trace_ms_min = times.first().copied();
-    row.trace_ms_max = times.last().copied();
-    row.trace_ms_median = Some(med);
-    row.mrays_per_s = Some(rays.len() as f64 / (med * 1e3).max(1e-12));
+    crate::timing::fill(row, &mut times, b.rays.len());
     row.readback_ms = Some(readback_ms);
     let nhit = hits.iter().filter(|h| h.is_hit()).count();
-    row.hit_rate = Some(nhit as f64 / rays.len().max(1) as f64);
+    row.hit_rate = Some(nhit as f64 / b.rays.len().max(1) as f64);
 
     gpu.trace(s, g_rays, query, tri, true)
         .map_err(|e| e.to_string())?;
     let (stats, _) = gpu.read_stats(g_rays).map_err(|e| e.to_string())?;
-    let st = StatsSummary::from_stats(&stats);
-    row.interior_per_ray = Some(st.mean[0]);
-    row.interior_max = Some(st.max[0]);
-    row.leaves_per_ray = Some(st.mean[1]);
-    row.leaves_max = Some(st.max[1]);
-    row.prims_per_ray = Some(st.mean[2]);
-    row.prims_max = Some(st.max[2]);
-    row.boxes_per_ray = Some(st.mean[3]);
-    row.boxes_max = Some(st.max[3]);
-    row.planes_per_ray = Some(st.mean[4]);
-    row.planes_max = Some(st.max[4]);
-    row.restarts_per_ray = Some(st.mean[5]);
-    row.restarts_max = Some(st.max[5]);
-    row.steps_per_ray = Some(st.mean[6]);
-    row.steps_max = Some(st.max[6]);
+    row.set_counters(&StatsSummary::from_stats(&stats), job.info.counters);
 
-    let mut first = Vec::new();
-    if let Some((idx, expected)) = validation {
-        let mut n = 0u64;
-        for (&i, e) in idx.iter().zip(expected) {
-            if let Some(kind) = compare(query, &rays[i], e, &hits[i]) {
-                n += 1;
-                if first.len() < max_report {
-                    first.push(Mismatch {
-                        index: i,
-                        ray: rays[i],
-                        expected: *e,
-                        got: hits[i],
-                        kind,
-                    });
-                }
-            }
-        }
-        row.validated_rays = Some(idx.len() as u64);
-        row.mismatches = Some(n);
-    }
-    Ok(GpuOutcome { first })
+    let checked = sample.map(|smp| {
+        let got: Vec<HitRecord> = smp.idx.iter().map(|&i| hits[i]).collect();
+        validation::check(query, smp, &got, job.max_report)
+    });
+    Ok(Outcome::Measured(checked))
 }

@@ -2,11 +2,17 @@
 //! [`Experiment`] with scenes loaded, structures resolved and sweeps expanded, before any work
 //! starts. Every error names the file, the line and the key.
 //!
-//! The schema is documented in README.md ("Config reference").
+//! The schema is documented in README.md ("Config reference"). The image and convergence
+//! sections are checked in their own modules ([`images`], [`convergence`]), which the work
+//! modules ([`crate::images`], [`crate::convergence`]) read from, never the other way round.
+
+pub mod convergence;
+pub mod images;
 
 use crate::error::HarnessError;
-use crate::params::{expand, ParamSet};
-use crate::registry::{self, StructureInfo};
+use crate::params::expand;
+use crate::registry::Registry;
+use tb_core::{Family, ParamSet, TraversalInfo};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use tb_core::{TriTestKind, Vec3};
@@ -31,7 +37,7 @@ struct RawConfig {
     scenes: Vec<RawScene>,
     #[serde(default, rename = "structure")]
     structures: Vec<RawStructure>,
-    convergence: Option<Spanned<crate::convergence::RawConvergence>>,
+    convergence: Option<Spanned<convergence::RawConvergence>>,
 }
 
 #[derive(Deserialize, Default)]
@@ -200,8 +206,10 @@ pub struct SceneSpec {
 
 /// A checked structure entry.
 pub struct StructureSpec {
-    pub info: &'static StructureInfo,
-    /// Indices into `info.traversals`.
+    pub family: &'static Family,
+    /// The family's traversals (index = position in its table).
+    pub infos: Vec<&'static TraversalInfo>,
+    /// The traversals to run: indices into `infos`.
     pub traversals: Vec<usize>,
     pub param_sets: Vec<ParamSet>,
 }
@@ -228,9 +236,9 @@ pub struct Experiment {
     /// Why scenes marked `optional = true` were left out (file not under the scenes root).
     pub skipped_scenes: Vec<String>,
     /// `[run] images = true`: heat maps of primary rays ([`crate::images`]).
-    pub images: Option<crate::images::ImageSpec>,
+    pub images: Option<images::ImageSpec>,
     /// `[convergence]`: error against run time ([`crate::convergence`]).
-    pub convergence: Option<crate::convergence::ConvergenceSpec>,
+    pub convergence: Option<convergence::ConvergenceSpec>,
 }
 
 /// Overrides from the command line.
@@ -279,7 +287,8 @@ impl Ctx<'_> {
     }
 }
 
-/// Parse and check `file`; loads every scene. `progress` is told each scene as it loads.
+/// Parse and check `file` against the built-in registry; loads every scene. `progress` is
+/// told each scene as it loads.
 pub fn load(
     file: &Path,
     ov: &Overrides,
@@ -289,11 +298,23 @@ pub fn load(
     parse(file, &text, ov, progress)
 }
 
-/// Parse and check config `text` (read from `file`, named in errors).
+/// Parse and check config `text` (read from `file`, named in errors) against the built-in
+/// registry.
 pub fn parse(
     file: &Path,
     text: &str,
     ov: &Overrides,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Experiment, HarnessError> {
+    parse_with(file, text, ov, &Registry::builtin(), progress)
+}
+
+/// [`parse`], resolving structures against `registry` (tests add their own structures).
+pub fn parse_with(
+    file: &Path,
+    text: &str,
+    ov: &Overrides,
+    registry: &Registry,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Experiment, HarnessError> {
     let cx = Ctx { file, text };
@@ -457,8 +478,8 @@ pub fn parse(
     }
     let mut structures = Vec::new();
     for s in &raw.structures {
-        let info = registry::find(s.name.get_ref()).ok_or_else(|| {
-            let known: Vec<&str> = registry::structures().iter().map(|s| s.name).collect();
+        let family = registry.find(s.name.get_ref()).ok_or_else(|| {
+            let known: Vec<&str> = registry.families().iter().map(|s| s.name).collect();
             cx.err(
                 s.name.span(),
                 "structure.name",
@@ -469,23 +490,23 @@ pub fn parse(
                 ),
             )
         })?;
+        let infos = (family.traversals)();
         let traversals = match &s.traversals {
-            None => (0..info.traversals.len()).collect(),
+            None => (0..infos.len()).collect(),
             Some(t) => {
                 let mut out = Vec::new();
                 for n in t.get_ref() {
-                    let i = info
-                        .traversals
+                    let i = infos
                         .iter()
                         .position(|ti| ti.name == n)
                         .ok_or_else(|| {
-                            let known: Vec<&str> = info.traversals.iter().map(|t| t.name).collect();
+                            let known: Vec<&str> = infos.iter().map(|t| t.name).collect();
                             cx.err(
                                 t.span(),
                                 "structure.traversals",
                                 format!(
                                     "`{}` has no traversal `{n}` (known: {})",
-                                    info.name,
+                                    family.name,
                                     known.join(", ")
                                 ),
                             )
@@ -509,10 +530,11 @@ pub fn parse(
             Some(p) => (p.get_ref(), p.span()),
             None => (&empty, s.name.span()),
         };
-        let param_sets = expand(info.params, table)
+        let param_sets = expand(family.params, &(family.defaults)(), table)
             .map_err(|(key, msg)| cx.err(span.clone(), &format!("structure.params.{key}"), msg))?;
         structures.push(StructureSpec {
-            info,
+            family,
+            infos,
             traversals,
             param_sets,
         });
@@ -705,10 +727,10 @@ pub fn parse(
             message: format!("no scene to run: {}", skipped_scenes.join("; ")),
         });
     }
-    let images = crate::images::check(&cx, run.images, run.heatmap_max.as_ref())?;
+    let images = images::check(&cx, run.images, run.heatmap_max.as_ref())?;
     let convergence = match &raw.convergence {
         None => None,
-        Some(c) => Some(crate::convergence::check(&cx, c, &scenes)?),
+        Some(c) => Some(convergence::check(&cx, c, &scenes)?),
     };
 
     Ok(Experiment {

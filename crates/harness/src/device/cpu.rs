@@ -1,0 +1,134 @@
+//! The CPU device: a rayon pool per thread count, batches traced by [`tb_core::par`] (the one
+//! way a batch is traced on the CPU, re-exported here).
+
+use super::{Device, Job, Outcome};
+use crate::output::Row;
+use crate::validation::{self, Checked, Sample};
+use std::collections::HashMap;
+use std::time::Instant;
+use tb_core::{HitRecord, StatsSummary, TriTestKind};
+
+pub use tb_core::par::{count, trace, trace_into, CHUNK};
+
+type Key = (usize, TriTestKind, usize);
+
+/// The CPU: one rayon pool per thread count of the run.
+pub struct CpuDevice {
+    pools: Vec<(usize, rayon::ThreadPool)>,
+    /// Validate only (`trace-bench validate`): no counting, no timing.
+    validate_only: bool,
+    /// Per build: counters and hit rate per (traversal, test, batch).
+    counted: HashMap<Key, (StatsSummary, f64)>,
+    /// Per build: validation per (traversal, test, batch).
+    checked: HashMap<Key, Checked>,
+}
+
+impl CpuDevice {
+    /// Pools for `threads` (each ≥ 1). `Err` when a pool cannot start.
+    pub fn new(threads: &[usize], validate_only: bool) -> Result<Self, String> {
+        let pools = threads
+            .iter()
+            .map(|&n| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .map(|p| (n, p))
+                    .map_err(|e| format!("cannot start {n} threads: {e}"))
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(CpuDevice {
+            pools,
+            validate_only,
+            counted: HashMap::new(),
+            checked: HashMap::new(),
+        })
+    }
+
+    /// The pool with the most threads (counting, validation and oracle passes run there).
+    pub fn widest(&self) -> &rayon::ThreadPool {
+        &self
+            .pools
+            .iter()
+            .max_by_key(|(n, _)| *n)
+            .expect("at least one pool")
+            .1
+    }
+
+    fn pool(&self, threads: usize) -> &rayon::ThreadPool {
+        &self
+            .pools
+            .iter()
+            .find(|(n, _)| *n == threads)
+            .expect("a pool per thread count")
+            .1
+    }
+}
+
+impl Device for CpuDevice {
+    fn name(&self) -> &'static str {
+        "cpu"
+    }
+
+    fn begin_build(&mut self) {
+        self.counted.clear();
+        self.checked.clear();
+    }
+
+    fn measure(
+        &mut self,
+        job: &Job,
+        sample: Option<&Sample>,
+        row: &mut Row,
+    ) -> Result<Outcome, String> {
+        let (accel, ti, tri, b) = (job.accel, job.traversal, job.tri, job.batch);
+        let key = (ti, tri, job.batch_index);
+        let checked = sample.map(|s| {
+            if !self.checked.contains_key(&key) {
+                let got = self
+                    .widest()
+                    .install(|| trace(accel, ti, b.query, tri, &s.rays));
+                let c = validation::check(b.query, s, &got, job.max_report);
+                self.checked.insert(key, c);
+            }
+            // The report takes the first mismatches once; later rows of the same key keep
+            // the counts.
+            let c = self.checked.get_mut(&key).expect("inserted");
+            Checked {
+                first: std::mem::take(&mut c.first),
+                ..c.clone()
+            }
+        });
+        if self.validate_only {
+            return Ok(Outcome::Measured(checked));
+        }
+        // Counting pass: a separate pass, never timed.
+        if !self.counted.contains_key(&key) {
+            let (hits, stats) = self
+                .widest()
+                .install(|| count(accel, ti, b.query, tri, &b.rays));
+            let nhit = hits.iter().filter(|h| h.is_hit()).count();
+            let rate = nhit as f64 / b.rays.len().max(1) as f64;
+            self.counted
+                .insert(key, (StatsSummary::from_stats(&stats), rate));
+        }
+        let (stats, hit_rate) = self.counted[&key];
+        row.hit_rate = Some(hit_rate);
+        row.set_counters(&stats, job.info.counters);
+        if job.info.step_cap {
+            row.capped_rays = Some(stats.capped);
+        }
+        // Timing, counters compiled out.
+        let pool = self.pool(job.threads);
+        let mut hits = vec![HitRecord::MISS; b.rays.len()];
+        let mut times = Vec::with_capacity(job.repeat);
+        for i in 0..job.warmup + job.repeat {
+            let t0 = Instant::now();
+            pool.install(|| trace_into(accel, ti, b.query, tri, &b.rays, &mut hits, None));
+            if i >= job.warmup {
+                times.push(t0.elapsed().as_secs_f64() * 1e3);
+            }
+        }
+        crate::timing::fill(row, &mut times, b.rays.len());
+        Ok(Outcome::Measured(checked))
+    }
+}

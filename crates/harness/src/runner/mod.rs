@@ -1,0 +1,422 @@
+//! The runner: for each scene, generate the ray batches once ([`batches`]); for each
+//! structure and parameter set, plan the rows still to do ([`plan`]), build (timed, repeated,
+//! validated: [`build`]), and hand each row to its device ([`crate::device`]), which counts in
+//! one pass with [`tb_core::TraversalStats`], validates against the brute-force oracle
+//! ([`crate::validation`]) and times the trace with counters compiled out. Each row is written
+//! as soon as it is finished.
+
+pub mod batches;
+pub mod build;
+pub mod plan;
+pub mod table;
+
+pub use table::table;
+
+use crate::config::{Device as DeviceKind, Experiment, SceneSpec, StructureSpec, Validate};
+use crate::device::cpu::CpuDevice;
+use crate::device::gpu::GpuDevice;
+use crate::device::{Device, Job, Outcome};
+use crate::error::HarnessError;
+use crate::output::{Row, RowKey, Sink};
+use crate::progress::Progress;
+use crate::validation::{self, Oracle};
+use batches::{generate_batches, Batch};
+use build::Built;
+use plan::Combo;
+use std::collections::HashSet;
+use std::path::PathBuf;
+use std::sync::Arc;
+use tb_core::{ParamSet, Triangle};
+
+/// What the runner does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// Time, count and validate; write results files.
+    Run,
+    /// Oracle comparison only (`trace-bench validate`): no timing, no files.
+    Validate,
+}
+
+/// Options of a run.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Output directory (results.csv, results.json); unused in [`Mode::Validate`].
+    pub out: PathBuf,
+    pub resume: bool,
+    pub quiet: bool,
+    pub mode: Mode,
+    /// How many mismatching rays to keep per combination for the report.
+    pub max_report: usize,
+}
+
+/// What a run did.
+#[derive(Debug, Default)]
+pub struct RunSummary {
+    pub rows: Vec<Row>,
+    pub written: usize,
+    pub skipped: usize,
+    pub mismatches: u64,
+    /// Combinations that could not be completed (build failure, invalid structure).
+    pub failures: Vec<String>,
+    /// Human-readable reports of the first mismatching rays.
+    pub mismatch_reports: Vec<String>,
+    /// Notes about what was left out and why.
+    pub notes: Vec<String>,
+}
+
+/// Run the experiment. Returns what was done; errors only for I/O (results already written
+/// stay written).
+pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessError> {
+    let mut r = Run::open(exp, opts)?;
+    for n in &exp.skipped_scenes {
+        r.progress.line(&format!("note: {n}"));
+        r.summary.notes.push(n.clone());
+    }
+    for spec in &exp.scenes {
+        r.scene(spec)?;
+    }
+    r.progress.finish();
+    if let Some(s) = r.sink.as_mut() {
+        let status = if r.summary.failures.is_empty() {
+            "complete"
+        } else {
+            "complete-with-failures"
+        };
+        s.finish(status)?;
+    }
+    Ok(r.summary)
+}
+
+/// The state of a run.
+struct Run<'a> {
+    exp: &'a Experiment,
+    opts: &'a RunOptions,
+    summary: RunSummary,
+    sink: Option<Sink>,
+    /// Rows an interrupted run already wrote.
+    done: HashSet<RowKey>,
+    progress: Progress,
+    conv: Option<crate::convergence::Runner>,
+    /// The devices rows are written for, with their thread counts.
+    devices: Vec<(DeviceKind, Vec<usize>)>,
+    cpu: CpuDevice,
+    gpu: Option<GpuDevice>,
+}
+
+impl<'a> Run<'a> {
+    fn open(exp: &'a Experiment, opts: &'a RunOptions) -> Result<Self, HarnessError> {
+        let mut summary = RunSummary::default();
+        let running = opts.mode == Mode::Run;
+        // The GPU is opened once, before any work, so results.json names the adapter.
+        let gpu = (running && exp.devices.contains(&DeviceKind::Gpu))
+            .then(|| GpuDevice::open(&exp.gpu));
+        if let Some(Err(e)) = gpu.as_ref().map(GpuDevice::describe) {
+            gpu_failed(&mut summary, gpu.as_ref(), &e);
+        }
+        let sink = match opts.mode {
+            Mode::Run => {
+                let mut meta =
+                    crate::meta::collect(&exp.file.display().to_string(), &exp.text, &exp.threads);
+                if let Some(g) = &gpu {
+                    meta["adapter"] = g.meta();
+                }
+                Some(Sink::open(&opts.out, meta, opts.resume)?)
+            }
+            Mode::Validate => None,
+        };
+        let done = sink
+            .as_ref()
+            .map(|s| s.rows().iter().map(Row::key).collect())
+            .unwrap_or_default();
+        let devices = match opts.mode {
+            Mode::Run => plan::device_threads(&exp.devices, &exp.threads),
+            Mode::Validate => vec![(DeviceKind::Cpu, vec![0])],
+        };
+        let cpu = CpuDevice::new(&exp.threads, !running).map_err(HarnessError::Other)?;
+        let progress = Progress::new(plan::total_rows(exp, &devices) as u64, opts.quiet);
+        let conv = match opts.mode {
+            Mode::Run => crate::convergence::Runner::open(exp, &opts.out, opts.resume)?,
+            Mode::Validate => None,
+        };
+        Ok(Run {
+            exp,
+            opts,
+            summary,
+            sink,
+            done,
+            progress,
+            conv,
+            devices,
+            cpu,
+            gpu,
+        })
+    }
+
+    /// Every build and row of one scene.
+    fn scene(&mut self, spec: &SceneSpec) -> Result<(), HarnessError> {
+        self.progress
+            .step(&format!("{}: generating rays", spec.label));
+        let batches = generate_batches(spec, self.exp.seed, &mut self.summary.notes);
+        if let (Some(_), Mode::Run) = (&self.exp.images, self.opts.mode) {
+            let out = &self.opts.out;
+            self.summary
+                .notes
+                .extend(crate::images::write_scene(spec, out)?);
+        }
+        for n in self.summary.notes.iter().filter(|n| n.starts_with(&spec.label)) {
+            self.progress.line(&format!("note: {n}"));
+        }
+        let tris: Arc<[Triangle]> = spec.scene.triangles.as_slice().into();
+        let mut oracle = Oracle::new(tris.clone());
+        for st in &self.exp.structures {
+            for (param_index, params) in st.param_sets.iter().enumerate() {
+                self.structure(spec, &tris, &batches, &mut oracle, st, param_index, params)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Build one structure x parameter set and measure its rows.
+    fn structure(
+        &mut self,
+        spec: &SceneSpec,
+        tris: &Arc<[Triangle]>,
+        batches: &[Batch],
+        oracle: &mut Oracle,
+        st: &StructureSpec,
+        param_index: usize,
+        params: &ParamSet,
+    ) -> Result<(), HarnessError> {
+        let params_s = params.to_string();
+        let (todo, skipped) = plan::todo(
+            &spec.label,
+            st,
+            &params_s,
+            &self.exp.triangle_tests,
+            batches,
+            &self.devices,
+            &self.done,
+        );
+        self.summary.skipped += skipped;
+        for _ in 0..skipped {
+            self.progress.inc();
+        }
+        if todo.is_empty() {
+            return Ok(());
+        }
+        let base = Row {
+            scene: spec.label.clone(),
+            source: spec.scene.source.clone(),
+            triangles: tris.len() as u64,
+            structure: st.family.name.to_string(),
+            params: params_s.clone(),
+            ..Default::default()
+        };
+        self.progress.step(&format!(
+            "{}: building {} [{params_s}]",
+            spec.label, st.family.name
+        ));
+        let built = match build::build(
+            st.family,
+            tris,
+            params,
+            &st.traversals,
+            self.exp.build_repeat,
+        ) {
+            Ok(b) => b,
+            Err(e) => {
+                let msg = format!("{} {} [{params_s}]: {e}", spec.label, st.family.name);
+                self.progress.line(&format!("error: {msg}"));
+                self.summary.failures.push(msg);
+                for c in todo {
+                    let mut row = row_of(&base, st, &c, &batches[c.bi]);
+                    row.note = format!("build failed: {e}");
+                    self.emit(row)?;
+                }
+                return Ok(());
+            }
+        };
+        self.after_build(spec, st, &built, param_index, &params_s)?;
+        self.cpu.begin_build();
+        if let Some(g) = self.gpu.as_mut() {
+            g.begin_build();
+        }
+        for c in todo {
+            self.row(spec, batches, oracle, st, &built, &base, c)?;
+        }
+        Ok(())
+    }
+
+    /// Heat maps and convergence renders of a build, where the config asks for them.
+    fn after_build(
+        &mut self,
+        spec: &SceneSpec,
+        st: &StructureSpec,
+        built: &Built,
+        param_index: usize,
+        params_s: &str,
+    ) -> Result<(), HarnessError> {
+        let accel = built.accel.as_ref();
+        if let (Some(img), Mode::Run) = (&self.exp.images, self.opts.mode) {
+            self.progress
+                .step(&format!("{}: heat maps {}", spec.label, st.family.name));
+            self.summary.notes.extend(crate::images::write_build(
+                spec,
+                img,
+                &self.opts.out,
+                accel,
+                param_index,
+                params_s,
+                &st.traversals,
+                &self.exp.triangle_tests,
+            )?);
+        }
+        if let Some(c) = self.conv.as_mut() {
+            self.summary.notes.extend(c.build_done(
+                spec,
+                accel,
+                params_s,
+                built.build_ms,
+                &st.traversals,
+                &self.exp.triangle_tests,
+                &self.exp.devices,
+                self.gpu.as_ref(),
+                &self.progress,
+            )?);
+        }
+        Ok(())
+    }
+
+    /// Measure one row on its device and write it.
+    fn row(
+        &mut self,
+        spec: &SceneSpec,
+        batches: &[Batch],
+        oracle: &mut Oracle,
+        st: &StructureSpec,
+        built: &Built,
+        base: &Row,
+        c: Combo,
+    ) -> Result<(), HarnessError> {
+        let b = &batches[c.bi];
+        let info = st.infos[c.ti];
+        let mut row = row_of(base, st, &c, b);
+        built.fill(&mut row, c.ti);
+        if let Some(own) = info.own_triangle_test {
+            row.note = format!("uses its own triangle test ({own})");
+        }
+        if let Some(why) = &b.skipped {
+            row.note = why.clone();
+            return self.emit(row);
+        }
+        self.progress.step(&format!(
+            "{} {} {} {} {} {}t",
+            spec.label,
+            st.family.name,
+            info.name,
+            c.tri.name(),
+            b.name,
+            c.threads
+        ));
+        let sample = (spec.validate != Validate::Off).then(|| {
+            let progress = &self.progress;
+            let cpu = &self.cpu;
+            cpu.widest().install(|| {
+                oracle.sample(c.bi, &b.rays, b.query, spec.validate, |n| {
+                    progress.step(&format!("{}: oracle for {} ({n} rays)", spec.label, b.name))
+                })
+            })
+        });
+        let job = Job {
+            accel: built.accel.as_ref(),
+            traversal: c.ti,
+            info,
+            tri: c.tri,
+            batch_index: c.bi,
+            batch: b,
+            threads: c.threads,
+            warmup: self.exp.warmup,
+            repeat: self.exp.repeat,
+            max_report: self.opts.max_report,
+        };
+        let device: &mut dyn Device = match c.dev {
+            DeviceKind::Cpu => &mut self.cpu,
+            DeviceKind::Gpu => self
+                .gpu
+                .as_mut()
+                .expect("the GPU is opened when a device is gpu"),
+        };
+        match device.measure(&job, sample, &mut row) {
+            Ok(Outcome::Measured(Some(checked))) => {
+                row.validated_rays = Some(checked.validated);
+                row.mismatches = Some(checked.mismatches);
+                if !checked.first.is_empty() {
+                    let on = if c.dev == DeviceKind::Gpu { " gpu" } else { "" };
+                    let head = format!(
+                        "{} {} [{}] {} {} {}{on}: {} of {} rays mismatch",
+                        spec.label,
+                        st.family.name,
+                        base.params,
+                        info.name,
+                        c.tri.name(),
+                        b.name,
+                        checked.mismatches,
+                        checked.validated
+                    );
+                    self.summary
+                        .mismatch_reports
+                        .push(validation::report(head, &checked.first));
+                }
+            }
+            Ok(Outcome::Measured(None)) => {}
+            Ok(Outcome::Unsupported(note)) => row.note = note,
+            Err(e) => {
+                let first = self.summary.failures.iter().all(|f| !f.contains(&e))
+                    && self.summary.notes.iter().all(|n| !n.contains(&e));
+                if first {
+                    self.progress.line(&format!("error: gpu: {e}"));
+                    gpu_failed(&mut self.summary, self.gpu.as_ref(), &e);
+                }
+                row = row_of(base, st, &c, b);
+                row.note = format!("gpu failed: {e}");
+            }
+        }
+        self.emit(row)
+    }
+
+    fn emit(&mut self, row: Row) -> Result<(), HarnessError> {
+        self.summary.mismatches += row.mismatches.unwrap_or(0);
+        if let Some(s) = self.sink.as_mut() {
+            s.push(row.clone())?;
+        }
+        self.summary.written += 1;
+        self.summary.rows.push(row);
+        self.progress.inc();
+        Ok(())
+    }
+}
+
+/// A row's identity columns on top of the build's `base`.
+fn row_of(base: &Row, st: &StructureSpec, c: &Combo, b: &Batch) -> Row {
+    Row {
+        traversal: st.infos[c.ti].name.to_string(),
+        device: c.dev.name().into(),
+        threads: c.threads as u32,
+        triangle_test: c.tri.name().into(),
+        ray_kind: b.name.clone(),
+        rays: b.rays.len() as u64,
+        ..base.clone()
+    }
+}
+
+/// Record a GPU failure once: a failure of the run when the GPU was required, else a note.
+fn gpu_failed(summary: &mut RunSummary, gpu: Option<&GpuDevice>, e: &str) {
+    let msg = format!("gpu: {e}");
+    if gpu.is_some_and(|g| g.required) {
+        summary.failures.push(msg);
+    } else {
+        summary.notes.push(format!(
+            "{msg} (GPU rows carry the error; gpu_required = false)"
+        ));
+    }
+}
