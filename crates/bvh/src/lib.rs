@@ -19,10 +19,11 @@ mod build;
 mod traverse;
 
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use tb_core::params::ParamKind;
 use tb_core::{
-    build_with, dispatch, Aabb, AccelError, BuildReport, Family, MemoryReport, Structure,
-    Traversal, TraversalInfo, Triangle, Vec3,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Family, GpuBuffer, GpuProgram,
+    MemoryReport, Structure, Traversal, TraversalInfo, Triangle, Vec3,
 };
 
 pub use traverse::STACK_SIZE;
@@ -100,7 +101,9 @@ impl BvhParams {
 ///
 /// The root is node 0. Children are stored after their parent, sibling pairs adjacent.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Serialize, Deserialize, bytemuck::Pod, bytemuck::Zeroable,
+)]
 pub struct BvhNode {
     pub min: [f32; 3],
     /// Interior: index of the left child (right child = `index + 1`). Leaf: first triangle.
@@ -209,6 +212,31 @@ impl Bvh {
     /// The parameters it was built with.
     pub fn params(&self) -> &BvhParams {
         &self.params
+    }
+
+    /// The GPU program of `ordered` (`shaders/bvh.wgsl`, the same walk in the same order):
+    /// the leaf-ordered triangles, the nodes and primitive ids as they are, the node count in
+    /// `meta[0]`.
+    fn gpu_ordered(&self) -> GpuProgram<'_> {
+        GpuProgram {
+            name: "bvh/ordered",
+            source: include_str!("../shaders/bvh.wgsl"),
+            triangles: Cow::Borrowed(&self.triangles),
+            buffers: vec![
+                GpuBuffer {
+                    what: "the BVH node array",
+                    bytes: Cow::Borrowed(bytemuck::cast_slice(&self.nodes)),
+                },
+                GpuBuffer {
+                    what: "the primitive-id array",
+                    bytes: Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
+                },
+            ],
+            meta: [self.nodes.len() as u32, 0, 0],
+            stack_size: STACK_SIZE as u32,
+            constants: Vec::new(),
+            unrolled_triangle_loop: None,
+        }
     }
 
     /// Walk the tree: call `f(node_index, depth)` for every node reachable from the root,
@@ -344,7 +372,7 @@ struct TreeFigures {
 
 impl Structure for Bvh {
     const NAME: &'static str = "bvh";
-    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::with_gpu(
         TraversalInfo::new(
             "ordered",
             "pbrt-v3 §4.3.5; Ize 2013",
@@ -354,6 +382,7 @@ impl Structure for Bvh {
         |b, query, tri, rays, hits, stats| {
             dispatch(&traverse::Ordered(b), query, tri, rays, hits, stats)
         },
+        Bvh::gpu_ordered,
     )];
 
     fn memory(&self) -> MemoryReport {

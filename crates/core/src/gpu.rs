@@ -1,18 +1,42 @@
 //! A structure's GPU program, described without wgpu: what the GPU crate compiles, uploads
-//! and binds for one traversal. A structure crate owns its WGSL and hands this description
-//! over ([`crate::Traversal::gpu`]); the GPU crate knows only the common bindings and depends
-//! on no structure crate.
+//! and binds for one traversal. A structure crate owns its WGSL (`include_str!` from its own
+//! `shaders/`) and hands this description over ([`crate::Traversal::with_gpu`], read back with
+//! [`crate::Accel::gpu_program`]); the GPU crate knows only the common bindings and depends on
+//! no structure crate.
 //!
-//! The contract with the GPU crate (`tb-gpu`, README "GPU"): the source is appended to the
-//! common prelude, which declares the common bindings of group 0 — `rays` (0), `hits` (1),
-//! `stats` (2), `tris` (3: the program's [`GpuProgram::triangles`], 9 floats each), `meta_`
-//! (4: `counts = (triangles, meta[0], meta[1], meta[2])`) — the `Ray`, `Hit` and `Stats`
-//! records (`Stats` generated from [`crate::stats::COUNTERS`]), the override constants `ANY`,
-//! `COUNT`, `WATERTIGHT` and `EXIT_SCALE`, `const STACK_SIZE` ([`GpuProgram::stack_size`]),
-//! the slab test and both triangle tests. The source declares its own read-only storage
-//! buffers at bindings 5, 6, … in the order of [`GpuProgram::buffers`] and defines
-//! `fn walk(r: Ray, st: ptr<function, Stats>) -> Hit`; the prelude's entry point calls it
-//! once per ray and writes the hit (and, when `COUNT`, the counters).
+//! # The contract with the GPU crate (`tb-gpu`, README "GPU")
+//!
+//! The shader module is, in this order: `const STACK_SIZE: u32` ([`GpuProgram::stack_size`]),
+//! `const WORKGROUP_SIZE: u32`, `struct Stats` and `fn zero_stats()` (generated from
+//! [`crate::stats::COUNTERS`] by [`crate::stats::wgsl_stats_struct`]: one `u32` per counter,
+//! then `capped`), the common prelude, the watertight test's exact-zero fallback (f64 where the
+//! adapter has it, else f32), then [`GpuProgram::source`]. The prelude declares:
+//! - the bindings of group 0: `rays` (0), `hits` (1), `stats` (2), `tris` (3: the program's
+//!   [`GpuProgram::triangles`], 9 floats each, read with `vertex(i, k)`) and the uniform
+//!   `meta_` (4: `counts = (triangles, meta[0], meta[1], meta[2])`);
+//! - the records `Ray`, `Hit` (and `miss()`, `MISS_PRIM`);
+//! - the override constants `ANY` (any-hit query), `COUNT` (counting pass), `WATERTIGHT`
+//!   (triangle test) and `EXIT_SCALE` (the slab test's, [`crate::slab::EXIT_SCALE`]);
+//! - the slab test (`ray_box`, `slab`, as [`crate::slab`]) and both triangle tests
+//!   (`prepare`, `intersect(pre, ray, i, tmax)`), rounding as tb-core's Rust does;
+//! - the entry point `main`: one thread per ray, it calls the program's `walk` with zeroed
+//!   counters, writes the returned hit and, in the counting pass, the counters.
+//!
+//! The source declares its own read-only storage buffers at bindings 5, 6, … in the order of
+//! [`GpuProgram::buffers`] (4 at most on every adapter: WebGPU guarantees 8 storage buffers
+//! per stage and the prelude binds 4; buffers are bound padded to at least 64 bytes, so
+//! lengths come from the meta words, not `arrayLength`), may declare further `override`
+//! constants ([`GpuProgram::constants`]), and defines
+//! `fn walk(r: Ray, st: ptr<function, Stats>) -> Hit`: the closest (or, when `ANY`, any) hit
+//! in `[r.tmin, r.tmax)` with `prim` the scene's triangle index, counting into `*st` exactly
+//! as the CPU traversal counts (the timed pass discards the counts, so the compiler may drop
+//! them). To agree with the CPU ray for ray it visits nodes in the CPU's order with the
+//! prelude's tests.
+//!
+//! The GPU crate compiles one module per [`GpuProgram::name`] and caches pipelines by (name,
+//! query, triangle test, counting): source, stack size and constants are fixed per name (a
+//! second program of the same name with other values is refused); what varies per build goes
+//! in the triangles, buffers and meta words.
 
 use crate::geom::Triangle;
 use std::borrow::Cow;
@@ -29,20 +53,21 @@ pub struct GpuBuffer<'a> {
 /// The GPU program of one traversal of one build.
 #[derive(Clone, Debug)]
 pub struct GpuProgram<'a> {
-    /// Unique name of the WGSL source (shader modules and pipelines are cached by it), e.g.
-    /// `bvh/ordered`.
+    /// Unique name of the program, `structure/traversal` (shader modules and pipelines are
+    /// cached by it), e.g. `bvh/ordered`.
     pub name: &'static str,
     /// The WGSL source (see the module doc for what it may use and must define).
     pub source: &'static str,
     /// The triangles bound at binding 3, in the order the program's indices refer to.
     pub triangles: Cow<'a, [Triangle]>,
-    /// Further read-only buffers, bound at 5, 6, … in this order.
+    /// Further read-only buffers, bound at 5, 6, … in this order (at most 4 on every
+    /// adapter; each a whole number of 4-byte words).
     pub buffers: Vec<GpuBuffer<'a>>,
     /// Words 1..=3 of the `meta_` uniform (e.g. the node count).
     pub meta: [u32; 3],
-    /// Entries of the traversal stack (`const STACK_SIZE`).
+    /// Entries of the traversal stack (`const STACK_SIZE`; 0 for a program without one).
     pub stack_size: u32,
-    /// Further override constants of the source, by name.
+    /// Further override constants of the source, by name (added to the prelude's).
     pub constants: Vec<(&'static str, f64)>,
     /// Loop iterations per ray grow with the triangle count (brute force): llvmpipe ends an
     /// invocation's loops after 65535 iterations, so such a program unrolled `k` times

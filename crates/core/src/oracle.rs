@@ -4,9 +4,14 @@ use crate::accel::{
     build_with, dispatch, Family, Kernel, MemoryReport, Structure, Traversal, TraversalInfo,
 };
 use crate::geom::{Aabb, HitRecord, Ray, Triangle};
+use crate::gpu::GpuProgram;
 use crate::stats::Counter;
 use crate::tri::TriTest;
+use std::borrow::Cow;
 use std::sync::Arc;
+
+/// Times the GPU kernel's triangle loop is unrolled (`UNROLL` in `shaders/brute.wgsl`).
+const GPU_UNROLL: u32 = 8;
 
 /// The oracle: tests every triangle in index order, keeping the smallest `t` (the first index
 /// wins ties). `steps` counts one per triangle tested.
@@ -50,6 +55,22 @@ impl BruteForce {
     /// The triangles, in the scene's order.
     pub fn triangles(&self) -> &[Triangle] {
         &self.tris
+    }
+
+    /// The GPU program of `linear` (`shaders/brute.wgsl`): the same loop, boxes computed per
+    /// triangle from its vertices (no buffers of its own), the loop unrolled [`GPU_UNROLL`]
+    /// times for llvmpipe's limit on loop iterations.
+    fn gpu_linear(&self) -> GpuProgram<'_> {
+        GpuProgram {
+            name: "brute-force/linear",
+            source: include_str!("../shaders/brute.wgsl"),
+            triangles: Cow::Borrowed(&self.tris),
+            buffers: Vec::new(),
+            meta: [0; 3],
+            stack_size: 0,
+            constants: Vec::new(),
+            unrolled_triangle_loop: Some(GPU_UNROLL),
+        }
     }
 }
 
@@ -108,13 +129,14 @@ impl Kernel for BruteForce {
 
 impl Structure for BruteForce {
     const NAME: &'static str = "brute-force";
-    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::with_gpu(
         TraversalInfo::new(
             "linear",
             "ground truth",
             "every triangle in index order (the oracle)",
         ),
-        |b, query, tri, rays, hits, stats| dispatch(b, query, tri, rays, hits, stats),
+        dispatch::<BruteForce>,
+        BruteForce::gpu_linear,
     )];
 
     fn memory(&self) -> MemoryReport {
@@ -125,5 +147,18 @@ impl Structure for BruteForce {
             prim_refs: self.tris.len() as u64,
             node_bytes: 0,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gpu_unroll_is_the_kernels() {
+        let brute = BruteForce::new(&[]);
+        let p = brute.gpu_linear();
+        let decl = format!("const UNROLL: u32 = {GPU_UNROLL}u;");
+        assert!(p.source.contains(&decl), "brute.wgsl must declare `{decl}`");
     }
 }

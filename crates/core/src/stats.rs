@@ -191,7 +191,7 @@ pub fn wgsl_stats_struct() -> String {
         .map(|c| format!("{}: u32", c.name))
         .chain(["capped: u32".to_string()])
         .collect();
-    let zeros = vec!["0u"; N_COUNTERS + 1].join(", ");
+    let zeros = ["0u"; N_COUNTERS + 1].join(", ");
     format!(
         "struct Stats {{ {} }}\nfn zero_stats() -> Stats {{ return Stats({zeros}); }}\n",
         fields.join(", ")

@@ -1,16 +1,15 @@
-// Shared declarations of the trace-bench kernels: the buffers (uploaded unchanged from the
-// CPU's #[repr(C)] arrays), the robust slab test and the two triangle tests, written to round
-// exactly as tb-core's Rust code does (same operations in the same order; no builtin dot/cross
-// whose evaluation order is unspecified). The host prepends `const STACK_SIZE` and appends one
-// `edge_fallback` (f64 where the adapter has SHADER_F64, else f32).
+// The prelude of every trace-bench GPU program (tb_core::gpu states the contract): the common
+// bindings, the robust slab test and the two triangle tests, written to round exactly as
+// tb-core's Rust code does (same operations in the same order; no builtin dot/cross whose
+// evaluation order is unspecified), and the entry point, which calls the program's `walk`.
+// The host prepends `const STACK_SIZE` (GpuProgram::stack_size), `const WORKGROUP_SIZE` and
+// `struct Stats` with `fn zero_stats()` (tb_core::stats::wgsl_stats_struct: one u32 per
+// counter, then `capped`), and appends one `edge_fallback` (f64 where the adapter has
+// SHADER_F64, else f32) and then the program's source.
 
 struct Ray { origin: vec3<f32>, tmin: f32, dir: vec3<f32>, tmax: f32 }   // tb_core::Ray, 32 B
 struct Hit { t: f32, prim: u32, u: f32, v: f32 }                          // tb_core::HitRecord
-struct Stats {                                                            // tb_core::TraversalStats
-    interior: u32, leaves: u32, prims: u32, boxes: u32, planes: u32, restarts: u32, steps: u32,
-    capped: u32,   // always 0: the GPU traversals have no step cap
-}
-// x: triangles, y: nodes (0 for brute force).
+// x: triangles, y, z, w: GpuProgram::meta[0..3] (e.g. the node count).
 struct Meta { counts: vec4<u32> }
 
 // Pipeline variants (WGSL override constants, fixed at pipeline creation).
@@ -24,15 +23,12 @@ override EXIT_SCALE: f32 = 1.0;      // tb_core::slab::EXIT_SCALE = 1 + 2 gamma(
 @group(0) @binding(2) var<storage, read_write> stats: array<Stats>;
 @group(0) @binding(3) var<storage, read> tris: array<f32>;               // 9 floats per triangle
 @group(0) @binding(4) var<uniform> meta_: Meta;
+// The program's own read-only buffers follow at bindings 5, 6, … (GpuProgram::buffers).
 
 const MISS_PRIM: u32 = 0xffffffffu;
 
 fn miss() -> Hit {
     return Hit(bitcast<f32>(0x7f800000u), MISS_PRIM, 0.0, 0.0);
-}
-
-fn zero_stats() -> Stats {
-    return Stats(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
 }
 
 fn vertex(i: u32, k: u32) -> vec3<f32> {
@@ -182,4 +178,19 @@ fn intersect(p: Pre, r: Ray, i: u32, tmax: f32) -> vec4<f32> {
         return watertight(p, r, v0, v1, v2, tmax);
     }
     return moller_trumbore(r, v0, v1, v2, tmax);
+}
+
+// One thread per ray: the program's `walk` traces it (counters start at zero; `capped` stays 0
+// unless the program sets it), the hit is written, and the counters in the counting variant.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= arrayLength(&rays) {
+        return;
+    }
+    var st = zero_stats();
+    hits[i] = walk(rays[i], &st);
+    if COUNT {
+        stats[i] = st;
+    }
 }

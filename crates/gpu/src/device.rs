@@ -97,7 +97,7 @@ impl AdapterSummary {
     }
 }
 
-/// An open GPU device with the kernels' shader modules; see the crate doc.
+/// An open GPU device with the programs compiled on it so far; see the crate doc.
 pub struct Gpu {
     pub(crate) device: wgpu::Device,
     pub(crate) queue: wgpu::Queue,
@@ -205,7 +205,7 @@ impl Gpu {
                 slot.get_or_insert(GpuError::Lost(one_line(&format!("{reason:?}: {msg}"))));
             }
         });
-        let kernels = crate::kernels::Kernels::new(&device, f64);
+        let kernels = crate::kernels::Kernels::new(f64);
         let gpu = Gpu {
             device,
             queue,

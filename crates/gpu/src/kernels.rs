@@ -1,4 +1,5 @@
-//! Shader modules, pipeline variants, uploads, dispatch and readback.
+//! Shader modules, bind group layouts and pipeline variants (each made on first use and
+//! cached), uploads of a structure's program, dispatch and readback.
 
 use crate::device::{one_line, Gpu};
 use crate::{GpuError, STATS_BYTES, WORKGROUP};
@@ -6,51 +7,54 @@ use bytemuck::{Pod, Zeroable};
 use std::collections::HashMap;
 use std::sync::{mpsc, Mutex};
 use std::time::Instant;
-use tb_bvh::Bvh;
-use tb_core::{HitRecord, Query, Ray, TraversalStats, TriTestKind, Triangle};
+use tb_core::stats::wgsl_stats_struct;
+use tb_core::{GpuProgram, HitRecord, Query, Ray, TraversalStats, TriTestKind, N_COUNTERS};
 
 const COMMON: &str = include_str!("../shaders/common.wgsl");
 const EDGE_F64: &str = include_str!("../shaders/edge_f64.wgsl");
 const EDGE_F32: &str = include_str!("../shaders/edge_f32.wgsl");
-const BRUTE: &str = include_str!("../shaders/brute.wgsl");
-const BVH: &str = include_str!("../shaders/bvh.wgsl");
 
-/// Bytes of one ray, the largest per-ray record (so it bounds the rays per dispatch).
 const RAY_BYTES: u64 = 32;
 const HIT_BYTES: u64 = 16;
+/// The largest per-ray record (so it bounds the rays per dispatch).
+const RECORD_BYTES: u64 = max(RAY_BYTES, max(HIT_BYTES, STATS_BYTES));
 /// Dispatch sizes are multiples of this many rays, so every per-dispatch buffer offset is a
 /// multiple of 256 bytes (the largest `min_storage_buffer_offset_alignment` WebGPU allows).
 const RAY_ALIGN: u64 = 256;
-/// Triangles brute force handles on llvmpipe: its loop unrolled 8 times (brute.wgsl), under
-/// llvmpipe's limit of 65535 loop iterations per invocation.
-const LLVMPIPE_BRUTE_MAX: u64 = 8 * 65_000;
+/// Bindings of the prelude (rays, hits, stats, triangles, meta); a program's buffers follow.
+const COMMON_BINDINGS: u32 = 5;
+/// Storage buffers among [`COMMON_BINDINGS`] (all but the `meta_` uniform).
+const COMMON_STORAGE: u32 = 4;
+/// Iterations llvmpipe allows the loops of one shader invocation (65535), with a margin:
+/// a program with an unrolled triangle loop handles at most `unroll` times this many there.
+const LLVMPIPE_LOOP_MAX: u64 = 65_000;
 
-/// A structure to upload: which kernel traces it, and its flat arrays.
-#[derive(Clone, Copy)]
-pub enum Structure<'a> {
-    /// Brute force over the scene's triangles (tb_core::BruteForce, the oracle).
-    BruteForce(&'a [Triangle]),
-    /// The BVH's nodes, leaf-ordered triangles and primitive ids (traversal `ordered`).
-    Bvh(&'a Bvh),
+const fn max(a: u64, b: u64) -> u64 {
+    if a > b {
+        a
+    } else {
+        b
+    }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-enum Kind {
-    Brute,
-    Bvh,
-}
-
-/// A structure resident on the GPU.
+/// A structure's program resident on the GPU: its triangles, buffers and meta words, and the
+/// name of the shader module that traces them ([`Gpu::upload`]).
 pub struct GpuStructure {
-    kind: Kind,
+    program: &'static str,
     tris: wgpu::Buffer,
-    nodes: Option<wgpu::Buffer>,
-    prim_ids: Option<wgpu::Buffer>,
+    buffers: Vec<wgpu::Buffer>,
     meta: wgpu::Buffer,
     /// Host-to-device copy of the arrays, ms (buffer creation, write, wait).
     pub upload_ms: f64,
-    /// Bytes uploaded.
+    /// Bytes uploaded (triangles and the program's buffers).
     pub bytes: u64,
+}
+
+impl GpuStructure {
+    /// The name of the program it was uploaded for ([`GpuProgram::name`]).
+    pub fn program(&self) -> &'static str {
+        self.program
+    }
 }
 
 /// A ray batch resident on the GPU with its hit and counter buffers.
@@ -100,33 +104,40 @@ struct GpuHit {
     v: f32,
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct GpuStats([u32; 8]);
-
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct GpuNode {
-    min: [f32; 3],
-    index: u32,
-    max: [f32; 3],
-    count: u32,
-}
+/// One [`TraversalStats`] record as the kernels write it ([`TraversalStats::from_words`]).
+type StatsWords = [u32; N_COUNTERS + 1];
 
 const _: () = assert!(std::mem::size_of::<GpuRay>() == std::mem::size_of::<Ray>());
 const _: () = assert!(std::mem::size_of::<GpuHit>() == std::mem::size_of::<HitRecord>());
-const _: () = assert!(std::mem::size_of::<GpuStats>() == std::mem::size_of::<TraversalStats>());
-const _: () = assert!(std::mem::size_of::<GpuNode>() == std::mem::size_of::<tb_bvh::BvhNode>());
+const _: () = assert!(std::mem::size_of::<StatsWords>() as u64 == STATS_BYTES);
 
-type Variant = (Kind, Query, TriTestKind, bool);
+/// What is compiled of one program: its shader module and what it was compiled with, so that
+/// a second program of the same name but other code is refused rather than run with the
+/// first one's pipelines.
+struct Module {
+    module: wgpu::ShaderModule,
+    source: &'static str,
+    stack_size: u32,
+    constants: Vec<(&'static str, f64)>,
+}
 
-/// Shader modules, layouts and the pipelines made so far (one per variant, on first use).
+/// A pipeline variant: program name, query, triangle test, counting (else timed).
+type Variant = (&'static str, Query, TriTestKind, bool);
+
+#[derive(Default)]
+struct Cache {
+    /// Shader modules by program name.
+    modules: HashMap<&'static str, Module>,
+    /// Bind group and pipeline layouts by the number of the program's own buffers.
+    layouts: HashMap<usize, (wgpu::BindGroupLayout, wgpu::PipelineLayout)>,
+    pipelines: HashMap<Variant, wgpu::ComputePipeline>,
+}
+
+/// The device's compiled programs; every entry is made on first use.
 pub(crate) struct Kernels {
-    brute: wgpu::ShaderModule,
-    bvh: wgpu::ShaderModule,
-    brute_layout: (wgpu::BindGroupLayout, wgpu::PipelineLayout),
-    bvh_layout: (wgpu::BindGroupLayout, wgpu::PipelineLayout),
-    pipelines: Mutex<HashMap<Variant, wgpu::ComputePipeline>>,
+    /// Whether the watertight test's fallback runs in f64 (`SHADER_F64`).
+    f64: bool,
+    cache: Mutex<Cache>,
 }
 
 fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
@@ -142,7 +153,9 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-fn layout(device: &wgpu::Device, bvh: bool) -> (wgpu::BindGroupLayout, wgpu::PipelineLayout) {
+/// The layouts of a program with `n` buffers of its own: the common bindings 0–4, then `n`
+/// read-only storage buffers at 5, 6, ….
+fn layout(device: &wgpu::Device, n: usize) -> (wgpu::BindGroupLayout, wgpu::PipelineLayout) {
     let mut entries = vec![
         storage(0, true),
         storage(1, false),
@@ -159,10 +172,7 @@ fn layout(device: &wgpu::Device, bvh: bool) -> (wgpu::BindGroupLayout, wgpu::Pip
             count: None,
         },
     ];
-    if bvh {
-        entries.push(storage(5, true));
-        entries.push(storage(6, true));
-    }
+    entries.extend((0..n as u32).map(|k| storage(COMMON_BINDINGS + k, true)));
     let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: None,
         entries: &entries,
@@ -176,46 +186,104 @@ fn layout(device: &wgpu::Device, bvh: bool) -> (wgpu::BindGroupLayout, wgpu::Pip
 }
 
 impl Kernels {
-    pub(crate) fn new(device: &wgpu::Device, f64: bool) -> Kernels {
-        let header = format!("const STACK_SIZE: u32 = {}u;\n", tb_bvh::STACK_SIZE);
-        let edge = if f64 { EDGE_F64 } else { EDGE_F32 };
-        let module = |label: &str, body: &str| {
-            let src = format!("{header}{COMMON}\n{edge}\n{body}");
-            device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(label),
-                source: wgpu::ShaderSource::Wgsl(src.into()),
-            })
-        };
+    pub(crate) fn new(f64: bool) -> Kernels {
         Kernels {
-            brute: module("brute.wgsl", BRUTE),
-            bvh: module("bvh.wgsl", BVH),
-            brute_layout: layout(device, false),
-            bvh_layout: layout(device, true),
-            pipelines: Mutex::new(HashMap::new()),
+            f64,
+            cache: Mutex::new(Cache::default()),
         }
     }
 
-    fn pipeline(&self, device: &wgpu::Device, v: Variant) -> wgpu::ComputePipeline {
-        let mut cache = self.pipelines.lock().unwrap_or_else(|p| p.into_inner());
+    fn cache(&self) -> std::sync::MutexGuard<'_, Cache> {
+        self.cache.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// The full WGSL of `p`: `STACK_SIZE`, `WORKGROUP_SIZE`, the `Stats` record, the common
+    /// prelude, the edge fallback, the program's source.
+    fn source(&self, p: &GpuProgram<'_>) -> String {
+        let edge = if self.f64 { EDGE_F64 } else { EDGE_F32 };
+        format!(
+            "const STACK_SIZE: u32 = {}u;\nconst WORKGROUP_SIZE: u32 = {WORKGROUP}u;\n{}{COMMON}\n{edge}\n{}",
+            p.stack_size,
+            wgsl_stats_struct(),
+            p.source
+        )
+    }
+
+    /// Compile `p`'s shader module and make its layouts, unless done before; `Err` when a
+    /// program of the same name with other code was compiled before, or (from `check`) when
+    /// the module does not compile, in which case nothing is cached.
+    fn prepare(
+        &self,
+        device: &wgpu::Device,
+        p: &GpuProgram<'_>,
+        check: impl FnOnce() -> Result<(), GpuError>,
+    ) -> Result<(), GpuError> {
+        let mut cache = self.cache();
         cache
+            .layouts
+            .entry(p.buffers.len())
+            .or_insert_with(|| layout(device, p.buffers.len()));
+        if let Some(m) = cache.modules.get(p.name) {
+            if m.source != p.source || m.stack_size != p.stack_size || m.constants != p.constants {
+                return Err(GpuError::Program(format!(
+                    "GPU program `{}`: another program of that name (other source, stack size or constants) was compiled before; names must be unique",
+                    p.name
+                )));
+            }
+            return Ok(());
+        }
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(p.name),
+            source: wgpu::ShaderSource::Wgsl(self.source(p).into()),
+        });
+        check().map_err(|e| match e {
+            GpuError::Wgpu(m) => GpuError::Program(format!("GPU program `{}`: {m}", p.name)),
+            e => e,
+        })?;
+        cache.modules.insert(
+            p.name,
+            Module {
+                module,
+                source: p.source,
+                stack_size: p.stack_size,
+                constants: p.constants.clone(),
+            },
+        );
+        Ok(())
+    }
+
+    /// The pipeline of variant `v` (made on first use) and the bind group layout of a program
+    /// with `n` buffers. The program must have been prepared ([`Gpu::upload`]).
+    fn pipeline(
+        &self,
+        device: &wgpu::Device,
+        v: Variant,
+        n: usize,
+    ) -> (wgpu::ComputePipeline, wgpu::BindGroupLayout) {
+        let mut cache = self.cache();
+        let Cache {
+            modules,
+            layouts,
+            pipelines,
+        } = &mut *cache;
+        let (bgl, pl) = &layouts[&n];
+        let pipeline = pipelines
             .entry(v)
             .or_insert_with(|| {
-                let (kind, query, tri, count) = v;
-                let (module, layout) = match kind {
-                    Kind::Brute => (&self.brute, &self.brute_layout.1),
-                    Kind::Bvh => (&self.bvh, &self.bvh_layout.1),
-                };
+                let (name, query, tri, count) = v;
+                let m = &modules[name];
                 let flag = |b: bool| if b { 1.0 } else { 0.0 };
-                let constants = [
+                let mut constants = vec![
                     ("ANY", flag(query == Query::Any)),
                     ("COUNT", flag(count)),
                     ("WATERTIGHT", flag(tri == TriTestKind::Watertight)),
                     ("EXIT_SCALE", tb_core::slab::EXIT_SCALE as f64),
                 ];
+                constants.extend(m.constants.iter().copied());
                 device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: None,
-                    layout: Some(layout),
-                    module,
+                    label: Some(name),
+                    layout: Some(pl),
+                    module: &m.module,
                     entry_point: Some("main"),
                     compilation_options: wgpu::PipelineCompilationOptions {
                         constants: &constants,
@@ -224,7 +292,8 @@ impl Kernels {
                     cache: None,
                 })
             })
-            .clone()
+            .clone();
+        (pipeline, bgl.clone())
     }
 }
 
@@ -241,7 +310,7 @@ impl Gpu {
     /// Rays per dispatch: bounded by `max_storage_buffer_binding_size` (per bound ray range) and
     /// `max_compute_workgroups_per_dimension` x [`WORKGROUP`], a multiple of 256.
     pub fn max_rays_per_dispatch(&self) -> u64 {
-        let by_binding = self.limits.max_storage_buffer_binding_size / RAY_BYTES;
+        let by_binding = self.limits.max_storage_buffer_binding_size / RECORD_BYTES;
         let by_groups = self.limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
         let cap = self.dispatch_cap.unwrap_or(u64::MAX);
         (by_binding.min(by_groups).min(cap) / RAY_ALIGN * RAY_ALIGN).max(RAY_ALIGN)
@@ -281,57 +350,72 @@ impl Gpu {
         buf
     }
 
-    /// Copy a structure's flat arrays to the device (timed: buffer creation, copy, wait).
-    pub fn upload(&self, s: Structure<'_>) -> Result<GpuStructure, GpuError> {
-        let (kind, tris, nodes, prim_ids): (Kind, &[Triangle], Vec<GpuNode>, &[u32]) = match s {
-            Structure::BruteForce(t) => (Kind::Brute, t, Vec::new(), &[]),
-            Structure::Bvh(b) => (
-                Kind::Bvh,
-                b.triangles(),
-                b.nodes()
-                    .iter()
-                    .map(|n| GpuNode {
-                        min: n.min,
-                        index: n.index,
-                        max: n.max,
-                        count: n.count,
-                    })
-                    .collect(),
-                b.prim_ids(),
-            ),
-        };
-        let flat: Vec<f32> = tris
+    /// Upload a structure's GPU program ([`tb_core::Accel::gpu_program`]): its triangles
+    /// (9 floats each), its buffers and the `meta_` uniform `(triangles, meta[0..3])`, after
+    /// compiling its shader module if this is the first program of that name (timed: buffer
+    /// creation, copy, wait; compiling is not).
+    ///
+    /// `Err`: [`GpuError::TooLarge`] for an array over one storage binding (named by
+    /// [`tb_core::GpuBuffer::what`]); [`GpuError::Unsupported`] for more buffers than the
+    /// adapter binds, or a program with an unrolled triangle loop over too many triangles for
+    /// llvmpipe; [`GpuError::Program`] for a malformed program (a buffer that is not whole
+    /// 4-byte words, a name reused with other code, WGSL that does not compile).
+    pub fn upload(&self, p: &GpuProgram<'_>) -> Result<GpuStructure, GpuError> {
+        let n_tris = p.triangles.len() as u64;
+        if let Some(unroll) = p.unrolled_triangle_loop {
+            let most = unroll as u64 * LLVMPIPE_LOOP_MAX;
+            if self.summary.driver.contains("llvmpipe") && n_tris > most {
+                return Err(GpuError::Unsupported(format!(
+                    "{} over {n_tris} triangles on llvmpipe: it ends a shader's loops after 65535 iterations, so at most {most} triangles",
+                    p.name
+                )));
+            }
+        }
+        let bindable = self.limits.max_storage_buffers_per_shader_stage;
+        if COMMON_STORAGE as u64 + p.buffers.len() as u64 > bindable as u64 {
+            return Err(GpuError::Unsupported(format!(
+                "{}: {} buffers of its own and {COMMON_STORAGE} common ones, over the adapter's max_storage_buffers_per_shader_stage of {bindable}",
+                p.name,
+                p.buffers.len()
+            )));
+        }
+        if n_tris > u32::MAX as u64 {
+            return Err(GpuError::Program(format!(
+                "GPU program `{}`: {n_tris} triangles, more than a u32 counts",
+                p.name
+            )));
+        }
+        let flat: Vec<f32> = p
+            .triangles
             .iter()
             .flat_map(|t| [t.v0, t.v1, t.v2])
             .flat_map(|v| v.to_array())
             .collect();
         let tri_bytes: &[u8] = bytemuck::cast_slice(&flat);
-        let node_bytes: &[u8] = bytemuck::cast_slice(&nodes);
-        let id_bytes: &[u8] = bytemuck::cast_slice(prim_ids);
-        if kind == Kind::Brute
-            && self.summary.driver.contains("llvmpipe")
-            && tris.len() as u64 > LLVMPIPE_BRUTE_MAX
-        {
-            return Err(GpuError::Unsupported(format!(
-                "brute force over {} triangles on llvmpipe: it ends a shader's loops after 65535 iterations, so at most {LLVMPIPE_BRUTE_MAX} triangles",
-                tris.len()
-            )));
-        }
         self.fits("the triangle array", tri_bytes.len() as u64, true)?;
-        self.fits("the BVH node array", node_bytes.len() as u64, true)?;
-        self.fits("the primitive-id array", id_bytes.len() as u64, true)?;
-        let meta = [tris.len() as u32, nodes.len() as u32, 0, 0];
+        for b in &p.buffers {
+            if b.bytes.len() % 4 != 0 {
+                return Err(GpuError::Program(format!(
+                    "GPU program `{}`: {} has {} bytes, not a whole number of 4-byte words",
+                    p.name,
+                    b.what,
+                    b.bytes.len()
+                )));
+            }
+            self.fits(b.what, b.bytes.len() as u64, true)?;
+        }
+        self.kernels.prepare(&self.device, p, || self.check())?;
+        let [m0, m1, m2] = p.meta;
+        let meta = [n_tris as u32, m0, m1, m2];
         let storage = wgpu::BufferUsages::STORAGE;
         let start = Instant::now();
-        let tris_buf = self.buffer("triangles", tri_bytes, storage);
-        let (nodes_buf, ids_buf) = match kind {
-            Kind::Brute => (None, None),
-            Kind::Bvh => (
-                Some(self.buffer("nodes", node_bytes, storage)),
-                Some(self.buffer("prim_ids", id_bytes, storage)),
-            ),
-        };
-        let meta_buf = self.buffer(
+        let tris = self.buffer("triangles", tri_bytes, storage);
+        let buffers = p
+            .buffers
+            .iter()
+            .map(|b| self.buffer(b.what, &b.bytes, storage))
+            .collect();
+        let meta = self.buffer(
             "meta",
             bytemuck::cast_slice(&meta),
             wgpu::BufferUsages::UNIFORM,
@@ -339,13 +423,13 @@ impl Gpu {
         self.queue.submit([]);
         self.wait()?;
         Ok(GpuStructure {
-            kind,
-            tris: tris_buf,
-            nodes: nodes_buf,
-            prim_ids: ids_buf,
-            meta: meta_buf,
+            program: p.name,
+            tris,
+            buffers,
+            meta,
             upload_ms: start.elapsed().as_secs_f64() * 1e3,
-            bytes: (tri_bytes.len() + node_bytes.len() + id_bytes.len()) as u64,
+            bytes: tri_bytes.len() as u64
+                + p.buffers.iter().map(|b| b.bytes.len() as u64).sum::<u64>(),
         })
     }
 
@@ -389,7 +473,7 @@ impl Gpu {
         })
     }
 
-    /// One pass of the structure's kernel over the batch: `count` picks the counting variant
+    /// One pass of the structure's program over the batch: `count` picks the counting variant
     /// (writes per-ray [`TraversalStats`]) or the timed one (no counters).
     pub fn trace(
         &self,
@@ -399,13 +483,11 @@ impl Gpu {
         tri: TriTestKind,
         count: bool,
     ) -> Result<Timing, GpuError> {
-        let pipeline = self
-            .kernels
-            .pipeline(&self.device, (s.kind, query, tri, count));
-        let bgl = match s.kind {
-            Kind::Brute => &self.kernels.brute_layout.0,
-            Kind::Bvh => &self.kernels.bvh_layout.0,
-        };
+        let (pipeline, bgl) = self.kernels.pipeline(
+            &self.device,
+            (s.program, query, tri, count),
+            s.buffers.len(),
+        );
         let step = self.max_rays_per_dispatch();
         let mut groups = Vec::new();
         let mut first = 0u64;
@@ -433,19 +515,15 @@ impl Gpu {
                     resource: s.meta.as_entire_binding(),
                 },
             ];
-            if let (Some(nodes), Some(ids)) = (&s.nodes, &s.prim_ids) {
-                entries.push(wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: nodes.as_entire_binding(),
-                });
-                entries.push(wgpu::BindGroupEntry {
-                    binding: 6,
-                    resource: ids.as_entire_binding(),
-                });
-            }
+            entries.extend((COMMON_BINDINGS..).zip(&s.buffers).map(|(binding, b)| {
+                wgpu::BindGroupEntry {
+                    binding,
+                    resource: b.as_entire_binding(),
+                }
+            }));
             let bg = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: None,
-                layout: bgl,
+                layout: &bgl,
                 entries: &entries,
             });
             groups.push((bg, len.div_ceil(WORKGROUP as u64) as u32));
@@ -571,21 +649,8 @@ impl Gpu {
     /// The per-ray counters of the last counting [`Gpu::trace`] over `rays`, and the readback
     /// time in ms.
     pub fn read_stats(&self, rays: &GpuRays) -> Result<(Vec<TraversalStats>, f64), GpuError> {
-        let (s, ms): (Vec<GpuStats>, f64) = self.read_back(&rays.stats, rays.n * STATS_BYTES)?;
-        let stats = s
-            .into_iter()
-            .map(|GpuStats(a)| TraversalStats {
-                interior: a[0],
-                leaves: a[1],
-                prims: a[2],
-                boxes: a[3],
-                planes: a[4],
-                restarts: a[5],
-                steps: a[6],
-                capped: a[7],
-            })
-            .collect();
-        Ok((stats, ms))
+        let (s, ms): (Vec<StatsWords>, f64) = self.read_back(&rays.stats, rays.n * STATS_BYTES)?;
+        Ok((s.iter().map(TraversalStats::from_words).collect(), ms))
     }
 
     /// Upload, trace (one pass, counting when `count`), read back: the whole round trip for

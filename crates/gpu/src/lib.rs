@@ -1,35 +1,50 @@
-//! tb-gpu: the `gpu` device of trace-bench, through wgpu.
+//! tb-gpu: the `gpu` device of trace-bench, through wgpu. It knows no structure: a structure
+//! hands it a wgpu-free [`GpuProgram`] (`tb_core::gpu`, [`tb_core::Accel::gpu_program`]) —
+//! its WGSL, triangles, read-only buffers as bytes, meta words, stack size and override
+//! constants — and tb-gpu compiles, uploads, binds and dispatches it.
 //!
 //! - [`Gpu::new`] picks an adapter ([`AdapterChoice`]: a name substring and a [`Backend`]),
 //!   opens a device with the adapter's own limits, and reports it ([`AdapterSummary`]).
-//! - [`Gpu::upload`] copies a structure's flat `#[repr(C)]` arrays unchanged: the scene's
-//!   triangles for brute force; for the BVH its 32-byte nodes, leaf-ordered triangles and
-//!   primitive ids, exactly as the CPU traverses them (STYLE.md, "build, then flatten").
+//! - [`Gpu::upload`] copies a program's arrays unchanged (STYLE.md, "build, then flatten"):
+//!   the triangles (9 floats each) at binding 3, the `meta_` uniform `(triangles, meta[0],
+//!   meta[1], meta[2])` at 4, the program's buffers at 5, 6, …; it gives a [`GpuStructure`].
 //! - [`Gpu::upload_rays`] copies a ray batch and allocates its hit and counter buffers;
-//!   [`Gpu::trace`] runs one pass of a kernel over it (timed with GPU timestamp queries where
+//!   [`Gpu::trace`] runs one pass of a program over it (timed with GPU timestamp queries where
 //!   the adapter has them, else wall time around submit-and-wait); [`Gpu::read_hits`] and
 //!   [`Gpu::read_stats`] copy the results back, timed separately.
 //!
-//! Kernels (`shaders/*.wgsl`, one thread per ray, workgroups of [`WORKGROUP`]): brute force and
-//! the BVH `ordered` traversal, each specialised at pipeline creation by WGSL override
-//! constants for the query (closest / any), the triangle test (watertight / Möller–Trumbore)
-//! and counting (timed pass without counters / counting pass writing the same per-ray
-//! [`TraversalStats`] as the CPU). They repeat tb-core's arithmetic operation for operation,
-//! so on an adapter that neither contracts `a*b+c` into FMA nor rounds division differently,
-//! hits and counters equal the CPU's bit for bit; see the README's GPU section for what
-//! Vulkan allows and what the tests check.
+//! Programs (one thread per ray, workgroups of [`WORKGROUP`]): the shader module of a program
+//! is `const STACK_SIZE` ([`GpuProgram::stack_size`]), `const WORKGROUP_SIZE`, the `Stats`
+//! record generated from tb-core's counter list ([`tb_core::stats::wgsl_stats_struct`]), the
+//! common prelude (`shaders/common.wgsl`: the bindings 0–4, `Ray`, `Hit`, the slab test, both
+//! triangle tests, the entry point `main` calling the program's `walk`), the watertight
+//! test's edge fallback (`shaders/edge_f64.wgsl` on adapters with `SHADER_F64`, else
+//! `edge_f32.wgsl`), then the program's source; the contract is stated in `tb_core::gpu`.
+//! Modules are compiled once per program name, bind group layouts made once per number of
+//! program buffers, and pipelines once per (program, query, triangle test, counting): WGSL
+//! override constants pick the query (`ANY`), the triangle test (`WATERTIGHT`, watertight /
+//! Möller–Trumbore) and counting (`COUNT`: the timed pass writes no counters, the counting pass
+//! the same per-ray [`TraversalStats`] as the CPU), with the program's own constants added.
+//! The prelude repeats tb-core's arithmetic operation for operation, and a structure's kernel
+//! visits nodes in its CPU traversal's order, so on an adapter that neither contracts `a*b+c`
+//! into FMA nor rounds division differently, hits and counters equal the CPU's bit for bit;
+//! see the README's GPU section for what Vulkan allows and what the tests check
+//! (`crates/harness/tests/gpu_oracle.rs` checks every registered program against the CPU).
 //!
 //! Limits: a batch is split into dispatches of at most [`Gpu::max_rays_per_dispatch`] rays, so
 //! that every bound buffer range respects `max_storage_buffer_binding_size` and the workgroup
-//! count respects `max_compute_workgroups_per_dimension`; a structure array that exceeds the
+//! count respects `max_compute_workgroups_per_dimension`; a program's array that exceeds the
 //! binding size cannot be split (every ray may need all of it) and gives
-//! [`GpuError::TooLarge`].
+//! [`GpuError::TooLarge`]; a program may have as many buffers as
+//! `max_storage_buffers_per_shader_stage` leaves beside the 4 common storage buffers (4 on
+//! every WebGPU adapter).
 
 mod device;
 mod kernels;
 
 pub use device::{AdapterChoice, AdapterSummary, Backend, Gpu};
-pub use kernels::{GpuRays, GpuStructure, Structure, Timing};
+pub use kernels::{GpuRays, GpuStructure, Timing};
+pub use tb_core::{GpuBuffer, GpuProgram};
 
 use tb_core::TraversalStats;
 
@@ -65,9 +80,13 @@ pub enum GpuError {
         /// The adapter's `max_buffer_size`.
         max_buffer: u64,
     },
-    /// The adapter cannot run this kernel on this input correctly.
+    /// The adapter cannot run this program on this input correctly.
     #[error("{0}")]
     Unsupported(String),
+    /// The structure's program breaks the contract of `tb_core::gpu` (a buffer that is not
+    /// whole 4-byte words, a name reused with other code, WGSL that does not compile).
+    #[error("{0}")]
+    Program(String),
     /// wgpu reported a validation or out-of-memory error.
     #[error("GPU error: {0}")]
     Wgpu(String),
@@ -81,7 +100,25 @@ pub fn gpu_required_by_env() -> bool {
     std::env::var(REQUIRE_GPU_ENV).is_ok_and(|v| !v.is_empty() && v != "0")
 }
 
-/// Bytes of one [`TraversalStats`] record as the kernels write it.
-pub const STATS_BYTES: u64 = std::mem::size_of::<TraversalStats>() as u64;
+/// The default adapter for a test: `Some` (its label printed), or `None` with a printed
+/// notice, so that the test skips on a machine without one; panics instead when
+/// [`gpu_required_by_env`].
+pub fn open_or_skip() -> Option<Gpu> {
+    match Gpu::new(&AdapterChoice::default()) {
+        Ok(g) => {
+            println!("GPU adapter: {}", g.adapter().label());
+            Some(g)
+        }
+        Err(e) if gpu_required_by_env() => {
+            panic!("{e} ({REQUIRE_GPU_ENV} is set, so this fails rather than skips)")
+        }
+        Err(e) => {
+            println!("skipped: {e} (set {REQUIRE_GPU_ENV}=1 to make this a failure)");
+            None
+        }
+    }
+}
 
-const _: () = assert!(STATS_BYTES == 32);
+/// Bytes of one [`TraversalStats`] record as the kernels write it (one `u32` per counter of
+/// [`tb_core::COUNTERS`], then `capped`).
+pub const STATS_BYTES: u64 = std::mem::size_of::<TraversalStats>() as u64;

@@ -1,4 +1,5 @@
-// The BVH `ordered` traversal (tb_bvh, pbrt-v3 §4.3.5): depth-first with a fixed stack, both
+// The BVH `ordered` traversal (tb_bvh, pbrt-v3 §4.3.5), program `bvh/ordered` on tb-gpu's
+// prelude (tb_core::gpu): depth-first with a fixed stack (STACK_SIZE = tb_bvh::STACK_SIZE), both
 // children's boxes tested at their parent, the nearer child first, the farther pushed with its
 // entry distance and skipped on pop when a closer hit was found meanwhile. One thread per ray
 // (the reference kernel; Aila and Laine 2009's persistent threads are not used). It visits the
@@ -6,12 +7,14 @@
 // 2 per interior node), interior, leaves, prims, steps = interior + leaves.
 
 // tb_bvh::BvhNode, 32 bytes: interior (count == 0): index = left child, right = index + 1;
-// leaf: triangles index .. index + count of the leaf-ordered triangle array.
+// leaf: triangles index .. index + count of the leaf-ordered triangle array (the prelude's
+// `tris`). The node count is `meta_.counts.y` (GpuProgram::meta[0]).
 struct Node { bmin: vec3<f32>, index: u32, bmax: vec3<f32>, count: u32 }
 
-@group(0) @binding(5) var<storage, read> nodes: array<Node>;
-@group(0) @binding(6) var<storage, read> prim_ids: array<u32>;
+@group(0) @binding(5) var<storage, read> nodes: array<Node>;     // GpuProgram::buffers[0]
+@group(0) @binding(6) var<storage, read> prim_ids: array<u32>;   // GpuProgram::buffers[1]
 
+// The program's entry, called by the prelude's `main` once per ray with zeroed counters.
 fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     if meta_.counts.y == 0u {
         return miss();
@@ -108,17 +111,4 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
         return miss();
     }
     return Hit(best_t, prim_ids[hit_slot], hit_u, hit_v);
-}
-
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
-    if i >= arrayLength(&rays) {
-        return;
-    }
-    var st = zero_stats();
-    hits[i] = walk(rays[i], &st);
-    if COUNT {
-        stats[i] = st;
-    }
 }

@@ -1,11 +1,14 @@
-// Brute force (tb_core::BruteForce, the oracle): every triangle in index order, each gated by
-// the robust slab test of its own bounding box; one thread per ray. Counters as on the CPU:
+// Brute force (tb_core::BruteForce, the oracle), program `brute-force/linear` on tb-gpu's
+// prelude (tb_core::gpu): every triangle in index order, each gated by the robust slab test of
+// its own bounding box; one thread per ray. No buffers of its own: the triangles are the
+// prelude's `tris`, their count `meta_.counts.x`. Counters as on the CPU:
 // closest hit counts 1 leaf and `boxes = steps = triangles` up front, `prims` per box passed;
 // any hit counts box, step and (box passed) prim per triangle until the first hit.
 //
 // The loop is unrolled by UNROLL: llvmpipe (lavapipe) ends a shader invocation's loops after
 // 65535 iterations in all, so a plain loop would stop early on scenes of more triangles; the
-// host refuses brute force on llvmpipe beyond UNROLL * 65535 triangles.
+// host refuses it on llvmpipe beyond UNROLL * 65000 triangles (GpuProgram::
+// unrolled_triangle_loop, which must equal UNROLL).
 
 const UNROLL: u32 = 8u;
 
@@ -39,13 +42,8 @@ fn visit(k: u32, r: Ray, p: Pre, rb: RayBox, w: ptr<function, Walk>) {
     }
 }
 
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
-    if i >= arrayLength(&rays) {
-        return;
-    }
-    let r = rays[i];
+// The program's entry, called by the prelude's `main` once per ray with zeroed counters.
+fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     let n = meta_.counts.x;
     let p = prepare(r);
     let rb = ray_box(r);
@@ -69,8 +67,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var k = whole; k < n && !w.done; k++) {
         visit(k, r, p, rb, &w);
     }
-    hits[i] = w.best;
-    if COUNT {
-        stats[i] = w.st;
-    }
+    *st = w.st;
+    return w.best;
 }

@@ -1,0 +1,244 @@
+//! The GPU device on its own, with brute force's program (tb-core) and small test programs:
+//! empty scenes and batches, dispatch splitting within the adapter's limits, the program
+//! contract of `tb_core::gpu` (bindings, meta words, constants, counters) and its refusals,
+//! and the prelude's slab and triangle tests against the CPU's on the stress scene of shared
+//! edges and vertices. The structures' programs are checked against their CPU traversals by
+//! `crates/harness/tests/gpu_oracle.rs` (every registered structure). Without an adapter the
+//! tests print a notice and pass, unless `TRACE_BENCH_REQUIRE_GPU=1`, which makes them fail.
+
+use std::borrow::Cow;
+use std::path::Path;
+use tb_core::{
+    Accel, BruteForce, HitRecord, Query, Ray, TraversalStats, TriTestKind, Triangle, Vec3,
+};
+use tb_gpu::{open_or_skip, Gpu, GpuBuffer, GpuError, GpuProgram};
+
+fn cpu_trace(
+    accel: &dyn Accel,
+    query: Query,
+    tri: TriTestKind,
+    rays: &[Ray],
+) -> (Vec<HitRecord>, Vec<TraversalStats>) {
+    let mut hits = vec![HitRecord::MISS; rays.len()];
+    let mut stats = vec![TraversalStats::default(); rays.len()];
+    accel.trace(0, query, tri, rays, &mut hits, Some(&mut stats));
+    (hits, stats)
+}
+
+fn program(b: &BruteForce) -> GpuProgram<'_> {
+    b.gpu_program(0).expect("brute force has a GPU program")
+}
+
+fn triangle() -> Triangle {
+    Triangle::new(
+        Vec3::new(-1.0, -1.0, 1.0),
+        Vec3::new(1.0, -1.0, 1.0),
+        Vec3::new(0.0, 1.0, 1.0),
+    )
+}
+
+#[test]
+fn empty_scene_and_empty_batch() {
+    let Some(gpu) = open_or_skip() else { return };
+    let brute = BruteForce::new(&[]);
+    let gs = gpu.upload(&program(&brute)).unwrap();
+    let rays = [Ray::new(Vec3::ZERO, Vec3::X)];
+    for query in [Query::Closest, Query::Any] {
+        let (hits, stats) = gpu
+            .trace_once(&gs, &rays, query, TriTestKind::Watertight, true)
+            .unwrap();
+        assert!(!hits[0].is_hit());
+        let (_, want) = cpu_trace(&brute, query, TriTestKind::Watertight, &rays);
+        assert_eq!(stats.unwrap(), want);
+        let (hits, _) = gpu
+            .trace_once(&gs, &[], query, TriTestKind::Watertight, false)
+            .unwrap();
+        assert!(hits.is_empty());
+    }
+}
+
+#[test]
+fn batches_split_into_dispatches_within_limits() {
+    let Some(mut gpu) = open_or_skip() else {
+        return;
+    };
+    let n = gpu.max_rays_per_dispatch();
+    assert!(n >= 256 && n % 256 == 0, "{n}");
+    gpu.limit_dispatch(1000);
+    let n = gpu.max_rays_per_dispatch();
+    assert_eq!(n, 768);
+    let brute = BruteForce::new(&[triangle()]);
+    let gs = gpu.upload(&program(&brute)).unwrap();
+    let rays = vec![Ray::new(Vec3::ZERO, Vec3::Z); 2 * n as usize + 3];
+    let r = gpu.upload_rays(&rays).unwrap();
+    let t = gpu
+        .trace(&gs, &r, Query::Closest, TriTestKind::Watertight, false)
+        .unwrap();
+    assert_eq!(t.dispatches, 3);
+    let (hits, _) = gpu.read_hits(&r).unwrap();
+    assert_eq!(hits.len(), rays.len());
+    assert!(hits.iter().all(|h| h.prim == 0 && h.t == 1.0));
+}
+
+/// A program that echoes what it is bound: its two buffers, the meta words, its own override
+/// constant, the prelude's `ANY`, `STACK_SIZE` and triangles, and writes every counter (so
+/// their order is checked too).
+const ECHO: &str = "
+@group(0) @binding(5) var<storage, read> first: array<u32>;
+@group(0) @binding(6) var<storage, read> second: array<f32>;
+override SCALE: f32 = 0.0;
+
+fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
+    (*st).interior = meta_.counts.x;
+    (*st).leaves = meta_.counts.y;
+    (*st).prims = meta_.counts.z;
+    (*st).boxes = meta_.counts.w;
+    (*st).planes = first[2];
+    (*st).restarts = first[1];
+    (*st).steps = STACK_SIZE;
+    (*st).capped = select(0u, 1u, ANY);
+    return Hit(second[0] * SCALE, first[0], r.tmax, vertex(1u, 2u).y);
+}
+";
+
+fn echo<'a>(tris: &'a [Triangle], first: &[u32]) -> GpuProgram<'a> {
+    GpuProgram {
+        name: "test/echo",
+        source: ECHO,
+        triangles: Cow::Borrowed(tris),
+        buffers: vec![
+            GpuBuffer {
+                what: "the first test array",
+                bytes: Cow::Owned(first.iter().flat_map(|w| w.to_ne_bytes()).collect()),
+            },
+            GpuBuffer {
+                what: "the second test array",
+                bytes: Cow::Owned(2.5f32.to_ne_bytes().to_vec()),
+            },
+        ],
+        meta: [7, 8, 9],
+        stack_size: 5,
+        constants: vec![("SCALE", 3.0)],
+        unrolled_triangle_loop: None,
+    }
+}
+
+#[test]
+fn programs_get_their_buffers_meta_and_constants() {
+    let Some(gpu) = open_or_skip() else { return };
+    let tris = [triangle(), triangle()];
+    let gs = gpu.upload(&echo(&tris, &[41, 42, 43])).unwrap();
+    assert_eq!(gs.program(), "test/echo");
+    assert_eq!(gs.bytes, 2 * 36 + 12 + 4);
+    let rays = [Ray::segment(Vec3::ZERO, Vec3::X, 0.0, 6.0)];
+    for query in [Query::Closest, Query::Any] {
+        let (hits, stats) = gpu
+            .trace_once(&gs, &rays, query, TriTestKind::Watertight, true)
+            .unwrap();
+        let want = HitRecord {
+            t: 7.5,
+            prim: 41,
+            u: 6.0,
+            v: 1.0,
+        };
+        assert_eq!(hits, [want]);
+        let want = TraversalStats {
+            interior: 2,
+            leaves: 7,
+            prims: 8,
+            boxes: 9,
+            planes: 43,
+            restarts: 42,
+            steps: 5,
+            capped: (query == Query::Any) as u32,
+        };
+        assert_eq!(stats.unwrap(), [want]);
+    }
+}
+
+/// Upload `p`, which must be refused: the error (printed).
+fn refusal(gpu: &Gpu, p: &GpuProgram<'_>) -> GpuError {
+    let Err(e) = gpu.upload(p) else {
+        panic!("{} was accepted", p.name)
+    };
+    println!("refused: {e}");
+    e
+}
+
+#[test]
+fn malformed_programs_are_refused() {
+    let Some(gpu) = open_or_skip() else { return };
+    let tris = [triangle()];
+    let mut p = echo(&tris, &[1, 2]);
+    p.buffers[1].bytes = Cow::Owned(vec![0; 3]);
+    let e = refusal(&gpu, &p);
+    assert!(
+        matches!(&e, GpuError::Program(m) if m.contains("the second test array")),
+        "{e}"
+    );
+
+    // WGSL that does not compile is reported and not cached: the same name then compiles.
+    let mut p = echo(&tris, &[1, 2]);
+    p.source = "fn walk(r: Ray, st: ptr<function, Stats>) -> Hit { return nonsense; }";
+    let e = refusal(&gpu, &p);
+    assert!(
+        matches!(&e, GpuError::Program(m) if m.contains("test/echo")),
+        "{e}"
+    );
+    gpu.upload(&echo(&tris, &[1, 2])).unwrap();
+
+    // A name is one program: other code under it is refused.
+    let mut p = echo(&tris, &[1, 2]);
+    p.stack_size = 6;
+    let e = refusal(&gpu, &p);
+    assert!(
+        matches!(&e, GpuError::Program(m) if m.contains("unique")),
+        "{e}"
+    );
+}
+
+#[test]
+fn unrolled_loops_are_refused_beyond_llvmpipes_limit() {
+    let Some(gpu) = open_or_skip() else { return };
+    if !gpu.adapter().driver.contains("llvmpipe") {
+        println!("skipped: not llvmpipe");
+        return;
+    }
+    let brute = BruteForce::new(&vec![triangle(); 8 * 65_000 + 1]);
+    let e = refusal(&gpu, &program(&brute));
+    assert!(
+        matches!(&e, GpuError::Unsupported(m) if m.contains("at most 520000")),
+        "{e}"
+    );
+}
+
+/// The prelude's slab and triangle tests repeat tb-core's bit for bit where the adapter has
+/// `SHADER_F64` (watertight test; see the README's GPU section): brute force on the stress
+/// scene whose rays aim at shared edges and vertices, plus random rays.
+#[test]
+fn prelude_matches_the_cpu_on_shared_edges() {
+    let Some(gpu) = open_or_skip() else { return };
+    let scene = tb_scene::load("builtin:stress/watertight", Path::new(".")).unwrap();
+    let brute = BruteForce::new(&scene.triangles);
+    let gs = gpu.upload(&program(&brute)).unwrap();
+    let mut rays = scene.own_rays.clone();
+    rays.extend(tb_scene::rays::random(&scene.bounds, 2000, 11));
+    let tri = TriTestKind::Watertight;
+    for query in [Query::Closest, Query::Any] {
+        let (want_hits, want_stats) = cpu_trace(&brute, query, tri, &rays);
+        let (hits, stats) = gpu.trace_once(&gs, &rays, query, tri, true).unwrap();
+        let stats = stats.unwrap();
+        let hit_diffs = (0..rays.len()).filter(|&i| hits[i] != want_hits[i]).count();
+        let stat_diffs = (0..rays.len())
+            .filter(|&i| stats[i] != want_stats[i])
+            .count();
+        println!(
+            "{query:?}: {} rays, {} hits, hit diffs {hit_diffs}, counter diffs {stat_diffs}",
+            rays.len(),
+            hits.iter().filter(|h| h.is_hit()).count()
+        );
+        if gpu.adapter().f64 {
+            assert_eq!((hit_diffs, stat_diffs), (0, 0));
+        }
+    }
+}
