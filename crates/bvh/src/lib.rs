@@ -240,7 +240,7 @@ impl Bvh {
     }
 
     /// Walk the tree: call `f(node_index, depth)` for every node reachable from the root,
-    /// depth-first (root depth 0). Assumes a valid tree (see [`Structure::validate`]).
+    /// depth-first (root depth 0). Assumes a valid tree (see [`Structure::check`]).
     fn walk(&self, mut f: impl FnMut(usize, u32)) {
         let nodes = self.nodes();
         if nodes.is_empty() {
@@ -385,7 +385,7 @@ impl Structure for Bvh {
         Bvh::gpu_ordered,
     )];
 
-    fn memory(&self) -> MemoryReport {
+    fn own_memory(&self) -> MemoryReport {
         MemoryReport {
             bytes: (std::mem::size_of_val(self.nodes())
                 + std::mem::size_of_val(self.triangles.as_slice())
@@ -400,7 +400,7 @@ impl Structure for Bvh {
     /// the surface area (`None` for an empty tree or a root of zero area); extra figures:
     /// `nodes`, `leaves`, `depth_max` (root depth 0), `leaf_depth_mean`, `prims_per_leaf_mean`,
     /// `leaf_size_max`.
-    fn build_report(&self) -> BuildReport {
+    fn report(&self) -> BuildReport {
         let t = self.figures();
         let root_area = self
             .nodes()
@@ -431,7 +431,7 @@ impl Structure for Bvh {
     /// its parent's, every triangle's box inside its leaf's, every triangle slot in exactly
     /// one leaf, `prim_ids` a permutation of the scene's indices, leaves of at most
     /// `max_leaf` triangles unless all their centroids coincide.
-    fn validate(&self) -> Result<(), AccelError> {
+    fn check(&self) -> Result<(), AccelError> {
         self.check_invariants().map_err(AccelError::Invalid)
     }
 }
@@ -439,6 +439,7 @@ impl Structure for Bvh {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tb_core::Accel;
 
     fn grid() -> Vec<Triangle> {
         (0..64)

@@ -201,8 +201,9 @@ pub trait Structure: Send + Sync + Sized + 'static {
     /// The traversal table; the index into it selects a traversal.
     const TRAVERSALS: &'static [Traversal<Self>];
 
-    /// Memory of the arrays every traversal reads (nodes, references, triangles).
-    fn memory(&self) -> MemoryReport;
+    /// Memory of the arrays every traversal reads (nodes, references, triangles); the names
+    /// of this trait's methods differ from [`Accel`]'s so that both traits can be in scope.
+    fn own_memory(&self) -> MemoryReport;
 
     /// Bytes of auxiliary array `aux` (one named in a [`TraversalInfo::aux`]), built or not.
     fn aux_bytes(&self, aux: &str) -> u64 {
@@ -217,12 +218,12 @@ pub trait Structure: Send + Sync + Sized + 'static {
     }
 
     /// Build figures (SAH cost and others).
-    fn build_report(&self) -> BuildReport {
+    fn report(&self) -> BuildReport {
         BuildReport::default()
     }
 
     /// Check the structure's invariants.
-    fn validate(&self) -> Result<(), AccelError> {
+    fn check(&self) -> Result<(), AccelError> {
         Ok(())
     }
 }
@@ -292,11 +293,11 @@ impl<S: Structure> Accel for S {
     }
 
     fn memory(&self) -> MemoryReport {
-        Structure::memory(self)
+        self.own_memory()
     }
 
     fn memory_for(&self, traversal: usize) -> MemoryReport {
-        let mut m = Structure::memory(self);
+        let mut m = self.own_memory();
         m.bytes += row::<S>(traversal)
             .info
             .aux
@@ -307,11 +308,11 @@ impl<S: Structure> Accel for S {
     }
 
     fn build_report(&self) -> BuildReport {
-        Structure::build_report(self)
+        self.report()
     }
 
     fn validate(&self) -> Result<(), AccelError> {
-        Structure::validate(self)
+        self.check()
     }
 
     fn prepare(&self, traversal: usize) {

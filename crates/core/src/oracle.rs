@@ -139,7 +139,7 @@ impl Structure for BruteForce {
         BruteForce::gpu_linear,
     )];
 
-    fn memory(&self) -> MemoryReport {
+    fn own_memory(&self) -> MemoryReport {
         MemoryReport {
             bytes: (std::mem::size_of_val(&*self.tris)
                 + std::mem::size_of_val(self.boxes.as_slice())) as u64,

@@ -57,6 +57,14 @@ pub fn count(
 ) -> (Vec<HitRecord>, Vec<TraversalStats>) {
     let mut hits = vec![HitRecord::MISS; rays.len()];
     let mut stats = vec![TraversalStats::default(); rays.len()];
-    trace_into(accel, traversal, query, tri, rays, &mut hits, Some(&mut stats));
+    trace_into(
+        accel,
+        traversal,
+        query,
+        tri,
+        rays,
+        &mut hits,
+        Some(&mut stats),
+    );
     (hits, stats)
 }

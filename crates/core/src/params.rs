@@ -296,6 +296,7 @@ macro_rules! choice {
             pub const NAMES: &'static [&'static str] = &[$($cfg),*];
 
             /// Every variant, in declaration order.
+            #[allow(dead_code)]
             pub const ALL: &'static [Self] = &[$(Self::$variant),*];
 
             /// The config name.

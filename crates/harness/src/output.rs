@@ -6,9 +6,9 @@
 
 use crate::error::HarnessError;
 use serde::{Deserialize, Serialize};
-use tb_core::{CounterSet, StatsSummary};
 use std::fs::{File, OpenOptions};
 use std::path::{Path, PathBuf};
+use tb_core::{CounterSet, StatsSummary};
 
 macro_rules! define_row {
     ($($name:ident, $per:ident, $max:ident, $doc:literal;)*) => {

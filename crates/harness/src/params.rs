@@ -120,8 +120,14 @@ mod tests {
             .unwrap_err()
             .1
             .contains("expected an integer"));
-        assert!(expand_p("leaf = 3").unwrap_err().1.contains("unknown parameter"));
-        assert!(expand_p("split = \"x\"").unwrap_err().1.contains("not one of"));
+        assert!(expand_p("leaf = 3")
+            .unwrap_err()
+            .1
+            .contains("unknown parameter"));
+        assert!(expand_p("split = \"x\"")
+            .unwrap_err()
+            .1
+            .contains("not one of"));
         assert!(expand_p("bins = []").unwrap_err().1.contains("empty list"));
     }
 }

@@ -73,7 +73,10 @@ impl Registry {
             }
             let defaults = (f.defaults)();
             for p in f.params {
-                let default = defaults.get(p.name).map(|v| v.to_string()).unwrap_or_default();
+                let default = defaults
+                    .get(p.name)
+                    .map(|v| v.to_string())
+                    .unwrap_or_default();
                 let values = match p.kind {
                     ParamKind::Choice(o) => format!(" (one of: {})", o.join(", ")),
                     ParamKind::Int { min, max } => format!(" ({min}..={max})"),

@@ -117,7 +117,7 @@ impl Structure for BvhRsPeer {
         },
     )];
 
-    fn memory(&self) -> MemoryReport {
+    fn own_memory(&self) -> MemoryReport {
         let nodes = self.bvh.nodes.len();
         let node_bytes = std::mem::size_of_val(&self.bvh.nodes[0..nodes.min(1)]);
         MemoryReport {

@@ -159,7 +159,7 @@ impl Structure for EmbreePeer {
         },
     )];
 
-    fn memory(&self) -> MemoryReport {
+    fn own_memory(&self) -> MemoryReport {
         // Embree does not report its BVH size; the vertex and index buffers are ours.
         MemoryReport {
             bytes: (self.triangles * (36 + 12)) as u64,

@@ -130,7 +130,7 @@ impl Structure for ObvhsPeer {
         },
     )];
 
-    fn memory(&self) -> MemoryReport {
+    fn own_memory(&self) -> MemoryReport {
         let nodes = self.bvh.nodes.len();
         let node_bytes = std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>();
         MemoryReport {

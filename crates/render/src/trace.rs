@@ -29,6 +29,14 @@ pub struct AccelTracer<'a> {
 
 impl Tracer for AccelTracer<'_> {
     fn trace(&self, query: Query, rays: &[Ray], hits: &mut [HitRecord]) {
-        tb_core::par::trace_into(self.accel, self.traversal, query, self.tri, rays, hits, None);
+        tb_core::par::trace_into(
+            self.accel,
+            self.traversal,
+            query,
+            self.tri,
+            rays,
+            hits,
+            None,
+        );
     }
 }

@@ -504,7 +504,7 @@ impl Structure for Rtree {
 
     /// Bytes of the slot array *including empty slots* (paper section 4), the triangles in
     /// leaf order and the index map; `nodes` counts every slot.
-    fn memory(&self) -> MemoryReport {
+    fn own_memory(&self) -> MemoryReport {
         MemoryReport {
             bytes: (std::mem::size_of_val(self.nodes.as_slice())
                 + std::mem::size_of_val(self.triangles.as_slice())
@@ -520,7 +520,7 @@ impl Structure for Rtree {
     /// `empty_slots`, `empty_share` (empty / all slots), `intermediate`, `leaves`,
     /// `fill_intermediate` and `fill_leaves` (mean entries per node), `splits`, `reinserts`
     /// (forced reinsertions during the build).
-    fn build_report(&self) -> BuildReport {
+    fn report(&self) -> BuildReport {
         let f = self.figures();
         let root_area = self.nodes.first().map_or(0.0, |n| n.bounds().area() as f64);
         let sah = (root_area > 0.0 && root_area.is_finite())
@@ -554,7 +554,7 @@ impl Structure for Rtree {
     /// leaf is at level 0: height balance); every node but the root has `m..=M` entries (the
     /// root 2..=M, or 1..=M when it is a leaf); every box is exactly the minimal box of its
     /// entries; every triangle is in exactly one leaf and `prim_ids` is a permutation.
-    fn validate(&self) -> Result<(), AccelError> {
+    fn check(&self) -> Result<(), AccelError> {
         self.check_invariants().map_err(AccelError::Invalid)
     }
 }
@@ -562,6 +562,9 @@ impl Structure for Rtree {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tb_core::{Accel, HitRecord, Query, Ray, TraversalStats, TriTestKind};
+
+    const TRAVERSALS: &[Traversal<Rtree>] = Rtree::TRAVERSALS;
 
     fn grid(n: usize) -> Vec<Triangle> {
         (0..n)
@@ -574,7 +577,7 @@ mod tests {
 
     #[test]
     fn builds_valid_trees_for_every_strategy_and_size() {
-        for s in Strategy::ALL {
+        for &s in Strategy::ALL {
             for reinsert in [false, true] {
                 for (m, big_m) in [(2, 4), (2, 5), (3, 8), (8, 16)] {
                     for n in [0, 1, 3, 4, 5, 17, 64, 300] {
@@ -713,7 +716,12 @@ mod tests {
                         assert_eq!(s.steps, s.boxes, "stackless: one box per step");
                         assert!(s.interior + s.leaves <= s.steps);
                     } else {
-                        assert_eq!(s.steps, s.interior + s.leaves, "{}", TRAVERSALS[ti].name);
+                        assert_eq!(
+                            s.steps,
+                            s.interior + s.leaves,
+                            "{}",
+                            TRAVERSALS[ti].info.name
+                        );
                         assert_eq!(s.restarts, 0);
                     }
                 }

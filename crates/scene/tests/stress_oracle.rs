@@ -90,7 +90,7 @@ impl Structure for Broken {
             broken_trace,
         ),
     ];
-    fn memory(&self) -> MemoryReport {
+    fn own_memory(&self) -> MemoryReport {
         MemoryReport::default()
     }
 }
@@ -139,10 +139,10 @@ impl Structure for Invalid {
         TraversalInfo::new("linear", "none", "brute force"),
         |v, query, tri, rays, hits, stats| v.0.trace(0, query, tri, rays, hits, stats),
     )];
-    fn memory(&self) -> MemoryReport {
+    fn own_memory(&self) -> MemoryReport {
         MemoryReport::default()
     }
-    fn validate(&self) -> Result<(), AccelError> {
+    fn check(&self) -> Result<(), AccelError> {
         Err(AccelError::Invalid("node 3 out of bounds".into()))
     }
 }

@@ -57,4 +57,3 @@ pub(super) fn check(
     };
     Ok(images.unwrap_or(false).then_some(ImageSpec { max }))
 }
-

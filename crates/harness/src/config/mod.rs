@@ -12,9 +12,9 @@ pub mod images;
 use crate::error::HarnessError;
 use crate::params::expand;
 use crate::registry::Registry;
-use tb_core::{Family, ParamSet, TraversalInfo};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
+use tb_core::{Family, ParamSet, TraversalInfo};
 use tb_core::{TriTestKind, Vec3};
 use tb_scene::{Camera, PixelOrder, Scene};
 use toml::Spanned;
@@ -496,21 +496,18 @@ pub fn parse_with(
             Some(t) => {
                 let mut out = Vec::new();
                 for n in t.get_ref() {
-                    let i = infos
-                        .iter()
-                        .position(|ti| ti.name == n)
-                        .ok_or_else(|| {
-                            let known: Vec<&str> = infos.iter().map(|t| t.name).collect();
-                            cx.err(
-                                t.span(),
-                                "structure.traversals",
-                                format!(
-                                    "`{}` has no traversal `{n}` (known: {})",
-                                    family.name,
-                                    known.join(", ")
-                                ),
-                            )
-                        })?;
+                    let i = infos.iter().position(|ti| ti.name == n).ok_or_else(|| {
+                        let known: Vec<&str> = infos.iter().map(|t| t.name).collect();
+                        cx.err(
+                            t.span(),
+                            "structure.traversals",
+                            format!(
+                                "`{}` has no traversal `{n}` (known: {})",
+                                family.name,
+                                known.join(", ")
+                            ),
+                        )
+                    })?;
                     if !out.contains(&i) {
                         out.push(i);
                     }

@@ -73,7 +73,6 @@ impl GpuDevice {
             Err(e) => serde_json::json!({ "error": e }),
         }
     }
-
 }
 
 impl Device for GpuDevice {

@@ -133,4 +133,3 @@ pub fn generate_batches(spec: &SceneSpec, seed: u64, notes: &mut Vec<String>) ->
     }
     out
 }
-

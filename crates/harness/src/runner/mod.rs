@@ -108,8 +108,8 @@ impl<'a> Run<'a> {
         let mut summary = RunSummary::default();
         let running = opts.mode == Mode::Run;
         // The GPU is opened once, before any work, so results.json names the adapter.
-        let gpu = (running && exp.devices.contains(&DeviceKind::Gpu))
-            .then(|| GpuDevice::open(&exp.gpu));
+        let gpu =
+            (running && exp.devices.contains(&DeviceKind::Gpu)).then(|| GpuDevice::open(&exp.gpu));
         if let Some(Err(e)) = gpu.as_ref().map(GpuDevice::describe) {
             gpu_failed(&mut summary, gpu.as_ref(), &e);
         }
@@ -163,7 +163,12 @@ impl<'a> Run<'a> {
                 .notes
                 .extend(crate::images::write_scene(spec, out)?);
         }
-        for n in self.summary.notes.iter().filter(|n| n.starts_with(&spec.label)) {
+        for n in self
+            .summary
+            .notes
+            .iter()
+            .filter(|n| n.starts_with(&spec.label))
+        {
             self.progress.line(&format!("note: {n}"));
         }
         let tris: Arc<[Triangle]> = spec.scene.triangles.as_slice().into();
