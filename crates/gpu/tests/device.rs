@@ -13,18 +13,6 @@ use tb_core::{
 };
 use tb_gpu::{open_or_skip, Gpu, GpuBuffer, GpuError, GpuProgram};
 
-fn cpu_trace(
-    accel: &dyn Accel,
-    query: Query,
-    tri: TriTestKind,
-    rays: &[Ray],
-) -> (Vec<HitRecord>, Vec<TraversalStats>) {
-    let mut hits = vec![HitRecord::MISS; rays.len()];
-    let mut stats = vec![TraversalStats::default(); rays.len()];
-    accel.trace(0, query, tri, rays, &mut hits, Some(&mut stats));
-    (hits, stats)
-}
-
 fn program(b: &BruteForce) -> GpuProgram<'_> {
     b.gpu_program(0).expect("brute force has a GPU program")
 }
@@ -48,7 +36,7 @@ fn empty_scene_and_empty_batch() {
             .trace_once(&gs, &rays, query, TriTestKind::Watertight, true)
             .unwrap();
         assert!(!hits[0].is_hit());
-        let (_, want) = cpu_trace(&brute, query, TriTestKind::Watertight, &rays);
+        let (_, want) = tb_core::par::count(&brute, 0, query, TriTestKind::Watertight, &rays);
         assert_eq!(stats.unwrap(), want);
         let (hits, _) = gpu
             .trace_once(&gs, &[], query, TriTestKind::Watertight, false)
@@ -225,7 +213,7 @@ fn prelude_matches_the_cpu_on_shared_edges() {
     rays.extend(tb_scene::rays::random(&scene.bounds, 2000, 11));
     let tri = TriTestKind::Watertight;
     for query in [Query::Closest, Query::Any] {
-        let (want_hits, want_stats) = cpu_trace(&brute, query, tri, &rays);
+        let (want_hits, want_stats) = tb_core::par::count(&brute, 0, query, tri, &rays);
         let (hits, stats) = gpu.trace_once(&gs, &rays, query, tri, true).unwrap();
         let stats = stats.unwrap();
         let hit_diffs = (0..rays.len()).filter(|&i| hits[i] != want_hits[i]).count();

@@ -46,18 +46,7 @@ fn families() -> Vec<&'static Family> {
     tb_harness::registry::families().to_vec()
 }
 
-fn cpu_trace(
-    accel: &dyn Accel,
-    traversal: usize,
-    query: Query,
-    tri: TriTestKind,
-    rays: &[Ray],
-) -> (Vec<HitRecord>, Vec<TraversalStats>) {
-    let mut hits = vec![HitRecord::MISS; rays.len()];
-    let mut stats = vec![TraversalStats::default(); rays.len()];
-    accel.trace(traversal, query, tri, rays, &mut hits, Some(&mut stats));
-    (hits, stats)
-}
+use tb_core::par::count as cpu_trace;
 
 /// Indices of an even sample of at most `max` of `n` rays.
 fn sample(n: usize, max: usize) -> Vec<usize> {

@@ -7,8 +7,8 @@ use bvh::bvh::Bvh;
 use nalgebra::{Point3, Vector3};
 use tb_core::oracle::NoParams;
 use tb_core::{
-    build_with, Family, HitRecord, MemoryReport, MollerTrumbore, Query, Ray, Structure, Traversal,
-    TraversalStats, TriTest, TriTestKind, Triangle, Watertight,
+    build_with, Family, HitRecord, MemoryReport, Query, Ray, Structure, Traversal, TriTest,
+    Triangle,
 };
 
 /// The `bvh` crate in the registry (feature `bvh-rs`).
@@ -70,7 +70,9 @@ impl BvhRsPeer {
             tris: tris.to_vec(),
         }
     }
+}
 
+impl crate::PerRay for BvhRsPeer {
     fn trace_one<T: TriTest>(&self, query: Query, r: &Ray) -> HitRecord {
         let pre = T::prepare(r);
         let bray = bvh::ray::Ray::new(
@@ -102,20 +104,8 @@ impl BvhRsPeer {
 
 impl Structure for BvhRsPeer {
     const NAME: &'static str = "bvh-rs";
-    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
-        crate::NATIVE,
-        |p, query, tri, rays, hits, stats| {
-            for (r, h) in rays.iter().zip(hits.iter_mut()) {
-                *h = match tri {
-                    TriTestKind::Watertight => p.trace_one::<Watertight>(query, r),
-                    TriTestKind::MollerTrumbore => p.trace_one::<MollerTrumbore>(query, r),
-                };
-            }
-            if let Some(s) = stats {
-                s.fill(TraversalStats::default());
-            }
-        },
-    )];
+    const TRAVERSALS: &'static [Traversal<Self>] =
+        &[Traversal::cpu(crate::NATIVE, crate::trace_each::<Self>)];
 
     fn own_memory(&self) -> MemoryReport {
         let nodes = self.bvh.nodes.len();

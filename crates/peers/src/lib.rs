@@ -19,7 +19,37 @@ pub mod embree;
 #[cfg(feature = "obvhs")]
 pub mod obvhs;
 
-use tb_core::{CounterSet, TraversalInfo};
+use tb_core::{
+    CounterSet, HitRecord, MollerTrumbore, Query, Ray, TraversalInfo, TraversalStats, TriTest,
+    TriTestKind, Watertight,
+};
+
+/// A peer that answers one ray at a time with our triangle test on its candidates.
+pub trait PerRay {
+    /// The closest (or any) hit of `r` with triangle test `T`.
+    fn trace_one<T: TriTest>(&self, query: Query, r: &Ray) -> HitRecord;
+}
+
+/// The `native` traversal of a [`PerRay`] peer: each ray with the requested triangle test;
+/// counters, which the library does not expose, left at zero (and reported as none).
+pub fn trace_each<P: PerRay>(
+    p: &P,
+    query: Query,
+    tri: TriTestKind,
+    rays: &[Ray],
+    hits: &mut [HitRecord],
+    stats: Option<&mut [TraversalStats]>,
+) {
+    for (r, h) in rays.iter().zip(hits.iter_mut()) {
+        *h = match tri {
+            TriTestKind::Watertight => p.trace_one::<Watertight>(query, r),
+            TriTestKind::MollerTrumbore => p.trace_one::<MollerTrumbore>(query, r),
+        };
+    }
+    if let Some(s) = stats {
+        s.fill(TraversalStats::default());
+    }
+}
 
 /// The single traversal a peer offers: the library's own, with no counters.
 pub const NATIVE: TraversalInfo = TraversalInfo::new(

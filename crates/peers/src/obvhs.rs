@@ -8,8 +8,8 @@ use obvhs::BvhBuildParams;
 use obvhs_glam::Vec3A;
 use tb_core::params::ParamKind;
 use tb_core::{
-    build_with, Family, HitRecord, MemoryReport, MollerTrumbore, Query, Ray, Structure, Traversal,
-    TraversalStats, TriTest, TriTestKind, Triangle, Watertight,
+    build_with, Family, HitRecord, MemoryReport, Query, Ray, Structure, Traversal, TriTest,
+    Triangle,
 };
 
 /// obvhs in the registry (feature `obvhs`).
@@ -70,7 +70,9 @@ impl ObvhsPeer {
             tris: tris.to_vec(),
         }
     }
+}
 
+impl crate::PerRay for ObvhsPeer {
     fn trace_one<T: TriTest>(&self, query: Query, r: &Ray) -> HitRecord {
         let pre = T::prepare(r);
         let oray = ORay::new(
@@ -115,20 +117,8 @@ impl ObvhsPeer {
 
 impl Structure for ObvhsPeer {
     const NAME: &'static str = "obvhs";
-    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
-        crate::NATIVE,
-        |p, query, tri, rays, hits, stats| {
-            for (r, h) in rays.iter().zip(hits.iter_mut()) {
-                *h = match tri {
-                    TriTestKind::Watertight => p.trace_one::<Watertight>(query, r),
-                    TriTestKind::MollerTrumbore => p.trace_one::<MollerTrumbore>(query, r),
-                };
-            }
-            if let Some(s) = stats {
-                s.fill(TraversalStats::default());
-            }
-        },
-    )];
+    const TRAVERSALS: &'static [Traversal<Self>] =
+        &[Traversal::cpu(crate::NATIVE, crate::trace_each::<Self>)];
 
     fn own_memory(&self) -> MemoryReport {
         let nodes = self.bvh.nodes.len();
