@@ -8,9 +8,13 @@
 
 pub mod convergence;
 pub mod images;
+mod run;
+mod scenes;
+mod structures;
+
+use run::RunSettings;
 
 use crate::error::HarnessError;
-use crate::params::expand;
 use crate::registry::Registry;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -348,374 +352,50 @@ pub fn parse_with(
         .or_else(|| raw.scenes_root.as_ref().map(PathBuf::from))
         .unwrap_or_else(|| PathBuf::from("scenes"));
 
-    // [run]
     let run = &raw.run;
-    let all = std::thread::available_parallelism()
-        .map(|n| n.get())
-        .unwrap_or(1);
-    let threads: Vec<usize> = match (&ov.threads, &run.threads) {
-        (Some(t), _) => t.iter().map(|&n| if n == 0 { all } else { n }).collect(),
-        (None, Some(t)) => {
-            let span = t.span();
-            let list: Vec<u32> = match t.get_ref() {
-                OneOrMany::One(n) => vec![*n],
-                OneOrMany::Many(v) => v.clone(),
-            };
-            if list.is_empty() {
-                return Err(cx.err(span, "run.threads", "needs at least one thread count"));
-            }
-            let mut out: Vec<usize> = Vec::new();
-            for n in list {
-                let n = if n == 0 { all } else { n as usize };
-                if n > 1024 {
-                    return Err(cx.err(
-                        span.clone(),
-                        "run.threads",
-                        format!("{n} threads is too many"),
-                    ));
-                }
-                if !out.contains(&n) {
-                    out.push(n);
-                }
-            }
-            out
-        }
-        (None, None) => vec![all],
-    };
-    let repeat = ov.repeat.unwrap_or(run.repeat.unwrap_or(5) as usize).max(1);
-    let warmup = run.warmup.unwrap_or(1) as usize;
-    let build_repeat = run.build_repeat.unwrap_or(1).max(1) as usize;
-    let triangle_tests = match &run.triangle_test {
-        None => vec![TriTestKind::Watertight],
-        Some(t) => {
-            let span = t.span();
-            let names = match t.get_ref() {
-                OneOrMany::One(s) => vec![s.clone()],
-                OneOrMany::Many(v) => v.clone(),
-            };
-            let mut out = Vec::new();
-            for n in names {
-                let k = TriTestKind::from_name(&n).ok_or_else(|| {
-                    cx.err(
-                        span.clone(),
-                        "run.triangle_test",
-                        format!("unknown triangle test `{n}` (known: watertight, moller-trumbore)"),
-                    )
-                })?;
-                if !out.contains(&k) {
-                    out.push(k);
-                }
-            }
-            if out.is_empty() {
-                return Err(cx.err(span, "run.triangle_test", "needs at least one test"));
-            }
-            out
-        }
-    };
-    let devices = match &run.devices {
-        None => vec![Device::Cpu],
-        Some(d) => {
-            let span = d.span();
-            let names = match d.get_ref() {
-                OneOrMany::One(s) => vec![s.clone()],
-                OneOrMany::Many(v) => v.clone(),
-            };
-            let mut out = Vec::new();
-            for n in names {
-                match Device::from_name(&n) {
-                    Some(d) if !out.contains(&d) => out.push(d),
-                    Some(_) => {}
-                    None => {
-                        return Err(cx.err(
-                            span.clone(),
-                            "run.devices",
-                            format!("unknown device `{n}` (known: cpu, gpu)"),
-                        ))
-                    }
-                }
-            }
-            if out.is_empty() {
-                return Err(cx.err(span, "run.devices", "needs at least one device"));
-            }
-            out
-        }
-    };
-    let devices = ov.devices.clone().unwrap_or(devices);
-    let backend = match (&ov.backend, &run.gpu_backend) {
-        (Some(b), _) => Some(*b),
-        (None, None) => None,
-        (None, Some(b)) => Some(tb_gpu::Backend::from_name(b.get_ref()).ok_or_else(|| {
-            cx.err(
-                b.span(),
-                "run.gpu_backend",
-                format!(
-                    "unknown backend `{}` (known: vulkan, gl, metal, dx12)",
-                    b.get_ref()
-                ),
-            )
-        })?),
-    };
-    let gpu = GpuSpec {
-        choice: tb_gpu::AdapterChoice {
-            name: ov.adapter.clone().or_else(|| run.gpu_adapter.clone()),
-            backend,
-        },
-        required: run.gpu_required.unwrap_or(true)
-            || ov
-                .devices
-                .as_ref()
-                .is_some_and(|d| d.contains(&Device::Gpu)),
-    };
-    let validate = match &run.validate {
-        None => Validate::All,
-        Some(v) => parse_validate(&cx, v, "run.validate")?,
-    };
-    let seed = run.seed.unwrap_or(1);
+    let RunSettings {
+        threads,
+        repeat,
+        warmup,
+        build_repeat,
+        triangle_tests,
+        devices,
+        gpu,
+        validate,
+        seed,
+    } = run::check_run(&cx, run, ov)?;
 
-    // [[structure]]
     if raw.structures.is_empty() {
         return Err(cx.err(0..0, "structure", "the config names no [[structure]]"));
     }
-    let mut structures = Vec::new();
-    for s in &raw.structures {
-        let family = registry.find(s.name.get_ref()).ok_or_else(|| {
-            let known: Vec<&str> = registry.families().iter().map(|s| s.name).collect();
-            cx.err(
-                s.name.span(),
-                "structure.name",
-                format!(
-                    "unknown structure `{}` (known: {})",
-                    s.name.get_ref(),
-                    known.join(", ")
-                ),
-            )
-        })?;
-        let infos = (family.traversals)();
-        let traversals = match &s.traversals {
-            None => (0..infos.len()).collect(),
-            Some(t) => {
-                let mut out = Vec::new();
-                for n in t.get_ref() {
-                    let i = infos.iter().position(|ti| ti.name == n).ok_or_else(|| {
-                        let known: Vec<&str> = infos.iter().map(|t| t.name).collect();
-                        cx.err(
-                            t.span(),
-                            "structure.traversals",
-                            format!(
-                                "`{}` has no traversal `{n}` (known: {})",
-                                family.name,
-                                known.join(", ")
-                            ),
-                        )
-                    })?;
-                    if !out.contains(&i) {
-                        out.push(i);
-                    }
-                }
-                if out.is_empty() {
-                    return Err(cx.err(
-                        t.span(),
-                        "structure.traversals",
-                        "needs at least one traversal",
-                    ));
-                }
-                out
-            }
-        };
-        let empty = toml::Table::new();
-        let (table, span) = match &s.params {
-            Some(p) => (p.get_ref(), p.span()),
-            None => (&empty, s.name.span()),
-        };
-        let param_sets = expand(family.params, &(family.defaults)(), table)
-            .map_err(|(key, msg)| cx.err(span.clone(), &format!("structure.params.{key}"), msg))?;
-        structures.push(StructureSpec {
-            family,
-            infos,
-            traversals,
-            param_sets,
-        });
-    }
+    let structures = raw
+        .structures
+        .iter()
+        .map(|s| structures::check_structure(&cx, s, registry))
+        .collect::<Result<Vec<_>, _>>()?;
 
-    // [[scene]]
     if raw.scenes.is_empty() {
         return Err(cx.err(0..0, "scene", "the config names no [[scene]]"));
     }
-    let mut scenes = Vec::new();
+    let mut scenes: Vec<SceneSpec> = Vec::new();
     let mut skipped_scenes = Vec::new();
     for s in &raw.scenes {
-        let src = s.source.get_ref();
-        let span = s.source.span();
-        let mut kinds = Vec::new();
-        match &s.rays {
-            None => kinds.push(RayKindSpec::Primary),
-            Some(r) => {
-                for k in r.get_ref() {
-                    let kind = RayKindSpec::parse(k).ok_or_else(|| {
-                        cx.err(
-                            r.span(),
-                            "scene.rays",
-                            format!(
-                                "unknown ray kind `{k}` (known: {})",
-                                RayKindSpec::NAMES.join(", ")
-                            ),
-                        )
-                    })?;
-                    if !kinds.contains(&kind) {
-                        kinds.push(kind);
-                    }
+        match scenes::check_scene(&cx, s, &scenes_root, validate, progress)? {
+            Ok(spec) => {
+                if scenes.iter().any(|o| o.label == spec.label) {
+                    return Err(cx.err(
+                        s.source.span(),
+                        "scene.name",
+                        format!(
+                            "two scenes are labelled `{}`; give one a `name`",
+                            spec.label
+                        ),
+                    ));
                 }
-                if kinds.is_empty() {
-                    return Err(cx.err(r.span(), "scene.rays", "needs at least one ray kind"));
-                }
+                scenes.push(spec)
             }
+            Err(note) => skipped_scenes.push(note),
         }
-        // Check the file exists before loading anything (cheap, reports every config error
-        // before the first expensive load).
-        if !src.starts_with("builtin:") {
-            let p = Path::new(src);
-            let full = if p.is_absolute() {
-                p.to_path_buf()
-            } else {
-                scenes_root.join(p)
-            };
-            if !full.is_file() && s.optional == Some(true) {
-                skipped_scenes.push(format!(
-                    "{}: skipped, not found under the scenes root {} (optional = true)",
-                    s.name.clone().unwrap_or_else(|| scene_label(src)),
-                    scenes_root.display()
-                ));
-                continue;
-            }
-            if !full.is_file() {
-                return Err(cx.err(
-                    span,
-                    "scene.source",
-                    format!(
-                        "{} not found (scenes root {}; set --scenes-root or TRACE_BENCH_SCENES)",
-                        full.display(),
-                        scenes_root.display()
-                    ),
-                ));
-            }
-        }
-        progress(src);
-        let scene = tb_scene::load(src, &scenes_root)
-            .map_err(|e| cx.err(span.clone(), "scene.source", e.to_string()))?;
-        if scene.triangles.is_empty() {
-            return Err(cx.err(span, "scene.source", "the scene has no triangles"));
-        }
-        let view = scene.view.clone();
-        let needs_camera = kinds.iter().any(|k| {
-            matches!(
-                k,
-                RayKindSpec::Primary | RayKindSpec::Shadow | RayKindSpec::Ao | RayKindSpec::Path
-            )
-        });
-        let camera = match (&s.camera, &view) {
-            (None, Some(v)) => Some(v.camera),
-            (None, None) => None,
-            (Some(c), v) => {
-                let rc = c.get_ref();
-                let base = v.as_ref().map(|v| v.camera);
-                let pick = |o: Option<[f32; 3]>,
-                            b: Option<Vec3>,
-                            key: &str|
-                 -> Result<Vec3, HarnessError> {
-                    o.map(Vec3::from).or(b).ok_or_else(|| {
-                        cx.err(
-                            c.span(),
-                            &format!("scene.camera.{key}"),
-                            "missing (the scene has no default view)",
-                        )
-                    })
-                };
-                let cam = Camera {
-                    eye: pick(rc.eye, base.map(|b| b.eye), "eye")?,
-                    target: pick(rc.target, base.map(|b| b.target), "target")?,
-                    up: pick(rc.up, Some(base.map(|b| b.up).unwrap_or(Vec3::Y)), "up")?,
-                    fov: rc.fov.or(base.map(|b| b.fov)).ok_or_else(|| {
-                        cx.err(
-                            c.span(),
-                            "scene.camera.fov",
-                            "missing (the scene has no default view)",
-                        )
-                    })?,
-                    width: rc.width.or(base.map(|b| b.width)).unwrap_or(512),
-                    height: rc.height.or(base.map(|b| b.height)).unwrap_or(512),
-                    order: rc.order.or(base.map(|b| b.order)).unwrap_or_default(),
-                };
-                cam.check()
-                    .map_err(|m| cx.err(c.span(), "scene.camera", m))?;
-                if cam.width as u64 * cam.height as u64 > 64 << 20 {
-                    return Err(cx.err(c.span(), "scene.camera", "more than 64M pixels"));
-                }
-                Some(cam)
-            }
-        };
-        if needs_camera && camera.is_none() {
-            return Err(cx.err(
-                span,
-                "scene.camera",
-                "primary, shadow, ao and path rays need a camera: this scene has no default view",
-            ));
-        }
-        if kinds.contains(&RayKindSpec::Stress) && scene.own_rays.is_empty() {
-            return Err(cx.err(
-                s.rays.as_ref().map(|r| r.span()).unwrap_or(span.clone()),
-                "scene.rays",
-                "ray kind `stress` needs a stress scene (builtin:stress/NAME) that comes with its own rays",
-            ));
-        }
-        let light = s
-            .light
-            .map(Vec3::from)
-            .or(view.as_ref().and_then(|v| v.light));
-        let diag = scene.bounds.diagonal();
-        let ao_distance =
-            s.ao.as_ref()
-                .and_then(|a| a.distance)
-                .or(view.as_ref().map(|v| v.ao_distance))
-                .unwrap_or(0.04 * diag);
-        if !(ao_distance > 0.0 && ao_distance.is_finite()) {
-            return Err(cx.err(span, "scene.ao.distance", "must be positive and finite"));
-        }
-        let ao_samples = s.ao.as_ref().and_then(|a| a.samples).unwrap_or(4);
-        if ao_samples == 0 || ao_samples > 1024 {
-            return Err(cx.err(span, "scene.ao.samples", "must be in 1..=1024"));
-        }
-        let bounces = s.path.as_ref().map(|p| p.bounces).unwrap_or(2);
-        if bounces == 0 || bounces > 64 {
-            return Err(cx.err(span, "scene.path.bounces", "must be in 1..=64"));
-        }
-        let random_count = s.random.as_ref().map(|r| r.count).unwrap_or(1 << 16) as usize;
-        if random_count == 0 || random_count > 1 << 28 {
-            return Err(cx.err(span, "scene.random.count", "must be in 1..=2^28"));
-        }
-        let label = s.name.clone().unwrap_or_else(|| scene_label(src));
-        if scenes.iter().any(|o: &SceneSpec| o.label == label) {
-            return Err(cx.err(
-                span,
-                "scene.name",
-                format!("two scenes are labelled `{label}`; give one a `name`"),
-            ));
-        }
-        let scene_validate = match &s.validate {
-            None => validate,
-            Some(v) => parse_validate(&cx, v, "scene.validate")?,
-        };
-        scenes.push(SceneSpec {
-            label,
-            scene,
-            rays: kinds,
-            camera,
-            light,
-            ao_samples,
-            ao_distance,
-            bounces,
-            random_count,
-            validate: scene_validate,
-        });
     }
 
     if scenes.is_empty() {

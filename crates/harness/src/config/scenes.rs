@@ -1,0 +1,190 @@
+//! The `[[scene]]` tables: ray kinds, camera (over the scene's default view), light, AO,
+//! path and random settings; the scene loaded.
+
+use super::{parse_validate, scene_label, Ctx, RawScene, RayKindSpec, SceneSpec, Validate};
+use crate::error::HarnessError;
+use std::path::Path;
+use tb_core::Vec3;
+use tb_scene::{Camera, View};
+
+/// Check one scene table and load the scene: `Ok(Err(note))` when an optional file scene is
+/// absent and skipped.
+pub(super) fn check_scene(
+    cx: &Ctx,
+    s: &RawScene,
+    scenes_root: &Path,
+    validate: Validate,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Result<SceneSpec, String>, HarnessError> {
+    let src = s.source.get_ref();
+    let span = s.source.span();
+    let mut kinds = Vec::new();
+    match &s.rays {
+        None => kinds.push(RayKindSpec::Primary),
+        Some(r) => {
+            for k in r.get_ref() {
+                let kind = RayKindSpec::parse(k).ok_or_else(|| {
+                    cx.err(
+                        r.span(),
+                        "scene.rays",
+                        format!(
+                            "unknown ray kind `{k}` (known: {})",
+                            RayKindSpec::NAMES.join(", ")
+                        ),
+                    )
+                })?;
+                if !kinds.contains(&kind) {
+                    kinds.push(kind);
+                }
+            }
+            if kinds.is_empty() {
+                return Err(cx.err(r.span(), "scene.rays", "needs at least one ray kind"));
+            }
+        }
+    }
+    // Check the file exists before loading anything (cheap, reports every config error
+    // before the first expensive load).
+    if !src.starts_with("builtin:") {
+        let p = Path::new(src);
+        let full = if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            scenes_root.join(p)
+        };
+        if !full.is_file() && s.optional == Some(true) {
+            return Ok(Err(format!(
+                "{}: skipped, not found under the scenes root {} (optional = true)",
+                s.name.clone().unwrap_or_else(|| scene_label(src)),
+                scenes_root.display()
+            )));
+        }
+        if !full.is_file() {
+            return Err(cx.err(
+                span,
+                "scene.source",
+                format!(
+                    "{} not found (scenes root {}; set --scenes-root or TRACE_BENCH_SCENES)",
+                    full.display(),
+                    scenes_root.display()
+                ),
+            ));
+        }
+    }
+    progress(src);
+    let scene = tb_scene::load(src, &scenes_root)
+        .map_err(|e| cx.err(span.clone(), "scene.source", e.to_string()))?;
+    if scene.triangles.is_empty() {
+        return Err(cx.err(span, "scene.source", "the scene has no triangles"));
+    }
+    let view = scene.view.clone();
+    let needs_camera = kinds.iter().any(|k| {
+        matches!(
+            k,
+            RayKindSpec::Primary | RayKindSpec::Shadow | RayKindSpec::Ao | RayKindSpec::Path
+        )
+    });
+    let camera = check_camera(cx, s, view.as_ref())?;
+    if needs_camera && camera.is_none() {
+        return Err(cx.err(
+            span,
+            "scene.camera",
+            "primary, shadow, ao and path rays need a camera: this scene has no default view",
+        ));
+    }
+    if kinds.contains(&RayKindSpec::Stress) && scene.own_rays.is_empty() {
+        return Err(cx.err(
+            s.rays.as_ref().map(|r| r.span()).unwrap_or(span.clone()),
+            "scene.rays",
+            "ray kind `stress` needs a stress scene (builtin:stress/NAME) that comes with its own rays",
+        ));
+    }
+    let light = s
+        .light
+        .map(Vec3::from)
+        .or(view.as_ref().and_then(|v| v.light));
+    let diag = scene.bounds.diagonal();
+    let ao_distance =
+        s.ao.as_ref()
+            .and_then(|a| a.distance)
+            .or(view.as_ref().map(|v| v.ao_distance))
+            .unwrap_or(0.04 * diag);
+    if !(ao_distance > 0.0 && ao_distance.is_finite()) {
+        return Err(cx.err(span, "scene.ao.distance", "must be positive and finite"));
+    }
+    let ao_samples = s.ao.as_ref().and_then(|a| a.samples).unwrap_or(4);
+    if ao_samples == 0 || ao_samples > 1024 {
+        return Err(cx.err(span, "scene.ao.samples", "must be in 1..=1024"));
+    }
+    let bounces = s.path.as_ref().map(|p| p.bounces).unwrap_or(2);
+    if bounces == 0 || bounces > 64 {
+        return Err(cx.err(span, "scene.path.bounces", "must be in 1..=64"));
+    }
+    let random_count = s.random.as_ref().map(|r| r.count).unwrap_or(1 << 16) as usize;
+    if random_count == 0 || random_count > 1 << 28 {
+        return Err(cx.err(span, "scene.random.count", "must be in 1..=2^28"));
+    }
+    let label = s.name.clone().unwrap_or_else(|| scene_label(src));
+    let scene_validate = match &s.validate {
+        None => validate,
+        Some(v) => parse_validate(cx, v, "scene.validate")?,
+    };
+    Ok(Ok(SceneSpec {
+        label,
+        scene,
+        rays: kinds,
+        camera,
+        light,
+        ao_samples,
+        ao_distance,
+        bounces,
+        random_count,
+        validate: scene_validate,
+    }))
+}
+
+/// The camera of a scene: the config's, filling what it leaves out from the default view.
+fn check_camera(
+    cx: &Ctx,
+    s: &RawScene,
+    view: Option<&View>,
+) -> Result<Option<Camera>, HarnessError> {
+    Ok(match (&s.camera, view) {
+        (None, Some(v)) => Some(v.camera),
+        (None, None) => None,
+        (Some(c), v) => {
+            let rc = c.get_ref();
+            let base = v.map(|v| v.camera);
+            let pick =
+                |o: Option<[f32; 3]>, b: Option<Vec3>, key: &str| -> Result<Vec3, HarnessError> {
+                    o.map(Vec3::from).or(b).ok_or_else(|| {
+                        cx.err(
+                            c.span(),
+                            &format!("scene.camera.{key}"),
+                            "missing (the scene has no default view)",
+                        )
+                    })
+                };
+            let cam = Camera {
+                eye: pick(rc.eye, base.map(|b| b.eye), "eye")?,
+                target: pick(rc.target, base.map(|b| b.target), "target")?,
+                up: pick(rc.up, Some(base.map(|b| b.up).unwrap_or(Vec3::Y)), "up")?,
+                fov: rc.fov.or(base.map(|b| b.fov)).ok_or_else(|| {
+                    cx.err(
+                        c.span(),
+                        "scene.camera.fov",
+                        "missing (the scene has no default view)",
+                    )
+                })?,
+                width: rc.width.or(base.map(|b| b.width)).unwrap_or(512),
+                height: rc.height.or(base.map(|b| b.height)).unwrap_or(512),
+                order: rc.order.or(base.map(|b| b.order)).unwrap_or_default(),
+            };
+            cam.check()
+                .map_err(|m| cx.err(c.span(), "scene.camera", m))?;
+            if cam.width as u64 * cam.height as u64 > 64 << 20 {
+                return Err(cx.err(c.span(), "scene.camera", "more than 64M pixels"));
+            }
+            Some(cam)
+        }
+    })
+}
