@@ -17,16 +17,16 @@
 //! the depth-first one pays nothing for the option. The node array is 64-byte aligned in both.
 
 use crate::KdNode;
-use serde::{Deserialize, Serialize};
 
-/// Which node layout a [`crate::KdTree`] is stored in (parameter `layout`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum KdLayout {
-    /// Depth-first order, left child next to the parent (review §6.1).
-    DepthFirst,
-    /// Regular subtrees of `treelet_height` levels in aligned blocks (review §6.2).
-    Treelet,
+tb_core::choice! {
+    /// Which node layout a [`crate::KdTree`] is stored in (parameter `layout`).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum KdLayout {
+        /// Depth-first order, left child next to the parent (review §6.1).
+        DepthFirst = "depth-first",
+        /// Regular subtrees of `treelet_height` levels in aligned blocks (review §6.2).
+        Treelet = "treelet",
+    }
 }
 
 /// Child addressing of a node layout.

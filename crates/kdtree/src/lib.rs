@@ -9,17 +9,28 @@
 //!   that in O(N log N)"): start, end and planar events per axis, planar triangles put on the
 //!   cheaper side, an empty-space bonus, termination when the leaf is not costlier than the
 //!   best split or at the depth limit. The cost measure is pluggable ([`BoxMeasure`]).
+//!   Parameters: [`KdParams`], declared with their defaults, ranges and docs; the registry
+//!   builds through [`FAMILY`].
 //! - **Layout** (review §6, module `layout`): 8-byte [`KdNode`]s, leaves pointing into
 //!   [`KdTree::prim_refs`] (original triangle indices), in depth-first order with the left
 //!   child next to its parent (§6.1, the default) or in treelets: subtrees of a few levels in
 //!   aligned blocks, children inside a block addressed implicitly (§6.2, Havran 1999).
 //!   Every traversal is compiled per layout ([`Layout`]) and visits the same nodes in both.
-//! - **Traversals** ([`TRAVERSALS`]): module `traverse`, the stack-based algorithms of review
-//!   §3.2 (`recursive-direction`, `havran` (TA^B_rec), `recursive-origin`); module
-//!   `stackless`, the restart-type ones of §3.1, §3.3, §5.1, §5.2 (`restart`, `push-down`,
-//!   `short-stack`, `sequential`, `backtrack`, `ropes`). `recursive-origin` (origins in split
-//!   planes) is inherently not robust; the others answer every ray of the conformance suite
-//!   as brute force does.
+//! - **Traversals** (the table `<KdTree as Structure>::TRAVERSALS`: name, paper and section,
+//!   step cap, auxiliary arrays read, kernel): module `traverse`, the stack-based algorithms
+//!   of review §3.2 (`recursive-direction`, `havran` (TA^B_rec), `recursive-origin`) and §5
+//!   (`branchless`, `stack-spilling`); module `stackless`, the restart-type ones of §3.1, §3.3,
+//!   §5.1, §5.2 (`restart`, `push-down`, `short-stack`, `sequential`, `backtrack`, `ropes`).
+//!   `recursive-origin` (origins in split planes) is inherently not robust; the others answer
+//!   every ray of the conformance suite as brute force does.
+//! - **Views and starts** (module `view`): the kernels read a borrowed [`KdView`] (nodes,
+//!   references, triangles, root cell, layout, the parameters they need) and begin every walk
+//!   at a [`KdStart`] (a node and its cell): the root, or a node below it that then plays the
+//!   root's part for every traversal ([`KdTree::subtree`]). Trees may share one triangle array
+//!   ([`KdTree::build_shared`]). The auxiliary arrays of `backtrack` ([`BackNode`]: cell and
+//!   parent per node) and `ropes` (six ropes per node) are built only when one of those
+//!   traversals is traced or prepared; each traversal's memory figure counts the arrays it
+//!   reads, built or not (review Table 3, "additional memory").
 //!
 //! Robustness: triangle tests are never restricted to a leaf's interval (only to
 //! `[tmin, closest hit)`), and traversal stops only when the next node to visit starts beyond
@@ -31,224 +42,104 @@ mod build;
 mod layout;
 mod stackless;
 mod traverse;
+mod view;
 
-use serde::{Deserialize, Serialize};
+#[cfg(test)]
+mod start_tests;
+
+use stackless::Stackless;
+use std::sync::{Arc, OnceLock};
 use tb_core::{
-    dispatch, Aabb, Accel, BuildReport, HitRecord, MemoryReport, Query, Ray, TraversalInfo,
-    TraversalStats, TriTestKind, Triangle,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Family, MemoryReport, ParamKind, Params,
+    Structure, Traversal, TraversalInfo, Triangle,
 };
+use traverse::Tree;
+use view::Aux;
 
 pub use layout::{DepthFirst, KdLayout, Layout, Nodes, Treelet};
 pub use stackless::{MAX_SHORT_STACK, STEP_CAP};
 pub use traverse::STACK_SIZE;
+pub use view::{BackNode, KdStart, KdView};
 
-/// The traversals every [`KdTree`] offers (index = position, as passed to [`Accel::trace`]).
-pub const TRAVERSALS: &[TraversalInfo] = &[
-    TraversalInfo {
-        name: "recursive-direction",
-        doc: "stack-based, near/far child by the sign of the ray direction, entry/exit distances \
-              on the stack (Keller 1997, Wald 2004; Hapala & Havran 2011 §3.2, Alg. 2); zero \
-              direction components handled by the sign of the zero (no epsilon)",
-    },
-    TraversalInfo {
-        name: "havran",
-        doc: "Havran's robust TA^B_rec: entry/exit points on the stack, near/far decided by \
-              comparing point coordinates with the split (Havran 2000; Hapala & Havran 2011 \
-              §3.2); rays lying in a split plane visit both children",
-    },
-    TraversalInfo {
-        name: "recursive-origin",
-        doc: "stack-based, near/far child by the side of the split plane holding the ray origin \
-              (Jansen 1986, Arvo 1988; Hapala & Havran 2011 §3.2, Alg. 2): inherently not \
-              robust for origins in a split plane (Havran et al. 1997)",
-    },
-    TraversalInfo {
-        name: "restart",
-        doc: "stackless kd-restart: after each leaf restart at the root with the entry distance \
-              set to the leaf's exit (Foley & Sugerman 2005; Hapala & Havran 2011 §5.1), \
-              t-intervals and exact comparisons, no epsilon step",
-    },
-    TraversalInfo {
-        name: "push-down",
-        doc: "kd-push-down: restart at the deepest node holding the whole remaining segment \
-              (Horn et al. 2007; Hapala & Havran 2011 §5.2, Alg. 4)",
-    },
-    TraversalInfo {
-        name: "short-stack",
-        doc: "push-down with a circular short stack of `short_stack` far children, restarting \
-              from the pushed-down node when it runs dry (Horn et al. 2007; Hapala & Havran \
-              2011 §5.2)",
-    },
-    TraversalInfo {
-        name: "sequential",
-        doc: "Kaplan's sequential traversal: locate the leaf holding the ray point at the entry \
-              distance from the root, leave it through its cell's exit (Kaplan 1985; Hapala & \
-              Havran 2011 §3.1, Alg. 1), no epsilon step: crossed faces' coordinates exact, \
-              rays a point cannot decide (edges, corners) handed to `restart`",
-    },
-    TraversalInfo {
-        name: "backtrack",
-        doc: "kd-backtrack: parent links and node cells in an auxiliary array; from a leaf climb \
-              until a cell extends beyond the leaf's exit, then descend (Foley & Sugerman 2005; \
-              Hapala & Havran 2011 §5.1.1, Alg. 3)",
-    },
-    TraversalInfo {
-        name: "ropes",
-        doc: "neighbour links: from a leaf follow the pushed-down rope of its exit face (leaf \
-              cells and six ropes per node in auxiliary arrays) and locate the next leaf below \
-              it (MacDonald & Booth 1990, Havran et al. 1998, Popov et al. 2007; Hapala & \
-              Havran 2011 §3.3)",
-    },
-    TraversalInfo {
-        name: "branchless",
-        doc: "recursive-direction with a branchless node step: far and near written to the \
-              stack, the pointer moved by the two comparisons (Hapala 2009; Hapala & Havran \
-              2011 §5.5, Alg. 5)",
-    },
-    TraversalInfo {
-        name: "stack-spilling",
-        doc: "short circular stack of `short_stack` entries whose oldest entry is spilled to a \
-              full memory stack on overflow and refilled on underflow, never restarting \
-              (Novák 2009; Hapala & Havran 2011 §5.2, Fig. 8)",
-    },
-];
+/// The auxiliary array of cells and parents ([`KdTree::back_nodes`]), read by `backtrack` and
+/// `ropes`.
+pub const BACKTRACK_AUX: &str = "backtrack";
+/// The auxiliary array of six ropes per node ([`KdTree::ropes`]), read by `ropes`.
+pub const ROPES_AUX: &str = "ropes";
 
-/// The traversals that end a ray after [`KdParams::step_cap`] steps.
-const CAPPED: &[&str] = &[
-    "restart",
-    "push-down",
-    "short-stack",
-    "sequential",
-    "backtrack",
-    "ropes",
-];
+/// The kd-tree in the registry.
+pub static FAMILY: Family = Family::new::<KdTree, KdParams>(
+    "SAH kd-tree with perfect splits, 8-byte nodes; the traversals of the kd-tree review \
+     (Hapala and Havran 2011)",
+    |tris, set| {
+        build_with(set, |p: &KdParams| {
+            KdTree::try_build(tris.clone(), p, &SurfaceArea)
+        })
+    },
+);
 
-/// Which split-search algorithm the builder uses.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum KdBuilder {
-    /// Exact SAH sweep over events sorted once at the root and passed down, only the events
-    /// of re-clipped straddling triangles sorted per node: O(N log N) (Wald and Havran 2006,
-    /// §5). The same tree as `sweep-nlog2n`.
-    Sweep,
-    /// Exact SAH sweep over the sorted events of each node, the events sorted anew at every
-    /// node: O(N log² N) (Wald and Havran 2006, §4.2).
-    SweepNlog2n,
-    /// SAH evaluated only at the `bins − 1` inner boundaries of `bins` equal intervals of the
-    /// node cell on each axis, from per-bin counts of box starts and ends (min-max binning,
-    /// Shevtsov et al. 2007; Hapala and Havran 2011 §2): O(N) per node.
-    Binned,
+tb_core::choice! {
+    /// Which split-search algorithm the builder uses.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum KdBuilder {
+        /// Exact SAH sweep over events sorted once at the root and passed down, only the events
+        /// of re-clipped straddling triangles sorted per node: O(N log N) (Wald and Havran 2006,
+        /// §5). The same tree as `sweep-nlog2n`.
+        Sweep = "sweep",
+        /// Exact SAH sweep over the sorted events of each node, the events sorted anew at every
+        /// node: O(N log² N) (Wald and Havran 2006, §4.2).
+        SweepNlog2n = "sweep-nlog2n",
+        /// SAH evaluated only at the `bins − 1` inner boundaries of `bins` equal intervals of
+        /// the node cell on each axis, from per-bin counts of box starts and ends (min-max
+        /// binning, Shevtsov et al. 2007; Hapala and Havran 2011 §2): O(N) per node.
+        Binned = "binned",
+    }
 }
 
-/// Build parameters of [`KdTree::build`].
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct KdParams {
-    /// Split-search algorithm: `sweep` (exact, O(N log N)), `sweep-nlog2n` (exact, the same
-    /// tree, O(N log² N)) or `binned`. Default `sweep`.
-    pub builder: KdBuilder,
-    /// Bins per axis of the `binned` builder (ignored by the others). In `2..=1024`;
-    /// default 32.
-    pub bins: u32,
-    /// SAH cost of a traversal step, `C_trav`. Finite, > 0; default 1.
-    pub c_trav: f32,
-    /// SAH cost of one ray–triangle test, `C_isect`. Finite, > 0; default 1.5 (Hapala and
-    /// Havran's review uses `C_trav ≈ 1`, `C_isect ≈ 1.5`).
-    pub c_isect: f32,
-    /// Empty-space bonus: the SAH cost of a split with one empty child is multiplied by
-    /// `1 − empty_bonus` (Wald and Havran 2006 use 0.8 as the factor, i.e. bonus 0.2).
-    /// In `0..1`; default 0.2.
-    pub empty_bonus: f32,
-    /// Depth limit (root depth 0); 0 means automatic: `round(8 + 1.3·log2 N)` (Havran 2000),
-    /// capped at [`STACK_SIZE`]. In `0..=STACK_SIZE`; default 0.
-    pub max_depth: u32,
-    /// Nodes with at most this many triangles always become leaves. In `0..=1024`; default 1.
-    pub min_leaf: u32,
-    /// Entries of the circular stack of the `short-stack` traversal (Horn et al. 2007). In
-    /// `1..=MAX_SHORT_STACK` (32); default 4.
-    pub short_stack: u32,
-    /// Per-ray step cap of the restart-type traversals (`restart` … `ropes`): after this many
-    /// steps (nodes visited) a ray is ended with its closest hit so far and counted in
-    /// `capped_rays` (review §3.1: an epsilon step can loop forever; these walks provably end,
-    /// the cap is a guard). At least 1; default [`STEP_CAP`] (100 000).
-    pub step_cap: u32,
-    /// Node layout (review §6): `depth-first` (left child next to its parent) or `treelet`
-    /// (subtrees of `treelet_height` levels in aligned blocks, Havran 1999). Every traversal
-    /// runs on either and visits the same nodes. Default `depth-first`.
-    pub layout: KdLayout,
-    /// Levels per treelet block of the `treelet` layout: blocks of `2^h` 8-byte slots (3: one
-    /// 64-byte cache line). In `2..=8`; default 3.
-    pub treelet_height: u32,
-}
-
-impl Default for KdParams {
-    fn default() -> Self {
-        Self {
-            builder: KdBuilder::Sweep,
-            bins: 32,
-            c_trav: 1.0,
-            c_isect: 1.5,
-            empty_bonus: 0.2,
-            max_depth: 0,
-            min_leaf: 1,
-            short_stack: 4,
-            step_cap: STEP_CAP,
-            layout: KdLayout::DepthFirst,
-            treelet_height: 3,
-        }
+tb_core::params! {
+    /// Build parameters of [`KdTree::build`]; each field's doc, default and range is its entry
+    /// in the parameter table ([`Params::SPECS`]).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct KdParams {
+        /// Split search: exact SAH event sweep, O(N log N) (`sweep`) or O(N log² N)
+        /// (`sweep-nlog2n`, the same tree) (Wald and Havran 2006), or min-max binning
+        /// (`binned`, Shevtsov et al. 2007).
+        builder: KdBuilder = KdBuilder::Sweep, ParamKind::Choice(KdBuilder::NAMES);
+        /// Bins per axis, `binned` builder only.
+        bins: u32 = 32, ParamKind::Int { min: 2, max: 1024 };
+        /// SAH traversal cost C_trav (Hapala and Havran 2011, section 2).
+        c_trav: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
+        /// SAH triangle test cost C_isect (the review uses C_trav ≈ 1, C_isect ≈ 1.5).
+        c_isect: f32 = 1.5, ParamKind::Float { min: 1e-6, max: 1e6 };
+        /// A split with an empty side costs (1 - bonus) times the SAH (Wald and Havran 2006
+        /// use the factor 0.8, i.e. bonus 0.2).
+        empty_bonus: f32 = 0.2, ParamKind::Float { min: 0.0, max: 0.999 };
+        /// Depth limit (root depth 0); 0 = round(8 + 1.3 log2 N) (Havran 2000), capped at
+        /// the traversal stack (64 entries).
+        max_depth: u32 = 0, ParamKind::Int { min: 0, max: STACK_SIZE as i64 };
+        /// Nodes with at most this many triangles become leaves.
+        min_leaf: u32 = 1, ParamKind::Int { min: 0, max: 1024 };
+        /// Entries of the short stack (`short-stack` traversal, Horn et al. 2007;
+        /// `stack-spilling`, Novák 2009).
+        short_stack: u32 = 4, ParamKind::Int { min: 1, max: MAX_SHORT_STACK as i64 };
+        /// Per-ray step cap of the restart-type traversals (`restart` … `ropes`); capped rays
+        /// are ended with their closest hit so far and counted (a guard: these walks end).
+        step_cap: u32 = STEP_CAP, ParamKind::Int { min: 1, max: 1 << 30 };
+        /// Node layout: left child next to its parent (`depth-first`), or subtrees in aligned
+        /// blocks (`treelet`) (Havran 1999; Hapala and Havran 2011, section 6); every
+        /// traversal visits the same nodes in both.
+        layout: KdLayout = KdLayout::DepthFirst, ParamKind::Choice(KdLayout::NAMES);
+        /// Levels per treelet block, 2^h 8-byte slots (3 = one 64-byte cache line).
+        treelet_height: u32 = 3, ParamKind::Int { min: 2, max: 8 };
     }
 }
 
 impl KdParams {
-    /// Check the parameters (ranges as documented on the fields).
-    pub fn check(&self) -> Result<(), String> {
-        if !(self.c_trav > 0.0 && self.c_trav.is_finite()) {
-            return Err(format!(
-                "c_trav must be positive and finite, got {}",
-                self.c_trav
-            ));
-        }
-        if !(self.c_isect > 0.0 && self.c_isect.is_finite()) {
-            return Err(format!(
-                "c_isect must be positive and finite, got {}",
-                self.c_isect
-            ));
-        }
-        if !(0.0..1.0).contains(&self.empty_bonus) {
-            return Err(format!(
-                "empty_bonus must be in [0, 1), got {}",
-                self.empty_bonus
-            ));
-        }
-        if self.max_depth as usize > STACK_SIZE {
-            return Err(format!(
-                "max_depth must be at most {STACK_SIZE} (0 = automatic), got {}",
-                self.max_depth
-            ));
-        }
-        if self.min_leaf > 1024 {
-            return Err(format!(
-                "min_leaf must be at most 1024, got {}",
-                self.min_leaf
-            ));
-        }
-        if !(2..=1024).contains(&self.bins) {
-            return Err(format!("bins must be in 2..=1024, got {}", self.bins));
-        }
-        if !(1..=MAX_SHORT_STACK as u32).contains(&self.short_stack) {
-            return Err(format!(
-                "short_stack must be in 1..={MAX_SHORT_STACK}, got {}",
-                self.short_stack
-            ));
-        }
-        if self.step_cap == 0 {
-            return Err("step_cap must be at least 1".into());
-        }
-        if !(2..=8).contains(&self.treelet_height) {
-            return Err(format!(
-                "treelet_height must be in 2..=8, got {}",
-                self.treelet_height
-            ));
+    /// Check every field against its range in the parameter table ([`Params::SPECS`]).
+    pub fn check(&self) -> Result<(), AccelError> {
+        for ((name, value), spec) in self.to_set().0.iter().zip(Self::SPECS) {
+            spec.check(value)
+                .map_err(|e| AccelError::Params(format!("kd-tree parameter `{name}`: {e}")))?;
         }
         Ok(())
     }
@@ -292,7 +183,7 @@ impl BoxMeasure for SurfaceArea {
 /// default depth-first order the left child is the next node and the link is the right
 /// child's index; in the treelet layout the link is used only on a block's lowest level.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct KdNode {
     pub bits: u32,
     pub data: u32,
@@ -356,7 +247,11 @@ impl KdNode {
     }
 }
 
-/// A kd-tree over triangles (see the crate doc).
+/// A kd-tree over triangles (see the crate doc): its nodes, references and triangles (shared:
+/// several trees may index one triangle array), the root cell, its parameters, the start of
+/// every traversal's walks (the root, or a node of [`KdTree::subtree`]) and the auxiliary
+/// arrays of `backtrack` and `ropes`, built on first use ([`KdTree::back_nodes`],
+/// [`KdTree::ropes`]) and shared by clones.
 ///
 /// Per-ray counters (`TraversalStats`) of the stack traversals (the restart-type ones count
 /// as documented in module `stackless`: `restarts` and cell-interval `boxes` added):
@@ -364,96 +259,139 @@ impl KdNode {
 /// - `prims`: ray–triangle tests (a triangle referenced by several leaves may be tested more
 ///   than once: no mailboxing);
 /// - `planes`: ray–split-plane distances computed (`havran`: only where the ray crosses);
-/// - `boxes`: 1 (the root cell, tested first);
+/// - `boxes`: 1 (the start cell, tested first);
 /// - `steps`: nodes visited (`interior + leaves`);
 /// - `restarts`: 0.
 #[derive(Clone, Debug)]
 pub struct KdTree {
-    nodes: Nodes,
-    prim_refs: Vec<u32>,
-    tris: Vec<Triangle>,
+    nodes: Arc<Nodes>,
+    prim_refs: Arc<[u32]>,
+    tris: Arc<[Triangle]>,
     bounds: Aabb,
     params: KdParams,
-    /// Per node: its cell and its parent (the `backtrack` traversal's auxiliary array; cells
-    /// also used by `ropes`).
-    back: Vec<BackNode>,
-    /// Per node: its six ropes (the `ropes` traversal's auxiliary array).
-    ropes: Vec<[u32; 6]>,
+    /// Where every traversal's walks begin.
+    start: KdStart,
+    aux: Arc<AuxArrays>,
 }
 
-/// The auxiliary record of a node for the `backtrack` traversal (Foley and Sugerman 2005):
-/// the node's cell and its parent's index (0 for the root). 32 bytes, `#[repr(C)]`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BackNode {
-    pub min: [f32; 3],
-    pub parent: u32,
-    pub max: [f32; 3],
-    pub pad: u32,
+/// The auxiliary arrays, each built on first use.
+#[derive(Debug, Default)]
+struct AuxArrays {
+    /// Per node: its cell and its parent ([`BACKTRACK_AUX`]).
+    back: OnceLock<Vec<BackNode>>,
+    /// Per node: its six ropes ([`ROPES_AUX`]).
+    ropes: OnceLock<Vec<[u32; 6]>>,
 }
-
-const _: () = assert!(std::mem::size_of::<BackNode>() == 32);
 
 impl KdTree {
-    /// Build a kd-tree over `tris` with `params` and the surface-area measure
-    /// (single-threaded). Panics if `params.check()` fails or there are 2^30 or more triangles.
-    /// Triangles with non-finite vertices are left out (no ray can hit them).
+    /// Build a kd-tree over a copy of `tris` with `params` and the surface-area measure
+    /// (single-threaded). Panics if `params.check()` fails or there are 2^30 or more triangles
+    /// ([`KdTree::try_build`] returns those as errors). Triangles with non-finite vertices are
+    /// left out (no ray can hit them).
     pub fn build(tris: &[Triangle], params: &KdParams) -> KdTree {
-        Self::build_with(tris, params, &SurfaceArea)
+        Self::build_shared(tris.into(), params)
     }
 
-    /// [`KdTree::build`] with another cell measure for the SAH.
-    pub fn build_with<M: BoxMeasure>(tris: &[Triangle], params: &KdParams, m: &M) -> KdTree {
-        if let Err(e) = params.check() {
-            panic!("invalid kd-tree parameters: {e}");
+    /// [`KdTree::build`] over shared triangles (no copy; several trees may index one array).
+    pub fn build_shared(tris: Arc<[Triangle]>, params: &KdParams) -> KdTree {
+        Self::try_build(tris, params, &SurfaceArea).unwrap_or_else(|e| panic!("kd-tree: {e}"))
+    }
+
+    /// Build over shared triangles with the cell measure `m` for the SAH; `Err` for parameters
+    /// out of range or 2^30 or more triangles (the registry's path).
+    pub fn try_build<M: BoxMeasure>(
+        tris: Arc<[Triangle]>,
+        params: &KdParams,
+        m: &M,
+    ) -> Result<KdTree, AccelError> {
+        params.check()?;
+        const LIMIT: u64 = (1 << 30) - 1;
+        if tris.len() as u64 > LIMIT {
+            return Err(AccelError::TooLarge {
+                what: "kd-tree triangles",
+                count: tris.len() as u64,
+                limit: LIMIT,
+            });
         }
-        assert!(
-            tris.len() < (1 << 30),
-            "a kd-tree holds fewer than 2^30 triangles"
-        );
-        let out = build::build(tris, params, m);
+        let out = build::build(&tris, params, m);
         let nodes = match params.layout {
             KdLayout::DepthFirst => Nodes::from_slice(&out.nodes),
             KdLayout::Treelet => {
                 Nodes::from_slice(&layout::to_treelets(&out.nodes, params.treelet_height))
             }
         };
-        let mut kd = KdTree {
-            nodes,
-            prim_refs: out.prim_refs,
-            tris: tris.to_vec(),
+        Ok(KdTree {
+            nodes: Arc::new(nodes),
+            prim_refs: out.prim_refs.into(),
+            tris,
             bounds: out.bounds,
             params: *params,
-            back: Vec::new(),
-            ropes: Vec::new(),
-        };
-        let mut back = vec![
-            BackNode {
-                min: [0.0; 3],
-                parent: 0,
-                max: [0.0; 3],
-                pad: 0,
-            };
-            kd.nodes.len()
-        ];
-        kd.walk(|i, cell, _| {
-            back[i].min = cell.min.to_array();
-            back[i].max = cell.max.to_array();
-            if !kd.nodes[i].is_leaf() {
-                let (l, r) = kd.children(i);
-                back[l].parent = i as u32;
-                back[r].parent = i as u32;
-            }
-        });
-        kd.back = back;
-        kd.ropes = stackless::build_ropes(&kd);
-        kd
+            start: KdStart {
+                node: 0,
+                cell: out.bounds,
+            },
+            aux: Arc::default(),
+        })
     }
 
-    /// The `backtrack` traversal's auxiliary array (cell and parent per node), included in
-    /// [`Accel::memory`].
+    /// What the kernels read: nodes, references, triangles, root cell, layout and the
+    /// parameters of the walks.
+    pub fn view(&self) -> KdView<'_> {
+        KdView {
+            nodes: &self.nodes,
+            refs: &self.prim_refs,
+            tris: &self.tris,
+            bounds: self.bounds,
+            layout: self.params.layout,
+            treelet_height: self.params.treelet_height,
+            short_stack: self.params.short_stack,
+            step_cap: self.params.step_cap,
+        }
+    }
+
+    /// Where every traversal's walks begin: the root, or the node of [`KdTree::subtree`].
+    pub fn start(&self) -> KdStart {
+        self.start
+    }
+
+    /// This tree (its arrays shared, not copied) traced from node `node`: every traversal
+    /// clips rays to the node's cell and treats the node as the root (see [`KdStart`]).
+    /// Figures, memory and `validate` stay the whole tree's. `None` when `node` is no node
+    /// of the tree.
+    pub fn subtree(&self, node: usize) -> Option<KdTree> {
+        let start = self.view().start_at(node)?;
+        Some(KdTree {
+            start,
+            ..self.clone()
+        })
+    }
+
+    /// The walk input of the kernels compiled for layout `l`, from this tree's start.
+    fn tree<L: Layout>(&self, l: L) -> Tree<'_, L> {
+        Tree::new(self.view(), l, self.start)
+    }
+
+    /// The [`BACKTRACK_AUX`] array (cell and parent per node, read by `backtrack` and
+    /// `ropes`), built on first use.
     pub fn back_nodes(&self) -> &[BackNode] {
-        &self.back
+        self.aux.back.get_or_init(|| view::back_nodes(&self.view()))
+    }
+
+    /// The [`ROPES_AUX`] array (six ropes per node, read by `ropes`; `u32::MAX`: the face is
+    /// on the root cell), built on first use.
+    pub fn ropes(&self) -> &[[u32; 6]] {
+        self.aux
+            .ropes
+            .get_or_init(|| view::ropes(&self.view(), self.back_nodes()))
+    }
+
+    /// Whether auxiliary array `aux` ([`BACKTRACK_AUX`], [`ROPES_AUX`]) has been built.
+    pub fn aux_built(&self, aux: &str) -> bool {
+        match aux {
+            BACKTRACK_AUX => self.aux.back.get().is_some(),
+            ROPES_AUX => self.aux.ropes.get().is_some(),
+            _ => false,
+        }
     }
 
     /// The flattened nodes, root first (see [`KdNode`]). Empty when no triangle is finite.
@@ -473,6 +411,11 @@ impl KdTree {
         &self.tris
     }
 
+    /// The triangles, shared (to build further trees over the same array).
+    pub fn shared_triangles(&self) -> &Arc<[Triangle]> {
+        &self.tris
+    }
+
     /// The root cell (bounds of the finite triangles).
     pub fn bounds(&self) -> Aabb {
         self.bounds
@@ -486,29 +429,7 @@ impl KdTree {
     /// The children `(left, right)` of interior node `i` in this tree's layout (for code off
     /// the traversals' hot paths; the kernels are compiled per [`Layout`]).
     pub fn children(&self, i: usize) -> (usize, usize) {
-        let n = self.nodes[i];
-        match self.params.layout {
-            KdLayout::DepthFirst => DepthFirst.children(i, n),
-            KdLayout::Treelet => Treelet::new(self.params.treelet_height).children(i, n),
-        }
-    }
-
-    /// Call `f(node_index, cell, depth)` for every node, depth-first from the root.
-    fn walk(&self, mut f: impl FnMut(usize, &Aabb, u32)) {
-        if self.nodes.is_empty() {
-            return;
-        }
-        let mut stack = vec![(0usize, self.bounds, 0u32)];
-        while let Some((i, cell, d)) = stack.pop() {
-            f(i, &cell, d);
-            let n = self.nodes[i];
-            if !n.is_leaf() {
-                let (l, r) = split_cell(&cell, n.axis(), n.split());
-                let (li, ri) = self.children(i);
-                stack.push((ri, r, d + 1));
-                stack.push((li, l, d + 1));
-            }
-        }
+        self.view().children(i)
     }
 
     fn check_invariants(&self) -> Result<(), String> {
@@ -606,67 +527,217 @@ pub(crate) fn intersect(a: &Aabb, b: &Aabb) -> Aabb {
     }
 }
 
-impl Accel for KdTree {
-    fn name(&self) -> &'static str {
-        "kdtree"
-    }
+/// A traversal table row's trace fn: the kernel `$kernel` (an expression of the tree `$kd` and
+/// the kernels' input `$w`, a [`Tree`] from the tree's start) compiled for each layout; the
+/// layout is picked once per batch, then [`tb_core::dispatch`] picks the variant for the
+/// triangle test and the counter.
+macro_rules! per_layout {
+    (|$kd:ident, $w:ident| $kernel:expr) => {
+        |$kd: &KdTree, query, tri, rays, hits, stats| match $kd.params.layout {
+            KdLayout::DepthFirst => {
+                let $w = $kd.tree(DepthFirst);
+                dispatch(&$kernel, query, tri, rays, hits, stats)
+            }
+            KdLayout::Treelet => {
+                let $w = $kd.tree(Treelet::new($kd.params.treelet_height));
+                dispatch(&$kernel, query, tri, rays, hits, stats)
+            }
+        }
+    };
+}
 
-    fn traversals(&self) -> &'static [TraversalInfo] {
-        TRAVERSALS
-    }
+impl Structure for KdTree {
+    const NAME: &'static str = "kdtree";
 
-    /// The restart-type traversals (`restart`, `push-down`, `short-stack`, `sequential`,
-    /// `backtrack`, `ropes`) end a ray after [`KdParams::step_cap`] steps.
-    fn has_step_cap(&self, traversal: usize) -> bool {
-        TRAVERSALS
-            .get(traversal)
-            .is_some_and(|t| CAPPED.contains(&t.name))
-    }
+    /// The traversals every [`KdTree`] offers; the restart-type ones end a ray after
+    /// [`KdParams::step_cap`] steps, `backtrack` and `ropes` read auxiliary arrays.
+    const TRAVERSALS: &'static [Traversal<Self>] = &[
+        Traversal::cpu(
+            TraversalInfo::new(
+                "recursive-direction",
+                "Hapala & Havran 2011 §3.2, Alg. 2",
+                "stack-based, near/far child by the sign of the ray direction, entry/exit \
+                 distances on the stack (Keller 1997, Wald 2004; Hapala & Havran 2011 §3.2, \
+                 Alg. 2); zero direction components handled by the sign of the zero (no \
+                 epsilon)",
+            ),
+            per_layout!(|kd, w| traverse::RecursiveDirection(w)),
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "havran",
+                "Hapala & Havran 2011 §3.2; Havran 2000 App. C",
+                "Havran's robust TA^B_rec: entry/exit points on the stack, near/far decided by \
+                 comparing point coordinates with the split (Havran 2000; Hapala & Havran 2011 \
+                 §3.2); rays lying in a split plane visit both children",
+            ),
+            per_layout!(|kd, w| traverse::Havran(w)),
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "recursive-origin",
+                "Hapala & Havran 2011 §3.2, Alg. 2",
+                "stack-based, near/far child by the side of the split plane holding the ray \
+                 origin (Jansen 1986, Arvo 1988; Hapala & Havran 2011 §3.2, Alg. 2): \
+                 inherently not robust for origins in a split plane (Havran et al. 1997)",
+            ),
+            per_layout!(|kd, w| traverse::RecursiveOrigin(w)),
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "restart",
+                "Hapala & Havran 2011 §5.1",
+                "stackless kd-restart: after each leaf restart at the root with the entry \
+                 distance set to the leaf's exit (Foley & Sugerman 2005; Hapala & Havran 2011 \
+                 §5.1), t-intervals and exact comparisons, no epsilon step",
+            )
+            .capped(),
+            per_layout!(|kd, w| Stackless::<_, { stackless::RESTART }>(w, Aux::default())),
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "push-down",
+                "Hapala & Havran 2011 §5.2, Alg. 4",
+                "kd-push-down: restart at the deepest node holding the whole remaining segment \
+                 (Horn et al. 2007; Hapala & Havran 2011 §5.2, Alg. 4)",
+            )
+            .capped(),
+            per_layout!(|kd, w| Stackless::<_, { stackless::PUSH_DOWN }>(w, Aux::default())),
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "short-stack",
+                "Hapala & Havran 2011 §5.2",
+                "push-down with a circular short stack of `short_stack` far children, \
+                 restarting from the pushed-down node when it runs dry (Horn et al. 2007; \
+                 Hapala & Havran 2011 §5.2)",
+            )
+            .capped(),
+            per_layout!(|kd, w| Stackless::<_, { stackless::SHORT_STACK }>(w, Aux::default())),
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "sequential",
+                "Hapala & Havran 2011 §3.1, Alg. 1",
+                "Kaplan's sequential traversal: locate the leaf holding the ray point at the \
+                 entry distance from the root, leave it through its cell's exit (Kaplan 1985; \
+                 Hapala & Havran 2011 §3.1, Alg. 1), no epsilon step: crossed faces' \
+                 coordinates exact, rays a point cannot decide (edges, corners) handed to \
+                 `restart`",
+            )
+            .capped(),
+            per_layout!(|kd, w| Stackless::<_, { stackless::SEQUENTIAL }>(w, Aux::default())),
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "backtrack",
+                "Hapala & Havran 2011 §5.1.1, Alg. 3",
+                "kd-backtrack: parent links and node cells in an auxiliary array; from a leaf \
+                 climb until a cell extends beyond the leaf's exit, then descend (Foley & \
+                 Sugerman 2005; Hapala & Havran 2011 §5.1.1, Alg. 3)",
+            )
+            .capped()
+            .reads(&[BACKTRACK_AUX]),
+            per_layout!(|kd, w| Stackless::<_, { stackless::BACKTRACK }>(
+                w,
+                Aux {
+                    back: kd.back_nodes(),
+                    ropes: &[],
+                }
+            )),
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "ropes",
+                "Hapala & Havran 2011 §3.3",
+                "neighbour links: from a leaf follow the pushed-down rope of its exit face \
+                 (leaf cells and six ropes per node in auxiliary arrays) and locate the next \
+                 leaf below it (MacDonald & Booth 1990, Havran et al. 1998, Popov et al. 2007; \
+                 Hapala & Havran 2011 §3.3)",
+            )
+            .capped()
+            .reads(&[BACKTRACK_AUX, ROPES_AUX]),
+            per_layout!(|kd, w| Stackless::<_, { stackless::ROPES }>(
+                w,
+                Aux {
+                    back: kd.back_nodes(),
+                    ropes: kd.ropes(),
+                }
+            )),
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "branchless",
+                "Hapala & Havran 2011 §5.5, Alg. 5",
+                "recursive-direction with a branchless node step: far and near written to the \
+                 stack, the pointer moved by the two comparisons (Hapala 2009; Hapala & Havran \
+                 2011 §5.5, Alg. 5)",
+            ),
+            per_layout!(|kd, w| traverse::Branchless(w)),
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "stack-spilling",
+                "Hapala & Havran 2011 §5.2, Fig. 8",
+                "short circular stack of `short_stack` entries whose oldest entry is spilled to \
+                 a full memory stack on overflow and refilled on underflow, never restarting \
+                 (Novák 2009; Hapala & Havran 2011 §5.2, Fig. 8)",
+            ),
+            per_layout!(|kd, w| traverse::StackSpilling(w)),
+        ),
+    ];
 
-    /// All arrays any traversal reads: nodes, references, triangles, and the auxiliary arrays
-    /// of `backtrack` and `ropes` (32 + 24 bytes per node; their sizes are also in the build
-    /// report, to subtract for the other traversals).
+    /// Nodes, references and triangles: what every traversal reads. `backtrack` adds the
+    /// [`BACKTRACK_AUX`] array, `ropes` that and the [`ROPES_AUX`] array
+    /// ([`Structure::aux_bytes`]; review Table 3, "additional memory").
     fn memory(&self) -> MemoryReport {
         MemoryReport {
             bytes: (self.nodes.bytes()
-                + std::mem::size_of_val(self.prim_refs.as_slice())
-                + std::mem::size_of_val(self.tris.as_slice())
-                + std::mem::size_of_val(self.back.as_slice())
-                + std::mem::size_of_val(self.ropes.as_slice())) as u64,
+                + std::mem::size_of_val(&*self.prim_refs)
+                + std::mem::size_of_val(&*self.tris)) as u64,
             nodes: self.nodes.len() as u64,
             prim_refs: self.prim_refs.len() as u64,
             node_bytes: std::mem::size_of::<KdNode>() as u32,
         }
     }
 
-    /// Nodes, references and triangles for every traversal; `backtrack` adds the cell and
-    /// parent per node, `ropes` those and the six ropes per node (review Table 3, "additional
-    /// memory").
-    fn memory_for(&self, traversal: usize) -> MemoryReport {
-        let mut m = self.memory();
-        let back = std::mem::size_of_val(self.back.as_slice()) as u64;
-        let ropes = std::mem::size_of_val(self.ropes.as_slice()) as u64;
-        m.bytes -= match TRAVERSALS.get(traversal).map(|t| t.name) {
-            Some("ropes") => 0,
-            Some("backtrack") => ropes,
-            _ => back + ropes,
+    /// [`BACKTRACK_AUX`]: 32 bytes per node (cell and parent); [`ROPES_AUX`]: 24 bytes per
+    /// node (six ropes); built or not.
+    fn aux_bytes(&self, aux: &str) -> u64 {
+        let per_node = match aux {
+            BACKTRACK_AUX => std::mem::size_of::<BackNode>(),
+            ROPES_AUX => std::mem::size_of::<[u32; 6]>(),
+            _ => 0,
         };
-        m
+        (per_node * self.nodes.len()) as u64
+    }
+
+    fn prepare_aux(&self, aux: &str) {
+        match aux {
+            BACKTRACK_AUX => {
+                self.back_nodes();
+            }
+            ROPES_AUX => {
+                self.ropes();
+            }
+            _ => {}
+        }
     }
 
     /// `sah_cost = (C_trav·Σ_interior A(n) + C_isect·Σ_leaves A(l)·|l|) / A(root)` with `A` the
     /// surface area of the cells (`None` for an empty tree or a root of zero area); extra
     /// figures: `nodes`, `slots` (entries of the node array: `nodes` depth-first, more in the
-    /// treelet layout, whose unused slots count in the memory), `leaves`, `empty_leaves`, `references`, `depth_max` (root 0),
-    /// `leaf_depth_mean`, `refs_per_leaf_mean` (over non-empty leaves), `leaf_size_max`, and
-    /// the bytes of the auxiliary arrays included in [`Accel::memory`]: `backtrack_aux_bytes`
-    /// (cell and parent per node, read by `backtrack` and `ropes`) and `ropes_aux_bytes` (six
-    /// ropes per node, read by `ropes`).
+    /// treelet layout, whose unused slots count in the memory), `leaves`, `empty_leaves`,
+    /// `references`, `depth_max` (root 0), `leaf_depth_mean`, `refs_per_leaf_mean` (over
+    /// non-empty leaves), `leaf_size_max`, and the bytes of the auxiliary arrays, built or not:
+    /// `backtrack_aux_bytes` (cell and parent per node, read by `backtrack` and `ropes`) and
+    /// `ropes_aux_bytes` (six ropes per node, read by `ropes`).
     fn build_report(&self) -> BuildReport {
         let (mut interior, mut leaves, mut empty) = (0u64, 0u64, 0u64);
         let (mut depth_max, mut depth_sum, mut leaf_max) = (0u32, 0u64, 0u32);
         let (mut ia, mut la) = (0f64, 0f64);
-        self.walk(|i, cell, d| {
+        let v = self.view();
+        v.walk(v.root(), |i, cell, d| {
             let n = self.nodes[i];
             let a = cell.area() as f64;
             depth_max = depth_max.max(d);
@@ -703,157 +774,27 @@ impl Accel for KdTree {
                 ("leaf_size_max".into(), leaf_max as f64),
                 (
                     "backtrack_aux_bytes".into(),
-                    std::mem::size_of_val(self.back.as_slice()) as f64,
+                    self.aux_bytes(BACKTRACK_AUX) as f64,
                 ),
-                (
-                    "ropes_aux_bytes".into(),
-                    std::mem::size_of_val(self.ropes.as_slice()) as f64,
-                ),
+                ("ropes_aux_bytes".into(), self.aux_bytes(ROPES_AUX) as f64),
             ],
         }
     }
 
     /// Checks: node and reference indices in range, children after their parent and distinct
-    /// (so no cycles), the treelet layout's unused slots empty, every node reachable exactly once, depth within the limit and the
-    /// traversal stack, split positions inside their cells, every referenced triangle's box
-    /// overlapping its leaf cell (up to the builder's rounding tolerance), every finite
-    /// triangle referenced by at least one leaf.
-    fn validate(&self) -> Result<(), String> {
-        self.check_invariants()
-    }
-
-    fn trace(
-        &self,
-        traversal: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
-        match self.params.layout {
-            KdLayout::DepthFirst => {
-                self.trace_in(DepthFirst, traversal, query, tri, rays, hits, stats)
-            }
-            KdLayout::Treelet => self.trace_in(
-                Treelet::new(self.params.treelet_height),
-                traversal,
-                query,
-                tri,
-                rays,
-                hits,
-                stats,
-            ),
-        }
-    }
-}
-
-impl KdTree {
-    /// [`Accel::trace`] with the kernels compiled for layout `l`.
-    fn trace_in<L: Layout>(
-        &self,
-        l: L,
-        traversal: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
-        match traversal {
-            0 => dispatch(
-                &traverse::RecursiveDirection(self, l),
-                query,
-                tri,
-                rays,
-                hits,
-                stats,
-            ),
-            1 => dispatch(&traverse::Havran(self, l), query, tri, rays, hits, stats),
-            2 => dispatch(
-                &traverse::RecursiveOrigin(self, l),
-                query,
-                tri,
-                rays,
-                hits,
-                stats,
-            ),
-            3 => dispatch(
-                &stackless::Stackless::<_, { stackless::RESTART }>(self, l),
-                query,
-                tri,
-                rays,
-                hits,
-                stats,
-            ),
-            4 => dispatch(
-                &stackless::Stackless::<_, { stackless::PUSH_DOWN }>(self, l),
-                query,
-                tri,
-                rays,
-                hits,
-                stats,
-            ),
-            5 => dispatch(
-                &stackless::Stackless::<_, { stackless::SHORT_STACK }>(self, l),
-                query,
-                tri,
-                rays,
-                hits,
-                stats,
-            ),
-            6 => dispatch(
-                &stackless::Stackless::<_, { stackless::SEQUENTIAL }>(self, l),
-                query,
-                tri,
-                rays,
-                hits,
-                stats,
-            ),
-            7 => dispatch(
-                &stackless::Stackless::<_, { stackless::BACKTRACK }>(self, l),
-                query,
-                tri,
-                rays,
-                hits,
-                stats,
-            ),
-            8 => dispatch(
-                &stackless::Stackless::<_, { stackless::ROPES }>(self, l),
-                query,
-                tri,
-                rays,
-                hits,
-                stats,
-            ),
-            9 => dispatch(
-                &traverse::Branchless(self, l),
-                query,
-                tri,
-                rays,
-                hits,
-                stats,
-            ),
-            10 => dispatch(
-                &traverse::StackSpilling(self, l),
-                query,
-                tri,
-                rays,
-                hits,
-                stats,
-            ),
-            _ => panic!(
-                "kdtree: unknown traversal {traversal} ({} available)",
-                TRAVERSALS.len()
-            ),
-        }
+    /// (so no cycles), the treelet layout's unused slots empty, every node reachable exactly
+    /// once, depth within the limit and the traversal stack, split positions inside their
+    /// cells, every referenced triangle's box overlapping its leaf cell (up to the builder's
+    /// rounding tolerance), every finite triangle referenced by at least one leaf.
+    fn validate(&self) -> Result<(), AccelError> {
+        self.check_invariants().map_err(AccelError::Invalid)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tb_core::Vec3;
+    use tb_core::{Accel, HitRecord, ParamValue, Query, Ray, TriTestKind, Vec3};
 
     fn grid() -> Vec<Triangle> {
         (0..64)
@@ -862,6 +803,20 @@ mod tests {
                 Triangle::new(p, p + Vec3::X * 0.9, p + Vec3::Y * 0.9)
             })
             .collect()
+    }
+
+    /// A copy of `a` edited by `f` (the tree's arrays are shared).
+    fn edited<T: Clone>(a: &[T], f: impl FnOnce(&mut Vec<T>)) -> Arc<[T]> {
+        let mut v = a.to_vec();
+        f(&mut v);
+        v.into()
+    }
+
+    fn index(name: &str) -> usize {
+        KdTree::TRAVERSALS
+            .iter()
+            .position(|t| t.info.name == name)
+            .unwrap()
     }
 
     #[test]
@@ -877,78 +832,129 @@ mod tests {
     #[test]
     fn params_are_checked() {
         assert_eq!(KdParams::default().check(), Ok(()));
+        let with = |f: fn(&mut KdParams)| {
+            let mut p = KdParams::default();
+            f(&mut p);
+            p
+        };
         let bad = [
-            KdParams {
-                c_trav: 0.0,
-                ..Default::default()
-            },
-            KdParams {
-                c_isect: f32::NAN,
-                ..Default::default()
-            },
-            KdParams {
-                empty_bonus: 1.0,
-                ..Default::default()
-            },
-            KdParams {
-                max_depth: STACK_SIZE as u32 + 1,
-                ..Default::default()
-            },
-            KdParams {
-                bins: 1,
-                ..Default::default()
-            },
-            KdParams {
-                short_stack: 0,
-                ..Default::default()
-            },
+            with(|p| p.c_trav = 0.0),
+            with(|p| p.c_isect = f32::NAN),
+            with(|p| p.empty_bonus = 1.0),
+            with(|p| p.max_depth = STACK_SIZE as u32 + 1),
+            with(|p| p.bins = 1),
+            with(|p| p.short_stack = 0),
+            with(|p| p.short_stack = MAX_SHORT_STACK as u32 + 1),
+            with(|p| p.step_cap = 0),
+            with(|p| p.treelet_height = 9),
         ];
         for p in bad {
-            assert!(p.check().is_err(), "{p:?}");
+            assert!(
+                matches!(p.check(), Err(AccelError::Params(_))),
+                "{p:?}: {:?}",
+                p.check()
+            );
         }
         assert_eq!(KdParams::default().depth_limit(1 << 20), 34);
+    }
+
+    /// The parameter table lists the fields in order with their defaults, converts back
+    /// without loss, and the registry's build refuses parameters out of range.
+    #[test]
+    fn parameter_table_and_family() {
+        let names: Vec<&str> = KdParams::SPECS.iter().map(|s| s.name).collect();
+        assert_eq!(
+            names,
+            [
+                "builder",
+                "bins",
+                "c_trav",
+                "c_isect",
+                "empty_bonus",
+                "max_depth",
+                "min_leaf",
+                "short_stack",
+                "step_cap",
+                "layout",
+                "treelet_height"
+            ]
+        );
+        let defaults = (FAMILY.defaults)();
+        assert_eq!(
+            defaults.to_string(),
+            "builder=sweep;bins=32;c_trav=1;c_isect=1.5;empty_bonus=0.2;max_depth=0;\
+             min_leaf=1;short_stack=4;step_cap=100000;layout=depth-first;treelet_height=3"
+        );
+        assert_eq!(KdParams::from_set(&defaults), Ok(KdParams::default()));
+        for (spec, (_, v)) in KdParams::SPECS.iter().zip(&defaults.0) {
+            assert_eq!(spec.check(v), Ok(()), "{}", spec.name);
+        }
+        assert_eq!(FAMILY.name, "kdtree");
+        assert_eq!((FAMILY.traversals)().len(), KdTree::TRAVERSALS.len());
+
+        let tris: Arc<[Triangle]> = grid().into();
+        let mut set = defaults.clone();
+        set.0[9].1 = ParamValue::Str("treelet".into());
+        let kd = (FAMILY.build)(&tris, &set).unwrap();
+        assert_eq!(kd.validate(), Ok(()));
+        set.0[1].1 = ParamValue::Int(1);
+        let err = (FAMILY.build)(&tris, &set).err().unwrap();
+        assert!(matches!(err, AccelError::Params(_)), "{err}");
+        assert!(err.to_string().contains("bins"), "{err}");
+        let mut set = defaults;
+        set.0[0].1 = ParamValue::Str("median".into());
+        assert!(matches!(
+            (FAMILY.build)(&tris, &set).err(),
+            Some(AccelError::Param(_))
+        ));
     }
 
     #[test]
     fn validate_finds_corruption() {
         let good = KdTree::build(&grid(), &KdParams::default());
-        assert_eq!(good.validate(), Ok(()));
+        assert_eq!(Accel::validate(&good), Ok(()));
         assert!(good.nodes().len() > 1);
         let leaf = good
             .nodes()
             .iter()
             .position(|n| n.is_leaf() && n.count() > 0);
         let leaf = leaf.unwrap();
+        let msg = |b: &KdTree| Accel::validate(b).unwrap_err().to_string();
 
         let mut b = good.clone();
-        b.nodes[0] = KdNode::interior(b.nodes[0].axis(), b.nodes[0].split(), 0);
-        assert!(b.validate().unwrap_err().contains("children"));
+        let n0 = b.nodes[0];
+        Arc::make_mut(&mut b.nodes)[0] = KdNode::interior(n0.axis(), n0.split(), 0);
+        assert!(msg(&b).contains("children"));
 
         let mut b = good.clone();
-        b.prim_refs[0] = 1000;
-        assert!(b.validate().unwrap_err().contains("out of range"));
+        b.prim_refs = edited(&b.prim_refs, |v| v[0] = 1000);
+        assert!(msg(&b).contains("out of range"));
 
         let mut b = good.clone();
         let n = b.nodes[leaf];
-        b.nodes[leaf] = KdNode::leaf(n.offset() as u32, 10_000);
-        assert!(b.validate().is_err());
+        Arc::make_mut(&mut b.nodes)[leaf] = KdNode::leaf(n.offset() as u32, 10_000);
+        assert!(matches!(Accel::validate(&b), Err(AccelError::Invalid(_))));
 
         let mut b = good.clone();
         let mut v = b.nodes().to_vec();
         v.push(KdNode::leaf(0, 1));
-        b.nodes = Nodes::from_slice(&v);
-        assert!(b.validate().unwrap_err().contains("unreachable"));
+        b.nodes = Arc::new(Nodes::from_slice(&v));
+        assert!(msg(&b).contains("unreachable"));
 
         // A reference far from its leaf's cell.
         let mut b = good.clone();
-        b.tris.push(Triangle::new(
-            Vec3::splat(100.0),
-            Vec3::splat(101.0),
-            Vec3::new(100.0, 101.0, 100.0),
-        ));
+        b.tris = edited(&b.tris, |v| {
+            v.push(Triangle::new(
+                Vec3::splat(100.0),
+                Vec3::splat(101.0),
+                Vec3::new(100.0, 101.0, 100.0),
+            ))
+        });
         let o = b.nodes[leaf].offset();
-        b.prim_refs[o] = 64;
-        assert!(b.validate().is_err());
+        b.prim_refs = edited(&b.prim_refs, |v| v[o] = 64);
+        assert!(Accel::validate(&b).is_err());
+        // The corrupted copies shared nothing they changed.
+        assert_eq!(Accel::validate(&good), Ok(()));
     }
 
     #[test]
@@ -958,7 +964,8 @@ mod tests {
             ..Default::default()
         };
         let good = KdTree::build(&grid(), &p);
-        assert_eq!(good.validate(), Ok(()));
+        assert_eq!(Accel::validate(&good), Ok(()));
+        let msg = |b: &KdTree| Accel::validate(b).unwrap_err().to_string();
         // An unused slot that is not empty.
         let free = good
             .nodes()
@@ -966,38 +973,39 @@ mod tests {
             .position(|n| *n == layout::EMPTY_SLOT)
             .unwrap();
         let mut b = good.clone();
-        b.nodes[free] = KdNode::leaf(0, 1);
-        assert!(b.validate().unwrap_err().contains("unreachable"));
+        Arc::make_mut(&mut b.nodes)[free] = KdNode::leaf(0, 1);
+        assert!(msg(&b).contains("unreachable"));
         // A lowest-level link pointing back into the tree.
         let low = (0..good.nodes().len())
             .find(|&i| !good.nodes()[i].is_leaf() && i % 8 >= 3)
             .unwrap();
         let mut b = good.clone();
         let n = b.nodes[low];
-        b.nodes[low] = KdNode::interior(n.axis(), n.split(), 0);
-        assert!(b.validate().unwrap_err().contains("children"));
+        Arc::make_mut(&mut b.nodes)[low] = KdNode::interior(n.axis(), n.split(), 0);
+        assert!(msg(&b).contains("children"));
         // The same tree in fewer bytes depth-first.
         let dfs = KdTree::build(&grid(), &KdParams::default());
-        assert!(good.memory().bytes > dfs.memory().bytes);
+        assert!(Accel::memory(&good).bytes > Accel::memory(&dfs).bytes);
     }
 
     #[test]
     fn build_report_and_memory() {
         let kd = KdTree::build(&grid(), &KdParams::default());
-        let r = kd.build_report();
+        let r = Accel::build_report(&kd);
         assert!(r.sah_cost.unwrap() > 0.0);
         let get = |k: &str| r.extra.iter().find(|(n, _)| n == k).unwrap().1;
         assert_eq!(get("nodes") as usize, kd.nodes().len());
         assert_eq!(get("references") as usize, kd.prim_refs().len());
-        let m = kd.memory();
+        let m = Accel::memory(&kd);
         assert_eq!(m.node_bytes, 8);
-        assert!(m.bytes as usize > kd.nodes().len() * (8 + 32 + 24));
+        assert!(m.bytes as usize > kd.nodes().len() * 8);
+        assert!(kd.memory_for(index("ropes")).bytes as usize > kd.nodes().len() * (8 + 32 + 24));
         // Empty scenes build and miss.
         let e = KdTree::build(&[], &KdParams::default());
-        assert_eq!(e.validate(), Ok(()));
+        assert_eq!(Accel::validate(&e), Ok(()));
         let rays = [Ray::new(Vec3::ZERO, Vec3::X)];
         let mut hits = [HitRecord::MISS; 1];
-        for t in 0..TRAVERSALS.len() {
+        for t in 0..KdTree::TRAVERSALS.len() {
             e.trace(
                 t,
                 Query::Closest,
@@ -1008,5 +1016,59 @@ mod tests {
             );
             assert!(!hits[0].is_hit());
         }
+        // A root that is a leaf (one triangle): every traversal hits it and misses beside it.
+        let one = KdTree::build(&grid()[..1], &KdParams::default());
+        assert!(one.nodes()[0].is_leaf());
+        let rays = [
+            Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::Z),
+            Ray::new(Vec3::new(0.8, 0.8, -1.0), Vec3::Z),
+        ];
+        for t in 0..KdTree::TRAVERSALS.len() {
+            let mut hits = [HitRecord::MISS; 2];
+            let tri = TriTestKind::Watertight;
+            one.trace(t, Query::Closest, tri, &rays, &mut hits, None);
+            assert_eq!((hits[0].prim, hits[1].prim), (0, u32::MAX));
+        }
+    }
+
+    /// The auxiliary arrays are built when a traversal reading them is traced or prepared,
+    /// not before, and shared by clones and subtrees; the memory figures do not depend on it.
+    #[test]
+    fn aux_arrays_are_built_on_demand() {
+        let kd = KdTree::build(&grid(), &KdParams::default());
+        let figures = |kd: &KdTree| -> Vec<u64> {
+            (0..KdTree::TRAVERSALS.len())
+                .map(|t| kd.memory_for(t).bytes)
+                .collect()
+        };
+        let before = figures(&kd);
+        let built = |kd: &KdTree| (kd.aux_built(BACKTRACK_AUX), kd.aux_built(ROPES_AUX));
+        assert_eq!(built(&kd), (false, false));
+        let rays = [Ray::new(Vec3::new(-1.0, 0.5, 0.5), Vec3::X)];
+        let mut hits = [HitRecord::MISS; 1];
+        let trace = |kd: &KdTree, t: usize, hits: &mut [HitRecord]| {
+            kd.trace(
+                t,
+                Query::Closest,
+                TriTestKind::Watertight,
+                &rays,
+                hits,
+                None,
+            )
+        };
+        for t in 0..KdTree::TRAVERSALS.len() {
+            if KdTree::TRAVERSALS[t].info.aux.is_empty() {
+                trace(&kd, t, &mut hits);
+            }
+        }
+        assert_eq!(built(&kd), (false, false));
+        let sub = kd.subtree(kd.children(0).0).unwrap();
+        trace(&sub, index("backtrack"), &mut hits);
+        assert_eq!(built(&kd), (true, false));
+        kd.prepare(index("ropes"));
+        assert_eq!(built(&sub), (true, true));
+        assert_eq!(figures(&kd), before);
+        assert_eq!(kd.back_nodes().len(), kd.nodes().len());
+        assert_eq!(kd.ropes().len(), kd.nodes().len());
     }
 }

@@ -41,9 +41,15 @@
 //! answer is then exactly the robust one. Rays lying in a split plane (`t = NaN`) take the
 //! left child and record the axis, and the walk is repeated for each combination of sides on
 //! the zero-direction axes where that happened (at most 4 walks).
+//!
+//! "The root" above is the start of the walk ([`crate::KdStart`]): the tree's root, or a node
+//! below it whose cell the ray was clipped to. Restarts begin again there, `backtrack` climbs
+//! no higher, the faces of its cell play the root faces (a rope or exit face on them ends the
+//! walk), and point location descends from it.
 
-use crate::traverse::{decide, leaf, start, Best, Kind, Setup, SLACK};
-use crate::{BackNode, KdTree, Layout};
+use crate::traverse::{decide, leaf, start, Best, Kind, Setup, Tree, SLACK};
+use crate::view::{Aux, BackNode, NO_ROPE};
+use crate::Layout;
 use tb_core::slab::{max_num, min_num};
 use tb_core::{Counter, HitRecord, Ray, TriTest};
 
@@ -72,10 +78,9 @@ fn passes(s: &Setup, mut pass: impl FnMut(u8) -> (bool, u8)) {
 }
 
 /// The interval of the node with cell `b`: the slab interval with the plane distances of
-/// [`decide`], the root cell's faces counting as the root interval `[t0, t1]`.
+/// [`decide`], the faces of the start cell `r` counting as the start interval `[t0, t1]`.
 #[inline(always)]
-fn cell_interval(kd: &KdTree, s: &Setup, b: &BackNode) -> (f32, f32) {
-    let r = &kd.bounds;
+fn cell_interval(r: &tb_core::Aabb, s: &Setup, b: &BackNode) -> (f32, f32) {
     let (mut tn, mut tf) = (s.t0, s.t1);
     for a in 0..3 {
         let (np, fp, rn, rf) = if s.neg[a] {
@@ -110,68 +115,9 @@ pub(crate) const SEQUENTIAL: u8 = 3;
 pub(crate) const BACKTRACK: u8 = 4;
 pub(crate) const ROPES: u8 = 5;
 
-/// "No neighbour": a rope leaving the root cell.
-pub(crate) const NO_ROPE: u32 = u32::MAX;
-
-/// The ropes of every node (review §3.3; Havran et al. 1998, Popov et al. 2007): for face
-/// `2·axis + side` (side 0: the min face, 1: the max face) the deepest node whose cell holds
-/// the whole face on the other side, pushed down from the parent's ropes (Popov et al.'s
-/// rope optimisation): through a split parallel to the face to the adjacent child, through a
-/// split missing the face to the child holding it. Meaningful for leaves; interior nodes keep
-/// their (pushed-down) ropes too.
-pub(crate) fn build_ropes(kd: &KdTree) -> Vec<[u32; 6]> {
-    let nodes = kd.nodes.as_slice();
-    let mut out = vec![[NO_ROPE; 6]; nodes.len()];
-    if nodes.is_empty() {
-        return out;
-    }
-    let push = |mut t: u32, f: usize, min: &[f32; 3], max: &[f32; 3]| -> u32 {
-        while t != NO_ROPE {
-            let n = nodes[t as usize];
-            if n.is_leaf() {
-                break;
-            }
-            let (a, s) = (n.axis(), n.split());
-            let (left, right) = kd.children(t as usize);
-            let (left, right) = (left as u32, right as u32);
-            t = if a == f / 2 {
-                if f % 2 == 1 {
-                    left
-                } else {
-                    right
-                }
-            } else if s <= min[a] {
-                right
-            } else if s >= max[a] {
-                left
-            } else {
-                break;
-            };
-        }
-        t
-    };
-    let mut stack = vec![(0usize, [NO_ROPE; 6])];
-    while let Some((i, mut r)) = stack.pop() {
-        let b = &kd.back[i];
-        for (f, rope) in r.iter_mut().enumerate() {
-            *rope = push(*rope, f, &b.min, &b.max);
-        }
-        out[i] = r;
-        let n = nodes[i];
-        if !n.is_leaf() {
-            let a = n.axis();
-            let (left, right) = kd.children(i);
-            let (mut rl, mut rr) = (r, r);
-            rl[2 * a + 1] = right as u32;
-            rr[2 * a] = left as u32;
-            stack.push((right, rr));
-            stack.push((left, rl));
-        }
-    }
-    out
-}
-
-/// The restart-type kernels, one struct with the walk chosen by the const parameter `M`.
+/// The restart-type kernels, one struct with the walk chosen by the const parameter `M`; the
+/// auxiliary arrays it reads (`backtrack`: cells and parents; `ropes`: those and the ropes)
+/// are given with it, empty for the others. "The root" below is the walk's start node.
 ///
 /// - `restart` (Foley and Sugerman 2005, kd-restart; review §5.1): after each leaf, restart at
 ///   the root (see the module doc for what is kept between leaves);
@@ -183,8 +129,9 @@ pub(crate) fn build_ropes(kd: &KdTree) -> Vec<[u32; 6]> {
 ///   pushed-down node only when it runs dry;
 /// - `backtrack` (Foley and Sugerman 2005, kd-backtrack; review §5.1.1, Alg. 3): from a leaf
 ///   climb the parent links, recomputing each node's interval from its cell (both stored in
-///   the auxiliary array [`KdTree::back_nodes`]), up to the first node where the walk went
-///   both ways from the near child, then descend into its far child;
+///   the auxiliary array [`crate::KdTree::back_nodes`]), up to the first node where the walk
+///   went both ways from the near child, then descend into its far child (none above a leaf
+///   start node: the walk is done);
 /// - `sequential` (Kaplan 1985; review §3.1, Alg. 1): see the module doc;
 /// - `ropes` (MacDonald and Booth 1990, Havran et al. 1998, Popov et al. 2007; review §3.3):
 ///   from a leaf, follow the pushed-down rope of its exit face and locate the next leaf
@@ -197,42 +144,41 @@ pub(crate) fn build_ropes(kd: &KdTree) -> Vec<[u32; 6]> {
 /// for the root plus one per cell interval or exit computed (`sequential`, `backtrack`,
 /// `ropes`); `steps`:
 /// nodes visited, `interior + leaves`.
-pub(crate) struct Stackless<'a, L, const M: u8>(pub &'a KdTree, pub L);
+pub(crate) struct Stackless<'a, L, const M: u8>(pub Tree<'a, L>, pub Aux<'a>);
 
 impl<L: Layout, const M: u8> Stackless<'_, L, M> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        let kd = self.0;
-        let Some((s, pre, mut best)) = start::<T, C>(kd, ray, c) else {
+        let w = &self.0;
+        let Some((s, pre, mut best)) = start::<T, C, L>(w, ray, c) else {
             return HitRecord::MISS;
         };
         if M == SEQUENTIAL || M == ROPES {
-            let root = &kd.bounds;
+            let root = &w.from.cell;
             let floor: [f32; 3] =
                 std::array::from_fn(|a| if s.neg[a] { root.max[a] } else { root.min[a] });
             let mut steps = 0u32;
             let mut ambiguous = false;
             passes(&s, |mask| {
-                let mut w = Walk {
-                    kd,
-                    l: self.1,
+                let mut walk = Walk {
+                    w,
                     s: &s,
                     floor,
                     exact: 3,
                     mask,
                     seen: 0,
                     steps,
-                    cap: kd.params.step_cap,
+                    cap: w.v.step_cap,
                     ambiguous: false,
                 };
                 let stop = if M == ROPES {
-                    self.crawl::<T, C, ANY, true>(&mut w, ray, &pre, &mut best, c)
+                    self.crawl::<T, C, ANY, true>(&mut walk, ray, &pre, &mut best, c)
                 } else {
-                    self.crawl::<T, C, ANY, false>(&mut w, ray, &pre, &mut best, c)
+                    self.crawl::<T, C, ANY, false>(&mut walk, ray, &pre, &mut best, c)
                 };
-                steps = w.steps;
+                steps = walk.steps;
                 ambiguous = stop.is_none();
-                (stop.unwrap_or(true), w.seen)
+                (stop.unwrap_or(true), walk.seen)
             });
             if !ambiguous {
                 return best.record();
@@ -245,10 +191,10 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
     }
 
     /// The restart-type walk `K` (`RESTART`, `PUSH_DOWN`, `SHORT_STACK`, `BACKTRACK`) of one
-    /// ray from the root, starting with the closest hit `best` and `steps` steps taken.
+    /// ray from the start node, starting with the closest hit `best` and `steps` steps taken.
     ///
     /// The restarts find the last leaf again: in the depth-first layout by its index (the
-    /// subtree of a node is a range of indices), otherwise by its *path* from the root (bit
+    /// subtree of a node is a range of indices), otherwise by its *path* from the start (bit
     /// `k` set when the walk went to the right child at depth `k`; the depth limit is at most
     /// 64).
     #[inline(always)]
@@ -261,19 +207,20 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
         mut steps: u32,
         c: &mut C,
     ) -> HitRecord {
-        let (kd, l) = (self.0, self.1);
+        let (w, l) = (&self.0, self.0.l);
         let s = *s;
-        let nodes = kd.nodes.as_slice();
-        let back = kd.back.as_slice();
-        let size = kd.params.short_stack as usize;
+        let nodes = w.v.nodes;
+        let back = self.1.back;
+        let size = w.v.short_stack as usize;
+        let root = w.from.node as usize;
         // Far child, its interval, and its parent's depth `<< 1 |` whether it is the right child.
         let mut stack = [(0u32, 0f32, 0f32, 0u32); MAX_SHORT_STACK];
         // Circular short stack: `count` entries, the newest at `top - 1` (mod `size`).
         let (mut top, mut count) = (0usize, 0usize);
         // The pushed-down node, its interval and depth, and whether it may still be pushed down.
-        let (mut pd, mut pd_tn, mut pd_tf, mut pd_depth) = (0usize, s.t0, s.t1, 0u32);
+        let (mut pd, mut pd_tn, mut pd_tf, mut pd_depth) = (root, s.t0, s.t1, 0u32);
         let mut push = K == PUSH_DOWN || K == SHORT_STACK;
-        let (mut idx, mut tn, mut tf) = (0usize, s.t0, s.t1);
+        let (mut idx, mut tn, mut tf) = (root, s.t0, s.t1);
         // Depth of `idx`; `both`: bit `k` set when the node at depth `k` on the way to `idx`
         // sent the ray both ways and the walk went to the near child (the candidates of the
         // next restart); `path`: bit `k` set when the walk went to the right child at depth
@@ -334,7 +281,7 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
                 }
             }
             steps += 1;
-            if leaf::<T, C, ANY>(kd, nodes[idx], pre, ray, &mut best, c) {
+            if leaf::<T, C, ANY>(&w.v, nodes[idx], pre, ray, &mut best, c) {
                 return best.record();
             }
             // A hit before the end of the leaf's interval ends the ray (Foley and Sugerman's
@@ -345,7 +292,7 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
             if best.t < tf && !in_plane {
                 return best.record();
             }
-            if steps >= kd.params.step_cap {
+            if steps >= w.v.step_cap {
                 c.capped();
                 return best.record();
             }
@@ -367,6 +314,10 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
                     continue;
                 }
             }
+            if K == BACKTRACK && last == root {
+                // The start node is a leaf: there is nothing to climb to.
+                return best.record();
+            }
             c.restart();
             let next = if K == BACKTRACK {
                 // Climb from the leaf.
@@ -378,12 +329,12 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
                     c.planes(1);
                     c.boxes(1);
                     steps += 1;
-                    let (xn, xf) = cell_interval(kd, &s, &back[x]);
+                    let (xn, xf) = cell_interval(&w.from.cell, &s, &back[x]);
                     let d = decide(l, nodes[x], x, &s, xn, xf);
                     if d.kind == Kind::Both && child == d.near && (ANY || d.far_tn <= best.t) {
                         break Some((d.far, d.far_tn, xf, false, 0));
                     }
-                    if x == 0 {
+                    if x == root {
                         break None;
                     }
                     child = x;
@@ -472,24 +423,24 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
         best: &mut Best,
         c: &mut C,
     ) -> Option<bool> {
-        let kd = self.0;
+        let (v, aux) = (&self.0.v, &self.1);
         let s = w.s;
-        let r = &kd.bounds;
-        let (mut idx, mut min, mut max) = w.locate_root(s.t0, w.floor, c);
+        let r = &self.0.from.cell;
+        let (mut idx, mut min, mut max) = w.locate_start(s.t0, w.floor, c);
         let mut tn = s.t0;
         loop {
             if w.ambiguous {
                 return None;
             }
             w.steps += 1;
-            if leaf::<T, C, ANY>(kd, kd.nodes[idx], pre, ray, best, c) {
+            if leaf::<T, C, ANY>(v, v.nodes[idx], pre, ray, best, c) {
                 return Some(true);
             }
             if w.steps >= w.cap {
                 c.capped();
                 return Some(true);
             }
-            // The exit: the nearest far plane that is not a root face. Another far plane
+            // The exit: the nearest far plane that is not a start-cell face. Another far plane
             // within rounding of it (a ray through a cell edge or corner) is an ambiguity.
             c.boxes(1);
             let mut ts = [f32::INFINITY; 3];
@@ -521,15 +472,15 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
             tn = max_num(tn, tf);
             if ROPE {
                 let side = if s.neg[face] { 0 } else { 1 };
-                let rope = kd.ropes[idx][2 * face + side];
+                let rope = aux.ropes[idx][2 * face + side];
                 if rope == NO_ROPE {
                     return Some(false);
                 }
-                let b = &kd.back[rope as usize];
+                let b = &aux.back[rope as usize];
                 (idx, min, max) = w.locate(rope as usize, b.min, b.max, tn, w.floor, c);
             } else {
                 c.restart();
-                (idx, min, max) = w.locate_root(tn, w.floor, c);
+                (idx, min, max) = w.locate_start(tn, w.floor, c);
             }
         }
     }
@@ -537,11 +488,10 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
 
 /// The state of one `sequential` or `ropes` walk (see the module doc).
 struct Walk<'a, L> {
-    kd: &'a KdTree,
-    l: L,
+    w: &'a Tree<'a, L>,
     s: &'a Setup,
     /// Per axis, the coordinate of the last exit face crossed on that axis (initially the
-    /// root's entry face): every plane at or before it in the direction of travel is behind.
+    /// start cell's entry face): every plane at or before it in the direction of travel is behind.
     floor: [f32; 3],
     /// The axis of the exit face just crossed (3 before the first): the located point lies on
     /// that face, so on this axis its coordinate is `floor` exactly and planes beyond it are
@@ -557,16 +507,17 @@ struct Walk<'a, L> {
 }
 
 impl<L: Layout> Walk<'_, L> {
-    /// [`Walk::locate`] from the root.
+    /// [`Walk::locate`] from the start node.
     #[inline(always)]
-    fn locate_root<C: Counter>(
+    fn locate_start<C: Counter>(
         &mut self,
         tn: f32,
         floor: [f32; 3],
         c: &mut C,
     ) -> (usize, [f32; 3], [f32; 3]) {
-        let b = &self.kd.bounds;
-        self.locate(0, b.min.to_array(), b.max.to_array(), tn, floor, c)
+        let f = self.w.from;
+        let (min, max) = (f.cell.min.to_array(), f.cell.max.to_array());
+        self.locate(f.node as usize, min, max, tn, floor, c)
     }
 
     /// Kaplan's point location (review §3.1) below node `idx` with cell `min..max` of the ray
@@ -588,7 +539,7 @@ impl<L: Layout> Walk<'_, L> {
         c: &mut C,
     ) -> (usize, [f32; 3], [f32; 3]) {
         let s = self.s;
-        let nodes = self.kd.nodes.as_slice();
+        let nodes = self.w.v.nodes;
         // At `tn = 0` the located point is the ray origin itself, exact on every axis.
         let origin = tn == 0.0;
         let below = tn - (SLACK - 1.0) * tn.abs();
@@ -637,7 +588,7 @@ impl<L: Layout> Walk<'_, L> {
                 // The near child (left for a positive direction) unless the plane is behind.
                 behind == s.neg[a]
             };
-            let (l, r) = self.l.children(idx, n);
+            let (l, r) = self.w.l.children(idx, n);
             if left {
                 max[a] = sp;
                 idx = l;

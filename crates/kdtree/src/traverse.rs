@@ -1,15 +1,17 @@
 //! The traversal kernels (Hapala and Havran 2011, "Review: Kd-tree traversal algorithms for ray
 //! tracing", CGF 30(1); sections cited per kernel).
 //!
-//! Common to all: the ray is first clipped to the root cell with the robust slab test
-//! ([`tb_core::Aabb::intersect`]: zero direction components and origins in face planes handled,
-//! exit scaled by `1 + 2·gamma(3)`); a ray missing it is done. Triangle tests accept any `t` in
-//! `[tmin, closest so far)`, never only the leaf's interval, and a closest-hit walk skips
-//! only pending subtrees that start beyond the closest hit: a hit found in a leaf but beyond
-//! the leaf's exit does not end the walk. Each node is visited at most once, so no step cap
-//! is needed.
+//! Every kernel reads a [`Tree`]: a [`KdView`] of the tree, its layout as a type (so each
+//! layout gets its own compiled kernel) and the start of every walk ([`KdStart`]: the root, or
+//! a node below it that then plays the root's part). Common to all: the ray is first clipped
+//! to the start cell with the robust slab test ([`tb_core::Aabb::intersect`]: zero direction
+//! components and origins in face planes handled, exit scaled by `1 + 2·gamma(3)`); a ray
+//! missing it is done. Triangle tests accept any `t` in `[tmin, closest so far)`, never only
+//! the leaf's interval, and a closest-hit walk skips only pending subtrees that start beyond
+//! the closest hit: a hit found in a leaf but beyond the leaf's exit does not end the walk.
+//! Each node is visited at most once, so no step cap is needed.
 
-use crate::{KdNode, KdTree, Layout};
+use crate::{KdNode, KdStart, KdView, Layout};
 use tb_core::slab::{max_num, min_num};
 use tb_core::{Counter, HitRecord, Ray, TriTest};
 
@@ -44,7 +46,29 @@ fn pop_pending<E: Copy, const ANY: bool>(
     None
 }
 
-/// Per-ray data: origin, direction, reciprocal direction, and the ray's interval in the root
+/// What a kernel reads: the view, its layout `L` (the kernels are compiled per layout) and the
+/// start of every walk.
+#[derive(Clone, Copy)]
+pub(crate) struct Tree<'a, L> {
+    pub(crate) v: KdView<'a>,
+    pub(crate) l: L,
+    pub(crate) from: KdStart,
+}
+
+impl<'a, L> Tree<'a, L> {
+    /// Panics if `from` is no node of `v` (the kernels index nodes unchecked).
+    pub(crate) fn new(v: KdView<'a>, l: L, from: KdStart) -> Self {
+        assert!(
+            v.nodes.is_empty() || (from.node as usize) < v.nodes.len(),
+            "kd-tree: start node {} of {} nodes",
+            from.node,
+            v.nodes.len()
+        );
+        Tree { v, l, from }
+    }
+}
+
+/// Per-ray data: origin, direction, reciprocal direction, and the ray's interval in the start
 /// cell.
 #[derive(Clone, Copy)]
 pub(crate) struct Setup {
@@ -57,26 +81,26 @@ pub(crate) struct Setup {
     pub(crate) t1: f32,
 }
 
-/// The start of every kernel: count the root cell's test, clip the ray to it (`None`: the ray
+/// The start of every kernel: count the start cell's test, clip the ray to it (`None`: the ray
 /// misses the tree), prepare the triangle test, and no hit yet (closest so far `ray.tmax`).
 #[inline(always)]
-pub(crate) fn start<T: TriTest, C: Counter>(
-    kd: &KdTree,
+pub(crate) fn start<T: TriTest, C: Counter, L>(
+    w: &Tree<'_, L>,
     ray: &Ray,
     c: &mut C,
 ) -> Option<(Setup, T::Pre, Best)> {
     c.boxes(1);
-    let s = setup(kd, ray)?;
+    let s = setup(w, ray)?;
     Some((s, T::prepare(ray), Best::new(ray.tmax)))
 }
 
 #[inline(always)]
-fn setup(kd: &KdTree, ray: &Ray) -> Option<Setup> {
-    if kd.nodes.is_empty() {
+fn setup<L>(w: &Tree<'_, L>, ray: &Ray) -> Option<Setup> {
+    if w.v.nodes.is_empty() {
         return None;
     }
     let inv = ray.inv_dir();
-    let (t0, t1) = kd.bounds.intersect(ray.origin, inv, ray.tmin, ray.tmax)?;
+    let (t0, t1) = w.from.cell.intersect(ray.origin, inv, ray.tmin, ray.tmax)?;
     let inv = inv.to_array();
     Some(Setup {
         org: ray.origin.to_array(),
@@ -126,7 +150,7 @@ impl Best {
 /// returns `true` at the first hit.
 #[inline(always)]
 pub(crate) fn leaf<T: TriTest, C: Counter, const ANY: bool>(
-    kd: &KdTree,
+    v: &KdView,
     n: KdNode,
     pre: &T::Pre,
     ray: &Ray,
@@ -136,7 +160,7 @@ pub(crate) fn leaf<T: TriTest, C: Counter, const ANY: bool>(
     c.leaf();
     c.steps(1);
     let (o, k) = (n.offset(), n.count() as usize);
-    let refs = &kd.prim_refs[o..o + k];
+    let refs = &v.refs[o..o + k];
     if !ANY {
         c.prims(k as u32);
     }
@@ -145,8 +169,8 @@ pub(crate) fn leaf<T: TriTest, C: Counter, const ANY: bool>(
             c.prims(1);
         }
         // SAFETY: `KdTree::build` only makes references to existing triangles (checked by
-        // `validate`).
-        let tri = unsafe { kd.tris.get_unchecked(id as usize) };
+        // `validate`), and a view's triangles are those of its tree.
+        let tri = unsafe { v.tris.get_unchecked(id as usize) };
         if let Some((t, u, v)) = T::intersect(pre, ray, tri, best.t) {
             *best = Best { t, prim: id, u, v };
             if ANY {
@@ -169,8 +193,8 @@ pub(crate) enum Kind {
 /// interval `[tn, tf]` (see [`RecursiveDirection`]). The children's intervals are always
 /// `[tn, min(tf, t)]` and `[max(tn, t), tf]` (a NaN `t` ignored), so the interval of a node is
 /// the slab interval of its cell whatever path led there (plane distances computed by the one
-/// formula, root faces counting as the root interval): the stackless traversals recompute it
-/// from a cell and reproduce exactly these decisions.
+/// formula, start-cell faces counting as the start interval): the stackless traversals
+/// recompute it from a cell and reproduce exactly these decisions.
 #[derive(Clone, Copy)]
 pub(crate) struct Decision {
     pub(crate) kind: Kind,
@@ -227,28 +251,28 @@ pub(crate) fn decide<L: Layout>(
 /// half-space holding the ray; an origin exactly in the plane gives `t = NaN`, which fails both
 /// comparisons, and both children are visited over the whole interval (the NaN is ignored by
 /// the interval updates).
-pub(crate) struct RecursiveDirection<'a, L>(pub &'a KdTree, pub L);
+pub(crate) struct RecursiveDirection<'a, L>(pub Tree<'a, L>);
 
 impl<L: Layout> RecursiveDirection<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        let kd = self.0;
-        let Some((s, pre, mut best)) = start::<T, C>(kd, ray, c) else {
+        let w = &self.0;
+        let Some((s, pre, mut best)) = start::<T, C, L>(w, ray, c) else {
             return HitRecord::MISS;
         };
-        let nodes = kd.nodes.as_slice();
+        let nodes = w.v.nodes;
         let mut stack = [(0u32, 0f32, 0f32); STACK_SIZE];
         let mut sp = 0usize;
-        let (mut idx, mut tn, mut tf) = (0usize, s.t0, s.t1);
+        let (mut idx, mut tn, mut tf) = (w.from.node as usize, s.t0, s.t1);
         loop {
-            // SAFETY: indices are the root and children written by the builder (checked by
-            // `validate`).
+            // SAFETY: indices are the start node (checked against the node count in
+            // `Tree::new`) and children written by the builder (checked by `validate`).
             let n = unsafe { *nodes.get_unchecked(idx) };
             if !n.is_leaf() {
                 c.interior();
                 c.steps(1);
                 c.planes(1);
-                let d = decide(self.1, n, idx, &s, tn, tf);
+                let d = decide(w.l, n, idx, &s, tn, tf);
                 match d.kind {
                     Kind::NearOnly => idx = d.near,
                     Kind::FarOnly => idx = d.far,
@@ -261,7 +285,7 @@ impl<L: Layout> RecursiveDirection<'_, L> {
                 }
                 continue;
             }
-            if leaf::<T, C, ANY>(kd, n, &pre, ray, &mut best, c) {
+            if leaf::<T, C, ANY>(&w.v, n, &pre, ray, &mut best, c) {
                 return best.record();
             }
             let Some((i, a, b)) = pop_pending::<f32, ANY>(&stack, &mut sp, best.t, |t| *t) else {
@@ -281,10 +305,9 @@ struct Pt {
     p: [f32; 3],
 }
 
-/// The point at `t`, exact on axes of zero direction, clamped into the root cell.
+/// The point at `t`, exact on axes of zero direction, clamped into the start cell `b`.
 #[inline(always)]
-fn point(kd: &KdTree, s: &Setup, t: f32) -> [f32; 3] {
-    let b = &kd.bounds;
+fn point(b: &tb_core::Aabb, s: &Setup, t: f32) -> [f32; 3] {
     let mut p = [0.0; 3];
     for a in 0..3 {
         let x = if s.dir[a] == 0.0 {
@@ -305,36 +328,36 @@ fn point(kd: &KdTree, s: &Setup, t: f32) -> [f32; 3] {
 /// (cases N4, P4), and the crossing point gets the split coordinate exactly. Case Z (the ray
 /// lies in the split plane) visits both children, so triangles touching the plane from either
 /// side are tested. The stored points are rounded (`o + t·d`), so a coordinate within
-/// `8·2^-24·(|o_a| + max |root cell|_a)` of the split counts as possibly on either side:
+/// `8·2^-24·(|o_a| + max |start cell|_a)` of the split counts as possibly on either side:
 /// an entry and exit both within it is case Z, one of them within it a crossing (near child by
 /// the direction's sign); points on axes of zero direction are exactly `o_a`.
-pub(crate) struct Havran<'a, L>(pub &'a KdTree, pub L);
+pub(crate) struct Havran<'a, L>(pub Tree<'a, L>);
 
 impl<L: Layout> Havran<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        let kd = self.0;
-        let Some((s, pre, mut best)) = start::<T, C>(kd, ray, c) else {
+        let w = &self.0;
+        let Some((s, pre, mut best)) = start::<T, C, L>(w, ray, c) else {
             return HitRecord::MISS;
         };
-        let nodes = kd.nodes.as_slice();
+        let nodes = w.v.nodes;
         let zero = Pt {
             t: 0.0,
             p: [0.0; 3],
         };
         let mut stack = [(0u32, zero, zero); STACK_SIZE];
         let mut sp = 0usize;
-        let mut idx = 0usize;
+        let mut idx = w.from.node as usize;
+        let b = &w.from.cell;
         let mut en = Pt {
             t: s.t0,
-            p: point(kd, &s, s.t0),
+            p: point(b, &s, s.t0),
         };
         let mut ex = Pt {
             t: s.t1,
-            p: point(kd, &s, s.t1),
+            p: point(b, &s, s.t1),
         };
         // Rounding allowance of point coordinates on each axis.
-        let b = &kd.bounds;
         let err: [f32; 3] = std::array::from_fn(|a| {
             8.0 * f32::EPSILON * (s.org[a].abs() + b.min[a].abs().max(b.max[a].abs()))
         });
@@ -346,7 +369,7 @@ impl<L: Layout> Havran<'_, L> {
                 c.steps(1);
                 let a = n.axis();
                 let split = n.split();
-                let (left, right) = self.1.children(idx, n);
+                let (left, right) = w.l.children(idx, n);
                 let (ea, xa) = (en.p[a], ex.p[a]);
                 let (lo, hi) = (split - err[a], split + err[a]);
                 // Entry/exit possibly on the left (at most `split` up to rounding), possibly
@@ -377,17 +400,17 @@ impl<L: Layout> Havran<'_, L> {
                     idx = right;
                 }
                 c.planes(1);
-                let t = (split - s.org[a]) * s.inv[a];
-                let t = min_num(max_num(en.t, t), ex.t);
-                let mut p = point(kd, &s, t);
+                let tp = (split - s.org[a]) * s.inv[a];
+                let tp = min_num(max_num(en.t, tp), ex.t);
+                let mut p = point(b, &s, tp);
                 p[a] = split;
-                let mid = Pt { t, p };
+                let mid = Pt { t: tp, p };
                 stack[sp] = (far as u32, mid, ex);
                 sp += 1;
                 ex = mid;
                 continue;
             }
-            if leaf::<T, C, ANY>(kd, n, &pre, ray, &mut best, c) {
+            if leaf::<T, C, ANY>(&w.v, n, &pre, ray, &mut best, c) {
                 return best.record();
             }
             let Some((i, a, b)) = pop_pending::<Pt, ANY>(&stack, &mut sp, best.t, |p| p.t) else {
@@ -406,19 +429,19 @@ tb_core::kernel_by_query!(walk: [L: Layout] Havran<'_, L>);
 /// only; `t < t_entry`: far only; otherwise both. An origin lying in a split plane (`o_a =
 /// split`, near = the upper child) gives `t = 0` and may send the ray to the wrong child: the
 /// algorithm is inherently not robust there (Havran et al. 1997), and kept as published.
-pub(crate) struct RecursiveOrigin<'a, L>(pub &'a KdTree, pub L);
+pub(crate) struct RecursiveOrigin<'a, L>(pub Tree<'a, L>);
 
 impl<L: Layout> RecursiveOrigin<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        let kd = self.0;
-        let Some((s, pre, mut best)) = start::<T, C>(kd, ray, c) else {
+        let w = &self.0;
+        let Some((s, pre, mut best)) = start::<T, C, L>(w, ray, c) else {
             return HitRecord::MISS;
         };
-        let nodes = kd.nodes.as_slice();
+        let nodes = w.v.nodes;
         let mut stack = [(0u32, 0f32, 0f32); STACK_SIZE];
         let mut sp = 0usize;
-        let (mut idx, mut tn, mut tf) = (0usize, s.t0, s.t1);
+        let (mut idx, mut tn, mut tf) = (w.from.node as usize, s.t0, s.t1);
         loop {
             // SAFETY: as in `RecursiveDirection::walk`.
             let n = unsafe { *nodes.get_unchecked(idx) };
@@ -429,7 +452,7 @@ impl<L: Layout> RecursiveOrigin<'_, L> {
                 let a = n.axis();
                 let split = n.split();
                 let t = (split - s.org[a]) * s.inv[a];
-                let (left, right) = self.1.children(idx, n);
+                let (left, right) = w.l.children(idx, n);
                 let (near, far) = if s.org[a] < split {
                     (left, right)
                 } else {
@@ -449,7 +472,7 @@ impl<L: Layout> RecursiveOrigin<'_, L> {
                 }
                 continue;
             }
-            if leaf::<T, C, ANY>(kd, n, &pre, ray, &mut best, c) {
+            if leaf::<T, C, ANY>(&w.v, n, &pre, ray, &mut best, c) {
                 return best.record();
             }
             let Some((i, a, b)) = pop_pending::<f32, ANY>(&stack, &mut sp, best.t, |t| *t) else {
@@ -472,19 +495,19 @@ tb_core::kernel_by_query!(walk: [L: Layout] RecursiveOrigin<'_, L>);
 /// `t > t_exit·SLACK`, `d` when `t·SLACK < t_entry`; a NaN `t` gives both children over the
 /// whole interval), so it visits exactly the same nodes. Extra memory: the stack, one entry
 /// more than `recursive-direction`'s.
-pub(crate) struct Branchless<'a, L>(pub &'a KdTree, pub L);
+pub(crate) struct Branchless<'a, L>(pub Tree<'a, L>);
 
 impl<L: Layout> Branchless<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        let kd = self.0;
-        let Some((s, pre, mut best)) = start::<T, C>(kd, ray, c) else {
+        let w = &self.0;
+        let Some((s, pre, mut best)) = start::<T, C, L>(w, ray, c) else {
             return HitRecord::MISS;
         };
-        let nodes = kd.nodes.as_slice();
+        let nodes = w.v.nodes;
         let mut stack = [(0u32, 0f32, 0f32); STACK_SIZE + 1];
         // `n` entries; the top, `stack[n - 1]`, is the node being processed.
-        stack[0] = (0, s.t0, s.t1);
+        stack[0] = (w.from.node, s.t0, s.t1);
         let mut n = 1usize;
         loop {
             let (idx, tn, tf) = stack[n - 1];
@@ -499,7 +522,7 @@ impl<L: Layout> Branchless<'_, L> {
                 let t = (node.split() - s.org[a]) * s.inv[a];
                 let neg = s.neg[a] as usize;
                 // Near = left unless neg.
-                let (left, right) = self.1.children(idx, node);
+                let (left, right) = w.l.children(idx, node);
                 let kids = [left, right];
                 let (near, far) = (kids[neg], kids[1 - neg]);
                 // `t > tf·SLACK` is false for a NaN `t`: both children.
@@ -512,7 +535,7 @@ impl<L: Layout> Branchless<'_, L> {
                 n -= far_only;
                 continue;
             }
-            if leaf::<T, C, ANY>(kd, node, &pre, ray, &mut best, c) {
+            if leaf::<T, C, ANY>(&w.v, node, &pre, ray, &mut best, c) {
                 return best.record();
             }
             n -= 1;
@@ -535,23 +558,23 @@ tb_core::kernel_by_query!(walk: [L: Layout] Branchless<'_, L>);
 /// §5.2, Figure 8, Table 3 "stack spilling"). Visits exactly the nodes of
 /// `recursive-direction`; `boxes` counts 1 plus one per entry spilled or refilled (the
 /// traffic to the memory stack). Extra memory: the short stack and a full stack per ray.
-pub(crate) struct StackSpilling<'a, L>(pub &'a KdTree, pub L);
+pub(crate) struct StackSpilling<'a, L>(pub Tree<'a, L>);
 
 impl<L: Layout> StackSpilling<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        let kd = self.0;
-        let Some((s, pre, mut best)) = start::<T, C>(kd, ray, c) else {
+        let w = &self.0;
+        let Some((s, pre, mut best)) = start::<T, C, L>(w, ray, c) else {
             return HitRecord::MISS;
         };
-        let nodes = kd.nodes.as_slice();
-        let size = kd.params.short_stack as usize;
+        let nodes = w.v.nodes;
+        let size = w.v.short_stack as usize;
         let mut short = [(0u32, 0f32, 0f32); crate::MAX_SHORT_STACK];
         // Circular: `count` entries, the newest at `top - 1` (mod `size`).
         let (mut top, mut count) = (0usize, 0usize);
         let mut spill = [(0u32, 0f32, 0f32); STACK_SIZE];
         let mut sn = 0usize;
-        let (mut idx, mut tn, mut tf) = (0usize, s.t0, s.t1);
+        let (mut idx, mut tn, mut tf) = (w.from.node as usize, s.t0, s.t1);
         loop {
             // SAFETY: as in `RecursiveDirection::walk`.
             let n = unsafe { *nodes.get_unchecked(idx) };
@@ -559,7 +582,7 @@ impl<L: Layout> StackSpilling<'_, L> {
                 c.interior();
                 c.steps(1);
                 c.planes(1);
-                let d = decide(self.1, n, idx, &s, tn, tf);
+                let d = decide(w.l, n, idx, &s, tn, tf);
                 match d.kind {
                     Kind::NearOnly => idx = d.near,
                     Kind::FarOnly => idx = d.far,
@@ -581,7 +604,7 @@ impl<L: Layout> StackSpilling<'_, L> {
                 }
                 continue;
             }
-            if leaf::<T, C, ANY>(kd, n, &pre, ray, &mut best, c) {
+            if leaf::<T, C, ANY>(&w.v, n, &pre, ray, &mut best, c) {
                 return best.record();
             }
             let next = loop {

@@ -2,24 +2,25 @@
 //! oracle, for every robust traversal; the inherently non-robust `recursive-origin` is run
 //! separately and its mismatches are reported, not asserted.
 
-use tb_core::{Accel, HitRecord, Query, Ray, TraversalInfo, TraversalStats, TriTestKind};
-use tb_kdtree::{KdParams, KdTree, TRAVERSALS};
+use tb_core::{
+    Accel, AccelError, BuildReport, GpuProgram, HitRecord, MemoryReport, Query, Ray, Structure,
+    Traversal, TraversalInfo, TraversalStats, TriTestKind,
+};
+use tb_kdtree::{KdParams, KdTree};
 
-/// A kd-tree exposing only some of its traversals (`which`, indices into [`TRAVERSALS`]).
+/// The kd-tree's traversal table.
+const TRAVERSALS: &[Traversal<KdTree>] = KdTree::TRAVERSALS;
+
+/// A kd-tree exposing only some of its traversals (`which`, indices into [`TRAVERSALS`]),
+/// delegating everything else to the tree.
 struct Subset {
     kd: KdTree,
     which: &'static [usize],
-    infos: &'static [TraversalInfo],
 }
 
 impl Subset {
     fn new(kd: KdTree, which: &'static [usize]) -> Self {
-        let infos: Vec<TraversalInfo> = which.iter().map(|&i| TRAVERSALS[i]).collect();
-        Subset {
-            kd,
-            which,
-            infos: Box::leak(infos.into_boxed_slice()),
-        }
+        Subset { kd, which }
     }
 }
 
@@ -27,17 +28,26 @@ impl Accel for Subset {
     fn name(&self) -> &'static str {
         self.kd.name()
     }
-    fn traversals(&self) -> &'static [TraversalInfo] {
-        self.infos
+    fn traversals(&self) -> Vec<&'static TraversalInfo> {
+        self.which.iter().map(|&i| &TRAVERSALS[i].info).collect()
     }
-    fn memory(&self) -> tb_core::MemoryReport {
-        self.kd.memory()
+    fn memory(&self) -> MemoryReport {
+        Accel::memory(&self.kd)
     }
-    fn validate(&self) -> Result<(), String> {
-        self.kd.validate()
+    fn memory_for(&self, traversal: usize) -> MemoryReport {
+        self.kd.memory_for(self.which[traversal])
     }
-    fn has_step_cap(&self, traversal: usize) -> bool {
-        self.kd.has_step_cap(self.which[traversal])
+    fn build_report(&self) -> BuildReport {
+        Accel::build_report(&self.kd)
+    }
+    fn validate(&self) -> Result<(), AccelError> {
+        Accel::validate(&self.kd)
+    }
+    fn prepare(&self, traversal: usize) {
+        self.kd.prepare(self.which[traversal])
+    }
+    fn gpu_program(&self, traversal: usize) -> Option<GpuProgram<'_>> {
+        self.kd.gpu_program(self.which[traversal])
     }
     fn trace(
         &self,
@@ -55,7 +65,7 @@ impl Accel for Subset {
 
 /// Index of a traversal by name.
 fn index(name: &str) -> usize {
-    TRAVERSALS.iter().position(|t| t.name == name).unwrap()
+    TRAVERSALS.iter().position(|t| t.info.name == name).unwrap()
 }
 
 /// Trace `rays` with traversal `ti` of `kd` (watertight test), with per-ray counters.
@@ -76,7 +86,7 @@ fn traced(kd: &KdTree, ti: usize, q: Query, rays: &[Ray]) -> (Vec<HitRecord>, Ve
 /// The robust traversals: all but `recursive-origin`.
 fn robust() -> &'static [usize] {
     let v: Vec<usize> = (0..TRAVERSALS.len())
-        .filter(|&i| !NOT_ROBUST.contains(&TRAVERSALS[i].name))
+        .filter(|&i| !NOT_ROBUST.contains(&TRAVERSALS[i].info.name))
         .collect();
     Box::leak(v.into_boxed_slice())
 }
@@ -88,7 +98,7 @@ fn run(params: KdParams) {
     assert_eq!(which.len() + NOT_ROBUST.len(), TRAVERSALS.len());
     tb_scene::conformance::assert_conforms(&move |tris| {
         let kd = KdTree::build(tris, &params);
-        kd.validate().expect("valid kd-tree");
+        Accel::validate(&kd).expect("valid kd-tree");
         Box::new(Subset::new(kd, which)) as Box<dyn Accel>
     });
 }
@@ -171,7 +181,7 @@ fn counters_are_consistent() {
     let scene = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new(".")).unwrap();
     let kd = KdTree::build(&scene.triangles, &KdParams::default());
     let rays = tb_scene::rays::random(&scene.bounds, 500, 3);
-    for (ti, info) in TRAVERSALS.iter().enumerate() {
+    for (ti, info) in TRAVERSALS.iter().map(|t| &t.info).enumerate() {
         let (_, stats) = traced(&kd, ti, Query::Closest, &rays);
         for s in &stats {
             assert_eq!(s.steps, s.interior + s.leaves, "{}", info.name);
@@ -206,10 +216,10 @@ fn step_cap_fires_and_is_counted() {
             ..Default::default()
         };
         let kd = KdTree::build(&scene.triangles, &params);
-        for (ti, info) in TRAVERSALS.iter().enumerate() {
+        for (ti, info) in TRAVERSALS.iter().map(|t| &t.info).enumerate() {
             let (_, stats) = traced(&kd, ti, Query::Closest, &rays);
             let summary = tb_core::StatsSummary::from_stats(&stats);
-            if !kd.has_step_cap(ti) {
+            if !info.step_cap {
                 assert_eq!(summary.capped, 0, "{}", info.name);
                 continue;
             }
@@ -223,9 +233,8 @@ fn step_cap_fires_and_is_counted() {
             }
         }
     }
-    let kd = KdTree::build(&scene.triangles, &KdParams::default());
-    assert!(!kd.has_step_cap(index("recursive-direction")));
-    assert!(kd.has_step_cap(index("sequential")));
+    assert!(!TRAVERSALS[index("recursive-direction")].info.step_cap);
+    assert!(TRAVERSALS[index("sequential")].info.step_cap);
 }
 
 /// `branchless` and `stack-spilling` (with a one-entry short stack, so it spills) visit
@@ -278,7 +287,7 @@ fn treelet_layout_visits_the_same_nodes() {
     let scene = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new(".")).unwrap();
     let rays = tb_scene::rays::random(&scene.bounds, 400, 17);
     let dfs = KdTree::build(&scene.triangles, &KdParams::default());
-    let count = |kd: &KdTree| kd.build_report().extra[0].1;
+    let count = |kd: &KdTree| Accel::build_report(kd).extra[0].1;
     for h in [2, 3, 5] {
         let tl = KdTree::build(
             &scene.triangles,
@@ -288,11 +297,11 @@ fn treelet_layout_visits_the_same_nodes() {
                 ..Default::default()
             },
         );
-        tl.validate().expect("valid treelet layout");
+        Accel::validate(&tl).expect("valid treelet layout");
         assert_eq!(count(&tl), count(&dfs), "h = {h}: node count");
         assert!(tl.nodes().len() > dfs.nodes().len(), "h = {h}: slots");
         assert_eq!(tl.nodes().as_ptr() as usize % 64, 0);
-        for (ti, info) in TRAVERSALS.iter().enumerate() {
+        for (ti, info) in TRAVERSALS.iter().map(|t| &t.info).enumerate() {
             for q in [Query::Closest, Query::Any] {
                 let (ha, sa) = traced(&dfs, ti, q, &rays);
                 let (hb, sb) = traced(&tl, ti, q, &rays);
@@ -417,14 +426,14 @@ fn restart_family_visits_the_recursive_leaves() {
             let (h0, s0) = trace(base);
             for &ti in &others {
                 let (h, s) = trace(ti);
-                assert_eq!(h, h0, "{}: {}", scene.source, TRAVERSALS[ti].name);
+                assert_eq!(h, h0, "{}: {}", scene.source, TRAVERSALS[ti].info.name);
                 for (a, b) in s.iter().zip(&s0) {
                     assert_eq!(
                         (a.leaves, a.prims),
                         (b.leaves, b.prims),
                         "{}: {}",
                         scene.source,
-                        TRAVERSALS[ti].name
+                        TRAVERSALS[ti].info.name
                     );
                 }
             }

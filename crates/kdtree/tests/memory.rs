@@ -1,30 +1,42 @@
-//! Each traversal's memory figure counts what it reads (review Table 3, "additional memory").
+//! Each traversal's memory figure counts what it reads (review Table 3, "additional memory"),
+//! whether its auxiliary arrays are built yet or not.
 
-use tb_core::Accel;
-use tb_kdtree::{KdParams, KdTree, TRAVERSALS};
+use tb_core::{Accel, Structure};
+use tb_kdtree::{KdParams, KdTree, BACKTRACK_AUX, ROPES_AUX};
 
 #[test]
 fn traversal_memory_counts_only_the_auxiliary_arrays_read() {
     let scene = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new(".")).unwrap();
     let kd = KdTree::build(&scene.triangles, &KdParams::default());
-    let all = kd.memory().bytes;
+    let base = Accel::memory(&kd).bytes;
     let of = |name: &str| {
-        let i = TRAVERSALS.iter().position(|t| t.name == name).unwrap();
+        let i = KdTree::TRAVERSALS
+            .iter()
+            .position(|t| t.info.name == name)
+            .unwrap();
         kd.memory_for(i).bytes
     };
-    let base = of("recursive-direction");
-    let report = kd.build_report();
+    let report = Accel::build_report(&kd);
     let extra = |k: &str| report.extra.iter().find(|e| e.0 == k).unwrap().1 as u64;
+    let (back, ropes) = (extra("backtrack_aux_bytes"), extra("ropes_aux_bytes"));
+    assert_eq!(back, 32 * kd.nodes().len() as u64);
+    assert_eq!(ropes, 24 * kd.nodes().len() as u64);
     assert!(base > 0);
-    for t in TRAVERSALS {
-        match t.name {
-            "ropes" => assert_eq!(of(t.name), all),
-            "backtrack" => assert_eq!(of(t.name), base + extra("backtrack_aux_bytes")),
-            name => assert_eq!(of(name), base, "{name}"),
+    for built in [false, true] {
+        assert_eq!(kd.aux_built(BACKTRACK_AUX), built);
+        assert_eq!(kd.aux_built(ROPES_AUX), built);
+        for t in KdTree::TRAVERSALS {
+            match t.info.name {
+                "ropes" => assert_eq!(of(t.info.name), base + back + ropes),
+                "backtrack" => assert_eq!(of(t.info.name), base + back),
+                name => assert_eq!(of(name), base, "{name}"),
+            }
+        }
+        for i in 0..KdTree::TRAVERSALS.len() {
+            kd.prepare(i);
         }
     }
-    assert_eq!(
-        all,
-        base + extra("backtrack_aux_bytes") + extra("ropes_aux_bytes")
-    );
+    // The arrays' real sizes are the figures.
+    assert_eq!(std::mem::size_of_val(kd.back_nodes()) as u64, back);
+    assert_eq!(std::mem::size_of_val(kd.ropes()) as u64, ropes);
 }
