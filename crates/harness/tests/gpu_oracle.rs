@@ -21,10 +21,7 @@
 use std::collections::BTreeSet;
 use std::path::PathBuf;
 use std::sync::Arc;
-use tb_core::{
-    compare, Accel, BruteForce, Family, HitRecord, Query, Ray, TraversalStats, TriTestKind,
-    Triangle,
-};
+use tb_core::{compare, Accel, BruteForce, Family, HitRecord, Query, Ray, TriTestKind, Triangle};
 use tb_gpu::{open_or_skip, Gpu, GpuStructure};
 use tb_scene::conformance;
 

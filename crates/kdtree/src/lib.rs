@@ -690,7 +690,7 @@ impl Structure for KdTree {
     /// Nodes, references and triangles: what every traversal reads. `backtrack` adds the
     /// [`BACKTRACK_AUX`] array, `ropes` that and the [`ROPES_AUX`] array
     /// ([`Structure::aux_bytes`]; review Table 3, "additional memory").
-    fn memory(&self) -> MemoryReport {
+    fn own_memory(&self) -> MemoryReport {
         MemoryReport {
             bytes: (self.nodes.bytes()
                 + std::mem::size_of_val(&*self.prim_refs)
@@ -732,7 +732,7 @@ impl Structure for KdTree {
     /// non-empty leaves), `leaf_size_max`, and the bytes of the auxiliary arrays, built or not:
     /// `backtrack_aux_bytes` (cell and parent per node, read by `backtrack` and `ropes`) and
     /// `ropes_aux_bytes` (six ropes per node, read by `ropes`).
-    fn build_report(&self) -> BuildReport {
+    fn report(&self) -> BuildReport {
         let (mut interior, mut leaves, mut empty) = (0u64, 0u64, 0u64);
         let (mut depth_max, mut depth_sum, mut leaf_max) = (0u32, 0u64, 0u32);
         let (mut ia, mut la) = (0f64, 0f64);
@@ -786,7 +786,7 @@ impl Structure for KdTree {
     /// once, depth within the limit and the traversal stack, split positions inside their
     /// cells, every referenced triangle's box overlapping its leaf cell (up to the builder's
     /// rounding tolerance), every finite triangle referenced by at least one leaf.
-    fn validate(&self) -> Result<(), AccelError> {
+    fn check(&self) -> Result<(), AccelError> {
         self.check_invariants().map_err(AccelError::Invalid)
     }
 }

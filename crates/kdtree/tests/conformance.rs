@@ -46,6 +46,9 @@ impl Accel for Subset {
     fn prepare(&self, traversal: usize) {
         self.kd.prepare(self.which[traversal])
     }
+    fn has_gpu_program(&self, traversal: usize) -> bool {
+        self.kd.has_gpu_program(self.which[traversal])
+    }
     fn gpu_program(&self, traversal: usize) -> Option<GpuProgram<'_>> {
         self.kd.gpu_program(self.which[traversal])
     }
