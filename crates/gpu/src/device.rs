@@ -1,6 +1,6 @@
 //! Adapter and device selection, error capture, and blocking waits.
 
-use crate::GpuError;
+use crate::{one_line, GpuError};
 use std::sync::{Arc, Mutex};
 
 /// A wgpu backend the user may ask for (`--backend`, `run.gpu_backend`).
@@ -241,9 +241,4 @@ impl Gpu {
             None => Ok(()),
         }
     }
-}
-
-/// Collapse a multi-line wgpu message into one line.
-pub(crate) fn one_line(s: &str) -> String {
-    s.split_whitespace().collect::<Vec<_>>().join(" ")
 }

@@ -41,10 +41,11 @@
 
 mod device;
 mod kernels;
+mod trace;
 
 pub use device::{AdapterChoice, AdapterSummary, Backend, Gpu};
-pub use kernels::{GpuRays, GpuStructure, Timing};
 pub use tb_core::{GpuBuffer, GpuProgram};
+pub use trace::{GpuRays, GpuStructure, Timing};
 
 use tb_core::TraversalStats;
 
@@ -122,3 +123,8 @@ pub fn open_or_skip() -> Option<Gpu> {
 /// Bytes of one [`TraversalStats`] record as the kernels write it (one `u32` per counter of
 /// [`tb_core::COUNTERS`], then `capped`).
 pub const STATS_BYTES: u64 = std::mem::size_of::<TraversalStats>() as u64;
+
+/// Collapse a multi-line wgpu message into one line.
+pub(crate) fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}

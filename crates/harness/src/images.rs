@@ -96,7 +96,7 @@ pub fn write_scene(spec: &SceneSpec, out: &Path) -> Result<Option<String>, Harne
     let pixels = cam.pixels();
     let prim = rays::primary(&cam);
     let gen = crate::registry::generator(tris);
-    let hits = crate::device::cpu::trace(
+    let hits = tb_core::par::trace(
         gen.as_ref(),
         0,
         Query::Closest,
@@ -159,7 +159,7 @@ pub fn write_build(
     for &ti in traversals {
         let tname = accel.traversals()[ti].name;
         for &tri in tests {
-            let (_, stats) = crate::device::cpu::count(accel, ti, Query::Closest, tri, &prim);
+            let (_, stats) = tb_core::par::count(accel, ti, Query::Closest, tri, &prim);
             let c = counter_channels(&pixels, &stats, cam.width, cam.height);
             let stem = format!(
                 "{}-p{param_index}-{}-{}",

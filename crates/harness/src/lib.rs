@@ -2,13 +2,15 @@
 //!
 //! Data flow: [`config::load`] parses the raw TOML (serde, `deny_unknown_fields`) and checks it
 //! into an [`config::Experiment`] (scenes loaded, structures resolved against the
-//! [`registry`], parameter sweeps expanded) before any work starts; [`runner::run`] then, per
-//! scene, generates the ray batches once, builds each structure, and per traversal x triangle
-//! test x ray batch x thread count times the trace with counters compiled out, counts in a
-//! second pass and validates against the brute-force oracle, writing each [`output::Row`] as
-//! soon as it is finished. [`check`] compares the deterministic counters of a results file
-//! with a baseline.
+//! [`registry`], parameters checked against each structure's own table and sweeps expanded)
+//! before any work starts; [`runner::run`] then, per scene, generates the ray batches once
+//! ([`batches`]), builds each structure, and hands every row to a [`device`] (CPU or GPU,
+//! one interface), which counts in one pass, validates against the brute-force oracle
+//! ([`validation`]) and times the trace with counters compiled out ([`timing`]); each
+//! [`output::Row`] is written as soon as it is finished. [`check`] compares the deterministic
+//! counters of a results file with a baseline.
 
+pub mod batches;
 pub mod check;
 pub mod config;
 pub mod convergence;

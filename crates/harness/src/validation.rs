@@ -4,7 +4,6 @@
 //! first mismatching rays.
 
 use crate::config::Validate;
-use crate::device::cpu;
 use std::collections::HashMap;
 use std::sync::Arc;
 use tb_core::compare::{compare, hex_f32, Mismatch};
@@ -60,7 +59,7 @@ impl Oracle {
             let idx = sample_indices(validate, rays.len());
             let sub: Vec<Ray> = idx.iter().map(|&i| rays[i]).collect();
             on_compute(sub.len());
-            let expected = cpu::trace(brute, 0, query, TriTestKind::Watertight, &sub);
+            let expected = tb_core::par::trace(brute, 0, query, TriTestKind::Watertight, &sub);
             Sample {
                 idx,
                 rays: sub,

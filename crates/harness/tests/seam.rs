@@ -166,7 +166,7 @@ impl Structure for SlabList {
     const NAME: &'static str = "slab-list";
     const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::with_gpu(
         TraversalInfo::new("in-order", "this test", "every slab box in order"),
-        |s, query, tri, rays, hits, stats| dispatch(s, query, tri, rays, hits, stats),
+        dispatch,
         |s| GpuProgram {
             name: "slab-list/in-order",
             source: SLABS_WGSL,

@@ -71,7 +71,7 @@ pub(super) fn check_scene(
         }
     }
     progress(src);
-    let scene = tb_scene::load(src, &scenes_root)
+    let scene = tb_scene::load(src, scenes_root)
         .map_err(|e| cx.err(span.clone(), "scene.source", e.to_string()))?;
     if scene.triangles.is_empty() {
         return Err(cx.err(span, "scene.source", "the scene has no triangles"));

@@ -1,5 +1,5 @@
 //! The CPU device: a rayon pool per thread count, batches traced by [`tb_core::par`] (the one
-//! way a batch is traced on the CPU, re-exported here).
+//! way a batch is traced on the CPU).
 
 use super::{Device, Job, Outcome};
 use crate::output::Row;
@@ -8,7 +8,7 @@ use std::collections::HashMap;
 use std::time::Instant;
 use tb_core::{HitRecord, StatsSummary, TriTestKind};
 
-pub use tb_core::par::{count, trace, trace_into, CHUNK};
+use tb_core::par::{count, trace, trace_into};
 
 type Key = (usize, TriTestKind, usize);
 

@@ -12,8 +12,8 @@
 pub mod cpu;
 pub mod gpu;
 
+use crate::batches::Batch;
 use crate::output::Row;
-use crate::runner::batches::Batch;
 use crate::validation::{Checked, Sample};
 use tb_core::{Accel, TraversalInfo, TriTestKind};
 

@@ -1,17 +1,17 @@
-//! The runner: for each scene, generate the ray batches once ([`batches`]); for each
+//! The runner: for each scene, generate the ray batches once ([`crate::batches`]); for each
 //! structure and parameter set, plan the rows still to do ([`plan`]), build (timed, repeated,
 //! validated: [`build`]), and hand each row to its device ([`crate::device`]), which counts in
 //! one pass with [`tb_core::TraversalStats`], validates against the brute-force oracle
 //! ([`crate::validation`]) and times the trace with counters compiled out. Each row is written
 //! as soon as it is finished.
 
-pub mod batches;
 pub mod build;
 pub mod plan;
 pub mod table;
 
 pub use table::table;
 
+use crate::batches::{generate_batches, Batch};
 use crate::config::{Device as DeviceKind, Experiment, SceneSpec, StructureSpec, Validate};
 use crate::device::cpu::CpuDevice;
 use crate::device::gpu::GpuDevice;
@@ -20,7 +20,6 @@ use crate::error::HarnessError;
 use crate::output::{Row, RowKey, Sink};
 use crate::progress::Progress;
 use crate::validation::{self, Oracle};
-use batches::{generate_batches, Batch};
 use build::Built;
 use plan::Combo;
 use std::collections::HashSet;

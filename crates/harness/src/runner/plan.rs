@@ -1,9 +1,9 @@
 //! The combinations a run measures: per scene and build, traversal x triangle test x batch x
 //! device x thread count, less the rows an interrupted run already wrote (`--resume`).
 
+use crate::batches::Batch;
 use crate::config::{Device, Experiment, RayKindSpec, StructureSpec};
 use crate::output::RowKey;
-use crate::runner::batches::Batch;
 use std::collections::HashSet;
 use tb_core::TriTestKind;
 

@@ -2,7 +2,6 @@
 //! random, stress.
 
 use crate::config::{RayKindSpec, SceneSpec};
-use crate::device::cpu;
 use tb_core::{Query, Ray, TriTestKind};
 use tb_scene::rays::{self, RayKind};
 
@@ -42,7 +41,7 @@ pub fn generate_batches(spec: &SceneSpec, seed: u64, notes: &mut Vec<String>) ->
             spec.label
         ));
         let gen = crate::registry::generator(tris);
-        let hits = cpu::trace(
+        let hits = tb_core::par::trace(
             gen.as_ref(),
             0,
             Query::Closest,
@@ -102,7 +101,13 @@ pub fn generate_batches(spec: &SceneSpec, seed: u64, notes: &mut Vec<String>) ->
                 } else {
                     None
                 };
-                let h = cpu::trace(gen.as_ref(), 0, Query::Closest, TriTestKind::Watertight, &r);
+                let h = tb_core::par::trace(
+                    gen.as_ref(),
+                    0,
+                    Query::Closest,
+                    TriTestKind::Watertight,
+                    &r,
+                );
                 out.push(Batch {
                     name: RayKind::Path(b).name(),
                     query: Query::Closest,

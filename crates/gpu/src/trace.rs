@@ -1,0 +1,483 @@
+//! Uploads of a structure's program and of ray batches, dispatch (split by the adapter's
+//! limits), timing and readback.
+
+use crate::device::Gpu;
+use crate::kernels::COMMON_BINDINGS;
+use crate::{one_line, GpuError, STATS_BYTES, WORKGROUP};
+use bytemuck::{Pod, Zeroable};
+use std::sync::mpsc;
+use std::time::Instant;
+use tb_core::{GpuProgram, HitRecord, Query, Ray, TraversalStats, TriTestKind, N_COUNTERS};
+
+const RAY_BYTES: u64 = 32;
+const HIT_BYTES: u64 = 16;
+/// The largest per-ray record (so it bounds the rays per dispatch).
+const RECORD_BYTES: u64 = max(RAY_BYTES, max(HIT_BYTES, STATS_BYTES));
+/// Dispatch sizes are multiples of this many rays, so every per-dispatch buffer offset is a
+/// multiple of 256 bytes (the largest `min_storage_buffer_offset_alignment` WebGPU allows).
+const RAY_ALIGN: u64 = 256;
+/// Storage buffers among [`COMMON_BINDINGS`] (all but the `meta_` uniform).
+const COMMON_STORAGE: u32 = 4;
+/// Iterations llvmpipe allows the loops of one shader invocation (65535), with a margin:
+/// a program with an unrolled triangle loop handles at most `unroll` times this many there.
+const LLVMPIPE_LOOP_MAX: u64 = 65_000;
+
+const fn max(a: u64, b: u64) -> u64 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// A structure's program resident on the GPU: its triangles, buffers and meta words, and the
+/// name of the shader module that traces them ([`Gpu::upload`]).
+pub struct GpuStructure {
+    program: &'static str,
+    tris: wgpu::Buffer,
+    buffers: Vec<wgpu::Buffer>,
+    meta: wgpu::Buffer,
+    /// Host-to-device copy of the arrays, ms (buffer creation, write, wait).
+    pub upload_ms: f64,
+    /// Bytes uploaded (triangles and the program's buffers).
+    pub bytes: u64,
+}
+
+impl GpuStructure {
+    /// The name of the program it was uploaded for ([`GpuProgram::name`]).
+    pub fn program(&self) -> &'static str {
+        self.program
+    }
+}
+
+/// A ray batch resident on the GPU with its hit and counter buffers.
+pub struct GpuRays {
+    n: u64,
+    rays: wgpu::Buffer,
+    hits: wgpu::Buffer,
+    stats: wgpu::Buffer,
+    /// Host-to-device copy of the rays, ms.
+    pub upload_ms: f64,
+}
+
+impl GpuRays {
+    /// Rays in the batch.
+    pub fn len(&self) -> usize {
+        self.n as usize
+    }
+
+    /// Whether the batch is empty.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+}
+
+/// Duration of one pass of a kernel over a batch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Timing {
+    /// Kernel time, ms: GPU timestamps around the compute pass where the adapter has
+    /// `TIMESTAMP_QUERY`, else wall time from submit to the end of the wait.
+    pub kernel_ms: f64,
+    /// Whether `kernel_ms` comes from timestamps.
+    pub timestamps: bool,
+    /// Dispatches the batch was split into.
+    pub dispatches: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct GpuRay([f32; 8]);
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct GpuHit {
+    t: f32,
+    prim: u32,
+    u: f32,
+    v: f32,
+}
+
+/// One [`TraversalStats`] record as the kernels write it ([`TraversalStats::from_words`]).
+type StatsWords = [u32; N_COUNTERS + 1];
+
+const _: () = assert!(std::mem::size_of::<GpuRay>() == std::mem::size_of::<Ray>());
+const _: () = assert!(std::mem::size_of::<GpuHit>() == std::mem::size_of::<HitRecord>());
+const _: () = assert!(std::mem::size_of::<StatsWords>() as u64 == STATS_BYTES);
+
+/// The records `first .. first + len` of a per-ray buffer with records of `stride` bytes.
+fn range(buf: &wgpu::Buffer, first: u64, len: u64, stride: u64) -> wgpu::BindingResource<'_> {
+    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+        buffer: buf,
+        offset: first * stride,
+        size: wgpu::BufferSize::new(len * stride),
+    })
+}
+
+impl Gpu {
+    /// Rays per dispatch: bounded by `max_storage_buffer_binding_size` (per bound ray range) and
+    /// `max_compute_workgroups_per_dimension` x [`WORKGROUP`], a multiple of 256.
+    pub fn max_rays_per_dispatch(&self) -> u64 {
+        let by_binding = self.limits.max_storage_buffer_binding_size / RECORD_BYTES;
+        let by_groups = self.limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
+        let cap = self.dispatch_cap.unwrap_or(u64::MAX);
+        (by_binding.min(by_groups).min(cap) / RAY_ALIGN * RAY_ALIGN).max(RAY_ALIGN)
+    }
+
+    /// Cap the rays per dispatch further (rounded down to a multiple of 256, at least 256):
+    /// shorter dispatches stay under a driver's watchdog, and tests exercise the split.
+    pub fn limit_dispatch(&mut self, rays: u64) {
+        self.dispatch_cap = Some(rays);
+    }
+
+    fn fits(&self, what: &'static str, bytes: u64, binding: bool) -> Result<(), GpuError> {
+        let l = &self.limits;
+        if bytes > l.max_buffer_size || (binding && bytes > l.max_storage_buffer_binding_size) {
+            return Err(GpuError::TooLarge {
+                what,
+                bytes,
+                limit: l.max_storage_buffer_binding_size,
+                max_buffer: l.max_buffer_size,
+            });
+        }
+        Ok(())
+    }
+
+    /// A buffer holding `data` (at least 64 bytes: zero-sized bindings are invalid, and a runtime array binding must hold one element).
+    fn buffer(&self, label: &str, data: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        let size = (data.len() as u64).max(64).next_multiple_of(4);
+        let buf = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage: usage | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        if !data.is_empty() {
+            self.queue.write_buffer(&buf, 0, data);
+        }
+        buf
+    }
+
+    /// Upload a structure's GPU program ([`tb_core::Accel::gpu_program`]): its triangles
+    /// (9 floats each), its buffers and the `meta_` uniform `(triangles, meta[0..3])`, after
+    /// compiling its shader module if this is the first program of that name (timed: buffer
+    /// creation, copy, wait; compiling is not).
+    ///
+    /// `Err`: [`GpuError::TooLarge`] for an array over one storage binding (named by
+    /// [`tb_core::GpuBuffer::what`]); [`GpuError::Unsupported`] for more buffers than the
+    /// adapter binds, or a program with an unrolled triangle loop over too many triangles for
+    /// llvmpipe; [`GpuError::Program`] for a malformed program (a buffer that is not whole
+    /// 4-byte words, a name reused with other code, WGSL that does not compile).
+    pub fn upload(&self, p: &GpuProgram<'_>) -> Result<GpuStructure, GpuError> {
+        let n_tris = p.triangles.len() as u64;
+        if let Some(unroll) = p.unrolled_triangle_loop {
+            let most = unroll as u64 * LLVMPIPE_LOOP_MAX;
+            if self.summary.driver.contains("llvmpipe") && n_tris > most {
+                return Err(GpuError::Unsupported(format!(
+                    "{} over {n_tris} triangles on llvmpipe: it ends a shader's loops after 65535 iterations, so at most {most} triangles",
+                    p.name
+                )));
+            }
+        }
+        let bindable = self.limits.max_storage_buffers_per_shader_stage;
+        if COMMON_STORAGE as u64 + p.buffers.len() as u64 > bindable as u64 {
+            return Err(GpuError::Unsupported(format!(
+                "{}: {} buffers of its own and {COMMON_STORAGE} common ones, over the adapter's max_storage_buffers_per_shader_stage of {bindable}",
+                p.name,
+                p.buffers.len()
+            )));
+        }
+        if n_tris > u32::MAX as u64 {
+            return Err(GpuError::Program(format!(
+                "GPU program `{}`: {n_tris} triangles, more than a u32 counts",
+                p.name
+            )));
+        }
+        let flat: Vec<f32> = p
+            .triangles
+            .iter()
+            .flat_map(|t| [t.v0, t.v1, t.v2])
+            .flat_map(|v| v.to_array())
+            .collect();
+        let tri_bytes: &[u8] = bytemuck::cast_slice(&flat);
+        self.fits("the triangle array", tri_bytes.len() as u64, true)?;
+        for b in &p.buffers {
+            if b.bytes.len() % 4 != 0 {
+                return Err(GpuError::Program(format!(
+                    "GPU program `{}`: {} has {} bytes, not a whole number of 4-byte words",
+                    p.name,
+                    b.what,
+                    b.bytes.len()
+                )));
+            }
+            self.fits(b.what, b.bytes.len() as u64, true)?;
+        }
+        self.kernels.prepare(&self.device, p, || self.check())?;
+        let [m0, m1, m2] = p.meta;
+        let meta = [n_tris as u32, m0, m1, m2];
+        let storage = wgpu::BufferUsages::STORAGE;
+        let start = Instant::now();
+        let tris = self.buffer("triangles", tri_bytes, storage);
+        let buffers = p
+            .buffers
+            .iter()
+            .map(|b| self.buffer(b.what, &b.bytes, storage))
+            .collect();
+        let meta = self.buffer(
+            "meta",
+            bytemuck::cast_slice(&meta),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        self.queue.submit([]);
+        self.wait()?;
+        Ok(GpuStructure {
+            program: p.name,
+            tris,
+            buffers,
+            meta,
+            upload_ms: start.elapsed().as_secs_f64() * 1e3,
+            bytes: tri_bytes.len() as u64
+                + p.buffers.iter().map(|b| b.bytes.len() as u64).sum::<u64>(),
+        })
+    }
+
+    /// Copy a ray batch to the device and allocate its hit and counter buffers (timed: the
+    /// ray copy and wait).
+    pub fn upload_rays(&self, rays: &[Ray]) -> Result<GpuRays, GpuError> {
+        let n = rays.len() as u64;
+        self.fits("the ray batch", n * RAY_BYTES, false)?;
+        self.fits("the counter buffer", n * STATS_BYTES, false)?;
+        let data: Vec<GpuRay> = rays
+            .iter()
+            .map(|r| {
+                let (o, d) = (r.origin, r.dir);
+                GpuRay([o.x, o.y, o.z, r.tmin, d.x, d.y, d.z, r.tmax])
+            })
+            .collect();
+        let out = |label: &str, bytes: u64| {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes.max(16),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
+        let hits = out("hits", n * HIT_BYTES);
+        let stats = out("stats", n * STATS_BYTES);
+        let start = Instant::now();
+        let rays_buf = self.buffer(
+            "rays",
+            bytemuck::cast_slice(&data),
+            wgpu::BufferUsages::STORAGE,
+        );
+        self.queue.submit([]);
+        self.wait()?;
+        Ok(GpuRays {
+            n,
+            rays: rays_buf,
+            hits,
+            stats,
+            upload_ms: start.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    /// One pass of the structure's program over the batch: `count` picks the counting variant
+    /// (writes per-ray [`TraversalStats`]) or the timed one (no counters).
+    pub fn trace(
+        &self,
+        s: &GpuStructure,
+        rays: &GpuRays,
+        query: Query,
+        tri: TriTestKind,
+        count: bool,
+    ) -> Result<Timing, GpuError> {
+        let (pipeline, bgl) = self.kernels.pipeline(
+            &self.device,
+            (s.program, query, tri, count),
+            s.buffers.len(),
+        );
+        let step = self.max_rays_per_dispatch();
+        let mut groups = Vec::new();
+        let mut first = 0u64;
+        while first < rays.n {
+            let len = step.min(rays.n - first);
+            let mut entries = vec![
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: range(&rays.rays, first, len, RAY_BYTES),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: range(&rays.hits, first, len, HIT_BYTES),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: range(&rays.stats, first, len, STATS_BYTES),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: s.tris.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: s.meta.as_entire_binding(),
+                },
+            ];
+            entries.extend((COMMON_BINDINGS..).zip(&s.buffers).map(|(binding, b)| {
+                wgpu::BindGroupEntry {
+                    binding,
+                    resource: b.as_entire_binding(),
+                }
+            }));
+            let bg = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: None,
+                layout: &bgl,
+                entries: &entries,
+            });
+            groups.push((bg, len.div_ceil(WORKGROUP as u64) as u32));
+            first += len;
+        }
+        let ts = self.summary.timestamps.then(|| {
+            let set = self.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: None,
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            });
+            let resolve = self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: None,
+                size: 16,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let read = self.staging(16);
+            (set, resolve, read)
+        });
+        self.check()?;
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: None,
+                timestamp_writes: ts
+                    .as_ref()
+                    .map(|(set, _, _)| wgpu::ComputePassTimestampWrites {
+                        query_set: set,
+                        beginning_of_pass_write_index: Some(0),
+                        end_of_pass_write_index: Some(1),
+                    }),
+            });
+            pass.set_pipeline(&pipeline);
+            for (bg, wgs) in &groups {
+                pass.set_bind_group(0, bg, &[]);
+                pass.dispatch_workgroups(*wgs, 1, 1);
+            }
+        }
+        if let Some((set, resolve, read)) = &ts {
+            enc.resolve_query_set(set, 0..2, resolve, 0);
+            enc.copy_buffer_to_buffer(resolve, 0, read, 0, 16);
+        }
+        let start = Instant::now();
+        self.queue.submit([enc.finish()]);
+        self.wait()?;
+        let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+        let kernel_ms = match &ts {
+            Some((_, _, read)) => {
+                let t: Vec<u64> = self.map_read(read, 16)?;
+                let ticks = t[1].saturating_sub(t[0]) as f64;
+                ticks * self.queue.get_timestamp_period() as f64 * 1e-6
+            }
+            None => wall_ms,
+        };
+        Ok(Timing {
+            kernel_ms,
+            timestamps: ts.is_some(),
+            dispatches: groups.len() as u32,
+        })
+    }
+
+    fn staging(&self, size: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: size.max(16),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// Map `buf` (a staging buffer holding `bytes` bytes of results) and copy them out.
+    fn map_read<T: Pod>(&self, buf: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>, GpuError> {
+        if bytes == 0 {
+            return Ok(Vec::new());
+        }
+        let (tx, rx) = mpsc::channel();
+        buf.map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait()?;
+        rx.recv()
+            .map_err(|e| GpuError::Lost(e.to_string()))?
+            .map_err(|e| GpuError::Wgpu(one_line(&e.to_string())))?;
+        let out = {
+            let view = buf
+                .get_mapped_range(0..bytes)
+                .map_err(|e| GpuError::Wgpu(one_line(&e.to_string())))?;
+            bytemuck::pod_collect_to_vec(&view[..])
+        };
+        buf.unmap();
+        Ok(out)
+    }
+
+    /// Copy `src`'s first `bytes` bytes back to the host (timed: copy, wait, map).
+    fn read_back<T: Pod>(&self, src: &wgpu::Buffer, bytes: u64) -> Result<(Vec<T>, f64), GpuError> {
+        let staging = self.staging(bytes);
+        let start = Instant::now();
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        if bytes > 0 {
+            enc.copy_buffer_to_buffer(src, 0, &staging, 0, bytes);
+        }
+        self.queue.submit([enc.finish()]);
+        let out = self.map_read(&staging, bytes)?;
+        Ok((out, start.elapsed().as_secs_f64() * 1e3))
+    }
+
+    /// The hits of the last [`Gpu::trace`] over `rays`, and the readback time in ms.
+    pub fn read_hits(&self, rays: &GpuRays) -> Result<(Vec<HitRecord>, f64), GpuError> {
+        let (h, ms): (Vec<GpuHit>, f64) = self.read_back(&rays.hits, rays.n * HIT_BYTES)?;
+        let hits = h
+            .into_iter()
+            .map(|h| HitRecord {
+                t: h.t,
+                prim: h.prim,
+                u: h.u,
+                v: h.v,
+            })
+            .collect();
+        Ok((hits, ms))
+    }
+
+    /// The per-ray counters of the last counting [`Gpu::trace`] over `rays`, and the readback
+    /// time in ms.
+    pub fn read_stats(&self, rays: &GpuRays) -> Result<(Vec<TraversalStats>, f64), GpuError> {
+        let (s, ms): (Vec<StatsWords>, f64) = self.read_back(&rays.stats, rays.n * STATS_BYTES)?;
+        Ok((s.iter().map(TraversalStats::from_words).collect(), ms))
+    }
+
+    /// Upload, trace (one pass, counting when `count`), read back: the whole round trip for
+    /// tests and one-off queries. Returns the hits and, when counting, the counters.
+    pub fn trace_once(
+        &self,
+        s: &GpuStructure,
+        rays: &[Ray],
+        query: Query,
+        tri: TriTestKind,
+        count: bool,
+    ) -> Result<(Vec<HitRecord>, Option<Vec<TraversalStats>>), GpuError> {
+        let r = self.upload_rays(rays)?;
+        self.trace(s, &r, query, tri, count)?;
+        let (hits, _) = self.read_hits(&r)?;
+        let stats = if count {
+            Some(self.read_stats(&r)?.0)
+        } else {
+            None
+        };
+        Ok((hits, stats))
+    }
+}
