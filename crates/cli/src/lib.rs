@@ -43,9 +43,24 @@ enum Cmd {
         /// GPU backend, overriding run.gpu_backend: vulkan, gl, metal or dx12.
         #[arg(long, value_parser = parse_backend)]
         backend: Option<tb_gpu::Backend>,
+        /// Run only these scenes (labels or sources; repeat or separate by commas).
+        #[arg(long = "scene", value_delimiter = ',')]
+        scenes: Vec<String>,
+        /// Run only these structures, `NAME` or `NAME:traversal` (repeat or separate by commas).
+        #[arg(long = "structure", value_delimiter = ',')]
+        structures: Vec<String>,
+        /// Change the config without editing it: `--set run.repeat=9`,
+        /// `--set scene.camera.width=256` (every scene); repeatable. The edited config is the
+        /// one results.json records.
+        #[arg(long = "set")]
+        sets: Vec<String>,
         /// Continue an interrupted run: keep its rows, skip finished combinations.
         #[arg(long)]
         resume: bool,
+        /// Replace the results of an earlier run in `--out` (results.csv, results.json,
+        /// convergence.csv, images/).
+        #[arg(long, conflicts_with = "resume")]
+        force: bool,
         /// Root directory for scene files named in the config.
         #[arg(long, env = "TRACE_BENCH_SCENES")]
         scenes_root: Option<PathBuf>,
@@ -59,6 +74,18 @@ enum Cmd {
         config: PathBuf,
         #[arg(long, env = "TRACE_BENCH_SCENES")]
         scenes_root: Option<PathBuf>,
+        /// Run only these scenes (labels or sources; repeat or separate by commas).
+        #[arg(long = "scene", value_delimiter = ',')]
+        scenes: Vec<String>,
+        /// Run only these structures, `NAME` or `NAME:traversal` (repeat or separate by commas).
+        #[arg(long = "structure", value_delimiter = ',')]
+        structures: Vec<String>,
+        /// Change the config without editing it: `--set run.repeat=9`,
+        /// `--set scene.camera.width=256` (every scene); repeatable. The edited config is the
+        /// one results.json records.
+        #[arg(long = "set")]
+        sets: Vec<String>,
+
         /// Mismatching rays printed per combination.
         #[arg(long, default_value_t = 5)]
         show: usize,
@@ -134,7 +161,11 @@ fn dispatch(cli: Cli) -> Result<i32> {
             device,
             adapter,
             backend,
+            scenes,
+            structures,
+            sets,
             resume,
+            force,
             scenes_root,
             quiet,
         } => {
@@ -145,17 +176,26 @@ fn dispatch(cli: Cli) -> Result<i32> {
                 devices: device,
                 adapter,
                 backend,
+                sets,
+                scenes,
+                structures,
             };
-            cmd_run(&config, out, ov, resume, quiet)
+            cmd_run(&config, out, ov, resume, force, quiet)
         }
         Cmd::Validate {
             config,
             scenes_root,
+            scenes,
+            structures,
+            sets,
             show,
             quiet,
         } => {
             let ov = Overrides {
                 scenes_root,
+                sets,
+                scenes,
+                structures,
                 ..Default::default()
             };
             cmd_validate(&config, ov, show, quiet)
@@ -200,14 +240,17 @@ fn dispatch(cli: Cli) -> Result<i32> {
             println!("memory      {} bytes (triangles)", s.memory_bytes());
             if let Some(v) = &s.view {
                 let c = v.camera;
+                let light = match v.light {
+                    Some(l) => format!("{:?}", l.to_array()),
+                    None => "none".into(),
+                };
                 println!(
-                    "view        eye {:?} target {:?} fov {} {}x{}; light {:?}; ao distance {}",
+                    "view        eye {:?} target {:?} fov {} {}x{}; light {light}; ao distance {}",
                     c.eye.to_array(),
                     c.target.to_array(),
                     c.fov,
                     c.width,
                     c.height,
-                    v.light.map(|l| l.to_array()),
                     v.ao_distance
                 );
             }
@@ -251,6 +294,7 @@ fn cmd_run(
     out: Option<PathBuf>,
     ov: Overrides,
     resume: bool,
+    force: bool,
     quiet: bool,
 ) -> Result<i32> {
     let exp = load(config, &ov, quiet)?;
@@ -258,6 +302,19 @@ fn cmd_run(
         Some(o) => o,
         None => default_out(&exp.name, resume)?,
     };
+    if force {
+        // Only what a run writes; anything else in the directory stays.
+        for f in ["results.csv", "results.json", "convergence.csv"] {
+            let p = out.join(f);
+            if p.is_file() {
+                std::fs::remove_file(&p).with_context(|| format!("{}", p.display()))?;
+            }
+        }
+        let images = out.join("images");
+        if images.is_dir() {
+            std::fs::remove_dir_all(&images).with_context(|| format!("{}", images.display()))?;
+        }
+    }
     let opts = RunOptions {
         out: out.clone(),
         resume,
@@ -268,7 +325,7 @@ fn cmd_run(
     let summary = runner::run(&exp, &opts)?;
     println!("{}", runner::table(&summary.rows));
     for n in &summary.notes {
-        println!("note: {n}");
+        eprintln!("note: {n}");
     }
     if summary.skipped > 0 {
         println!(
@@ -315,6 +372,9 @@ fn cmd_validate(config: &Path, ov: Overrides, show: usize, quiet: bool) -> Resul
     };
     let summary = runner::run(&exp, &opts)?;
     println!("{}", runner::table(&summary.rows));
+    for n in &summary.notes {
+        eprintln!("note: {n}");
+    }
     for r in &summary.mismatch_reports {
         println!("mismatch: {r}");
     }

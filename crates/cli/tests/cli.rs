@@ -350,3 +350,80 @@ fn validate_command_passes_on_a_stress_scene() {
     let cfg = write_config(dir.path(), "builtin:stress/flat");
     assert_eq!(run(&["validate", cfg.to_str().unwrap(), "-q"]), 0);
 }
+
+#[test]
+fn overrides_run_one_scene_and_structure_without_editing_the_config() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("o.toml");
+    std::fs::write(
+        &cfg,
+        r#"
+[run]
+threads = [1]
+repeat = 3
+[[scene]]
+source = "builtin:cornell"
+camera = { width = 32, height = 32 }
+[[scene]]
+source = "builtin:sphereflake"
+[[structure]]
+name = "bvh"
+[[structure]]
+name = "kdtree"
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let (c, o) = (cfg.to_str().unwrap(), out.to_str().unwrap());
+    let args = [
+        "run",
+        c,
+        "--out",
+        o,
+        "-q",
+        "--scene",
+        "cornell",
+        "--structure",
+        "kdtree:ropes",
+        "--set",
+        "scene.camera.width=16",
+        "--set",
+        "run.repeat=1",
+    ];
+    assert_eq!(common::run(&args), 0);
+    let rows = tb_harness::output::read_csv(&out.join("results.csv")).unwrap();
+    assert_eq!(rows.len(), 1, "{rows:?}");
+    let r = &rows[0];
+    assert_eq!(
+        (r.scene.as_str(), r.structure.as_str()),
+        ("cornell", "kdtree")
+    );
+    assert_eq!((r.traversal.as_str(), r.rays), ("ropes", 16 * 32));
+    // The effective config is what results.json records.
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert!(json["meta"]["config"]
+        .as_str()
+        .unwrap()
+        .contains("repeat = 1"));
+    // An existing --out is refused, then replaced with --force.
+    assert_eq!(common::run(&args), 1);
+    let mut forced = args.to_vec();
+    forced.push("--force");
+    assert_eq!(common::run(&forced), 0);
+    assert_eq!(
+        tb_harness::output::read_csv(&out.join("results.csv"))
+            .unwrap()
+            .len(),
+        1
+    );
+    // Unknown names are one-line errors.
+    assert_eq!(
+        common::run(&["run", c, "--out", o, "--force", "--scene", "nope"]),
+        1
+    );
+    assert_eq!(
+        common::run(&["run", c, "--out", o, "--force", "--set", "run.repeat.x=1"]),
+        1
+    );
+}

@@ -168,7 +168,7 @@ impl Sink {
             if !resume {
                 return Err(HarnessError::io(
                     &csv_path,
-                    "already exists: pass --resume to continue that run, or choose another --out",
+                    "already exists: pass --resume to continue that run, --force to replace it, or choose another --out",
                 ));
             }
             let (rows, torn) = read_csv_resume(&csv_path)?;

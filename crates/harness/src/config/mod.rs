@@ -8,6 +8,7 @@
 
 pub mod convergence;
 pub mod images;
+pub mod overrides;
 mod run;
 mod scenes;
 mod structures;
@@ -108,7 +109,7 @@ struct RawRandom {
     count: u32,
 }
 
-#[derive(Deserialize)]
+#[derive(Deserialize, Clone)]
 #[serde(deny_unknown_fields)]
 struct RawStructure {
     name: Spanned<String>,
@@ -257,6 +258,12 @@ pub struct Overrides {
     pub adapter: Option<String>,
     /// `--backend`: replaces run.gpu_backend.
     pub backend: Option<tb_gpu::Backend>,
+    /// `--set key=value`: edits of the config before it is checked ([`overrides::apply_sets`]).
+    pub sets: Vec<String>,
+    /// `--scene NAME`: run only these scenes (labels or sources).
+    pub scenes: Vec<String>,
+    /// `--structure NAME[:traversal]`: run only these structures (and traversals).
+    pub structures: Vec<String>,
 }
 
 /// 1-based line of byte offset `pos` in `text`.
@@ -321,8 +328,22 @@ pub fn parse_with(
     registry: &Registry,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Experiment, HarnessError> {
+    // `--set`: the effective config (recorded in results.json) is the edited one; its errors
+    // name the file "with --set" and the line in the edited text.
+    let edited;
+    let (text, shown) = if ov.sets.is_empty() {
+        (text, file.to_path_buf())
+    } else {
+        edited = overrides::apply_sets(&file.display().to_string(), text, &ov.sets)?;
+        (
+            edited.as_str(),
+            PathBuf::from(format!("{} (with --set)", file.display())),
+        )
+    };
+    let file_arg = file;
+    let file = shown.as_path();
     let cx = Ctx { file, text };
-    let raw: RawConfig = toml::from_str(text).map_err(|e| {
+    let mut raw: RawConfig = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| line_of(text, s.start));
         let msg = e.message().trim().replace('\n', " ");
         match line {
@@ -337,8 +358,10 @@ pub fn parse_with(
         }
     })?;
 
+    overrides::filter(&cx, &mut raw, &ov.scenes, &ov.structures)?;
     let name = raw.name.clone().unwrap_or_else(|| {
-        file.file_stem()
+        file_arg
+            .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "experiment".into())
     });
@@ -412,7 +435,7 @@ pub fn parse_with(
 
     Ok(Experiment {
         name,
-        file: file.to_path_buf(),
+        file: file_arg.to_path_buf(),
         text: text.to_string(),
         scenes_root,
         threads,

@@ -67,10 +67,8 @@ pub struct RunSummary {
 /// stay written).
 pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessError> {
     let mut r = Run::open(exp, opts)?;
-    for n in &exp.skipped_scenes {
-        r.progress.line(&format!("note: {n}"));
-        r.summary.notes.push(n.clone());
-    }
+    // Notes are collected in the summary and printed once, after the run (stderr).
+    r.summary.notes.extend(exp.skipped_scenes.iter().cloned());
     for spec in &exp.scenes {
         r.scene(spec)?;
     }
@@ -161,14 +159,6 @@ impl<'a> Run<'a> {
             self.summary
                 .notes
                 .extend(crate::images::write_scene(spec, out)?);
-        }
-        for n in self
-            .summary
-            .notes
-            .iter()
-            .filter(|n| n.starts_with(&spec.label))
-        {
-            self.progress.line(&format!("note: {n}"));
         }
         let tris: Arc<[Triangle]> = spec.scene.triangles.as_slice().into();
         let mut oracle = Oracle::new(tris.clone());
