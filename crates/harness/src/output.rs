@@ -253,11 +253,42 @@ impl Sink {
     fn write_json(&mut self) -> Result<(), HarnessError> {
         let path = self.dir.join("results.json");
         let tmp = self.dir.join("results.json.tmp");
-        let doc = serde_json::json!({ "meta": self.meta, "rows": self.rows });
+        let rows: Vec<serde_json::Value> = self.rows.iter().map(row_json).collect();
+        let doc = serde_json::json!({ "meta": self.meta, "rows": rows });
         let text = serde_json::to_string_pretty(&doc).map_err(|e| HarnessError::io(&path, e))?;
         std::fs::write(&tmp, text).map_err(|e| HarnessError::io(&tmp, e))?;
         std::fs::rename(&tmp, &path).map_err(|e| HarnessError::io(&path, e))
     }
+}
+
+/// `k=v;k=v` as a JSON object, each value typed (integer, number, boolean, else string).
+fn pairs_json(s: &str) -> serde_json::Value {
+    let mut m = serde_json::Map::new();
+    for kv in s.split(';').filter(|kv| !kv.is_empty()) {
+        let (k, v) = kv.split_once('=').unwrap_or((kv, ""));
+        let value = if let Ok(i) = v.parse::<i64>() {
+            serde_json::Value::from(i)
+        } else if let Ok(b) = v.parse::<bool>() {
+            serde_json::Value::from(b)
+        } else if let Some(x) = v.parse::<f64>().ok().filter(|x| x.is_finite()) {
+            serde_json::Value::from(x)
+        } else {
+            serde_json::Value::from(v)
+        };
+        m.insert(k.to_string(), value);
+    }
+    serde_json::Value::Object(m)
+}
+
+/// A row of `results.json`: the CSV's columns in the same order, with `params` and
+/// `build_stats` as objects (`pandas.json_normalize(doc["rows"])` gives `params.bins`, …).
+pub fn row_json(r: &Row) -> serde_json::Value {
+    let mut v = serde_json::to_value(r).expect("a row serializes");
+    if let Some(m) = v.as_object_mut() {
+        m.insert("params".into(), pairs_json(&r.params));
+        m.insert("build_stats".into(), pairs_json(&r.build_stats));
+    }
+    v
 }
 
 /// The CSV header (the field names of [`Row`] in order).
@@ -275,4 +306,29 @@ pub fn header() -> Vec<String> {
         .split(',')
         .map(str::to_string)
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn json_rows_keep_the_column_order_and_type_the_params() {
+        let r = Row {
+            scene: "s".into(),
+            params: "bins=16;c_trav=1.5;layout=treelet;reinsert=true".into(),
+            build_stats: "leaves=12;depth_max=7".into(),
+            ..Default::default()
+        };
+        let v = row_json(&r);
+        let keys: Vec<&String> = v.as_object().unwrap().keys().collect();
+        let head = header();
+        assert_eq!(keys.len(), head.len());
+        assert!(keys.iter().zip(&head).all(|(k, h)| *k == h));
+        assert_eq!(v["params"]["bins"], 16);
+        assert_eq!(v["params"]["c_trav"], 1.5);
+        assert_eq!(v["params"]["layout"], "treelet");
+        assert_eq!(v["params"]["reinsert"], true);
+        assert_eq!(v["build_stats"]["depth_max"], 7);
+    }
 }
