@@ -66,8 +66,21 @@ impl Registry {
             s.push_str(&format!("{:<14} {}\n", f.name, f.doc));
             for t in (f.traversals)() {
                 s.push_str(&format!("  traversal {:<20} {}", t.name, t.doc));
+                let mut tags = Vec::new();
                 if !t.paper.is_empty() && !t.doc.contains(t.paper) {
-                    s.push_str(&format!(" [{}]", t.paper));
+                    tags.push(t.paper.to_string());
+                }
+                if t.step_cap {
+                    tags.push("step cap".into());
+                }
+                if !t.aux.is_empty() {
+                    tags.push(format!("reads {}", t.aux.join(", ")));
+                }
+                if t.counters.is_empty() {
+                    tags.push("no counters".into());
+                }
+                if !tags.is_empty() {
+                    s.push_str(&format!(" [{}]", tags.join("; ")));
                 }
                 s.push('\n');
             }
