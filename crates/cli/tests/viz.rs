@@ -148,6 +148,8 @@ traversals = ["havran", "restart"]
             .find(|c| c.traversal == t && c.budget_ms.is_some())
             .unwrap();
         assert!(budget.spp >= 1 && budget.rmse.is_some());
+        // The budget row never exceeds its budget (a pass ending over it is not counted).
+        assert!(budget.elapsed_ms <= budget.budget_ms.unwrap(), "{budget:?}");
     }
     let cached: Vec<_> = fs::read_dir(&cache).unwrap().collect();
     assert_eq!(
