@@ -15,10 +15,14 @@ impl Progress {
         let bar = if !quiet && std::io::stderr().is_terminal() {
             let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
             b.set_style(
-                ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
-                    .expect("template")
-                    .progress_chars("=> "),
+                ProgressStyle::with_template(
+                    "{elapsed_precise} [{bar:30}] {pos}/{len} rows, {per_sec}, ETA {eta} {msg}",
+                )
+                .expect("template")
+                .progress_chars("=> "),
             );
+            // Redraw while a long build or pass runs, so the clock never freezes.
+            b.enable_steady_tick(std::time::Duration::from_millis(250));
             Some(b)
         } else {
             None
@@ -41,6 +45,13 @@ impl Progress {
             Some(b) => b.println(msg),
             None if !self.quiet => eprintln!("{msg}"),
             None => {}
+        }
+    }
+
+    /// A finished row: one line in plain mode (the bar counts it on a terminal).
+    pub fn row(&self, msg: &str) {
+        if self.bar.is_none() && !self.quiet {
+            eprintln!("{msg}");
         }
     }
 

@@ -379,6 +379,22 @@ impl<'a> Run<'a> {
     }
 
     fn emit(&mut self, row: Row) -> Result<(), HarnessError> {
+        self.progress.row(&format!(
+            "done {} {} [{}] {} {} {} {}t {}: {}",
+            row.scene,
+            row.structure,
+            row.params,
+            row.traversal,
+            row.triangle_test,
+            row.device,
+            row.threads,
+            row.ray_kind,
+            match (row.mrays_per_s, row.note.is_empty()) {
+                (Some(m), _) => format!("{m:.2} MRays/s"),
+                (None, false) => row.note.clone(),
+                (None, true) => "validated".into(),
+            }
+        ));
         self.summary.mismatches += row.mismatches.unwrap_or(0);
         if let Some(s) = self.sink.as_mut() {
             s.push(row.clone())?;
