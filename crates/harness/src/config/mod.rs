@@ -345,7 +345,10 @@ pub fn parse_with(
     let cx = Ctx { file, text };
     let mut raw: RawConfig = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| line_of(text, s.start));
-        let msg = e.message().trim().replace('\n', " ");
+        let msg = match e.message().trim().replace('\n', " ") {
+            m if m.is_empty() => "invalid TOML (a value is missing or malformed here)".into(),
+            m => m,
+        };
         match line {
             Some(l) => HarnessError::ConfigSyntax {
                 file: file.into(),
