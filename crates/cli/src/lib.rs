@@ -18,6 +18,22 @@ struct Cli {
     cmd: Cmd,
 }
 
+/// Selecting and editing a config from the command line (run and validate).
+#[derive(clap::Args)]
+struct Select {
+    /// Run only these scenes (labels or sources; repeat or separate by commas).
+    #[arg(long = "scene", value_delimiter = ',')]
+    scenes: Vec<String>,
+    /// Run only these structures, `NAME` or `NAME:traversal` (repeat or separate by commas).
+    #[arg(long = "structure", value_delimiter = ',')]
+    structures: Vec<String>,
+    /// Change the config without editing it: `--set run.repeat=9`,
+    /// `--set scene.camera.width=256` (every scene); repeatable. The edited config is the
+    /// one results.json records.
+    #[arg(long = "set")]
+    sets: Vec<String>,
+}
+
 #[derive(Subcommand)]
 enum Cmd {
     /// Run an experiment: build, trace, count, validate; write results.csv and results.json.
@@ -43,17 +59,8 @@ enum Cmd {
         /// GPU backend, overriding run.gpu_backend: vulkan, gl, metal or dx12.
         #[arg(long, value_parser = parse_backend)]
         backend: Option<tb_gpu::Backend>,
-        /// Run only these scenes (labels or sources; repeat or separate by commas).
-        #[arg(long = "scene", value_delimiter = ',')]
-        scenes: Vec<String>,
-        /// Run only these structures, `NAME` or `NAME:traversal` (repeat or separate by commas).
-        #[arg(long = "structure", value_delimiter = ',')]
-        structures: Vec<String>,
-        /// Change the config without editing it: `--set run.repeat=9`,
-        /// `--set scene.camera.width=256` (every scene); repeatable. The edited config is the
-        /// one results.json records.
-        #[arg(long = "set")]
-        sets: Vec<String>,
+        #[command(flatten)]
+        select: Select,
         /// Continue an interrupted run: keep its rows, skip finished combinations.
         #[arg(long)]
         resume: bool,
@@ -74,17 +81,8 @@ enum Cmd {
         config: PathBuf,
         #[arg(long, env = "TRACE_BENCH_SCENES")]
         scenes_root: Option<PathBuf>,
-        /// Run only these scenes (labels or sources; repeat or separate by commas).
-        #[arg(long = "scene", value_delimiter = ',')]
-        scenes: Vec<String>,
-        /// Run only these structures, `NAME` or `NAME:traversal` (repeat or separate by commas).
-        #[arg(long = "structure", value_delimiter = ',')]
-        structures: Vec<String>,
-        /// Change the config without editing it: `--set run.repeat=9`,
-        /// `--set scene.camera.width=256` (every scene); repeatable. The edited config is the
-        /// one results.json records.
-        #[arg(long = "set")]
-        sets: Vec<String>,
+        #[command(flatten)]
+        select: Select,
 
         /// Mismatching rays printed per combination.
         #[arg(long, default_value_t = 5)]
@@ -161,9 +159,7 @@ fn dispatch(cli: Cli) -> Result<i32> {
             device,
             adapter,
             backend,
-            scenes,
-            structures,
-            sets,
+            select,
             resume,
             force,
             scenes_root,
@@ -176,26 +172,24 @@ fn dispatch(cli: Cli) -> Result<i32> {
                 devices: device,
                 adapter,
                 backend,
-                sets,
-                scenes,
-                structures,
+                sets: select.sets,
+                scenes: select.scenes,
+                structures: select.structures,
             };
             cmd_run(&config, out, ov, resume, force, quiet)
         }
         Cmd::Validate {
             config,
             scenes_root,
-            scenes,
-            structures,
-            sets,
+            select,
             show,
             quiet,
         } => {
             let ov = Overrides {
                 scenes_root,
-                sets,
-                scenes,
-                structures,
+                sets: select.sets,
+                scenes: select.scenes,
+                structures: select.structures,
                 ..Default::default()
             };
             cmd_validate(&config, ov, show, quiet)
