@@ -37,6 +37,16 @@ macro_rules! define_row {
             pub trace_ms_median: Option<f64>,
             pub trace_ms_max: Option<f64>,
             pub mrays_per_s: Option<f64>,
+            /// Timed runs of the row (`repeat`, more with `max_repeat`).
+            pub timed_runs: Option<u32>,
+            /// Half the width of the median's 95 % confidence interval, relative to the
+            /// median.
+            pub trace_ms_ci: Option<f64>,
+            /// `trace_ms_ci` above `run.target_ci`, or the load average above the machine's
+            /// idle level during the row.
+            pub noisy: Option<bool>,
+            /// 1-minute load average when the row finished (Linux).
+            pub load_avg: Option<f64>,
             /// GPU rows: host-to-device copy of the structure and rays (median), not in
             /// `trace_ms_*`.
             pub upload_ms: Option<f64>,

@@ -1,6 +1,85 @@
-//! Timed repeats: medians and the timing columns of a row.
+//! Timed repeats: how many (until the median is known well enough), medians, the confidence
+//! interval of the median, and the timing columns of a row.
 
 use crate::output::Row;
+use std::time::{Duration, Instant};
+
+/// How a row is timed: `warmup` untimed runs, then at least `repeat` timed runs, more (up to
+/// `max_repeat`) while the relative half-width of the median's 95 % confidence interval is
+/// above `target_ci` and the row has run for less than `max_row_seconds`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TimingPlan {
+    pub warmup: usize,
+    pub repeat: usize,
+    pub max_repeat: usize,
+    pub target_ci: f64,
+    pub max_row_seconds: f64,
+}
+
+impl TimingPlan {
+    /// Time `once` (one pass, returning its ms) under this plan; the timed runs' ms.
+    pub fn run<E>(&self, mut once: impl FnMut() -> Result<f64, E>) -> Result<Vec<f64>, E> {
+        for _ in 0..self.warmup {
+            once()?;
+        }
+        let start = Instant::now();
+        let budget = Duration::from_secs_f64(self.max_row_seconds.max(0.0));
+        let mut times = Vec::with_capacity(self.repeat);
+        loop {
+            times.push(once()?);
+            let n = times.len();
+            if n >= self.max_repeat.max(self.repeat) {
+                break;
+            }
+            if n >= self.repeat.max(1)
+                && (relative_ci(&times) <= self.target_ci || start.elapsed() >= budget)
+            {
+                break;
+            }
+        }
+        Ok(times)
+    }
+}
+
+/// The distribution-free 95 % confidence interval of the median of `v` (order statistics,
+/// normal approximation of the binomial: ranks `n/2 ∓ 0.98·√n`; Conover 1999); the whole range
+/// for fewer than 6 values.
+pub fn median_ci(v: &[f64]) -> (f64, f64) {
+    let mut s = v.to_vec();
+    s.sort_by(|a, b| a.total_cmp(b));
+    let n = s.len();
+    if n == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    if n < 6 {
+        return (s[0], s[n - 1]);
+    }
+    let h = 0.98 * (n as f64).sqrt();
+    let lo = ((n as f64 / 2.0 - h).floor() as usize).clamp(1, n) - 1;
+    let hi = ((n as f64 / 2.0 + 1.0 + h).ceil() as usize).clamp(1, n) - 1;
+    (s[lo], s[hi])
+}
+
+/// Half the width of [`median_ci`] relative to the median.
+pub fn relative_ci(v: &[f64]) -> f64 {
+    let (lo, hi) = median_ci(v);
+    let med = median(&mut v.to_vec());
+    if med > 0.0 {
+        (hi - lo) / (2.0 * med)
+    } else {
+        0.0
+    }
+}
+
+/// The 1-minute load average (Linux `/proc/loadavg`); `None` elsewhere.
+pub fn load_average() -> Option<f64> {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
 
 /// Median of `v` (sorted in place).
 pub fn median(v: &mut [f64]) -> f64 {
@@ -16,9 +95,14 @@ pub fn median(v: &mut [f64]) -> f64 {
     }
 }
 
-/// Fill `trace_ms_{min,median,max}` and `mrays_per_s` from the times (ms) of the timed runs
+/// Fill `trace_ms_{min,median,max}`, `mrays_per_s`, `timed_runs`, `trace_ms_ci` and `noisy`
+/// (the confidence interval wider than `target_ci`) from the times (ms) of the timed runs
 /// over `rays` rays.
-pub fn fill(row: &mut Row, times: &mut [f64], rays: usize) {
+pub fn fill(row: &mut Row, times: &mut [f64], rays: usize, target_ci: f64) {
+    let ci = relative_ci(times);
+    row.timed_runs = Some(times.len() as u32);
+    row.trace_ms_ci = Some(ci);
+    row.noisy = Some(ci > target_ci);
     let med = median(times);
     row.trace_ms_min = times.first().copied();
     row.trace_ms_max = times.last().copied();
@@ -35,9 +119,59 @@ mod tests {
         assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
         assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
         let mut row = Row::default();
-        fill(&mut row, &mut [2.0, 1.0, 4.0], 1000);
+        fill(&mut row, &mut [2.0, 1.0, 4.0], 1000, 0.05);
         assert_eq!(row.trace_ms_min, Some(1.0));
         assert_eq!(row.trace_ms_max, Some(4.0));
         assert_eq!(row.mrays_per_s, Some(0.5));
+        assert_eq!(row.trace_ms_ci, Some(0.75));
+        assert_eq!((row.noisy, row.timed_runs), (Some(true), Some(3)));
+    }
+
+    #[test]
+    fn median_confidence_intervals() {
+        // Fewer than 6 values: the whole range.
+        assert_eq!(median_ci(&[3.0, 1.0, 2.0]), (1.0, 3.0));
+        // 20 values 1..=20: ranks 10 ∓ 4.38 → the 5th and 16th.
+        let v: Vec<f64> = (1..=20).map(f64::from).collect();
+        assert_eq!(median_ci(&v), (5.0, 16.0));
+        assert!(relative_ci(&[10.0; 8]) == 0.0);
+    }
+
+    #[test]
+    fn repeats_until_the_median_is_known_or_the_cap() {
+        let plan = TimingPlan {
+            warmup: 1,
+            repeat: 3,
+            max_repeat: 12,
+            target_ci: 0.05,
+            max_row_seconds: 60.0,
+        };
+        // Steady times: stop at the minimum.
+        let mut calls = 0;
+        let t = plan
+            .run(|| -> Result<f64, ()> {
+                calls += 1;
+                Ok(10.0)
+            })
+            .unwrap();
+        assert_eq!((t.len(), calls), (3, 4));
+        // Alternating 10 and 20: the interval never narrows, so the cap ends it.
+        let mut k = 0;
+        let t = plan
+            .run(|| -> Result<f64, ()> {
+                k += 1;
+                Ok(if k % 2 == 0 { 10.0 } else { 20.0 })
+            })
+            .unwrap();
+        assert_eq!(t.len(), 12);
+        // Without max_repeat above repeat: exactly `repeat` runs, as before.
+        let fixed = TimingPlan {
+            max_repeat: 3,
+            ..plan
+        };
+        assert_eq!(
+            fixed.run(|| -> Result<f64, ()> { Ok(1.0) }).unwrap().len(),
+            3
+        );
     }
 }

@@ -3,12 +3,14 @@
 use super::{parse_validate, Ctx, Device, GpuSpec, OneOrMany, Overrides, RawRun, Validate};
 use crate::error::HarnessError;
 use tb_core::TriTestKind;
+use toml::Spanned;
 
 /// The checked `[run]` settings.
 pub(super) struct RunSettings {
     pub threads: Vec<usize>,
     pub repeat: usize,
     pub warmup: usize,
+    pub timing: crate::timing::TimingPlan,
     pub build_repeat: usize,
     pub triangle_tests: Vec<TriTestKind>,
     pub devices: Vec<Device>,
@@ -57,6 +59,7 @@ pub(super) fn check_run(
     };
     let repeat = ov.repeat.unwrap_or(run.repeat.unwrap_or(5) as usize).max(1);
     let warmup = run.warmup.unwrap_or(1) as usize;
+    let timing = timing_plan(cx, run, repeat, warmup)?;
     let build_repeat = run.build_repeat.unwrap_or(1).max(1) as usize;
     let triangle_tests = match &run.triangle_test {
         None => vec![TriTestKind::Watertight],
@@ -148,11 +151,33 @@ pub(super) fn check_run(
         threads,
         repeat,
         warmup,
+        timing,
         build_repeat,
         triangle_tests,
         devices,
         gpu,
         validate,
         seed,
+    })
+}
+
+/// `run.max_repeat`, `run.target_ci` and `run.max_row_seconds` with `repeat` and `warmup`.
+fn timing_plan(
+    cx: &Ctx,
+    run: &RawRun,
+    repeat: usize,
+    warmup: usize,
+) -> Result<crate::timing::TimingPlan, HarnessError> {
+    let positive = |v: &Option<Spanned<f64>>, key: &str, default: f64| match v {
+        None => Ok(default),
+        Some(x) if *x.get_ref() > 0.0 && x.get_ref().is_finite() => Ok(*x.get_ref()),
+        Some(x) => Err(cx.err(x.span(), key, "must be positive and finite")),
+    };
+    Ok(crate::timing::TimingPlan {
+        warmup,
+        repeat,
+        max_repeat: (run.max_repeat.unwrap_or(0) as usize).max(repeat),
+        target_ci: positive(&run.target_ci, "run.target_ci", 0.05)?,
+        max_row_seconds: positive(&run.max_row_seconds, "run.max_row_seconds", 60.0)?,
     })
 }

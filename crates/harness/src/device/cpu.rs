@@ -120,15 +120,12 @@ impl Device for CpuDevice {
         // Timing, counters compiled out.
         let pool = self.pool(job.threads);
         let mut hits = vec![HitRecord::MISS; b.rays.len()];
-        let mut times = Vec::with_capacity(job.repeat);
-        for i in 0..job.warmup + job.repeat {
+        let mut times = job.timing.run(|| -> Result<f64, String> {
             let t0 = Instant::now();
             pool.install(|| trace_into(accel, ti, b.query, tri, &b.rays, &mut hits, None));
-            if i >= job.warmup {
-                times.push(t0.elapsed().as_secs_f64() * 1e3);
-            }
-        }
-        crate::timing::fill(row, &mut times, b.rays.len());
+            Ok(t0.elapsed().as_secs_f64() * 1e3)
+        })?;
+        crate::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);
         Ok(Outcome::Measured(checked))
     }
 }

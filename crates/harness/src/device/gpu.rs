@@ -194,17 +194,13 @@ fn measure_on(
     let g_rays = &build.rays[&job.batch_index];
     row.upload_ms = Some(s.upload_ms + g_rays.upload_ms);
 
-    let mut times = Vec::with_capacity(job.repeat);
-    for i in 0..job.warmup + job.repeat.max(1) {
-        let t = gpu
-            .trace(s, g_rays, query, tri, false)
-            .map_err(|e| e.to_string())?;
-        if i >= job.warmup {
-            times.push(t.kernel_ms);
-        }
-    }
+    let mut times = job.timing.run(|| {
+        gpu.trace(s, g_rays, query, tri, false)
+            .map(|t| t.kernel_ms)
+            .map_err(|e| e.to_string())
+    })?;
     let (hits, readback_ms) = gpu.read_hits(g_rays).map_err(|e| e.to_string())?;
-    crate::timing::fill(row, &mut times, b.rays.len());
+    crate::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);
     row.readback_ms = Some(readback_ms);
     let nhit = hits.iter().filter(|h| h.is_hit()).count();
     row.hit_rate = Some(nhit as f64 / b.rays.len().max(1) as f64);

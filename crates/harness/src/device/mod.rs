@@ -30,8 +30,8 @@ pub struct Job<'a> {
     pub batch: &'a Batch,
     /// Worker threads of the row (CPU), 0 on the GPU.
     pub threads: usize,
-    pub warmup: usize,
-    pub repeat: usize,
+    /// How to time it.
+    pub timing: crate::timing::TimingPlan,
     /// How many mismatching rays to keep for the report.
     pub max_report: usize,
 }

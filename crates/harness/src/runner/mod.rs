@@ -73,6 +73,15 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
         r.scene(spec)?;
     }
     r.progress.finish();
+    if r.loaded_rows > 0 {
+        r.summary.notes.push(format!(
+            "{} rows were timed while the 1-minute load average exceeded the idle level ({:.2} \
+             before the run) by more than their own threads: other work was running; their \
+             timings may be disturbed (columns load_avg, noisy)",
+            r.loaded_rows,
+            r.idle_load.unwrap_or(0.0)
+        ));
+    }
     if let Some(s) = r.sink.as_mut() {
         let status = if r.summary.failures.is_empty() {
             "complete"
@@ -98,6 +107,10 @@ struct Run<'a> {
     devices: Vec<(DeviceKind, Vec<usize>)>,
     cpu: CpuDevice,
     gpu: Option<GpuDevice>,
+    /// The load average before any work (the machine's idle level).
+    idle_load: Option<f64>,
+    /// Rows timed while the load average exceeded the idle level by more than their threads.
+    loaded_rows: usize,
 }
 
 impl<'a> Run<'a> {
@@ -146,6 +159,8 @@ impl<'a> Run<'a> {
             devices,
             cpu,
             gpu,
+            idle_load: crate::timing::load_average(),
+            loaded_rows: 0,
         })
     }
 
@@ -329,8 +344,7 @@ impl<'a> Run<'a> {
             batch_index: c.bi,
             batch: b,
             threads: c.threads,
-            warmup: self.exp.warmup,
-            repeat: self.exp.repeat,
+            timing: self.exp.timing,
             max_report: self.opts.max_report,
         };
         let device: &mut dyn Device = match c.dev {
@@ -375,7 +389,27 @@ impl<'a> Run<'a> {
                 row.note = format!("gpu failed: {e}");
             }
         }
+        if row.mrays_per_s.is_some() {
+            self.note_load(&mut row);
+        }
         self.emit(row)
+    }
+
+    /// Record the load average of a timed row; flag it noisy when other work was running
+    /// (load above the idle level by more than the row's own threads, plus one).
+    fn note_load(&mut self, row: &mut Row) {
+        row.load_avg = crate::timing::load_average();
+        if let (Some(idle), Some(load)) = (self.idle_load, row.load_avg) {
+            let own = if row.device == "gpu" {
+                1.0
+            } else {
+                row.threads as f64
+            };
+            if load > idle + own + 1.0 {
+                row.noisy = Some(true);
+                self.loaded_rows += 1;
+            }
+        }
     }
 
     fn emit(&mut self, row: Row) -> Result<(), HarnessError> {

@@ -43,7 +43,7 @@ fn shown_params(r: &Row, varying: &BTreeMap<&str, BTreeSet<&str>>) -> String {
 
 /// A plain-text summary table of rows. `spread` is `(max − min) / median` of the timed runs.
 pub fn table(rows: &[Row]) -> String {
-    const HEAD: [&str; 15] = [
+    const HEAD: [&str; 16] = [
         "scene",
         "structure",
         "params",
@@ -55,6 +55,7 @@ pub fn table(rows: &[Row]) -> String {
         "rays",
         "MRays/s",
         "spread",
+        "noisy",
         "steps/ray",
         "prims/ray",
         "build_ms",
@@ -94,6 +95,10 @@ pub fn table(rows: &[Row]) -> String {
             r.rays.to_string(),
             f(r.mrays_per_s, 2),
             spread,
+            match r.noisy {
+                Some(true) => "yes".into(),
+                _ => "-".into(),
+            },
             f(r.steps_per_ray, 1),
             f(r.prims_per_ray, 1),
             f(r.build_ms, 1),
