@@ -82,6 +82,11 @@ pub fn sample_indices(v: Validate, n: usize) -> Vec<usize> {
     }
 }
 
+/// The share of `hits` that hit (any hit for any-hit queries).
+pub fn hit_rate(hits: &[HitRecord]) -> f64 {
+    hits.iter().filter(|h| h.is_hit()).count() as f64 / hits.len().max(1) as f64
+}
+
 /// Compare `got[k]`, the device's answer for ray `s.rays[k]`, with the oracle's.
 pub fn check(query: Query, s: &Sample, got: &[HitRecord], max_report: usize) -> Checked {
     let mut first = Vec::new();

@@ -82,23 +82,13 @@ impl Device for CpuDevice {
     ) -> Result<Outcome, String> {
         let (accel, ti, tri, b) = (job.accel, job.traversal, job.tri, job.batch);
         let key = (ti, tri, job.batch_index);
-        let checked = sample.map(|s| {
-            if !self.checked.contains_key(&key) {
+        if self.validate_only {
+            let checked = sample.map(|s| {
                 let got = self
                     .widest()
                     .install(|| trace(accel, ti, b.query, tri, &s.rays));
-                let c = validation::check(b.query, s, &got, job.max_report);
-                self.checked.insert(key, c);
-            }
-            // The report takes the first mismatches once; later rows of the same key keep
-            // the counts.
-            let c = self.checked.get_mut(&key).expect("inserted");
-            Checked {
-                first: std::mem::take(&mut c.first),
-                ..c.clone()
-            }
-        });
-        if self.validate_only {
+                validation::check(b.query, s, &got, job.max_report)
+            });
             return Ok(Outcome::Measured(checked));
         }
         // Counting pass: a separate pass, never timed.
@@ -106,10 +96,13 @@ impl Device for CpuDevice {
             let (hits, stats) = self
                 .widest()
                 .install(|| count(accel, ti, b.query, tri, &b.rays));
-            let nhit = hits.iter().filter(|h| h.is_hit()).count();
-            let rate = nhit as f64 / b.rays.len().max(1) as f64;
-            self.counted
-                .insert(key, (StatsSummary::from_stats(&stats), rate));
+            self.counted.insert(
+                key,
+                (
+                    StatsSummary::from_stats(&stats),
+                    validation::hit_rate(&hits),
+                ),
+            );
         }
         let (stats, hit_rate) = self.counted[&key];
         row.hit_rate = Some(hit_rate);
@@ -126,6 +119,19 @@ impl Device for CpuDevice {
             Ok(t0.elapsed().as_secs_f64() * 1e3)
         })?;
         crate::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);
+        // Validation of what was timed (as on the GPU): the timed pass's hits on the oracle's
+        // sample, once per (traversal, test, batch); the report takes the first mismatches
+        // once, later rows of the same key keep the counts.
+        let checked = sample.map(|s| {
+            let c = self.checked.entry(key).or_insert_with(|| {
+                let got: Vec<HitRecord> = s.idx.iter().map(|&i| hits[i]).collect();
+                validation::check(b.query, s, &got, job.max_report)
+            });
+            Checked {
+                first: std::mem::take(&mut c.first),
+                ..c.clone()
+            }
+        });
         Ok(Outcome::Measured(checked))
     }
 }

@@ -202,8 +202,7 @@ fn measure_on(
     let (hits, readback_ms) = gpu.read_hits(g_rays).map_err(|e| e.to_string())?;
     crate::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);
     row.readback_ms = Some(readback_ms);
-    let nhit = hits.iter().filter(|h| h.is_hit()).count();
-    row.hit_rate = Some(nhit as f64 / b.rays.len().max(1) as f64);
+    row.hit_rate = Some(validation::hit_rate(&hits));
 
     gpu.trace(s, g_rays, query, tri, true)
         .map_err(|e| e.to_string())?;

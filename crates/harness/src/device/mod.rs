@@ -2,9 +2,10 @@
 //! fills the row's timing, hit-rate and counter columns and validates its answers against
 //! the oracle's sample, so CPU and GPU rows go through the same code in the runner.
 //!
-//! - [`cpu::CpuDevice`]: rayon pools per thread count; counts and validates once per
-//!   traversal x test x batch (they do not depend on the thread count), times per thread
-//!   count with counters compiled out ([`tb_core::NoStats`]).
+//! - [`cpu::CpuDevice`]: rayon pools per thread count; counts once per traversal x test x
+//!   batch (a separate pass with [`tb_core::TraversalStats`]), times per thread count with
+//!   counters compiled out ([`tb_core::NoStats`]), and validates the timed pass's own hits
+//!   (once per traversal x test x batch).
 //! - [`gpu::GpuDevice`]: wgpu through `tb-gpu`; uploads each build's GPU program once and
 //!   each batch once per build, times the timed kernel, validates the hits it read back, then
 //!   runs the counting kernel.
