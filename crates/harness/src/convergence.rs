@@ -122,7 +122,7 @@ impl Runner {
                 .map_err(|e| HarnessError::io(&path, e))?;
         }
         writer.flush().map_err(|e| HarnessError::io(&path, e))?;
-        let threads = exp.threads.iter().copied().max().unwrap_or(1);
+        let threads = exp.run.threads.iter().copied().max().unwrap_or(1);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
@@ -133,7 +133,7 @@ impl Runner {
             writer,
             pool,
             threads,
-            seed: exp.seed,
+            seed: exp.run.seed,
             done,
             refs: HashMap::new(),
         }))

@@ -13,14 +13,14 @@ mod run;
 mod scenes;
 mod structures;
 
-use run::RunSettings;
+pub use run::RunSettings;
 
 use crate::error::HarnessError;
 use crate::registry::Registry;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
+use tb_core::Vec3;
 use tb_core::{Family, ParamSet, TraversalInfo};
-use tb_core::{TriTestKind, Vec3};
 use tb_scene::{Camera, PixelOrder, Scene};
 use toml::Spanned;
 
@@ -229,18 +229,8 @@ pub struct Experiment {
     /// The config text as read (stored in results.json).
     pub text: String,
     pub scenes_root: PathBuf,
-    /// Thread counts, each ≥ 1 (0 in the config means all cores).
-    pub threads: Vec<usize>,
-    pub repeat: usize,
-    pub warmup: usize,
-    /// How rows are timed (repeat, max_repeat, target_ci, max_row_seconds, warmup).
-    pub timing: crate::timing::TimingPlan,
-    pub build_repeat: usize,
-    pub triangle_tests: Vec<TriTestKind>,
-    pub devices: Vec<Device>,
-    pub gpu: GpuSpec,
-    pub validate: Validate,
-    pub seed: u64,
+    /// The checked `[run]` table with the command-line overrides.
+    pub run: RunSettings,
     pub scenes: Vec<SceneSpec>,
     pub structures: Vec<StructureSpec>,
     /// Why scenes marked `optional = true` were left out (file not under the scenes root).
@@ -384,18 +374,8 @@ pub fn parse_with(
         .unwrap_or_else(|| PathBuf::from("scenes"));
 
     let run = &raw.run;
-    let RunSettings {
-        threads,
-        repeat,
-        warmup,
-        timing,
-        build_repeat,
-        triangle_tests,
-        devices,
-        gpu,
-        validate,
-        seed,
-    } = run::check_run(&cx, run, ov)?;
+    let run_settings = run::check_run(&cx, run, ov)?;
+    let validate = run_settings.validate;
 
     if raw.structures.is_empty() {
         return Err(cx.err(0..0, "structure", "the config names no [[structure]]"));
@@ -447,16 +427,7 @@ pub fn parse_with(
         file: file_arg.to_path_buf(),
         text: text.to_string(),
         scenes_root,
-        threads,
-        repeat,
-        warmup,
-        timing,
-        build_repeat,
-        triangle_tests,
-        devices,
-        gpu,
-        validate,
-        seed,
+        run: run_settings,
         scenes,
         structures,
         skipped_scenes,

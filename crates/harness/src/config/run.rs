@@ -5,11 +5,11 @@ use crate::error::HarnessError;
 use tb_core::TriTestKind;
 use toml::Spanned;
 
-/// The checked `[run]` settings.
-pub(super) struct RunSettings {
+/// The checked `[run]` settings (with the command-line overrides).
+pub struct RunSettings {
+    /// Thread counts, each ≥ 1 (0 in the config means all cores).
     pub threads: Vec<usize>,
-    pub repeat: usize,
-    pub warmup: usize,
+    /// How rows are timed (warmup, repeat, max_repeat, target_ci, max_row_seconds).
     pub timing: crate::timing::TimingPlan,
     pub build_repeat: usize,
     pub triangle_tests: Vec<TriTestKind>,
@@ -149,8 +149,6 @@ pub(super) fn check_run(
     let seed = run.seed.unwrap_or(1);
     Ok(RunSettings {
         threads,
-        repeat,
-        warmup,
         timing,
         build_repeat,
         triangle_tests,

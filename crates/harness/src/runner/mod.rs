@@ -118,15 +118,18 @@ impl<'a> Run<'a> {
         let mut summary = RunSummary::default();
         let running = opts.mode == Mode::Run;
         // The GPU is opened once, before any work, so results.json names the adapter.
-        let gpu =
-            (running && exp.devices.contains(&DeviceKind::Gpu)).then(|| GpuDevice::open(&exp.gpu));
+        let gpu = (running && exp.run.devices.contains(&DeviceKind::Gpu))
+            .then(|| GpuDevice::open(&exp.run.gpu));
         if let Some(Err(e)) = gpu.as_ref().map(GpuDevice::describe) {
             gpu_failed(&mut summary, gpu.as_ref(), &e);
         }
         let sink = match opts.mode {
             Mode::Run => {
-                let mut meta =
-                    crate::meta::collect(&exp.file.display().to_string(), &exp.text, &exp.threads);
+                let mut meta = crate::meta::collect(
+                    &exp.file.display().to_string(),
+                    &exp.text,
+                    &exp.run.threads,
+                );
                 if let Some(g) = &gpu {
                     meta["adapter"] = g.meta();
                 }
@@ -139,10 +142,10 @@ impl<'a> Run<'a> {
             .map(|s| s.rows().iter().map(Row::key).collect())
             .unwrap_or_default();
         let devices = match opts.mode {
-            Mode::Run => plan::device_threads(&exp.devices, &exp.threads),
+            Mode::Run => plan::device_threads(&exp.run.devices, &exp.run.threads),
             Mode::Validate => vec![(DeviceKind::Cpu, vec![0])],
         };
-        let cpu = CpuDevice::new(&exp.threads, !running).map_err(HarnessError::Other)?;
+        let cpu = CpuDevice::new(&exp.run.threads, !running).map_err(HarnessError::Other)?;
         let progress = Progress::new(plan::total_rows(exp, &devices) as u64, opts.quiet);
         let conv = match opts.mode {
             Mode::Run => crate::convergence::Runner::open(exp, &opts.out, opts.resume)?,
@@ -168,7 +171,7 @@ impl<'a> Run<'a> {
     fn scene(&mut self, spec: &SceneSpec) -> Result<(), HarnessError> {
         self.progress
             .step(&format!("{}: generating rays", spec.label));
-        let batches = generate_batches(spec, self.exp.seed, &mut self.summary.notes);
+        let batches = generate_batches(spec, self.exp.run.seed, &mut self.summary.notes);
         if let (Some(_), Mode::Run) = (&self.exp.images, self.opts.mode) {
             let out = &self.opts.out;
             self.summary
@@ -201,7 +204,7 @@ impl<'a> Run<'a> {
             &spec.label,
             st,
             &params_s,
-            &self.exp.triangle_tests,
+            &self.exp.run.triangle_tests,
             batches,
             &self.devices,
             &self.done,
@@ -230,7 +233,7 @@ impl<'a> Run<'a> {
             tris,
             params,
             &st.traversals,
-            self.exp.build_repeat,
+            self.exp.run.build_repeat,
         ) {
             Ok(b) => b,
             Err(e) => {
@@ -277,7 +280,7 @@ impl<'a> Run<'a> {
                 param_index,
                 params_s,
                 &st.traversals,
-                &self.exp.triangle_tests,
+                &self.exp.run.triangle_tests,
             )?);
         }
         if let Some(c) = self.conv.as_mut() {
@@ -287,8 +290,8 @@ impl<'a> Run<'a> {
                 params_s,
                 built.build_ms,
                 &st.traversals,
-                &self.exp.triangle_tests,
-                &self.exp.devices,
+                &self.exp.run.triangle_tests,
+                &self.exp.run.devices,
                 self.gpu.as_ref(),
                 &self.progress,
             )?);
@@ -344,7 +347,7 @@ impl<'a> Run<'a> {
             batch_index: c.bi,
             batch: b,
             threads: c.threads,
-            timing: self.exp.timing,
+            timing: self.exp.run.timing,
             max_report: self.opts.max_report,
         };
         let device: &mut dyn Device = match c.dev {

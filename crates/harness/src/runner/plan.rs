@@ -38,7 +38,7 @@ pub fn total_rows(exp: &Experiment, devices: &[(Device, Vec<usize>)]) -> usize {
         .iter()
         .map(|s| s.param_sets.len() * s.traversals.len())
         .sum::<usize>()
-        * exp.triangle_tests.len()
+        * exp.run.triangle_tests.len()
         * devices.iter().map(|(_, t)| t.len()).sum::<usize>();
     let batches: usize = exp
         .scenes
