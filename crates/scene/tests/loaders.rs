@@ -215,23 +215,6 @@ fn load_resolves_relative_paths_against_the_root() {
 // ---------------------------------------------------------------------------------------------
 // glTF
 
-fn base64(data: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in data.chunks(3) {
-        let b = [c[0], *c.get(1).unwrap_or(&0), *c.get(2).unwrap_or(&0)];
-        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
-        for k in 0..4 {
-            if k <= c.len() {
-                s.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                s.push('=');
-            }
-        }
-    }
-    s
-}
-
 /// Buffer: a unit right triangle (3 x f32 VEC3) and the u16 indices 0 1 2, 44 bytes.
 fn triangle_buffer() -> Vec<u8> {
     let mut b = Vec::new();
@@ -279,7 +262,7 @@ fn gltf_json(uri: &str, mode: u32, mesh_name: &str) -> String {
 fn data_uri() -> String {
     format!(
         r#""uri": "data:application/octet-stream;base64,{}","#,
-        base64(&triangle_buffer())
+        base64::encode(triangle_buffer())
     )
 }
 
@@ -402,7 +385,7 @@ fn malformed_gltf_is_an_error() {
     buf[40] = 9;
     let uri = format!(
         r#""uri": "data:application/octet-stream;base64,{}","#,
-        base64(&buf)
+        base64::encode(buf)
     );
     let m = err_of(&write(
         dir.path(),
