@@ -274,6 +274,24 @@ params = { max_leaf = [2, 4] }
         serde_json::from_str(&fs::read_to_string(part.join("results.json")).unwrap()).unwrap();
     assert_eq!(json["rows"].as_array().unwrap().len(), all.len());
     assert_eq!(json["meta"]["status"], "complete");
+    // The metadata says what ran, where and when.
+    let meta = &json["meta"];
+    let commit = meta["build"]["commit"].as_str().unwrap();
+    assert!(
+        commit == "unknown"
+            || (commit.len() == 12 && commit.chars().all(|c| c.is_ascii_hexdigit())),
+        "{commit}"
+    );
+    assert!(meta["build"]["rustc"].is_string());
+    assert!(!meta["host"]["name"].as_str().unwrap().is_empty());
+    assert!(meta["host"]["cores"].as_u64().unwrap() >= 1);
+    assert!(meta["end"].is_string() && meta["start"].is_string());
+    assert!(meta["duration_s"].as_f64().unwrap() >= 0.0);
+    assert!(json["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|r| !r["host"].as_str().unwrap().is_empty()));
 }
 
 fn write_rows(path: &Path, rows: &[tb_harness::output::Row]) {

@@ -28,6 +28,9 @@ macro_rules! define_row {
             pub device: String,
             /// GPU rows: adapter name, backend and driver; empty on the CPU.
             pub adapter: String,
+            /// The machine the row ran on (host name; rows of several machines can be merged).
+            #[serde(default)]
+            pub host: String,
             pub threads: u32,
             pub triangle_test: String,
             pub ray_kind: String,
@@ -166,14 +169,25 @@ pub struct Sink {
     csv: csv::Writer<File>,
     rows: Vec<Row>,
     meta: serde_json::Value,
+    /// When this session opened the sink (`meta.duration_s` adds to an earlier session's).
+    started: std::time::SystemTime,
 }
 
 impl Sink {
     /// Open the sink. With `resume`, existing rows of `results.csv` are kept (and returned by
     /// [`Sink::rows`]); otherwise the directory must not hold results yet.
-    pub fn open(dir: &Path, meta: serde_json::Value, resume: bool) -> Result<Sink, HarnessError> {
+    /// A resumed run keeps the first session's `start` and accumulated `duration_s` and lists
+    /// the sessions' starts in `resumed`.
+    pub fn open(
+        dir: &Path,
+        mut meta: serde_json::Value,
+        resume: bool,
+    ) -> Result<Sink, HarnessError> {
         std::fs::create_dir_all(dir).map_err(|e| HarnessError::io(dir, e))?;
         let csv_path = dir.join("results.csv");
+        if resume {
+            carry_meta(&dir.join("results.json"), &mut meta);
+        }
         let existing = if csv_path.exists() {
             if !resume {
                 return Err(HarnessError::io(
@@ -231,6 +245,7 @@ impl Sink {
             csv,
             rows: existing,
             meta,
+            started: std::time::SystemTime::now(),
         };
         sink.write_json()?;
         Ok(sink)
@@ -254,9 +269,7 @@ impl Sink {
 
     /// Record the end of the run in the JSON metadata.
     pub fn finish(&mut self, status: &str) -> Result<(), HarnessError> {
-        if let Some(m) = self.meta.as_object_mut() {
-            m.insert("status".into(), serde_json::Value::String(status.into()));
-        }
+        crate::meta::finish(&mut self.meta, status, self.started);
         self.write_json()
     }
 
@@ -269,6 +282,28 @@ impl Sink {
         std::fs::write(&tmp, text).map_err(|e| HarnessError::io(&tmp, e))?;
         std::fs::rename(&tmp, &path).map_err(|e| HarnessError::io(&path, e))
     }
+}
+
+/// A resumed run's metadata: the earlier session's `start` and `duration_s`, and every
+/// session's start in `resumed` (nothing when the earlier results.json is unreadable).
+fn carry_meta(path: &Path, meta: &mut serde_json::Value) {
+    let Some(old) = std::fs::read_to_string(path)
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+    else {
+        return;
+    };
+    let old = &old["meta"];
+    let now = meta["start"].clone();
+    let mut sessions = old["resumed"].as_array().cloned().unwrap_or_default();
+    sessions.push(now);
+    if old["start"].is_string() {
+        meta["start"] = old["start"].clone();
+    }
+    if old["duration_s"].is_number() {
+        meta["duration_s"] = old["duration_s"].clone();
+    }
+    meta["resumed"] = serde_json::Value::Array(sessions);
 }
 
 /// `k=v;k=v` as a JSON object, each value typed (integer, number, boolean, else string).

@@ -222,6 +222,7 @@ impl<'a> Run<'a> {
             triangles: tris.len() as u64,
             structure: st.family.name.to_string(),
             params: params_s.clone(),
+            host: crate::meta::host_name(),
             ..Default::default()
         };
         self.progress.step(&format!(
