@@ -437,7 +437,12 @@ fn cmd_diff(a: &Path, b: &Path, channel: &str, max: Option<f32>, out: &Path) -> 
     if max.is_some_and(|m| !(m > 0.0 && m.is_finite())) {
         bail!("--max: must be positive");
     }
-    let (png, scale) = tb_render::heatmap::diff_map(&va, &vb, ia.width, ia.height, max);
+    let stem = |p: &Path| {
+        p.file_stem()
+            .map_or_else(|| p.display().to_string(), |s| s.to_string_lossy().into())
+    };
+    let title = format!("{channel}: B - A · A = {} · B = {}", stem(a), stem(b));
+    let (png, scale) = tb_render::heatmap::diff_map(&va, &vb, ia.width, ia.height, max, &title);
     png.write_png(out)?;
     let mean = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>() / v.len().max(1) as f64;
     let (ma, mb) = (mean(&va), mean(&vb));

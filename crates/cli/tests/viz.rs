@@ -91,6 +91,10 @@ name = "bvh"
 [[structure]]
 name = "kdtree"
 traversals = ["havran", "restart"]
+
+[[structure]]
+name = "bvh"
+params = {{ max_leaf = [2, 8] }}
 "#,
             cache.display()
         ),
@@ -104,14 +108,17 @@ traversals = ["havran", "restart"]
     for f in [
         "render.png",
         "render.exr",
-        "bvh-p0-ordered-watertight.exr",
-        "bvh-p0-ordered-watertight-steps.png",
-        "kdtree-p0-restart-watertight-prims.png",
+        "bvh-ordered-watertight.exr",
+        "bvh-ordered-watertight-steps.png",
+        "kdtree-restart-watertight-prims.png",
+        // A swept structure's files name the swept parameter.
+        "bvh-max_leaf=2-ordered-watertight-steps.png",
+        "bvh-max_leaf=8-ordered-watertight.exr",
     ] {
         let p = img.join(f);
         assert!(p.is_file(), "{} missing", p.display());
     }
-    let bvh = Channels::read_exr(&img.join("bvh-p0-ordered-watertight.exr")).unwrap();
+    let bvh = Channels::read_exr(&img.join("bvh-ordered-watertight.exr")).unwrap();
     assert_eq!((bvh.width, bvh.height), (24, 20));
     let steps = bvh.get("steps").unwrap();
     assert!(
@@ -123,17 +130,30 @@ traversals = ["havran", "restart"]
     let rows = tb_harness::output::read_csv(&out.join("results.csv")).unwrap();
     let row = rows
         .iter()
-        .find(|r| r.structure == "bvh" && r.ray_kind == "primary")
+        .find(|r| {
+            r.structure == "bvh" && r.ray_kind == "primary" && r.params.contains("max_leaf=4")
+        })
         .unwrap();
     let mean = steps.iter().map(|&s| s as f64).sum::<f64>() / steps.len() as f64;
     assert!((mean - row.steps_per_ray.unwrap()).abs() < 1e-9);
     let index = fs::read_to_string(out.join("images/index.csv")).unwrap();
-    assert!(index.contains("images/cornell/kdtree-p0-havran-watertight-steps.png,cornell,kdtree"));
+    assert!(index.contains("images/cornell/kdtree-havran-watertight-steps.png,cornell,kdtree"));
 
-    // Convergence: 4 passes x 3 traversals, plus one budget row each; RMSE falls.
-    let mut r = csv::Reader::from_path(out.join("convergence.csv")).unwrap();
-    let conv: Vec<ConvergenceRow> = r.deserialize().map(|x| x.unwrap()).collect();
-    assert_eq!(conv.len(), 3 * 5);
+    // Convergence: 4 passes x 5 combinations in convergence.csv, one budget row each in
+    // convergence-budget.csv; RMSE falls.
+    let read = |f: &str| -> Vec<ConvergenceRow> {
+        let mut r = csv::Reader::from_path(out.join(f)).unwrap();
+        r.deserialize().map(|x| x.unwrap()).collect()
+    };
+    let (passes, budgets) = (read("convergence.csv"), read("convergence-budget.csv"));
+    assert_eq!((passes.len(), budgets.len()), (5 * 4, 5));
+    assert!(passes.iter().all(|c| c.budget_ms.is_none()));
+    assert!(budgets.iter().all(|c| c.budget_ms.is_some()));
+    let conv: Vec<ConvergenceRow> = passes.into_iter().chain(budgets).collect();
+    let conv: Vec<ConvergenceRow> = conv
+        .into_iter()
+        .filter(|c| c.structure != "bvh" || c.params.contains("max_leaf=4"))
+        .collect();
     for t in ["ordered", "havran", "restart"] {
         let prog: Vec<&ConvergenceRow> = conv
             .iter()
@@ -177,8 +197,8 @@ traversals = ["havran", "restart"]
     assert_eq!(fs::read_dir(&cache).unwrap().count(), 1);
 
     // Difference map of two traversals on the same rays.
-    let a = img.join("kdtree-p0-havran-watertight.exr");
-    let b = img.join("kdtree-p0-restart-watertight.exr");
+    let a = img.join("kdtree-havran-watertight.exr");
+    let b = img.join("kdtree-restart-watertight.exr");
     let d = dir.path().join("d.png");
     let args = |ch: &str| {
         vec![

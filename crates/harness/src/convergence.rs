@@ -13,7 +13,8 @@
 //! under `cache` with a content hash of scene, camera, integrator and sample count
 //! ([`tb_render::cache`]).
 //!
-//! `frame_budget_ms = [100, 50, 33.3]` adds, per budget, a row with the samples per pixel a
+//! `frame_budget_ms = [100, 50, 33.3]` adds, per budget, a row of `convergence-budget.csv`
+//! (same columns; `budget_ms` set there and empty in `convergence.csv`) with the samples per pixel a
 //! frame reaches within that time, build time included, and its error: the irregular-grid
 //! paper's Table 4 (AO samples per pixel at 10, 20 and 30 frames per second). Passes of one
 //! sample run while the build time plus the render time so far plus the slowest pass so far
@@ -82,11 +83,37 @@ impl ConvergenceRow {
     }
 }
 
-/// Writes `convergence.csv` and keeps the reference images of the run.
+/// The rows of a convergence CSV of an interrupted run (none when it does not exist; a torn
+/// last line is dropped, its combination redone).
+fn read_rows(path: &Path) -> Result<Vec<ConvergenceRow>, HarnessError> {
+    if !path.is_file() {
+        return Ok(Vec::new());
+    }
+    let mut r = csv::Reader::from_path(path).map_err(|e| HarnessError::io(path, e))?;
+    Ok(r.deserialize::<ConvergenceRow>().flatten().collect())
+}
+
+/// Create `path` anew with `rows` (header first) and return its writer.
+fn rewrite(
+    path: &Path,
+    rows: &[ConvergenceRow],
+) -> Result<csv::Writer<std::fs::File>, HarnessError> {
+    let mut w = csv::Writer::from_path(path).map_err(|e| HarnessError::io(path, e))?;
+    for row in rows {
+        w.serialize(row).map_err(|e| HarnessError::io(path, e))?;
+    }
+    w.flush().map_err(|e| HarnessError::io(path, e))?;
+    Ok(w)
+}
+
+/// Writes `convergence.csv` (progressive rows) and `convergence-budget.csv` (frame-budget rows)
+/// and keeps the reference images of the run.
 pub struct Runner {
     spec: ConvergenceSpec,
     path: PathBuf,
     writer: csv::Writer<std::fs::File>,
+    /// `convergence-budget.csv`, when the spec has frame budgets.
+    budget: Option<(PathBuf, csv::Writer<std::fs::File>)>,
     pool: rayon::ThreadPool,
     threads: usize,
     seed: u64,
@@ -97,31 +124,39 @@ pub struct Runner {
 }
 
 impl Runner {
-    /// Open `<out>/convergence.csv` when the experiment has a `[convergence]` section; with
-    /// `resume`, keep its rows and skip their combinations.
+    /// Open `<out>/convergence.csv` (and `convergence-budget.csv` with frame budgets) when the
+    /// experiment has a `[convergence]` section; with `resume`, keep their rows and skip their
+    /// combinations. A combination is done when its progressive rows are in `convergence.csv`
+    /// (they are written after its budget rows; budget rows of an unfinished one are dropped).
     pub fn open(exp: &Experiment, out: &Path, resume: bool) -> Result<Option<Self>, HarnessError> {
         let Some(spec) = exp.convergence.clone() else {
             return Ok(None);
         };
-        let path = out.join("convergence.csv");
-        let mut done = HashSet::new();
-        let mut old = Vec::new();
-        if resume && path.is_file() {
-            let mut r = csv::Reader::from_path(&path).map_err(|e| HarnessError::io(&path, e))?;
-            // A torn last line of an interrupted run is dropped (its combination redone).
-            for row in r.deserialize::<ConvergenceRow>().flatten() {
-                done.insert(row.combo());
-                old.push(row);
-            }
-        }
         std::fs::create_dir_all(out).map_err(|e| HarnessError::io(out, e))?;
-        let mut writer = csv::Writer::from_path(&path).map_err(|e| HarnessError::io(&path, e))?;
-        for row in &old {
-            writer
-                .serialize(row)
-                .map_err(|e| HarnessError::io(&path, e))?;
-        }
-        writer.flush().map_err(|e| HarnessError::io(&path, e))?;
+        let path = out.join("convergence.csv");
+        let old = if resume {
+            read_rows(&path)?
+        } else {
+            Vec::new()
+        };
+        let done: HashSet<[String; 7]> = old.iter().map(ConvergenceRow::combo).collect();
+        let writer = rewrite(&path, &old)?;
+        let budget = if spec.frame_budget_ms.is_empty() {
+            None
+        } else {
+            let bpath = out.join("convergence-budget.csv");
+            let old = if resume {
+                read_rows(&bpath)?
+            } else {
+                Vec::new()
+            };
+            let kept: Vec<ConvergenceRow> = old
+                .into_iter()
+                .filter(|r| done.contains(&r.combo()))
+                .collect();
+            let w = rewrite(&bpath, &kept)?;
+            Some((bpath, w))
+        };
         let threads = exp.run.threads.iter().copied().max().unwrap_or(1);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -131,6 +166,7 @@ impl Runner {
             spec,
             path,
             writer,
+            budget,
             pool,
             threads,
             seed: exp.run.seed,
@@ -139,13 +175,14 @@ impl Runner {
         }))
     }
 
+    /// Append a row to its file (budget rows to `convergence-budget.csv`) and flush.
     fn push(&mut self, row: &ConvergenceRow) -> Result<(), HarnessError> {
-        self.writer
-            .serialize(row)
-            .map_err(|e| HarnessError::io(&self.path, e))?;
-        self.writer
-            .flush()
-            .map_err(|e| HarnessError::io(&self.path, e))
+        let (path, w) = match (&mut self.budget, row.budget_ms) {
+            (Some((p, w)), Some(_)) => (&*p, w),
+            _ => (&self.path, &mut self.writer),
+        };
+        w.serialize(row).map_err(|e| HarnessError::io(path, e))?;
+        w.flush().map_err(|e| HarnessError::io(path, e))
     }
 
     /// The integrator of `kind` for `scene`.
@@ -283,8 +320,11 @@ impl Runner {
                             &base,
                             &mut notes,
                         );
-                        for r in rows {
-                            self.push(&r)?;
+                        // Budget rows first: the progressive rows mark the combination done.
+                        let (budget, passes): (Vec<_>, Vec<_>) =
+                            rows.into_iter().partition(|r| r.budget_ms.is_some());
+                        for r in budget.iter().chain(&passes) {
+                            self.push(r)?;
                         }
                     }
                 }

@@ -3,13 +3,15 @@
 //! Per scene with a camera, `images/<scene>/render.{exr,png}`: the primary hits of the default
 //! BVH shaded `|n·d|` grey (EXR channel `Y`, PNG sRGB). Per scene x structure x parameter set x
 //! traversal x triangle test, one counting pass over the same primary rays writes
-//! `images/<scene>/<structure>-p<i>-<traversal>-<test>.exr` (every counter of
-//! [`tb_core::TraversalStats`] as a raw `f32` channel: `interior`, `leaves`, `prims`, `boxes`,
-//! `planes`, `restarts`, `steps`) and one false-colour PNG with a colour bar per counter of
-//! [`PNG_COUNTERS`], `…-<test>-<counter>.png` (jet, dark blue at 0 to dark red at
-//! `heatmap_max` and above, as the sparse-boxes paper's Figure 5). `<i>` is the index of the
-//! parameter set in the structure's sweep, in config order; `images/index.csv` maps every file
-//! to its scene, structure, full parameters, traversal, test, counter and scale.
+//! `images/<scene>/<structure>[-<params>]-<traversal>-<test>.exr` (every counter of
+//! [`tb_core::TraversalStats`] as a raw `f32` channel named as its column stem: `interior`,
+//! `leaves`, `prims`, …) and one false-colour PNG per counter of [`PNG_COUNTERS`] the
+//! traversal reports, `…-<test>-<counter>.png`: a title naming scene, structure, the swept
+//! parameters, traversal, test and counter, and a colour bar (`heatmap_colormap`, turbo by
+//! default, `jet` as the sparse-boxes paper's Figure 5; 0 to `heatmap_max` and above).
+//! `<params>` is `key=value` of the parameters that vary in the structure's sweep (absent when
+//! none does); `images/index.csv` maps every file to its scene, structure, full parameters,
+//! traversal, test, counter and scale.
 //! `trace-bench diff A.exr B.exr` draws the difference of two such EXRs.
 
 use crate::config::images::{HeatMax, ImageSpec};
@@ -26,12 +28,12 @@ use tb_scene::rays;
 /// Counters drawn as PNG heat maps (every counter is in the EXR).
 pub const PNG_COUNTERS: [&str; 4] = ["interior", "leaves", "prims", "steps"];
 
-/// A file-name-safe form of a label: characters other than ASCII letters, digits, `.`, `_`
-/// and `-` become `_` (`stress/flat?x=1` → `stress_flat_x_1`).
+/// A file-name-safe form of a label: characters other than ASCII letters, digits, `.`, `_`,
+/// `-`, `=` and `,` become `_` (`stress/flat?x=1` → `stress_flat_x=1`).
 pub fn safe_name(s: &str) -> String {
     s.chars()
         .map(|c| {
-            if c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-') {
+            if c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-' | '=' | ',') {
                 c
             } else {
                 '_'
@@ -126,15 +128,36 @@ pub fn write_scene(spec: &SceneSpec, out: &Path) -> Result<Option<String>, Harne
     Ok(None)
 }
 
+/// `key=value` pairs (joined by `,`) of `set`'s parameters whose values differ across `sweep`
+/// (empty when none does): what tells a build's files apart from its sweep siblings'.
+pub fn varying_tag(sweep: &[String], set: &str) -> String {
+    let pairs = |s: &str| -> Vec<(String, String)> {
+        s.split(';')
+            .filter_map(|kv| kv.split_once('='))
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect()
+    };
+    let all: Vec<Vec<(String, String)>> = sweep.iter().map(|s| pairs(s)).collect();
+    pairs(set)
+        .into_iter()
+        .filter(|(k, v)| {
+            all.iter()
+                .any(|p| p.iter().find(|(pk, _)| pk == k).map(|(_, pv)| pv) != Some(v))
+        })
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
 /// One built structure's heat maps: for each traversal and triangle test, count over the
-/// primary rays and write the EXR and the PNGs. Returns a note when nothing is written (no
-/// camera, or a structure without counters).
+/// primary rays and write the EXR and the PNGs. `tag` is [`varying_tag`] of its parameters.
+/// Returns a note when nothing is written (no camera, or a structure without counters).
 pub fn write_build(
     spec: &SceneSpec,
     images: &ImageSpec,
     out: &Path,
     accel: &dyn Accel,
-    param_index: usize,
+    tag: &str,
     params: &str,
     traversals: &[usize],
     tests: &[TriTestKind],
@@ -156,17 +179,18 @@ pub fn write_build(
     std::fs::create_dir_all(&dir).map_err(|e| HarnessError::io(&dir, e))?;
     let pixels = cam.pixels();
     let prim = rays::primary(&cam);
+    let name = if tag.is_empty() {
+        accel.name().to_string()
+    } else {
+        format!("{}-{tag}", accel.name())
+    };
     for &ti in traversals {
-        let tname = accel.traversals()[ti].name;
+        let info = accel.traversals()[ti];
+        let tname = info.name;
         for &tri in tests {
             let (_, stats) = tb_core::par::count(accel, ti, Query::Closest, tri, &prim);
             let c = counter_channels(&pixels, &stats, cam.width, cam.height);
-            let stem = format!(
-                "{}-p{param_index}-{}-{}",
-                safe_name(accel.name()),
-                tname,
-                tri.name()
-            );
+            let stem = safe_name(&format!("{name}-{tname}-{}", tri.name()));
             let exr = dir.join(format!("{stem}.exr"));
             c.write_exr(&exr).map_err(err)?;
             let row = |file: &Path, counter: &str, max: String| {
@@ -185,14 +209,25 @@ pub fn write_build(
                 )
             };
             row(&exr, "all", String::new())?;
-            for counter in PNG_COUNTERS {
+            let reported = |n: &str| {
+                (tb_core::COUNTERS.iter())
+                    .position(|d| d.name == n)
+                    .is_some_and(|i| info.counters.contains(i))
+            };
+            for counter in PNG_COUNTERS.into_iter().filter(|n| reported(n)) {
                 let v = c.get(counter).expect("every counter is a channel");
                 let max = match images.max {
                     HeatMax::Fixed(m) => m,
                     HeatMax::Auto => percentile99(v),
                 };
                 let png = dir.join(format!("{stem}-{counter}.png"));
-                heatmap(v, cam.width, cam.height, max)
+                let what = tb_core::COUNTERS
+                    .iter()
+                    .find(|d| d.name == counter)
+                    .map_or(counter, |d| d.doc);
+                let mut title = format!("{} · {name}", spec.label);
+                title += &format!(" · {tname} · {}\n{counter}: {what}", tri.name());
+                heatmap(v, cam.width, cam.height, max, images.colormap, &title)
                     .write_png(&png)
                     .map_err(err)?;
                 row(&png, counter, max.to_string())?;
@@ -207,8 +242,16 @@ mod tests {
     use super::*;
 
     #[test]
+    fn tags_name_only_the_swept_parameters() {
+        let sweep = ["bins=8;leaf=4".to_string(), "bins=16;leaf=4".to_string()];
+        assert_eq!(varying_tag(&sweep, &sweep[1]), "bins=16");
+        assert_eq!(varying_tag(&sweep[..1], &sweep[0]), "");
+        assert_eq!(varying_tag(&[], ""), "");
+    }
+
+    #[test]
     fn safe_names() {
-        assert_eq!(safe_name("stress/flat?x=1"), "stress_flat_x_1");
+        assert_eq!(safe_name("stress/flat?x=1"), "stress_flat_x=1");
         assert_eq!(safe_name("conference"), "conference");
         assert_eq!(safe_name("a.b-c_d"), "a.b-c_d");
     }

@@ -1,9 +1,56 @@
 //! Colour maps.
 //!
-//! [`jet`] is the map of the sparse-boxes paper's Figure 5 (per-pixel traversal steps, "dark
+//! [`ColorMap`] chooses the heat maps' map: `turbo` (the default; Google's improved rainbow,
+//! perceptually smoother than jet) and `viridis` (perceptually uniform, colour-blind safe)
+//! from the `colorous` crate, and `jet`, the paper's. [`jet`] is the map of the sparse-boxes
+//! paper's Figure 5 (per-pixel traversal steps, "dark
 //! blue 0, dark red 255+"): piecewise linear through dark blue, blue, cyan, yellow, red, dark
 //! red. [`diverging`] is a blue–white–red map for signed differences (blue: the second run does
 //! less work than the first, red: more).
+
+/// A sequential colour map for heat maps (config `run.heatmap_colormap`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ColorMap {
+    /// Turbo (Mikhailov 2019), the default.
+    #[default]
+    Turbo,
+    /// Viridis (van der Walt and Smith 2015), perceptually uniform.
+    Viridis,
+    /// Jet as the sparse-boxes paper's Figure 5 draws it ([`jet`]).
+    Jet,
+}
+
+impl ColorMap {
+    /// Config names, in declaration order.
+    pub const NAMES: &'static [&'static str] = &["turbo", "viridis", "jet"];
+
+    /// The map named `name` (one of [`ColorMap::NAMES`]).
+    pub fn parse(name: &str) -> Option<ColorMap> {
+        match name {
+            "turbo" => Some(ColorMap::Turbo),
+            "viridis" => Some(ColorMap::Viridis),
+            "jet" => Some(ColorMap::Jet),
+            _ => None,
+        }
+    }
+
+    /// Its config name.
+    pub fn name(self) -> &'static str {
+        Self::NAMES[self as usize]
+    }
+
+    /// The colour of `t` in `[0, 1]` (clamped; NaN maps to 0).
+    pub fn eval(self, t: f32) -> [u8; 3] {
+        let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
+        let g = match self {
+            ColorMap::Jet => return jet(t),
+            ColorMap::Turbo => colorous::TURBO,
+            ColorMap::Viridis => colorous::VIRIDIS,
+        };
+        let c = g.eval_continuous(t as f64);
+        [c.r, c.g, c.b]
+    }
+}
 
 /// Jet colour of `t` in `[0, 1]` (clamped; NaN maps to 0): `(0, 0, 0.5)` at 0, `(0.5, 0, 0)` at
 /// 1, with `r = 1.5 − |4t − 3|`, `g = 1.5 − |4t − 2|`, `b = 1.5 − |4t − 1|`, each clamped to
@@ -55,6 +102,21 @@ mod tests {
         assert_eq!(jet(f32::NAN), jet(0.0));
         // Green peaks in the middle.
         assert_eq!(jet(0.5)[1], 255);
+    }
+
+    #[test]
+    fn maps_by_name_and_ends() {
+        for &n in ColorMap::NAMES {
+            assert_eq!(ColorMap::parse(n).unwrap().name(), n);
+        }
+        assert_eq!(ColorMap::parse("rainbow"), None);
+        assert_eq!(ColorMap::Jet.eval(1.0), jet(1.0));
+        // Viridis runs from dark purple to yellow; turbo from near black to dark red.
+        let (v0, v1) = (ColorMap::Viridis.eval(0.0), ColorMap::Viridis.eval(1.0));
+        assert!(v0[2] > v0[1] && v1[0] > 200 && v1[1] > 200 && v1[2] < 80);
+        let (t0, t1) = (ColorMap::Turbo.eval(0.0), ColorMap::Turbo.eval(1.0));
+        assert!(t0.iter().map(|&c| c as u32).sum::<u32>() < 160 && t1[0] > 3 * t1[2]);
+        assert_eq!(ColorMap::Turbo.eval(f32::NAN), t0);
     }
 
     #[test]

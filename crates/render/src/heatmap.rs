@@ -1,8 +1,9 @@
-//! Heat maps: per-pixel counter images of primary rays in false colour with a labelled colour
-//! bar, as in the sparse-boxes paper's Figure 5 (traversal steps per pixel, dark blue 0 to dark
-//! red at 255 or more), and difference maps of two runs on the same rays.
+//! Heat maps: per-pixel counter images of primary rays in false colour with a title and a
+//! labelled colour bar (the sparse-boxes paper's Figure 5 draws traversal steps per pixel in
+//! jet, dark blue 0 to dark red at 255 or more; turbo and viridis are the alternatives), and
+//! difference maps of two runs on the same rays.
 
-use crate::colormap::{diverging, jet};
+use crate::colormap::{diverging, ColorMap};
 use crate::image::{Channels, Rgb8};
 use tb_core::TraversalStats;
 
@@ -36,44 +37,103 @@ pub fn counter_channels(
     c
 }
 
-/// 3x5 bitmap glyphs for colour-bar labels, one row per `u8` (bit 2 the left column).
-fn glyph(ch: char) -> [u8; 5] {
-    match ch {
-        '0' => [7, 5, 5, 5, 7],
-        '1' => [2, 6, 2, 2, 7],
-        '2' => [7, 1, 7, 4, 7],
-        '3' => [7, 1, 7, 1, 7],
-        '4' => [5, 5, 7, 1, 1],
-        '5' => [7, 4, 7, 1, 7],
-        '6' => [7, 4, 7, 5, 7],
-        '7' => [7, 1, 1, 1, 1],
-        '8' => [7, 5, 7, 5, 7],
-        '9' => [7, 5, 7, 1, 7],
-        '+' => [0, 2, 7, 2, 0],
-        '-' => [0, 0, 7, 0, 0],
-        '.' => [0, 0, 0, 0, 2],
-        'e' => [0, 7, 7, 4, 7],
-        _ => [0, 0, 0, 0, 0],
+/// The 8x8 glyph of `ch` (ASCII and Latin-1 from the `font8x8` crate; others are blank).
+fn glyph(ch: char) -> [u8; 8] {
+    let c = ch as usize;
+    match c {
+        0..=127 => font8x8::legacy::BASIC_LEGACY[c],
+        0xA0..=0xFF => font8x8::legacy::LATIN_LEGACY[c - 0xA0],
+        _ => [0; 8],
     }
 }
 
-/// Draw `text` with its top-left corner at `(x, y)`, each glyph cell `s` pixels.
+/// Draw `text` with its top-left corner at `(x, y)` in the 8x8 bitmap font of the `font8x8`
+/// crate, each font pixel an `s` x `s` block; clipped to the image.
 fn draw_text(img: &mut Rgb8, text: &str, x: u32, y: u32, s: u32, colour: [u8; 3]) {
     for (i, ch) in text.chars().enumerate() {
         let g = glyph(ch);
-        let x0 = x + i as u32 * 4 * s;
+        let x0 = x + i as u32 * 8 * s;
         for (row, bits) in g.iter().enumerate() {
-            for col in 0..3u32 {
-                if bits & (4 >> col) != 0 {
+            for col in 0..8u32 {
+                // Bit 0 is the leftmost pixel of the row.
+                if bits & (1 << col) != 0 {
                     for dy in 0..s {
                         for dx in 0..s {
-                            img.set(x0 + col * s + dx, y + row as u32 * s + dy, colour);
+                            let (px, py) = (x0 + col * s + dx, y + row as u32 * s + dy);
+                            if px < img.width && py < img.height {
+                                img.set(px, py, colour);
+                            }
                         }
                     }
                 }
             }
         }
     }
+}
+
+/// Text scale for an image `height` pixels tall: 8-pixel glyphs up to 384 rows, then one more
+/// font pixel per 256 rows (32-pixel glyphs at 1024).
+fn text_scale(height: u32) -> u32 {
+    (height / 256).max(1)
+}
+
+/// `title` split into lines of at most `chars` characters at its newlines and at spaces, a
+/// ` · ` separator kept at the end of a line (a word longer than a line is cut).
+fn wrap(title: &str, chars: usize) -> Vec<String> {
+    if title.contains('\n') {
+        return title.split('\n').flat_map(|t| wrap(t, chars)).collect();
+    }
+    let chars = chars.max(8);
+    let mut words: Vec<String> = Vec::new();
+    for w in title.split(' ').filter(|w| !w.is_empty()) {
+        match words.last_mut() {
+            Some(last) if w == "·" => *last += " ·",
+            _ => words.push(w.to_string()),
+        }
+    }
+    let mut lines: Vec<String> = Vec::new();
+    let mut cur = String::new();
+    for word in &words {
+        let (n, w) = (cur.chars().count(), word.chars().count());
+        if n > 0 && n + 1 + w > chars {
+            lines.push(std::mem::take(&mut cur));
+        }
+        if !cur.is_empty() {
+            cur.push(' ');
+        }
+        cur.push_str(word);
+        while cur.chars().count() > chars {
+            lines.push(cur.chars().take(chars).collect());
+            cur = cur.chars().skip(chars).collect();
+        }
+    }
+    if !cur.is_empty() {
+        lines.push(cur);
+    }
+    lines
+}
+
+/// Tick values for a scale from `lo` to `hi`: multiples of a round step (1, 2 or 5 x 10^k)
+/// giving three to six ticks, always including both ends.
+fn nice_ticks(lo: f32, hi: f32) -> Vec<f32> {
+    let span = (hi - lo).abs().max(f32::MIN_POSITIVE);
+    let raw = span / 4.0;
+    let mag = 10f32.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * mag)
+        .find(|s| span / s <= 5.0)
+        .unwrap_or(10.0 * mag);
+    let mut v = vec![lo];
+    let mut t = (lo / step).floor() * step + step;
+    while t < hi - 0.3 * step {
+        if t > lo + 0.3 * step {
+            v.push(t);
+        }
+        t += step;
+    }
+    v.push(hi);
+    v
 }
 
 /// A compact label for a scale value: integers as such, others with up to 3 significant digits.
@@ -88,28 +148,52 @@ pub fn label(v: f32) -> String {
     }
 }
 
-/// `img` (width x height, row-major colours) with a vertical colour bar to its right: the bar
-/// shows `map(t)` for `t` from `lo` (bottom) to `hi` (top), with the labels given for bottom,
-/// middle and top. White background, black labels.
+/// `img` (width x height, row-major colours) under a title and with a vertical colour bar to
+/// its right: the bar shows `map(v)` for `v` from `lo` (bottom) to `hi` (top), with a tick and a
+/// label at each of `ticks` (bottom to top, evenly spaced). White background, black text in
+/// the 8x8 font, scaled with the image.
 fn with_bar(
     colours: &[[u8; 3]],
     width: u32,
     height: u32,
     map: &dyn Fn(f32) -> [u8; 3],
     (lo, hi): (f32, f32),
-    labels: [String; 3],
+    ticks: &[(f32, String)],
+    title: &str,
 ) -> Rgb8 {
-    let s = (height / 160).max(1);
-    let gap = 4 * s;
-    let bar = (width / 24).max(8 * s);
-    let chars = labels.iter().map(|l| l.chars().count()).max().unwrap_or(1) as u32;
-    let pad = 3 * s; // room above the top label and below the bottom one
-    let h = height + 2 * pad;
-    let w = width + gap + bar + 2 * s + chars * 4 * s + 2 * s;
+    let s = text_scale(height);
+    let glyph = 8 * s;
+    let gap = 2 * glyph / 3;
+    let bar = (width / 20).max(2 * glyph);
+    let chars = ticks
+        .iter()
+        .map(|(_, l)| l.chars().count())
+        .max()
+        .unwrap_or(1) as u32;
+    let w = width + gap + bar + s + glyph + chars * glyph + glyph / 2;
+    let lines = if title.is_empty() {
+        Vec::new()
+    } else {
+        wrap(title, (w / glyph).saturating_sub(1) as usize)
+    };
+    let head = lines.len() as u32 * (glyph + 2 * s) + if lines.is_empty() { 0 } else { glyph / 2 };
+    let pad = glyph / 2 + s; // room above the top label and below the bottom one
+    let h = head + height + 2 * pad;
     let mut img = Rgb8::filled(w, h, [255, 255, 255]);
+    for (i, l) in lines.iter().enumerate() {
+        draw_text(
+            &mut img,
+            l,
+            glyph / 2,
+            glyph / 4 + i as u32 * (glyph + 2 * s),
+            s,
+            [0, 0, 0],
+        );
+    }
+    let top = head + pad;
     for y in 0..height {
         for x in 0..width {
-            img.set(x, y + pad, colours[(y * width + x) as usize]);
+            img.set(x, y + top, colours[(y * width + x) as usize]);
         }
     }
     let bx = width + gap;
@@ -117,33 +201,68 @@ fn with_bar(
         let t = 1.0 - y as f32 / (height.max(2) - 1) as f32;
         let c = map(lo + t * (hi - lo));
         for x in 0..bar {
-            img.set(bx + x, y + pad, c);
+            img.set(bx + x, y + top, c);
         }
     }
-    let lx = bx + bar + 2 * s;
-    let ys = [height + pad - 1, pad + height / 2, pad];
-    for (l, y) in labels.iter().zip(ys) {
+    let lx = bx + bar + s + glyph;
+    for (v, l) in ticks {
+        let f = ((v - lo) / (hi - lo)).clamp(0.0, 1.0);
+        let y = top + (height - 1) - ((height - 1) as f32 * f).round() as u32;
         // Tick, then the label centred on it.
-        for x in 0..s {
-            img.set(bx + bar + x, y, [0, 0, 0]);
+        for x in 0..glyph / 3 {
+            for dy in 0..s {
+                img.set(bx + bar + s + x, (y + dy).min(h - 1), [0, 0, 0]);
+            }
         }
-        draw_text(&mut img, l, lx, y.saturating_sub(2 * s), s, [0, 0, 0]);
+        draw_text(&mut img, l, lx, y.saturating_sub(glyph / 2), s, [0, 0, 0]);
     }
     img
 }
 
-/// A false-colour heat map of row-major `values` with its colour bar: jet from 0 (dark blue) to
-/// `max` (dark red); values at or above `max` are dark red (the top label reads `max+`).
-pub fn heatmap(values: &[f32], width: u32, height: u32, max: f32) -> Rgb8 {
+/// [`nice_ticks`] with labels, the first prefixed and the last suffixed.
+fn labelled(lo: f32, hi: f32, first_prefix: &str, last_suffix: &str) -> Vec<(f32, String)> {
+    let t = nice_ticks(lo, hi);
+    let n = t.len();
+    t.into_iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let l = label(v);
+            let l = if i == 0 {
+                format!("{first_prefix}{l}")
+            } else {
+                l
+            };
+            let l = if i + 1 == n {
+                format!("{l}{last_suffix}")
+            } else {
+                l
+            };
+            (v, l)
+        })
+        .collect()
+}
+
+/// A false-colour heat map of row-major `values` with its colour bar and `title` (e.g. scene,
+/// structure, parameters, traversal, counter): `map` from 0 to `max`; values at or above
+/// `max` take the top colour (the top label reads `max+`).
+pub fn heatmap(
+    values: &[f32],
+    width: u32,
+    height: u32,
+    max: f32,
+    map: ColorMap,
+    title: &str,
+) -> Rgb8 {
     let max = if max > 0.0 { max } else { 1.0 };
-    let colours: Vec<[u8; 3]> = values.iter().map(|&v| jet(v / max)).collect();
+    let colours: Vec<[u8; 3]> = values.iter().map(|&v| map.eval(v / max)).collect();
     with_bar(
         &colours,
         width,
         height,
-        &|t| jet(t / max),
+        &|v| map.eval(v / max),
         (0.0, max),
-        [label(0.0), label(max / 2.0), format!("{}+", label(max))],
+        &labelled(0.0, max, "", "+"),
+        title,
     )
 }
 
@@ -151,7 +270,14 @@ pub fn heatmap(values: &[f32], width: u32, height: u32, max: f32) -> Rgb8 {
 /// `a`, white where equal, red where above, saturating at `±max` (default: the 99th
 /// percentile of `|b − a|`, at least 1, so a few outliers do not wash out the map). Returns the
 /// image and the scale used.
-pub fn diff_map(a: &[f32], b: &[f32], width: u32, height: u32, max: Option<f32>) -> (Rgb8, f32) {
+pub fn diff_map(
+    a: &[f32],
+    b: &[f32],
+    width: u32,
+    height: u32,
+    max: Option<f32>,
+    title: &str,
+) -> (Rgb8, f32) {
     let d: Vec<f32> = a.iter().zip(b).map(|(x, y)| y - x).collect();
     let max = max.filter(|m| *m > 0.0).unwrap_or_else(|| {
         let abs: Vec<f32> = d.iter().map(|v| v.abs()).collect();
@@ -164,7 +290,11 @@ pub fn diff_map(a: &[f32], b: &[f32], width: u32, height: u32, max: Option<f32>)
         height,
         &|t| diverging(t / max),
         (-max, max),
-        [label(-max), label(0.0), format!("+{}", label(max))],
+        &labelled(-max, max, "", "")
+            .into_iter()
+            .map(|(v, l)| (v, if v > 0.0 { format!("+{l}") } else { l }))
+            .collect::<Vec<_>>(),
+        title,
     );
     (img, max)
 }
@@ -203,27 +333,46 @@ mod tests {
     fn heatmap_colours_and_bar() {
         let (w, h) = (32, 16);
         let values: Vec<f32> = (0..w * h).map(|i| (i % w) as f32 * 20.0).collect();
-        let img = heatmap(&values, w, h, 255.0);
+        let jet = crate::colormap::jet;
+        let img = heatmap(&values, w, h, 255.0, ColorMap::Jet, "");
         assert!(img.width > w && img.height >= h);
-        let pad = 3;
+        let pad = 5;
         // Pixel (0, 0) is 0 steps: dark blue; pixel (31, 0) is 620 ≥ 255: dark red.
         assert_eq!(img.get(0, pad), jet(0.0));
         assert_eq!(img.get(31, pad), jet(1.0));
         // Bar: top dark red, bottom dark blue.
-        let bx = w + 4;
+        let bx = w + 5;
         assert_eq!(img.get(bx, pad), jet(1.0));
         assert_eq!(img.get(bx, pad + h - 1), jet(0.0));
         // Some black label pixels exist.
         assert!(img.data.chunks(3).any(|c| c == [0, 0, 0]));
+        // A title adds rows above the image; the map is the one asked for.
+        let titled = heatmap(&values, w, h, 255.0, ColorMap::Viridis, "bvh · steps");
+        assert!(titled.height > img.height);
+        let top = titled.height - h - pad;
+        assert_eq!(titled.get(0, top), ColorMap::Viridis.eval(0.0));
+    }
+
+    #[test]
+    fn titles_wrap_at_separators() {
+        assert_eq!(wrap("a · b · c", 40), vec!["a · b · c"]);
+        assert_eq!(
+            wrap("scene · structure · traversal", 19),
+            vec!["scene · structure ·", "traversal"]
+        );
+        assert_eq!(wrap("a b\nc", 40), vec!["a b", "c"]);
+        assert!(wrap(&"x".repeat(30), 10)
+            .iter()
+            .all(|l| l.chars().count() <= 10));
     }
 
     #[test]
     fn diff_is_signed() {
         let a = [1.0, 5.0, 3.0, 3.0];
         let b = [3.0, 1.0, 3.0, 3.0];
-        let (img, max) = diff_map(&a, &b, 2, 2, None);
+        let (img, max) = diff_map(&a, &b, 2, 2, None, "");
         assert_eq!(max, 4.0);
-        let pad = 3;
+        let pad = 5;
         let (more, less, same) = (img.get(0, pad), img.get(1, pad), img.get(0, pad + 1));
         assert!(more[0] > more[2], "b > a is red");
         assert!(less[2] > less[0], "b < a is blue");

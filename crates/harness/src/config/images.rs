@@ -2,15 +2,17 @@
 
 use super::Ctx;
 use crate::error::HarnessError;
+use tb_render::colormap::ColorMap;
 use toml::Spanned;
 
 /// The top of the heat maps' colour scale.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum HeatMax {
-    /// A fixed count for every counter (`heatmap_max = 255`, the default, as in the
-    /// sparse-boxes paper's Figure 5).
+    /// A fixed count for every counter (`heatmap_max = 255`, as in the sparse-boxes paper's
+    /// Figure 5).
     Fixed(f32),
-    /// Per image, the 99th percentile of its values (`heatmap_max = "auto"`).
+    /// Per image, the 99th percentile of its values (`heatmap_max = "auto"`, the default:
+    /// small scenes are not one flat colour).
     Auto,
 }
 
@@ -18,16 +20,42 @@ pub enum HeatMax {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ImageSpec {
     pub max: HeatMax,
+    pub colormap: ColorMap,
 }
 
-/// Check `run.images` and `run.heatmap_max`.
+/// Check `run.images`, `run.heatmap_max` and `run.heatmap_colormap`.
 pub(super) fn check(
     cx: &Ctx,
     images: Option<bool>,
     max: Option<&Spanned<toml::Value>>,
+    colormap: Option<&Spanned<String>>,
 ) -> Result<Option<ImageSpec>, HarnessError> {
+    let colormap = match colormap {
+        None => ColorMap::default(),
+        Some(c) => {
+            let m = ColorMap::parse(c.get_ref()).ok_or_else(|| {
+                cx.err(
+                    c.span(),
+                    "run.heatmap_colormap",
+                    format!(
+                        "unknown colour map `{}` (one of: {})",
+                        c.get_ref(),
+                        ColorMap::NAMES.join(", ")
+                    ),
+                )
+            })?;
+            if images != Some(true) {
+                return Err(cx.err(
+                    c.span(),
+                    "run.heatmap_colormap",
+                    "has no effect without `images = true`",
+                ));
+            }
+            m
+        }
+    };
     let max = match max {
-        None => HeatMax::Fixed(255.0),
+        None => HeatMax::Auto,
         Some(v) => {
             let bad = || {
                 cx.err(
@@ -55,5 +83,7 @@ pub(super) fn check(
             m
         }
     };
-    Ok(images.unwrap_or(false).then_some(ImageSpec { max }))
+    Ok(images
+        .unwrap_or(false)
+        .then_some(ImageSpec { max, colormap }))
 }

@@ -64,6 +64,7 @@ struct RawRun {
     seed: Option<u64>,
     images: Option<bool>,
     heatmap_max: Option<Spanned<toml::Value>>,
+    heatmap_colormap: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -416,7 +417,12 @@ pub fn parse_with(
             message: format!("no scene to run: {}", skipped_scenes.join("; ")),
         });
     }
-    let images = images::check(&cx, run.images, run.heatmap_max.as_ref())?;
+    let images = images::check(
+        &cx,
+        run.images,
+        run.heatmap_max.as_ref(),
+        run.heatmap_colormap.as_ref(),
+    )?;
     let convergence = match &raw.convergence {
         None => None,
         Some(c) => Some(convergence::check(&cx, c, &scenes)?),

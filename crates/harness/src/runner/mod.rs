@@ -181,8 +181,8 @@ impl<'a> Run<'a> {
         let tris: Arc<[Triangle]> = spec.scene.triangles.as_slice().into();
         let mut oracle = Oracle::new(tris.clone());
         for st in &self.exp.structures {
-            for (param_index, params) in st.param_sets.iter().enumerate() {
-                self.structure(spec, &tris, &batches, &mut oracle, st, param_index, params)?;
+            for params in &st.param_sets {
+                self.structure(spec, &tris, &batches, &mut oracle, st, params)?;
             }
         }
         Ok(())
@@ -196,7 +196,6 @@ impl<'a> Run<'a> {
         batches: &[Batch],
         oracle: &mut Oracle,
         st: &StructureSpec,
-        param_index: usize,
         params: &ParamSet,
     ) -> Result<(), HarnessError> {
         let params_s = params.to_string();
@@ -249,7 +248,7 @@ impl<'a> Run<'a> {
                 return Ok(());
             }
         };
-        self.after_build(spec, st, &built, param_index, &params_s)?;
+        self.after_build(spec, st, &built, &params_s)?;
         self.cpu.begin_build();
         if let Some(g) = self.gpu.as_mut() {
             g.begin_build();
@@ -266,11 +265,11 @@ impl<'a> Run<'a> {
         spec: &SceneSpec,
         st: &StructureSpec,
         built: &Built,
-        param_index: usize,
         params_s: &str,
     ) -> Result<(), HarnessError> {
         let accel = built.accel.as_ref();
         if let (Some(img), Mode::Run) = (&self.exp.images, self.opts.mode) {
+            let sweep: Vec<String> = st.param_sets.iter().map(|p| p.to_string()).collect();
             self.progress
                 .step(&format!("{}: heat maps {}", spec.label, st.family.name));
             self.summary.notes.extend(crate::images::write_build(
@@ -278,7 +277,7 @@ impl<'a> Run<'a> {
                 img,
                 &self.opts.out,
                 accel,
-                param_index,
+                &crate::images::varying_tag(&sweep, params_s),
                 params_s,
                 &st.traversals,
                 &self.exp.run.triangle_tests,
