@@ -238,7 +238,7 @@ def sweep(args):
             sys.exit(f"error: parameter `{args.param}` is not numeric ({p[args.param]})")
         lines.setdefault(key, []).append((x, number(column(r, args.metric)), r))
     fig, ax = plt.subplots(figsize=(6.5, 4.2), layout="constrained")
-    for i, (key, pts) in enumerate(sorted(lines.items())):
+    for i, (key, pts) in enumerate(lines.items()):
         pts.sort(key=lambda p: p[0])
         xs, ys = [p[0] for p in pts], [p[1] for p in pts]
         err = error_bars([p[2] for p in pts], args.metric, ys)
@@ -251,7 +251,13 @@ def sweep(args):
         ax.set_xticklabels([f"{x:g}" for x in xs])
         ax.minorticks_off()
     ax.set_xlabel(args.param)
-    ax.set_ylabel(unit(args.metric))
+    if args.metric.endswith("_per_ray"):
+        meanings = {steps_meaning(r["structure"], r["traversal"]) for r in rows}
+        what_is = (meanings.pop() if len(meanings) == 1 else "see the legend") \
+            if counter_name(args.metric) == "steps" else counter_def(args.metric)
+        ax.set_ylabel(textwrap.fill(f"{unit(args.metric)}: {what_is}", 40))
+    else:
+        ax.set_ylabel(unit(args.metric))
     note = CI_NOTE if args.metric in SPREAD_COLUMNS else ""
     note += noisy_note(rows, args.metric)
     ax.set_title(f"{args.metric} against {args.param}\n{what}" + (f"\n{note.lstrip('; ')}" if note else ""),
