@@ -238,14 +238,24 @@ def sweep(args):
             sys.exit(f"error: parameter `{args.param}` is not numeric ({p[args.param]})")
         lines.setdefault(key, []).append((x, number(column(r, args.metric)), r))
     fig, ax = plt.subplots(figsize=(6.5, 4.2), layout="constrained")
+    xs = sorted({p[0] for pts in lines.values() for p in pts})
+    log = xs[0] > 0 and xs[-1] / xs[0] >= 8
+    spread = args.metric in SPREAD_COLUMNS
+
+    def dodge(x, i):
+        """Error bars of different lines side by side instead of on top of each other."""
+        if not spread or len(lines) == 1:
+            return x
+        k = (i - (len(lines) - 1) / 2) * min(0.04, 0.3 / len(lines))
+        return x * 2 ** k if log else x + k * (xs[-1] - xs[0] or 1) / max(1, len(xs) - 1)
+
     for i, (key, pts) in enumerate(lines.items()):
         pts.sort(key=lambda p: p[0])
-        xs, ys = [p[0] for p in pts], [p[1] for p in pts]
+        ys = [p[1] for p in pts]
         err = error_bars([p[2] for p in pts], args.metric, ys)
-        ax.errorbar(xs, ys, yerr=err, label=key, capsize=2.5, elinewidth=0.8, markersize=4,
-                    **line_style(i))
-    xs = sorted({p[0] for pts in lines.values() for p in pts})
-    if xs[0] > 0 and xs[-1] / xs[0] >= 8:
+        ax.errorbar([dodge(p[0], i) for p in pts], ys, yerr=err, label=key, capsize=2.5,
+                    elinewidth=0.8, markersize=4, **line_style(i))
+    if log:
         ax.set_xscale("log", base=2)
         ax.set_xticks(xs)
         ax.set_xticklabels([f"{x:g}" for x in xs])
