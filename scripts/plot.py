@@ -177,7 +177,7 @@ def bars(args):
     for ax, (col, title, ylabel, members) in zip(axes.flat, panels):
         present = [n for n in names if (members is None or n in members)
                    and any(number(r.get(col)) is not None for s in scenes for r in cell.get((s, n), []))]
-        width = 0.8 / max(1, len(present))
+        width = 0.8 / max(3, len(present))  # a lone series is not one wide block
         for i, n in enumerate(present):
             xs, ys, rs = [], [], []
             for j, s in enumerate(scenes):
