@@ -150,10 +150,8 @@ def is_noisy(row):
     return (row.get("noisy") or "").strip().lower() in ("true", "1", "yes")
 
 
-def threads_phrase(threads, device=None):
-    """`1 thread`, `2 threads`; GPU rows (threads 0) are driven by one host thread."""
-    if device == "gpu" or threads == "0":
-        return "GPU (one host thread)"
+def threads_phrase(threads):
+    """`1 thread`, `2 threads`."""
     return f"{threads} thread" + ("" if threads == "1" else "s")
 
 
@@ -167,7 +165,7 @@ def _natural(v):
 def pick(rows, col, want, prefer, what, option):
     """Rows with `col == want`; without `want`, the value most rows have, ties broken in
     favour of `prefer`, then by the smallest value (so the same CSV always gives the same
-    choice). Prints what was picked when there was a choice."""
+    choice). Prints what was picked and why."""
     counts = {}
     for r in rows:
         v = r.get(col, "")
@@ -178,6 +176,7 @@ def pick(rows, col, want, prefer, what, option):
         if want not in counts:
             sys.exit(f"error: {option} {want}: no such rows (values: "
                      f"{', '.join(sorted(counts, key=_natural))})")
+        print(f"{what}: {want} ({option})")
         return [r for r in rows if r.get(col, "") == want], want
     top = max(counts.values())
     tied = sorted((v for v, n in counts.items() if n == top), key=_natural)
@@ -187,4 +186,6 @@ def pick(rows, col, want, prefer, what, option):
         why = "most rows" + (f", tie broken in favour of {prefer}" if len(tied) > 1 and choice == prefer
                              else ", tie broken by order" if len(tied) > 1 else "")
         print(f"{what}: {choice} ({why}; also in the CSV: {others}; choose with {option})")
+    else:
+        print(f"{what}: {choice} (the only one in the rows)")
     return [r for r in rows if r.get(col, "") == choice], choice

@@ -70,13 +70,22 @@ def default_out(csv_path, *words):
 
 def select(rows, args):
     """One ray kind, thread count and triangle test: the given ones, or the most common
-    (ties: primary, 1 thread, watertight), printed."""
+    (ties: primary, 1 thread, watertight), printed. The thread count picks among CPU rows;
+    GPU rows (threads 0: one host thread drives the GPU) are kept beside them."""
     rows, kind = pick(rows, "ray_kind", args.ray_kind, "primary", "ray kind", "--ray-kind")
-    rows, threads = pick(rows, "threads", args.threads, "1", "threads", "--threads")
+    cpu = [r for r in rows if r.get("device", "cpu") != "gpu"]
+    gpu = [r for r in rows if r.get("device", "cpu") == "gpu"]
+    if cpu:
+        cpu, threads = pick(cpu, "threads", args.threads, "1", "threads (CPU)", "--threads")
+        rows = cpu + gpu
     rows, test = pick(rows, "triangle_test", args.triangle_test, "watertight", "triangle test",
                       "--triangle-test")
-    devices = sorted({r.get("device", "cpu") for r in rows})
-    return rows, f"{kind} rays, {threads_phrase(threads, 'gpu' if devices == ['gpu'] else None)}, {test} test"
+    if not rows:
+        sys.exit("error: no rows match")
+    on = threads_phrase(threads) if cpu else "GPU"
+    if cpu and gpu:
+        on = f"CPU {on}, GPU"
+    return rows, f"{kind} rays, {on}, {test} test"
 
 
 def error_bars(rows, col, values):

@@ -194,7 +194,7 @@ class Plot(unittest.TestCase):
     def test_bars(self):
         out = run("plot.py", self.results)
         self.png(os.path.join(self.tmp.name, "results-bars.png"))
-        self.assertIn("threads: 1", out)
+        self.assertIn("threads (CPU): 1", out)
         self.assertIn("cells (not measured)", out)
         self.assertIn("planes (not measured)", out)
 
