@@ -143,7 +143,7 @@ def bars(args):
         if len(rs) > 1:
             print(f"note: {len(rs)} rows for {s} / {n} averaged (narrow them with --filter)")
 
-    # Panels: (column, title, y label, predicate on series names or None).
+    # Panels: (column, title, y label, the series it may show or None for all).
     panels = [("mrays_per_s", "throughput", unit("mrays_per_s"), None)]
     counters = counter_columns(header)
     if args.counters is not None:
@@ -177,9 +177,9 @@ def bars(args):
     if skipped:
         print(f"counters left out: {', '.join(skipped)}")
 
-    ncol = min(args.columns, len(panels))
-    nrow = math.ceil(len(panels) / ncol)
     pw = max(3.6, 1.0 + 0.13 * len(scenes) * len(names))
+    ncol = min(args.columns or (3 if pw <= 7 else 2 if pw <= 10 else 1), len(panels))
+    nrow = math.ceil(len(panels) / ncol)
     fig, axes = plt.subplots(nrow, ncol, figsize=(pw * ncol, 3.3 * nrow), squeeze=False,
                              layout="constrained")
     index = {n: i for i, n in enumerate(names)}
@@ -384,7 +384,8 @@ def main(argv):
     b.add_argument("--counters", metavar="NAME,…",
                    help="counter panels, e.g. steps,prims (default: every counter the rows "
                         "measure; an empty string for none)")
-    b.add_argument("--columns", type=int, default=3, help="panels per row (default 3)")
+    b.add_argument("--columns", type=int,
+                   help="panels per row (default: 3, fewer when the panels are wide)")
     s = sub.add_parser("sweep", help="a metric against a parameter")
     common(s)
     selection(s)
@@ -394,7 +395,7 @@ def main(argv):
     common(c)
     c.add_argument("--metric", default="rmse", choices=["rmse", "rel_mse"])
     args = p.parse_args(argv)
-    if getattr(args, "columns", 1) < 1:
+    if getattr(args, "columns", None) is not None and args.columns < 1:
         p.error("--columns must be 1 or more")
     {"bars": bars, "sweep": sweep, "convergence": convergence}[args.kind](args)
 
