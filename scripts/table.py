@@ -232,19 +232,24 @@ def main(argv):
     p.add_argument("--filter", action="append", metavar="COLUMN=VALUE")
     p.add_argument("--sum", metavar="COLUMN",
                    help="add up the rows of a cell that differ only in this column")
-    p.add_argument("--digits", type=int, default=2,
-                   help="decimals of every value and half-width (default 2)")
+    p.add_argument("--digits", type=int,
+                   help="decimals of every value and half-width (default 2; 0 when every "
+                        "value is a whole number, e.g. memory_bytes, nodes)")
     p.add_argument("--no-spread", dest="spread", action="store_false",
                    help="values only, without ± the half-width of the median's 95%% CI")
     p.add_argument("--format", default="text", choices=["text", "markdown", "latex"])
     args = p.parse_args(argv)
-    if args.digits < 0:
+    if args.digits is not None and args.digits < 0:
         p.error("--digits must be 0 or more")
     rows = apply_filters(read_rows(args.csv), args.filter)
     rows = [r for r in rows if column(r, args.cols) != ""]
     if not rows:
         sys.exit("error: no rows left after the filters")
     row_keys, col_keys, cells = build(rows, args)
+    if args.digits is None:
+        whole = all(c.value is None or (c.value == int(c.value) and c.half is None)
+                    for c in cells.values())
+        args.digits = 0 if whole else 2
     header, kinds, body, any_noisy = layout(row_keys, col_keys, cells, args)
     title = f"{args.value}, rows {args.rows}, columns {args.cols}, baseline {args.baseline}"
     if args.filter:

@@ -138,6 +138,11 @@ class Table(unittest.TestCase):
         self.assertNotIn("±", out)
         out = run("table.py", self.csv, *self.base, "--no-spread", "--filter", "ray_kind=primary")
         self.assertNotIn("±", out)
+        # Whole numbers: no decimals unless --digits asks.
+        out = run("table.py", self.csv, *self.base, "--value", "rays", "--filter",
+                  "ray_kind=primary")
+        self.assertIn("1,000,000", out)
+        self.assertNotIn("1,000,000.00", out)
 
     def test_counters_not_marked_noisy(self):
         out = run("table.py", self.csv, *self.base, "--value", "steps_per_ray",
