@@ -67,3 +67,125 @@ def varying_params(rows):
         for k, v in params_of(r).items():
             by.setdefault((r["structure"], k), set()).add(v)
     return sorted({k for (_, k), vs in by.items() if len(vs) > 1})
+
+
+# --- Measurements: spread, noise, units, counters -------------------------------------------
+
+# Columns whose spread is the median's confidence interval (`trace_ms_ci`, relative to the
+# median): the median time itself and the throughput computed from it.
+SPREAD_COLUMNS = {"trace_ms_median", "mrays_per_s"}
+# Columns from the timed runs, which the row's `noisy` flag is about (counters are exact).
+TIMING_COLUMNS = {"trace_ms_min", "trace_ms_median", "trace_ms_max", "mrays_per_s"}
+
+# The per-ray counters' definitions (README, "Results columns"); a counter not listed here
+# (a newer one) is still plotted and tabulated, with a pointer to the README.
+COUNTER_DEFS = {
+    "interior": "interior nodes visited",
+    "leaves": "leaves visited (empty ones included)",
+    "prims": "ray-triangle tests",
+    "boxes": "ray-box (slab) tests",
+    "planes": "ray-splitting-plane distances computed (kd-trees)",
+    "restarts": "restarts from the root or a pushed-down node, and backtracks",
+    "steps": "traversal steps, as each structure defines them",
+}
+
+
+def counter_columns(header):
+    """The `<counter>_per_ray` columns of a CSV header, in header order."""
+    return [c for c in header if c.endswith("_per_ray")]
+
+
+def counter_name(col):
+    """`interior_per_ray` -> `interior`."""
+    return col[: -len("_per_ray")] if col.endswith("_per_ray") else col
+
+
+def counter_def(col):
+    """A counter column's definition, or a pointer to the README for one not known here."""
+    return COUNTER_DEFS.get(counter_name(col), "see README, Results columns")
+
+
+def steps_meaning(structure, traversal):
+    """What one `steps` unit is for a structure and traversal (README, `steps_per_ray`):
+    rows whose steps mean different things must not share an axis or a column."""
+    if structure in ("bvh", "kdtree"):
+        return "nodes visited"
+    if structure == "rtree":
+        return "node slots reached = boxes tested" if traversal == "stackless" else "nodes visited"
+    return f"{structure} {traversal} steps"
+
+
+def unit(col):
+    """An axis label with the unit of a column."""
+    if col == "mrays_per_s":
+        return "MRays/s (million rays per second)"
+    if col.endswith("_ms") or col.startswith("trace_ms_") or col in ("elapsed_ms", "budget_ms"):
+        return f"{col} (ms)"
+    if col.endswith("_per_ray"):
+        return f"{counter_name(col)} per ray"
+    if col.endswith("_max"):
+        return f"{col[: -len('_max')]}, most in one ray"
+    if col.endswith("_bytes"):
+        return f"{col} (bytes)"
+    if col == "hit_rate":
+        return "hit rate (share of rays)"
+    if col == "rmse":
+        return "RMSE"
+    if col == "rel_mse":
+        return "relative MSE"
+    return col
+
+
+def rel_spread(row, col):
+    """Relative half-width of a timing column's 95% CI (`trace_ms_ci`), or None where the
+    column has no such spread or the row does not record it."""
+    if col not in SPREAD_COLUMNS:
+        return None
+    return number(row.get("trace_ms_ci"))
+
+
+def is_noisy(row):
+    """The row's `noisy` flag (README: the CI is wider than run.target_ci, or the machine was
+    loaded while it ran)."""
+    return (row.get("noisy") or "").strip().lower() in ("true", "1", "yes")
+
+
+def threads_phrase(threads):
+    """`1 thread`, `2 threads`."""
+    return f"{threads} thread" + ("" if threads == "1" else "s")
+
+
+def _natural(v):
+    try:
+        return (0, float(v), "")
+    except ValueError:
+        return (1, 0.0, v)
+
+
+def pick(rows, col, want, prefer, what, option):
+    """Rows with `col == want`; without `want`, the value most rows have, ties broken in
+    favour of `prefer`, then by the smallest value (so the same CSV always gives the same
+    choice). Prints what was picked and why."""
+    counts = {}
+    for r in rows:
+        v = r.get(col, "")
+        counts[v] = counts.get(v, 0) + 1
+    if not counts:
+        return rows, want
+    if want is not None:
+        if want not in counts:
+            sys.exit(f"error: {option} {want}: no such rows (values: "
+                     f"{', '.join(sorted(counts, key=_natural))})")
+        print(f"{what}: {want} ({option})")
+        return [r for r in rows if r.get(col, "") == want], want
+    top = max(counts.values())
+    tied = sorted((v for v, n in counts.items() if n == top), key=_natural)
+    choice = prefer if prefer in tied else tied[0]
+    if len(counts) > 1:
+        others = ", ".join(v for v in sorted(counts, key=_natural) if v != choice)
+        why = "most rows" + (f", tie broken in favour of {prefer}" if len(tied) > 1 and choice == prefer
+                             else ", tie broken by order" if len(tied) > 1 else "")
+        print(f"{what}: {choice} ({why}; also in the CSV: {others}; choose with {option})")
+    else:
+        print(f"{what}: {choice} (the only one in the rows)")
+    return [r for r in rows if r.get(col, "") == choice], choice

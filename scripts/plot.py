@@ -3,120 +3,288 @@
 
     python3 scripts/plot.py RESULTS.csv                  # auto: bars (results.csv) or
                                                          #   convergence (convergence.csv)
-    python3 scripts/plot.py bars RESULTS.csv [--ray-kind primary] [--out bars.png]
+    python3 scripts/plot.py bars RESULTS.csv [--ray-kind primary] [--counters steps,prims]
     python3 scripts/plot.py sweep RESULTS.csv --param max_leaf [--metric mrays_per_s]
     python3 scripts/plot.py convergence CONVERGENCE.csv [--metric rmse|rel_mse]
 
-- bars: MRays/s and steps per ray per scene, one bar per structure x traversal (x parameter
-  set when a sweep varies one), for one ray kind, thread count and triangle test;
-- sweep: a metric against one parameter (leaf size now; d_min, lambda, beta later), one line per
-  scene x structure x traversal;
+- bars: MRays/s per scene, one bar per structure x traversal (x parameter set when a sweep
+  varies one), with the median's 95% CI as error bars; then one panel per per-ray counter the
+  rows fill (`steps` split by what a step is: BVH nodes and R-tree boxes never share an axis);
+  one ray kind, thread count and triangle test;
+- sweep: a metric against one parameter, one line per scene x structure x traversal, error bars
+  on timing metrics;
 - convergence: error against render time, log-log, one panel per scene x integrator, one
-  line per structure x traversal; budget rows (frame_budget_ms) are printed as a table.
+  line per structure x traversal x device; budget rows (frame_budget_ms) are printed as a table.
 
-The output defaults to a PNG beside the CSV (`<stem>-<kind>.png`).
+Ray kind, threads and triangle test default to the value most rows have (ties: primary, 1
+thread, watertight); the choice is printed and written in the title. The output defaults to a
+PNG beside the CSV (`results-bars.png`, `results-sweep-max_leaf.png`, `convergence.png`).
 """
 
 import argparse
 import math
 import os
 import sys
+import textwrap
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import apply_filters, column, number, params_of, read_rows, varying_params  # noqa: E402
+from common import (SPREAD_COLUMNS, TIMING_COLUMNS, apply_filters, column,  # noqa: E402
+                    counter_columns, counter_def, counter_name, is_noisy, number, params_of,
+                    pick, read_rows, rel_spread, steps_meaning, threads_phrase, unit,
+                    varying_params)
 
 import matplotlib  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.patches import Patch  # noqa: E402
+
+# Ten distinct colours; past ten series the colours repeat with a hatch (bars) or another line
+# style and marker (lines), so 60 series stay distinguishable.
+COLOURS = plt.get_cmap("tab10").colors
+HATCHES = ["", "////", "....", "xxxx", "\\\\\\\\", "oo"]
+LINESTYLES = ["-", "--", ":", "-."]
+MARKERS = ["o", "s", "^", "D", "v", "P"]
+
+CI_NOTE = "error bars: 95% CI of the median (trace_ms_ci)"
 
 
-def default_out(csv_path, kind):
+def bar_style(i):
+    return {"facecolor": COLOURS[i % 10], "hatch": HATCHES[(i // 10) % len(HATCHES)],
+            "edgecolor": "0.2", "linewidth": 0.4}
+
+
+def line_style(i):
+    return {"color": COLOURS[i % 10], "linestyle": LINESTYLES[(i // 10) % len(LINESTYLES)],
+            "marker": MARKERS[(i // 10) % len(MARKERS)]}
+
+
+def default_out(csv_path, *words):
+    """`<dir>/<stem>-<words>.png`, leaving out words the stem already has
+    (`convergence.csv` -> `convergence.png`, not `convergence-convergence.png`)."""
     stem, _ = os.path.splitext(csv_path)
-    return f"{stem}-{kind}.png"
+    have = set(os.path.basename(stem).replace("_", "-").split("-"))
+    extra = [w for w in words if w and w not in have]
+    return "-".join([stem] + extra) + ".png"
 
 
-def pick_one(rows, col, want):
-    """Rows with `col == want`, or with the most common value when `want` is None."""
-    values = sorted({r[col] for r in rows})
-    if want is None:
-        if not values:
-            return rows, None
-        want = max(values, key=lambda v: sum(r[col] == v for r in rows))
-    return [r for r in rows if r[col] == want], want
+def select(rows, args):
+    """One ray kind, thread count and triangle test: the given ones, or the most common
+    (ties: primary, 1 thread, watertight), printed. The thread count picks among CPU rows;
+    GPU rows (threads 0: one host thread drives the GPU) are kept beside them."""
+    rows, kind = pick(rows, "ray_kind", args.ray_kind, "primary", "ray kind", "--ray-kind")
+    cpu = [r for r in rows if r.get("device", "cpu") != "gpu"]
+    gpu = [r for r in rows if r.get("device", "cpu") == "gpu"]
+    if cpu:
+        cpu, threads = pick(cpu, "threads", args.threads, "1", "threads (CPU)", "--threads")
+        rows = cpu + gpu
+    rows, test = pick(rows, "triangle_test", args.triangle_test, "watertight", "triangle test",
+                      "--triangle-test")
+    if not rows:
+        sys.exit("error: no rows match")
+    on = threads_phrase(threads) if cpu else "GPU"
+    if cpu and gpu:
+        on = f"CPU {on}, GPU"
+    return rows, f"{kind} rays, {on}, {test} test"
+
+
+def error_bars(rows, col, values):
+    """(lower, upper) error bar lengths of `values` from the rows' trace_ms_ci (the lower bar
+    stops at zero), or None when `col` has no spread."""
+    if col not in SPREAD_COLUMNS:
+        return None
+    lo, hi = [], []
+    for r, v in zip(rows, values):
+        rel = rel_spread(r, col) if r is not None else None
+        h = 0.0 if v is None or rel is None else abs(v) * rel
+        lo.append(min(h, v or 0.0))
+        hi.append(h)
+    return [lo, hi]
+
+
+def noisy_note(rows, col):
+    n = sum(is_noisy(r) for r in rows) if col in TIMING_COLUMNS else 0
+    return f"; {n} of {len(rows)} rows noisy" if n else ""
+
+
+def save(fig, out, dpi):
+    fig.savefig(out, dpi=dpi, bbox_inches="tight")
+    plt.close(fig)
+    print(f"wrote {out}")
 
 
 def bars(args):
-    rows = apply_filters(read_rows(args.csv), args.filter)
+    all_rows = read_rows(args.csv)
+    header = list(all_rows[0].keys()) if all_rows else []
+    rows = apply_filters(all_rows, args.filter)
     rows = [r for r in rows if number(r.get("mrays_per_s")) is not None]
-    rows, kind = pick_one(rows, "ray_kind", args.ray_kind)
-    rows, threads = pick_one(rows, "threads", args.threads)
-    rows, test = pick_one(rows, "triangle_test", args.triangle_test)
-    rows = [r for r in rows if r.get("device", "cpu") == (args.device or r.get("device"))]
+    if args.device:
+        rows = [r for r in rows if r.get("device", "cpu") == args.device]
     if not rows:
         sys.exit("error: no timed rows match")
+    rows, what = select(rows, args)
     sweep = varying_params(rows)
+    several_devices = len({r.get("device", "cpu") for r in rows}) > 1
 
     def series(r):
         s = f"{r['structure']} {r['traversal']}"
+        if several_devices:
+            s += f" ({r.get('device', 'cpu')})"
         p = params_of(r)
         extra = ",".join(f"{k}={p[k]}" for k in sweep if k in p)
         return f"{s} [{extra}]" if extra else s
 
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     names = list(dict.fromkeys(series(r) for r in rows))
-    metrics = [("mrays_per_s", "MRays/s"), ("steps_per_ray", "steps per ray")]
-    fig, axes = plt.subplots(1, 2, figsize=(max(8, 1.2 * len(scenes) * len(names) ** 0.5 + 6), 4.5))
-    width = 0.8 / len(names)
-    for ax, (col, title) in zip(axes, metrics):
-        for i, n in enumerate(names):
-            ys = []
-            for s in scenes:
-                v = [number(r[col]) for r in rows if r["scene"] == s and series(r) == n]
-                v = [x for x in v if x is not None]
-                ys.append(sum(v) / len(v) if v else 0.0)
-            ax.bar([j + (i - (len(names) - 1) / 2) * width for j in range(len(scenes))], ys, width, label=n)
+    cell = {}
+    for r in rows:
+        cell.setdefault((r["scene"], series(r)), []).append(r)
+    for (s, n), rs in cell.items():
+        if len(rs) > 1:
+            print(f"note: {len(rs)} rows for {s} / {n} averaged (narrow them with --filter)")
+
+    # Panels: (column, title, y label, the series it may show or None for all).
+    panels = [("mrays_per_s", "throughput", unit("mrays_per_s"), None)]
+    counters = counter_columns(header)
+    if args.counters is not None:
+        want = [c.strip() for c in args.counters.split(",") if c.strip()]
+        unknown = [c for c in want if f"{c}_per_ray" not in counters]
+        if unknown:
+            sys.exit(f"error: --counters {','.join(unknown)}: no such counter "
+                     f"(counters: {', '.join(counter_name(c) for c in counters)})")
+        counters = [f"{c}_per_ray" for c in want]
+    skipped = []
+    for col in counters:
+        vals = [number(r.get(col)) for r in rows]
+        if all(v is None for v in vals):
+            skipped.append(f"{counter_name(col)} (not measured)")
+            continue
+        if all(not v for v in vals):
+            skipped.append(f"{counter_name(col)} (0 for every row)")
+            continue
+        name = counter_name(col)
+        if name != "steps":
+            panels.append((col, name, textwrap.fill(f"{counter_def(col)}, per ray", 34), None))
+            continue
+        # A step is a different thing per structure: one panel per meaning.
+        meanings = {}
+        for r in rows:
+            if number(r.get(col)) is not None:
+                meanings.setdefault(steps_meaning(r["structure"], r["traversal"]), set()).add(series(r))
+        for m, members in meanings.items():
+            panels.append((col, f"steps: {m}", textwrap.fill(f"{m}, per ray", 34),
+                           frozenset(members)))
+    if skipped:
+        print(f"counters left out: {', '.join(skipped)}")
+
+    pw = max(3.6, 1.0 + 0.13 * len(scenes) * len(names))
+    ncol = min(args.columns or (3 if pw <= 7 else 2 if pw <= 10 else 1), len(panels))
+    nrow = math.ceil(len(panels) / ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(pw * ncol, 3.3 * nrow), squeeze=False,
+                             layout="constrained")
+    index = {n: i for i, n in enumerate(names)}
+    for ax, (col, title, ylabel, members) in zip(axes.flat, panels):
+        present = [n for n in names if (members is None or n in members)
+                   and any(number(r.get(col)) is not None for s in scenes for r in cell.get((s, n), []))]
+        width = 0.8 / max(3, len(present))  # a lone series is not one wide block
+        for i, n in enumerate(present):
+            xs, ys, rs = [], [], []
+            for j, s in enumerate(scenes):
+                got = [r for r in cell.get((s, n), []) if number(r.get(col)) is not None]
+                if not got:
+                    continue  # not measured: no bar, not a zero
+                xs.append(j + (i - (len(present) - 1) / 2) * width)
+                ys.append(sum(number(r[col]) for r in got) / len(got))
+                rs.append(got[0] if len(got) == 1 else None)
+            err = error_bars(rs, col, ys)
+            ax.bar(xs, ys, width, yerr=err, error_kw={"elinewidth": 0.8, "capsize": 1.5,
+                                                      "ecolor": "black"},
+                   **bar_style(index[n]))
         ax.set_xticks(range(len(scenes)))
-        ax.set_xticklabels(scenes, rotation=20, ha="right")
-        ax.set_title(title)
+        ax.set_xticklabels(scenes, rotation=20 if len(scenes) > 3 else 0,
+                           ha="right" if len(scenes) > 3 else "center")
+        ax.set_title(title, fontsize=10)
+        ax.set_ylabel(ylabel, fontsize=8)
         ax.grid(axis="y", alpha=0.3)
-    axes[0].legend(fontsize=7)
-    fig.suptitle(f"{kind} rays, {threads} threads, {test} test")
-    fig.tight_layout()
-    out = args.out or default_out(args.csv, "bars")
-    fig.savefig(out, dpi=args.dpi)
-    print(f"wrote {out}")
+        ax.set_axisbelow(True)
+    for ax in list(axes.flat)[len(panels):]:
+        ax.axis("off")
+    handles = [Patch(label=n, **bar_style(index[n])) for n in names]
+    fig.legend(handles=handles, loc="outside right upper", fontsize=8,
+               title="structure traversal", title_fontsize=8)
+    fig.suptitle(f"{what}\n{CI_NOTE}{noisy_note(rows, 'mrays_per_s')}", fontsize=10)
+    save(fig, args.out or default_out(args.csv, "bars"), args.dpi)
 
 
 def sweep(args):
     rows = apply_filters(read_rows(args.csv), args.filter)
-    rows = [r for r in rows if number(column(r, args.metric)) is not None]
-    rows, kind = pick_one(rows, "ray_kind", args.ray_kind)
-    rows, threads = pick_one(rows, "threads", args.threads)
-    rows, test = pick_one(rows, "triangle_test", args.triangle_test)
     rows = [r for r in rows if args.param in params_of(r)]
+    if rows and args.metric not in rows[0] and not args.metric.startswith("param:"):
+        sys.exit(f"error: --metric {args.metric}: no such column")
+    rows = [r for r in rows if number(column(r, args.metric)) is not None]
     if not rows:
         sys.exit(f"error: no rows with parameter `{args.param}` and a value of {args.metric}")
+    rows, what = select(rows, args)
+    others = [k for k in varying_params(rows) if k != args.param]
+    several_devices = len({r.get("device", "cpu") for r in rows}) > 1
+    steps = args.metric == "steps_per_ray" and len(
+        {steps_meaning(r["structure"], r["traversal"]) for r in rows}) > 1
+    if steps:
+        print("note: steps mean different things for these structures; each line says which")
     lines = {}
     for r in rows:
+        p = params_of(r)
         key = f"{r['scene']} {r['structure']} {r['traversal']}"
-        x = number(params_of(r)[args.param])
+        if several_devices:
+            key += f" ({r.get('device', 'cpu')})"
+        extra = ",".join(f"{k}={p[k]}" for k in others if k in p)
+        if extra:
+            key += f" [{extra}]"
+        if steps:
+            key += f" (steps: {steps_meaning(r['structure'], r['traversal'])})"
+        x = number(p[args.param])
         if x is None:
-            sys.exit(f"error: parameter `{args.param}` is not numeric ({params_of(r)[args.param]})")
-        lines.setdefault(key, []).append((x, number(column(r, args.metric))))
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    for key, pts in sorted(lines.items()):
-        pts.sort()
-        ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o", label=key)
+            sys.exit(f"error: parameter `{args.param}` is not numeric ({p[args.param]})")
+        lines.setdefault(key, []).append((x, number(column(r, args.metric)), r))
+    fig, ax = plt.subplots(figsize=(6.5, 4.2), layout="constrained")
+    xs = sorted({p[0] for pts in lines.values() for p in pts})
+    log = xs[0] > 0 and xs[-1] / xs[0] >= 8
+    spread = args.metric in SPREAD_COLUMNS
+
+    def dodge(x, i):
+        """Error bars of different lines side by side instead of on top of each other."""
+        if not spread or len(lines) == 1:
+            return x
+        k = (i - (len(lines) - 1) / 2) * min(0.04, 0.3 / len(lines))
+        return x * 2 ** k if log else x + k * (xs[-1] - xs[0] or 1) / max(1, len(xs) - 1)
+
+    for i, (key, pts) in enumerate(lines.items()):
+        pts.sort(key=lambda p: p[0])
+        ys = [p[1] for p in pts]
+        err = error_bars([p[2] for p in pts], args.metric, ys)
+        ax.errorbar([dodge(p[0], i) for p in pts], ys, yerr=err, label=key, capsize=2.5,
+                    elinewidth=0.8, markersize=4, **line_style(i))
+    if log:
+        ax.set_xscale("log", base=2)
+        ax.set_xticks(xs)
+        ax.set_xticklabels([f"{x:g}" for x in xs])
+        ax.minorticks_off()
     ax.set_xlabel(args.param)
-    ax.set_ylabel(args.metric)
-    ax.set_title(f"{args.metric} against {args.param} ({kind} rays, {threads} threads, {test})")
+    if args.metric.endswith("_per_ray"):
+        meanings = {steps_meaning(r["structure"], r["traversal"]) for r in rows}
+        what_is = (meanings.pop() if len(meanings) == 1 else "see the legend") \
+            if counter_name(args.metric) == "steps" else counter_def(args.metric)
+        ax.set_ylabel(textwrap.fill(f"{unit(args.metric)}: {what_is}", 40))
+    else:
+        ax.set_ylabel(unit(args.metric))
+    note = CI_NOTE if args.metric in SPREAD_COLUMNS else ""
+    note += noisy_note(rows, args.metric)
+    ax.set_title(f"{args.metric} against {args.param}\n{what}" + (f"\n{note.lstrip('; ')}" if note else ""),
+                 fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    out = args.out or default_out(args.csv, f"sweep-{args.param}")
-    fig.savefig(out, dpi=args.dpi)
-    print(f"wrote {out}")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, borderaxespad=0)
+    metric = "" if args.metric == "mrays_per_s" else args.metric
+    save(fig, args.out or default_out(args.csv, "sweep", args.param, metric), args.dpi)
 
 
 def convergence(args):
@@ -128,46 +296,61 @@ def convergence(args):
     panels = list(dict.fromkeys((r["scene"], r["integrator"]) for r in curves))
     if not panels:
         sys.exit("error: no progressive rows")
+    key_of = lambda r: f"{r['structure']} {r['traversal']} {r['device']}"
+    keys = list(dict.fromkeys(key_of(r) for r in curves))
     ncol = min(2, len(panels))
     nrow = math.ceil(len(panels) / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(5.5 * ncol, 4.2 * nrow), squeeze=False)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(5.0 * ncol, 3.8 * nrow), squeeze=False,
+                             layout="constrained")
+    p = 0.5 if args.metric == "rmse" else 1.0
     for ax, (scene, integ) in zip(axes.flat, panels):
         sel = [r for r in curves if r["scene"] == scene and r["integrator"] == integ]
-        for key in dict.fromkeys(f"{r['structure']} {r['traversal']} {r['device']}" for r in sel):
-            pts = [
-                (number(r["elapsed_ms"]), number(r[args.metric]), r["spp"])
-                for r in sel
-                if f"{r['structure']} {r['traversal']} {r['device']}" == key
-            ]
-            pts = [p for p in pts if p[0] and p[1]]
-            ax.loglog([p[0] for p in pts], [p[1] for p in pts], marker="o", label=key)
-            last = pts[-1] if pts else None
-            if last:
-                ax.annotate(f"{last[2]} spp", (last[0], last[1]), fontsize=7)
-        # The 1/sqrt(t) slope for reference (MSE-type metrics fall as 1/t).
+        drawn = 0
+        for i, key in enumerate(keys):
+            pts = [(number(r["elapsed_ms"]), number(r[args.metric]), r["spp"])
+                   for r in sel if key_of(r) == key]
+            pts = [q for q in pts if q[0] and q[1]]
+            if not pts:
+                continue
+            ax.loglog([q[0] for q in pts], [q[1] for q in pts], markersize=4, label=key,
+                      **line_style(i))
+            # The final sample count beside the last point, each curve's label moved down by
+            # its index so that curves ending close together do not print over each other.
+            ax.annotate(f"{pts[-1][2]} spp", (pts[-1][0], pts[-1][1]), xytext=(6, 2 - 10 * drawn),
+                        textcoords="offset points", fontsize=7, color=line_style(i)["color"],
+                        va="center")
+            drawn += 1
+        # The Monte Carlo slope for reference (1/sqrt(t) for RMSE, 1/t for MSE-type metrics).
         xs = sorted(number(r["elapsed_ms"]) for r in sel if number(r["elapsed_ms"]))
         ys = [number(r[args.metric]) for r in sel if number(r[args.metric])]
         if xs and ys:
-            p = 0.5 if args.metric == "rmse" else 1.0
             y0 = max(ys)
             ax.loglog([xs[0], xs[-1]], [y0, y0 * (xs[0] / xs[-1]) ** p], "k--", lw=0.8,
-                      label=f"slope -{p:g}")
-        ax.set_title(f"{scene}: {integ}")
+                      label=f"slope −{p:g} (Monte Carlo)")
+        # Room on the right for the spp labels.
+        lo, hi = ax.get_xlim()
+        ax.set_xlim(lo, hi * 2.5)
+        ax.set_title(f"{scene}: {integ}", fontsize=10)
         ax.set_xlabel("render time (ms)")
-        ax.set_ylabel(args.metric)
+        ax.set_ylabel(unit(args.metric))
         ax.grid(which="both", alpha=0.3)
-        ax.legend(fontsize=7)
     for ax in list(axes.flat)[len(panels):]:
         ax.axis("off")
-    fig.tight_layout()
-    out = args.out or default_out(args.csv, "convergence")
-    fig.savefig(out, dpi=args.dpi)
-    print(f"wrote {out}")
+    handles = {}
+    for ax in axes.flat:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(lab, h)
+    fig.legend(list(handles.values()), list(handles.keys()), loc="outside right upper",
+               fontsize=8, title="structure traversal device", title_fontsize=8)
+    metric = "" if args.metric == "rmse" else args.metric
+    save(fig, args.out or default_out(args.csv, "convergence", metric), args.dpi)
     if budgets:
         print(f"{'scene':<12} {'integrator':<10} {'structure':<10} {'traversal':<10} {'budget_ms':>9} {'spp':>5} {'elapsed_ms':>10} {args.metric:>9}")
         for r in budgets:
+            v = number(r[args.metric])
             print(f"{r['scene']:<12} {r['integrator']:<10} {r['structure']:<10} {r['traversal']:<10} "
-                  f"{float(r['budget_ms']):>9.1f} {r['spp']:>5} {float(r['elapsed_ms']):>10.1f} {r[args.metric] or '-':>9.9}")
+                  f"{float(r['budget_ms']):>9.1f} {r['spp']:>5} {float(r['elapsed_ms']):>10.1f} "
+                  f"{'-' if v is None else f'{v:.4f}':>9}")
 
 
 def main(argv):
@@ -189,24 +372,31 @@ def main(argv):
                         help="keep rows where COLUMN (or param:KEY) equals VALUE; repeatable")
         sp.add_argument("--dpi", type=int, default=110)
 
-    def select(sp):
-        sp.add_argument("--ray-kind", help="default: the most common")
-        sp.add_argument("--threads", help="default: the most common")
-        sp.add_argument("--triangle-test", help="default: the most common")
+    def selection(sp):
+        sp.add_argument("--ray-kind", help="default: the most common (tie: primary)")
+        sp.add_argument("--threads", help="default: the most common (tie: 1)")
+        sp.add_argument("--triangle-test", help="default: the most common (tie: watertight)")
 
-    b = sub.add_parser("bars", help="MRays/s and steps per structure and traversal")
+    b = sub.add_parser("bars", help="MRays/s and per-ray counters per structure and traversal")
     common(b)
-    select(b)
-    b.add_argument("--device")
+    selection(b)
+    b.add_argument("--device", help="cpu or gpu (default: both, told apart in the legend)")
+    b.add_argument("--counters", metavar="NAME,…",
+                   help="counter panels, e.g. steps,prims (default: every counter the rows "
+                        "measure; an empty string for none)")
+    b.add_argument("--columns", type=int,
+                   help="panels per row (default: 3, fewer when the panels are wide)")
     s = sub.add_parser("sweep", help="a metric against a parameter")
     common(s)
-    select(s)
+    selection(s)
     s.add_argument("--param", required=True, help="parameter key, e.g. max_leaf")
     s.add_argument("--metric", default="mrays_per_s")
     c = sub.add_parser("convergence", help="error against time, log-log")
     common(c)
     c.add_argument("--metric", default="rmse", choices=["rmse", "rel_mse"])
     args = p.parse_args(argv)
+    if getattr(args, "columns", None) is not None and args.columns < 1:
+        p.error("--columns must be 1 or more")
     {"bars": bars, "sweep": sweep, "convergence": convergence}[args.kind](args)
 
 

@@ -4,7 +4,8 @@ each cell a value, with the percentage change against a named baseline column be
 other column, as the papers print them.
 
     python3 scripts/table.py RESULTS.csv --rows scene --cols param:max_leaf \\
-        --value mrays_per_s --baseline 4 [--filter ray_kind=primary] [--format text|markdown]
+        --value mrays_per_s --baseline 4 [--filter ray_kind=primary] \\
+        [--format text|markdown|latex] [--digits 2] [--no-spread]
 
 --rows / --cols take a CSV column or `param:KEY` (one parameter of the `params` column), or
 several joined by `+` (`--cols structure+traversal`). Every cell must come from exactly one
@@ -12,53 +13,75 @@ row: when several rows fall in one cell, narrow them with --filter COLUMN=VALUE 
 alternatives `A|B`; the error names the columns that differ), or add them up with --sum COLUMN
 (e.g. `--sum ray_kind`: the R-tree paper's "primary and shadow rays" times are the sum of the
 two batches). A percentage is 100 · (value − baseline) / baseline of the same row.
+
+Timing values (trace_ms_median, mrays_per_s) print as `value ± half-width` of the median's 95%
+confidence interval (the CSV's trace_ms_ci, relative to the median; mrays_per_s takes the same
+relative half-width); a summed cell combines the half-widths of its rows in quadrature. A cell
+of a timing column whose row is flagged `noisy` is marked †, explained under the table.
 """
 
 import argparse
+import math
 import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import apply_filters, column, number, read_rows  # noqa: E402
+from common import (TIMING_COLUMNS, apply_filters, column, is_noisy, number, read_rows,  # noqa: E402
+                    rel_spread)
 
 
 # Columns that identify a row (the others are measurements).
 KEYS = ["scene", "structure", "params", "traversal", "device", "adapter", "threads",
         "triangle_test", "ray_kind", "integrator", "pass", "budget_ms"]
 
+DAGGER = "†"
+NOISY_NOTE = ("noisy timing: the median's 95% CI is wider than run.target_ci, or the machine "
+              "was loaded while the row ran")
 
-def fmt(v, digits):
-    if v is None:
-        return "-"
-    if abs(v) >= 1000:
-        return f"{v:,.0f}"
-    return f"{v:.{digits}f}"
+
+class Cell:
+    """One table cell: value, absolute half-width of its 95% CI (None: none), noisy flag."""
+
+    def __init__(self, value, half=None, noisy=False):
+        self.value, self.half, self.noisy = value, half, noisy
+
+
+def cell_of(rows, args):
+    """The cell of one row, or of several rows added up (--sum)."""
+    cells = []
+    for r in rows:
+        v = number(column(r, args.value))
+        rel = rel_spread(r, args.value)
+        noisy = args.value in TIMING_COLUMNS and is_noisy(r)
+        cells.append(Cell(v, None if v is None or rel is None else abs(v) * rel, noisy))
+    if any(c.value is None for c in cells):
+        return Cell(None)
+    halves = [c.half for c in cells]
+    return Cell(sum(c.value for c in cells),
+                None if None in halves else math.sqrt(sum(h * h for h in halves)),
+                any(c.noisy for c in cells))
+
+
+def name_of(spec):
+    """`param:max_leaf` -> `max_leaf`; `structure+param:builder` -> `structure/builder`."""
+    return "/".join(s.replace("param:", "", 1) for s in spec.split("+"))
 
 
 def build(rows, args):
-    cells = {}
+    """(row keys, column keys, cells {(row, col): Cell})."""
+    groups = {}
     for r in rows:
-        key = (column(r, args.rows), column(r, args.cols))
-        cells.setdefault(key, []).append(r)
-    summed = {}
-    for key, rs in cells.items():
-        if args.sum and len(rs) > 1 and len({r[args.sum] for r in rs}) == len(rs):
-            vals = [number(column(r, args.value)) for r in rs]
-            summed[key] = None if None in vals else sum(vals)
-            continue
-        if len(rs) > 1:
+        groups.setdefault((column(r, args.rows), column(r, args.cols)), []).append(r)
+    cells = {}
+    for key, rs in groups.items():
+        if len(rs) > 1 and not (args.sum and len({column(r, args.sum) for r in rs}) == len(rs)):
             differ = [c for c in KEYS if c in rs[0] and len({r[c] for r in rs}) > 1]
             sys.exit(f"error: {len(rs)} rows for {args.rows}={key[0]}, {args.cols}={key[1]}; "
-                     f"narrow with --filter on one of: {', '.join(differ) or '(identical rows)'}")
-    def value(key):
-        if key not in cells:
-            return None
-        if key in summed:
-            return summed[key]
-        return number(column(cells[key][0], args.value))
-
-    row_keys = list(dict.fromkeys(k[0] for k in cells))
-    col_keys = list(dict.fromkeys(k[1] for k in cells))
+                     f"narrow with --filter on one of: {', '.join(differ) or '(identical rows)'}"
+                     + ("" if args.sum else ", or add them up with --sum COLUMN"))
+        cells[key] = cell_of(rs, args)
+    row_keys = list(dict.fromkeys(k[0] for k in groups))
+    col_keys = list(dict.fromkeys(k[1] for k in groups))
     try:
         col_keys.sort(key=float)
     except ValueError:
@@ -66,37 +89,137 @@ def build(rows, args):
     if args.baseline not in col_keys:
         sys.exit(f"error: --baseline {args.baseline}: not a value of {args.cols} "
                  f"(values: {', '.join(col_keys)})")
-    table = []
-    for rk in row_keys:
-        base = value((rk, args.baseline))
-        line = [rk]
-        for ck in col_keys:
-            v = value((rk, ck))
-            line.append(fmt(v, args.digits))
-            if ck != args.baseline:
-                if v is None or base in (None, 0):
-                    line.append("-")
-                else:
-                    pct = round(100.0 * (v - base) / base, 1) + 0.0  # no "-0.0%"
-                    line.append(f"{pct:+.1f}%")
-        table.append(line)
-    header = [args.rows]
+    return row_keys, col_keys, cells
+
+
+def fmt_num(v, digits):
+    """Fixed decimals with thousands separators; `-0.00` printed as `0.00`."""
+    s = f"{v:,.{digits}f}"
+    return s[1:] if s.startswith("-") and float(s[1:].replace(",", "")) == 0 else s
+
+
+def percent(v, base):
+    if v is None or base in (None, 0):
+        return None
+    return round(100.0 * (v - base) / base, 1) + 0.0  # no "-0.0%"
+
+
+def layout(row_keys, col_keys, cells, args):
+    """Header and rows as lists of parts: a value cell is (value, half-width, mark) strings,
+    a percentage cell and a label are plain strings."""
+    corner = f"{name_of(args.rows)} \\ {name_of(args.cols)}"
+    header = [corner]
+    kinds = ["label"]
     for ck in col_keys:
-        name = f"{args.cols.replace('param:', '')}={ck}"
-        header.append(name + (" (base)" if ck == args.baseline else ""))
+        header.append(ck + (" (base)" if ck == args.baseline else ""))
+        kinds.append("value")
         if ck != args.baseline:
             header.append("%")
-    return header, table
+            kinds.append("pct")
+    body = []
+    any_noisy = False
+    for rk in row_keys:
+        base = cells.get((rk, args.baseline), Cell(None)).value
+        line = [rk]
+        for ck in col_keys:
+            c = cells.get((rk, ck), Cell(None))
+            if c.value is None:
+                line.append(("-", "", ""))
+            else:
+                half = fmt_num(c.half, args.digits) if c.half is not None and args.spread else ""
+                line.append((fmt_num(c.value, args.digits), half, DAGGER if c.noisy else ""))
+                any_noisy |= c.noisy
+            if ck != args.baseline:
+                p = percent(c.value, base)
+                line.append("-" if p is None else f"{p:+.1f}%")
+        body.append(line)
+    return header, kinds, body, any_noisy
 
 
-def render(header, table, style):
+def render_text(header, kinds, body, any_noisy, style):
+    def joined(parts, wv, wh, pm):
+        v, h, m = parts
+        if not h:
+            s = v.rjust(wv) + (" " * (len(pm) + wh) if wh else "")
+        else:
+            s = v.rjust(wv) + pm + h.rjust(wh)
+        return s + (m or " ") if any_noisy else s
+
+    pm = " ± "
+    # Widths of the value and half-width parts per column, so that ± lines up.
+    cols = []
+    for j, kind in enumerate(kinds):
+        if kind == "value":
+            wv = max(len(line[j][0]) for line in body)
+            wh = max(len(line[j][1]) for line in body)
+            cols.append((wv, wh))
+        else:
+            cols.append(None)
+    cells = []
+    for line in body:
+        out = []
+        for j, kind in enumerate(kinds):
+            out.append(joined(line[j], *cols[j], pm) if kind == "value" else line[j])
+        cells.append(out)
     if style == "markdown":
-        out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-        out += ["| " + " | ".join(r) + " |" for r in table]
-        return "\n".join(out)
-    widths = [max(len(x) for x in col) for col in zip(header, *table)]
-    line = lambda r: "  ".join(x.ljust(w) if i == 0 else x.rjust(w) for i, (x, w) in enumerate(zip(r, widths)))
-    return "\n".join([line(header), "  ".join("-" * w for w in widths)] + [line(r) for r in table])
+        align = ["---" if k == "label" else "---:" for k in kinds]
+        esc = lambda s: s.replace("|", "\\|")
+        out = ["| " + " | ".join(esc(h) for h in header) + " |", "|" + "|".join(align) + "|"]
+        out += ["| " + " | ".join(esc(c.strip()) for c in r) + " |" for r in cells]
+    else:
+        widths = [max(len(x) for x in col) for col in zip(header, *cells)]
+        line = lambda r: "  ".join(x.ljust(w) if i == 0 else x.rjust(w)
+                                   for i, (x, w) in enumerate(zip(r, widths))).rstrip()
+        out = [line(header), "  ".join("-" * w for w in widths)] + [line(r) for r in cells]
+    if any_noisy:
+        out.append(("" if style == "text" else "\n") + f"{DAGGER} {NOISY_NOTE}")
+    return "\n".join(out)
+
+
+LATEX_ESCAPES = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#",
+                 "_": r"\_", "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}",
+                 "^": r"\textasciicircum{}", "±": r"$\pm$", "†": r"$^\dagger$",
+                 "−": "$-$", "·": r"$\cdot$"}
+
+
+def tex(s):
+    return "".join(LATEX_ESCAPES.get(ch, ch) for ch in s)
+
+
+def tex_num(s):
+    """A number: a leading minus as a math minus."""
+    return "$-$" + tex(s[1:]) if s.startswith("-") and len(s) > 1 else tex(s)
+
+
+def render_latex(header, kinds, body, any_noisy, title, args):
+    ncols = len(kinds)
+    out = [f"% caption: {title}",
+           "% needs \\usepackage{booktabs}",
+           "\\begin{tabular}{l" + "r" * (ncols - 1) + "}",
+           "\\toprule",
+           f" & \\multicolumn{{{ncols - 1}}}{{c}}{{{tex(name_of(args.cols))}}} \\\\",
+           f"\\cmidrule(lr){{2-{ncols}}}",
+           " & ".join([tex(name_of(args.rows))] + [tex(h) for h in header[1:]]) + " \\\\",
+           "\\midrule"]
+    for line in body:
+        parts = [tex(line[0])]
+        for j, kind in enumerate(kinds[1:], 1):
+            if kind == "value":
+                v, h, m = line[j]
+                s = tex_num(v) if v != "-" else "--"
+                if h:
+                    s += " $\\pm$ " + tex_num(h)
+                if m:
+                    s += "$^\\dagger$"
+                parts.append(s)
+            else:
+                parts.append(tex_num(line[j]) if line[j] != "-" else "--")
+        out.append(" & ".join(parts) + " \\\\")
+    out.append("\\bottomrule")
+    if any_noisy:
+        out.append(f"\\multicolumn{{{ncols}}}{{l}}{{\\footnotesize $^\\dagger$ {tex(NOISY_NOTE)}}} \\\\")
+    out.append("\\end{tabular}")
+    return "\n".join(out)
 
 
 def main(argv):
@@ -109,21 +232,37 @@ def main(argv):
     p.add_argument("--filter", action="append", metavar="COLUMN=VALUE")
     p.add_argument("--sum", metavar="COLUMN",
                    help="add up the rows of a cell that differ only in this column")
-    p.add_argument("--digits", type=int, default=2)
-    p.add_argument("--format", default="text", choices=["text", "markdown"])
+    p.add_argument("--digits", type=int,
+                   help="decimals of every value and half-width (default 2; 0 when every "
+                        "value is a whole number, e.g. memory_bytes, nodes)")
+    p.add_argument("--no-spread", dest="spread", action="store_false",
+                   help="values only, without ± the half-width of the median's 95%% CI")
+    p.add_argument("--format", default="text", choices=["text", "markdown", "latex"])
     args = p.parse_args(argv)
+    if args.digits is not None and args.digits < 0:
+        p.error("--digits must be 0 or more")
     rows = apply_filters(read_rows(args.csv), args.filter)
     rows = [r for r in rows if column(r, args.cols) != ""]
     if not rows:
         sys.exit("error: no rows left after the filters")
-    header, table = build(rows, args)
+    row_keys, col_keys, cells = build(rows, args)
+    if args.digits is None:
+        whole = all(c.value is None or (c.value == int(c.value) and c.half is None)
+                    for c in cells.values())
+        args.digits = 0 if whole else 2
+    header, kinds, body, any_noisy = layout(row_keys, col_keys, cells, args)
     title = f"{args.value}, rows {args.rows}, columns {args.cols}, baseline {args.baseline}"
     if args.filter:
         title += f" ({', '.join(args.filter)})"
     if args.sum:
         title += f", summed over {args.sum}"
-    print(title)
-    print(render(header, table, args.format))
+    if args.spread and any(c.half is not None for c in cells.values()):
+        title += "; value ± half-width of the median's 95% CI"
+    if args.format == "latex":
+        print(render_latex(header, kinds, body, any_noisy, title, args))
+    else:
+        print(title)
+        print(render_text(header, kinds, body, any_noisy, args.format))
 
 
 if __name__ == "__main__":
