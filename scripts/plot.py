@@ -14,7 +14,7 @@
 - sweep: a metric against one parameter, one line per scene x structure x traversal, error bars
   on timing metrics;
 - convergence: error against render time, log-log, one panel per scene x integrator, one
-  line per structure x traversal x device; budget rows (frame_budget_ms) are printed as a table.
+  line per structure x traversal x device; budget rows (frame_budget_ms, read from convergence-budget.csv beside it) are printed as a table.
 
 Ray kind, threads and triangle test default to the value most rows have (ties: primary, 1
 thread, watertight); the choice is printed and written in the title. The output defaults to a
@@ -291,8 +291,12 @@ def convergence(args):
     rows = apply_filters(read_rows(args.csv), args.filter)
     if rows and "integrator" not in rows[0]:
         sys.exit(f"error: {args.csv} is not a convergence.csv (no `integrator` column)")
+    # Frame-budget rows live in convergence-budget.csv beside convergence.csv (older runs
+    # mixed them into convergence.csv with `budget_ms` set).
+    side = os.path.join(os.path.dirname(args.csv), "convergence-budget.csv")
+    extra = apply_filters(read_rows(side), args.filter) if os.path.isfile(side) else []
     curves = [r for r in rows if not r.get("budget_ms")]
-    budgets = [r for r in rows if r.get("budget_ms")]
+    budgets = [r for r in rows + extra if r.get("budget_ms")]
     panels = list(dict.fromkeys((r["scene"], r["integrator"]) for r in curves))
     if not panels:
         sys.exit("error: no progressive rows")

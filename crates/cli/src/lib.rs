@@ -441,7 +441,7 @@ fn cmd_diff(a: &Path, b: &Path, channel: &str, max: Option<f32>, out: &Path) -> 
         p.file_stem()
             .map_or_else(|| p.display().to_string(), |s| s.to_string_lossy().into())
     };
-    let title = format!("{channel}: B - A · A = {} · B = {}", stem(a), stem(b));
+    let title = format!("{channel}: B - A\nA = {}\nB = {}", stem(a), stem(b));
     let (png, scale) = tb_render::heatmap::diff_map(&va, &vb, ia.width, ia.height, max, &title);
     png.write_png(out)?;
     let mean = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>() / v.len().max(1) as f64;
