@@ -141,8 +141,22 @@ pub fn load_file(path: &Path) -> Result<Scene, SceneError> {
 // ---------------------------------------------------------------------------------------------
 // gzip
 
-/// Decompress a whole gzip file in memory.
+/// The most bytes a gzip scene may decompress to (4 GiB, an OBJ of some 50M triangles), unless
+/// `TRACE_BENCH_MAX_GUNZIP` (bytes) says otherwise: a corrupt or hostile file (a "gzip bomb"
+/// expands a thousandfold) ends in a clear error instead of exhausting memory.
+pub fn gunzip_limit() -> u64 {
+    std::env::var("TRACE_BENCH_MAX_GUNZIP")
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(4 << 30)
+}
+
+/// Decompress a whole gzip file in memory, at most [`gunzip_limit`] bytes.
 fn gunzip(path: &Path, bytes: &[u8]) -> Result<Vec<u8>, SceneError> {
+    gunzip_at_most(path, bytes, gunzip_limit())
+}
+
+fn gunzip_at_most(path: &Path, bytes: &[u8], limit: u64) -> Result<Vec<u8>, SceneError> {
     // The trailer's ISIZE (uncompressed size mod 2^32) is a good capacity hint; clamp it so a
     // corrupt trailer cannot make us reserve absurd amounts.
     let hint = match bytes.len() {
@@ -152,9 +166,13 @@ fn gunzip(path: &Path, bytes: &[u8]) -> Result<Vec<u8>, SceneError> {
         }
         _ => 0,
     };
-    let cap = hint.min(bytes.len().saturating_mul(32)).min(1 << 30);
+    let cap = hint
+        .min(bytes.len().saturating_mul(32))
+        .min(1 << 30)
+        .min(usize::try_from(limit).unwrap_or(usize::MAX));
     let mut out = Vec::with_capacity(cap);
     flate2::read::MultiGzDecoder::new(bytes)
+        .take(limit.saturating_add(1))
         .read_to_end(&mut out)
         .map_err(|e| {
             file_err(
@@ -162,6 +180,15 @@ fn gunzip(path: &Path, bytes: &[u8]) -> Result<Vec<u8>, SceneError> {
                 format!("cannot decompress gzip data (truncated or corrupt file?): {e}"),
             )
         })?;
+    if out.len() as u64 > limit {
+        return Err(file_err(
+            path,
+            format!(
+                "decompresses to more than {limit} bytes (the limit; set TRACE_BENCH_MAX_GUNZIP \
+                 to a larger byte count if the file is genuine)"
+            ),
+        ));
+    }
     Ok(out)
 }
 
@@ -901,6 +928,29 @@ fn gltf_triangles_inner(base: Option<&Path>, bytes: &[u8]) -> Result<Vec<Triangl
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn gzip_output_is_capped() {
+        use std::io::Write;
+        // 1 MiB of zeros compresses to about a kilobyte: a small bomb.
+        let mut z = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
+        z.write_all(&vec![0u8; 1 << 20]).unwrap();
+        let gz = z.finish().unwrap();
+        assert!(gz.len() < 4096);
+        let p = Path::new("bomb.obj.gz");
+        assert_eq!(gunzip_at_most(p, &gz, 1 << 20).unwrap().len(), 1 << 20);
+        let e = gunzip_at_most(p, &gz, (1 << 20) - 1)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("bomb.obj.gz: decompresses to more than"),
+            "{e}"
+        );
+        assert!(
+            e.contains("TRACE_BENCH_MAX_GUNZIP") && !e.contains('\n'),
+            "{e}"
+        );
+    }
 
     #[test]
     fn line_numbers() {
