@@ -167,6 +167,8 @@ pub fn read_csv_resume(path: &Path) -> Result<(Vec<Row>, usize), HarnessError> {
 pub struct Sink {
     dir: PathBuf,
     csv: csv::Writer<File>,
+    /// `params.csv`: the rows' parameters and build figures in long form.
+    long: csv::Writer<File>,
     rows: Vec<Row>,
     meta: serde_json::Value,
     /// When this session opened the sink (`meta.duration_s` adds to an earlier session's).
@@ -240,9 +242,23 @@ impl Sink {
                     .map_err(|e| HarnessError::io(&csv_path, e))?,
             );
         }
+        // The long-form companion, rewritten from the kept rows.
+        let long_path = dir.join("params.csv");
+        let mut long =
+            csv::Writer::from_path(&long_path).map_err(|e| HarnessError::io(&long_path, e))?;
+        long.write_record(["row", "group", "key", "value"])
+            .map_err(|e| HarnessError::io(&long_path, e))?;
+        for (i, r) in existing.iter().enumerate() {
+            for rec in long_records(i, r) {
+                long.write_record(&rec)
+                    .map_err(|e| HarnessError::io(&long_path, e))?;
+            }
+        }
+        long.flush().map_err(|e| HarnessError::io(&long_path, e))?;
         let mut sink = Sink {
             dir: dir.to_path_buf(),
             csv,
+            long,
             rows: existing,
             meta,
             started: std::time::SystemTime::now(),
@@ -263,6 +279,13 @@ impl Sink {
             .serialize(&row)
             .map_err(|e| HarnessError::io(&p, e))?;
         self.csv.flush().map_err(|e| HarnessError::io(&p, e))?;
+        let lp = self.dir.join("params.csv");
+        for rec in long_records(self.rows.len(), &row) {
+            self.long
+                .write_record(&rec)
+                .map_err(|e| HarnessError::io(&lp, e))?;
+        }
+        self.long.flush().map_err(|e| HarnessError::io(&lp, e))?;
         self.rows.push(row);
         self.write_json()
     }
@@ -304,6 +327,30 @@ fn carry_meta(path: &Path, meta: &mut serde_json::Value) {
         meta["duration_s"] = old["duration_s"].clone();
     }
     meta["resumed"] = serde_json::Value::Array(sessions);
+}
+
+/// Row `i`'s `params` and `build_stats` in long form: one `[row, group, key, value]` record per
+/// pair (`group` is `param` or `build`), `row` the row's 0-based index in `results.csv` and in
+/// `results.json`'s `rows`. `pandas.read_csv("params.csv").pivot(index="row", columns="key",
+/// values="value")` gives one column per key.
+fn long_records(i: usize, r: &Row) -> Vec<[String; 4]> {
+    let pairs = |group: &str, s: &str| -> Vec<[String; 4]> {
+        s.split(';')
+            .filter(|kv| !kv.is_empty())
+            .map(|kv| {
+                let (k, v) = kv.split_once('=').unwrap_or((kv, ""));
+                [
+                    i.to_string(),
+                    group.to_string(),
+                    k.to_string(),
+                    v.to_string(),
+                ]
+            })
+            .collect()
+    };
+    let mut out = pairs("param", &r.params);
+    out.extend(pairs("build", &r.build_stats));
+    out
 }
 
 /// `k=v;k=v` as a JSON object, each value typed (integer, number, boolean, else string).
@@ -375,5 +422,9 @@ mod tests {
         assert_eq!(v["params"]["layout"], "treelet");
         assert_eq!(v["params"]["reinsert"], true);
         assert_eq!(v["build_stats"]["depth_max"], 7);
+        let long = long_records(3, &r);
+        assert_eq!(long.len(), 6);
+        assert_eq!(long[0], ["3", "param", "bins", "16"].map(String::from));
+        assert_eq!(long[5], ["3", "build", "depth_max", "7"].map(String::from));
     }
 }
