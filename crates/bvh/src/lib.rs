@@ -17,6 +17,7 @@
 
 mod build;
 mod traverse;
+mod wide;
 
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
@@ -27,6 +28,7 @@ use tb_core::{
 };
 
 pub use traverse::STACK_SIZE;
+pub use wide::{WideNode, EMPTY_SLOT, WIDE_STACK_SIZE};
 
 /// The BVH in the registry.
 pub static FAMILY: Family = Family::new::<Bvh, BvhParams>(
@@ -54,6 +56,23 @@ tb_core::params! {
         c_trav: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
         /// SAH cost of a triangle test, C_isect
         c_isect: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
+        /// children per node: 2 (binary), or 4 or 8 (collapsed from the binary tree, child
+        /// boxes tested with SIMD; Wald, Benthin and Boulos 2008)
+        width: u32 = 2, ParamKind::Int { min: 2, max: 8 };
+        /// child-box test of wide nodes: `auto` (SSE for 4, AVX for 8 where the CPU has it),
+        /// or `scalar` (a lane loop)
+        simd: Simd = Simd::Auto, ParamKind::Choice(Simd::NAMES);
+    }
+}
+
+tb_core::choice! {
+    /// How a wide node's child boxes are tested.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Simd {
+        /// The widest instruction set the CPU has for the width (runtime detection).
+        Auto = "auto",
+        /// One lane after the other (the portable fallback).
+        Scalar = "scalar",
     }
 }
 
@@ -79,6 +98,9 @@ impl BvhParams {
                 "c_trav must be positive and finite, got {}",
                 self.c_trav
             ));
+        }
+        if ![2, 4, 8].contains(&self.width) {
+            return err(format!("width must be 2, 4 or 8, got {}", self.width));
         }
         if !(self.c_isect > 0.0 && self.c_isect.is_finite()) {
             return err(format!(
@@ -155,9 +177,19 @@ impl BvhNode {
 #[derive(Clone, Debug)]
 pub struct Bvh {
     nodes: Vec<BvhNode>,
+    wide: WideNodes,
     triangles: Vec<Triangle>,
     prim_ids: Vec<u32>,
     params: BvhParams,
+}
+
+/// The wide nodes of a build with `width` 4 or 8 (collapsed from [`Bvh::nodes`]).
+#[derive(Clone, Debug)]
+pub enum WideNodes {
+    /// `width = 2`: the binary nodes are traversed.
+    None,
+    W4(Vec<WideNode<4>>),
+    W8(Vec<WideNode<8>>),
 }
 
 impl Bvh {
@@ -184,8 +216,14 @@ impl Bvh {
         }
         let (nodes, order) = build::build(tris, params);
         let triangles = order.iter().map(|&i| tris[i as usize]).collect();
+        let wide = match params.width {
+            4 => WideNodes::W4(wide::collapse::<4>(&nodes)),
+            8 => WideNodes::W8(wide::collapse::<8>(&nodes)),
+            _ => WideNodes::None,
+        };
         Ok(Bvh {
             nodes,
+            wide,
             triangles,
             prim_ids: order,
             params: *params,
@@ -197,6 +235,11 @@ impl Bvh {
     #[inline(always)]
     pub fn nodes(&self) -> &[BvhNode] {
         &self.nodes
+    }
+
+    /// The wide nodes (root first) of a build with `width` 4 or 8.
+    pub fn wide_nodes(&self) -> &WideNodes {
+        &self.wide
     }
 
     /// The triangles in leaf order (leaf `l` owns `triangles()[l.prim_range()]`).
@@ -355,7 +398,34 @@ impl Bvh {
         if let Some(k) = owned.iter().position(|v| !v) {
             return Err(format!("triangle slot {k} is in no leaf"));
         }
-        Ok(())
+        let root = nodes[0].bounds();
+        match (&self.wide, self.params.width) {
+            (WideNodes::None, 2) => Ok(()),
+            (WideNodes::W4(w), 4) => wide::check(w, n_tris, &root),
+            (WideNodes::W8(w), 8) => wide::check(w, n_tris, &root),
+            _ => Err(format!(
+                "wide nodes do not match width {}",
+                self.params.width
+            )),
+        }
+    }
+}
+
+impl Bvh {
+    /// `wide_nodes` and `wide_fill` of a wide build (none for `width = 2`).
+    fn wide_figures(&self) -> Vec<(String, f64)> {
+        fn figs<const N: usize>(w: &[WideNode<N>]) -> Vec<(String, f64)> {
+            let used: usize = w.iter().map(|n| n.children()).sum();
+            vec![
+                ("wide_nodes".into(), w.len() as f64),
+                ("wide_fill".into(), used as f64 / w.len().max(1) as f64),
+            ]
+        }
+        match &self.wide {
+            WideNodes::None => Vec::new(),
+            WideNodes::W4(w) => figs(w),
+            WideNodes::W8(w) => figs(w),
+        }
     }
 }
 
@@ -380,22 +450,57 @@ impl Structure for Bvh {
              the parent; pbrt-v3 §4.3.5; robust slab test, Ize 2013)",
         ),
         |b, query, tri, rays, hits, stats| {
-            dispatch(&traverse::Ordered(b), query, tri, rays, hits, stats)
+            let scalar = b.params.simd == Simd::Scalar;
+            match &b.wide {
+                WideNodes::None => dispatch(&traverse::Ordered(b), query, tri, rays, hits, stats),
+                WideNodes::W4(nodes) => {
+                    let isa = wide::Isa::detect(4, scalar);
+                    let k = wide::Wide { bvh: b, nodes, isa };
+                    dispatch(&k, query, tri, rays, hits, stats)
+                }
+                WideNodes::W8(nodes) => {
+                    let isa = wide::Isa::detect(8, scalar);
+                    let k = wide::Wide { bvh: b, nodes, isa };
+                    dispatch(&k, query, tri, rays, hits, stats)
+                }
+            }
         },
         Bvh::gpu_ordered,
     )];
 
+    /// The arrays the CPU traversal reads: the binary nodes (`width = 2`) or the wide ones,
+    /// the triangles and the primitive ids.
     fn own_memory(&self) -> MemoryReport {
+        let (node_bytes, nodes, node_size) = match &self.wide {
+            WideNodes::None => (
+                std::mem::size_of_val(self.nodes()),
+                self.nodes().len(),
+                std::mem::size_of::<BvhNode>(),
+            ),
+            WideNodes::W4(w) => (
+                std::mem::size_of_val(w.as_slice()),
+                w.len(),
+                std::mem::size_of::<WideNode<4>>(),
+            ),
+            WideNodes::W8(w) => (
+                std::mem::size_of_val(w.as_slice()),
+                w.len(),
+                std::mem::size_of::<WideNode<8>>(),
+            ),
+        };
         MemoryReport {
-            bytes: (std::mem::size_of_val(self.nodes())
+            bytes: (node_bytes
                 + std::mem::size_of_val(self.triangles.as_slice())
                 + std::mem::size_of_val(self.prim_ids.as_slice())) as u64,
-            nodes: self.nodes().len() as u64,
+            nodes: nodes as u64,
             prim_refs: self.prim_ids.len() as u64,
-            node_bytes: std::mem::size_of::<BvhNode>() as u32,
+            node_bytes: node_size as u32,
         }
     }
 
+    /// For `width` 4 or 8 the SAH cost is the binary tree's; extra figures `wide_nodes` and
+    /// `wide_fill` (mean used slots per wide node) are added.
+    ///
     /// `sah_cost = (C_trav·Σ_interior A(n) + C_isect·Σ_leaves A(l)·|l|) / A(root)` with `A`
     /// the surface area (`None` for an empty tree or a root of zero area); extra figures:
     /// `nodes`, `leaves`, `depth_max` (root depth 0), `leaf_depth_mean`, `prims_per_leaf_mean`,
@@ -422,7 +527,10 @@ impl Structure for Bvh {
                     self.triangles.len() as f64 / leaves,
                 ),
                 ("leaf_size_max".into(), t.max_leaf as f64),
-            ],
+            ]
+            .into_iter()
+            .chain(self.wide_figures())
+            .collect(),
         }
     }
 
