@@ -14,7 +14,8 @@
 //!   boxes are tested at once (the slab test of [`tb_core::slab`], lane by lane the same
 //!   operations in the same order, so every lane's answer equals the scalar test's bit for bit:
 //!   `NaN`-ignoring max/min folds, exit distance scaled by [`EXIT_SCALE`]), the hit children
-//!   sorted by entry distance, the nearest visited next and the others pushed farthest first.
+//!   sorted by entry distance, the nearest visited next and the others pushed farthest first
+//!   (any-hit queries skip the sort: the first hit found ends the ray wherever it is).
 //!   Which plane of each slab is near is chosen once per ray by the sign of `1/dir` (as offsets
 //!   into the node, Embree's approach), so the node test has no per-lane select.
 //! - **SIMD**: BVH4 uses SSE (part of x86-64), BVH8 AVX when the CPU has it (runtime
@@ -200,6 +201,31 @@ impl WideRay {
             near,
             far,
         }
+    }
+}
+
+impl WideRay {
+    /// The scalar slab test (`RayBox::slab`) of the binary root box.
+    #[inline(always)]
+    fn root_slab(&self, root: &BvhNode, tmin: f32, tmax: f32) -> (f32, f32) {
+        let (mut n, mut f) = (tmin, tmax);
+        for a in 0..3 {
+            let lo = if self.inv[a] < 0.0 {
+                root.max[a]
+            } else {
+                root.min[a]
+            };
+            n = max_num(n, (lo - self.org[a]) * self.inv[a]);
+        }
+        for a in 0..3 {
+            let hi = if self.inv[a] < 0.0 {
+                root.min[a]
+            } else {
+                root.max[a]
+            };
+            f = min_num(f, (hi - self.org[a]) * self.inv[a]);
+        }
+        (n, f * EXIT_SCALE)
     }
 }
 
@@ -393,8 +419,7 @@ impl<const N: usize> Wide<'_, N> {
         let mut best_t = ray.tmax;
         c.boxes(1);
         let r = WideRay::new::<N>(ray);
-        let (rb, oct) = tb_core::slab::RayBox::new(ray);
-        let (tn, tf) = rb.slab_dyn(oct, &root.min, &root.max, tmin, best_t);
+        let (tn, tf) = r.root_slab(root, tmin, best_t);
         if !(tn <= tf) {
             return HitRecord::MISS;
         }
@@ -425,6 +450,25 @@ impl<const N: usize> Wide<'_, N> {
                     let first = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     if mask == 0 {
+                        cur = Entry {
+                            index: node.child[first],
+                            count: node.count[first],
+                            t: tn[first],
+                        };
+                        continue 'walk;
+                    }
+                    if ANY {
+                        // Any hit: order does not decide the answer; push the others as found.
+                        while mask != 0 {
+                            let i = mask.trailing_zeros() as usize;
+                            mask &= mask - 1;
+                            stack[sp] = MaybeUninit::new(Entry {
+                                index: node.child[i],
+                                count: node.count[i],
+                                t: tn[i],
+                            });
+                            sp += 1;
+                        }
                         cur = Entry {
                             index: node.child[first],
                             count: node.count[first],
