@@ -420,7 +420,8 @@ impl<const N: usize> Wide<'_, N> {
         c.boxes(1);
         let r = WideRay::new::<N>(ray);
         let (tn, tf) = r.root_slab(root, tmin, best_t);
-        if !(tn <= tf) {
+        let root_hit = tn <= tf;
+        if !root_hit {
             return HitRecord::MISS;
         }
         let pre = T::prepare(ray);
