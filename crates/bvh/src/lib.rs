@@ -16,6 +16,7 @@
 //!   slab test made robust as in Ize 2013, "Robust BVH ray traversal" (see [`Aabb::intersect`]).
 
 mod build;
+mod sbvh;
 mod traverse;
 mod wide;
 
@@ -56,12 +57,31 @@ tb_core::params! {
         c_trav: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
         /// SAH cost of a triangle test, C_isect
         c_isect: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
+        /// the builder: `binned` (binned SAH, object splits only) or `sbvh` (object and
+        /// spatial splits, Stich et al. 2009)
+        builder: Builder = Builder::Binned, ParamKind::Choice(Builder::NAMES);
+        /// SBVH overlap threshold: spatial splits are tried where the object split's children
+        /// overlap by more than `alpha` times the root's surface area (Stich et al. 2009 §4.4)
+        alpha: f32 = 1e-5, ParamKind::Float { min: 0.0, max: 1.0 };
         /// children per node: 2 (binary), or 4 or 8 (collapsed from the binary tree, child
         /// boxes tested with SIMD; Wald, Benthin and Boulos 2008)
         width: u32 = 2, ParamKind::Int { min: 2, max: 8 };
         /// child-box test of wide nodes: `auto` (SSE for 4, AVX for 8 where the CPU has it),
         /// or `scalar` (a lane loop)
         simd: Simd = Simd::Auto, ParamKind::Choice(Simd::NAMES);
+    }
+}
+
+tb_core::choice! {
+    /// Which builder makes the binary tree.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Builder {
+        /// Binned SAH over triangle centroids, object splits (Wald 2007); single-threaded.
+        Binned = "binned",
+        /// Spatial-split BVH: binned object and spatial splits with reference unsplitting
+        /// (Stich, Friedrich and Dietrich 2009); triangles may be referenced by several
+        /// leaves; parallel (rayon).
+        Sbvh = "sbvh",
     }
 }
 
@@ -101,6 +121,9 @@ impl BvhParams {
         }
         if ![2, 4, 8].contains(&self.width) {
             return err(format!("width must be 2, 4 or 8, got {}", self.width));
+        }
+        if !(self.alpha >= 0.0 && self.alpha.is_finite()) {
+            return err(format!("alpha must be finite and ≥ 0, got {}", self.alpha));
         }
         if !(self.c_isect > 0.0 && self.c_isect.is_finite()) {
             return err(format!(
@@ -180,6 +203,8 @@ pub struct Bvh {
     wide: WideNodes,
     triangles: Vec<Triangle>,
     prim_ids: Vec<u32>,
+    /// Triangles in the scene (`prim_ids` holds each once, or at least once for the SBVH).
+    n_scene: usize,
     params: BvhParams,
 }
 
@@ -214,7 +239,17 @@ impl Bvh {
                 limit: u32::MAX as u64 - 1,
             });
         }
-        let (nodes, order) = build::build(tris, params);
+        let (nodes, order) = match params.builder {
+            Builder::Binned => build::build(tris, params),
+            Builder::Sbvh => sbvh::build(tris, params),
+        };
+        if order.len() >= u32::MAX as usize {
+            return Err(AccelError::TooLarge {
+                what: "SBVH triangle references",
+                count: order.len() as u64,
+                limit: u32::MAX as u64 - 1,
+            });
+        }
         let triangles = order.iter().map(|&i| tris[i as usize]).collect();
         let wide = match params.width {
             4 => WideNodes::W4(wide::collapse::<4>(&nodes)),
@@ -226,6 +261,7 @@ impl Bvh {
             wide,
             triangles,
             prim_ids: order,
+            n_scene: tris.len(),
             params: *params,
         })
     }
@@ -326,7 +362,17 @@ impl Bvh {
     fn check_invariants(&self) -> Result<(), String> {
         let nodes = self.nodes();
         let n_tris = self.triangles.len();
-        tb_core::accel::check_permutation(&self.prim_ids, n_tris).map_err(|e| e.to_string())?;
+        let sbvh = self.params.builder == Builder::Sbvh;
+        if sbvh {
+            if self.prim_ids.len() != n_tris {
+                return Err(format!(
+                    "{} prim_ids for {n_tris} slots",
+                    self.prim_ids.len()
+                ));
+            }
+        } else {
+            tb_core::accel::check_permutation(&self.prim_ids, n_tris).map_err(|e| e.to_string())?;
+        }
         if n_tris == 0 {
             return if nodes.is_empty() {
                 Ok(())
@@ -362,11 +408,11 @@ impl Bvh {
                     if std::mem::replace(&mut owned[k], true) {
                         return Err(format!("triangle slot {k} in two leaves"));
                     }
-                    if !b.contains_box(&self.triangles[k].bounds()) {
+                    if !sbvh && !b.contains_box(&self.triangles[k].bounds()) {
                         return Err(format!("leaf {i}: triangle slot {k} outside the leaf box"));
                     }
                 }
-                if n.count > self.params.max_leaf {
+                if n.count > self.params.max_leaf && !sbvh {
                     let c0 = self.triangles[r.start].bounds().center();
                     if r.clone().any(|k| self.triangles[k].bounds().center() != c0) {
                         return Err(format!(
@@ -398,6 +444,9 @@ impl Bvh {
         if let Some(k) = owned.iter().position(|v| !v) {
             return Err(format!("triangle slot {k} is in no leaf"));
         }
+        if sbvh {
+            self.check_coverage()?;
+        }
         let root = nodes[0].bounds();
         match (&self.wide, self.params.width) {
             (WideNodes::None, 2) => Ok(()),
@@ -412,6 +461,60 @@ impl Bvh {
 }
 
 impl Bvh {
+    /// SBVH coverage: every scene triangle is referenced, all its copies are equal, and every
+    /// point of a barycentric grid on it (vertices, edges and interior, 8 steps per edge) lies
+    /// in the box of a leaf referencing it (leaf boxes lie inside their ancestors', checked
+    /// separately, so the point is reachable from the root).
+    fn check_coverage(&self) -> Result<(), String> {
+        const STEPS: u32 = 8;
+        let mut by_id: Vec<(u32, Aabb, usize)> = Vec::with_capacity(self.prim_ids.len());
+        for n in self.nodes.iter().filter(|n| n.is_leaf()) {
+            for k in n.prim_range() {
+                by_id.push((self.prim_ids[k], n.bounds(), k));
+            }
+        }
+        by_id.sort_unstable_by_key(|e| e.0);
+        if by_id.len() != self.prim_ids.len() {
+            return Err("triangle slots and leaf references differ".into());
+        }
+        let n_scene = self.n_scene;
+        let mut i = 0;
+        for id in 0..n_scene as u32 {
+            let j = i + by_id[i..].iter().take_while(|e| e.0 == id).count();
+            let refs = &by_id[i..j];
+            i = j;
+            let Some(first) = refs.first() else {
+                return Err(format!("triangle {id} is in no leaf"));
+            };
+            let t = self.triangles[first.2];
+            if refs.iter().any(|e| self.triangles[e.2] != t) {
+                return Err(format!("copies of triangle {id} differ"));
+            }
+            for a in 0..=STEPS {
+                for b in 0..=STEPS - a {
+                    let (u, v) = (a as f32 / STEPS as f32, b as f32 / STEPS as f32);
+                    let p = t.v0 * (1.0 - u - v) + t.v1 * u + t.v2 * v;
+                    // The sample is clamped to the triangle's box (rounding of the weights).
+                    let tb = t.bounds();
+                    let p = p.clamp(tb.min, tb.max);
+                    if !refs.iter().any(|e| e.1.contains_box(&Aabb::new(p, p))) {
+                        return Err(format!(
+                            "triangle {id}: point {p} (u = {u}, v = {v}) is in no leaf box \
+                             referencing it"
+                        ));
+                    }
+                }
+            }
+        }
+        if i != by_id.len() {
+            return Err(format!(
+                "leaf references triangle {} of {n_scene}",
+                by_id[i].0
+            ));
+        }
+        Ok(())
+    }
+
     /// `wide_nodes` and `wide_fill` of a wide build (none for `width = 2`).
     fn wide_figures(&self) -> Vec<(String, f64)> {
         fn figs<const N: usize>(w: &[WideNode<N>]) -> Vec<(String, f64)> {
