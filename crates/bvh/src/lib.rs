@@ -69,6 +69,9 @@ tb_core::params! {
         /// child-box test of wide nodes: `auto` (SSE for 4, AVX for 8 where the CPU has it),
         /// or `scalar` (a lane loop)
         simd: Simd = Simd::Auto, ParamKind::Choice(Simd::NAMES);
+        /// build threads: 0 = the current rayon pool (all threads in the harness), n = a pool
+        /// of n threads (1: sequential); the tree is the same for every count
+        build_threads: u32 = 0, ParamKind::Int { min: 0, max: 1024 };
     }
 }
 
@@ -218,7 +221,8 @@ pub enum WideNodes {
 }
 
 impl Bvh {
-    /// Build a BVH over `tris` with `params` (single-threaded). Panics if `params.check()`
+    /// Build a BVH over `tris` with `params` (on the current rayon pool, or on a pool of
+    /// `params.build_threads`; the same tree either way). Panics if `params.check()`
     /// fails or there are `u32::MAX` or more triangles.
     ///
     /// An empty input gives an empty BVH (no nodes) that misses every ray.
@@ -232,6 +236,18 @@ impl Bvh {
     /// [`Bvh::build`] with an error instead of a panic for too many triangles (parameters
     /// must pass [`BvhParams::check`]).
     pub fn try_build(tris: &[Triangle], params: &BvhParams) -> Result<Bvh, AccelError> {
+        if params.build_threads > 0 {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(params.build_threads as usize)
+                .build()
+                .map_err(|e| AccelError::Unsupported(format!("BVH build pool: {e}")))?;
+            return pool.install(|| Self::build_here(tris, params));
+        }
+        Self::build_here(tris, params)
+    }
+
+    /// [`Bvh::try_build`] on the current rayon pool.
+    fn build_here(tris: &[Triangle], params: &BvhParams) -> Result<Bvh, AccelError> {
         if tris.len() >= u32::MAX as usize {
             return Err(AccelError::TooLarge {
                 what: "BVH triangles",
