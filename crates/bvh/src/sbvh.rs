@@ -9,13 +9,14 @@
 //! 2. when the children of that split overlap, `A(B_L ∩ B_R) > alpha·A(root)` (§4.4, the
 //!    overlap threshold restricting spatial splits to where they pay), the best **spatial
 //!    split** is found too: the node box is cut into `bins` equal slabs per axis, each reference
-//!    is *chopped* into the slabs it spans (the triangle clipped to each slab,
-//!    [`tb_core::clip::clip_box`], shared with the kd-tree builder), and per boundary the SAH
+//!    is *chopped* into the slabs it spans (the triangle's part in each slab,
+//!    [`tb_core::clip::slab_box`]), and per boundary the SAH
 //!    cost uses the union of the chopped boxes and the counts of references entering left of it
 //!    and leaving right of it (§4.2);
 //! 3. the cheaper split is made, or a leaf when `|n| ≤ min_leaf` or, for `|n| ≤ max_leaf`, when
 //!    the leaf cost is no higher. A spatial split sends each straddling reference to both sides
-//!    (its triangle clipped to each child's cell) unless **reference unsplitting** (§4.3) is
+//!    (its triangle clipped to each child's cell by [`tb_core::clip::clip_box`], the routine
+//!    the kd-tree builder clips with) unless **reference unsplitting** (§4.3) is
 //!    cheaper: putting it wholly into one child, `A(B_L ∪ B)·N_L + A(B_R)·(N_R − 1)` or the
 //!    mirror, against `A(B_L)·N_L + A(B_R)·N_R`.
 //!
@@ -29,7 +30,7 @@
 
 use crate::build::MEDIAN_DEPTH;
 use crate::{BvhNode, BvhParams};
-use tb_core::clip::clip_box;
+use tb_core::clip::{clip_box, slab_box};
 use tb_core::{Aabb, Triangle, Vec3};
 
 /// A reference: a conservative box of the part of triangle `id` inside the node.
@@ -331,10 +332,7 @@ impl Ctx<'_> {
                 }
                 let tri = &self.tris[r.id as usize];
                 for k in first..=last {
-                    let mut cell = *bounds;
-                    cell.min[axis] = plane(k);
-                    cell.max[axis] = plane(k + 1);
-                    let c = clip_box(tri, &r.b, &cell);
+                    let c = slab_box(tri, &r.b, axis, plane(k), plane(k + 1));
                     if !c.is_empty() {
                         boxes[k] = boxes[k].union(&c);
                     }

@@ -105,6 +105,53 @@ pub fn clip_box(tri: &Triangle, lim: &Aabb, cell: &Aabb) -> Aabb {
     }
 }
 
+/// A conservative box of the part of `tri` in the slab `lo ≤ p[axis] ≤ hi`, inside `lim`
+/// (a conservative box of the triangle in a region containing the slab's part of it); empty
+/// when the triangle misses the slab. The part is a convex polygon whose corners are the
+/// triangle's vertices inside the slab and the points where its edges cross the two planes, so
+/// no general clipping is needed (the cheap chopping of SBVH spatial-split binning, Stich et
+/// al. 2009 §4.2); the result is grown by [`tolerance`] and cut back as [`clip_box`]'s.
+pub fn slab_box(tri: &Triangle, lim: &Aabb, axis: usize, lo: f32, hi: f32) -> Aabb {
+    let mut cell = *lim;
+    cell.min[axis] = cell.min[axis].max(lo);
+    cell.max[axis] = cell.max[axis].min(hi);
+    if cell.is_empty() {
+        return Aabb::EMPTY;
+    }
+    let tb = tri.bounds();
+    if tb.min[axis] >= lo && tb.max[axis] <= hi {
+        return intersect(&tb, &cell);
+    }
+    let v = [tri.v0, tri.v1, tri.v2];
+    let mut pb = Aabb::EMPTY;
+    for i in 0..3 {
+        let p = v[i];
+        let q = v[(i + 1) % 3];
+        if p[axis] >= lo && p[axis] <= hi {
+            pb.grow(p);
+        }
+        for c in [lo, hi] {
+            if (p[axis] < c && q[axis] > c) || (p[axis] > c && q[axis] < c) {
+                let t = (c - p[axis]) / (q[axis] - p[axis]);
+                let mut x = p + (q - p) * t;
+                x[axis] = c;
+                pb.grow(x);
+            }
+        }
+    }
+    if pb.is_empty() {
+        return Aabb::EMPTY;
+    }
+    let tol = tolerance(&tb);
+    let grown = Aabb::new(pb.min - tol, pb.max + tol);
+    let out = intersect(&grown, &cell);
+    if out.is_empty() {
+        cell
+    } else {
+        out
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -140,5 +187,39 @@ mod tests {
         // A triangle missing the cell's box gives the empty box.
         let far = Aabb::new(Vec3::splat(10.0), Vec3::splat(11.0));
         assert!(clip_box(&t, &t.bounds(), &far).is_empty());
+    }
+
+    #[test]
+    fn slab_boxes_are_conservative_and_no_larger_than_clip_boxes() {
+        let t = Triangle::new(
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(4.0, 0.0, 1.0),
+            Vec3::new(0.0, 4.0, 2.0),
+        );
+        let tb = t.bounds();
+        for axis in 0..3 {
+            for (lo, hi) in [(0.5f32, 1.5f32), (1.0, 3.0), (-1.0, 0.25), (3.5, 9.0)] {
+                let b = slab_box(&t, &tb, axis, lo, hi);
+                let mut cell = tb;
+                cell.min[axis] = lo;
+                cell.max[axis] = hi;
+                for i in 0..=40 {
+                    for j in 0..=40 - i {
+                        let (u, v) = (i as f32 / 40.0, j as f32 / 40.0);
+                        let p = t.v0 + (t.v1 - t.v0) * u + (t.v2 - t.v0) * v;
+                        if p[axis] >= lo && p[axis] <= hi {
+                            assert!(b.contains_box(&Aabb::new(p, p)), "{p} not in {b:?}");
+                        }
+                    }
+                }
+                let c = clip_box(&t, &tb, &cell);
+                let tol = tolerance(&tb) * 2.0;
+                assert!(
+                    Aabb::new(c.min - tol, c.max + tol).contains_box(&b),
+                    "{b:?} vs {c:?}"
+                );
+            }
+        }
+        assert!(slab_box(&t, &tb, 0, 5.0, 6.0).is_empty());
     }
 }
