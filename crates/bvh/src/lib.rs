@@ -309,10 +309,56 @@ impl Bvh {
         &self.params
     }
 
+    /// The wide program of [`Bvh::gpu_ordered`].
+    fn gpu_wide<'a>(
+        &'a self,
+        name: &'static str,
+        bytes: &'a [u8],
+        n: usize,
+        width: u32,
+    ) -> GpuProgram<'a> {
+        GpuProgram {
+            name,
+            source: include_str!("../shaders/wide.wgsl"),
+            triangles: Cow::Borrowed(&self.triangles),
+            buffers: vec![
+                GpuBuffer {
+                    what: "the wide BVH node array",
+                    bytes: Cow::Borrowed(bytes),
+                },
+                GpuBuffer {
+                    what: "the primitive-id array",
+                    bytes: Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
+                },
+                GpuBuffer {
+                    what: "the binary root node",
+                    bytes: Cow::Borrowed(bytemuck::cast_slice(&self.nodes[..1])),
+                },
+            ],
+            meta: [n as u32, 0, 0],
+            stack_size: WIDE_STACK_SIZE as u32,
+            constants: vec![("WIDTH", width as f64)],
+            unrolled_triangle_loop: None,
+        }
+    }
+
     /// The GPU program of `ordered` (`shaders/bvh.wgsl`, the same walk in the same order):
     /// the leaf-ordered triangles, the nodes and primitive ids as they are, the node count in
     /// `meta[0]`.
+    ///
+    /// Wide builds get `shaders/wide.wgsl` (programs `bvh/ordered-w4`, `bvh/ordered-w8`, the
+    /// wide walk in the CPU's order): the wide nodes, the primitive ids and the binary root
+    /// node (its box is tested first), the wide node count in `meta[0]`.
     fn gpu_ordered(&self) -> GpuProgram<'_> {
+        match &self.wide {
+            WideNodes::W4(w) if !w.is_empty() => {
+                return self.gpu_wide("bvh/ordered-w4", bytemuck::cast_slice(w), w.len(), 4)
+            }
+            WideNodes::W8(w) if !w.is_empty() => {
+                return self.gpu_wide("bvh/ordered-w8", bytemuck::cast_slice(w), w.len(), 8)
+            }
+            _ => {}
+        }
         GpuProgram {
             name: "bvh/ordered",
             source: include_str!("../shaders/bvh.wgsl"),
