@@ -4,10 +4,15 @@
 //! Embree's default scene flags with build quality high. Prints the median MRays/s of each
 //! over `--repeat` alternating runs and their ratio.
 //!
+//! Then, for a comparison that holds on a busy machine (every contender timed in turn within
+//! each repeat, so load changes hit all alike), the peer and our BVHs (binary, BVH8 binned,
+//! BVH8 SBVH; watertight test) on primary, AO (one sample per primary hit) and random rays,
+//! one thread, medians of `--repeat`.
+//!
 //! ```text
 //! cargo run --release -p tb-peers --features embree --example embree_loop -- \
 //!     $TRACE_BENCH_SCENES/conference/conference.obj.gz \
-//!     --eye 1450,400,450 --target=-400,150,-900 --fov 60
+//!     --eye 1450,400,450 --target=-400,150,-900 --fov 60 --ao 130
 //! ```
 
 use embree3::{
@@ -34,7 +39,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let path = args.next().expect("usage: embree_loop SCENE [--eye x,y,z] [--target x,y,z] [--up x,y,z] [--fov deg] [--size px] [--repeat n]");
+    let path = args.next().expect("usage: embree_loop SCENE [--eye x,y,z] [--target x,y,z] [--up x,y,z] [--fov deg] [--size px] [--repeat n] [--ao distance]");
     let mut cam = Camera {
         eye: Vec3::new(1450.0, 400.0, 450.0),
         target: Vec3::new(-400.0, 150.0, -900.0),
@@ -45,6 +50,7 @@ fn main() {
         order: Default::default(),
     };
     let mut repeat = 5;
+    let mut ao_distance = 130.0f32;
     while let Some(a) = args.next() {
         let (key, val) = match a.split_once('=') {
             Some((k, v)) => (k.to_string(), v.to_string()),
@@ -57,6 +63,7 @@ fn main() {
             "--fov" => cam.fov = val.parse().expect("degrees"),
             "--size" => (cam.width, cam.height) = (val.parse().unwrap(), val.parse().unwrap()),
             "--repeat" => repeat = val.parse().expect("a count"),
+            "--ao" => ao_distance = val.parse().expect("a distance"),
             k => panic!("unknown option {k}"),
         }
     }
@@ -151,4 +158,45 @@ fn main() {
         p / a,
         rays.len()
     );
+
+    // Interleaved comparison with our BVHs.
+    let bvh = |builder, width| -> Box<dyn Accel> {
+        let p = tb_bvh::BvhParams {
+            builder,
+            width,
+            ..Default::default()
+        };
+        Box::new(tb_bvh::Bvh::build(tris, &p))
+    };
+    let contenders: Vec<(&str, Box<dyn Accel>)> = vec![
+        ("embree (default flags)", peer),
+        ("bvh binned w2", bvh(tb_bvh::Builder::Binned, 2)),
+        ("bvh binned w8", bvh(tb_bvh::Builder::Binned, 8)),
+        ("bvh sbvh w8", bvh(tb_bvh::Builder::Sbvh, 8)),
+    ];
+    let closest = Query::Closest;
+    let wt = TriTestKind::Watertight;
+    let prim_hits = pool.install(|| tb_core::par::trace(&*contenders[1].1, 0, closest, wt, &rays));
+    let ao = tb_scene::rays::ao(tris, &rays, &prim_hits, 1, ao_distance, 1);
+    let random = tb_scene::rays::random(&scene.bounds, rays.len(), 1);
+    for (kind, batch, query) in [
+        ("primary", &rays, Query::Closest),
+        ("ao", &ao, Query::Any),
+        ("random", &random, Query::Closest),
+    ] {
+        let mut times = vec![Vec::new(); contenders.len()];
+        for _ in 0..repeat {
+            for (i, (_, a)) in contenders.iter().enumerate() {
+                let t = Instant::now();
+                pool.install(|| tb_core::par::trace(&**a, 0, query, wt, batch));
+                times[i].push(t.elapsed().as_secs_f64());
+            }
+        }
+        let n = batch.len() as f64 / 1e6;
+        let e = n / median(times[0].clone());
+        for (i, (name, _)) in contenders.iter().enumerate() {
+            let m = n / median(times[i].clone());
+            println!("{kind:8} {name:24} {m:6.2} MRays/s  {:.2}x embree", m / e);
+        }
+    }
 }
