@@ -11,6 +11,15 @@
 //!   adjacent (pbrt-v3 §4.3.4 "Compact BVH for traversal", with sibling pairs instead of
 //!   left-child-next); triangles are copied into leaf order, [`Bvh::prim_ids`] maps back to the
 //!   scene's indices. The arrays are plain `#[repr(C)]` data, uploadable to a GPU unchanged.
+//! - **SBVH** (`builder = "sbvh"`, module `sbvh`): object and spatial splits with the overlap
+//!   threshold `alpha` and reference unsplitting (Stich, Friedrich and Dietrich 2009), the
+//!   triangles clipped by `tb_core::clip` (shared with the kd-tree builder); a triangle may be
+//!   referenced by several leaves, so `validate` checks coverage instead of a permutation.
+//! - **Parallel builds**: both builders split large nodes on the current rayon pool (or a pool
+//!   of `build_threads`), giving the same tree as one thread.
+//! - **Wide BVHs** (`width = 4` or `8`, module `wide`): collapsed from the binary tree, child
+//!   boxes in SoA layout tested at once with SSE or AVX (runtime detection, scalar fallback),
+//!   nearest child first; GPU program `shaders/wide.wgsl`.
 //! - **Traversal** `ordered` (module `traverse`): depth-first with a fixed-size stack, both
 //!   children's boxes tested at their parent and the nearer visited first (pbrt-v3 §4.3.5), the
 //!   slab test made robust as in Ize 2013, "Robust BVH ray traversal" (see [`Aabb::intersect`]).
@@ -33,7 +42,8 @@ pub use wide::{WideNode, EMPTY_SLOT, WIDE_STACK_SIZE};
 
 /// The BVH in the registry.
 pub static FAMILY: Family = Family::new::<Bvh, BvhParams>(
-    "binned SAH BVH, 32-byte flat nodes (MacDonald and Booth 1990; Wald 2007)",
+    "binned SAH BVH or SBVH, binary (32-byte flat nodes) or 4/8-wide with SIMD child-box tests \
+     (MacDonald and Booth 1990; Wald 2007; Stich et al. 2009; Wald et al. 2008)",
     |tris, set| {
         build_with(set, |p: &BvhParams| {
             p.check()?;
