@@ -78,7 +78,9 @@ impl BinMap {
 
 struct Builder<'p> {
     params: &'p BvhParams,
-    refs: Vec<PrimRef>,
+    /// Index of the first reference of the slice being built in the whole reference array
+    /// (leaves store global triangle slots).
+    base: usize,
     nodes: Vec<BvhNode>,
     /// Scratch: `3 × bins` bins, reused at every node.
     bins: Vec<Bin>,
@@ -87,12 +89,20 @@ struct Builder<'p> {
     right_count: Vec<u32>,
 }
 
+/// Nodes with at least this many references are split on the current rayon pool, both
+/// children at once, when it has more than one thread.
+const PAR_MIN: usize = 8192;
+
 /// Build the flat node array and the leaf order (scene index of each triangle slot).
+///
+/// On a rayon pool of more than one thread, large subtrees are built in parallel, each into
+/// its own array, and spliced in the order the sequential build writes (a node's child pair,
+/// then the left subtree, then the right one), so the result is the same array.
 pub(crate) fn build(tris: &[Triangle], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>) {
     if tris.is_empty() {
         return (Vec::new(), Vec::new());
     }
-    let refs: Vec<PrimRef> = tris
+    let mut refs: Vec<PrimRef> = tris
         .iter()
         .enumerate()
         .map(|(i, t)| {
@@ -104,40 +114,122 @@ pub(crate) fn build(tris: &[Triangle], params: &BvhParams) -> (Vec<BvhNode>, Vec
             }
         })
         .collect();
-    let bins = params.bins as usize;
-    let mut b = Builder {
-        params,
-        refs,
+    let nodes = if rayon::current_num_threads() > 1 && refs.len() >= PAR_MIN {
+        let (root, desc) = par_node(params, &mut refs, 0, 0);
+        let mut nodes = Vec::with_capacity(desc.len() + 1);
+        nodes.push(shifted(root, 1));
+        nodes.extend(desc.iter().map(|n| shifted(*n, 1)));
+        nodes
+    } else {
+        let mut b = Builder::new(params, 0);
         // A binary tree with leaves of ≥ 1 primitive has at most 2n − 1 nodes.
-        nodes: Vec::with_capacity(2 * tris.len() - 1),
-        bins: vec![Bin::EMPTY; 3 * bins],
-        right_cost: vec![0.0; bins],
-        right_count: vec![0; bins],
+        b.nodes.reserve(2 * tris.len() - 1);
+        b.nodes.push(BvhNode::EMPTY);
+        let n = refs.len();
+        b.build_node(0, &mut refs, 0, n, 0);
+        b.nodes.shrink_to_fit();
+        b.nodes
     };
+    let order = refs.iter().map(|r| r.id).collect();
+    (nodes, order)
+}
+
+/// `n` with its child index moved by `by` when it is an interior node.
+#[inline]
+fn shifted(mut n: BvhNode, by: isize) -> BvhNode {
+    if !n.is_leaf() {
+        n.index = (n.index as isize + by) as u32;
+    }
+    n
+}
+
+/// Build the subtree of `refs` (global slots from `base`): its root and its descendants in
+/// sequential order, child indices relative to the start of the descendants.
+fn par_node(
+    params: &BvhParams,
+    refs: &mut [PrimRef],
+    base: usize,
+    depth: u32,
+) -> (BvhNode, Vec<BvhNode>) {
+    let mut b = Builder::new(params, base);
     b.nodes.push(BvhNode::EMPTY);
-    let n = b.refs.len();
-    b.build_node(0, 0, n, 0);
-    b.nodes.shrink_to_fit();
-    let order = b.refs.iter().map(|r| r.id).collect();
-    (b.nodes, order)
+    let n = refs.len();
+    if n < PAR_MIN {
+        b.build_node(0, refs, 0, n, depth);
+        let root = shifted(b.nodes[0], -1);
+        let desc = b.nodes[1..].iter().map(|n| shifted(*n, -1)).collect();
+        return (root, desc);
+    }
+    let (bounds, cb) = node_bounds(refs);
+    let mut root = BvhNode {
+        min: bounds.min.to_array(),
+        index: 0,
+        max: bounds.max.to_array(),
+        count: 0,
+    };
+    let Some(mid) = b.split(refs, 0, n, &bounds, &cb, depth) else {
+        root.index = base as u32;
+        root.count = n as u32;
+        return (root, Vec::new());
+    };
+    let (l, r) = refs.split_at_mut(mid);
+    let ((ln, ld), (rn, rd)) = rayon::join(
+        || par_node(params, l, base, depth + 1),
+        || par_node(params, r, base + mid, depth + 1),
+    );
+    let lofs = 2isize;
+    let rofs = 2 + ld.len() as isize;
+    let mut desc = Vec::with_capacity(2 + ld.len() + rd.len());
+    desc.push(shifted(ln, lofs));
+    desc.push(shifted(rn, rofs));
+    desc.extend(ld.iter().map(|n| shifted(*n, lofs)));
+    desc.extend(rd.iter().map(|n| shifted(*n, rofs)));
+    (root, desc)
+}
+
+/// The box of the references and the box of their (doubled) centroids.
+fn node_bounds(refs: &[PrimRef]) -> (Aabb, Aabb) {
+    let mut bounds = Aabb::EMPTY;
+    let mut cb = Aabb::EMPTY;
+    for r in refs {
+        bounds.min = bounds.min.min(r.min);
+        bounds.max = bounds.max.max(r.max);
+        cb.grow(r.c2());
+    }
+    (bounds, cb)
+}
+
+impl<'p> Builder<'p> {
+    fn new(params: &'p BvhParams, base: usize) -> Self {
+        let bins = params.bins as usize;
+        Builder {
+            params,
+            base,
+            nodes: Vec::new(),
+            bins: vec![Bin::EMPTY; 3 * bins],
+            right_cost: vec![0.0; bins],
+            right_count: vec![0; bins],
+        }
+    }
 }
 
 impl Builder<'_> {
-    fn build_node(&mut self, node: usize, start: usize, end: usize, depth: u32) {
-        let mut bounds = Aabb::EMPTY;
-        let mut cb = Aabb::EMPTY;
-        for r in &self.refs[start..end] {
-            bounds.min = bounds.min.min(r.min);
-            bounds.max = bounds.max.max(r.max);
-            cb.grow(r.c2());
-        }
+    fn build_node(
+        &mut self,
+        node: usize,
+        refs: &mut [PrimRef],
+        start: usize,
+        end: usize,
+        depth: u32,
+    ) {
+        let (bounds, cb) = node_bounds(&refs[start..end]);
         let out = &mut self.nodes[node];
         out.min = bounds.min.to_array();
         out.max = bounds.max.to_array();
-        match self.split(start, end, &bounds, &cb, depth) {
+        match self.split(refs, start, end, &bounds, &cb, depth) {
             None => {
                 let out = &mut self.nodes[node];
-                out.index = start as u32;
+                out.index = (self.base + start) as u32;
                 out.count = (end - start) as u32;
             }
             Some(mid) => {
@@ -148,8 +240,8 @@ impl Builder<'_> {
                 let out = &mut self.nodes[node];
                 out.index = left as u32;
                 out.count = 0;
-                self.build_node(left, start, mid, depth + 1);
-                self.build_node(left + 1, mid, end, depth + 1);
+                self.build_node(left, refs, start, mid, depth + 1);
+                self.build_node(left + 1, refs, mid, end, depth + 1);
             }
         }
     }
@@ -158,6 +250,7 @@ impl Builder<'_> {
     /// first index of the right part.
     fn split(
         &mut self,
+        refs: &mut [PrimRef],
         start: usize,
         end: usize,
         bounds: &Aabb,
@@ -179,7 +272,7 @@ impl Builder<'_> {
         // (False for NaN as well.)
         let area_usable = area > 0.0 && area.is_finite();
         if depth >= MEDIAN_DEPTH || !area_usable {
-            return (n > max_leaf).then(|| self.median(start, end, cb.largest_axis()));
+            return (n > max_leaf).then(|| self.median(refs, start, end, cb.largest_axis()));
         }
 
         // Bin all three axes in one pass.
@@ -194,7 +287,7 @@ impl Builder<'_> {
             last: nb - 1,
         };
         self.bins.fill(Bin::EMPTY);
-        for r in &self.refs[start..end] {
+        for r in &refs[start..end] {
             let c = r.c2();
             for axis in 0..3 {
                 let bin = &mut self.bins[axis * nb + map.bin(c, axis)];
@@ -238,7 +331,7 @@ impl Builder<'_> {
 
         let Some((axis, k)) = best else {
             // Every centroid fell into one bin on every axis (rounding): median split.
-            return (n > max_leaf).then(|| self.median(start, end, cb.largest_axis()));
+            return (n > max_leaf).then(|| self.median(refs, start, end, cb.largest_axis()));
         };
         if n <= max_leaf {
             let split_cost = p.c_trav * area + p.c_isect * best_cost;
@@ -249,28 +342,27 @@ impl Builder<'_> {
         }
 
         // In-place partition by bin.
-        let refs = &mut self.refs[start..end];
-        let (mut i, mut j) = (0, refs.len());
+        let part = &mut refs[start..end];
+        let (mut i, mut j) = (0, part.len());
         while i < j {
-            if map.bin(refs[i].c2(), axis) <= k {
+            if map.bin(part[i].c2(), axis) <= k {
                 i += 1;
             } else {
                 j -= 1;
-                refs.swap(i, j);
+                part.swap(i, j);
             }
         }
-        if i == 0 || i == refs.len() {
+        if i == 0 || i == part.len() {
             // Cannot happen (the bins counted both sides), but never make an empty child.
-            return Some(self.median(start, end, axis));
+            return Some(self.median(refs, start, end, axis));
         }
         Some(start + i)
     }
 
     /// Object-median split along `axis`: the lower half of the centroids goes left.
-    fn median(&mut self, start: usize, end: usize, axis: usize) -> usize {
+    fn median(&mut self, refs: &mut [PrimRef], start: usize, end: usize, axis: usize) -> usize {
         let mid = (end - start) / 2;
-        self.refs[start..end]
-            .select_nth_unstable_by(mid, |a, b| a.c2()[axis].total_cmp(&b.c2()[axis]));
+        refs[start..end].select_nth_unstable_by(mid, |a, b| a.c2()[axis].total_cmp(&b.c2()[axis]));
         start + mid
     }
 }

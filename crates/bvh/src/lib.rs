@@ -11,12 +11,23 @@
 //!   adjacent (pbrt-v3 §4.3.4 "Compact BVH for traversal", with sibling pairs instead of
 //!   left-child-next); triangles are copied into leaf order, [`Bvh::prim_ids`] maps back to the
 //!   scene's indices. The arrays are plain `#[repr(C)]` data, uploadable to a GPU unchanged.
+//! - **SBVH** (`builder = "sbvh"`, module `sbvh`): object and spatial splits with the overlap
+//!   threshold `alpha` and reference unsplitting (Stich, Friedrich and Dietrich 2009), the
+//!   triangles clipped by `tb_core::clip` (shared with the kd-tree builder); a triangle may be
+//!   referenced by several leaves, so `validate` checks coverage instead of a permutation.
+//! - **Parallel builds**: both builders split large nodes on the current rayon pool (or a pool
+//!   of `build_threads`), giving the same tree as one thread.
+//! - **Wide BVHs** (`width = 4` or `8`, module `wide`): collapsed from the binary tree, child
+//!   boxes in SoA layout tested at once with SSE or AVX (runtime detection, scalar fallback),
+//!   nearest child first; GPU program `shaders/wide.wgsl`.
 //! - **Traversal** `ordered` (module `traverse`): depth-first with a fixed-size stack, both
 //!   children's boxes tested at their parent and the nearer visited first (pbrt-v3 §4.3.5), the
 //!   slab test made robust as in Ize 2013, "Robust BVH ray traversal" (see [`Aabb::intersect`]).
 
 mod build;
+mod sbvh;
 mod traverse;
+mod wide;
 
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
@@ -27,10 +38,12 @@ use tb_core::{
 };
 
 pub use traverse::STACK_SIZE;
+pub use wide::{WideNode, EMPTY_SLOT, WIDE_STACK_SIZE};
 
 /// The BVH in the registry.
 pub static FAMILY: Family = Family::new::<Bvh, BvhParams>(
-    "binned SAH BVH, 32-byte flat nodes (MacDonald and Booth 1990; Wald 2007)",
+    "binned SAH BVH or SBVH, binary (32-byte flat nodes) or 4/8-wide with SIMD child-box tests \
+     (MacDonald and Booth 1990; Wald 2007; Stich et al. 2009; Wald et al. 2008)",
     |tris, set| {
         build_with(set, |p: &BvhParams| {
             p.check()?;
@@ -54,6 +67,45 @@ tb_core::params! {
         c_trav: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
         /// SAH cost of a triangle test, C_isect
         c_isect: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
+        /// the builder: `binned` (binned SAH, object splits only) or `sbvh` (object and
+        /// spatial splits, Stich et al. 2009)
+        builder: Builder = Builder::Binned, ParamKind::Choice(Builder::NAMES);
+        /// SBVH overlap threshold: spatial splits are tried where the object split's children
+        /// overlap by more than `alpha` times the root's surface area (Stich et al. 2009 §4.4)
+        alpha: f32 = 1e-5, ParamKind::Float { min: 0.0, max: 1.0 };
+        /// children per node: 2 (binary), or 4 or 8 (collapsed from the binary tree, child
+        /// boxes tested with SIMD; Wald, Benthin and Boulos 2008)
+        width: u32 = 2, ParamKind::Int { min: 2, max: 8 };
+        /// child-box test of wide nodes: `auto` (SSE for 4, AVX for 8 where the CPU has it),
+        /// or `scalar` (a lane loop)
+        simd: Simd = Simd::Auto, ParamKind::Choice(Simd::NAMES);
+        /// build threads: 0 = the current rayon pool (all threads in the harness), n = a pool
+        /// of n threads (1: sequential); the tree is the same for every count
+        build_threads: u32 = 0, ParamKind::Int { min: 0, max: 1024 };
+    }
+}
+
+tb_core::choice! {
+    /// Which builder makes the binary tree.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Builder {
+        /// Binned SAH over triangle centroids, object splits (Wald 2007); single-threaded.
+        Binned = "binned",
+        /// Spatial-split BVH: binned object and spatial splits with reference unsplitting
+        /// (Stich, Friedrich and Dietrich 2009); triangles may be referenced by several
+        /// leaves; parallel (rayon).
+        Sbvh = "sbvh",
+    }
+}
+
+tb_core::choice! {
+    /// How a wide node's child boxes are tested.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Simd {
+        /// The widest instruction set the CPU has for the width (runtime detection).
+        Auto = "auto",
+        /// One lane after the other (the portable fallback).
+        Scalar = "scalar",
     }
 }
 
@@ -79,6 +131,12 @@ impl BvhParams {
                 "c_trav must be positive and finite, got {}",
                 self.c_trav
             ));
+        }
+        if ![2, 4, 8].contains(&self.width) {
+            return err(format!("width must be 2, 4 or 8, got {}", self.width));
+        }
+        if !(self.alpha >= 0.0 && self.alpha.is_finite()) {
+            return err(format!("alpha must be finite and ≥ 0, got {}", self.alpha));
         }
         if !(self.c_isect > 0.0 && self.c_isect.is_finite()) {
             return err(format!(
@@ -155,13 +213,26 @@ impl BvhNode {
 #[derive(Clone, Debug)]
 pub struct Bvh {
     nodes: Vec<BvhNode>,
+    wide: WideNodes,
     triangles: Vec<Triangle>,
     prim_ids: Vec<u32>,
+    /// Triangles in the scene (`prim_ids` holds each once, or at least once for the SBVH).
+    n_scene: usize,
     params: BvhParams,
 }
 
+/// The wide nodes of a build with `width` 4 or 8 (collapsed from [`Bvh::nodes`]).
+#[derive(Clone, Debug)]
+pub enum WideNodes {
+    /// `width = 2`: the binary nodes are traversed.
+    None,
+    W4(Vec<WideNode<4>>),
+    W8(Vec<WideNode<8>>),
+}
+
 impl Bvh {
-    /// Build a BVH over `tris` with `params` (single-threaded). Panics if `params.check()`
+    /// Build a BVH over `tris` with `params` (on the current rayon pool, or on a pool of
+    /// `params.build_threads`; the same tree either way). Panics if `params.check()`
     /// fails or there are `u32::MAX` or more triangles.
     ///
     /// An empty input gives an empty BVH (no nodes) that misses every ray.
@@ -175,6 +246,18 @@ impl Bvh {
     /// [`Bvh::build`] with an error instead of a panic for too many triangles (parameters
     /// must pass [`BvhParams::check`]).
     pub fn try_build(tris: &[Triangle], params: &BvhParams) -> Result<Bvh, AccelError> {
+        if params.build_threads > 0 {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(params.build_threads as usize)
+                .build()
+                .map_err(|e| AccelError::Unsupported(format!("BVH build pool: {e}")))?;
+            return pool.install(|| Self::build_here(tris, params));
+        }
+        Self::build_here(tris, params)
+    }
+
+    /// [`Bvh::try_build`] on the current rayon pool.
+    fn build_here(tris: &[Triangle], params: &BvhParams) -> Result<Bvh, AccelError> {
         if tris.len() >= u32::MAX as usize {
             return Err(AccelError::TooLarge {
                 what: "BVH triangles",
@@ -182,12 +265,29 @@ impl Bvh {
                 limit: u32::MAX as u64 - 1,
             });
         }
-        let (nodes, order) = build::build(tris, params);
+        let (nodes, order) = match params.builder {
+            Builder::Binned => build::build(tris, params),
+            Builder::Sbvh => sbvh::build(tris, params),
+        };
+        if order.len() >= u32::MAX as usize {
+            return Err(AccelError::TooLarge {
+                what: "SBVH triangle references",
+                count: order.len() as u64,
+                limit: u32::MAX as u64 - 1,
+            });
+        }
         let triangles = order.iter().map(|&i| tris[i as usize]).collect();
+        let wide = match params.width {
+            4 => WideNodes::W4(wide::collapse::<4>(&nodes)),
+            8 => WideNodes::W8(wide::collapse::<8>(&nodes)),
+            _ => WideNodes::None,
+        };
         Ok(Bvh {
             nodes,
+            wide,
             triangles,
             prim_ids: order,
+            n_scene: tris.len(),
             params: *params,
         })
     }
@@ -197,6 +297,11 @@ impl Bvh {
     #[inline(always)]
     pub fn nodes(&self) -> &[BvhNode] {
         &self.nodes
+    }
+
+    /// The wide nodes (root first) of a build with `width` 4 or 8.
+    pub fn wide_nodes(&self) -> &WideNodes {
+        &self.wide
     }
 
     /// The triangles in leaf order (leaf `l` owns `triangles()[l.prim_range()]`).
@@ -214,10 +319,56 @@ impl Bvh {
         &self.params
     }
 
+    /// The wide program of [`Bvh::gpu_ordered`].
+    fn gpu_wide<'a>(
+        &'a self,
+        name: &'static str,
+        bytes: &'a [u8],
+        n: usize,
+        width: u32,
+    ) -> GpuProgram<'a> {
+        GpuProgram {
+            name,
+            source: include_str!("../shaders/wide.wgsl"),
+            triangles: Cow::Borrowed(&self.triangles),
+            buffers: vec![
+                GpuBuffer {
+                    what: "the wide BVH node array",
+                    bytes: Cow::Borrowed(bytes),
+                },
+                GpuBuffer {
+                    what: "the primitive-id array",
+                    bytes: Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
+                },
+                GpuBuffer {
+                    what: "the binary root node",
+                    bytes: Cow::Borrowed(bytemuck::cast_slice(&self.nodes[..1])),
+                },
+            ],
+            meta: [n as u32, 0, 0],
+            stack_size: WIDE_STACK_SIZE as u32,
+            constants: vec![("WIDTH", width as f64)],
+            unrolled_triangle_loop: None,
+        }
+    }
+
     /// The GPU program of `ordered` (`shaders/bvh.wgsl`, the same walk in the same order):
     /// the leaf-ordered triangles, the nodes and primitive ids as they are, the node count in
     /// `meta[0]`.
+    ///
+    /// Wide builds get `shaders/wide.wgsl` (programs `bvh/ordered-w4`, `bvh/ordered-w8`, the
+    /// wide walk in the CPU's order): the wide nodes, the primitive ids and the binary root
+    /// node (its box is tested first), the wide node count in `meta[0]`.
     fn gpu_ordered(&self) -> GpuProgram<'_> {
+        match &self.wide {
+            WideNodes::W4(w) if !w.is_empty() => {
+                return self.gpu_wide("bvh/ordered-w4", bytemuck::cast_slice(w), w.len(), 4)
+            }
+            WideNodes::W8(w) if !w.is_empty() => {
+                return self.gpu_wide("bvh/ordered-w8", bytemuck::cast_slice(w), w.len(), 8)
+            }
+            _ => {}
+        }
         GpuProgram {
             name: "bvh/ordered",
             source: include_str!("../shaders/bvh.wgsl"),
@@ -283,7 +434,17 @@ impl Bvh {
     fn check_invariants(&self) -> Result<(), String> {
         let nodes = self.nodes();
         let n_tris = self.triangles.len();
-        tb_core::accel::check_permutation(&self.prim_ids, n_tris).map_err(|e| e.to_string())?;
+        let sbvh = self.params.builder == Builder::Sbvh;
+        if sbvh {
+            if self.prim_ids.len() != n_tris {
+                return Err(format!(
+                    "{} prim_ids for {n_tris} slots",
+                    self.prim_ids.len()
+                ));
+            }
+        } else {
+            tb_core::accel::check_permutation(&self.prim_ids, n_tris).map_err(|e| e.to_string())?;
+        }
         if n_tris == 0 {
             return if nodes.is_empty() {
                 Ok(())
@@ -319,11 +480,11 @@ impl Bvh {
                     if std::mem::replace(&mut owned[k], true) {
                         return Err(format!("triangle slot {k} in two leaves"));
                     }
-                    if !b.contains_box(&self.triangles[k].bounds()) {
+                    if !sbvh && !b.contains_box(&self.triangles[k].bounds()) {
                         return Err(format!("leaf {i}: triangle slot {k} outside the leaf box"));
                     }
                 }
-                if n.count > self.params.max_leaf {
+                if n.count > self.params.max_leaf && !sbvh {
                     let c0 = self.triangles[r.start].bounds().center();
                     if r.clone().any(|k| self.triangles[k].bounds().center() != c0) {
                         return Err(format!(
@@ -355,7 +516,91 @@ impl Bvh {
         if let Some(k) = owned.iter().position(|v| !v) {
             return Err(format!("triangle slot {k} is in no leaf"));
         }
+        if sbvh {
+            self.check_coverage()?;
+        }
+        let root = nodes[0].bounds();
+        match (&self.wide, self.params.width) {
+            (WideNodes::None, 2) => Ok(()),
+            (WideNodes::W4(w), 4) => wide::check(w, n_tris, &root),
+            (WideNodes::W8(w), 8) => wide::check(w, n_tris, &root),
+            _ => Err(format!(
+                "wide nodes do not match width {}",
+                self.params.width
+            )),
+        }
+    }
+}
+
+impl Bvh {
+    /// SBVH coverage: every scene triangle is referenced, all its copies are equal, and every
+    /// point of a barycentric grid on it (vertices, edges and interior, 8 steps per edge) lies
+    /// in the box of a leaf referencing it (leaf boxes lie inside their ancestors', checked
+    /// separately, so the point is reachable from the root).
+    fn check_coverage(&self) -> Result<(), String> {
+        const STEPS: u32 = 8;
+        let mut by_id: Vec<(u32, Aabb, usize)> = Vec::with_capacity(self.prim_ids.len());
+        for n in self.nodes.iter().filter(|n| n.is_leaf()) {
+            for k in n.prim_range() {
+                by_id.push((self.prim_ids[k], n.bounds(), k));
+            }
+        }
+        by_id.sort_unstable_by_key(|e| e.0);
+        if by_id.len() != self.prim_ids.len() {
+            return Err("triangle slots and leaf references differ".into());
+        }
+        let n_scene = self.n_scene;
+        let mut i = 0;
+        for id in 0..n_scene as u32 {
+            let j = i + by_id[i..].iter().take_while(|e| e.0 == id).count();
+            let refs = &by_id[i..j];
+            i = j;
+            let Some(first) = refs.first() else {
+                return Err(format!("triangle {id} is in no leaf"));
+            };
+            let t = self.triangles[first.2];
+            if refs.iter().any(|e| self.triangles[e.2] != t) {
+                return Err(format!("copies of triangle {id} differ"));
+            }
+            for a in 0..=STEPS {
+                for b in 0..=STEPS - a {
+                    let (u, v) = (a as f32 / STEPS as f32, b as f32 / STEPS as f32);
+                    let p = t.v0 * (1.0 - u - v) + t.v1 * u + t.v2 * v;
+                    // The sample is clamped to the triangle's box (rounding of the weights).
+                    let tb = t.bounds();
+                    let p = p.clamp(tb.min, tb.max);
+                    if !refs.iter().any(|e| e.1.contains_box(&Aabb::new(p, p))) {
+                        return Err(format!(
+                            "triangle {id}: point {p} (u = {u}, v = {v}) is in no leaf box \
+                             referencing it"
+                        ));
+                    }
+                }
+            }
+        }
+        if i != by_id.len() {
+            return Err(format!(
+                "leaf references triangle {} of {n_scene}",
+                by_id[i].0
+            ));
+        }
         Ok(())
+    }
+
+    /// `wide_nodes` and `wide_fill` of a wide build (none for `width = 2`).
+    fn wide_figures(&self) -> Vec<(String, f64)> {
+        fn figs<const N: usize>(w: &[WideNode<N>]) -> Vec<(String, f64)> {
+            let used: usize = w.iter().map(|n| n.children()).sum();
+            vec![
+                ("wide_nodes".into(), w.len() as f64),
+                ("wide_fill".into(), used as f64 / w.len().max(1) as f64),
+            ]
+        }
+        match &self.wide {
+            WideNodes::None => Vec::new(),
+            WideNodes::W4(w) => figs(w),
+            WideNodes::W8(w) => figs(w),
+        }
     }
 }
 
@@ -380,22 +625,57 @@ impl Structure for Bvh {
              the parent; pbrt-v3 §4.3.5; robust slab test, Ize 2013)",
         ),
         |b, query, tri, rays, hits, stats| {
-            dispatch(&traverse::Ordered(b), query, tri, rays, hits, stats)
+            let scalar = b.params.simd == Simd::Scalar;
+            match &b.wide {
+                WideNodes::None => dispatch(&traverse::Ordered(b), query, tri, rays, hits, stats),
+                WideNodes::W4(nodes) => {
+                    let isa = wide::Isa::detect(4, scalar);
+                    let k = wide::Wide { bvh: b, nodes, isa };
+                    dispatch(&k, query, tri, rays, hits, stats)
+                }
+                WideNodes::W8(nodes) => {
+                    let isa = wide::Isa::detect(8, scalar);
+                    let k = wide::Wide { bvh: b, nodes, isa };
+                    dispatch(&k, query, tri, rays, hits, stats)
+                }
+            }
         },
         Bvh::gpu_ordered,
     )];
 
+    /// The arrays the CPU traversal reads: the binary nodes (`width = 2`) or the wide ones,
+    /// the triangles and the primitive ids.
     fn own_memory(&self) -> MemoryReport {
+        let (node_bytes, nodes, node_size) = match &self.wide {
+            WideNodes::None => (
+                std::mem::size_of_val(self.nodes()),
+                self.nodes().len(),
+                std::mem::size_of::<BvhNode>(),
+            ),
+            WideNodes::W4(w) => (
+                std::mem::size_of_val(w.as_slice()),
+                w.len(),
+                std::mem::size_of::<WideNode<4>>(),
+            ),
+            WideNodes::W8(w) => (
+                std::mem::size_of_val(w.as_slice()),
+                w.len(),
+                std::mem::size_of::<WideNode<8>>(),
+            ),
+        };
         MemoryReport {
-            bytes: (std::mem::size_of_val(self.nodes())
+            bytes: (node_bytes
                 + std::mem::size_of_val(self.triangles.as_slice())
                 + std::mem::size_of_val(self.prim_ids.as_slice())) as u64,
-            nodes: self.nodes().len() as u64,
+            nodes: nodes as u64,
             prim_refs: self.prim_ids.len() as u64,
-            node_bytes: std::mem::size_of::<BvhNode>() as u32,
+            node_bytes: node_size as u32,
         }
     }
 
+    /// For `width` 4 or 8 the SAH cost is the binary tree's; extra figures `wide_nodes` and
+    /// `wide_fill` (mean used slots per wide node) are added.
+    ///
     /// `sah_cost = (C_trav·Σ_interior A(n) + C_isect·Σ_leaves A(l)·|l|) / A(root)` with `A`
     /// the surface area (`None` for an empty tree or a root of zero area); extra figures:
     /// `nodes`, `leaves`, `depth_max` (root depth 0), `leaf_depth_mean`, `prims_per_leaf_mean`,
@@ -422,7 +702,10 @@ impl Structure for Bvh {
                     self.triangles.len() as f64 / leaves,
                 ),
                 ("leaf_size_max".into(), t.max_leaf as f64),
-            ],
+            ]
+            .into_iter()
+            .chain(self.wide_figures())
+            .collect(),
         }
     }
 

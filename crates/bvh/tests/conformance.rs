@@ -34,3 +34,69 @@ fn conforms_bins32_leaf8() {
         ..Default::default()
     });
 }
+
+#[test]
+fn conforms_bvh4() {
+    run(BvhParams {
+        width: 4,
+        ..Default::default()
+    });
+}
+
+#[test]
+fn conforms_bvh8() {
+    run(BvhParams {
+        width: 8,
+        ..Default::default()
+    });
+}
+
+#[test]
+fn conforms_bvh4_scalar_leaf1() {
+    run(BvhParams {
+        width: 4,
+        max_leaf: 1,
+        simd: tb_bvh::Simd::Scalar,
+        ..Default::default()
+    });
+}
+
+#[test]
+fn conforms_bvh8_scalar_leaf8() {
+    run(BvhParams {
+        width: 8,
+        max_leaf: 8,
+        simd: tb_bvh::Simd::Scalar,
+        ..Default::default()
+    });
+}
+
+#[test]
+fn conforms_sbvh() {
+    run(BvhParams {
+        builder: tb_bvh::Builder::Sbvh,
+        ..Default::default()
+    });
+}
+
+/// `alpha = 0`: spatial splits wherever children overlap at all (the most clipping).
+#[test]
+fn conforms_sbvh_alpha0_bvh4_leaf1() {
+    run(BvhParams {
+        builder: tb_bvh::Builder::Sbvh,
+        alpha: 0.0,
+        width: 4,
+        max_leaf: 1,
+        ..Default::default()
+    });
+}
+
+#[test]
+fn conforms_sbvh_alpha0_bvh8() {
+    run(BvhParams {
+        builder: tb_bvh::Builder::Sbvh,
+        alpha: 0.0,
+        width: 8,
+        ..Default::default()
+    });
+}

@@ -76,3 +76,30 @@ fn far_from_the_origin_and_tiny_scale() {
     let rays = common::rays(&tris, 2000, 10);
     assert!(check_against_oracle(&tris, &rays, &BvhParams::default()) > 100);
 }
+
+/// The parallel builds (binned, SBVH) make the same tree as one thread, and the wide trees
+/// collapsed from them agree too.
+#[test]
+fn parallel_builds_equal_sequential() {
+    let tris = common::soup(30_000, 100.0, 2.0, Vec3::ZERO, 11);
+    for builder in [tb_bvh::Builder::Binned, tb_bvh::Builder::Sbvh] {
+        let p = |threads| BvhParams {
+            builder,
+            build_threads: threads,
+            width: 8,
+            ..Default::default()
+        };
+        let one = tb_bvh::Bvh::build(&tris, &p(1));
+        let two = tb_bvh::Bvh::build(&tris, &p(2));
+        assert_eq!(one.nodes(), two.nodes(), "{builder:?}");
+        assert_eq!(one.prim_ids(), two.prim_ids(), "{builder:?}");
+        use tb_core::Accel;
+        assert!(one.validate().is_ok() && two.validate().is_ok());
+        let (tb_bvh::WideNodes::W8(a), tb_bvh::WideNodes::W8(b)) =
+            (one.wide_nodes(), two.wide_nodes())
+        else {
+            panic!("width 8 expected");
+        };
+        assert_eq!(a, b);
+    }
+}

@@ -17,7 +17,8 @@
 //!    plane goes left, one starting there right, a planar one in the plane to its chosen side)
 //!    and re-clips the triangles straddling the plane to each child cell.
 //!
-//! Clipping is Sutherland–Hodgman against the cell's six planes. An intersection point gets the
+//! Clipping ([`tb_core::clip::clip_box`], shared with the SBVH builder) is Sutherland–Hodgman
+//! against the cell's six planes. An intersection point gets the
 //! clipping plane's coordinate exactly, but its other coordinates are rounded, so the bounds
 //! of the clipped polygon are grown by [`tolerance`] (64 ulps of the triangle's coordinate
 //! magnitude) and then cut back to the cell and to the reference's previous box: sides that lie
@@ -25,8 +26,8 @@
 //! the others become slightly conservative, so a triangle is referenced by every leaf cell it
 //! touches. Should clipping leave nothing (rounding), the cut-back box is kept.
 
-use crate::{intersect, split_cell, BoxMeasure, KdBuilder, KdNode, KdParams};
-use tb_core::{Aabb, Triangle, Vec3};
+use crate::{split_cell, BoxMeasure, KdBuilder, KdNode, KdParams};
+use tb_core::{Aabb, Triangle};
 
 pub(crate) struct Output {
     pub nodes: Vec<KdNode>,
@@ -41,89 +42,8 @@ struct Ref {
     id: u32,
 }
 
-/// The rounding allowance of clipped boxes of a triangle with bounds `b`, per axis.
-pub(crate) fn tolerance(b: &Aabb) -> Vec3 {
-    let m = b.min.abs().max(b.max.abs());
-    m * (64.0 * f32::EPSILON) + Vec3::splat(f32::MIN_POSITIVE)
-}
-
-const MAX_POLY: usize = 16;
-
-/// Clip the convex polygon `inp[..n]` to the half-space `p[a] >= c` (`keep_ge`) or
-/// `p[a] <= c`; returns the new vertex count.
-fn clip_plane(
-    inp: &[Vec3; MAX_POLY],
-    n: usize,
-    out: &mut [Vec3; MAX_POLY],
-    a: usize,
-    c: f32,
-    keep_ge: bool,
-) -> usize {
-    let inside = |p: &Vec3| if keep_ge { p[a] >= c } else { p[a] <= c };
-    let mut m = 0;
-    for i in 0..n {
-        let p = inp[i];
-        let q = inp[if i + 1 == n { 0 } else { i + 1 }];
-        let (pin, qin) = (inside(&p), inside(&q));
-        if pin {
-            out[m] = p;
-            m += 1;
-        }
-        if pin != qin {
-            let t = (c - p[a]) / (q[a] - p[a]);
-            let mut x = p + (q - p) * t;
-            x[a] = c;
-            out[m] = x;
-            m += 1;
-        }
-    }
-    m
-}
-
-/// A conservative box of `tri ∩ cell`, inside `lim` (a conservative box of the triangle in a
-/// cell containing `cell`); empty when the triangle misses the cell.
-fn clip_box(tri: &Triangle, lim: &Aabb, cell: &Aabb) -> Aabb {
-    let lim = intersect(lim, cell);
-    if lim.is_empty() {
-        return Aabb::EMPTY;
-    }
-    let tb = tri.bounds();
-    if cell.contains_box(&tb) {
-        return intersect(&tb, &lim);
-    }
-    let mut a = [Vec3::ZERO; MAX_POLY];
-    let mut b = [Vec3::ZERO; MAX_POLY];
-    a[0] = tri.v0;
-    a[1] = tri.v1;
-    a[2] = tri.v2;
-    let mut n = 3;
-    for axis in 0..3 {
-        if tb.min[axis] < cell.min[axis] {
-            n = clip_plane(&a, n, &mut b, axis, cell.min[axis], true);
-            std::mem::swap(&mut a, &mut b);
-        }
-        if tb.max[axis] > cell.max[axis] {
-            n = clip_plane(&a, n, &mut b, axis, cell.max[axis], false);
-            std::mem::swap(&mut a, &mut b);
-        }
-    }
-    if n == 0 {
-        // The triangle misses the cell (its box only overlaps it).
-        return Aabb::EMPTY;
-    }
-    let mut pb = Aabb::EMPTY;
-    for p in &a[..n] {
-        pb.grow(*p);
-    }
-    let tol = tolerance(&tb);
-    let grown = Aabb::new(pb.min - tol, pb.max + tol);
-    let out = intersect(&grown, &lim);
-    if out.is_empty() {
-        lim
-    } else {
-        out
-    }
-}
+use tb_core::clip::clip_box;
+pub(crate) use tb_core::clip::tolerance;
 
 /// Sortable key of an event: the position's order-preserving bits, then the type.
 #[inline(always)]
@@ -561,38 +481,5 @@ mod tests {
             }
         }
         assert!(key(1.0, END) < key(1.0, PLANAR) && key(1.0, PLANAR) < key(1.0, START));
-    }
-
-    #[test]
-    fn clipping_is_conservative() {
-        let t = Triangle::new(
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(4.0, 0.0, 1.0),
-            Vec3::new(0.0, 4.0, 2.0),
-        );
-        let cell = Aabb::new(Vec3::new(1.0, 1.0, -1.0), Vec3::new(2.0, 2.0, 5.0));
-        let b = clip_box(&t, &t.bounds(), &cell);
-        // Points of the triangle inside the cell, sampled.
-        for i in 0..=40 {
-            for j in 0..=40 - i {
-                let (u, v) = (i as f32 / 40.0, j as f32 / 40.0);
-                let p = t.v0 + (t.v1 - t.v0) * u + (t.v2 - t.v0) * v;
-                if cell.contains_box(&Aabb::new(p, p)) {
-                    assert!(b.contains_box(&Aabb::new(p, p)), "{p} not in {b:?}");
-                }
-            }
-        }
-        assert!(b.max.x <= 2.0 && b.min.x >= 1.0 && b.max.z < 2.0);
-        // Axis-aligned triangles stay planar.
-        let f = Triangle::new(
-            Vec3::ZERO,
-            Vec3::new(4.0, 0.0, 0.0),
-            Vec3::new(0.0, 4.0, 0.0),
-        );
-        let b = clip_box(&f, &f.bounds(), &cell);
-        assert_eq!((b.min.z, b.max.z), (0.0, 0.0));
-        // A triangle missing the cell's box gives the empty box.
-        let far = Aabb::new(Vec3::splat(10.0), Vec3::splat(11.0));
-        assert!(clip_box(&t, &t.bounds(), &far).is_empty());
     }
 }

@@ -41,6 +41,9 @@ tb_core::params! {
         robust: bool = true, ParamKind::Bool;
         /// Embree build threads (0 = all; 1 compares with our single-threaded builders)
         build_threads: u32 = 1, ParamKind::Int { min: 0, max: 1024 };
+        /// RTC_INTERSECT_CONTEXT_FLAG_COHERENT instead of INCOHERENT (a hint for coherent
+        /// rays such as primary rays; Embree 3 documents it for ray streams)
+        coherent: bool = false, ParamKind::Bool;
     }
 }
 
@@ -51,6 +54,7 @@ pub struct EmbreePeer {
     scene: Scene<'static>,
     _device: Device,
     triangles: usize,
+    coherent: bool,
 }
 
 impl EmbreePeer {
@@ -129,6 +133,7 @@ impl EmbreePeer {
             scene,
             _device: device,
             triangles: tris.len(),
+            coherent: params.coherent,
         })
     }
 }
@@ -172,7 +177,11 @@ impl Structure for EmbreePeer {
 
 impl EmbreePeer {
     fn trace(&self, query: Query, rays: &[Ray], hits: &mut [HitRecord]) {
-        let mut ctx = IntersectContext::incoherent();
+        let mut ctx = if self.coherent {
+            IntersectContext::coherent()
+        } else {
+            IntersectContext::incoherent()
+        };
         for (r, h) in rays.iter().zip(hits.iter_mut()) {
             if !embree_valid(r) {
                 *h = HitRecord::MISS;

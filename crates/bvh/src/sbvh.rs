@@ -1,0 +1,475 @@
+//! Spatial-split BVH (SBVH; Stich, Friedrich and Dietrich 2009, "Spatial splits in bounding
+//! volume hierarchies"), built top-down in parallel (rayon, both children of large nodes at
+//! once).
+//!
+//! A node holds *references*: a triangle and a conservative box of the part of it inside the
+//! node (at the root its bounds). Per node (§4):
+//! 1. the best **object split** is found by binned SAH over the references' box centres, as in
+//!    the binned builder (`build`);
+//! 2. when the children of that split overlap, `A(B_L ∩ B_R) > alpha·A(root)` (§4.4, the
+//!    overlap threshold restricting spatial splits to where they pay), the best **spatial
+//!    split** is found too: the node box is cut into `bins` equal slabs per axis, each reference
+//!    is *chopped* into the slabs it spans (the triangle's part in each slab,
+//!    [`tb_core::clip::slab_box`]), and per boundary the SAH
+//!    cost uses the union of the chopped boxes and the counts of references entering left of it
+//!    and leaving right of it (§4.2);
+//! 3. the cheaper split is made, or a leaf when `|n| ≤ min_leaf` or, for `|n| ≤ max_leaf`, when
+//!    the leaf cost is no higher. A spatial split sends each straddling reference to both sides
+//!    (its triangle clipped to each child's cell by [`tb_core::clip::clip_box`], the routine
+//!    the kd-tree builder clips with) unless **reference unsplitting** (§4.3) is
+//!    cheaper: putting it wholly into one child, `A(B_L ∪ B)·N_L + A(B_R)·(N_R − 1)` or the
+//!    mirror, against `A(B_L)·N_L + A(B_R)·N_R`.
+//!
+//! A spatial split that would not make both children smaller than the node falls back to the
+//! object split; the fallbacks and depth bound of the binned builder (object median splits
+//! where binning cannot separate, only median splits from depth `MEDIAN_DEPTH`) hold here too,
+//! so leaves never exceed `max_leaf` unless their reference centres coincide.
+//!
+//! A triangle may be referenced by several leaves; each reference's slot in the triangle array
+//! holds a copy of the triangle, and `validate` checks coverage instead of a permutation.
+
+use crate::build::MEDIAN_DEPTH;
+use crate::{BvhNode, BvhParams};
+use tb_core::clip::{clip_box, slab_box};
+use tb_core::{Aabb, Triangle, Vec3};
+
+/// A reference: a conservative box of the part of triangle `id` inside the node.
+#[derive(Clone, Copy)]
+struct Ref {
+    b: Aabb,
+    id: u32,
+}
+
+impl Ref {
+    #[inline(always)]
+    fn c2(&self) -> Vec3 {
+        self.b.min + self.b.max
+    }
+}
+
+/// The temporary tree, flattened once built.
+enum Node {
+    Leaf(Aabb, Vec<u32>),
+    Inner(Aabb, Box<(Node, Node)>),
+}
+
+/// Nodes with at least this many references build their children in parallel.
+const PAR_MIN: usize = 4096;
+
+struct Ctx<'a> {
+    tris: &'a [Triangle],
+    p: &'a BvhParams,
+    /// `alpha · A(root)` (half areas).
+    min_overlap: f32,
+}
+
+/// Build an SBVH: the flat node array and, per triangle slot, the scene index of its triangle.
+pub(crate) fn build(tris: &[Triangle], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>) {
+    if tris.is_empty() {
+        return (Vec::new(), Vec::new());
+    }
+    let refs: Vec<Ref> = tris
+        .iter()
+        .enumerate()
+        .map(|(i, t)| Ref {
+            b: t.bounds(),
+            id: i as u32,
+        })
+        .collect();
+    let root = refs.iter().fold(Aabb::EMPTY, |a, r| a.union(&r.b));
+    let ctx = Ctx {
+        tris,
+        p: params,
+        min_overlap: params.alpha * root.half_area(),
+    };
+    let tree = ctx.node(refs, 0);
+    let mut nodes = vec![BvhNode::EMPTY];
+    let mut order = Vec::new();
+    flatten(&tree, 0, &mut nodes, &mut order);
+    (nodes, order)
+}
+
+fn flatten(n: &Node, at: usize, nodes: &mut Vec<BvhNode>, order: &mut Vec<u32>) {
+    match n {
+        Node::Leaf(b, ids) => {
+            nodes[at] = BvhNode {
+                min: b.min.to_array(),
+                index: order.len() as u32,
+                max: b.max.to_array(),
+                count: ids.len() as u32,
+            };
+            order.extend_from_slice(ids);
+        }
+        Node::Inner(b, kids) => {
+            let l = nodes.len();
+            nodes.push(BvhNode::EMPTY);
+            nodes.push(BvhNode::EMPTY);
+            nodes[at] = BvhNode {
+                min: b.min.to_array(),
+                index: l as u32,
+                max: b.max.to_array(),
+                count: 0,
+            };
+            flatten(&kids.0, l, nodes, order);
+            flatten(&kids.1, l + 1, nodes, order);
+        }
+    }
+}
+
+fn bounds_of(refs: &[Ref]) -> (Aabb, Aabb) {
+    let mut b = Aabb::EMPTY;
+    let mut cb = Aabb::EMPTY;
+    for r in refs {
+        b = b.union(&r.b);
+        cb.grow(r.c2());
+    }
+    (b, cb)
+}
+
+/// The chosen split.
+enum Split {
+    /// References with centre bin `≤ k` on `axis` go left (bins of `map`).
+    Object {
+        axis: usize,
+        k: usize,
+        min: f32,
+        scale: f32,
+    },
+    /// Cut at `pos` on `axis`; `lb`, `rb`, `nl`, `nr` the binned child boxes and counts.
+    Spatial {
+        axis: usize,
+        pos: f32,
+        lb: Aabb,
+        rb: Aabb,
+        nl: u32,
+        nr: u32,
+    },
+    /// Object median on `axis` (by index when `axis` is `None`).
+    Median(Option<usize>),
+}
+
+impl Ctx<'_> {
+    fn node(&self, refs: Vec<Ref>, depth: u32) -> Node {
+        let (bounds, cb) = bounds_of(&refs);
+        let Some(split) = self.choose(&refs, &bounds, &cb, depth) else {
+            return Node::Leaf(bounds, refs.iter().map(|r| r.id).collect());
+        };
+        let (l, r) = match self.partition(refs, &bounds, split) {
+            Ok(lr) => lr,
+            Err(refs) => {
+                // A spatial split that did not shrink both sides: object split instead.
+                let s = self.object_or_median(&refs, &bounds, &cb, depth);
+                match s {
+                    None => return Node::Leaf(bounds, refs.iter().map(|r| r.id).collect()),
+                    Some(s) => self
+                        .partition(refs, &bounds, s)
+                        .unwrap_or_else(|_| unreachable!("object splits always shrink")),
+                }
+            }
+        };
+        let (a, b) = if l.len() + r.len() >= PAR_MIN {
+            rayon::join(|| self.node(l, depth + 1), || self.node(r, depth + 1))
+        } else {
+            (self.node(l, depth + 1), self.node(r, depth + 1))
+        };
+        Node::Inner(bounds, Box::new((a, b)))
+    }
+
+    /// Leaf (`None`) or the split to make, as the binned builder decides, with spatial splits.
+    fn choose(&self, refs: &[Ref], bounds: &Aabb, cb: &Aabb, depth: u32) -> Option<Split> {
+        let n = refs.len();
+        let p = self.p;
+        if n <= 1 || n <= p.min_leaf as usize {
+            return None;
+        }
+        let max_leaf = p.max_leaf as usize;
+        let area = bounds.half_area();
+        let area_usable = area > 0.0 && area.is_finite();
+        if cb.extent() == Vec3::ZERO {
+            return (n > max_leaf).then_some(Split::Median(None));
+        }
+        if depth >= MEDIAN_DEPTH || !area_usable {
+            return (n > max_leaf).then_some(Split::Median(Some(cb.largest_axis())));
+        }
+        let obj = self.object(refs, cb);
+        let overlap = obj.as_ref().map_or(f32::INFINITY, |o| o.2);
+        let mut best: Option<(f32, Split)> = obj.map(|(c, s, _)| (c, s));
+        if overlap > self.min_overlap {
+            if let Some((c, s)) = self.spatial(refs, bounds) {
+                if best.as_ref().is_none_or(|b| c < b.0) {
+                    best = Some((c, s));
+                }
+            }
+        }
+        let Some((cost, split)) = best else {
+            return (n > max_leaf).then_some(Split::Median(Some(cb.largest_axis())));
+        };
+        if n <= max_leaf {
+            let split_cost = p.c_trav * area + p.c_isect * cost;
+            if p.c_isect * area * n as f32 <= split_cost {
+                return None;
+            }
+        }
+        Some(split)
+    }
+
+    fn object_or_median(
+        &self,
+        refs: &[Ref],
+        bounds: &Aabb,
+        cb: &Aabb,
+        depth: u32,
+    ) -> Option<Split> {
+        let n = refs.len();
+        let max_leaf = self.p.max_leaf as usize;
+        let area = bounds.half_area();
+        if cb.extent() == Vec3::ZERO {
+            return (n > max_leaf).then_some(Split::Median(None));
+        }
+        if depth >= MEDIAN_DEPTH || !(area > 0.0 && area.is_finite()) {
+            return (n > max_leaf).then_some(Split::Median(Some(cb.largest_axis())));
+        }
+        match self.object(refs, cb) {
+            Some((cost, s, _)) => {
+                if n <= max_leaf {
+                    let p = self.p;
+                    let split_cost = p.c_trav * area + p.c_isect * cost;
+                    if p.c_isect * area * n as f32 <= split_cost {
+                        return None;
+                    }
+                }
+                Some(s)
+            }
+            None => (n > max_leaf).then_some(Split::Median(Some(cb.largest_axis()))),
+        }
+    }
+
+    /// Best binned object split: its cost `A(L)·|L| + A(R)·|R|` (half areas), the split, and
+    /// the children's overlap area.
+    fn object(&self, refs: &[Ref], cb: &Aabb) -> Option<(f32, Split, f32)> {
+        let nb = self.p.bins as usize;
+        let ext = cb.extent();
+        let mut best: Option<(f32, Split, f32)> = None;
+        let mut bins = vec![(Aabb::EMPTY, 0u32); nb];
+        let mut right = vec![(Aabb::EMPTY, 0u32); nb];
+        for axis in 0..3 {
+            if ext[axis] <= 0.0 {
+                continue;
+            }
+            let scale = nb as f32 / ext[axis];
+            let min = cb.min[axis];
+            bins.fill((Aabb::EMPTY, 0));
+            for r in refs {
+                let k = obj_bin(r.c2()[axis], min, scale, nb);
+                bins[k].0 = bins[k].0.union(&r.b);
+                bins[k].1 += 1;
+            }
+            let mut acc = (Aabb::EMPTY, 0u32);
+            for k in (1..nb).rev() {
+                acc = (acc.0.union(&bins[k].0), acc.1 + bins[k].1);
+                right[k] = acc;
+            }
+            let mut left = (Aabb::EMPTY, 0u32);
+            for k in 0..nb - 1 {
+                left = (left.0.union(&bins[k].0), left.1 + bins[k].1);
+                let r = right[k + 1];
+                if left.1 == 0 || r.1 == 0 {
+                    continue;
+                }
+                let cost = left.0.half_area() * left.1 as f32 + r.0.half_area() * r.1 as f32;
+                if best.as_ref().is_none_or(|b| cost < b.0) {
+                    let ov = tb_core::clip::intersect(&left.0, &r.0);
+                    let overlap = if ov.is_empty() { 0.0 } else { ov.half_area() };
+                    best = Some((
+                        cost,
+                        Split::Object {
+                            axis,
+                            k,
+                            min,
+                            scale,
+                        },
+                        overlap,
+                    ));
+                }
+            }
+        }
+        best
+    }
+
+    /// Best spatial split (§4.2): chopped references binned into equal slabs of the node box.
+    fn spatial(&self, refs: &[Ref], bounds: &Aabb) -> Option<(f32, Split)> {
+        let nb = self.p.bins as usize;
+        let ext = bounds.extent();
+        let mut best: Option<(f32, Split)> = None;
+        let mut boxes = vec![Aabb::EMPTY; nb];
+        let mut enter = vec![0u32; nb];
+        let mut exit = vec![0u32; nb];
+        let mut right = vec![(Aabb::EMPTY, 0u32); nb];
+        for axis in 0..3 {
+            if ext[axis] <= 0.0 {
+                continue;
+            }
+            let w = ext[axis] / nb as f32;
+            let lo = bounds.min[axis];
+            let plane = |k: usize| {
+                if k == nb {
+                    bounds.max[axis]
+                } else {
+                    lo + w * k as f32
+                }
+            };
+            boxes.fill(Aabb::EMPTY);
+            enter.fill(0);
+            exit.fill(0);
+            for r in refs {
+                let first = spatial_bin(r.b.min[axis], lo, w, nb);
+                let last = spatial_bin(r.b.max[axis], lo, w, nb).max(first);
+                enter[first] += 1;
+                exit[last] += 1;
+                if first == last {
+                    boxes[first] = boxes[first].union(&r.b);
+                    continue;
+                }
+                let tri = &self.tris[r.id as usize];
+                for k in first..=last {
+                    let c = slab_box(tri, &r.b, axis, plane(k), plane(k + 1));
+                    if !c.is_empty() {
+                        boxes[k] = boxes[k].union(&c);
+                    }
+                }
+            }
+            let mut acc = (Aabb::EMPTY, 0u32);
+            for k in (1..nb).rev() {
+                acc = (acc.0.union(&boxes[k]), acc.1 + exit[k]);
+                right[k] = acc;
+            }
+            let mut left = (Aabb::EMPTY, 0u32);
+            for k in 0..nb - 1 {
+                left = (left.0.union(&boxes[k]), left.1 + enter[k]);
+                let r = right[k + 1];
+                if left.1 == 0 || r.1 == 0 || left.0.is_empty() || r.0.is_empty() {
+                    continue;
+                }
+                let cost = left.0.half_area() * left.1 as f32 + r.0.half_area() * r.1 as f32;
+                if best.as_ref().is_none_or(|b| cost < b.0) {
+                    best = Some((
+                        cost,
+                        Split::Spatial {
+                            axis,
+                            pos: plane(k + 1),
+                            lb: left.0,
+                            rb: r.0,
+                            nl: left.1,
+                            nr: r.1,
+                        },
+                    ));
+                }
+            }
+        }
+        best
+    }
+
+    /// Make the children's references; `Err` gives the references back when a spatial split
+    /// would not shrink both sides.
+    fn partition(
+        &self,
+        mut refs: Vec<Ref>,
+        bounds: &Aabb,
+        split: Split,
+    ) -> Result<(Vec<Ref>, Vec<Ref>), Vec<Ref>> {
+        match split {
+            Split::Object {
+                axis,
+                k,
+                min,
+                scale,
+            } => {
+                let nb = self.p.bins as usize;
+                let (l, r): (Vec<Ref>, Vec<Ref>) = refs
+                    .iter()
+                    .partition(|r| obj_bin(r.c2()[axis], min, scale, nb) <= k);
+                if l.is_empty() || r.is_empty() {
+                    // Cannot happen (the bins counted both sides); never make an empty child.
+                    return Ok(median(refs, Some(axis)));
+                }
+                Ok((l, r))
+            }
+            Split::Median(axis) => Ok(median(refs, axis)),
+            Split::Spatial {
+                axis,
+                pos,
+                lb,
+                rb,
+                nl,
+                nr,
+            } => {
+                let n = refs.len();
+                let (al, ar) = (lb.half_area(), rb.half_area());
+                let c_split = al * nl as f32 + ar * nr as f32;
+                let mut lcell = *bounds;
+                lcell.max[axis] = pos;
+                let mut rcell = *bounds;
+                rcell.min[axis] = pos;
+                let mut l = Vec::with_capacity(nl as usize);
+                let mut r = Vec::with_capacity(nr as usize);
+                for x in &refs {
+                    if x.b.max[axis] <= pos {
+                        l.push(*x);
+                    } else if x.b.min[axis] >= pos {
+                        r.push(*x);
+                    } else {
+                        // Reference unsplitting (§4.3).
+                        let c1 = lb.union(&x.b).half_area() * nl as f32
+                            + ar * nr.saturating_sub(1) as f32;
+                        let c2 = al * nl.saturating_sub(1) as f32
+                            + rb.union(&x.b).half_area() * nr as f32;
+                        if c1 < c_split && c1 <= c2 {
+                            l.push(*x);
+                        } else if c2 < c_split {
+                            r.push(*x);
+                        } else {
+                            let tri = &self.tris[x.id as usize];
+                            let bl = clip_box(tri, &x.b, &lcell);
+                            let br = clip_box(tri, &x.b, &rcell);
+                            if !bl.is_empty() {
+                                l.push(Ref { b: bl, id: x.id });
+                            }
+                            if !br.is_empty() {
+                                r.push(Ref { b: br, id: x.id });
+                            }
+                            if bl.is_empty() && br.is_empty() {
+                                // Rounding only (the reference overlaps the node): keep it whole.
+                                l.push(*x);
+                            }
+                        }
+                    }
+                }
+                if l.is_empty() || r.is_empty() || l.len() >= n || r.len() >= n {
+                    refs.shrink_to_fit();
+                    return Err(refs);
+                }
+                Ok((l, r))
+            }
+        }
+    }
+}
+
+/// Object-median split (by index when `axis` is `None`): the lower half of the centres left.
+fn median(mut refs: Vec<Ref>, axis: Option<usize>) -> (Vec<Ref>, Vec<Ref>) {
+    let mid = refs.len() / 2;
+    if let Some(a) = axis {
+        refs.select_nth_unstable_by(mid, |x, y| x.c2()[a].total_cmp(&y.c2()[a]));
+    }
+    let r = refs.split_off(mid);
+    (refs, r)
+}
+
+#[inline(always)]
+fn obj_bin(c: f32, min: f32, scale: f32, nb: usize) -> usize {
+    (((c - min) * scale) as usize).min(nb - 1)
+}
+
+#[inline(always)]
+fn spatial_bin(x: f32, lo: f32, w: f32, nb: usize) -> usize {
+    (((x - lo) / w) as usize).min(nb - 1)
+}

@@ -1,0 +1,638 @@
+//! Wide BVHs (BVH4, BVH8): nodes of up to `N` children collapsed from the binary tree, child
+//! boxes stored as structure-of-arrays so that one SIMD instruction tests a slab plane of all
+//! children (Wald, Benthin and Boulos 2008, "Getting rid of packets — efficient SIMD
+//! single-ray traversal using multi-branching BVHs"; Dammertz et al. 2008, "Shallow bounding
+//! volume hierarchies for fast SIMD ray tracing of incoherent rays").
+//!
+//! - **Collapse** ([`collapse`]): each wide node starts from the two children of a binary
+//!   node and repeatedly opens the interior child of largest surface area (the one a ray is most
+//!   likely to enter, so the SAH-optimal one to replace by its children: opening it removes one
+//!   traversal step for the largest share of rays) until it has `N` children or only leaves
+//!   remain (Wald et al. 2008 §3). Binary leaves stay leaves; the triangles keep the binary
+//!   tree's order, so the wide tree shares its triangle and primitive-id arrays.
+//! - **Traversal** ([`Wide`]): depth-first with a stack; at an interior node all children's
+//!   boxes are tested at once (the slab test of [`tb_core::slab`], lane by lane the same
+//!   operations in the same order, so every lane's answer equals the scalar test's bit for bit:
+//!   `NaN`-ignoring max/min folds, exit distance scaled by [`EXIT_SCALE`]), the hit children
+//!   sorted by entry distance, the nearest visited next and the others pushed farthest first
+//!   (any-hit queries skip the sort: the first hit found ends the ray wherever it is).
+//!   Which plane of each slab is near is chosen once per ray by the sign of `1/dir` (as offsets
+//!   into the node, Embree's approach), so the node test has no per-lane select.
+//! - **SIMD**: BVH4 uses SSE (part of x86-64), BVH8 AVX when the CPU has it (runtime
+//!   detection, once per batch); a scalar lane loop everywhere else (and when `simd = "scalar"`).
+//!
+//! Counters keep their binary meaning: `interior` and `leaves` count wide nodes and leaves
+//! visited (`steps` their sum), `boxes` the child boxes tested (1 for the root, then one per
+//! child of each interior node visited), `prims` the triangle tests.
+
+use crate::{Bvh, BvhNode};
+use std::mem::MaybeUninit;
+use tb_core::slab::{max_num, min_num, EXIT_SCALE};
+use tb_core::{Aabb, Counter, HitRecord, Ray, TriTest, Vec3};
+
+/// Marks an empty child slot in [`WideNode::count`] (its box is empty: `min = +inf`,
+/// `max = −inf`, which every ray with a non-NaN origin misses).
+pub const EMPTY_SLOT: u32 = u32::MAX;
+
+/// The binary tree's depth bound (see `build::MEDIAN_DEPTH`); a wide tree is no deeper.
+const MAX_DEPTH: usize = crate::traverse::STACK_SIZE;
+
+/// Stack entries of the wide traversal: a node visit pushes at most `N − 1` entries per level,
+/// so `7 · depth + 1` suffice for `N ≤ 8` (checked by `validate`).
+pub const WIDE_STACK_SIZE: usize = 7 * MAX_DEPTH + 1;
+
+/// A node of a wide BVH with `N` child slots, `32·N` bytes, 32-byte aligned.
+///
+/// Child `i`'s box is `(min[0][i], min[1][i], min[2][i])`–`(max[0][i], ...)`; `count[i]` is
+/// 0 for an interior child (`child[i]` its node index), the number of triangles of a leaf
+/// (`child[i]` the first, in [`Bvh::triangles`]), or [`EMPTY_SLOT`]. Used slots come first.
+#[repr(C, align(32))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WideNode<const N: usize> {
+    pub min: [[f32; N]; 3],
+    pub max: [[f32; N]; 3],
+    pub child: [u32; N],
+    pub count: [u32; N],
+}
+
+// SAFETY: only f32 and u32 arrays, `8·N` four-byte words: `32·N` bytes, a multiple of the
+// alignment, so there is no padding; every bit pattern is valid.
+unsafe impl<const N: usize> bytemuck::Zeroable for WideNode<N> {}
+// SAFETY: as above.
+unsafe impl<const N: usize> bytemuck::Pod for WideNode<N> {}
+
+impl<const N: usize> WideNode<N> {
+    const EMPTY: Self = WideNode {
+        min: [[f32::INFINITY; N]; 3],
+        max: [[f32::NEG_INFINITY; N]; 3],
+        child: [0; N],
+        count: [EMPTY_SLOT; N],
+    };
+
+    /// Child `i`'s box.
+    pub fn child_bounds(&self, i: usize) -> Aabb {
+        Aabb::new(
+            Vec3::new(self.min[0][i], self.min[1][i], self.min[2][i]),
+            Vec3::new(self.max[0][i], self.max[1][i], self.max[2][i]),
+        )
+    }
+
+    /// Number of used slots.
+    pub fn children(&self) -> usize {
+        self.count.iter().take_while(|&&c| c != EMPTY_SLOT).count()
+    }
+
+    fn set(&mut self, i: usize, b: &BvhNode, child: u32, count: u32) {
+        for a in 0..3 {
+            self.min[a][i] = b.min[a];
+            self.max[a][i] = b.max[a];
+        }
+        self.child[i] = child;
+        self.count[i] = count;
+    }
+}
+
+/// Collapse the binary tree `bin` (root 0, see [`BvhNode`]) into wide nodes of `N` slots,
+/// root first, children after their parent.
+pub(crate) fn collapse<const N: usize>(bin: &[BvhNode]) -> Vec<WideNode<N>> {
+    assert!((2..=8).contains(&N));
+    let mut out = Vec::new();
+    if bin.is_empty() {
+        return out;
+    }
+    out.reserve(bin.len() / (N - 1) + 1);
+    make(bin, 0, &mut out);
+    out
+}
+
+/// Make the wide node for binary node `i` (its children, opened greedily by area); returns
+/// its index in `out`.
+fn make<const N: usize>(bin: &[BvhNode], i: usize, out: &mut Vec<WideNode<N>>) -> u32 {
+    let root = &bin[i];
+    let mut kids: Vec<usize> = if root.is_leaf() {
+        vec![i]
+    } else {
+        vec![root.index as usize, root.index as usize + 1]
+    };
+    while kids.len() < N {
+        let best = kids
+            .iter()
+            .enumerate()
+            .filter(|(_, &k)| !bin[k].is_leaf())
+            .max_by(|a, b| {
+                let (aa, ba) = (bin[*a.1].bounds().area(), bin[*b.1].bounds().area());
+                aa.total_cmp(&ba)
+            })
+            .map(|(j, _)| j);
+        let Some(j) = best else { break };
+        let k = kids[j];
+        let l = bin[k].index as usize;
+        kids[j] = l;
+        kids.insert(j + 1, l + 1);
+    }
+    let me = out.len();
+    out.push(WideNode::EMPTY);
+    for (slot, &k) in kids.iter().enumerate() {
+        let b = &bin[k];
+        let (child, count) = if b.is_leaf() {
+            (b.index, b.count)
+        } else {
+            (make(bin, k, out), 0)
+        };
+        out[me].set(slot, b, child, count);
+    }
+    me as u32
+}
+
+/// Which instruction set tests a node's child boxes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Isa {
+    Scalar,
+    #[cfg(target_arch = "x86_64")]
+    Sse,
+    #[cfg(target_arch = "x86_64")]
+    Avx,
+}
+
+impl Isa {
+    /// The best for width `n` on this CPU (`scalar` forces the lane loop).
+    pub(crate) fn detect(n: usize, scalar: bool) -> Isa {
+        if scalar {
+            return Isa::Scalar;
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            if n == 4 {
+                return Isa::Sse;
+            }
+            if n == 8 && std::arch::is_x86_feature_detected!("avx") {
+                return Isa::Avx;
+            }
+        }
+        let _ = n;
+        Isa::Scalar
+    }
+}
+
+/// Per-ray data of the wide node test: origin and `1/dir` per axis, and, per axis, the offset
+/// (in floats from the start of a node) of the near and far plane rows.
+#[derive(Clone, Copy)]
+struct WideRay {
+    org: [f32; 3],
+    inv: [f32; 3],
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+impl WideRay {
+    fn new<const N: usize>(ray: &Ray) -> Self {
+        let inv = ray.inv_dir().to_array();
+        let mut near = [0; 3];
+        let mut far = [0; 3];
+        for a in 0..3 {
+            // `min` rows at `a·N`, `max` rows at `(3 + a)·N`; a negative `1/dir` (also −0's
+            // −inf) makes `max` the near plane, as in `RayBox::new`.
+            let (lo, hi) = (a * N, (3 + a) * N);
+            (near[a], far[a]) = if inv[a] < 0.0 { (hi, lo) } else { (lo, hi) };
+        }
+        WideRay {
+            org: ray.origin.to_array(),
+            inv,
+            near,
+            far,
+        }
+    }
+}
+
+impl WideRay {
+    /// The scalar slab test (`RayBox::slab`) of the binary root box.
+    #[inline(always)]
+    fn root_slab(&self, root: &BvhNode, tmin: f32, tmax: f32) -> (f32, f32) {
+        let (mut n, mut f) = (tmin, tmax);
+        for a in 0..3 {
+            let lo = if self.inv[a] < 0.0 {
+                root.max[a]
+            } else {
+                root.min[a]
+            };
+            n = max_num(n, (lo - self.org[a]) * self.inv[a]);
+        }
+        for a in 0..3 {
+            let hi = if self.inv[a] < 0.0 {
+                root.min[a]
+            } else {
+                root.max[a]
+            };
+            f = min_num(f, (hi - self.org[a]) * self.inv[a]);
+        }
+        (n, f * EXIT_SCALE)
+    }
+}
+
+/// Tests all `N` child boxes of a node: returns the mask of hit children (bit `i` for slot
+/// `i`) and their entry distances.
+trait BoxTest<const N: usize> {
+    /// # Safety
+    /// The instruction set of the implementation must be available.
+    unsafe fn test(node: &WideNode<N>, r: &WideRay, tmin: f32, tmax: f32) -> (u32, [f32; N]);
+}
+
+/// The lane loop, the scalar slab test of `tb_core::slab` per child.
+struct Scalar;
+
+impl<const N: usize> BoxTest<N> for Scalar {
+    #[inline(always)]
+    unsafe fn test(node: &WideNode<N>, r: &WideRay, tmin: f32, tmax: f32) -> (u32, [f32; N]) {
+        let p = node as *const WideNode<N> as *const f32;
+        let mut tn = [0.0f32; N];
+        let mut mask = 0;
+        for i in 0..N {
+            // SAFETY: the offsets are row starts (< 6·N) of the node's 6·N box floats.
+            let pl = |off: usize| unsafe { *p.add(off + i) };
+            let tx0 = (pl(r.near[0]) - r.org[0]) * r.inv[0];
+            let ty0 = (pl(r.near[1]) - r.org[1]) * r.inv[1];
+            let tz0 = (pl(r.near[2]) - r.org[2]) * r.inv[2];
+            let tx1 = (pl(r.far[0]) - r.org[0]) * r.inv[0];
+            let ty1 = (pl(r.far[1]) - r.org[1]) * r.inv[1];
+            let tz1 = (pl(r.far[2]) - r.org[2]) * r.inv[2];
+            let n = max_num(max_num(max_num(tmin, tx0), ty0), tz0);
+            let f = min_num(min_num(min_num(tmax, tx1), ty1), tz1) * EXIT_SCALE;
+            tn[i] = n;
+            mask |= ((n <= f) as u32) << i;
+        }
+        (mask, tn)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::*;
+    use std::arch::x86_64::*;
+
+    /// Four lanes with SSE (baseline on x86-64).
+    pub(super) struct Sse;
+
+    impl BoxTest<4> for Sse {
+        #[inline(always)]
+        unsafe fn test(node: &WideNode<4>, r: &WideRay, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
+            // SAFETY: SSE is part of x86-64; the loads read rows inside the node.
+            unsafe {
+                let p = node as *const WideNode<4> as *const f32;
+                let plane = |off: usize, a: usize| {
+                    let v = _mm_load_ps(p.add(off));
+                    _mm_mul_ps(_mm_sub_ps(v, _mm_set1_ps(r.org[a])), _mm_set1_ps(r.inv[a]))
+                };
+                // `_mm_max_ps(t, acc)` is `t > acc ? t : acc`: a NaN `t` leaves `acc`, as
+                // `max_num(acc, t)` (same for min).
+                let mut n = _mm_set1_ps(tmin);
+                let mut f = _mm_set1_ps(tmax);
+                for a in 0..3 {
+                    n = _mm_max_ps(plane(r.near[a], a), n);
+                }
+                for a in 0..3 {
+                    f = _mm_min_ps(plane(r.far[a], a), f);
+                }
+                f = _mm_mul_ps(f, _mm_set1_ps(EXIT_SCALE));
+                let mask = _mm_movemask_ps(_mm_cmple_ps(n, f)) as u32;
+                let mut tn = [0.0f32; 4];
+                _mm_storeu_ps(tn.as_mut_ptr(), n);
+                (mask, tn)
+            }
+        }
+    }
+
+    /// Eight lanes with AVX.
+    pub(super) struct Avx;
+
+    impl BoxTest<8> for Avx {
+        #[inline(always)]
+        unsafe fn test(node: &WideNode<8>, r: &WideRay, tmin: f32, tmax: f32) -> (u32, [f32; 8]) {
+            // SAFETY: the caller runs this inside an `avx` function on a CPU that has it; the
+            // loads read rows inside the (32-byte aligned) node.
+            unsafe {
+                let p = node as *const WideNode<8> as *const f32;
+                let plane = |off: usize, a: usize| {
+                    let v = _mm256_load_ps(p.add(off));
+                    _mm256_mul_ps(
+                        _mm256_sub_ps(v, _mm256_set1_ps(r.org[a])),
+                        _mm256_set1_ps(r.inv[a]),
+                    )
+                };
+                let mut n = _mm256_set1_ps(tmin);
+                let mut f = _mm256_set1_ps(tmax);
+                for a in 0..3 {
+                    n = _mm256_max_ps(plane(r.near[a], a), n);
+                }
+                for a in 0..3 {
+                    f = _mm256_min_ps(plane(r.far[a], a), f);
+                }
+                f = _mm256_mul_ps(f, _mm256_set1_ps(EXIT_SCALE));
+                let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(n, f)) as u32;
+                let mut tn = [0.0f32; 8];
+                _mm256_storeu_ps(tn.as_mut_ptr(), n);
+                (mask, tn)
+            }
+        }
+    }
+}
+
+/// The `ordered` traversal of a wide [`Bvh`] of width `N`.
+pub(crate) struct Wide<'a, const N: usize> {
+    pub bvh: &'a Bvh,
+    pub nodes: &'a [WideNode<N>],
+    pub isa: Isa,
+}
+
+/// A pending child: node index or first triangle, triangle count (0: interior), entry distance.
+#[derive(Clone, Copy)]
+struct Entry {
+    index: u32,
+    count: u32,
+    t: f32,
+}
+
+impl<const N: usize> Wide<'_, N> {
+    #[inline(always)]
+    fn traverse<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        match self.isa {
+            // SAFETY: `Isa::detect` chose SSE (x86-64 baseline) for N = 4 only.
+            #[cfg(target_arch = "x86_64")]
+            Isa::Sse => unsafe { self.walk_sse::<T, C, ANY>(ray, c) },
+            // SAFETY: `Isa::detect` chose AVX for N = 8 on a CPU that has it.
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx => unsafe { self.walk_avx::<T, C, ANY>(ray, c) },
+            // SAFETY: the scalar test needs nothing.
+            Isa::Scalar => unsafe { self.walk::<Scalar, T, C, ANY>(ray, c) },
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "sse2")]
+    unsafe fn walk_sse<T: TriTest, C: Counter, const ANY: bool>(
+        &self,
+        ray: &Ray,
+        c: &mut C,
+    ) -> HitRecord {
+        assert!(N == 4);
+        // SAFETY: N = 4, so the cast is the identity.
+        unsafe {
+            let me: &Wide<'_, 4> = &*(self as *const Self as *const Wide<'_, 4>);
+            me.walk::<x86::Sse, T, C, ANY>(ray, c)
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn walk_avx<T: TriTest, C: Counter, const ANY: bool>(
+        &self,
+        ray: &Ray,
+        c: &mut C,
+    ) -> HitRecord {
+        assert!(N == 8);
+        // SAFETY: N = 8, so the cast is the identity.
+        unsafe {
+            let me: &Wide<'_, 8> = &*(self as *const Self as *const Wide<'_, 8>);
+            me.walk::<x86::Avx, T, C, ANY>(ray, c)
+        }
+    }
+
+    /// # Safety
+    /// `B`'s instruction set must be available.
+    #[inline(always)]
+    unsafe fn walk<B: BoxTest<N>, T: TriTest, C: Counter, const ANY: bool>(
+        &self,
+        ray: &Ray,
+        c: &mut C,
+    ) -> HitRecord {
+        let bvh = self.bvh;
+        let nodes = self.nodes;
+        let tris = bvh.triangles();
+        let Some(root) = bvh.nodes().first() else {
+            return HitRecord::MISS;
+        };
+        // A NaN origin or direction misses every triangle (both tests compare with NaN); it
+        // would also "enter" the empty slots' boxes, which must never be visited.
+        if ray.origin.is_nan() || ray.dir.is_nan() {
+            return HitRecord::MISS;
+        }
+        let tmin = ray.tmin;
+        let mut best_t = ray.tmax;
+        c.boxes(1);
+        let r = WideRay::new::<N>(ray);
+        let (tn, tf) = r.root_slab(root, tmin, best_t);
+        let root_hit = tn <= tf;
+        if !root_hit {
+            return HitRecord::MISS;
+        }
+        let pre = T::prepare(ray);
+        let mut hit_slot = usize::MAX;
+        let (mut hit_u, mut hit_v) = (0.0f32, 0.0f32);
+        let mut stack: [MaybeUninit<Entry>; WIDE_STACK_SIZE] =
+            [MaybeUninit::uninit(); WIDE_STACK_SIZE];
+        let mut sp = 0usize;
+        let mut cur = Entry {
+            index: 0,
+            count: 0,
+            t: tn,
+        };
+        'walk: loop {
+            if cur.count == 0 {
+                c.interior();
+                c.steps(1);
+                // SAFETY: interior entries hold node indices made by `collapse` (checked by
+                // `validate`).
+                let node = unsafe { nodes.get_unchecked(cur.index as usize) };
+                if C::ENABLED {
+                    c.boxes(node.children() as u32);
+                }
+                // SAFETY: the caller guarantees `B`'s instruction set.
+                let (mut mask, tn) = unsafe { B::test(node, &r, tmin, best_t) };
+                if mask != 0 {
+                    let first = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if mask == 0 {
+                        cur = Entry {
+                            index: node.child[first],
+                            count: node.count[first],
+                            t: tn[first],
+                        };
+                        continue 'walk;
+                    }
+                    if ANY {
+                        // Any hit: order does not decide the answer; push the others as found.
+                        while mask != 0 {
+                            let i = mask.trailing_zeros() as usize;
+                            mask &= mask - 1;
+                            stack[sp] = MaybeUninit::new(Entry {
+                                index: node.child[i],
+                                count: node.count[i],
+                                t: tn[i],
+                            });
+                            sp += 1;
+                        }
+                        cur = Entry {
+                            index: node.child[first],
+                            count: node.count[first],
+                            t: tn[first],
+                        };
+                        continue 'walk;
+                    }
+                    // Several hit: sort by entry distance (insertion sort, ≤ 8), push all but
+                    // the nearest, farthest first.
+                    let mut hit: [MaybeUninit<(f32, usize)>; N] = [MaybeUninit::uninit(); N];
+                    hit[0] = MaybeUninit::new((tn[first], first));
+                    let mut k = 1;
+                    while mask != 0 {
+                        let i = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        let e = (tn[i], i);
+                        let mut j = k;
+                        // SAFETY: entries below `k` are written.
+                        while j > 0 && unsafe { hit[j - 1].assume_init().0 } > e.0 {
+                            hit[j] = hit[j - 1];
+                            j -= 1;
+                        }
+                        hit[j] = MaybeUninit::new(e);
+                        k += 1;
+                    }
+                    for j in (1..k).rev() {
+                        // SAFETY: entries below `k` are written.
+                        let (t, i) = unsafe { hit[j].assume_init() };
+                        // At most N − 1 entries per level and a depth of at most MAX_DEPTH
+                        // (checked by `validate`): in range.
+                        stack[sp] = MaybeUninit::new(Entry {
+                            index: node.child[i],
+                            count: node.count[i],
+                            t,
+                        });
+                        sp += 1;
+                    }
+                    // SAFETY: k ≥ 2 entries are written.
+                    let (t, i) = unsafe { hit[0].assume_init() };
+                    cur = Entry {
+                        index: node.child[i],
+                        count: node.count[i],
+                        t,
+                    };
+                    continue 'walk;
+                }
+            } else {
+                c.leaf();
+                c.steps(1);
+                let first = cur.index as usize;
+                // SAFETY: leaf ranges lie inside `triangles` (checked by `validate`).
+                let leaf = unsafe { tris.get_unchecked(first..first + cur.count as usize) };
+                if ANY {
+                    for (k, tri) in leaf.iter().enumerate() {
+                        c.prims(1);
+                        if let Some((t, u, v)) = T::intersect(&pre, ray, tri, best_t) {
+                            return HitRecord {
+                                t,
+                                prim: bvh.prim_ids()[first + k],
+                                u,
+                                v,
+                            };
+                        }
+                    }
+                } else {
+                    c.prims(cur.count);
+                    for (k, tri) in leaf.iter().enumerate() {
+                        if let Some((t, u, v)) = T::intersect(&pre, ray, tri, best_t) {
+                            best_t = t;
+                            hit_slot = first + k;
+                            hit_u = u;
+                            hit_v = v;
+                        }
+                    }
+                }
+            }
+            loop {
+                if sp == 0 {
+                    break 'walk;
+                }
+                sp -= 1;
+                // SAFETY: entries below `sp` were written by a push.
+                let e = unsafe { stack.get_unchecked(sp).assume_init() };
+                if ANY || e.t <= best_t * EXIT_SCALE {
+                    cur = e;
+                    break;
+                }
+            }
+        }
+        if hit_slot == usize::MAX {
+            HitRecord::MISS
+        } else {
+            HitRecord {
+                t: best_t,
+                prim: bvh.prim_ids()[hit_slot],
+                u: hit_u,
+                v: hit_v,
+            }
+        }
+    }
+}
+
+tb_core::kernel_by_query!(traverse: [const N: usize] Wide<'_, N>);
+
+/// Check the wide tree against the binary one it was collapsed from: every node reachable
+/// once, children after parents, child boxes inside the parent's slot box, used slots first,
+/// leaves equal to the binary leaves (each triangle slot in exactly one leaf), the depth
+/// within the stack.
+pub(crate) fn check<const N: usize>(
+    nodes: &[WideNode<N>],
+    n_tris: usize,
+    root: &Aabb,
+) -> Result<(), String> {
+    if nodes.is_empty() {
+        return if n_tris == 0 {
+            Ok(())
+        } else {
+            Err("no wide nodes for a non-empty scene".into())
+        };
+    }
+    let mut visited = vec![false; nodes.len()];
+    let mut owned = vec![false; n_tris];
+    let mut stack = vec![(0usize, *root, 0usize)];
+    while let Some((i, b, depth)) = stack.pop() {
+        if std::mem::replace(&mut visited[i], true) {
+            return Err(format!("wide node {i} reached twice"));
+        }
+        if depth * (N - 1) + 1 > WIDE_STACK_SIZE {
+            return Err(format!("wide node {i} at depth {depth} exceeds the stack"));
+        }
+        let n = &nodes[i];
+        let used = n.children();
+        if used == 0 || n.count[used..].iter().any(|&c| c != EMPTY_SLOT) {
+            return Err(format!("wide node {i}: used slots must come first (≥ 1)"));
+        }
+        for s in 0..used {
+            let cb = n.child_bounds(s);
+            if !b.contains_box(&cb) {
+                return Err(format!("wide node {i} slot {s} outside its parent box"));
+            }
+            let (child, count) = (n.child[s] as usize, n.count[s] as usize);
+            if count == 0 {
+                if child <= i || child >= nodes.len() {
+                    return Err(format!("wide node {i} slot {s}: child {child} invalid"));
+                }
+                stack.push((child, cb, depth + 1));
+            } else {
+                if child + count > n_tris {
+                    return Err(format!("wide node {i} slot {s}: leaf out of range"));
+                }
+                for k in child..child + count {
+                    if std::mem::replace(&mut owned[k], true) {
+                        return Err(format!("triangle slot {k} in two wide leaves"));
+                    }
+                }
+            }
+        }
+    }
+    if let Some(i) = visited.iter().position(|v| !v) {
+        return Err(format!("wide node {i} is unreachable"));
+    }
+    if let Some(k) = owned.iter().position(|v| !v) {
+        return Err(format!("triangle slot {k} is in no wide leaf"));
+    }
+    Ok(())
+}
