@@ -106,36 +106,34 @@ pub fn table(rows: &[Row]) -> String {
                 .map(|m| m.to_string())
                 .unwrap_or_else(|| "-".into()),
         ]);
-        notes.push(if r.note.is_empty() {
-            String::new()
-        } else {
-            format!("  ({})", r.note)
-        });
+        notes.push(r.note.clone());
     }
-    let widths: Vec<usize> = (0..HEAD.len())
-        .map(|c| {
-            cells
-                .iter()
-                .map(|l| l[c].chars().count())
-                .max()
-                .unwrap_or(0)
-        })
-        .collect();
-    let mut out = String::new();
-    for (line, note) in cells.iter().zip(&notes) {
-        let parts: Vec<String> = line
-            .iter()
-            .enumerate()
-            .map(|(c, s)| {
-                if c < LEFT {
-                    format!("{s:<w$}", w = widths[c])
-                } else {
-                    format!("{s:>w$}", w = widths[c])
-                }
-            })
-            .collect();
-        out.push_str(parts.join("  ").trim_end());
-        out.push_str(note);
+    // Layout by comfy-table: no borders, two spaces between columns, text left and numbers
+    // right; the notes of rows that have one in a last column.
+    let with_notes = notes.iter().any(|n| !n.is_empty());
+    let mut t = comfy_table::Table::new();
+    t.load_preset(comfy_table::presets::NOTHING)
+        .set_content_arrangement(comfy_table::ContentArrangement::Disabled);
+    let mut head = cells[0].clone();
+    if with_notes {
+        head.push("note".into());
+    }
+    t.set_header(head);
+    for (line, note) in cells.iter().zip(&notes).skip(1) {
+        let mut line = line.clone();
+        if with_notes {
+            line.push(note.clone());
+        }
+        t.add_row(line);
+    }
+    for (c, col) in t.column_iter_mut().enumerate() {
+        col.set_padding((0, 2));
+        if (LEFT..HEAD.len()).contains(&c) {
+            col.set_cell_alignment(comfy_table::CellAlignment::Right);
+        }
+    }
+    let mut out: String = t.lines().map(|l| l.trim_end().to_string() + "\n").collect();
+    if out.is_empty() {
         out.push('\n');
     }
     out
