@@ -23,7 +23,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import apply_filters, column, number, params_of, read_rows, varying_params  # noqa: E402
+from common import amount, apply_filters, column, number, params_of, read_rows, varying_params  # noqa: E402
 
 import matplotlib  # noqa: E402
 
@@ -90,10 +90,13 @@ def bars(args):
 
 def sweep(args):
     rows = apply_filters(read_rows(args.csv), args.filter)
-    rows = [r for r in rows if number(column(r, args.metric)) is not None]
+    rows = [r for r in rows if amount(r, args.metric) is not None]
     rows, kind = pick_one(rows, "ray_kind", args.ray_kind)
     rows, threads = pick_one(rows, "threads", args.threads)
     rows, test = pick_one(rows, "triangle_test", args.triangle_test)
+    # Reference rows without the parameter (e.g. the SAH tree of the multi-kd-tree paper's
+    # Tables 6-7): dashed horizontal lines.
+    refs = apply_filters([r for r in rows if args.param not in params_of(r)], args.line or [])
     rows = [r for r in rows if args.param in params_of(r)]
     if not rows:
         sys.exit(f"error: no rows with parameter `{args.param}` and a value of {args.metric}")
@@ -103,11 +106,15 @@ def sweep(args):
         x = number(params_of(r)[args.param])
         if x is None:
             sys.exit(f"error: parameter `{args.param}` is not numeric ({params_of(r)[args.param]})")
-        lines.setdefault(key, []).append((x, number(column(r, args.metric))))
+        lines.setdefault(key, []).append((x, amount(r, args.metric)))
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     for key, pts in sorted(lines.items()):
         pts.sort()
         ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o", label=key)
+    if args.line:
+        for r in refs:
+            ax.axhline(amount(r, args.metric), linestyle="--", linewidth=1,
+                       label=f"{r['scene']} {r['structure']} {r['params']} {r['traversal']}")
     ax.set_xlabel(args.param)
     ax.set_ylabel(args.metric)
     ax.set_title(f"{args.metric} against {args.param} ({kind} rays, {threads} threads, {test})")
@@ -202,7 +209,11 @@ def main(argv):
     common(s)
     select(s)
     s.add_argument("--param", required=True, help="parameter key, e.g. max_leaf")
-    s.add_argument("--metric", default="mrays_per_s")
+    s.add_argument("--metric", default="mrays_per_s",
+                   help="a column, or several joined by + and added up")
+    s.add_argument("--line", action="append", metavar="COLUMN=VALUE",
+                   help="also draw the rows without the parameter that match as dashed "
+                        "horizontal lines (e.g. param:measure=sah)")
     c = sub.add_parser("convergence", help="error against time, log-log")
     common(c)
     c.add_argument("--metric", default="rmse", choices=["rmse", "rel_mse"])

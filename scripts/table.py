@@ -11,7 +11,9 @@ several joined by `+` (`--cols structure+traversal`). Every cell must come from 
 row: when several rows fall in one cell, narrow them with --filter COLUMN=VALUE (VALUE may list
 alternatives `A|B`; the error names the columns that differ), or add them up with --sum COLUMN
 (e.g. `--sum ray_kind`: the R-tree paper's "primary and shadow rays" times are the sum of the
-two batches). A percentage is 100 · (value − baseline) / baseline of the same row.
+two batches). A percentage is 100 · (value − baseline) / baseline of the same row. --value
+takes a column, `stat:KEY` (one build figure) or several joined by `+`, added up (e.g.
+`planes_per_ray+prims_per_ray`, the multi-kd-tree paper's traversal steps).
 """
 
 import argparse
@@ -19,7 +21,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import apply_filters, column, number, read_rows  # noqa: E402
+from common import amount, apply_filters, column, read_rows  # noqa: E402
 
 
 # Columns that identify a row (the others are measurements).
@@ -43,7 +45,7 @@ def build(rows, args):
     summed = {}
     for key, rs in cells.items():
         if args.sum and len(rs) > 1 and len({r[args.sum] for r in rs}) == len(rs):
-            vals = [number(column(r, args.value)) for r in rs]
+            vals = [amount(r, args.value) for r in rs]
             summed[key] = None if None in vals else sum(vals)
             continue
         if len(rs) > 1:
@@ -55,7 +57,7 @@ def build(rows, args):
             return None
         if key in summed:
             return summed[key]
-        return number(column(cells[key][0], args.value))
+        return amount(cells[key][0], args.value)
 
     row_keys = list(dict.fromkeys(k[0] for k in cells))
     col_keys = list(dict.fromkeys(k[1] for k in cells))

@@ -745,11 +745,17 @@ mod tests {
     /// counters as the plain ones.
     #[test]
     fn rays_traverse_their_patch_tree_and_sorting_changes_nothing() {
+        for layout in [KdLayout::DepthFirst, KdLayout::Treelet] {
+            per_ray_in(MultiKdParams {
+                measure: Heuristic::CubeObli,
+                layout,
+                ..Default::default()
+            });
+        }
+    }
+
+    fn per_ray_in(p: MultiKdParams) {
         let tris = grid();
-        let p = MultiKdParams {
-            measure: Heuristic::CubeObli,
-            ..Default::default()
-        };
         let m = MultiKdTree::build(&tris, &p);
         let alone: Vec<KdTree> = (0..3)
             .map(|i| {
