@@ -19,6 +19,10 @@
 //!   key, traced in that order, the answers put back in the rays' order; the sort is inside
 //!   the timed call, so a `-sorted` row's time is the paper's "inc." and the plain row's the
 //!   traversal without sorting.
+//! - **GPU** (`recursive-direction` only, `shaders/multikd.wgsl`): the per-ray choice from the
+//!   header and the stack walk of the CPU kernel in its order, so hits and counters agree ray
+//!   for ray (tb-harness `gpu_oracle`); either layout. The `-sorted` rows and a GPU sort pass
+//!   are CPU only.
 //! - **Controls**: `measure = sah` builds one SAH tree (the three patch measures are the same)
 //!   and every header entry names it; `trees = x | y | z` builds only that patch's tree with
 //!   the chosen measure and every ray traverses it (is the gain from specialising per
@@ -40,11 +44,12 @@ use crate::{
     layout, BackNode, DepthFirst, KdLayout, KdNode, KdParams, KdStart, KdTree, KdView, Layout,
     Nodes, Treelet, BACKTRACK_AUX, MAX_SHORT_STACK, ROPES_AUX, STACK_SIZE, STEP_CAP,
 };
+use std::borrow::Cow;
 use std::sync::{Arc, OnceLock};
 use tb_core::{
-    build_with, dispatch, Aabb, AccelError, BuildReport, Counter, Family, HitRecord, Kernel,
-    MemoryReport, ParamKind, Params, Query, Ray, Structure, TraceFn, Traversal, TraversalInfo,
-    TraversalStats, TriTest, TriTestKind, Triangle,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Counter, Family, GpuBuffer, GpuProgram,
+    HitRecord, Kernel, MemoryReport, ParamKind, Params, Query, Ray, Structure, TraceFn, Traversal,
+    TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle,
 };
 
 /// The multi-kd-tree in the registry.
@@ -357,6 +362,65 @@ impl MultiKdTree {
         }
     }
 
+    /// The GPU program of `recursive-direction` (`shaders/multikd.wgsl`: the CPU kernel's walk
+    /// in the CPU's order, so the counters agree ray for ray): the triangles in scene order,
+    /// the node array, the references and a 12-word header (roots X, Y, Z; the pick rule; the
+    /// layout; the root cell), the node count in `meta[0]`.
+    fn gpu_recursive_direction(&self) -> GpuProgram<'_> {
+        let words = |w: &[u32]| -> Cow<'_, [u8]> {
+            Cow::Owned(w.iter().flat_map(|x| x.to_le_bytes()).collect())
+        };
+        let nodes: Vec<u32> = self.nodes.iter().flat_map(|n| [n.bits, n.data]).collect();
+        let rule = match self.pick {
+            Heuristic::Sah => 0,
+            Heuristic::CubeOrth | Heuristic::CubeObli => 1,
+            _ => 2,
+        };
+        let mask = match self.kd.layout {
+            KdLayout::DepthFirst => 0,
+            KdLayout::Treelet => (1u32 << self.kd.treelet_height) - 1,
+        };
+        let (b0, b1) = (self.bounds.min, self.bounds.max);
+        let h = self.header;
+        let header = [
+            h[0],
+            h[1],
+            h[2],
+            rule,
+            mask,
+            b0.x.to_bits(),
+            b0.y.to_bits(),
+            b0.z.to_bits(),
+            b1.x.to_bits(),
+            b1.y.to_bits(),
+            b1.z.to_bits(),
+            0,
+        ];
+        GpuProgram {
+            name: "multi-kd/recursive-direction",
+            source: include_str!("../shaders/multikd.wgsl"),
+            triangles: Cow::Borrowed(&self.tris),
+            buffers: vec![
+                GpuBuffer {
+                    what: "the multi-kd-tree node array",
+                    bytes: words(&nodes),
+                },
+                GpuBuffer {
+                    what: "the multi-kd-tree reference array",
+                    bytes: words(&self.refs),
+                },
+                GpuBuffer {
+                    what: "the multi-kd-tree header",
+                    bytes: words(&header),
+                },
+            ],
+            meta: [self.nodes.len() as u32, 0, 0],
+            stack_size: STACK_SIZE as u32,
+            constants: Vec::new(),
+            unrolled_triangle_loop: None,
+        }
+    }
+
     /// The order of `rays` by tree index (stable counting sort on the 2-bit key, §6).
     pub fn sort_by_tree(&self, rays: &[Ray], order: &mut Vec<u32>) {
         let mut count = [0u32; 4];
@@ -495,7 +559,11 @@ impl Structure for MultiKdTree {
     /// The kd-tree's traversals (same names, same kernels) with the per-ray tree choice, then
     /// each as `NAME-sorted`.
     const TRAVERSALS: &'static [Traversal<Self>] = &[
-        Traversal::cpu(kd_info(0), per_ray!(|m, w| traverse::RecursiveDirection(w))),
+        Traversal::with_gpu(
+            kd_info(0),
+            per_ray!(|m, w| traverse::RecursiveDirection(w)),
+            MultiKdTree::gpu_recursive_direction,
+        ),
         Traversal::cpu(kd_info(1), per_ray!(|m, w| traverse::Havran(w))),
         Traversal::cpu(kd_info(2), per_ray!(|m, w| traverse::RecursiveOrigin(w))),
         Traversal::cpu(
