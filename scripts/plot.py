@@ -94,10 +94,10 @@ def sweep(args):
     rows, kind = pick_one(rows, "ray_kind", args.ray_kind)
     rows, threads = pick_one(rows, "threads", args.threads)
     rows, test = pick_one(rows, "triangle_test", args.triangle_test)
-    # Reference rows without the parameter (e.g. the SAH tree of the multi-kd-tree paper's
-    # Tables 6-7): dashed horizontal lines.
-    refs = apply_filters([r for r in rows if args.param not in params_of(r)], args.line or [])
-    rows = [r for r in rows if args.param in params_of(r)]
+    # Reference rows (e.g. the SAH tree of the multi-kd-tree paper's Tables 6-7): dashed
+    # horizontal lines, not points of the sweep.
+    refs = apply_filters(rows, args.line) if args.line else []
+    rows = [r for r in rows if args.param in params_of(r) and not any(r is x for x in refs)]
     if not rows:
         sys.exit(f"error: no rows with parameter `{args.param}` and a value of {args.metric}")
     lines = {}
@@ -114,7 +114,7 @@ def sweep(args):
     if args.line:
         for r in refs:
             ax.axhline(amount(r, args.metric), linestyle="--", linewidth=1,
-                       label=f"{r['scene']} {r['structure']} {r['params']} {r['traversal']}")
+                       label=f"{r['scene']} {r['structure']} {r['traversal']} ({', '.join(args.line)})")
     ax.set_xlabel(args.param)
     ax.set_ylabel(args.metric)
     ax.set_title(f"{args.metric} against {args.param} ({kind} rays, {threads} threads, {test})")
@@ -212,8 +212,8 @@ def main(argv):
     s.add_argument("--metric", default="mrays_per_s",
                    help="a column, or several joined by + and added up")
     s.add_argument("--line", action="append", metavar="COLUMN=VALUE",
-                   help="also draw the rows without the parameter that match as dashed "
-                        "horizontal lines (e.g. param:measure=sah)")
+                   help="draw the rows that match as dashed horizontal lines instead of sweep "
+                        "points (e.g. param:measure=sah); repeatable, all must hold")
     c = sub.add_parser("convergence", help="error against time, log-log")
     common(c)
     c.add_argument("--metric", default="rmse", choices=["rmse", "rel_mse"])
