@@ -108,12 +108,15 @@ def sweep(args):
             sys.exit(f"error: parameter `{args.param}` is not numeric ({params_of(r)[args.param]})")
         lines.setdefault(key, []).append((x, amount(r, args.metric)))
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    colour = {}
     for key, pts in sorted(lines.items()):
         pts.sort()
-        ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o", label=key)
+        line, = ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o", label=key)
+        colour.setdefault(key.split(" ")[0], line.get_color())
     if args.line:
         for r in refs:
             ax.axhline(amount(r, args.metric), linestyle="--", linewidth=1,
+                       color=colour.get(r["scene"], "grey"),
                        label=f"{r['scene']} {r['structure']} {r['traversal']} ({', '.join(args.line)})")
     ax.set_xlabel(args.param)
     ax.set_ylabel(args.metric)
