@@ -32,6 +32,12 @@
 //!   traversals is traced or prepared; each traversal's memory figure counts the arrays it
 //!   reads, built or not (review Table 3, "additional memory").
 //!
+//! - **Multi-kd-trees** (Torres et al. 2012): module `measure`, the direction-specialised cell
+//!   measures ([`measure::Heuristic`], weights by numerical integration, the per-ray tree
+//!   choice); module `multi`, [`multi::MultiKdTree`] (registry name `multi-kd`): three trees in
+//!   one node array with a header of roots over one triangle array, every traversal above run
+//!   from the root of the ray's tree, plain and `-sorted` by tree index.
+//!
 //! Robustness: triangle tests are never restricted to a leaf's interval (only to
 //! `[tmin, closest hit)`), and traversal stops only when the next node to visit starts beyond
 //! the closest hit found, so a hit found in a leaf beyond that leaf's exit never ends the walk
