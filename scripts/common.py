@@ -23,13 +23,26 @@ def params_of(row):
     return out
 
 
+def stats_of(row):
+    """The `build_stats` column `k=v;k=v` as a dict."""
+    out = {}
+    for kv in (row.get("build_stats") or "").split(";"):
+        if "=" in kv:
+            k, v = kv.split("=", 1)
+            out[k] = v
+    return out
+
+
 def column(row, name):
-    """Value of `name` in a row: a CSV column, `param:KEY` for one parameter, or several of
-    these joined by `+` (their values joined by `/`, empty ones left out)."""
+    """Value of `name` in a row: a CSV column, `param:KEY` for one parameter, `stat:KEY` for one
+    build figure (`build_stats`), or several of these joined by `+` (their values joined by
+    `/`, empty ones left out)."""
     if "+" in name:
         return "/".join(v for v in (column(row, n) for n in name.split("+")) if v)
     if name.startswith("param:"):
         return params_of(row).get(name[len("param:"):], "")
+    if name.startswith("stat:"):
+        return stats_of(row).get(name[len("stat:"):], "")
     if name not in row:
         sys.exit(f"error: no column `{name}` (columns: {', '.join(row.keys())})")
     return row[name]
@@ -41,6 +54,13 @@ def number(s):
         return float(s) if s not in ("", None) else None
     except ValueError:
         return None
+
+
+def amount(row, name):
+    """A numeric value: a column (or `stat:KEY`), or the sum of several joined by `+` (None
+    when one is empty), e.g. `planes_per_ray+prims_per_ray`."""
+    vals = [number(column(row, n)) for n in name.split("+")]
+    return None if None in vals else sum(vals)
 
 
 def apply_filters(rows, filters):

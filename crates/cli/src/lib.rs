@@ -122,6 +122,16 @@ enum Cmd {
     List,
     /// List the built-in scenes and their parameters.
     Scenes,
+    /// Print the normalised weights of the multi-kd-tree heuristics in the layout of Tables 1
+    /// and 2 of Torres et al. 2012, computed by numerical integration.
+    Weights {
+        /// The β values of Table 2 (default: the paper's 1, 2, 3, 4, 5, 10).
+        #[arg(long, value_delimiter = ',')]
+        beta: Vec<f64>,
+        /// Decimals of the percentages (the paper prints 2, truncated).
+        #[arg(long, default_value_t = 4)]
+        decimals: usize,
+    },
     /// Print a scene's triangles, bounds, zero-area count and memory.
     Info {
         /// `builtin:NAME?…` or a file path (relative to the scenes root).
@@ -208,6 +218,18 @@ fn dispatch(cli: Cli) -> Result<i32> {
         } => cmd_diff(&a, &b, &channel, max, &out),
         Cmd::List => {
             print!("{}", tb_harness::registry::Registry::builtin().listing());
+            Ok(0)
+        }
+        Cmd::Weights { beta, decimals } => {
+            let betas = if beta.is_empty() {
+                tb_harness::TABLE2_BETAS.to_vec()
+            } else {
+                beta
+            };
+            if let Some(b) = betas.iter().find(|b| !(**b > 0.0 && b.is_finite())) {
+                bail!("--beta {b}: beta must be a positive number");
+            }
+            print!("{}", tb_harness::weight_tables(&betas, decimals.min(12)));
             Ok(0)
         }
         Cmd::Scenes => {

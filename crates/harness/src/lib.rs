@@ -27,3 +27,7 @@ pub mod timing;
 pub mod validation;
 
 pub use error::HarnessError;
+
+/// Tables 1 and 2 of Torres et al. 2012 (the multi-kd-trees' normalised weights), computed by
+/// numerical integration (`trace-bench weights`).
+pub use tb_kdtree::measure::{weight_tables, TABLE2_BETAS};

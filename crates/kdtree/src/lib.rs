@@ -32,6 +32,12 @@
 //!   traversals is traced or prepared; each traversal's memory figure counts the arrays it
 //!   reads, built or not (review Table 3, "additional memory").
 //!
+//! - **Multi-kd-trees** (Torres et al. 2012): module `measure`, the direction-specialised cell
+//!   measures ([`measure::Heuristic`], weights by numerical integration, the per-ray tree
+//!   choice); module `multi`, [`multi::MultiKdTree`] (registry name `multi-kd`): three trees in
+//!   one node array with a header of roots over one triangle array, every traversal above run
+//!   from the root of the ray's tree, plain and `-sorted` by tree index.
+//!
 //! Robustness: triangle tests are never restricted to a leaf's interval (only to
 //! `[tmin, closest hit)`), and traversal stops only when the next node to visit starts beyond
 //! the closest hit found, so a hit found in a leaf beyond that leaf's exit never ends the walk
@@ -40,6 +46,8 @@
 
 mod build;
 mod layout;
+pub mod measure;
+pub mod multi;
 mod stackless;
 mod traverse;
 mod view;
@@ -374,7 +382,9 @@ impl KdTree {
     /// The [`BACKTRACK_AUX`] array (cell and parent per node, read by `backtrack` and
     /// `ropes`), built on first use.
     pub fn back_nodes(&self) -> &[BackNode] {
-        self.aux.back.get_or_init(|| view::back_nodes(&self.view()))
+        self.aux
+            .back
+            .get_or_init(|| view::back_nodes(&self.view(), &[0]))
     }
 
     /// The [`ROPES_AUX`] array (six ropes per node, read by `ropes`; `u32::MAX`: the face is
@@ -382,7 +392,7 @@ impl KdTree {
     pub fn ropes(&self) -> &[[u32; 6]] {
         self.aux
             .ropes
-            .get_or_init(|| view::ropes(&self.view(), self.back_nodes()))
+            .get_or_init(|| view::ropes(&self.view(), self.back_nodes(), &[0]))
     }
 
     /// Whether auxiliary array `aux` ([`BACKTRACK_AUX`], [`ROPES_AUX`]) has been built.
@@ -433,22 +443,33 @@ impl KdTree {
     }
 
     fn check_invariants(&self) -> Result<(), String> {
-        let nodes = &self.nodes;
-        let n_tris = self.tris.len();
-        if nodes.is_empty() {
-            return if self.prim_refs.is_empty() {
-                Ok(())
-            } else {
-                Err("references without nodes".into())
-            };
-        }
-        if let Some(k) = self.prim_refs.iter().position(|&r| r as usize >= n_tris) {
-            return Err(format!("prim_refs[{k}] out of range ({n_tris} triangles)"));
-        }
-        let depth_limit = self.params.depth_limit(n_tris) as usize;
-        let mut visited = vec![false; nodes.len()];
+        check_trees(&self.view(), &[0], &self.params)
+    }
+}
+
+/// The invariants of the trees rooted at `roots` in the node array of `v` (one for a kd-tree,
+/// several for a multi-kd-tree): node and reference indices in range, children after their
+/// parent and distinct, every node reached once from exactly one root (the treelet layout's
+/// unused slots empty), depth within the limit, splits inside their cells, every referenced
+/// triangle's box overlapping its leaf cell, every finite triangle referenced in every tree.
+pub(crate) fn check_trees(v: &KdView, roots: &[u32], params: &KdParams) -> Result<(), String> {
+    let nodes = v.nodes;
+    let n_tris = v.tris.len();
+    if nodes.is_empty() {
+        return if v.refs.is_empty() {
+            Ok(())
+        } else {
+            Err("references without nodes".into())
+        };
+    }
+    if let Some(k) = v.refs.iter().position(|&r| r as usize >= n_tris) {
+        return Err(format!("prim_refs[{k}] out of range ({n_tris} triangles)"));
+    }
+    let depth_limit = params.depth_limit(n_tris) as usize;
+    let mut visited = vec![false; nodes.len()];
+    for &root in roots {
         let mut referenced = vec![false; n_tris];
-        let mut stack = vec![(0usize, self.bounds, 0usize)];
+        let mut stack = vec![(root as usize, v.bounds, 0usize)];
         while let Some((i, cell, depth)) = stack.pop() {
             if i >= nodes.len() {
                 return Err(format!("node index {i} out of range ({})", nodes.len()));
@@ -462,16 +483,16 @@ impl KdTree {
             let n = nodes[i];
             if n.is_leaf() {
                 let (o, c) = (n.offset(), n.count() as usize);
-                if o + c > self.prim_refs.len() {
+                if o + c > v.refs.len() {
                     return Err(format!(
                         "leaf {i}: references {o}..{} out of range ({})",
                         o + c,
-                        self.prim_refs.len()
+                        v.refs.len()
                     ));
                 }
-                for &r in &self.prim_refs[o..o + c] {
+                for &r in &v.refs[o..o + c] {
                     referenced[r as usize] = true;
-                    let tb = self.tris[r as usize].bounds();
+                    let tb = v.tris[r as usize].bounds();
                     let tol = build::tolerance(&tb);
                     let grown = Aabb::new(tb.min - tol, tb.max + tol);
                     if intersect(&grown, &cell).is_empty() {
@@ -481,7 +502,7 @@ impl KdTree {
                     }
                 }
             } else {
-                let ((l, r), s) = (self.children(i), n.split());
+                let ((l, r), s) = (v.children(i), n.split());
                 let a = n.axis();
                 // Children after their parent (so no cycles), distinct, in range.
                 if l <= i || r <= l || r >= nodes.len() {
@@ -495,20 +516,21 @@ impl KdTree {
                 stack.push((l, lc, depth + 1));
             }
         }
-        // Every node is reachable; the treelet layout's unused slots stay empty.
-        let unused =
-            |i: usize| self.params.layout == KdLayout::Treelet && nodes[i] == layout::EMPTY_SLOT;
-        if let Some(i) = (0..nodes.len()).find(|&i| !visited[i] && !unused(i)) {
-            return Err(format!("node {i} is unreachable from the root"));
-        }
-        for (k, t) in self.tris.iter().enumerate() {
+        for (k, t) in v.tris.iter().enumerate() {
             let finite = t.v0.is_finite() && t.v1.is_finite() && t.v2.is_finite();
             if finite && !referenced[k] {
-                return Err(format!("triangle {k} is referenced by no leaf"));
+                return Err(format!(
+                    "triangle {k} is referenced by no leaf of the tree at {root}"
+                ));
             }
         }
-        Ok(())
     }
+    // Every node is reachable; the treelet layout's unused slots stay empty.
+    let unused = |i: usize| v.layout == KdLayout::Treelet && nodes[i] == layout::EMPTY_SLOT;
+    if let Some(i) = (0..nodes.len()).find(|&i| !visited[i] && !unused(i)) {
+        return Err(format!("node {i} is unreachable from the root"));
+    }
+    Ok(())
 }
 
 /// The two children's cells of `cell` split on `axis` at `s`.

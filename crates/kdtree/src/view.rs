@@ -138,8 +138,10 @@ pub struct BackNode {
 
 const _: () = assert!(std::mem::size_of::<BackNode>() == 32);
 
-/// Per node of `v`: its cell and its parent (the `backtrack` auxiliary array).
-pub(crate) fn back_nodes(v: &KdView) -> Vec<BackNode> {
+/// Per node of `v`: its cell and its parent (the `backtrack` auxiliary array), over the trees
+/// rooted at `roots` (one root for a kd-tree; several trees in one node array for
+/// multi-kd-trees), each root its own parent. Nodes of no tree keep a blank record.
+pub(crate) fn back_nodes(v: &KdView, roots: &[u32]) -> Vec<BackNode> {
     let blank = BackNode {
         min: [0.0; 3],
         parent: 0,
@@ -147,15 +149,24 @@ pub(crate) fn back_nodes(v: &KdView) -> Vec<BackNode> {
         pad: 0,
     };
     let mut back = vec![blank; v.nodes.len()];
-    v.walk(v.root(), |i, cell, _| {
-        back[i].min = cell.min.to_array();
-        back[i].max = cell.max.to_array();
-        if !v.nodes[i].is_leaf() {
-            let (l, r) = v.children(i);
-            back[l].parent = i as u32;
-            back[r].parent = i as u32;
+    for &root in roots {
+        let from = KdStart {
+            node: root,
+            cell: v.bounds,
+        };
+        if !v.nodes.is_empty() {
+            back[root as usize].parent = root;
         }
-    });
+        v.walk(from, |i, cell, _| {
+            back[i].min = cell.min.to_array();
+            back[i].max = cell.max.to_array();
+            if !v.nodes[i].is_leaf() {
+                let (l, r) = v.children(i);
+                back[l].parent = i as u32;
+                back[r].parent = i as u32;
+            }
+        });
+    }
     back
 }
 
@@ -167,8 +178,9 @@ pub(crate) const NO_ROPE: u32 = u32::MAX;
 /// deepest node whose cell holds the whole face on the other side, pushed down from the
 /// parent's ropes (Popov et al.'s rope optimisation): through a split parallel to the face to
 /// the adjacent child, through a split missing the face to the child holding it. Meaningful for
-/// leaves; interior nodes keep their (pushed-down) ropes too.
-pub(crate) fn ropes(v: &KdView, back: &[BackNode]) -> Vec<[u32; 6]> {
+/// leaves; interior nodes keep their (pushed-down) ropes too. Over the trees rooted at `roots`
+/// (see [`back_nodes`]): a rope never leaves its tree.
+pub(crate) fn ropes(v: &KdView, back: &[BackNode], roots: &[u32]) -> Vec<[u32; 6]> {
     let nodes = v.nodes;
     let mut out = vec![[NO_ROPE; 6]; nodes.len()];
     if nodes.is_empty() {
@@ -199,7 +211,7 @@ pub(crate) fn ropes(v: &KdView, back: &[BackNode]) -> Vec<[u32; 6]> {
         }
         t
     };
-    let mut stack = vec![(0usize, [NO_ROPE; 6])];
+    let mut stack: Vec<_> = roots.iter().map(|&r| (r as usize, [NO_ROPE; 6])).collect();
     while let Some((i, mut r)) = stack.pop() {
         let b = &back[i];
         for (f, rope) in r.iter_mut().enumerate() {

@@ -54,4 +54,66 @@ impl Scene {
     pub fn memory_bytes(&self) -> usize {
         std::mem::size_of_val(self.triangles.as_slice())
     }
+
+    /// Put the scene inside a closed box (12 triangles appended): the bounds of the scene and
+    /// of `points` (the camera's eye, the light), grown on every side by `margin` times their
+    /// diagonal, so that no ray leaves the scene (Torres et al. 2012 §6: "a bounding box
+    /// enclosing BUNNY to prevent the rays from getting away from the scene").
+    pub fn enclose(&mut self, points: &[Vec3], margin: f32) {
+        let mut b = self.bounds;
+        for p in points {
+            b.grow(*p);
+        }
+        let pad = Vec3::splat(margin * b.diagonal());
+        let (lo, hi) = (b.min - pad, b.max + pad);
+        let corner = |i: usize| {
+            Vec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            )
+        };
+        // Per face: four corners in cyclic order, two triangles.
+        const FACES: [[usize; 4]; 6] = [
+            [0, 2, 6, 4],
+            [1, 5, 7, 3],
+            [0, 4, 5, 1],
+            [2, 3, 7, 6],
+            [0, 1, 3, 2],
+            [4, 6, 7, 5],
+        ];
+        for f in FACES {
+            let [a, b, c, d] = f.map(corner);
+            self.triangles.push(Triangle::new(a, b, c));
+            self.triangles.push(Triangle::new(a, c, d));
+        }
+        self.bounds = Aabb::new(lo, hi);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The box holds the scene and the points with the margin, is closed (its 12 triangles'
+    /// area is the box's surface) and keeps the scene's triangles first.
+    #[test]
+    fn enclose_adds_a_closed_box_around_scene_and_points() {
+        let t = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
+        let mut s = Scene::from_triangles("t", vec![t]);
+        let eye = Vec3::new(0.5, 0.5, 3.0);
+        s.enclose(&[eye], 0.1);
+        assert_eq!(s.triangles.len(), 13);
+        assert_eq!(s.triangles[0], t);
+        let pad = 0.1 * Vec3::new(1.0, 1.0, 3.0).length();
+        assert!((s.bounds.min.x + pad).abs() < 1e-6 && (s.bounds.max.z - 3.0 - pad).abs() < 1e-5);
+        let area: f32 = s.triangles[1..].iter().map(|t| t.area()).sum();
+        assert!(
+            (area - s.bounds.area()).abs() < 1e-4 * area,
+            "{area} {}",
+            s.bounds.area()
+        );
+        let fresh = Scene::from_triangles("t", s.triangles.clone());
+        assert_eq!(fresh.bounds, s.bounds);
+    }
 }

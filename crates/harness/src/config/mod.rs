@@ -80,6 +80,7 @@ struct RawScene {
     random: Option<RawRandom>,
     validate: Option<Spanned<toml::Value>>,
     optional: Option<bool>,
+    enclose: Option<bool>,
 }
 
 #[derive(Deserialize)]

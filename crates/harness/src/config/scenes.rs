@@ -71,7 +71,7 @@ pub(super) fn check_scene(
         }
     }
     progress(src);
-    let scene = tb_scene::load(src, scenes_root)
+    let mut scene = tb_scene::load(src, scenes_root)
         .map_err(|e| cx.err(span.clone(), "scene.source", e.to_string()))?;
     if scene.triangles.is_empty() {
         return Err(cx.err(span, "scene.source", "the scene has no triangles"));
@@ -102,6 +102,13 @@ pub(super) fn check_scene(
         .light
         .map(Vec3::from)
         .or(view.as_ref().and_then(|v| v.light));
+    let enclosed = s.enclose == Some(true);
+    if enclosed {
+        // Torres et al. 2012 §6: the Bunny inside a box, so that no ray leaves the scene.
+        let mut points: Vec<Vec3> = camera.iter().map(|c| c.eye).collect();
+        points.extend(light);
+        scene.enclose(&points, 0.05);
+    }
     let diag = scene.bounds.diagonal();
     let ao_distance =
         s.ao.as_ref()
@@ -123,7 +130,14 @@ pub(super) fn check_scene(
     if random_count == 0 || random_count > 1 << 28 {
         return Err(cx.err(span, "scene.random.count", "must be in 1..=2^28"));
     }
-    let label = s.name.clone().unwrap_or_else(|| scene_label(src));
+    let label = s.name.clone().unwrap_or_else(|| {
+        let l = scene_label(src);
+        if enclosed {
+            format!("{l}-boxed")
+        } else {
+            l
+        }
+    });
     let scene_validate = match &s.validate {
         None => validate,
         Some(v) => parse_validate(cx, v, "scene.validate")?,

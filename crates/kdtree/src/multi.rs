@@ -1,0 +1,903 @@
+//! Multi-kd-trees (Torres et al. 2012, "Improving ray traversal by using several specialized
+//! kd-trees", GRAPP 2012, sections 5-6): three kd-trees over one triangle array, each built with
+//! the measure of one set of directions ([`crate::measure`]), and every ray traversing the tree
+//! of the set holding its direction.
+//!
+//! - **Build** (§5): `kd-tree_n^(i)` for `i` = X, Y, Z, each with [`crate::KdTree::try_build`]
+//!   and the [`WeightedArea`] measure of heuristic `measure` for patch `i` (the builder, its
+//!   cost constants and termination as for the kd-tree; the paper uses `C_plane = C_tri = 1`,
+//!   §7, this structure's defaults).
+//! - **Layout** (§6): the trees' nodes in one node array, each tree contiguous (in the treelet
+//!   layout each starts on a block boundary), their leaf references in one reference array,
+//!   and a *header* of three root indices, one per patch; the triangles are shared.
+//! - **Traversal** (§5): every kd-tree traversal of the review ([`crate::KdTree`]'s table, same
+//!   names) runs unchanged from the root the header gives for the ray's patch
+//!   ([`Heuristic::pick`]: cube mapping for the cubic heuristics, the spherical patches
+//!   otherwise): the per-ray choice wraps the traversal kernel ([`KdStart`]). Each also comes
+//!   as `NAME-sorted` (§6, "ray arrangement"): the rays of each traced chunk (the runner's
+//!   [`tb_core::par::CHUNK`] rays) first ordered by tree index with a counting sort on the 2-bit
+//!   key, traced in that order, the answers put back in the rays' order; the sort is inside
+//!   the timed call, so a `-sorted` row's time is the paper's "inc." and the plain row's the
+//!   traversal without sorting.
+//! - **GPU** (`recursive-direction` only, `shaders/multikd.wgsl`): the per-ray choice from the
+//!   header and the stack walk of the CPU kernel in its order, so hits and counters agree ray
+//!   for ray (tb-harness `gpu_oracle`); either layout. The `-sorted` rows and a GPU sort pass
+//!   are CPU only.
+//! - **Controls**: `measure = sah` builds one SAH tree (the three patch measures are the same)
+//!   and every header entry names it; `trees = x | y | z` builds only that patch's tree with
+//!   the chosen measure and every ray traverses it (is the gain from specialising per
+//!   direction or from the measure?). Both still evaluate the per-ray choice, so rows differ
+//!   only in the trees.
+//!
+//! Counters: the kd-tree's (see [`crate::KdTree`]); the paper's "traversal step" (§7: a plane
+//! or a triangle intersection) is `planes + prims` of the `recursive-direction` traversal,
+//! which computes one plane distance per interior node visited, as the paper's stack
+//! traversal does. Memory: the real arrays ([`Structure::own_memory`]: 8-byte nodes,
+//! 4-byte references, the triangles, the header) and, in the build report, the paper's
+//! Table 3 figure (`paper_bytes`: 16 bytes a node, 4 a reference).
+
+use crate::measure::{Heuristic, WeightedArea};
+use crate::stackless::{self, Stackless};
+use crate::traverse::{self, Tree};
+use crate::view::{self, Aux};
+use crate::{
+    layout, BackNode, DepthFirst, KdLayout, KdNode, KdParams, KdStart, KdTree, KdView, Layout,
+    Nodes, Treelet, BACKTRACK_AUX, MAX_SHORT_STACK, ROPES_AUX, STACK_SIZE, STEP_CAP,
+};
+use std::borrow::Cow;
+use std::sync::{Arc, OnceLock};
+use tb_core::{
+    build_with, dispatch, Aabb, AccelError, BuildReport, Counter, Family, GpuBuffer, GpuProgram,
+    HitRecord, Kernel, MemoryReport, ParamKind, Params, Query, Ray, Structure, TraceFn, Traversal,
+    TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle,
+};
+
+/// The multi-kd-tree in the registry.
+pub static FAMILY: Family = Family::new::<MultiKdTree, MultiKdParams>(
+    "Multi-kd-tree: three kd-trees built with direction-specialised SAH measures \
+     (sphere/cube/cos, orthogonal/oblique), one node array with a header of roots, each ray \
+     traversing the tree of its direction's patch; every kd traversal, plain and \
+     `-sorted` by tree index (Torres et al. 2012)",
+    |tris, set| {
+        build_with(set, |p: &MultiKdParams| {
+            MultiKdTree::try_build(tris.clone(), p)
+        })
+    },
+);
+
+tb_core::choice! {
+    /// Which trees a [`MultiKdTree`] holds.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Trees {
+        /// One tree per patch, each ray the tree of its patch (§5).
+        Multi = "multi",
+        /// Only patch X's tree, traversed by every ray (control).
+        X = "x",
+        /// Only patch Y's tree, traversed by every ray (control).
+        Y = "y",
+        /// Only patch Z's tree, traversed by every ray (control).
+        Z = "z",
+    }
+}
+
+tb_core::params! {
+    /// Build parameters of [`MultiKdTree`]: the heuristic and the trees, then the kd-tree's
+    /// own parameters ([`KdParams`]; `c_isect` defaults to the paper's 1).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct MultiKdParams {
+        /// Cell measure of the trees (Torres et al. 2012 §3-4): `sah`, `sphere-orth`,
+        /// `sphere-obli`, `cube-orth`, `cube-obli`, `cos-orth`, `cos-obli`.
+        measure: Heuristic = Heuristic::SphereOrth, ParamKind::Choice(Heuristic::NAMES);
+        /// Exponent of the cosine heuristics' density `(ω·N)^β` (§4.3; the paper sweeps
+        /// 0.5 to 20).
+        beta: f32 = 2.0, ParamKind::Float { min: 0.01, max: 100.0 };
+        /// `multi`: a tree per patch, chosen per ray; `x`, `y`, `z`: that patch's tree alone,
+        /// for every ray (control).
+        trees: Trees = Trees::Multi, ParamKind::Choice(Trees::NAMES);
+        /// Split search of each tree (see the kd-tree's `builder`).
+        builder: crate::KdBuilder = crate::KdBuilder::Sweep,
+            ParamKind::Choice(crate::KdBuilder::NAMES);
+        /// Bins per axis, `binned` builder only.
+        bins: u32 = 32, ParamKind::Int { min: 2, max: 1024 };
+        /// Cost of a plane test, `Cost_plane` (§3; 1 in §7).
+        c_trav: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
+        /// Cost of a triangle test, `Cost_tri` (§3; 1 in §7).
+        c_isect: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
+        /// A split with an empty side costs (1 - bonus) times the SAH (Wald and Havran 2006).
+        empty_bonus: f32 = 0.2, ParamKind::Float { min: 0.0, max: 0.999 };
+        /// Depth limit (0 = round(8 + 1.3 log2 N), Havran 2000).
+        max_depth: u32 = 0, ParamKind::Int { min: 0, max: STACK_SIZE as i64 };
+        /// Nodes with at most this many triangles become leaves.
+        min_leaf: u32 = 1, ParamKind::Int { min: 0, max: 1024 };
+        /// Entries of the short stack (`short-stack`, `stack-spilling`).
+        short_stack: u32 = 4, ParamKind::Int { min: 1, max: MAX_SHORT_STACK as i64 };
+        /// Per-ray step cap of the restart-type traversals.
+        step_cap: u32 = STEP_CAP, ParamKind::Int { min: 1, max: 1 << 30 };
+        /// Node layout of every tree: `depth-first` or `treelet`.
+        layout: KdLayout = KdLayout::DepthFirst, ParamKind::Choice(KdLayout::NAMES);
+        /// Levels per treelet block.
+        treelet_height: u32 = 3, ParamKind::Int { min: 2, max: 8 };
+    }
+}
+
+impl MultiKdParams {
+    /// The kd-tree parameters of each tree.
+    pub fn kd(&self) -> KdParams {
+        KdParams {
+            builder: self.builder,
+            bins: self.bins,
+            c_trav: self.c_trav,
+            c_isect: self.c_isect,
+            empty_bonus: self.empty_bonus,
+            max_depth: self.max_depth,
+            min_leaf: self.min_leaf,
+            short_stack: self.short_stack,
+            step_cap: self.step_cap,
+            layout: self.layout,
+            treelet_height: self.treelet_height,
+        }
+    }
+}
+
+/// One tree of the node array.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TreeEntry {
+    /// The patch whose measure built it (0 = X, 1 = Y, 2 = Z; 0 for SAH).
+    pub patch: usize,
+    /// The normalised weights of its measure.
+    pub weights: [f64; 3],
+    /// Its root (first node) in the node array, and its node slots.
+    pub root: u32,
+    pub slots: u32,
+    /// Nodes (interior and leaves, unused treelet slots not counted) and references.
+    pub nodes: u64,
+    pub refs: u64,
+    pub leaves: u64,
+    /// Its SAH cost under its own measure, relative to the root.
+    pub cost: f64,
+}
+
+/// A multi-kd-tree (see the module doc).
+#[derive(Clone, Debug)]
+pub struct MultiKdTree {
+    nodes: Arc<Nodes>,
+    refs: Arc<[u32]>,
+    tris: Arc<[Triangle]>,
+    bounds: Aabb,
+    params: MultiKdParams,
+    kd: KdParams,
+    /// The rule choosing a ray's patch.
+    pick: Heuristic,
+    /// Root node per patch (the header array of §6).
+    header: [u32; 3],
+    trees: Vec<TreeEntry>,
+    aux: Arc<AuxArrays>,
+}
+
+#[derive(Debug, Default)]
+struct AuxArrays {
+    back: OnceLock<Vec<BackNode>>,
+    ropes: OnceLock<Vec<[u32; 6]>>,
+}
+
+impl MultiKdTree {
+    /// Build the trees over shared triangles; `Err` for parameters out of range or 2^30 or
+    /// more triangles (or references).
+    pub fn try_build(tris: Arc<[Triangle]>, p: &MultiKdParams) -> Result<MultiKdTree, AccelError> {
+        for ((name, value), spec) in p.to_set().0.iter().zip(MultiKdParams::SPECS) {
+            spec.check(value)
+                .map_err(|e| AccelError::Params(format!("multi-kd parameter `{name}`: {e}")))?;
+        }
+        let kd = p.kd();
+        let patches: Vec<usize> = match (p.measure.is_isotropic(), p.trees) {
+            (true, _) => vec![0],
+            (false, Trees::Multi) => vec![0, 1, 2],
+            (false, Trees::X) => vec![0],
+            (false, Trees::Y) => vec![1],
+            (false, Trees::Z) => vec![2],
+        };
+        let built: Vec<(usize, [f64; 3], KdTree)> = patches
+            .iter()
+            .map(|&i| {
+                let w = p.measure.weights(i, p.beta as f64);
+                let m = WeightedArea([w[0] as f32, w[1] as f32, w[2] as f32]);
+                let t = if p.measure.is_isotropic() {
+                    // The SAH: the kd-tree's own measure, so the control is that very tree.
+                    KdTree::try_build(tris.clone(), &kd, &crate::SurfaceArea)
+                } else {
+                    KdTree::try_build(tris.clone(), &kd, &m)
+                };
+                t.map(|t| (i, w, t))
+            })
+            .collect::<Result<_, _>>()?;
+        let bounds = built[0].2.bounds();
+        let block = match kd.layout {
+            KdLayout::DepthFirst => 1,
+            KdLayout::Treelet => 1usize << kd.treelet_height,
+        };
+        let mut nodes: Vec<KdNode> = Vec::new();
+        let mut refs: Vec<u32> = Vec::new();
+        let mut trees = Vec::new();
+        for (patch, weights, t) in &built {
+            debug_assert_eq!(t.bounds(), bounds, "one root cell for every tree");
+            // Each tree on a block boundary, so the treelet layout's implicit addressing
+            // (`index & mask`) stays right.
+            while !nodes.len().is_multiple_of(block) {
+                nodes.push(layout::EMPTY_SLOT);
+            }
+            let (base, rbase) = (nodes.len() as u64, refs.len() as u64);
+            if base + t.nodes().len() as u64 >= 1 << 30
+                || rbase + t.prim_refs().len() as u64 >= 1 << 32
+            {
+                return Err(AccelError::TooLarge {
+                    what: "multi-kd-tree nodes",
+                    count: base + t.nodes().len() as u64,
+                    limit: 1 << 30,
+                });
+            }
+            let (base, rbase) = (base as u32, rbase as u32);
+            nodes.extend(t.nodes().iter().map(|n| {
+                if !n.is_leaf() {
+                    KdNode::interior(n.axis(), n.split(), n.link() as u32 + base)
+                } else if n.count() > 0 {
+                    KdNode::leaf(n.offset() as u32 + rbase, n.count())
+                } else {
+                    *n
+                }
+            }));
+            refs.extend_from_slice(t.prim_refs());
+            let r = Structure::report(t);
+            let get = |k: &str| r.extra.iter().find(|(n, _)| n == k).map_or(0.0, |x| x.1);
+            trees.push(TreeEntry {
+                patch: *patch,
+                weights: *weights,
+                root: base,
+                slots: t.nodes().len() as u32,
+                nodes: get("nodes") as u64,
+                refs: t.prim_refs().len() as u64,
+                leaves: get("leaves") as u64,
+                cost: measured_cost(t, *weights),
+            });
+        }
+        let mut header = [trees[0].root; 3];
+        if trees.len() == 3 {
+            for (h, t) in header.iter_mut().zip(&trees) {
+                *h = t.root;
+            }
+        }
+        Ok(MultiKdTree {
+            nodes: Arc::new(Nodes::from_slice(&nodes)),
+            refs: refs.into(),
+            tris,
+            bounds,
+            params: *p,
+            kd,
+            pick: p.measure,
+            header,
+            trees,
+            aux: Arc::default(),
+        })
+    }
+
+    /// Build with `p`; panics where [`MultiKdTree::try_build`] fails.
+    pub fn build(tris: &[Triangle], p: &MultiKdParams) -> MultiKdTree {
+        Self::try_build(tris.into(), p).unwrap_or_else(|e| panic!("multi-kd-tree: {e}"))
+    }
+
+    /// The view of the whole node array (walks begin at a header entry).
+    pub fn view(&self) -> KdView<'_> {
+        KdView {
+            nodes: &self.nodes,
+            refs: &self.refs,
+            tris: &self.tris,
+            bounds: self.bounds,
+            layout: self.kd.layout,
+            treelet_height: self.kd.treelet_height,
+            short_stack: self.kd.short_stack,
+            step_cap: self.kd.step_cap,
+        }
+    }
+
+    /// The header: the root node of the tree each patch's rays traverse (X, Y, Z).
+    pub fn header(&self) -> [u32; 3] {
+        self.header
+    }
+
+    /// The start of the walks of patch `i`'s rays.
+    pub fn start(&self, i: usize) -> KdStart {
+        KdStart {
+            node: if self.nodes.is_empty() {
+                0
+            } else {
+                self.header[i]
+            },
+            cell: self.bounds,
+        }
+    }
+
+    /// The tree index (0, 1, 2: the header entry) ray direction `d` selects (§5).
+    #[inline(always)]
+    pub fn tree_of(&self, d: [f32; 3]) -> usize {
+        self.pick.pick(d)
+    }
+
+    /// The distinct trees, in node-array order.
+    pub fn trees(&self) -> &[TreeEntry] {
+        &self.trees
+    }
+
+    /// The parameters it was built with.
+    pub fn params(&self) -> &MultiKdParams {
+        &self.params
+    }
+
+    /// The roots of the distinct trees.
+    fn roots(&self) -> Vec<u32> {
+        if self.nodes.is_empty() {
+            return Vec::new();
+        }
+        self.trees.iter().map(|t| t.root).collect()
+    }
+
+    /// [`BACKTRACK_AUX`] over every tree, built on first use.
+    pub fn back_nodes(&self) -> &[BackNode] {
+        self.aux
+            .back
+            .get_or_init(|| view::back_nodes(&self.view(), &self.roots()))
+    }
+
+    /// [`ROPES_AUX`] over every tree, built on first use.
+    pub fn ropes(&self) -> &[[u32; 6]] {
+        self.aux
+            .ropes
+            .get_or_init(|| view::ropes(&self.view(), self.back_nodes(), &self.roots()))
+    }
+
+    /// The per-ray kernel: `make` applied to the walk input of each header entry.
+    fn per_ray<'a, L: Layout, K>(&'a self, l: L, make: impl Fn(Tree<'a, L>) -> K) -> PerRay<K> {
+        let v = self.view();
+        PerRay {
+            k: [0, 1, 2].map(|i| make(Tree::new(v, l, self.start(i)))),
+            pick: self.pick,
+        }
+    }
+
+    /// The GPU program of `recursive-direction` (`shaders/multikd.wgsl`: the CPU kernel's walk
+    /// in the CPU's order, so the counters agree ray for ray): the triangles in scene order,
+    /// the node array, the references and a 12-word header (roots X, Y, Z; the pick rule; the
+    /// layout; the root cell), the node count in `meta[0]`.
+    fn gpu_recursive_direction(&self) -> GpuProgram<'_> {
+        let words = |w: &[u32]| -> Cow<'_, [u8]> {
+            Cow::Owned(w.iter().flat_map(|x| x.to_le_bytes()).collect())
+        };
+        let nodes: Vec<u32> = self.nodes.iter().flat_map(|n| [n.bits, n.data]).collect();
+        let rule = match self.pick {
+            Heuristic::Sah => 0,
+            Heuristic::CubeOrth | Heuristic::CubeObli => 1,
+            _ => 2,
+        };
+        let mask = match self.kd.layout {
+            KdLayout::DepthFirst => 0,
+            KdLayout::Treelet => (1u32 << self.kd.treelet_height) - 1,
+        };
+        let (b0, b1) = (self.bounds.min, self.bounds.max);
+        let h = self.header;
+        let header = [
+            h[0],
+            h[1],
+            h[2],
+            rule,
+            mask,
+            b0.x.to_bits(),
+            b0.y.to_bits(),
+            b0.z.to_bits(),
+            b1.x.to_bits(),
+            b1.y.to_bits(),
+            b1.z.to_bits(),
+            0,
+        ];
+        GpuProgram {
+            name: "multi-kd/recursive-direction",
+            source: include_str!("../shaders/multikd.wgsl"),
+            triangles: Cow::Borrowed(&self.tris),
+            buffers: vec![
+                GpuBuffer {
+                    what: "the multi-kd-tree node array",
+                    bytes: words(&nodes),
+                },
+                GpuBuffer {
+                    what: "the multi-kd-tree reference array",
+                    bytes: words(&self.refs),
+                },
+                GpuBuffer {
+                    what: "the multi-kd-tree header",
+                    bytes: words(&header),
+                },
+            ],
+            meta: [self.nodes.len() as u32, 0, 0],
+            stack_size: STACK_SIZE as u32,
+            constants: Vec::new(),
+            unrolled_triangle_loop: None,
+        }
+    }
+
+    /// The order of `rays` by tree index (stable counting sort on the 2-bit key, §6).
+    pub fn sort_by_tree(&self, rays: &[Ray], order: &mut Vec<u32>) {
+        let mut count = [0u32; 4];
+        let keys: Vec<u8> = rays
+            .iter()
+            .map(|r| {
+                let k = self.tree_of(r.dir.to_array()) as u8;
+                count[k as usize] += 1;
+                k
+            })
+            .collect();
+        let mut start = [0u32; 4];
+        for k in 1..4 {
+            start[k] = start[k - 1] + count[k - 1];
+        }
+        order.clear();
+        order.resize(rays.len(), 0);
+        for (i, &k) in keys.iter().enumerate() {
+            order[start[k as usize] as usize] = i as u32;
+            start[k as usize] += 1;
+        }
+    }
+}
+
+/// The SAH-type cost of `t` under the measure with weights `w`:
+/// `(C_trav·Σ_interior μ(n) + C_isect·Σ_leaves μ(l)·|l|) / μ(root)`.
+fn measured_cost(t: &KdTree, w: [f64; 3]) -> f64 {
+    let mu = |b: &Aabb| {
+        let e = b.max - b.min;
+        w[0] * (e.y * e.z) as f64 + w[1] * (e.x * e.z) as f64 + w[2] * (e.x * e.y) as f64
+    };
+    let (mut ia, mut la) = (0.0, 0.0);
+    let v = t.view();
+    v.walk(v.root(), |i, cell, _| {
+        let n = t.nodes()[i];
+        if n.is_leaf() {
+            la += mu(cell) * n.count() as f64;
+        } else {
+            ia += mu(cell);
+        }
+    });
+    let p = t.params();
+    (p.c_trav as f64 * ia + p.c_isect as f64 * la) / mu(&t.bounds())
+}
+
+/// A kd traversal kernel per header entry; each ray runs the one of its tree (§5).
+struct PerRay<K> {
+    k: [K; 3],
+    pick: Heuristic,
+}
+
+impl<K: Kernel> Kernel for PerRay<K> {
+    #[inline(always)]
+    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.k[self.pick.pick(ray.dir.to_array())].closest::<T, C>(ray, c)
+    }
+
+    #[inline(always)]
+    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.k[self.pick.pick(ray.dir.to_array())].any::<T, C>(ray, c)
+    }
+}
+
+/// A traversal row's trace fn: the kd kernel `$kernel` (of the tree `$m` and a walk input
+/// `$w`) per header entry, compiled per layout, the entry picked per ray.
+macro_rules! per_ray {
+    (|$m:ident, $w:ident| $kernel:expr) => {
+        |$m: &MultiKdTree, query, tri, rays, hits, stats| match $m.kd.layout {
+            KdLayout::DepthFirst => {
+                let k = $m.per_ray(DepthFirst, |$w| $kernel);
+                dispatch(&k, query, tri, rays, hits, stats)
+            }
+            KdLayout::Treelet => {
+                let k = $m.per_ray(Treelet::new($m.kd.treelet_height), |$w| $kernel);
+                dispatch(&k, query, tri, rays, hits, stats)
+            }
+        }
+    };
+}
+
+/// The kd-tree's row `i` (name, paper, doc, counters): the kernels are the same.
+const fn kd_info(i: usize) -> TraversalInfo {
+    KdTree::TRAVERSALS[i].info
+}
+
+/// Row `i` of the kd-tree's table as `NAME-sorted`.
+const fn sorted_info(i: usize, name: &'static str) -> TraversalInfo {
+    TraversalInfo {
+        name,
+        doc: "the traversal named without `-sorted`, the rays of each traced chunk first \
+              counting-sorted by tree index (2-bit key) and put back after (Torres et al. \
+              2012 §6); the sort is timed with the traversal (the paper's \"inc.\")",
+        ..KdTree::TRAVERSALS[i].info
+    }
+}
+
+/// Plain traversals in the kd-tree's order, then their `-sorted` forms (the table below lists
+/// every kd traversal: a new one there fails this).
+const PLAIN: usize = 11;
+const _: () = assert!(KdTree::TRAVERSALS.len() == PLAIN);
+
+/// `-sorted` row: order the chunk by tree, trace with plain row `I`, scatter the answers back.
+fn sorted<const I: usize>(
+    m: &MultiKdTree,
+    query: Query,
+    tri: TriTestKind,
+    rays: &[Ray],
+    hits: &mut [HitRecord],
+    stats: Option<&mut [TraversalStats]>,
+) {
+    let plain: TraceFn<MultiKdTree> = MultiKdTree::TRAVERSALS[I].trace;
+    let mut order = Vec::new();
+    m.sort_by_tree(rays, &mut order);
+    let sorted_rays: Vec<Ray> = order.iter().map(|&i| rays[i as usize]).collect();
+    let mut sh = vec![HitRecord::MISS; rays.len()];
+    match stats {
+        None => {
+            plain(m, query, tri, &sorted_rays, &mut sh, None);
+        }
+        Some(stats) => {
+            let mut ss = vec![TraversalStats::default(); rays.len()];
+            plain(m, query, tri, &sorted_rays, &mut sh, Some(&mut ss));
+            for (&i, s) in order.iter().zip(ss) {
+                stats[i as usize] = s;
+            }
+        }
+    }
+    for (&i, h) in order.iter().zip(sh) {
+        hits[i as usize] = h;
+    }
+}
+
+impl Structure for MultiKdTree {
+    const NAME: &'static str = "multi-kd";
+
+    /// The kd-tree's traversals (same names, same kernels) with the per-ray tree choice, then
+    /// each as `NAME-sorted`.
+    const TRAVERSALS: &'static [Traversal<Self>] = &[
+        Traversal::with_gpu(
+            kd_info(0),
+            per_ray!(|m, w| traverse::RecursiveDirection(w)),
+            MultiKdTree::gpu_recursive_direction,
+        ),
+        Traversal::cpu(kd_info(1), per_ray!(|m, w| traverse::Havran(w))),
+        Traversal::cpu(kd_info(2), per_ray!(|m, w| traverse::RecursiveOrigin(w))),
+        Traversal::cpu(
+            kd_info(3),
+            per_ray!(|m, w| Stackless::<_, { stackless::RESTART }>(w, Aux::default())),
+        ),
+        Traversal::cpu(
+            kd_info(4),
+            per_ray!(|m, w| Stackless::<_, { stackless::PUSH_DOWN }>(w, Aux::default())),
+        ),
+        Traversal::cpu(
+            kd_info(5),
+            per_ray!(|m, w| Stackless::<_, { stackless::SHORT_STACK }>(w, Aux::default())),
+        ),
+        Traversal::cpu(
+            kd_info(6),
+            per_ray!(|m, w| Stackless::<_, { stackless::SEQUENTIAL }>(w, Aux::default())),
+        ),
+        Traversal::cpu(
+            kd_info(7),
+            per_ray!(|m, w| Stackless::<_, { stackless::BACKTRACK }>(
+                w,
+                Aux {
+                    back: m.back_nodes(),
+                    ropes: &[],
+                }
+            )),
+        ),
+        Traversal::cpu(
+            kd_info(8),
+            per_ray!(|m, w| Stackless::<_, { stackless::ROPES }>(
+                w,
+                Aux {
+                    back: m.back_nodes(),
+                    ropes: m.ropes(),
+                }
+            )),
+        ),
+        Traversal::cpu(kd_info(9), per_ray!(|m, w| traverse::Branchless(w))),
+        Traversal::cpu(kd_info(10), per_ray!(|m, w| traverse::StackSpilling(w))),
+        Traversal::cpu(sorted_info(0, "recursive-direction-sorted"), sorted::<0>),
+        Traversal::cpu(sorted_info(1, "havran-sorted"), sorted::<1>),
+        Traversal::cpu(sorted_info(2, "recursive-origin-sorted"), sorted::<2>),
+        Traversal::cpu(sorted_info(3, "restart-sorted"), sorted::<3>),
+        Traversal::cpu(sorted_info(4, "push-down-sorted"), sorted::<4>),
+        Traversal::cpu(sorted_info(5, "short-stack-sorted"), sorted::<5>),
+        Traversal::cpu(sorted_info(6, "sequential-sorted"), sorted::<6>),
+        Traversal::cpu(sorted_info(7, "backtrack-sorted"), sorted::<7>),
+        Traversal::cpu(sorted_info(8, "ropes-sorted"), sorted::<8>),
+        Traversal::cpu(sorted_info(9, "branchless-sorted"), sorted::<9>),
+        Traversal::cpu(sorted_info(10, "stack-spilling-sorted"), sorted::<10>),
+    ];
+
+    /// Nodes (8 bytes each, unused treelet slots and block padding included), references,
+    /// triangles and the 12-byte header.
+    fn own_memory(&self) -> MemoryReport {
+        MemoryReport {
+            bytes: (self.nodes.bytes()
+                + std::mem::size_of_val(&*self.refs)
+                + std::mem::size_of_val(&*self.tris)
+                + std::mem::size_of_val(&self.header)) as u64,
+            nodes: self.nodes.len() as u64,
+            prim_refs: self.refs.len() as u64,
+            node_bytes: std::mem::size_of::<KdNode>() as u32,
+        }
+    }
+
+    fn aux_bytes(&self, aux: &str) -> u64 {
+        let per_node = match aux {
+            BACKTRACK_AUX => std::mem::size_of::<BackNode>(),
+            ROPES_AUX => std::mem::size_of::<[u32; 6]>(),
+            _ => 0,
+        };
+        (per_node * self.nodes.len()) as u64
+    }
+
+    fn prepare_aux(&self, aux: &str) {
+        match aux {
+            BACKTRACK_AUX => {
+                self.back_nodes();
+            }
+            ROPES_AUX => {
+                self.ropes();
+            }
+            _ => {}
+        }
+    }
+
+    /// `sah_cost`: the mean over the trees of each tree's cost under its own measure; extra:
+    /// `trees`, `nodes` and `references` (all trees; the paper's Table 3 `Num.Nodes`,
+    /// `Num.Ref.`), `leaves`, `slots` (node-array entries), `paper_bytes` (Table 3: 16 bytes a
+    /// node, 4 a reference), `real_bytes` (8-byte nodes, references, header; triangles not
+    /// counted, as in the paper), and per tree `nodes_X`, `refs_X`, `cost_X` and its weights
+    /// `wX_X`, `wY_X`, `wZ_X` (X, Y or Z the patch).
+    fn report(&self) -> BuildReport {
+        let nodes: u64 = self.trees.iter().map(|t| t.nodes).sum();
+        let refs = self.refs.len() as u64;
+        let mut extra = vec![
+            ("trees".into(), self.trees.len() as f64),
+            ("nodes".into(), nodes as f64),
+            ("references".into(), refs as f64),
+            (
+                "leaves".into(),
+                self.trees.iter().map(|t| t.leaves).sum::<u64>() as f64,
+            ),
+            ("slots".into(), self.nodes.len() as f64),
+            ("paper_bytes".into(), (16 * nodes + 4 * refs) as f64),
+            (
+                "real_bytes".into(),
+                (self.nodes.bytes() + 4 * refs as usize + 12) as f64,
+            ),
+        ];
+        for t in &self.trees {
+            let a = crate::measure::AXES[t.patch];
+            extra.push((format!("nodes_{a}"), t.nodes as f64));
+            extra.push((format!("refs_{a}"), t.refs as f64));
+            extra.push((format!("cost_{a}"), t.cost));
+            for (i, w) in t.weights.iter().enumerate() {
+                extra.push((format!("w{}_{a}", crate::measure::AXES[i]), *w));
+            }
+        }
+        let cost = self.trees.iter().map(|t| t.cost).sum::<f64>() / self.trees.len() as f64;
+        BuildReport {
+            sah_cost: (!self.nodes.is_empty() && cost.is_finite()).then_some(cost),
+            extra,
+        }
+    }
+
+    /// Every tree's kd-tree invariants from its root, every node in exactly one tree, and
+    /// the header naming roots of the node array's trees.
+    fn check(&self) -> Result<(), AccelError> {
+        let roots = self.roots();
+        if !self.nodes.is_empty() {
+            if let Some(h) = self.header.iter().find(|h| !roots.contains(h)) {
+                return Err(AccelError::Invalid(format!(
+                    "header entry {h} is no tree's root"
+                )));
+            }
+        }
+        crate::check_trees(&self.view(), &roots, &self.kd).map_err(AccelError::Invalid)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tb_core::{Accel, Vec3};
+
+    fn grid() -> Vec<Triangle> {
+        (0..200)
+            .map(|i| {
+                let p = Vec3::new((i % 7) as f32, ((i / 7) % 5) as f32, (i / 35) as f32 * 1.3);
+                let q = Vec3::new(0.9, 0.2 * (i % 3) as f32, 0.1);
+                Triangle::new(p, p + q, p + Vec3::Y * 0.8 + Vec3::Z * 0.3)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn table_mirrors_the_kd_tree_table() {
+        let kd = KdTree::TRAVERSALS;
+        assert_eq!(kd.len(), PLAIN);
+        assert_eq!(MultiKdTree::TRAVERSALS.len(), 2 * PLAIN);
+        for (i, t) in kd.iter().enumerate() {
+            assert_eq!(MultiKdTree::TRAVERSALS[i].info.name, t.info.name);
+            assert_eq!(
+                MultiKdTree::TRAVERSALS[PLAIN + i].info.name,
+                format!("{}-sorted", t.info.name)
+            );
+            assert_eq!(MultiKdTree::TRAVERSALS[PLAIN + i].info.aux, t.info.aux);
+        }
+    }
+
+    /// Three trees in one array, contiguous, the header naming their roots; each tree the
+    /// same as a kd-tree built alone with its patch's measure; the controls hold one tree.
+    #[test]
+    fn layout_header_and_controls() {
+        let tris = grid();
+        for layout in [KdLayout::DepthFirst, KdLayout::Treelet] {
+            let p = MultiKdParams {
+                layout,
+                ..Default::default()
+            };
+            let m = MultiKdTree::build(&tris, &p);
+            assert_eq!(Accel::validate(&m), Ok(()));
+            assert_eq!(m.trees().len(), 3);
+            let h = m.header();
+            assert!(h[0] == 0 && h[0] < h[1] && h[1] < h[2], "{h:?}");
+            for (i, t) in m.trees().iter().enumerate() {
+                let w = Heuristic::SphereOrth.weights(i, 2.0);
+                let alone = KdTree::try_build(
+                    m.tris.clone(),
+                    &p.kd(),
+                    &WeightedArea([w[0] as f32, w[1] as f32, w[2] as f32]),
+                )
+                .unwrap();
+                assert_eq!(t.slots as usize, alone.nodes().len());
+                assert_eq!(t.refs as usize, alone.prim_refs().len());
+            }
+            let r = Accel::build_report(&m);
+            let get = |k: &str| r.extra.iter().find(|(n, _)| n == k).unwrap().1;
+            assert_eq!(
+                get("paper_bytes"),
+                16.0 * get("nodes") + 4.0 * get("references")
+            );
+        }
+        for (trees, patch) in [(Trees::X, 0), (Trees::Z, 2)] {
+            let p = MultiKdParams {
+                trees,
+                ..Default::default()
+            };
+            let m = MultiKdTree::build(&tris, &p);
+            assert_eq!(m.trees().len(), 1);
+            assert_eq!(m.trees()[0].patch, patch);
+            assert_eq!(m.header(), [0; 3]);
+            assert_eq!(Accel::validate(&m), Ok(()));
+        }
+        let p = MultiKdParams {
+            measure: Heuristic::Sah,
+            ..Default::default()
+        };
+        let m = MultiKdTree::build(&tris, &p);
+        assert_eq!(m.trees().len(), 1);
+        let kd = KdTree::build(&tris, &p.kd());
+        assert_eq!(&m.nodes[..], kd.nodes());
+        assert_eq!(&m.refs[..], kd.prim_refs());
+    }
+
+    /// A broken header or a node shared by two trees is found.
+    #[test]
+    fn validate_finds_corruption() {
+        let m = MultiKdTree::build(&grid(), &MultiKdParams::default());
+        let mut b = m.clone();
+        b.header[1] = 1;
+        assert!(Accel::validate(&b).is_err());
+        let mut b = m.clone();
+        let root1 = b.header[1] as usize;
+        let n = b.nodes[root1];
+        assert!(!n.is_leaf());
+        // Tree Y's root pointing at a node of tree X.
+        Arc::make_mut(&mut b.nodes)[root1] = KdNode::interior(n.axis(), n.split(), 2);
+        assert!(Accel::validate(&b).is_err());
+    }
+
+    /// Each ray traverses its patch's tree: counters equal those of the kd-tree built alone
+    /// with that patch's measure, ray for ray; `-sorted` rows give the same hits and
+    /// counters as the plain ones.
+    #[test]
+    fn rays_traverse_their_patch_tree_and_sorting_changes_nothing() {
+        for layout in [KdLayout::DepthFirst, KdLayout::Treelet] {
+            per_ray_in(MultiKdParams {
+                measure: Heuristic::CubeObli,
+                layout,
+                ..Default::default()
+            });
+        }
+    }
+
+    fn per_ray_in(p: MultiKdParams) {
+        let tris = grid();
+        let m = MultiKdTree::build(&tris, &p);
+        let alone: Vec<KdTree> = (0..3)
+            .map(|i| {
+                KdTree::try_build(
+                    m.tris.clone(),
+                    &p.kd(),
+                    &WeightedArea::of(p.measure, i, 2.0),
+                )
+                .unwrap()
+            })
+            .collect();
+        let mut s = 7u32;
+        let mut next = || {
+            s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (s >> 8) as f32 / (1 << 24) as f32
+        };
+        let rays: Vec<Ray> = (0..600)
+            .map(|_| {
+                let o = Vec3::new(next() * 9.0 - 1.0, next() * 7.0 - 1.0, next() * 9.0 - 1.0);
+                let d = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
+                Ray::new(o, d)
+            })
+            .collect();
+        let tri = TriTestKind::Watertight;
+        for t in 0..PLAIN {
+            for q in [Query::Closest, Query::Any] {
+                let n = rays.len();
+                let (mut h, mut st) =
+                    (vec![HitRecord::MISS; n], vec![TraversalStats::default(); n]);
+                m.trace(t, q, tri, &rays, &mut h, Some(&mut st));
+                let (mut h2, mut st2) = (h.clone(), st.clone());
+                m.trace(PLAIN + t, q, tri, &rays, &mut h2, Some(&mut st2));
+                assert_eq!(h, h2, "{}", KdTree::TRAVERSALS[t].info.name);
+                assert_eq!(st, st2);
+                let mut h3 = vec![HitRecord::MISS; n];
+                m.trace(PLAIN + t, q, tri, &rays, &mut h3, None);
+                assert_eq!(h, h3);
+                for (k, r) in rays.iter().enumerate() {
+                    let a = &alone[m.tree_of(r.dir.to_array())];
+                    let (mut ha, mut sa) = ([HitRecord::MISS], [TraversalStats::default()]);
+                    a.trace(t, q, tri, std::slice::from_ref(r), &mut ha, Some(&mut sa));
+                    assert_eq!(ha[0], h[k]);
+                    assert_eq!(sa[0], st[k], "{} ray {k}", KdTree::TRAVERSALS[t].info.name);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn counting_sort_groups_by_tree_stably() {
+        let m = MultiKdTree::build(&grid(), &MultiKdParams::default());
+        let dirs = [
+            Vec3::Z,
+            Vec3::X,
+            -Vec3::Y,
+            Vec3::X,
+            Vec3::new(0.1, 0.1, -1.0),
+            Vec3::Y,
+        ];
+        let rays: Vec<Ray> = dirs.iter().map(|&d| Ray::new(Vec3::ZERO, d)).collect();
+        let mut order = Vec::new();
+        m.sort_by_tree(&rays, &mut order);
+        assert_eq!(order, [1, 3, 2, 5, 0, 4]);
+    }
+
+    #[test]
+    fn params_are_checked() {
+        let tris: Arc<[Triangle]> = grid().into();
+        let mut set = (FAMILY.defaults)();
+        assert!((FAMILY.build)(&tris, &set).is_ok());
+        set.0[1].1 = tb_core::ParamValue::Float(0.0);
+        assert!((FAMILY.build)(&tris, &set).is_err());
+        let mut set = (FAMILY.defaults)();
+        set.0[0].1 = tb_core::ParamValue::Str("sphere".into());
+        assert!((FAMILY.build)(&tris, &set).is_err());
+    }
+}
