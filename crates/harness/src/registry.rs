@@ -13,6 +13,8 @@ static FAMILIES: &[&Family] = &[
     &tb_bvh::FAMILY,
     &tb_kdtree::FAMILY,
     &tb_rtree::FAMILY,
+    &tb_grid::UNIFORM_FAMILY,
+    &tb_grid::IRREGULAR_FAMILY,
     #[cfg(feature = "embree")]
     &tb_peers::embree::FAMILY,
     #[cfg(feature = "obvhs")]
