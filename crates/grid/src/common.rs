@@ -9,7 +9,7 @@
 //! boundary crossing is located to about `1e-16` of the ray's length; the triangle tests are
 //! the `f32` tests every structure uses. References are assigned with the separating-axis test
 //! against the cell's box grown by [`Lattice::delta`] on every side (a 2048th of a voxel of the
-//! uniform or top-level grid plus 32 `f32` ulps of the scene's coordinates), so a triangle the `f32` test may report as hit
+//! uniform or top-level grid plus 8 `f32` ulps of the scene's coordinates), so a triangle the `f32` test may report as hit
 //! just outside its exact extent is still referenced by the cell the walk is in. The test is
 //! thus conservative (never drops a triangle, may add one touching a cell within `delta`).
 //! Rays whose origin is so far away that the triangle test's own rounding exceeds `delta`
@@ -63,6 +63,8 @@ pub fn resolution(
 pub struct Lattice {
     pub min: [f64; 3],
     pub size: [f64; 3],
+    /// `1 / size`.
+    pub inv_size: [f64; 3],
     pub res: [u32; 3],
     /// Growth of cell boxes for reference assignment, per axis (see the module doc).
     pub delta: [f64; 3],
@@ -84,8 +86,9 @@ impl Lattice {
         Lattice {
             min: lo,
             size,
+            inv_size: size.map(|s| 1.0 / s),
             res,
-            delta: std::array::from_fn(|a| size[a] / 2048.0 + 32.0 * ulp),
+            delta: std::array::from_fn(|a| size[a] / 2048.0 + 8.0 * ulp),
             mag,
         }
     }
@@ -95,6 +98,7 @@ impl Lattice {
         Lattice {
             min: self.min,
             size: self.size.map(|s| s / k as f64),
+            inv_size: self.size.map(|s| k as f64 / s),
             res: self.res.map(|r| r * k),
             delta: self.delta,
             mag: self.mag,
@@ -103,14 +107,14 @@ impl Lattice {
 
     /// Whether the `f32` triangle tests of `ray` may place a hit farther from the triangle
     /// than the reference margin `delta`: they start from `v − o`, rounded to the ulp of
-    /// `|o| + |v|`, and their effective geometry moves by a few such ulps (2^-20 relative is
-    /// taken). True only for origins far outside the grid compared with its size (the far
+    /// `|o| + |v|`, and their effective geometry moves by a few such ulps (2^-21 relative is
+    /// taken; the margin's `8 ulp(mag)` term covers every origin inside the grid's box). True only for origins far outside the grid compared with its size (the far
     /// origins of `stress/ray-limits`); such rays are answered by testing every triangle
     /// (see [`brute_force`]), which is what the margin could not guarantee for them.
     #[inline(always)]
     pub fn far(&self, ray: &Ray) -> bool {
         let o = ray.origin.abs().max_element() as f64;
-        let e = (o + self.mag) * (1.0 / (1u64 << 20) as f64);
+        let e = (o + self.mag) * (1.0 / (1u64 << 21) as f64);
         e > self.delta[0].min(self.delta[1]).min(self.delta[2])
     }
 
@@ -135,7 +139,7 @@ impl Lattice {
     /// Voxel index along `a` of coordinate `p`, clamped to the lattice.
     #[inline(always)]
     pub fn voxel(&self, a: usize, p: f64) -> u32 {
-        let f = ((p - self.min[a]) / self.size[a]).floor();
+        let f = ((p - self.min[a]) * self.inv_size[a]).floor();
         if f >= 0.0 {
             (f as u32).min(self.res[a] - 1)
         } else {
@@ -155,14 +159,6 @@ impl Lattice {
         let bmin: [f64; 3] = std::array::from_fn(|a| self.plane(a, lo[a]) - self.delta[a]);
         let bmax: [f64; 3] = std::array::from_fn(|a| self.plane(a, hi[a]) + self.delta[a]);
         tri_box_overlap(t, bmin, bmax)
-    }
-
-    /// World box of voxels `lo..hi` (exclusive).
-    pub fn world_box(&self, lo: [u32; 3], hi: [u32; 3]) -> ([f64; 3], [f64; 3]) {
-        (
-            std::array::from_fn(|a| self.plane(a, lo[a])),
-            std::array::from_fn(|a| self.plane(a, hi[a])),
-        )
     }
 }
 
@@ -286,6 +282,8 @@ pub fn flatten(pairs: Vec<u64>, n_cells: usize) -> (Vec<u32>, Vec<u32>) {
 pub struct WalkRay {
     pub o: [f64; 3],
     pub d: [f64; 3],
+    /// `1 / d` (`±inf` for a zero component, never used then).
+    pub inv: [f64; 3],
     pub t0: f64,
     pub t1: f64,
 }
@@ -294,9 +292,11 @@ impl WalkRay {
     /// The ray clipped to the lattice's box (closed), or `None` when it misses it.
     #[inline(always)]
     pub fn clip(ray: &Ray, lat: &Lattice) -> Option<WalkRay> {
+        let d = ray.dir.to_array().map(f64::from);
         WalkRay {
             o: ray.origin.to_array().map(f64::from),
-            d: ray.dir.to_array().map(f64::from),
+            d,
+            inv: d.map(|x| 1.0 / x),
             t0: ray.tmin as f64,
             t1: ray.tmax as f64,
         }
@@ -319,6 +319,7 @@ impl WalkRay {
                 let (n, f) = if d > 0.0 { (lo, hi) } else { (hi, lo) };
                 t0 = t0.max((n - o) / d);
                 t1 = t1.min((f - o) / d);
+                // (Divisions here: entry and exit of the box are exact to the f64 rounding.)
             }
         }
         // Also false for a NaN interval.
@@ -340,14 +341,15 @@ impl WalkRay {
         })
     }
 
-    /// Distance to the box's far plane on each axis (`+inf` where the ray is parallel).
+    /// Distance to the far plane of the box of voxels `lo..hi` on each axis (`+inf` where the
+    /// ray is parallel to the axis).
     #[inline(always)]
-    pub fn exits(&self, lo: [f64; 3], hi: [f64; 3]) -> [f64; 3] {
+    pub fn exits(&self, lat: &Lattice, lo: [u32; 3], hi: [u32; 3]) -> [f64; 3] {
         std::array::from_fn(|a| {
             if self.d[a] > 0.0 {
-                (hi[a] - self.o[a]) / self.d[a]
+                (lat.plane(a, hi[a]) - self.o[a]) * self.inv[a]
             } else if self.d[a] < 0.0 {
-                (lo[a] - self.o[a]) / self.d[a]
+                (lat.plane(a, lo[a]) - self.o[a]) * self.inv[a]
             } else {
                 f64::INFINITY
             }
@@ -429,8 +431,7 @@ pub fn walk(w: &WalkRay, lat: &Lattice, mut visit: impl FnMut([u32; 3]) -> Visit
         let Visit::Continue { lo, hi, best } = visit(v) else {
             return;
         };
-        let (wlo, whi) = lat.world_box(lo, hi);
-        let (axis, t_exit) = argmin3(w.exits(wlo, whi));
+        let (axis, t_exit) = argmin3(w.exits(lat, lo, hi));
         if best as f64 <= t_exit || t_exit >= w.t1 {
             return;
         }
@@ -525,28 +526,33 @@ pub fn union_len(a: &[u32], b: &[u32]) -> usize {
     n + (a.len() - i) + (b.len() - j)
 }
 
-/// The sorted union of two sorted reference lists, appended to `out`.
-pub fn union_into(a: &[u32], b: &[u32], out: &mut Vec<u32>) {
-    let (mut i, mut j) = (0, 0);
+/// The sorted union of two sorted reference lists into `out`, whose length must be
+/// [`union_len`].
+pub fn union_into(a: &[u32], b: &[u32], out: &mut [u32]) {
+    let (mut i, mut j, mut k) = (0, 0, 0);
     while i < a.len() && j < b.len() {
-        match a[i].cmp(&b[j]) {
+        let x = match a[i].cmp(&b[j]) {
             std::cmp::Ordering::Less => {
-                out.push(a[i]);
                 i += 1;
+                a[i - 1]
             }
             std::cmp::Ordering::Greater => {
-                out.push(b[j]);
                 j += 1;
+                b[j - 1]
             }
             std::cmp::Ordering::Equal => {
-                out.push(a[i]);
                 i += 1;
                 j += 1;
+                a[i - 1]
             }
-        }
+        };
+        out[k] = x;
+        k += 1;
     }
-    out.extend_from_slice(&a[i..]);
-    out.extend_from_slice(&b[j..]);
+    let (ra, rb) = (&a[i..], &b[j..]);
+    out[k..k + ra.len()].copy_from_slice(ra);
+    k += ra.len();
+    out[k..k + rb.len()].copy_from_slice(rb);
 }
 
 /// Whether sorted `sub` is a subset of sorted `sup`.
@@ -606,7 +612,7 @@ mod tests {
     #[test]
     fn set_helpers() {
         assert_eq!(union_len(&[1, 3, 5], &[2, 3, 6]), 5);
-        let mut v = Vec::new();
+        let mut v = [0; 5];
         union_into(&[1, 3, 5], &[2, 3, 6], &mut v);
         assert_eq!(v, [1, 2, 3, 5, 6]);
         assert!(is_subset(&[3, 5], &[1, 3, 5]));

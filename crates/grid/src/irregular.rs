@@ -222,6 +222,16 @@ impl IrregularGrid {
         })
     }
 
+    /// The virtual base grid (every cell boundary lies on one of its planes).
+    pub fn base_lattice(&self) -> &Lattice {
+        &self.base
+    }
+
+    /// The top-level grid.
+    pub fn top_lattice(&self) -> &Lattice {
+        &self.top
+    }
+
     /// The cells.
     pub fn cells(&self) -> &[Cell] {
         &self.cells
@@ -331,15 +341,28 @@ fn initial(
                 let size = 1u32 << (dmax - k - 1);
                 let mut next = Vec::with_capacity(cur.len() * 2);
                 for &(s, i) in &cur {
-                    for ch in 0..8u32 {
-                        let c = [
-                            s[0] * 2 + (ch & 1),
-                            s[1] * 2 + (ch >> 1 & 1),
-                            s[2] * 2 + (ch >> 2),
+                    let tri = &tris[i as usize];
+                    let b = tri.bounds();
+                    // Which halves the grown bounds reach on each axis: a triangle in one
+                    // child only needs no test (it overlaps the parent); the others get the
+                    // separating-axis test.
+                    let mut halves = [[false; 2]; 3];
+                    for a in 0..3 {
+                        let mid = base.plane(a, (tv[a] << dmax) + (2 * s[a] + 1) * size);
+                        halves[a] = [
+                            b.min[a] as f64 - base.delta[a] <= mid,
+                            b.max[a] as f64 + base.delta[a] >= mid,
                         ];
+                    }
+                    let single = halves.iter().all(|h| !(h[0] && h[1]));
+                    for ch in 0..8u32 {
+                        let bit = [ch & 1, ch >> 1 & 1, ch >> 2];
+                        if (0..3).any(|a| !halves[a][bit[a] as usize]) {
+                            continue;
+                        }
+                        let c: [u32; 3] = std::array::from_fn(|a| s[a] * 2 + bit[a]);
                         let lo: [u32; 3] = std::array::from_fn(|a| (tv[a] << dmax) + c[a] * size);
-                        let hi = lo.map(|x| x + size);
-                        if base.overlaps(&tris[i as usize], lo, hi) {
+                        if single || base.overlaps(tri, lo, lo.map(|x| x + size)) {
                             next.push((c, i));
                         }
                     }
@@ -424,11 +447,12 @@ fn merge_pass(
     } = w;
     let n = cells.len();
     let top = top_lattice(base, dmax);
-    let target: Vec<u32> = cells
+    // (1) Candidates: the neighbour across the upper face and the size of the union.
+    let target: Vec<(u32, u32)> = cells
         .par_iter()
         .map(|c| {
             if c.hi[axis] >= base.res[axis] {
-                return NONE;
+                return (NONE, 0);
             }
             let mut v = c.lo;
             v[axis] = c.hi[axis];
@@ -436,70 +460,80 @@ fn merge_pass(
             let nb = &cells[j as usize];
             let same = (0..3).all(|a| a == axis || (nb.lo[a] == c.lo[a] && nb.hi[a] == c.hi[a]));
             if !same || nb.lo[axis] != c.hi[axis] {
-                return NONE;
+                return (NONE, 0);
             }
             let (ra, rb) = (&refs[c.range()], &refs[nb.range()]);
             let mut hi = c.hi;
             hi[axis] = nb.hi[axis];
-            let merged = cost(base, union_len(ra, rb), c.lo, hi, p);
+            let u = union_len(ra, rb);
+            let merged = cost(base, u, c.lo, hi, p);
             let apart = cost(base, ra.len(), c.lo, c.hi, p) + cost(base, rb.len(), nb.lo, nb.hi, p);
             if apart > merged {
-                j
+                (j, u as u32)
             } else {
-                NONE
+                (NONE, 0)
             }
         })
         .collect();
-    // Chains: a candidate no candidate points to is a head.
-    let mut pred = vec![NONE; n];
-    for (i, &t) in target.iter().enumerate() {
-        if t != NONE {
-            pred[t as usize] = i as u32;
-        }
-    }
-    let mut absorbed_by = vec![NONE; n];
-    let mut partner = vec![NONE; n];
-    for h in 0..n {
-        if target[h] == NONE || pred[h] != NONE {
-            continue;
-        }
-        let (mut c, mut pos) = (h, 0u32);
-        while target[c] != NONE {
-            let t = target[c] as usize;
-            if pos % 2 == 0 {
-                absorbed_by[t] = c as u32;
-                partner[c] = t as u32;
+    // (2) Chains, walked from their heads in parallel: a head is a candidate that its lower
+    // neighbour does not target. Even positions merge with their successor.
+    let heads: Vec<u32> = (0..n as u32)
+        .into_par_iter()
+        .filter(|&i| {
+            let c = &cells[i as usize];
+            if target[i as usize].0 == NONE {
+                return false;
             }
-            c = t;
-            pos += 1;
-        }
-    }
-    let mut new_id = vec![NONE; n];
-    let mut kept = Vec::new();
-    for i in 0..n {
-        if absorbed_by[i] == NONE {
-            new_id[i] = kept.len() as u32;
-            kept.push(i);
-        }
-    }
-    for i in 0..n {
-        if absorbed_by[i] != NONE {
-            new_id[i] = new_id[absorbed_by[i] as usize];
-        }
-    }
-    let sizes: Vec<usize> = kept
+            if c.lo[axis] == 0 {
+                return true;
+            }
+            let mut v = c.lo;
+            v[axis] -= 1;
+            target[lookup(&map, &top, dmax, v) as usize].0 != i
+        })
+        .collect();
+    let pairs: Vec<(u32, u32)> = heads
         .par_iter()
-        .map(|&i| {
-            let c = &cells[i];
-            match partner[i] {
-                NONE => c.range().len(),
-                j => union_len(&refs[c.range()], &refs[cells[j as usize].range()]),
+        .flat_map_iter(|&h| {
+            let mut out = Vec::new();
+            let (mut c, mut pos) = (h, 0u32);
+            while target[c as usize].0 != NONE {
+                let t = target[c as usize].0;
+                if pos % 2 == 0 {
+                    out.push((c, t));
+                }
+                c = t;
+                pos += 1;
             }
+            out
         })
         .collect();
+    let mut partner = vec![NONE; n];
+    let mut absorbed = vec![false; n];
+    for &(c, t) in &pairs {
+        partner[c as usize] = t;
+        absorbed[t as usize] = true;
+    }
+    // (3) New cells: kept cells in order, each merged with its partner.
+    let mut new_id = vec![NONE; n];
+    let mut kept = Vec::with_capacity(n - pairs.len());
+    for i in 0..n {
+        if !absorbed[i] {
+            new_id[i] = kept.len() as u32;
+            kept.push(i as u32);
+        }
+    }
+    for &(c, t) in &pairs {
+        new_id[t as usize] = new_id[c as usize];
+    }
     let mut begin = Vec::with_capacity(kept.len() + 1);
     begin.push(0usize);
-    for s in &sizes {
+    for &i in &kept {
+        let i = i as usize;
+        let s = match partner[i] {
+            NONE => cells[i].range().len(),
+            _ => target[i].1 as usize,
+        };
         begin.push(begin.last().copied().unwrap_or(0) + s);
     }
     let total = *begin.last().unwrap_or(&0);
@@ -507,8 +541,8 @@ fn merge_pass(
     {
         let mut slices = Vec::with_capacity(kept.len());
         let mut rest: &mut [u32] = &mut new_refs;
-        for s in &sizes {
-            let (a, b) = rest.split_at_mut(*s);
+        for k in 0..kept.len() {
+            let (a, b) = rest.split_at_mut(begin[k + 1] - begin[k]);
             slices.push(a);
             rest = b;
         }
@@ -516,23 +550,19 @@ fn merge_pass(
             .into_par_iter()
             .zip(kept.par_iter())
             .for_each(|(out, &i)| {
-                let c = &cells[i];
-                match partner[i] {
+                let c = &cells[i as usize];
+                match partner[i as usize] {
                     NONE => out.copy_from_slice(&refs[c.range()]),
-                    j => {
-                        let mut v = Vec::with_capacity(out.len());
-                        union_into(&refs[c.range()], &refs[cells[j as usize].range()], &mut v);
-                        out.copy_from_slice(&v);
-                    }
+                    j => union_into(&refs[c.range()], &refs[cells[j as usize].range()], out),
                 }
             });
     }
     let new_cells: Vec<Cell> = kept
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(k, &i)| {
-            let c = cells[i];
-            let hi = match partner[i] {
+            let c = cells[i as usize];
+            let hi = match partner[i as usize] {
                 NONE => c.hi,
                 j => cells[j as usize].hi,
             };
@@ -563,6 +593,7 @@ fn top_lattice(base: &Lattice, dmax: u32) -> Lattice {
     Lattice {
         min: base.min,
         size: base.size.map(|s| s * (1u64 << dmax) as f64),
+        inv_size: base.inv_size.map(|s| s / (1u64 << dmax) as f64),
         res: base.res.map(|r| r >> dmax),
         delta: base.delta,
         mag: base.mag,

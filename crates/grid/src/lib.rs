@@ -7,6 +7,10 @@
 //! - `uniform-grid` ([`UniformGrid`]): equation 1 with density λ, references per cell,
 //!   traversal `dda` (Amanatides and Woo 1987); `macro_regions = true` adds a macro region
 //!   per empty cell (Devillers 1989), the baseline of the paper's Table 5;
+//! - `two-level-grid` ([`TwoLevelGrid`]): Kalojanov et al. 2011, a top grid of density λ_1
+//!   whose every cell holds a uniform grid of density λ_2 (at most 255 cells per axis),
+//!   traversal `dda` (3D-DDA over the top level, nested 3D-DDA in each non-empty top cell),
+//!   the baseline of Tables 2 and 4;
 //! - `irregular-grid` ([`IrregularGrid`]): the initial subdivision of §4.1 (`two-level`: a top
 //!   grid of density λ_1 with an octree per top cell from λ_2; or `uniform` at density λ_1, for
 //!   Table 5), SAH merging (§4.2, `merge`, `alpha`), expansion (§4.3, `expansion` passes) and
@@ -38,10 +42,12 @@
 
 mod common;
 mod irregular;
+mod two_level;
 mod uniform;
 
-pub use common::{resolution, tri_box_overlap};
+pub use common::{resolution, tri_box_overlap, Lattice};
 pub use irregular::{Cell, Initial, IrregularGrid, IrregularParams};
+pub use two_level::{TopCell, TwoLevelGrid, TwoLevelParams};
 pub use uniform::{UniformGrid, UniformParams};
 
 use tb_core::{build_with, Family};
@@ -50,6 +56,12 @@ use tb_core::{build_with, Family};
 pub static UNIFORM_FAMILY: Family = Family::new::<UniformGrid, UniformParams>(
     "uniform grid, equation 1 density λ, 3D-DDA (Amanatides & Woo 1987), optional macro regions (Devillers 1989)",
     |tris, set| build_with(set, |p: &UniformParams| UniformGrid::build(tris, p)),
+);
+
+/// The two-level grid in the registry.
+pub static TWO_LEVEL_FAMILY: Family = Family::new::<TwoLevelGrid, TwoLevelParams>(
+    "two-level grid: λ_1 top level, a uniform λ_2 grid per top cell, nested 3D-DDA (Kalojanov et al. 2011)",
+    |tris, set| build_with(set, |p: &TwoLevelParams| TwoLevelGrid::build(tris, p)),
 );
 
 /// The irregular grid in the registry.

@@ -79,9 +79,9 @@ impl UniformGrid {
         })
     }
 
-    /// The grid's resolution.
-    pub fn resolution(&self) -> [u32; 3] {
-        self.lat.res
+    /// The grid's lattice (box, cell size, resolution).
+    pub fn lattice(&self) -> &Lattice {
+        &self.lat
     }
 
     #[inline(always)]
