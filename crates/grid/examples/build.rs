@@ -1,5 +1,6 @@
-//! Build an irregular grid over a scene file and print the phase times:
-//! `cargo run --release -p tb-grid --example build -- SCENE [lambda_1 lambda_2]`.
+//! Build an irregular grid over a scene `N` times (default 2) and print each build's time and
+//! figures (phase times, memory per part): `TRACE_BENCH_SCENES=../shared/scenes cargo run
+//! --release -p tb-grid --example build -- conference/conference.obj.gz [lambda_1 lambda_2]`.
 use std::sync::Arc;
 use tb_core::Structure;
 
