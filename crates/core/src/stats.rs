@@ -23,6 +23,8 @@ pub trait Counter: Default + Send {
     fn planes(&mut self, n: u32);
     fn restart(&mut self);
     fn steps(&mut self, n: u32);
+    /// A grid cell was visited (N_T of the grid papers).
+    fn cell(&mut self);
     /// The ray was ended by a traversal's step cap (at most once per ray).
     fn capped(&mut self);
 }
@@ -48,6 +50,8 @@ impl Counter for NoStats {
     #[inline(always)]
     fn steps(&mut self, _: u32) {}
     #[inline(always)]
+    fn cell(&mut self) {}
+    #[inline(always)]
     fn capped(&mut self) {}
 }
 
@@ -72,6 +76,7 @@ macro_rules! for_each_counter {
                 "restarts from the root or a pushed-down node, and backtracks up the tree";
             steps, steps_per_ray, steps_max,
                 "traversal steps, as each structure defines them (for trees: nodes visited)";
+            cells, cells_per_ray, cells_max, "grid cells visited (N_T of the grid papers)";
         }
     };
 }
@@ -159,6 +164,10 @@ impl Counter for TraversalStats {
     #[inline(always)]
     fn steps(&mut self, n: u32) {
         self.steps += n;
+    }
+    #[inline(always)]
+    fn cell(&mut self) {
+        self.cells += 1;
     }
     #[inline(always)]
     fn capped(&mut self) {

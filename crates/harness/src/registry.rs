@@ -14,6 +14,9 @@ static FAMILIES: &[&Family] = &[
     &tb_kdtree::FAMILY,
     &tb_kdtree::multi::FAMILY,
     &tb_rtree::FAMILY,
+    &tb_grid::UNIFORM_FAMILY,
+    &tb_grid::TWO_LEVEL_FAMILY,
+    &tb_grid::IRREGULAR_FAMILY,
     #[cfg(feature = "embree")]
     &tb_peers::embree::FAMILY,
     #[cfg(feature = "obvhs")]

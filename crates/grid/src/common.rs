@@ -1,0 +1,622 @@
+//! What every grid kind shares: the resolution rule (equation 1 of Pérard-Gayot et al. 2017,
+//! after Cleary et al. 1983), the lattice that maps voxel indices to world coordinates, the
+//! exact triangle/box overlap test that assigns references to cells, the flat
+//! `cell → reference range` layout, and the robust ray state of the cell walks.
+//!
+//! # Robustness of the walks
+//!
+//! The walks compute positions and plane distances in `f64` from the `f32` ray, so a cell
+//! boundary crossing is located to about `1e-16` of the ray's length; the triangle tests are
+//! the `f32` tests every structure uses. References are assigned with the separating-axis test
+//! against the cell's box grown by [`Lattice::delta`] on every side (a 2048th of a voxel of the
+//! uniform or top-level grid plus 8 `f32` ulps of the scene's coordinates), so a triangle the `f32` test may report as hit
+//! just outside its exact extent is still referenced by the cell the walk is in. The test is
+//! thus conservative (never drops a triangle, may add one touching a cell within `delta`).
+//! Rays whose origin is so far away that the triangle test's own rounding exceeds `delta`
+//! ([`Lattice::far`]) test every triangle instead.
+
+use rayon::prelude::*;
+use tb_core::{Aabb, AccelError, Counter, HitRecord, Ray, TriTest, Triangle};
+
+/// Largest resolution of one axis of any grid (the walks keep voxel indices in `u32` and the
+/// voxel map's levels must multiply without overflow).
+pub const MAX_AXIS_RES: u32 = 1 << 16;
+
+/// Resolution rule, equation 1 (Pérard-Gayot et al. 2017 §4.1; Cleary et al. 1983):
+/// `R_a = d_a · ∛(λ N / V)` for a box of extents `d` holding `n` primitives at density
+/// `lambda`. Axes much thinner than the box's largest (flat scenes) get one cell and are left
+/// out of `V`, whose root is then taken over the remaining axes; each axis is rounded to the
+/// nearest integer, at least 1, at most `max_axis`, and the product is kept under `max_cells`
+/// by scaling all axes down together.
+pub fn resolution(
+    extent: [f64; 3],
+    n: usize,
+    lambda: f64,
+    max_axis: u32,
+    max_cells: u64,
+) -> [u32; 3] {
+    let dmax = extent.iter().cloned().fold(0.0, f64::max);
+    if n == 0 || dmax <= 0.0 || lambda <= 0.0 {
+        return [1, 1, 1];
+    }
+    let active: Vec<usize> = (0..3).filter(|&a| extent[a] > dmax * 1e-4).collect();
+    let vol: f64 = active.iter().map(|&a| extent[a]).product();
+    let s = (lambda * n as f64 / vol).powf(1.0 / active.len() as f64);
+    let mut r = [1u32; 3];
+    let mut scale = 1.0f64;
+    loop {
+        for &a in &active {
+            r[a] = ((extent[a] * s * scale).round() as u64).clamp(1, max_axis as u64) as u32;
+        }
+        let cells = r.iter().map(|&x| x as u64).product::<u64>();
+        if cells <= max_cells {
+            return r;
+        }
+        scale *= 0.9 * (max_cells as f64 / cells as f64).cbrt();
+    }
+}
+
+/// A regular lattice of `res` voxels over a box: voxel `i` of axis `a` spans
+/// `[min[a] + i·size[a], min[a] + (i+1)·size[a]]` (computed in `f64` the same way by the build
+/// and the walks).
+#[derive(Clone, Copy, Debug)]
+pub struct Lattice {
+    pub min: [f64; 3],
+    pub size: [f64; 3],
+    /// `1 / size`.
+    pub inv_size: [f64; 3],
+    pub res: [u32; 3],
+    /// Growth of cell boxes for reference assignment, per axis (see the module doc).
+    pub delta: [f64; 3],
+    /// Largest absolute coordinate of the lattice's box.
+    pub mag: f64,
+}
+
+impl Lattice {
+    /// The lattice of `res` voxels over `bounds` (already padded, see [`grid_bounds`]).
+    pub fn new(bounds: &Aabb, res: [u32; 3]) -> Self {
+        let lo = bounds.min.to_array().map(f64::from);
+        let hi = bounds.max.to_array().map(f64::from);
+        let mag = lo
+            .iter()
+            .chain(hi.iter())
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        let ulp = mag * f64::from(f32::EPSILON);
+        let size = std::array::from_fn(|a| (hi[a] - lo[a]) / res[a] as f64);
+        Lattice {
+            min: lo,
+            size,
+            inv_size: size.map(|s| 1.0 / s),
+            res,
+            delta: std::array::from_fn(|a| size[a] / 2048.0 + 8.0 * ulp),
+            mag,
+        }
+    }
+
+    /// The same box at `k` times the resolution on every axis (the virtual base grid).
+    pub fn refined(&self, k: u32) -> Self {
+        Lattice {
+            min: self.min,
+            size: self.size.map(|s| s / k as f64),
+            inv_size: self.size.map(|s| k as f64 / s),
+            res: self.res.map(|r| r * k),
+            delta: self.delta,
+            mag: self.mag,
+        }
+    }
+
+    /// Whether the `f32` triangle tests of `ray` may place a hit farther from the triangle
+    /// than the reference margin `delta`: they start from `v − o`, rounded to the ulp of
+    /// `|o| + |v|`, and their effective geometry moves by a few such ulps (2^-21 relative is
+    /// taken; the margin's `8 ulp(mag)` term covers every origin inside the grid's box). True only for origins far outside the grid compared with its size (the far
+    /// origins of `stress/ray-limits`); such rays are answered by testing every triangle
+    /// (see [`brute_force`]), which is what the margin could not guarantee for them.
+    #[inline(always)]
+    pub fn far(&self, ray: &Ray) -> bool {
+        let o = ray.origin.abs().max_element() as f64;
+        let e = (o + self.mag) * (1.0 / (1u64 << 21) as f64);
+        e > self.delta[0].min(self.delta[1]).min(self.delta[2])
+    }
+
+    /// Number of voxels.
+    pub fn count(&self) -> usize {
+        self.res.iter().map(|&r| r as usize).product()
+    }
+
+    /// Position of plane `i` of axis `a`.
+    #[inline(always)]
+    pub fn plane(&self, a: usize, i: u32) -> f64 {
+        self.min[a] + i as f64 * self.size[a]
+    }
+
+    /// Linear index of voxel `v` (x fastest).
+    #[inline(always)]
+    pub fn index(&self, v: [u32; 3]) -> usize {
+        v[0] as usize
+            + self.res[0] as usize * (v[1] as usize + self.res[1] as usize * v[2] as usize)
+    }
+
+    /// Voxel index along `a` of coordinate `p`, clamped to the lattice.
+    #[inline(always)]
+    pub fn voxel(&self, a: usize, p: f64) -> u32 {
+        let f = ((p - self.min[a]) * self.inv_size[a]).floor();
+        if f >= 0.0 {
+            (f as u32).min(self.res[a] - 1)
+        } else {
+            0
+        }
+    }
+
+    /// Voxel range `lo..=hi` per axis covering `b` grown by `delta`.
+    pub fn range(&self, b: &Aabb) -> ([u32; 3], [u32; 3]) {
+        let lo = std::array::from_fn(|a| self.voxel(a, b.min[a] as f64 - self.delta[a]));
+        let hi = std::array::from_fn(|a| self.voxel(a, b.max[a] as f64 + self.delta[a]));
+        (lo, hi)
+    }
+
+    /// Whether triangle `t` overlaps the box of voxels `lo..hi` (exclusive) grown by `delta`.
+    pub fn overlaps(&self, t: &Triangle, lo: [u32; 3], hi: [u32; 3]) -> bool {
+        let bmin: [f64; 3] = std::array::from_fn(|a| self.plane(a, lo[a]) - self.delta[a]);
+        let bmax: [f64; 3] = std::array::from_fn(|a| self.plane(a, hi[a]) + self.delta[a]);
+        tri_box_overlap(t, bmin, bmax)
+    }
+}
+
+/// The box a grid covers: the scene's bounds padded on every side by a little more than the
+/// reference growth, so that every triangle lies strictly inside and flat scenes get a
+/// non-zero thickness. An empty scene gets the unit box.
+pub fn grid_bounds(tris: &[Triangle]) -> Aabb {
+    let b = tris.iter().fold(Aabb::EMPTY, |b, t| b.union(&t.bounds()));
+    if b.is_empty() || !b.min.is_finite() || !b.max.is_finite() {
+        return Aabb::new(tb_core::Vec3::ZERO, tb_core::Vec3::ONE);
+    }
+    let ext = b.extent().max_element();
+    let mag = b.min.abs().max(b.max.abs()).max_element();
+    let pad = (ext * 1e-4)
+        .max(mag * 64.0 * f32::EPSILON)
+        .max(f32::MIN_POSITIVE);
+    Aabb::new(b.min - pad, b.max + pad)
+}
+
+/// Exact triangle/box overlap by the separating-axis theorem (Akenine-Möller 2001, "Fast
+/// 3D triangle-box overlap testing"): the three box normals, the triangle's normal and the
+/// nine cross products of box and triangle edges, in `f64`. Degenerate triangles (segments,
+/// points) are handled: their zero cross products and normal never separate, and the
+/// remaining axes are the separating axes of a segment or a point.
+pub fn tri_box_overlap(t: &Triangle, bmin: [f64; 3], bmax: [f64; 3]) -> bool {
+    let c: [f64; 3] = std::array::from_fn(|a| 0.5 * (bmin[a] + bmax[a]));
+    let h: [f64; 3] = std::array::from_fn(|a| 0.5 * (bmax[a] - bmin[a]));
+    let v: [[f64; 3]; 3] = [t.v0, t.v1, t.v2].map(|p| std::array::from_fn(|a| p[a] as f64 - c[a]));
+    // Box normals: the triangle's bounds against the box.
+    for a in 0..3 {
+        let lo = v[0][a].min(v[1][a]).min(v[2][a]);
+        let hi = v[0][a].max(v[1][a]).max(v[2][a]);
+        if lo > h[a] || hi < -h[a] {
+            return false;
+        }
+    }
+    let sub = |p: [f64; 3], q: [f64; 3]| [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+    let cross = |p: [f64; 3], q: [f64; 3]| {
+        [
+            p[1] * q[2] - p[2] * q[1],
+            p[2] * q[0] - p[0] * q[2],
+            p[0] * q[1] - p[1] * q[0],
+        ]
+    };
+    let dot = |p: [f64; 3], q: [f64; 3]| p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
+    let e = [sub(v[1], v[0]), sub(v[2], v[1]), sub(v[0], v[2])];
+    let separates = |ax: [f64; 3]| {
+        let p = [dot(v[0], ax), dot(v[1], ax), dot(v[2], ax)];
+        let r = h[0] * ax[0].abs() + h[1] * ax[1].abs() + h[2] * ax[2].abs();
+        p[0].min(p[1]).min(p[2]) > r || p[0].max(p[1]).max(p[2]) < -r
+    };
+    // Triangle normal.
+    if separates(cross(e[0], e[1])) {
+        return false;
+    }
+    // Edge × box axis.
+    for ei in e {
+        for a in 0..3 {
+            let mut u = [0.0; 3];
+            u[a] = 1.0;
+            if separates(cross(ei, u)) {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+/// The references of a uniform lattice: `(cell, triangle)` pairs for every voxel whose grown
+/// box the triangle overlaps, sorted by cell and then triangle (the sort of Kalojanov et al.
+/// 2011), returned as the flat layout: `start[c]..start[c+1]` indexes `refs`.
+pub fn bin_uniform(lat: &Lattice, tris: &[Triangle]) -> Result<(Vec<u32>, Vec<u32>), AccelError> {
+    let n_cells = lat.count();
+    if n_cells >= u32::MAX as usize {
+        return Err(AccelError::TooLarge {
+            what: "grid cells",
+            count: n_cells as u64,
+            limit: u32::MAX as u64 - 1,
+        });
+    }
+    let mut pairs: Vec<u64> = tris
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(i, t)| {
+            let (lo, hi) = lat.range(&t.bounds());
+            let single = lo == hi;
+            let mut out = Vec::new();
+            for z in lo[2]..=hi[2] {
+                for y in lo[1]..=hi[1] {
+                    for x in lo[0]..=hi[0] {
+                        let v = [x, y, z];
+                        if single || lat.overlaps(t, v, v.map(|c| c + 1)) {
+                            out.push((lat.index(v) as u64) << 32 | i as u64);
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    pairs.par_sort_unstable();
+    Ok(flatten(pairs, n_cells))
+}
+
+/// `(cell << 32 | triangle)` keys, sorted, to the flat `start` / `refs` layout.
+pub fn flatten(pairs: Vec<u64>, n_cells: usize) -> (Vec<u32>, Vec<u32>) {
+    let mut start = vec![0u32; n_cells + 1];
+    for &p in &pairs {
+        start[(p >> 32) as usize + 1] += 1;
+    }
+    for c in 0..n_cells {
+        start[c + 1] += start[c];
+    }
+    let refs = pairs.into_iter().map(|p| p as u32).collect();
+    (start, refs)
+}
+
+/// The ray of a walk in `f64`: origin, direction, and the interval `[t0, t1]` in which it is
+/// inside the grid's box (clipped to its own `[tmin, tmax]`).
+#[derive(Clone, Copy, Debug)]
+pub struct WalkRay {
+    pub o: [f64; 3],
+    pub d: [f64; 3],
+    /// `1 / d` (`±inf` for a zero component, never used then).
+    pub inv: [f64; 3],
+    pub t0: f64,
+    pub t1: f64,
+}
+
+impl WalkRay {
+    /// The ray clipped to the lattice's box (closed), or `None` when it misses it.
+    #[inline(always)]
+    pub fn clip(ray: &Ray, lat: &Lattice) -> Option<WalkRay> {
+        let d = ray.dir.to_array().map(f64::from);
+        WalkRay {
+            o: ray.origin.to_array().map(f64::from),
+            d,
+            inv: d.map(|x| 1.0 / x),
+            t0: ray.tmin as f64,
+            t1: ray.tmax as f64,
+        }
+        .clip_to(lat)
+    }
+
+    /// The same ray clipped to another lattice's box inside its current interval.
+    #[inline(always)]
+    pub fn clip_to(&self, lat: &Lattice) -> Option<WalkRay> {
+        let (mut t0, mut t1) = (self.t0, self.t1);
+        for a in 0..3 {
+            let lo = lat.min[a];
+            let hi = lat.plane(a, lat.res[a]);
+            let (o, d) = (self.o[a], self.d[a]);
+            if d == 0.0 {
+                if o < lo || o > hi {
+                    return None;
+                }
+            } else {
+                let (n, f) = if d > 0.0 { (lo, hi) } else { (hi, lo) };
+                t0 = t0.max((n - o) / d);
+                t1 = t1.min((f - o) / d);
+                // (Divisions here: entry and exit of the box are exact to the f64 rounding.)
+            }
+        }
+        // Also false for a NaN interval.
+        if t0 > t1 || t0.is_nan() || t1.is_nan() {
+            return None;
+        }
+        Some(WalkRay { t0, t1, ..*self })
+    }
+
+    /// The voxel of the lattice holding the ray's point at `t` (clamped to the lattice).
+    #[inline(always)]
+    pub fn voxel_at(&self, lat: &Lattice, t: f64) -> [u32; 3] {
+        std::array::from_fn(|a| {
+            if self.d[a] == 0.0 {
+                lat.voxel(a, self.o[a])
+            } else {
+                lat.voxel(a, self.o[a] + t * self.d[a])
+            }
+        })
+    }
+
+    /// Distance to the far plane of the box of voxels `lo..hi` on each axis (`+inf` where the
+    /// ray is parallel to the axis).
+    #[inline(always)]
+    pub fn exits(&self, lat: &Lattice, lo: [u32; 3], hi: [u32; 3]) -> [f64; 3] {
+        std::array::from_fn(|a| {
+            if self.d[a] > 0.0 {
+                (lat.plane(a, hi[a]) - self.o[a]) * self.inv[a]
+            } else if self.d[a] < 0.0 {
+                (lat.plane(a, lo[a]) - self.o[a]) * self.inv[a]
+            } else {
+                f64::INFINITY
+            }
+        })
+    }
+
+    /// The monotone advance of the section-5 walk (Pérard-Gayot et al. 2017 §5): leaving the
+    /// box of voxels `lo..hi` (exclusive) at `t` through the far plane of axis `axis`, from
+    /// voxel `v` (inside the box), the next voxel: on `axis` the first layer past the box; on
+    /// the other axes the voxel of the exit point, clamped into the box's range and never
+    /// behind `v` along the ray's direction (the paper's `max`/`min` with the previous
+    /// position). `None` when the next layer is outside the lattice.
+    ///
+    /// Every step moves the coordinate of `axis` strictly forward along the ray and no other
+    /// coordinate backwards, so `Σ_a sign(d_a)·v_a` strictly increases: a walk ends after at
+    /// most `res_x + res_y + res_z` steps, whatever the rounding, with no step cap.
+    #[inline(always)]
+    pub fn advance(
+        &self,
+        lat: &Lattice,
+        t: f64,
+        axis: usize,
+        v: [u32; 3],
+        lo: [u32; 3],
+        hi: [u32; 3],
+    ) -> Option<[u32; 3]> {
+        let mut n = v;
+        for a in 0..3 {
+            if a == axis {
+                if self.d[a] > 0.0 {
+                    if hi[a] >= lat.res[a] {
+                        return None;
+                    }
+                    n[a] = hi[a];
+                } else {
+                    if lo[a] == 0 {
+                        return None;
+                    }
+                    n[a] = lo[a] - 1;
+                }
+            } else if self.d[a] != 0.0 {
+                let p = lat
+                    .voxel(a, self.o[a] + t * self.d[a])
+                    .clamp(lo[a], hi[a] - 1);
+                n[a] = if self.d[a] > 0.0 {
+                    p.max(v[a])
+                } else {
+                    p.min(v[a])
+                };
+            }
+        }
+        Some(n)
+    }
+}
+
+/// What visiting a cell tells the walk: the cell's box in voxels (`lo..hi`, exclusive; it
+/// holds the visited voxel) and the closest hit distance so far, or `Stop` (an any-hit query
+/// found one).
+pub enum Visit {
+    Continue {
+        lo: [u32; 3],
+        hi: [u32; 3],
+        best: f32,
+    },
+    Stop,
+}
+
+/// The cell walk of every grid kind (Pérard-Gayot et al. 2017 §5; for unit boxes it is the
+/// 3D-DDA of Amanatides and Woo 1987 with each `tMax` recomputed as a plane distance instead of
+/// accumulated): from the voxel holding the ray's entry point, `visit` the cell there, leave
+/// its box through the nearest far plane and [`WalkRay::advance`] to the next voxel. The walk
+/// ends when the closest hit so far lies before the cell's exit (no later cell can hold a
+/// closer one), when the ray's interval ends inside the cell, or when it leaves the lattice.
+/// Terminates by the monotonicity of `advance`.
+#[inline(always)]
+pub fn walk(w: &WalkRay, lat: &Lattice, mut visit: impl FnMut([u32; 3]) -> Visit) {
+    let mut v = w.voxel_at(lat, w.t0);
+    loop {
+        let Visit::Continue { lo, hi, best } = visit(v) else {
+            return;
+        };
+        let (axis, t_exit) = argmin3(w.exits(lat, lo, hi));
+        if best as f64 <= t_exit || t_exit >= w.t1 {
+            return;
+        }
+        match w.advance(lat, t_exit, axis, v, lo, hi) {
+            Some(n) => v = n,
+            None => return,
+        }
+    }
+}
+
+/// Test the triangles `refs` (scene indices) against the ray, keeping the closest hit in
+/// `hit` (`best` is its distance, or the ray's `tmax`); `true` when `ANY` and one was found.
+#[inline(always)]
+pub fn test_refs<T: TriTest, C: Counter, const ANY: bool>(
+    pre: &T::Pre,
+    ray: &Ray,
+    tris: &[Triangle],
+    refs: &[u32],
+    hit: &mut HitRecord,
+    best: &mut f32,
+    c: &mut C,
+) -> bool {
+    for &r in refs {
+        c.prims(1);
+        if let Some((t, u, v)) = T::intersect(pre, ray, &tris[r as usize], *best) {
+            *hit = HitRecord { t, prim: r, u, v };
+            *best = t;
+            if ANY {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// The answer for a [`Lattice::far`] ray: every triangle tested (counted in `prims`).
+#[inline(never)]
+pub fn brute_force<T: TriTest, C: Counter, const ANY: bool>(
+    ray: &Ray,
+    tris: &[Triangle],
+    c: &mut C,
+) -> HitRecord {
+    let pre = T::prepare(ray);
+    let mut hit = HitRecord::MISS;
+    let mut best = ray.tmax;
+    for (i, t) in tris.iter().enumerate() {
+        c.prims(1);
+        if let Some((t, u, v)) = T::intersect(&pre, ray, t, best) {
+            hit = HitRecord {
+                t,
+                prim: i as u32,
+                u,
+                v,
+            };
+            best = t;
+            if ANY {
+                break;
+            }
+        }
+    }
+    hit
+}
+
+/// Index and value of the smallest of three distances (the exit axis; ties go to the lower
+/// axis).
+#[inline(always)]
+pub fn argmin3(t: [f64; 3]) -> (usize, f64) {
+    let mut k = 0;
+    for a in 1..3 {
+        if t[a] < t[k] {
+            k = a;
+        }
+    }
+    (k, t[k])
+}
+
+/// Size of the references of one cell with those of another, counting each triangle once
+/// (both sorted): the `|T_1 ∪ T_2|` of the merge cost, one linear pass as in merge sort.
+pub fn union_len(a: &[u32], b: &[u32]) -> usize {
+    let (mut i, mut j, mut n) = (0, 0, 0);
+    while i < a.len() && j < b.len() {
+        match a[i].cmp(&b[j]) {
+            std::cmp::Ordering::Less => i += 1,
+            std::cmp::Ordering::Greater => j += 1,
+            std::cmp::Ordering::Equal => {
+                i += 1;
+                j += 1;
+            }
+        }
+        n += 1;
+    }
+    n + (a.len() - i) + (b.len() - j)
+}
+
+/// The sorted union of two sorted reference lists into `out`, whose length must be
+/// [`union_len`].
+pub fn union_into(a: &[u32], b: &[u32], out: &mut [u32]) {
+    let (mut i, mut j, mut k) = (0, 0, 0);
+    while i < a.len() && j < b.len() {
+        let x = match a[i].cmp(&b[j]) {
+            std::cmp::Ordering::Less => {
+                i += 1;
+                a[i - 1]
+            }
+            std::cmp::Ordering::Greater => {
+                j += 1;
+                b[j - 1]
+            }
+            std::cmp::Ordering::Equal => {
+                i += 1;
+                j += 1;
+                a[i - 1]
+            }
+        };
+        out[k] = x;
+        k += 1;
+    }
+    let (ra, rb) = (&a[i..], &b[j..]);
+    out[k..k + ra.len()].copy_from_slice(ra);
+    k += ra.len();
+    out[k..k + rb.len()].copy_from_slice(rb);
+}
+
+/// Whether sorted `sub` is a subset of sorted `sup`.
+pub fn is_subset(sub: &[u32], sup: &[u32]) -> bool {
+    let mut j = 0;
+    for &x in sub {
+        while j < sup.len() && sup[j] < x {
+            j += 1;
+        }
+        if j == sup.len() || sup[j] != x {
+            return false;
+        }
+        j += 1;
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tb_core::Vec3;
+
+    #[test]
+    fn sat_agrees_with_simple_cases() {
+        let t = Triangle::new(
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        );
+        assert!(tri_box_overlap(&t, [0.1, 0.1, -0.1], [0.2, 0.2, 0.1]));
+        // Box above the hypotenuse, inside the triangle's bounds: separated by an edge axis.
+        assert!(!tri_box_overlap(&t, [0.8, 0.8, -0.1], [0.9, 0.9, 0.1]));
+        // Box off the plane.
+        assert!(!tri_box_overlap(&t, [0.1, 0.1, 0.1], [0.2, 0.2, 0.2]));
+        // Touching the plane counts (closed boxes).
+        assert!(tri_box_overlap(&t, [0.1, 0.1, 0.0], [0.2, 0.2, 0.2]));
+        // A degenerate triangle (a segment along the diagonal).
+        let s = Triangle::new(Vec3::ZERO, Vec3::ONE, Vec3::ONE);
+        assert!(tri_box_overlap(&s, [0.4, 0.4, 0.4], [0.6, 0.6, 0.6]));
+        assert!(!tri_box_overlap(&s, [0.6, 0.0, 0.0], [0.9, 0.3, 0.3]));
+    }
+
+    #[test]
+    fn resolution_follows_equation_1() {
+        // 1000 primitives in a unit cube at density 1: 10 per axis.
+        assert_eq!(resolution([1.0; 3], 1000, 1.0, 1024, 1 << 30), [10, 10, 10]);
+        // Flat along z: the root is taken over x and y.
+        assert_eq!(
+            resolution([1.0, 1.0, 0.0], 100, 1.0, 1024, 1 << 30),
+            [10, 10, 1]
+        );
+        // The cell cap scales every axis down.
+        let r = resolution([1.0; 3], 1_000_000, 8.0, 1024, 1000);
+        assert!(r.iter().map(|&x| x as u64).product::<u64>() <= 1000);
+    }
+
+    #[test]
+    fn set_helpers() {
+        assert_eq!(union_len(&[1, 3, 5], &[2, 3, 6]), 5);
+        let mut v = [0; 5];
+        union_into(&[1, 3, 5], &[2, 3, 6], &mut v);
+        assert_eq!(v, [1, 2, 3, 5, 6]);
+        assert!(is_subset(&[3, 5], &[1, 3, 5]));
+        assert!(!is_subset(&[2], &[1, 3]));
+        assert!(is_subset(&[], &[]));
+    }
+}

@@ -1,0 +1,81 @@
+//! Grids for ray tracing: the uniform grid with 3D-DDA and macro regions, and the irregular
+//! grid of Pérard-Gayot, Kalojanov and Slusallek 2017, "GPU ray tracing using irregular grids".
+//!
+//! # Structures
+//!
+//! One registry structure per grid kind, each with its own parameters (the paper's symbols):
+//! - `uniform-grid` ([`UniformGrid`]): equation 1 with density λ, references per cell,
+//!   traversal `dda` (Amanatides and Woo 1987); `macro_regions = true` adds a macro region
+//!   per empty cell (Devillers 1989), the baseline of the paper's Table 5;
+//! - `two-level-grid` ([`TwoLevelGrid`]): Kalojanov et al. 2011, a top grid of density λ_1
+//!   whose every cell holds a uniform grid of density λ_2 (at most 255 cells per axis),
+//!   traversal `dda` (3D-DDA over the top level, nested 3D-DDA in each non-empty top cell),
+//!   the baseline of Tables 2 and 4;
+//! - `irregular-grid` ([`IrregularGrid`]): the initial subdivision of §4.1 (`two-level`: a top
+//!   grid of density λ_1 with an octree per top cell from λ_2; or `uniform` at density λ_1, for
+//!   Table 5), SAH merging (§4.2, `merge`, `alpha`), expansion (§4.3, `expansion` passes) and
+//!   the traversal of §5 (`walk`). Every phase combination of Tables 1 and 5 is a parameter
+//!   set of this one structure.
+//!
+//! Separate structures rather than one with a `kind` choice: the kinds have different
+//! parameters (λ vs λ_1, λ_2, α), different memory layouts and different traversals, so a
+//! `kind` would leave most parameters meaningless for most kinds.
+//!
+//! # Shared pieces (module `common`)
+//!
+//! The resolution rule (equation 1), the lattice, the exact triangle/box overlap (separating
+//! axes, against boxes grown by a small margin: conservative, never drops a triangle), the
+//! flat `cell → reference range` layout, and one cell walk for every kind.
+//!
+//! # Why the walk cannot loop or skip
+//!
+//! Every walk works on integer voxel coordinates. A step leaves the current cell's box through
+//! the far plane nearest along the ray, puts the next voxel one layer past the box on that
+//! axis, and on the other axes takes the exit point's voxel clamped so it never moves back
+//! against the ray (the paper's `max`/`min` with the previous position, §5). So one
+//! coordinate strictly advances and none retreats: a ray crosses at most
+//! `res_x + res_y + res_z` cells and no step cap is needed. Plane distances and exit points are
+//! computed in `f64` from the `f32` ray, so a crossing is placed within about `1e-16` of the
+//! ray's length, and a misplaced corner or edge crossing lands in a cell whose grown box
+//! (references are assigned with the `delta` margin) still holds every triangle of the cell
+//! passed by; the walk stops only when the closest hit lies before the current cell's exit.
+//! Rays whose origin is so far from the grid that the `f32` triangle test's own rounding can
+//! exceed that margin (origins farther than about the grid's own coordinates away; only the
+//! far origins of `stress/ray-limits` among our scenes) test every triangle instead
+//! (`Lattice::far`), which the counters show.
+//!
+//! # Not done yet (issue 16)
+//!
+//! GPU kernels, the procedural hairball / large-object / scene-in-scene built-ins, dynamic
+//! scenes (Table 4), the λ_1 × λ_2 sweep (Figure 6) and the SBVH comparison (the binned `bvh`
+//! stands in, see `configs/irregular-grid.toml`).
+
+mod common;
+mod irregular;
+mod two_level;
+mod uniform;
+
+pub use common::{resolution, tri_box_overlap, Lattice};
+pub use irregular::{Cell, Initial, IrregularGrid, IrregularParams};
+pub use two_level::{TopCell, TwoLevelGrid, TwoLevelParams};
+pub use uniform::{UniformGrid, UniformParams};
+
+use tb_core::{build_with, Family};
+
+/// The uniform grid in the registry.
+pub static UNIFORM_FAMILY: Family = Family::new::<UniformGrid, UniformParams>(
+    "uniform grid, equation 1 density λ, 3D-DDA (Amanatides & Woo 1987), optional macro regions (Devillers 1989)",
+    |tris, set| build_with(set, |p: &UniformParams| UniformGrid::build(tris, p)),
+);
+
+/// The two-level grid in the registry.
+pub static TWO_LEVEL_FAMILY: Family = Family::new::<TwoLevelGrid, TwoLevelParams>(
+    "two-level grid: λ_1 top level, a uniform λ_2 grid per top cell, nested 3D-DDA (Kalojanov et al. 2011)",
+    |tris, set| build_with(set, |p: &TwoLevelParams| TwoLevelGrid::build(tris, p)),
+);
+
+/// The irregular grid in the registry.
+pub static IRREGULAR_FAMILY: Family = Family::new::<IrregularGrid, IrregularParams>(
+    "irregular grid: two-level initial subdivision, SAH merge, expansion, §5 walk (Pérard-Gayot et al. 2017)",
+    |tris, set| build_with(set, |p: &IrregularParams| IrregularGrid::build(tris, p)),
+);

@@ -1,0 +1,324 @@
+//! The two-level grid of Kalojanov, Billeter and Slusallek 2011, "Two-level grids for ray
+//! tracing on GPUs" (Eurographics): the baseline of Tables 2 and 4 of Pérard-Gayot et al.
+//! 2017.
+
+use crate::common::{
+    bin_uniform, brute_force, grid_bounds, resolution, test_refs, walk, Lattice, Visit, WalkRay,
+    MAX_AXIS_RES,
+};
+use rayon::prelude::*;
+use std::sync::Arc;
+use std::time::Instant;
+use tb_core::params::ParamKind;
+use tb_core::{
+    AccelError, BuildReport, Counter, HitRecord, MemoryReport, Ray, Structure, Traversal,
+    TraversalInfo, TriTest, Triangle,
+};
+
+tb_core::params! {
+    /// Build parameters of [`TwoLevelGrid`] (Kalojanov et al. 2011 §3).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct TwoLevelParams {
+        /// top-level density λ_1 of equation 1
+        lambda_1: f32 = 0.12, ParamKind::Float { min: 1e-4, max: 1e3 };
+        /// second-level density λ_2: each top cell is a uniform grid of equation 1 over the
+        /// cell and its primitives (at most 255 cells per axis)
+        lambda_2: f32 = 2.4, ParamKind::Float { min: 1e-4, max: 1e3 };
+        /// largest number of top-level cells
+        max_cells: u32 = 1 << 24, ParamKind::Int { min: 1, max: 1 << 28 };
+    }
+}
+
+/// Largest second-level resolution per axis (8 bits per axis in the top cell, Kalojanov et
+/// al. 2011).
+const MAX_SUB: u32 = 255;
+
+/// One top-level cell, 8 bytes: its first leaf cell and its resolution (8 bits per axis).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TopCell {
+    pub first_leaf: u32,
+    /// `rx | ry << 8 | rz << 16`.
+    pub res: u32,
+}
+
+impl TopCell {
+    fn res(&self) -> [u32; 3] {
+        [self.res & 0xff, self.res >> 8 & 0xff, self.res >> 16 & 0xff]
+    }
+}
+
+/// A two-level grid: a uniform top level whose every cell is a uniform grid of its own
+/// resolution; leaf cells are ranges of the flat reference array.
+///
+/// Per-ray counters of `dda`: `cells` (and `steps`): top and leaf cells visited (N_T);
+/// `interior`: top cells visited; `leaves`: leaf cells visited; `prims`: triangle tests (N_I).
+pub struct TwoLevelGrid {
+    top: Lattice,
+    tops: Vec<TopCell>,
+    /// `start[l]..start[l+1]` indexes `refs` for leaf cell `l`.
+    start: Vec<u32>,
+    refs: Vec<u32>,
+    tris: Arc<[Triangle]>,
+    figures: Vec<(String, f64)>,
+}
+
+/// The lattice of top cell `v` at resolution `res` (the same in build and traversal).
+fn sub_lattice(top: &Lattice, v: [u32; 3], res: [u32; 3]) -> Lattice {
+    let size: [f64; 3] = std::array::from_fn(|a| top.size[a] / res[a] as f64);
+    Lattice {
+        min: std::array::from_fn(|a| top.plane(a, v[a])),
+        size,
+        inv_size: size.map(|s| 1.0 / s),
+        res,
+        delta: top.delta,
+        mag: top.mag,
+    }
+}
+
+impl TwoLevelGrid {
+    /// Build over `tris` (parallel with rayon): the top level, then every top cell's grid.
+    pub fn build(tris: &Arc<[Triangle]>, p: &TwoLevelParams) -> Result<TwoLevelGrid, AccelError> {
+        let t = Instant::now();
+        let bounds = grid_bounds(tris);
+        let ext = bounds.extent().to_array().map(f64::from);
+        let res = resolution(
+            ext,
+            tris.len(),
+            p.lambda_1 as f64,
+            MAX_AXIS_RES,
+            p.max_cells as u64,
+        );
+        let top = Lattice::new(&bounds, res);
+        let (tstart, trefs) = bin_uniform(&top, tris)?;
+        let n_top = top.count();
+        let t_top = t.elapsed().as_secs_f64() * 1e3;
+        let t = Instant::now();
+        let sub_res: Vec<[u32; 3]> = (0..n_top)
+            .into_par_iter()
+            .map(|c| {
+                let n = (tstart[c + 1] - tstart[c]) as usize;
+                resolution(top.size, n, p.lambda_2 as f64, MAX_SUB, u64::MAX)
+            })
+            .collect();
+        let mut tops = Vec::with_capacity(n_top);
+        let mut n_leaves = 0u64;
+        for r in &sub_res {
+            tops.push(TopCell {
+                first_leaf: n_leaves as u32,
+                res: r[0] | r[1] << 8 | r[2] << 16,
+            });
+            n_leaves += r.iter().map(|&x| x as u64).product::<u64>();
+            if n_leaves >= u32::MAX as u64 {
+                return Err(AccelError::TooLarge {
+                    what: "two-level grid leaf cells",
+                    count: n_leaves,
+                    limit: u32::MAX as u64 - 1,
+                });
+            }
+        }
+        let mut pairs: Vec<u64> = (0..n_top)
+            .into_par_iter()
+            .flat_map_iter(|c| {
+                let v = voxel_of(&top, c);
+                let sub = sub_lattice(&top, v, sub_res[c]);
+                let first = tops[c].first_leaf as u64;
+                let mut out = Vec::new();
+                for &i in &trefs[tstart[c] as usize..tstart[c + 1] as usize] {
+                    let tri = &tris[i as usize];
+                    let (lo, hi) = sub.range(&tri.bounds());
+                    let single = lo == hi;
+                    for z in lo[2]..=hi[2] {
+                        for y in lo[1]..=hi[1] {
+                            for x in lo[0]..=hi[0] {
+                                let w = [x, y, z];
+                                if single || sub.overlaps(tri, w, w.map(|k| k + 1)) {
+                                    out.push((first + sub.index(w) as u64) << 32 | i as u64);
+                                }
+                            }
+                        }
+                    }
+                }
+                out
+            })
+            .collect();
+        pairs.par_sort_unstable();
+        let (start, refs) = crate::common::flatten(pairs, n_leaves as usize);
+        let figures = vec![
+            ("build_top_ms".into(), t_top),
+            ("build_leaves_ms".into(), t.elapsed().as_secs_f64() * 1e3),
+            ("top_res_x".into(), res[0] as f64),
+            ("top_res_y".into(), res[1] as f64),
+            ("top_res_z".into(), res[2] as f64),
+            ("top_cells".into(), n_top as f64),
+            ("leaf_cells".into(), n_leaves as f64),
+            ("refs".into(), refs.len() as f64),
+            ("top_bytes".into(), (n_top * 8) as f64),
+            ("cells_bytes".into(), (start.len() * 4) as f64),
+            ("refs_bytes".into(), (refs.len() * 4) as f64),
+        ];
+        Ok(TwoLevelGrid {
+            top,
+            tops,
+            start,
+            refs,
+            tris: tris.clone(),
+            figures,
+        })
+    }
+
+    /// The top-level grid.
+    pub fn lattice(&self) -> &Lattice {
+        &self.top
+    }
+
+    #[inline(always)]
+    fn dda<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        let Some(w) = WalkRay::clip(ray, &self.top) else {
+            return HitRecord::MISS;
+        };
+        if self.top.far(ray) {
+            return brute_force::<T, C, ANY>(ray, &self.tris, c);
+        }
+        let pre = T::prepare(ray);
+        let mut hit = HitRecord::MISS;
+        let mut best = ray.tmax;
+        let mut found = false;
+        walk(&w, &self.top, |v| {
+            c.cell();
+            c.interior();
+            c.steps(1);
+            let tc = self.tops[self.top.index(v)];
+            let r = tc.res();
+            let own = (v, v.map(|x| x + 1));
+            let first = tc.first_leaf as usize;
+            if r == [1, 1, 1] && self.start[first] == self.start[first + 1] {
+                return Visit::Continue {
+                    lo: own.0,
+                    hi: own.1,
+                    best,
+                };
+            }
+            let sub = sub_lattice(&self.top, v, r);
+            if let Some(ws) = w.clip_to(&sub) {
+                walk(&ws, &sub, |u| {
+                    c.cell();
+                    c.leaf();
+                    c.steps(1);
+                    let l = first + sub.index(u);
+                    let refs = &self.refs[self.start[l] as usize..self.start[l + 1] as usize];
+                    if test_refs::<T, C, ANY>(&pre, ray, &self.tris, refs, &mut hit, &mut best, c) {
+                        found = true;
+                        return Visit::Stop;
+                    }
+                    Visit::Continue {
+                        lo: u,
+                        hi: u.map(|x| x + 1),
+                        best,
+                    }
+                });
+            }
+            if found {
+                return Visit::Stop;
+            }
+            Visit::Continue {
+                lo: own.0,
+                hi: own.1,
+                best,
+            }
+        });
+        hit
+    }
+}
+
+fn voxel_of(lat: &Lattice, i: usize) -> [u32; 3] {
+    let [rx, ry, _] = lat.res.map(|r| r as usize);
+    [i % rx, (i / rx) % ry, i / (rx * ry)].map(|x| x as u32)
+}
+
+tb_core::kernel_by_query!(dda: [] Dda<'_>);
+
+/// The `dda` traversal of a [`TwoLevelGrid`].
+pub(crate) struct Dda<'a>(pub &'a TwoLevelGrid);
+
+impl Dda<'_> {
+    #[inline(always)]
+    fn dda<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.0.dda::<T, C, ANY>(ray, c)
+    }
+}
+
+impl Structure for TwoLevelGrid {
+    const NAME: &'static str = "two-level-grid";
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+        TraversalInfo::new(
+            "dda",
+            "Kalojanov et al. 2011 §4",
+            "3D-DDA over the top level, and in each non-empty top cell 3D-DDA over its own grid",
+        ),
+        |g, query, tri, rays, hits, stats| {
+            tb_core::dispatch(&Dda(g), query, tri, rays, hits, stats)
+        },
+    )];
+
+    fn own_memory(&self) -> MemoryReport {
+        MemoryReport {
+            bytes: (self.tops.len() * 8
+                + self.start.len() * 4
+                + self.refs.len() * 4
+                + self.tris.len() * std::mem::size_of::<Triangle>()) as u64,
+            nodes: (self.tops.len() + self.start.len() - 1) as u64,
+            prim_refs: self.refs.len() as u64,
+            node_bytes: 4,
+        }
+    }
+
+    /// Extra figures: build time of each level, resolutions, cell counts, memory per part.
+    fn report(&self) -> BuildReport {
+        BuildReport {
+            sah_cost: None,
+            extra: self.figures.clone(),
+        }
+    }
+
+    /// Checks: leaf ranges are consecutive per top cell and monotone, references sorted per
+    /// leaf, in range, and each overlaps its leaf cell (grown by the margin).
+    fn check(&self) -> Result<(), AccelError> {
+        let bad = |m: String| Err(AccelError::Invalid(m));
+        let mut next = 0u32;
+        for (c, tc) in self.tops.iter().enumerate() {
+            let r = tc.res();
+            if r.iter().any(|&x| x == 0 || x > MAX_SUB) || tc.first_leaf != next {
+                return bad(format!(
+                    "top cell {c}: resolution {r:?} or first leaf {} wrong",
+                    tc.first_leaf
+                ));
+            }
+            let sub = sub_lattice(&self.top, voxel_of(&self.top, c), r);
+            for l in 0..sub.count() {
+                let li = tc.first_leaf as usize + l;
+                let (a, b) = (self.start[li] as usize, self.start[li + 1] as usize);
+                if a > b || b > self.refs.len() {
+                    return bad(format!("leaf {li}: range {a}..{b} invalid"));
+                }
+                let u = voxel_of(&sub, l);
+                for (k, &t) in self.refs[a..b].iter().enumerate() {
+                    if k > 0 && self.refs[a + k - 1] >= t {
+                        return bad(format!("leaf {li}: references not sorted"));
+                    }
+                    let Some(tri) = self.tris.get(t as usize) else {
+                        return bad(format!("leaf {li}: reference {t} out of range"));
+                    };
+                    if !sub.overlaps(tri, u, u.map(|x| x + 1)) {
+                        return bad(format!("leaf {li}: triangle {t} does not overlap it"));
+                    }
+                }
+            }
+            next += sub.count() as u32;
+        }
+        if next as usize + 1 != self.start.len() {
+            return bad("leaf ranges do not match the top cells".into());
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,376 @@
+//! The uniform grid (equation 1 with density `lambda`) traversed by 3D-DDA (Amanatides and
+//! Woo 1987), optionally with macro regions (Devillers 1989): the baseline of Table 5 of
+//! Pérard-Gayot et al. 2017.
+
+use crate::common::{
+    bin_uniform, brute_force, grid_bounds, resolution, test_refs, walk, Lattice, Visit, WalkRay,
+    MAX_AXIS_RES,
+};
+use rayon::prelude::*;
+use std::sync::Arc;
+use std::time::Instant;
+use tb_core::params::ParamKind;
+use tb_core::{
+    AccelError, BuildReport, Counter, HitRecord, MemoryReport, Ray, Structure, Traversal,
+    TraversalInfo, TriTest, Triangle,
+};
+
+tb_core::params! {
+    /// Build parameters of [`UniformGrid`].
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct UniformParams {
+        /// grid density λ of equation 1 (cells per primitive; Pérard-Gayot et al. 2017 §4.1,
+        /// Table 5 uses λ = 5)
+        lambda: f32 = 5.0, ParamKind::Float { min: 1e-4, max: 1e3 };
+        /// store a macro region per empty cell and skip it in one step (Devillers 1989)
+        macro_regions: bool = false, ParamKind::Bool;
+        /// largest number of cells (the resolution is scaled down to stay under it)
+        max_cells: u32 = 1 << 26, ParamKind::Int { min: 1, max: 1 << 30 };
+    }
+}
+
+/// A uniform grid: cells on a regular lattice, each a range of the flat reference array.
+///
+/// Per-ray counters of `dda`: `cells` (and `steps`): cells visited (N_T; a macro region skipped
+/// in one step counts once); `prims`: triangle tests (N_I; a triangle in several visited cells
+/// is tested in each, there is no mailbox); the others stay 0.
+pub struct UniformGrid {
+    lat: Lattice,
+    /// `start[c]..start[c+1]` indexes `refs` for cell `c` (x fastest).
+    start: Vec<u32>,
+    /// Scene indices of the triangles, sorted by cell then index.
+    refs: Vec<u32>,
+    /// With macro regions: per cell, the box `[lo, hi)` in voxels that the walk leaves in
+    /// one step (the cell itself when it is not empty).
+    macros: Vec<[u32; 6]>,
+    tris: Arc<[Triangle]>,
+    times_ms: [f64; 2],
+}
+
+impl UniformGrid {
+    /// Build the grid over `tris` (parallel with rayon).
+    pub fn build(tris: &Arc<[Triangle]>, p: &UniformParams) -> Result<UniformGrid, AccelError> {
+        let t = Instant::now();
+        let bounds = grid_bounds(tris);
+        let ext = bounds.extent().to_array().map(f64::from);
+        let res = resolution(
+            ext,
+            tris.len(),
+            p.lambda as f64,
+            MAX_AXIS_RES,
+            p.max_cells as u64,
+        );
+        let lat = Lattice::new(&bounds, res);
+        let (start, refs) = bin_uniform(&lat, tris)?;
+        let t_bin = t.elapsed().as_secs_f64() * 1e3;
+        let t = Instant::now();
+        let macros = if p.macro_regions {
+            macro_regions(&lat, &start)
+        } else {
+            Vec::new()
+        };
+        Ok(UniformGrid {
+            lat,
+            start,
+            refs,
+            macros,
+            tris: tris.clone(),
+            times_ms: [t_bin, t.elapsed().as_secs_f64() * 1e3],
+        })
+    }
+
+    /// The grid's lattice (box, cell size, resolution).
+    pub fn lattice(&self) -> &Lattice {
+        &self.lat
+    }
+
+    #[inline(always)]
+    fn dda<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        let Some(w) = WalkRay::clip(ray, &self.lat) else {
+            return HitRecord::MISS;
+        };
+        if self.lat.far(ray) {
+            return brute_force::<T, C, ANY>(ray, &self.tris, c);
+        }
+        let pre = T::prepare(ray);
+        let mut hit = HitRecord::MISS;
+        let mut best = ray.tmax;
+        walk(&w, &self.lat, |v| {
+            c.cell();
+            c.steps(1);
+            let i = self.lat.index(v);
+            let r = self.start[i] as usize..self.start[i + 1] as usize;
+            if test_refs::<T, C, ANY>(
+                &pre,
+                ray,
+                &self.tris,
+                &self.refs[r.clone()],
+                &mut hit,
+                &mut best,
+                c,
+            ) {
+                return Visit::Stop;
+            }
+            let (lo, hi) = if r.is_empty() && !self.macros.is_empty() {
+                let m = self.macros[i];
+                ([m[0], m[1], m[2]], [m[3], m[4], m[5]])
+            } else {
+                (v, v.map(|x| x + 1))
+            };
+            Visit::Continue { lo, hi, best }
+        });
+        hit
+    }
+}
+
+tb_core::kernel_by_query!(dda: [] Dda<'_>);
+
+/// The `dda` traversal of a [`UniformGrid`].
+pub(crate) struct Dda<'a>(pub &'a UniformGrid);
+
+impl Dda<'_> {
+    #[inline(always)]
+    fn dda<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.0.dda::<T, C, ANY>(ray, c)
+    }
+}
+
+/// Macro regions (Devillers 1989, "The macro-regions: an efficient space subdivision
+/// structure for ray tracing"): for every empty cell a large empty box of cells around it, so
+/// that the walk leaves it in one step. Devillers partitions empty space into maximal empty
+/// boxes; here each empty cell grows its own box greedily (one face at a time, as far as the
+/// slab beyond it stays empty, until no face can move), so neighbouring cells' regions may
+/// overlap, which the walk does not mind (every cell of a region is empty). Emptiness of a
+/// box is one look-up in a 3D prefix count of non-empty cells; each face's growth is found by
+/// exponential and binary search.
+fn macro_regions(lat: &Lattice, start: &[u32]) -> Vec<[u32; 6]> {
+    let [rx, ry, _] = lat.res.map(|r| r as usize);
+    let fc = FullCount::new(lat, start);
+    let full = |lo, hi| fc.any(lo, hi);
+    (0..lat.count())
+        .into_par_iter()
+        .map(|c| {
+            let v = [c % rx, (c / rx) % ry, c / (rx * ry)].map(|x| x as u32);
+            let (mut lo, mut hi) = (v, v.map(|x| x + 1));
+            if start[c + 1] > start[c] {
+                return [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]];
+            }
+            loop {
+                let mut grew = false;
+                for a in 0..3 {
+                    // Grow the upper face: the largest k with the slab [hi, hi + k) empty.
+                    let room = lat.res[a] - hi[a];
+                    let k = largest(room, |k| {
+                        let (mut l, mut h) = (lo, hi);
+                        l[a] = hi[a];
+                        h[a] = hi[a] + k;
+                        !full(l, h)
+                    });
+                    hi[a] += k;
+                    let room = lo[a];
+                    let k2 = largest(room, |k| {
+                        let (mut l, mut h) = (lo, hi);
+                        h[a] = lo[a];
+                        l[a] = lo[a] - k;
+                        !full(l, h)
+                    });
+                    lo[a] -= k2;
+                    grew |= k + k2 > 0;
+                }
+                if !grew {
+                    return [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]];
+                }
+            }
+        })
+        .collect()
+}
+
+/// Non-empty cells of any box of cells in O(1): a 3D prefix count over `(r+1)^3` entries.
+struct FullCount {
+    s: Vec<u32>,
+    sx: usize,
+    sy: usize,
+}
+
+impl FullCount {
+    fn new(lat: &Lattice, start: &[u32]) -> Self {
+        let [rx, ry, rz] = lat.res.map(|r| r as usize);
+        let (sx, sy) = (rx + 1, (rx + 1) * (ry + 1));
+        let mut s = vec![0u32; sy * (rz + 1)];
+        for z in 0..rz {
+            for y in 0..ry {
+                for x in 0..rx {
+                    let c = x + rx * (y + ry * z);
+                    let full = (start[c + 1] > start[c]) as u32;
+                    let i = (x + 1) + sx * (y + 1) + sy * (z + 1);
+                    s[i] = full + s[i - 1] + s[i - sx] + s[i - sy]
+                        - s[i - 1 - sx]
+                        - s[i - 1 - sy]
+                        - s[i - sx - sy]
+                        + s[i - 1 - sx - sy];
+                }
+            }
+        }
+        FullCount { s, sx, sy }
+    }
+
+    /// Whether any cell of `lo..hi` (exclusive) is non-empty.
+    fn any(&self, lo: [u32; 3], hi: [u32; 3]) -> bool {
+        let at = |x: u32, y: u32, z: u32| {
+            self.s[x as usize + self.sx * y as usize + self.sy * z as usize] as i64
+        };
+        at(hi[0], hi[1], hi[2])
+            - at(lo[0], hi[1], hi[2])
+            - at(hi[0], lo[1], hi[2])
+            - at(hi[0], hi[1], lo[2])
+            + at(lo[0], lo[1], hi[2])
+            + at(lo[0], hi[1], lo[2])
+            + at(hi[0], lo[1], lo[2])
+            - at(lo[0], lo[1], lo[2])
+            > 0
+    }
+}
+
+/// The largest `k` in `0..=room` with `ok(k)`, for a predicate true up to some `k` and false
+/// beyond (exponential, then binary search).
+fn largest(room: u32, ok: impl Fn(u32) -> bool) -> u32 {
+    if room == 0 || !ok(1) {
+        return 0;
+    }
+    // ok(good) holds, ok(bad) does not (bad = room + 1: beyond the grid).
+    let (mut good, mut bad) = (1u32, room + 1);
+    let mut step = 2u32;
+    while step <= room {
+        if ok(step) {
+            good = step;
+            step = step.saturating_mul(2);
+        } else {
+            bad = step;
+            break;
+        }
+    }
+    while bad - good > 1 {
+        let mid = good + (bad - good) / 2;
+        if ok(mid) {
+            good = mid;
+        } else {
+            bad = mid;
+        }
+    }
+    good
+}
+
+impl Structure for UniformGrid {
+    const NAME: &'static str = "uniform-grid";
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+        TraversalInfo::new(
+            "dda",
+            "Amanatides & Woo 1987; Devillers 1989",
+            "3D-DDA from cell to cell (Amanatides and Woo 1987), skipping an empty cell's \
+             macro region in one step where built (Devillers 1989)",
+        ),
+        |g, query, tri, rays, hits, stats| {
+            tb_core::dispatch(&Dda(g), query, tri, rays, hits, stats)
+        },
+    )];
+
+    fn own_memory(&self) -> MemoryReport {
+        let cells = self.lat.count() as u64;
+        MemoryReport {
+            bytes: (self.start.len() * 4
+                + self.refs.len() * 4
+                + self.macros.len() * 24
+                + self.tris.len() * std::mem::size_of::<Triangle>()) as u64,
+            nodes: cells,
+            prim_refs: self.refs.len() as u64,
+            node_bytes: 4 + if self.macros.is_empty() { 0 } else { 24 },
+        }
+    }
+
+    /// Extra figures: resolution, cells, empty cells, references, memory of the cell array,
+    /// references and macro regions, build time of the binning and the macro regions.
+    fn report(&self) -> BuildReport {
+        let empty = self.start.windows(2).filter(|w| w[0] == w[1]).count();
+        let r = self.lat.res;
+        BuildReport {
+            sah_cost: None,
+            extra: vec![
+                ("res_x".into(), r[0] as f64),
+                ("res_y".into(), r[1] as f64),
+                ("res_z".into(), r[2] as f64),
+                ("cells".into(), self.lat.count() as f64),
+                ("empty_cells".into(), empty as f64),
+                ("refs".into(), self.refs.len() as f64),
+                ("cells_bytes".into(), (self.start.len() * 4) as f64),
+                ("refs_bytes".into(), (self.refs.len() * 4) as f64),
+                ("macro_bytes".into(), (self.macros.len() * 24) as f64),
+                ("build_bin_ms".into(), self.times_ms[0]),
+                ("build_macro_ms".into(), self.times_ms[1]),
+            ],
+        }
+    }
+
+    /// Checks: the cell ranges are monotone and cover the references, every reference names
+    /// a triangle and overlaps its (grown) cell, every macro region holds its cell and only empty cells, and
+    /// non-empty cells have none.
+    fn check(&self) -> Result<(), AccelError> {
+        let bad = |m: String| Err(AccelError::Invalid(m));
+        let n = self.lat.count();
+        if self.start.len() != n + 1
+            || self.start[0] != 0
+            || self.start[n] as usize != self.refs.len()
+        {
+            return bad("cell ranges do not cover the references".into());
+        }
+        for c in 0..n {
+            let (a, b) = (self.start[c] as usize, self.start[c + 1] as usize);
+            if a > b {
+                return bad(format!("cell {c}: range {a}..{b} decreasing"));
+            }
+            let v = self.voxel(c);
+            for w in self.refs[a..b].windows(2) {
+                if w[0] >= w[1] {
+                    return bad(format!("cell {c}: references not sorted"));
+                }
+            }
+            for &r in &self.refs[a..b] {
+                let Some(t) = self.tris.get(r as usize) else {
+                    return bad(format!("cell {c}: reference {r} out of range"));
+                };
+                if !self.lat.overlaps(t, v, v.map(|x| x + 1)) {
+                    return bad(format!("cell {c}: triangle {r} does not overlap it"));
+                }
+            }
+        }
+        if !self.macros.is_empty() {
+            if self.macros.len() != n {
+                return bad("one macro region per cell".into());
+            }
+            let fc = FullCount::new(&self.lat, &self.start);
+            for c in 0..n {
+                let m = self.macros[c];
+                let v = self.voxel(c);
+                let (lo, hi) = ([m[0], m[1], m[2]], [m[3], m[4], m[5]]);
+                if (0..3).any(|a| lo[a] > v[a] || hi[a] <= v[a] || hi[a] > self.lat.res[a]) {
+                    return bad(format!("cell {c}: macro region does not hold it"));
+                }
+                let own = (lo, hi) == (v, v.map(|x| x + 1));
+                if self.start[c] == self.start[c + 1] {
+                    if fc.any(lo, hi) {
+                        return bad(format!("cell {c}: macro region holds a non-empty cell"));
+                    }
+                } else if !own {
+                    return bad(format!("non-empty cell {c} has a macro region"));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl UniformGrid {
+    fn voxel(&self, c: usize) -> [u32; 3] {
+        let [rx, ry, _] = self.lat.res.map(|r| r as usize);
+        [c % rx, (c / rx) % ry, c / (rx * ry)].map(|x| x as u32)
+    }
+}
