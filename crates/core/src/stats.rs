@@ -23,6 +23,9 @@ pub trait Counter: Default + Send {
     fn planes(&mut self, n: u32);
     fn restart(&mut self);
     fn steps(&mut self, n: u32);
+    /// One step up a parent link between augmented nodes (sparse boxes, Havran and Bittner
+    /// 2007 §5.2-§5.3).
+    fn up(&mut self);
     /// The ray was ended by a traversal's step cap (at most once per ray).
     fn capped(&mut self);
 }
@@ -48,6 +51,8 @@ impl Counter for NoStats {
     #[inline(always)]
     fn steps(&mut self, _: u32) {}
     #[inline(always)]
+    fn up(&mut self) {}
+    #[inline(always)]
     fn capped(&mut self) {}
 }
 
@@ -72,6 +77,8 @@ macro_rules! for_each_counter {
                 "restarts from the root or a pushed-down node, and backtracks up the tree";
             steps, steps_per_ray, steps_max,
                 "traversal steps, as each structure defines them (for trees: nodes visited)";
+            ups, ups_per_ray, ups_max,
+                "steps up a parent link between augmented nodes (sparse boxes)";
         }
     };
 }
@@ -159,6 +166,10 @@ impl Counter for TraversalStats {
     #[inline(always)]
     fn steps(&mut self, n: u32) {
         self.steps += n;
+    }
+    #[inline(always)]
+    fn up(&mut self) {
+        self.ups += 1;
     }
     #[inline(always)]
     fn capped(&mut self) {

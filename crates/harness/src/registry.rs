@@ -12,6 +12,7 @@ static FAMILIES: &[&Family] = &[
     &tb_core::oracle::FAMILY,
     &tb_bvh::FAMILY,
     &tb_kdtree::FAMILY,
+    &tb_sparse::FAMILY,
     &tb_rtree::FAMILY,
     #[cfg(feature = "embree")]
     &tb_peers::embree::FAMILY,
