@@ -203,6 +203,15 @@ impl SparseBoxes {
         &self.aug
     }
 
+    /// A copy with the records replaced by `aug` (tests of `validate`).
+    #[doc(hidden)]
+    pub fn with_records(&self, aug: Vec<AugNode>) -> SparseBoxes {
+        SparseBoxes {
+            aug: aug.into(),
+            ..self.clone()
+        }
+    }
+
     /// Depth of the node of each augmented record.
     pub fn aug_depths(&self) -> &[u8] {
         &self.depth

@@ -308,6 +308,8 @@ impl<'a> Ctx<'a> {
         let mut sa = self.start(ray, hint);
         // The node whose subtree is finished (none yet).
         let mut done = NONE;
+        // Where the ray leaves the finished subtree.
+        let mut done_exit = f32::NEG_INFINITY;
         let mut stack = [(0u32, 0f32, 0f32); STACK_SIZE];
         loop {
             let a = &self.aug[sa];
@@ -315,6 +317,9 @@ impl<'a> Ctx<'a> {
             if let Some((t0, t1)) = a.cell().intersect(ray.origin, inv, ray.tmin, ray.tmax) {
                 let mut sp = 0usize;
                 let (mut idx, mut tn, mut tf) = (a.node as usize, t0, t1);
+                // Whether `idx` is an ancestor of the finished subtree (stack entries carry
+                // it in the top bit of the node index).
+                let mut path = done != NONE;
                 loop {
                     let n = nodes[idx];
                     if idx as u32 != done {
@@ -323,12 +328,37 @@ impl<'a> Ctx<'a> {
                             c.steps(1);
                             c.planes(1);
                             let d = decide(n, idx, &s, tn, tf);
+                            // The child toward the finished subtree.
+                            let toward = if (done as usize) < n.link() {
+                                idx + 1
+                            } else {
+                                n.link()
+                            };
                             match d.kind {
-                                Kind::NearOnly => idx = d.near,
-                                Kind::FarOnly => idx = d.far,
+                                Kind::NearOnly => {
+                                    path &= d.near == toward;
+                                    idx = d.near;
+                                }
+                                Kind::FarOnly => {
+                                    path &= d.far == toward;
+                                    idx = d.far;
+                                }
                                 Kind::Both => {
-                                    stack[sp] = (d.far as u32, d.far_tn, tf);
+                                    // The near child holds the finished subtree and ends
+                                    // where the ray leaves that: nothing of it is left
+                                    // (Alg. 2's shifted entry `t_exit + eps`, decided here
+                                    // without the shift).
+                                    if path && d.near == toward && d.near_tf <= done_exit {
+                                        path = false;
+                                        idx = d.far;
+                                        tn = d.far_tn;
+                                        continue;
+                                    }
+                                    let far_path = path && d.far == toward;
+                                    stack[sp] =
+                                        ((far_path as u32) << 31 | d.far as u32, d.far_tn, tf);
                                     sp += 1;
+                                    path &= d.near == toward;
                                     idx = d.near;
                                     tf = d.near_tf;
                                 }
@@ -349,7 +379,8 @@ impl<'a> Ctx<'a> {
                         }
                     }
                     let Some((i, x, y)) = next else { break };
-                    (idx, tn, tf) = (i as usize, x, y);
+                    path = i >> 31 == 1;
+                    (idx, tn, tf) = ((i & !(1 << 31)) as usize, x, y);
                 }
             }
             if sa == 0 {
@@ -373,6 +404,7 @@ impl<'a> Ctx<'a> {
                 c.up();
             }
             done = a.node;
+            done_exit = exit;
             sa = p;
         }
     }
