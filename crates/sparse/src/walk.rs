@@ -21,9 +21,12 @@
 //!   runs dry with no hit before the subtree's exit, climb the parent links (one box test
 //!   each, `ComputeMaxT`) to the first augmented node whose box extends beyond the finished
 //!   box's exit (Alg. 2's `TraverseUp`) and run the stack traversal of its subtree over its
-//!   whole clipped interval with the finished subtree *skipped* (instead of the shifted entry
-//!   `t_exit + eps`; the nodes on the path down to the finished subtree are visited again and
-//!   counted). The root ends the walk.
+//!   whole clipped interval with the finished subtree *skipped* by its node index, instead of
+//!   from the shifted entry `t_exit + eps`. On the way down toward the finished subtree
+//!   (tracked by node index ranges), a node whose near child holds it and ends where the ray
+//!   leaves it (`near exit <= finished exit`: the split plane is the finished box's exit face)
+//!   goes to its far child only, as the shifted entry would make it; the other nodes on that
+//!   path are visited again (and counted). The root ends the walk.
 //! - **SLTR**: down to a leaf choosing the first intersected child (Alg. 3, `TraverseDown`,
 //!   the near child when both are), then on to the *next* leaf: the walk keeps, per depth, one
 //!   bit telling that the node there sent the ray both ways with the walk in the near child
