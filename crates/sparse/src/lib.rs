@@ -35,11 +35,12 @@
 
 mod walk;
 
+use std::borrow::Cow;
 use std::sync::Arc;
 use tb_core::{
-    build_with, Aabb, Accel, AccelError, BuildReport, Family, HitRecord, MemoryReport, ParamKind,
-    Params, Query, Ray, Structure, Traversal, TraversalInfo, TraversalStats, TriTestKind, Triangle,
-    Vec3,
+    build_with, Aabb, Accel, AccelError, BuildReport, Family, GpuBuffer, GpuProgram, HitRecord,
+    MemoryReport, ParamKind, Params, Query, Ray, Structure, Traversal, TraversalInfo,
+    TraversalStats, TriTestKind, Triangle, Vec3,
 };
 use tb_kdtree::{KdBuilder, KdLayout, KdParams, KdTree, SurfaceArea, STACK_SIZE};
 
@@ -308,6 +309,73 @@ impl SparseBoxes {
     }
 }
 
+/// Little-endian-as-native bytes of `words` (GPU buffers).
+fn bytes(words: impl Iterator<Item = u32>) -> Cow<'static, [u8]> {
+    Cow::Owned(words.flat_map(|w| w.to_ne_bytes()).collect())
+}
+
+impl SparseBoxes {
+    /// The GPU program of SLTR (`crates/sparse/shaders/sltr.wgsl`): from the start node
+    /// located per ray in the kernel (`start`, program `sparse-boxes/sltr`) or from the root
+    /// (`sparse-boxes/sltr-root`). Buffers: the kd-tree's nodes and references, the augmented
+    /// records, their depths followed by the step cap; meta: node count, record count,
+    /// `d_min + 1`.
+    fn gpu_sltr(&self, start: bool) -> GpuProgram<'_> {
+        let v = self.kd.view();
+        GpuProgram {
+            name: if start {
+                "sparse-boxes/sltr"
+            } else {
+                "sparse-boxes/sltr-root"
+            },
+            source: include_str!("../shaders/sltr.wgsl"),
+            triangles: Cow::Borrowed(v.triangles()),
+            buffers: vec![
+                GpuBuffer {
+                    what: "the kd-tree node array",
+                    bytes: bytes(v.nodes().iter().flat_map(|n| [n.bits, n.data])),
+                },
+                GpuBuffer {
+                    what: "the kd-tree reference array",
+                    bytes: bytes(v.refs().iter().copied()),
+                },
+                GpuBuffer {
+                    what: "the augmented nodes",
+                    bytes: bytes(self.aug.iter().flat_map(|a| {
+                        [
+                            a.min[0].to_bits(),
+                            a.min[1].to_bits(),
+                            a.min[2].to_bits(),
+                            a.parent,
+                            a.max[0].to_bits(),
+                            a.max[1].to_bits(),
+                            a.max[2].to_bits(),
+                            a.node,
+                        ]
+                    })),
+                },
+                GpuBuffer {
+                    what: "the augmented nodes' depths and the step cap",
+                    bytes: bytes(
+                        self.depth
+                            .iter()
+                            .map(|&d| d as u32)
+                            .chain([self.params.step_cap]),
+                    ),
+                },
+            ],
+            meta: [
+                v.nodes().len() as u32,
+                self.aug.len() as u32,
+                self.params.period(),
+            ],
+            stack_size: 0,
+            constants: vec![("START", start as u32 as f64)],
+            unrolled_triangle_loop: None,
+        }
+    }
+}
+
 /// Index of kd-tree traversal `name` (the kd rows of this table).
 fn kd_row(name: &str) -> usize {
     KdTree::TRAVERSALS
@@ -367,7 +435,7 @@ impl Structure for SparseBoxes {
                 walk::trace::<{ walk::BTR }>(s, q, tri, rays, None, false, hits, stats)
             },
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "sltr",
                 "Havran & Bittner 2007 §5.3, Alg. 3",
@@ -381,11 +449,12 @@ impl Structure for SparseBoxes {
             |s, q, tri, rays, hits, stats| {
                 walk::trace::<{ walk::SLTR }>(s, q, tri, rays, None, true, hits, stats)
             },
+            |s| s.gpu_sltr(true),
         )
         .with_hints(hints, |s, q, tri, rays, h, hits, stats| {
             walk::trace::<{ walk::SLTR }>(s, q, tri, rays, h, true, hits, stats)
         }),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "sltr-root",
                 "Havran & Bittner 2007 §5.3, Alg. 3",
@@ -396,6 +465,7 @@ impl Structure for SparseBoxes {
             |s, q, tri, rays, hits, stats| {
                 walk::trace::<{ walk::SLTR }>(s, q, tri, rays, None, false, hits, stats)
             },
+            |s| s.gpu_sltr(false),
         ),
         Traversal::cpu(
             TraversalInfo::new(
