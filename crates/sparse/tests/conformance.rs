@@ -25,6 +25,41 @@ fn conforms_default() {
     run(SparseParams::default());
 }
 
+/// The arena and city stand-ins, small: every traversal, every ray kind, zero mismatches.
+#[test]
+fn conforms_on_the_stand_ins() {
+    let scenes: Vec<tb_scene::Scene> = [
+        "builtin:arena?rows=3&seats=24&roof=6",
+        "builtin:city?blocks=3&storeys=4",
+    ]
+    .iter()
+    .map(|s| {
+        let mut s = tb_scene::load(s, std::path::Path::new(".")).unwrap();
+        let c = &mut s.view.as_mut().unwrap().camera;
+        (c.width, c.height) = (40, 30);
+        s
+    })
+    .collect();
+    for tri in [TriTestKind::Watertight] {
+        let res = tb_scene::conformance::check_scenes(
+            &scenes,
+            &|tris| {
+                Box::new(SparseBoxes::build(
+                    tris,
+                    &SparseParams {
+                        d_min: 1,
+                        ..Default::default()
+                    },
+                ))
+            },
+            tri,
+        );
+        let bad: Vec<_> = res.iter().filter(|r| r.mismatches > 0).collect();
+        assert!(bad.is_empty(), "{bad:?}");
+        assert!(res.len() >= 2 * 6 * 6, "{}", res.len());
+    }
+}
+
 #[test]
 fn conforms_dense_and_sparse_boxes() {
     for d_min in [1, 6] {
