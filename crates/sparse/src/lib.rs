@@ -29,6 +29,11 @@
 //!   See module `walk` for the kernels and how their origin shifts are made robust without an
 //!   epsilon.
 //!
+//! - **GPU**: SLTR (`sltr`, `sltr-root`) as a WGSL kernel (`shaders/sltr.wgsl`), the CPU walk
+//!   statement for statement (hits and counters equal ray for ray on lavapipe, checked by the
+//!   harness's `gpu_oracle` test); there the start node is located per ray inside the timed
+//!   kernel (the GPU device takes no hints).
+//!
 //! Counters: `interior` (N_I), `leaves` (N_L), `prims` (r_ITM) as the kd-tree's; `ups`: parent
 //! links followed; `boxes`: ray–box tests with the stored boxes (and the start cell);
 //! `restarts`: continuations after the traversal stack ran dry (BTR) or after a leaf (SLTR).
