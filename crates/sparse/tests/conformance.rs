@@ -319,3 +319,40 @@ fn validate_and_figures() {
     );
     assert!(matches!(e, Err(tb_core::AccelError::Params(_))));
 }
+
+/// The harness's path: hints computed once for a batch, split into chunks with the rays by
+/// `tb_core::par::trace_hinted_into` (more rays than one chunk), give the answers and counters
+/// of the kernels that find their start nodes themselves.
+#[test]
+fn chunked_hints_match() {
+    let scene = tb_scene::load(
+        "builtin:teapot-stadium?teapot_tess=3&segments=8",
+        std::path::Path::new("."),
+    )
+    .unwrap();
+    let mut cam = scene.view.clone().unwrap().camera;
+    (cam.width, cam.height) = (64, 48);
+    let rays = tb_scene::rays::primary(&cam);
+    assert!(rays.len() > tb_core::par::CHUNK);
+    let s = SparseBoxes::build(&scene.triangles, &SparseParams::default());
+    for name in ["btr", "sltr"] {
+        let ti = index(name);
+        let hints = s.batch_hints(ti, Query::Closest, &rays).unwrap();
+        assert!(hints.iter().all(|&h| h == hints[0] && h != 0), "{name}");
+        let mut a = vec![HitRecord::MISS; rays.len()];
+        let mut sa = vec![TraversalStats::default(); rays.len()];
+        tb_core::par::trace_hinted_into(
+            &s,
+            ti,
+            Query::Closest,
+            TriTestKind::Watertight,
+            &rays,
+            Some(&hints),
+            &mut a,
+            Some(&mut sa),
+        );
+        let (b, sb) = tb_core::par::count(&s, ti, Query::Closest, TriTestKind::Watertight, &rays);
+        assert_eq!(a, b, "{name}");
+        assert_eq!(sa, sb, "{name}");
+    }
+}
