@@ -70,7 +70,7 @@ tb_core::params! {
     pub struct SparseParams {
         /// d_min: an interior node is augmented when its depth distance to the nearest
         /// augmented ancestor exceeds d_min (Havran and Bittner 2007 §4; the root always is).
-        d_min: u32 = 3, ParamKind::Int { min: 1, max: 16 };
+        d_min: u32 = 2, ParamKind::Int { min: 1, max: 16 };
         /// kd-tree split search, as the kd-tree's `builder`.
         builder: KdBuilder = KdBuilder::Sweep, ParamKind::Choice(KdBuilder::NAMES);
         /// Bins per axis, `binned` builder only.

@@ -60,7 +60,7 @@ fn conforms_on_the_stand_ins() {
 
 #[test]
 fn conforms_dense_and_sparse_boxes() {
-    for d_min in [1, 6] {
+    for d_min in [1, 5] {
         run(SparseParams {
             d_min,
             ..Default::default()
