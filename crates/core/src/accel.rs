@@ -111,12 +111,42 @@ pub type TraceFn<S> =
 /// The GPU program of one traversal of a build of `S`.
 pub type GpuFn<S> = for<'a> fn(&'a S) -> GpuProgram<'a>;
 
+/// Computes one start hint per ray of a batch ([`Accel::batch_hints`]): what a traversal that
+/// may begin below the root (sparse boxes' start nodes, Havran and Bittner 2007 §3) would
+/// otherwise find per ray, found once per batch by the caller, outside any timing.
+pub type HintFn<S> = fn(&S, Query, &[Ray]) -> Vec<u32>;
+
+/// Traces a batch with one start hint per ray (`Some`, from the traversal's [`HintFn`] over
+/// the same rays) or without (`None`: the kernel finds its starts itself); otherwise as
+/// [`TraceFn`].
+pub type HintedTraceFn<S> = fn(
+    &S,
+    Query,
+    TriTestKind,
+    &[Ray],
+    Option<&[u32]>,
+    &mut [HitRecord],
+    Option<&mut [TraversalStats]>,
+);
+
+/// The start-hint pair of a traversal that takes hints ([`Traversal::with_hints`]).
+pub struct Hints<S> {
+    /// One hint per ray of a batch.
+    pub compute: HintFn<S>,
+    /// The trace that reads them.
+    pub trace: HintedTraceFn<S>,
+}
+
 /// One row of a structure's traversal table: the facts, the CPU kernel and, where there is
-/// one, the GPU program. Listing, dispatch, memory and GPU support all derive from the table.
+/// one, the GPU program and the start hints. Listing, dispatch, memory and GPU support all
+/// derive from the table.
 pub struct Traversal<S> {
     pub info: TraversalInfo,
     pub trace: TraceFn<S>,
     pub gpu: Option<GpuFn<S>>,
+    /// Per-ray start hints computed once per batch by the caller, untimed (`None`: the
+    /// traversal takes none).
+    pub hints: Option<Hints<S>>,
 }
 
 impl<S> Traversal<S> {
@@ -126,6 +156,7 @@ impl<S> Traversal<S> {
             info,
             trace,
             gpu: None,
+            hints: None,
         }
     }
 
@@ -135,7 +166,15 @@ impl<S> Traversal<S> {
             info,
             trace,
             gpu: Some(gpu),
+            hints: None,
         }
+    }
+
+    /// This row taking per-ray start hints: `compute` finds them for a batch, `trace` reads
+    /// them (the row's plain `trace` must give the same answers without them).
+    pub const fn with_hints(mut self, compute: HintFn<S>, trace: HintedTraceFn<S>) -> Self {
+        self.hints = Some(Hints { compute, trace });
+        self
     }
 }
 
@@ -266,6 +305,31 @@ pub trait Accel: Send + Sync {
         stats: Option<&mut [TraversalStats]>,
     );
 
+    /// Per-ray start hints of traversal number `traversal` for `rays` (one per ray), for
+    /// [`Accel::trace_hinted`]; `None` (the default) for traversals that take none. Callers
+    /// compute them once per batch, outside timing.
+    fn batch_hints(&self, traversal: usize, query: Query, rays: &[Ray]) -> Option<Vec<u32>> {
+        let _ = (traversal, query, rays);
+        None
+    }
+
+    /// [`Accel::trace`] with the start hints of [`Accel::batch_hints`] for these rays
+    /// (`None`, or a traversal that takes none: the same as [`Accel::trace`], which the
+    /// default calls).
+    fn trace_hinted(
+        &self,
+        traversal: usize,
+        query: Query,
+        tri: TriTestKind,
+        rays: &[Ray],
+        hints: Option<&[u32]>,
+        hits: &mut [HitRecord],
+        stats: Option<&mut [TraversalStats]>,
+    ) {
+        let _ = hints;
+        self.trace(traversal, query, tri, rays, hits, stats)
+    }
+
     /// Whether traversal number `traversal` has a GPU kernel (without building its program).
     fn has_gpu_program(&self, traversal: usize) -> bool;
 
@@ -331,6 +395,33 @@ impl<S: Structure> Accel for S {
         stats: Option<&mut [TraversalStats]>,
     ) {
         (row::<S>(traversal).trace)(self, query, tri, rays, hits, stats)
+    }
+
+    fn batch_hints(&self, traversal: usize, query: Query, rays: &[Ray]) -> Option<Vec<u32>> {
+        let h = row::<S>(traversal).hints.as_ref()?;
+        let out = (h.compute)(self, query, rays);
+        assert_eq!(out.len(), rays.len(), "{}: one hint per ray", S::NAME);
+        Some(out)
+    }
+
+    fn trace_hinted(
+        &self,
+        traversal: usize,
+        query: Query,
+        tri: TriTestKind,
+        rays: &[Ray],
+        hints: Option<&[u32]>,
+        hits: &mut [HitRecord],
+        stats: Option<&mut [TraversalStats]>,
+    ) {
+        let r = row::<S>(traversal);
+        match (&r.hints, hints) {
+            (Some(h), Some(hints)) => {
+                assert_eq!(hints.len(), rays.len(), "one hint per ray");
+                (h.trace)(self, query, tri, rays, Some(hints), hits, stats)
+            }
+            _ => (r.trace)(self, query, tri, rays, hits, stats),
+        }
     }
 
     fn has_gpu_program(&self, traversal: usize) -> bool {

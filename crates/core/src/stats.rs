@@ -25,6 +25,9 @@ pub trait Counter: Default + Send {
     fn steps(&mut self, n: u32);
     /// A grid cell was visited (N_T of the grid papers).
     fn cell(&mut self);
+    /// One step up a parent link between augmented nodes (sparse boxes, Havran and Bittner
+    /// 2007 §5.2-§5.3).
+    fn up(&mut self);
     /// The ray was ended by a traversal's step cap (at most once per ray).
     fn capped(&mut self);
 }
@@ -52,6 +55,8 @@ impl Counter for NoStats {
     #[inline(always)]
     fn cell(&mut self) {}
     #[inline(always)]
+    fn up(&mut self) {}
+    #[inline(always)]
     fn capped(&mut self) {}
 }
 
@@ -77,6 +82,8 @@ macro_rules! for_each_counter {
             steps, steps_per_ray, steps_max,
                 "traversal steps, as each structure defines them (for trees: nodes visited)";
             cells, cells_per_ray, cells_max, "grid cells visited (N_T of the grid papers)";
+            ups, ups_per_ray, ups_max,
+                "steps up a parent link between augmented nodes (sparse boxes)";
         }
     };
 }
@@ -168,6 +175,10 @@ impl Counter for TraversalStats {
     #[inline(always)]
     fn cell(&mut self) {
         self.cells += 1;
+    }
+    #[inline(always)]
+    fn up(&mut self) {
+        self.ups += 1;
     }
     #[inline(always)]
     fn capped(&mut self) {

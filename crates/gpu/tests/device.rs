@@ -139,6 +139,7 @@ fn programs_get_their_buffers_meta_and_constants() {
             restarts: 42,
             steps: 5,
             capped: (query == Query::Any) as u32,
+            ..Default::default()
         };
         assert_eq!(stats.unwrap(), [want]);
     }

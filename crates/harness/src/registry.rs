@@ -13,6 +13,7 @@ static FAMILIES: &[&Family] = &[
     &tb_bvh::FAMILY,
     &tb_kdtree::FAMILY,
     &tb_kdtree::multi::FAMILY,
+    &tb_sparse::FAMILY,
     &tb_rtree::FAMILY,
     &tb_grid::UNIFORM_FAMILY,
     &tb_grid::TWO_LEVEL_FAMILY,

@@ -324,7 +324,7 @@ mod tests {
             ..Default::default()
         }; 4];
         let c = counter_channels(&pixels, &stats, 2, 2);
-        assert_eq!(c.names().len(), 7);
+        assert_eq!(c.names().len(), tb_core::N_COUNTERS);
         assert_eq!(c.get("steps").unwrap(), &[5.0; 4]);
         assert_eq!(c.get("prims").unwrap(), &[2.0; 4]);
     }

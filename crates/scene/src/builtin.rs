@@ -6,7 +6,9 @@
 //!   tessellated to triangles, in SPD's own coordinates (Z up);
 //! - `soup`: random small triangles in the unit cube;
 //! - `teapot`, `teapot-stadium`: the Utah teapot (Newell's 32 bicubic Bezier patches)
-//!   alone, or in the middle of a huge, coarse stadium ("teapot in a stadium").
+//!   alone, or in the middle of a huge, coarse stadium ("teapot in a stadium");
+//! - `arena`, `city`: stand-ins for the sparse-boxes paper's scenes (Havran and Bittner 2007),
+//!   a tiered stadium bowl with seats and a roof, and a city of blocks seen from street level.
 //!
 //! Every scene is deterministic (fixed seeds where random), reads all its parameters through
 //! [`Params`], refuses more than [`MAX_TRIANGLES`] triangles, and comes with a default
@@ -17,6 +19,8 @@ use crate::error::SceneError;
 pub use crate::procedural::{BuiltinInfo, Params};
 use crate::scene::Scene;
 
+mod arena;
+mod city;
 mod common;
 mod cornell;
 mod soup;
@@ -94,6 +98,30 @@ pub const PROCEDURAL: &[BuiltinInfo] = &[
             "segments=32: segments of the stand ring, 3..=1000000",
         ],
     },
+    BuiltinInfo {
+        name: "arena",
+        doc: "stand-in for the 'arena' of Havran & Bittner 2007 (a stadium, 1.4M triangles): \
+              tiered elliptical bowl of stands around a pitch, a seat on every step, roof \
+              trusses and panels; camera in the stands (very high depth complexity, short \
+              rays); 14*rows*seats + 208*roof + 2 triangles (default 1,399,314)",
+        params: &[
+            "rows=60: tiers of the stands, 1..=1000",
+            "seats=1650: steps (and seats) per tier around the bowl, 8..=1000000",
+            "roof=64: roof trusses, 3..=10000",
+        ],
+    },
+    BuiltinInfo {
+        name: "city",
+        doc: "stand-in for the 'city' of Havran & Bittner 2007 (0.8M triangles): blocks x blocks \
+              blocks between streets, four buildings each (random storeys, facades split into \
+              storeys x 3 bays); camera at street level down an avenue (long rays); about \
+              0.8M triangles by default",
+        params: &[
+            "blocks=28: blocks per side, 1..=2000",
+            "storeys=18: most storeys of a building (uniform in 2..=storeys), 2..=1000",
+            "seed=7: seed of the building heights",
+        ],
+    },
 ];
 
 /// Load `NAME?params` (the part after `builtin:`).
@@ -118,6 +146,8 @@ fn load_procedural(name: &str, params: &Params) -> Result<Scene, SceneError> {
         "soup" => soup::soup(params),
         "teapot" => teapot::teapot(params),
         "teapot-stadium" => teapot::teapot_stadium(params),
+        "arena" => arena::arena(params),
+        "city" => city::city(params),
         _ => Err(SceneError::Builtin {
             spec: name.into(),
             message: format!(

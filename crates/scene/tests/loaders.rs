@@ -412,6 +412,8 @@ fn procedural_scenes_load_with_defaults() {
         ("soup", 10_000),
         ("teapot", 16_256),
         ("teapot-stadium", 16_386),
+        ("arena", 1_399_314),
+        ("city", 759_258),
     ];
     let names: Vec<&str> = tb_scene::builtin::PROCEDURAL
         .iter()

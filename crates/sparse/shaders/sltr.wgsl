@@ -1,0 +1,444 @@
+// SLTR, the stackless bottom-up traversal with sparse boxes (Havran and Bittner 2007 §5.3,
+// Alg. 3), programs `sparse-boxes/sltr` (START: from the start node located per ray) and
+// `sparse-boxes/sltr-root` on tb-gpu's prelude (tb_core::gpu). The same walk as the CPU kernel
+// (crates/sparse/src/walk.rs, `Ctx::sltr`), statement for statement, so the counters agree ray
+// for ray: down to a leaf by the first intersected child, then to the far child of the deepest
+// node that sent the ray both ways (one bit per depth, two words), restarting from the last
+// augmented node or climbing parent links to the one above it, and above the start node
+// descending from the parent augmented node toward it to learn the bits of those levels.
+
+// tb_kdtree::KdNode, 8 bytes: interior: bits = link << 2 | axis (left child = index + 1, right
+// = link), data = split (f32 bits); leaf: bits = count << 2 | 3, data = first reference.
+struct KdNode { bits: u32, data: u32 }
+// tb_sparse::AugNode, 32 bytes: the node's cell, the parent record, the node.
+struct Aug { bmin: vec3<f32>, parent: u32, bmax: vec3<f32>, node: u32 }
+
+@group(0) @binding(5) var<storage, read> nodes: array<KdNode>;   // buffers[0]
+@group(0) @binding(6) var<storage, read> refs: array<u32>;       // buffers[1]: triangle indices
+@group(0) @binding(7) var<storage, read> aug: array<Aug>;        // buffers[2]: record 0 = root
+@group(0) @binding(8) var<storage, read> depths: array<u32>;     // buffers[3]: per record, then the step cap
+
+// Start at the start node (the deepest augmented node strictly holding the origin).
+override START: bool = false;
+
+const NONE: u32 = 0xffffffffu;
+
+struct Dec { kind: u32, near: u32, far: u32, near_tf: f32, far_tn: f32 }
+
+// walk.rs `decide` (kind 0: near only, 1: far only, 2: both).
+fn decide(n: KdNode, idx: u32, rb: RayBox, tn: f32, tf: f32, slack: f32) -> Dec {
+    let a = n.bits & 3u;
+    let t = (bitcast<f32>(n.data) - rb.org[a]) * rb.inv[a];
+    let left = idx + 1u;
+    let right = n.bits >> 2u;
+    var near = left;
+    var far = right;
+    if rb.neg[a] {
+        near = right;
+        far = left;
+    }
+    var kind = 2u;
+    if t > tf * slack {
+        kind = 0u;
+    } else if t * slack < tn {
+        kind = 1u;
+    }
+    return Dec(kind, near, far, min_num(tf, t), max_num(tn, t));
+}
+
+fn is_leaf(n: KdNode) -> bool {
+    return (n.bits & 3u) == 3u;
+}
+
+// walk.rs `find_aug`: the record of `node` (records in node order), 0 if none.
+fn find_aug(node: u32) -> u32 {
+    var lo = 0u;
+    var hi = meta_.counts.z;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        let m = aug[mid].node;
+        if m < node {
+            lo = mid + 1u;
+        } else if m > node {
+            hi = mid;
+        } else {
+            return mid;
+        }
+    }
+    return 0u;
+}
+
+// walk.rs `locate`, then `Ctx::start`: the start record of `r`.
+fn start_record(r: Ray) -> u32 {
+    if r.tmin != 0.0 {
+        return 0u;
+    }
+    let o = r.origin;
+    let root = aug[0];
+    for (var a = 0u; a < 3u; a++) {
+        if !(o[a] >= root.bmin[a] && o[a] <= root.bmax[a]) {
+            return 0u;
+        }
+    }
+    let period = meta_.counts.w;
+    var idx = 0u;
+    var d = 0u;
+    var last = 0u;
+    loop {
+        let n = nodes[idx];
+        if is_leaf(n) {
+            break;
+        }
+        if d % period == 0u {
+            last = idx;
+        }
+        let a = n.bits & 3u;
+        let s = bitcast<f32>(n.data);
+        if o[a] < s {
+            idx = idx + 1u;
+        } else if o[a] > s {
+            idx = n.bits >> 2u;
+        } else {
+            break;
+        }
+        d += 1u;
+    }
+    let h = find_aug(last);
+    if h == 0u {
+        return 0u;
+    }
+    let b = aug[h];
+    for (var a = 0u; a < 3u; a++) {
+        let lo = o[a] > b.bmin[a] || (b.bmin[a] == root.bmin[a] && o[a] >= b.bmin[a]);
+        let hi = o[a] < b.bmax[a] || (b.bmax[a] == root.bmax[a] && o[a] <= b.bmax[a]);
+        if !(lo && hi) {
+            return 0u;
+        }
+    }
+    return h;
+}
+
+// walk.rs `Ctx::interval`: the slab interval of record `k`'s cell, root faces standing for
+// the root interval [r0, r1].
+fn interval(rb: RayBox, r0: f32, r1: f32, k: u32) -> vec2<f32> {
+    let b = aug[k];
+    let root = aug[0];
+    var tn = r0;
+    var tf = r1;
+    for (var a = 0u; a < 3u; a++) {
+        var np = b.bmin[a];
+        var fp = b.bmax[a];
+        var rn = root.bmin[a];
+        var rf = root.bmax[a];
+        if rb.neg[a] {
+            np = b.bmax[a];
+            fp = b.bmin[a];
+            rn = root.bmax[a];
+            rf = root.bmin[a];
+        }
+        if np != rn {
+            tn = max_num(tn, (np - rb.org[a]) * rb.inv[a]);
+        }
+        if fp != rf {
+            tf = min_num(tf, (fp - rb.org[a]) * rb.inv[a]);
+        }
+    }
+    return vec2<f32>(tn, tf);
+}
+
+// 64 bits as (low, high) words.
+fn set_bit(b: vec2<u32>, k: u32) -> vec2<u32> {
+    if k < 32u {
+        return vec2<u32>(b.x | (1u << k), b.y);
+    }
+    return vec2<u32>(b.x, b.y | (1u << (k - 32u)));
+}
+
+// Bits below `k` only.
+fn keep_below(b: vec2<u32>, k: u32) -> vec2<u32> {
+    if k >= 64u {
+        return b;
+    }
+    if k >= 32u {
+        return vec2<u32>(b.x, b.y & ((1u << (k - 32u)) - 1u));
+    }
+    return vec2<u32>(b.x & ((1u << k) - 1u), 0u);
+}
+
+// Bits at and above `k` only.
+fn keep_from(b: vec2<u32>, k: u32) -> vec2<u32> {
+    if k >= 64u {
+        return vec2<u32>(0u, 0u);
+    }
+    let below = keep_below(b, k);
+    return vec2<u32>(b.x & ~below.x, b.y & ~below.y);
+}
+
+// Index of the highest set bit (the words are not both zero).
+fn highest(b: vec2<u32>) -> u32 {
+    if b.y != 0u {
+        return 32u + firstLeadingBit(b.y);
+    }
+    return firstLeadingBit(b.x);
+}
+
+fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
+    if meta_.counts.y == 0u {
+        return miss();
+    }
+    let slack = bitcast<f32>(0x3f800008u);   // 1 + 8·2^-23, walk.rs SLACK
+    let p = meta_.counts.w;
+    let cap = depths[meta_.counts.z];
+    let rb = ray_box(r);
+    (*st).boxes += 1u;
+    let root = aug[0];
+    let rs = slab(rb, root.bmin, root.bmax, r.tmin, r.tmax);
+    if !(rs.x <= rs.y) {
+        return miss();
+    }
+    let r0 = rs.x;
+    let r1 = rs.y;
+    let pre = prepare(r);
+    var best_t = r.tmax;
+    var best_prim = MISS_PRIM;
+    var best_u = 0.0;
+    var best_v = 0.0;
+    var stt = 0u;
+    if START {
+        stt = start_record(r);
+    }
+    var top = stt;
+    var dtop = depths[stt];
+    var sn = r0;
+    var sf = r1;
+    if stt != 0u {
+        (*st).boxes += 1u;
+        let iv = interval(rb, r0, r1, stt);
+        sn = iv.x;
+        sf = iv.y;
+    }
+    // The last augmented node passed: node, record (NONE: not looked up), depth, interval.
+    var l_node = aug[stt].node;
+    var l_rec = stt;
+    var l_depth = dtop;
+    var l_tn = sn;
+    var l_tf = sf;
+    var idx = aug[stt].node;
+    var tn = sn;
+    var tf = sf;
+    var depth = dtop;
+    var both = vec2<u32>(0u, 0u);
+    var in_plane = false;
+    var steps = 0u;
+    loop {
+        // TraverseDown to a leaf.
+        loop {
+            let n = nodes[idx];
+            if is_leaf(n) {
+                break;
+            }
+            if depth % p == 0u && idx != l_node {
+                l_node = idx;
+                l_rec = NONE;
+                l_depth = depth;
+                l_tn = tn;
+                l_tf = tf;
+            }
+            (*st).interior += 1u;
+            (*st).steps += 1u;
+            (*st).planes += 1u;
+            steps += 1u;
+            let d = decide(n, idx, rb, tn, tf, slack);
+            if d.kind == 0u {
+                idx = d.near;
+            } else if d.kind == 1u {
+                idx = d.far;
+            } else {
+                in_plane = in_plane || d.far_tn < d.near_tf;
+                both = set_bit(both, depth);
+                idx = d.near;
+                tf = d.near_tf;
+            }
+            depth += 1u;
+        }
+        steps += 1u;
+        // The leaf.
+        let leaf = nodes[idx];
+        (*st).leaves += 1u;
+        (*st).steps += 1u;
+        let count = leaf.bits >> 2u;
+        let first = leaf.data;
+        if !ANY {
+            (*st).prims += count;
+        }
+        for (var k = 0u; k < count; k++) {
+            if ANY {
+                (*st).prims += 1u;
+            }
+            let id = refs[first + k];
+            let h = intersect(pre, r, id, best_t);
+            if h.w != 0.0 {
+                if ANY {
+                    return Hit(h.x, id, h.y, h.z);
+                }
+                best_t = h.x;
+                best_prim = id;
+                best_u = h.y;
+                best_v = h.z;
+            }
+        }
+        if best_t < tf && !in_plane {
+            break;
+        }
+        if steps >= cap {
+            (*st).capped = 1u;
+            break;
+        }
+        let lf = idx;
+        (*st).restarts += 1u;
+        // RestartTraversal.
+        var done = false;
+        var next = vec3<f32>(0.0);
+        var next_idx = 0u;
+        var at = 0u;
+        loop {
+            let live = keep_from(both, dtop);
+            if live.x != 0u || live.y != 0u {
+                let k = highest(live);
+                both = keep_below(both, k);
+                let dr = k / p * p;
+                if dr != l_depth {
+                    var rec = l_rec;
+                    if rec == NONE {
+                        rec = find_aug(l_node);
+                    }
+                    var dd = l_depth;
+                    while dd > dr {
+                        rec = aug[rec].parent;
+                        dd -= p;
+                        (*st).ups += 1u;
+                    }
+                    (*st).boxes += 1u;
+                    let iv = interval(rb, r0, r1, rec);
+                    l_node = aug[rec].node;
+                    l_rec = rec;
+                    l_depth = dr;
+                    l_tn = iv.x;
+                    l_tf = iv.y;
+                }
+                // Down toward the last leaf to depth k.
+                var x = l_node;
+                var xn = l_tn;
+                var xf = l_tf;
+                var xd = l_depth;
+                var found = false;
+                var f = vec3<f32>(0.0);
+                var f_idx = 0u;
+                loop {
+                    let n = nodes[x];
+                    (*st).interior += 1u;
+                    (*st).steps += 1u;
+                    (*st).planes += 1u;
+                    steps += 1u;
+                    let d = decide(n, x, rb, xn, xf, slack);
+                    var toward = n.bits >> 2u;
+                    if lf < toward {
+                        toward = x + 1u;
+                    }
+                    if xd == k {
+                        found = d.kind == 2u && toward == d.near;
+                        f_idx = d.far;
+                        f = vec3<f32>(d.far_tn, xf, 0.0);
+                        break;
+                    }
+                    if d.kind == 2u {
+                        if toward == d.near {
+                            xf = d.near_tf;
+                        } else {
+                            xn = d.far_tn;
+                        }
+                    }
+                    x = toward;
+                    xd += 1u;
+                }
+                if found && (ANY || f.x <= best_t) {
+                    next_idx = f_idx;
+                    next = f;
+                    at = k + 1u;
+                    break;
+                }
+                continue;
+            }
+            if top == 0u {
+                done = true;
+                break;
+            }
+            // TraverseUp above the known part.
+            let pr = aug[top].parent;
+            (*st).ups += 1u;
+            (*st).boxes += 1u;
+            let dp = dtop - p;
+            let piv = interval(rb, r0, r1, pr);
+            var x = aug[pr].node;
+            var xn = piv.x;
+            var xf = piv.y;
+            var xd = dp;
+            var has = false;
+            var c_idx = 0u;
+            var c = vec3<f32>(0.0);
+            var ck = 0u;
+            while xd < dtop {
+                let n = nodes[x];
+                (*st).interior += 1u;
+                (*st).steps += 1u;
+                (*st).planes += 1u;
+                steps += 1u;
+                let d = decide(n, x, rb, xn, xf, slack);
+                var toward = n.bits >> 2u;
+                if lf < toward {
+                    toward = x + 1u;
+                }
+                if d.kind == 2u {
+                    in_plane = in_plane || d.far_tn < d.near_tf;
+                    if toward == d.near {
+                        both = set_bit(both, xd);
+                        has = true;
+                        c_idx = d.far;
+                        c = vec3<f32>(d.far_tn, xf, 0.0);
+                        ck = xd;
+                        xf = d.near_tf;
+                    } else {
+                        xn = d.far_tn;
+                    }
+                }
+                x = toward;
+                xd += 1u;
+            }
+            top = pr;
+            dtop = dp;
+            l_node = aug[pr].node;
+            l_rec = pr;
+            l_depth = dp;
+            l_tn = piv.x;
+            l_tf = piv.y;
+            if has && (ANY || c.x <= best_t) {
+                both = keep_below(both, ck);
+                next_idx = c_idx;
+                next = c;
+                at = ck + 1u;
+                break;
+            }
+        }
+        if done {
+            break;
+        }
+        idx = next_idx;
+        tn = next.x;
+        tf = next.y;
+        depth = at;
+    }
+    if best_prim == MISS_PRIM {
+        return miss();
+    }
+    return Hit(best_t, best_prim, best_u, best_v);
+}

@@ -1,0 +1,545 @@
+//! kd-trees with sparse boxes: Havran and Bittner, "Stackless Ray Traversal for kD-Trees with
+//! Sparse Boxes" (2007), building on Havran and Bittner, "Ray tracing with sparse boxes"
+//! (SCCG 2007).
+//!
+//! - **Tree**: any kd-tree the kd-tree crate's builders produce ([`tb_kdtree::KdTree`], SAH with
+//!   perfect splits, depth-first layout), borrowed through its [`tb_kdtree::KdView`] and
+//!   sharing the scene's triangle array: this crate copies no node.
+//! - **Augmented nodes** (§4): the root and every interior node whose depth distance to its
+//!   nearest augmented ancestor exceeds `d_min` carry a bounding box (the node's cell, 24
+//!   bytes) and a link to their parent augmented node ([`AugNode`]). Since every ancestor of a
+//!   node is interior, the augmented nodes are exactly the interior nodes at depths that are
+//!   multiples of `d_min + 1`, so a kernel knows a node is augmented from its depth; the
+//!   records are kept in depth-first (node index) order and a node's record is found by binary
+//!   search when a walk climbs from it. Figures: `n_b` (N_B, boxes stored), `m_kd_bytes` (M_KD
+//!   as the paper counts it: 8-byte nodes, 4-byte references, 24-byte box and 4-byte parent
+//!   link per augmented node) and our real bytes (`aug_bytes`: 32-byte records plus one depth
+//!   byte per box).
+//! - **Start nodes** (§3): a walk may begin at the deepest augmented node whose cell contains
+//!   the ray origin ([`SparseBoxes::start_node`]), found once per batch by the caller (the
+//!   hint seam, [`tb_core::Accel::batch_hints`]; primary rays of one camera share the eye's,
+//!   secondary rays get the one of their origin: the generating hit point, offset off the
+//!   surface, lies in the leaf where the generating ray terminated, so this is that leaf's
+//!   augmented ancestor unless the offset crosses an augmented cell's face; a test measures
+//!   how often). Hints are found outside the timed pass.
+//! - **Traversals** (§5; the table `<SparseBoxes as Structure>::TRAVERSALS`): `htr` and `seq`
+//!   are the kd-tree's `recursive-direction` (HTR, §5.1) and `sequential` (Kaplan's SEQ) over
+//!   the same tree; `btr` / `btr-root` the bottom-up traversal (§5.2, Alg. 2) from the start
+//!   node / the root; `sltr` / `sltr-root` the stackless bottom-up traversal (§5.3, Alg. 3).
+//!   See module `walk` for the kernels and how their origin shifts are made robust without an
+//!   epsilon.
+//!
+//! - **GPU**: SLTR (`sltr`, `sltr-root`) as a WGSL kernel (`shaders/sltr.wgsl`), the CPU walk
+//!   statement for statement (hits and counters equal ray for ray on lavapipe, checked by the
+//!   harness's `gpu_oracle` test); there the start node is located per ray inside the timed
+//!   kernel (the GPU device takes no hints).
+//!
+//! Counters: `interior` (N_I), `leaves` (N_L), `prims` (r_ITM) as the kd-tree's; `ups`: parent
+//! links followed; `boxes`: ray–box tests with the stored boxes (and the start cell);
+//! `restarts`: continuations after the traversal stack ran dry (BTR) or after a leaf (SLTR).
+
+mod walk;
+
+use std::borrow::Cow;
+use std::sync::Arc;
+use tb_core::{
+    build_with, Aabb, Accel, AccelError, BuildReport, Family, GpuBuffer, GpuProgram, HitRecord,
+    MemoryReport, ParamKind, Params, Query, Ray, Structure, Traversal, TraversalInfo,
+    TraversalStats, TriTestKind, Triangle, Vec3,
+};
+use tb_kdtree::{KdBuilder, KdLayout, KdParams, KdTree, SurfaceArea, STACK_SIZE};
+
+/// The auxiliary array of augmented nodes (boxes and parent links), read by BTR and SLTR.
+pub const BOXES_AUX: &str = "sparse-boxes";
+
+/// The structure in the registry.
+pub static FAMILY: Family = Family::new::<SparseBoxes, SparseParams>(
+    "kd-tree with sparse boxes: augmented nodes every d_min + 1 levels, start nodes, \
+     bottom-up (BTR) and stackless (SLTR) traversal (Havran and Bittner 2007)",
+    |tris, set| {
+        build_with(set, |p: &SparseParams| {
+            SparseBoxes::try_build(tris.clone(), p)
+        })
+    },
+);
+
+tb_core::params! {
+    /// Build parameters: `d_min` and those of the kd-tree below it (the kd-tree crate's
+    /// [`KdParams`], depth-first layout).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct SparseParams {
+        /// d_min: an interior node is augmented when its depth distance to the nearest
+        /// augmented ancestor exceeds d_min (Havran and Bittner 2007 §4; the root always is).
+        d_min: u32 = 2, ParamKind::Int { min: 1, max: 16 };
+        /// kd-tree split search, as the kd-tree's `builder`.
+        builder: KdBuilder = KdBuilder::Sweep, ParamKind::Choice(KdBuilder::NAMES);
+        /// Bins per axis, `binned` builder only.
+        bins: u32 = 32, ParamKind::Int { min: 2, max: 1024 };
+        /// SAH traversal cost C_trav.
+        c_trav: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
+        /// SAH triangle test cost C_isect.
+        c_isect: f32 = 1.5, ParamKind::Float { min: 1e-6, max: 1e6 };
+        /// Empty-space bonus of the SAH.
+        empty_bonus: f32 = 0.2, ParamKind::Float { min: 0.0, max: 0.999 };
+        /// Depth limit (0: round(8 + 1.3 log2 N), at most 64).
+        max_depth: u32 = 0, ParamKind::Int { min: 0, max: STACK_SIZE as i64 };
+        /// Nodes with at most this many triangles become leaves.
+        min_leaf: u32 = 1, ParamKind::Int { min: 0, max: 1024 };
+        /// Per-ray step cap of SLTR and SEQ (a guard; capped rays are counted).
+        step_cap: u32 = tb_kdtree::STEP_CAP, ParamKind::Int { min: 1, max: 1 << 30 };
+    }
+}
+
+impl SparseParams {
+    /// The kd-tree's parameters (depth-first layout).
+    pub fn kd(&self) -> KdParams {
+        KdParams {
+            builder: self.builder,
+            bins: self.bins,
+            c_trav: self.c_trav,
+            c_isect: self.c_isect,
+            empty_bonus: self.empty_bonus,
+            max_depth: self.max_depth,
+            min_leaf: self.min_leaf,
+            step_cap: self.step_cap,
+            layout: KdLayout::DepthFirst,
+            ..KdParams::default()
+        }
+    }
+
+    /// Levels between augmented nodes: `d_min + 1`.
+    pub fn period(&self) -> u32 {
+        self.d_min + 1
+    }
+}
+
+/// An augmented node (§4): the node's cell and the index of its parent augmented node's record
+/// (0, the root's, for the root), and the kd-tree node it belongs to. 32 bytes, `#[repr(C)]`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AugNode {
+    pub min: [f32; 3],
+    pub parent: u32,
+    pub max: [f32; 3],
+    pub node: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<AugNode>() == 32);
+
+impl AugNode {
+    /// Its box.
+    pub fn cell(&self) -> Aabb {
+        Aabb::new(Vec3::from_array(self.min), Vec3::from_array(self.max))
+    }
+}
+
+/// A kd-tree with sparse boxes (see the crate doc): the kd-tree (shared arrays), its augmented
+/// nodes in node order and their depths.
+#[derive(Clone, Debug)]
+pub struct SparseBoxes {
+    kd: KdTree,
+    params: SparseParams,
+    aug: Arc<[AugNode]>,
+    depth: Arc<[u8]>,
+}
+
+impl SparseBoxes {
+    /// Build over shared triangles; `Err` for parameters out of range or too many triangles.
+    pub fn try_build(tris: Arc<[Triangle]>, p: &SparseParams) -> Result<SparseBoxes, AccelError> {
+        for ((name, value), spec) in p.to_set().0.iter().zip(SparseParams::SPECS) {
+            spec.check(value)
+                .map_err(|e| AccelError::Params(format!("sparse-boxes parameter `{name}`: {e}")))?;
+        }
+        let kd = KdTree::try_build(tris, &p.kd(), &SurfaceArea)?;
+        Ok(Self::augment(kd, p))
+    }
+
+    /// Build over a copy of `tris`; panics on bad parameters.
+    pub fn build(tris: &[Triangle], p: &SparseParams) -> SparseBoxes {
+        Self::try_build(tris.into(), p).unwrap_or_else(|e| panic!("sparse-boxes: {e}"))
+    }
+
+    /// Augment a depth-first kd-tree (§4): records for the root and every interior node at a
+    /// depth that is a multiple of `d_min + 1`, in node order, each linked to the nearest
+    /// augmented ancestor.
+    fn augment(kd: KdTree, p: &SparseParams) -> SparseBoxes {
+        assert_eq!(kd.params().layout, KdLayout::DepthFirst);
+        let period = p.period();
+        let v = kd.view();
+        let mut aug: Vec<AugNode> = Vec::new();
+        let mut depth = Vec::new();
+        // The most recent record per augmented level (preorder: the ancestor's).
+        let mut level = vec![0u32; STACK_SIZE + 2];
+        v.walk(v.root(), |i, cell, d| {
+            let n = v.nodes()[i];
+            if i != 0 && (n.is_leaf() || d % period != 0) {
+                return;
+            }
+            let k = (d / period) as usize;
+            let parent = if k == 0 { 0 } else { level[k - 1] };
+            level[k] = aug.len() as u32;
+            aug.push(AugNode {
+                min: cell.min.to_array(),
+                parent,
+                max: cell.max.to_array(),
+                node: i as u32,
+            });
+            depth.push(d as u8);
+        });
+        SparseBoxes {
+            kd,
+            params: *p,
+            aug: aug.into(),
+            depth: depth.into(),
+        }
+    }
+
+    /// The kd-tree below the boxes.
+    pub fn kd(&self) -> &KdTree {
+        &self.kd
+    }
+
+    /// The parameters it was built with.
+    pub fn params(&self) -> &SparseParams {
+        &self.params
+    }
+
+    /// The augmented nodes, in node order (record 0 is the root's).
+    pub fn augmented(&self) -> &[AugNode] {
+        &self.aug
+    }
+
+    /// A copy with the records replaced by `aug` (tests of `validate`).
+    #[doc(hidden)]
+    pub fn with_records(&self, aug: Vec<AugNode>) -> SparseBoxes {
+        SparseBoxes {
+            aug: aug.into(),
+            ..self.clone()
+        }
+    }
+
+    /// Depth of the node of each augmented record.
+    pub fn aug_depths(&self) -> &[u8] {
+        &self.depth
+    }
+
+    /// The record of kd-tree node `node`, if it is augmented.
+    pub fn aug_of(&self, node: usize) -> Option<usize> {
+        walk::find_aug(&self.aug, node as u32)
+    }
+
+    /// The start node of a ray (§3) as a record index: the deepest augmented node whose cell
+    /// contains `origin` strictly inside every face that is not a face of the root cell (0,
+    /// the root, for an origin outside the root cell, on a split plane of the root, or not
+    /// finite). Strictness makes the ray leave the start cell only after its origin, so every
+    /// other cell it meets lies beyond the start cell's exit (module `walk`).
+    pub fn start_node(&self, origin: Vec3) -> u32 {
+        walk::locate(&self.kd.view(), &self.aug, self.params.period(), origin)
+    }
+
+    /// [`Self::start_node`] for every ray (hint 0 for rays with `tmin != 0`: their segment
+    /// does not begin at the origin); consecutive rays sharing an origin (a camera) share the
+    /// one point location.
+    pub fn start_nodes(&self, rays: &[Ray]) -> Vec<u32> {
+        let mut last: Option<(Vec3, u32)> = None;
+        rays.iter()
+            .map(|r| {
+                if r.tmin != 0.0 {
+                    return 0;
+                }
+                match last {
+                    Some((o, h)) if o == r.origin => h,
+                    _ => {
+                        let h = self.start_node(r.origin);
+                        last = Some((r.origin, h));
+                        h
+                    }
+                }
+            })
+            .collect()
+    }
+
+    /// Bytes of the augmented records and their depths (what BTR and SLTR read beyond the
+    /// kd-tree).
+    fn boxes_bytes(&self) -> u64 {
+        (std::mem::size_of_val(&*self.aug) + self.depth.len()) as u64
+    }
+
+    fn check_invariants(&self) -> Result<(), String> {
+        let v = self.kd.view();
+        let nodes = v.nodes();
+        if nodes.is_empty() {
+            return if self.aug.is_empty() {
+                Ok(())
+            } else {
+                Err("augmented nodes without a tree".into())
+            };
+        }
+        if self.aug.first().map(|a| a.node) != Some(0) {
+            return Err("record 0 is not the root".into());
+        }
+        if self.aug.len() != self.depth.len() {
+            return Err("one depth per record".into());
+        }
+        let period = self.params.period();
+        let mut expect = Vec::new();
+        v.walk(v.root(), |i, cell, d| {
+            let n = nodes[i];
+            if i == 0 || (!n.is_leaf() && d % period == 0) {
+                expect.push((i as u32, *cell, d));
+            }
+        });
+        if expect.len() != self.aug.len() {
+            return Err(format!(
+                "{} records for {} augmented nodes",
+                self.aug.len(),
+                expect.len()
+            ));
+        }
+        for (k, ((node, cell, d), a)) in expect.iter().zip(self.aug.iter()).enumerate() {
+            if a.node != *node || a.cell() != *cell || self.depth[k] as u32 != *d {
+                return Err(format!("record {k} does not match node {node}"));
+            }
+            if k > 0 {
+                let p = a.parent as usize;
+                if p >= k
+                    || self.depth[p] as u32 + period != *d
+                    || !self.aug[p].cell().contains_box(cell)
+                {
+                    return Err(format!("record {k}: parent link {p} is not its ancestor"));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Little-endian-as-native bytes of `words` (GPU buffers).
+fn bytes(words: impl Iterator<Item = u32>) -> Cow<'static, [u8]> {
+    Cow::Owned(words.flat_map(|w| w.to_ne_bytes()).collect())
+}
+
+impl SparseBoxes {
+    /// The GPU program of SLTR (`crates/sparse/shaders/sltr.wgsl`): from the start node
+    /// located per ray in the kernel (`start`, program `sparse-boxes/sltr`) or from the root
+    /// (`sparse-boxes/sltr-root`). Buffers: the kd-tree's nodes and references, the augmented
+    /// records, their depths followed by the step cap; meta: node count, record count,
+    /// `d_min + 1`.
+    fn gpu_sltr(&self, start: bool) -> GpuProgram<'_> {
+        let v = self.kd.view();
+        GpuProgram {
+            name: if start {
+                "sparse-boxes/sltr"
+            } else {
+                "sparse-boxes/sltr-root"
+            },
+            source: include_str!("../shaders/sltr.wgsl"),
+            triangles: Cow::Borrowed(v.triangles()),
+            buffers: vec![
+                GpuBuffer {
+                    what: "the kd-tree node array",
+                    bytes: bytes(v.nodes().iter().flat_map(|n| [n.bits, n.data])),
+                },
+                GpuBuffer {
+                    what: "the kd-tree reference array",
+                    bytes: bytes(v.refs().iter().copied()),
+                },
+                GpuBuffer {
+                    what: "the augmented nodes",
+                    bytes: bytes(self.aug.iter().flat_map(|a| {
+                        [
+                            a.min[0].to_bits(),
+                            a.min[1].to_bits(),
+                            a.min[2].to_bits(),
+                            a.parent,
+                            a.max[0].to_bits(),
+                            a.max[1].to_bits(),
+                            a.max[2].to_bits(),
+                            a.node,
+                        ]
+                    })),
+                },
+                GpuBuffer {
+                    what: "the augmented nodes' depths and the step cap",
+                    bytes: bytes(
+                        self.depth
+                            .iter()
+                            .map(|&d| d as u32)
+                            .chain([self.params.step_cap]),
+                    ),
+                },
+            ],
+            meta: [
+                v.nodes().len() as u32,
+                self.aug.len() as u32,
+                self.params.period(),
+            ],
+            stack_size: 0,
+            constants: vec![("START", start as u32 as f64)],
+            unrolled_triangle_loop: None,
+        }
+    }
+}
+
+/// Index of kd-tree traversal `name` (the kd rows of this table).
+fn kd_row(name: &str) -> usize {
+    KdTree::TRAVERSALS
+        .iter()
+        .position(|t| t.info.name == name)
+        .unwrap_or_else(|| panic!("kd-tree traversal {name}"))
+}
+
+/// Start hints of the start-node rows.
+fn hints(s: &SparseBoxes, _: Query, rays: &[Ray]) -> Vec<u32> {
+    s.start_nodes(rays)
+}
+
+impl Structure for SparseBoxes {
+    const NAME: &'static str = "sparse-boxes";
+
+    /// HTR and SEQ (the kd-tree's), BTR and SLTR from the start node (hints) and from the
+    /// root (Havran and Bittner 2007 Table 1).
+    const TRAVERSALS: &'static [Traversal<Self>] = &[
+        Traversal::cpu(
+            TraversalInfo::new(
+                "htr",
+                "Havran & Bittner 2007 §5.1, Alg. 1",
+                "HTR: the kd-tree's recursive-direction traversal from the root over the same \
+                 tree (Havran & Bittner 2007 §5.1, Alg. 1); no boxes read",
+            ),
+            |s, q, tri, rays, hits, stats| {
+                s.kd.trace(kd_row("recursive-direction"), q, tri, rays, hits, stats)
+            },
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "btr",
+                "Havran & Bittner 2007 §5.2, Alg. 2",
+                "BTR: stack traversal from the start node (deepest augmented node holding the \
+                 origin, found once per batch, untimed); when the stack runs dry, climb the \
+                 parent links to a box extending beyond the finished box's exit and go on \
+                 there, the finished subtree skipped (Havran & Bittner 2007 §5.2, Alg. 2)",
+            )
+            .reads(&[BOXES_AUX]),
+            |s, q, tri, rays, hits, stats| {
+                walk::trace::<{ walk::BTR }>(s, q, tri, rays, None, true, hits, stats)
+            },
+        )
+        .with_hints(hints, |s, q, tri, rays, h, hits, stats| {
+            walk::trace::<{ walk::BTR }>(s, q, tri, rays, h, true, hits, stats)
+        }),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "btr-root",
+                "Havran & Bittner 2007 §5.2, Alg. 2",
+                "BTR started at the root (the start node's share of the gain separated: the \
+                 same walk as HTR)",
+            )
+            .reads(&[BOXES_AUX]),
+            |s, q, tri, rays, hits, stats| {
+                walk::trace::<{ walk::BTR }>(s, q, tri, rays, None, false, hits, stats)
+            },
+        ),
+        Traversal::with_gpu(
+            TraversalInfo::new(
+                "sltr",
+                "Havran & Bittner 2007 §5.3, Alg. 3",
+                "SLTR: stackless; from the start node (found once per batch, untimed) down to a \
+                 leaf, then on from the last augmented node, climbing parent links when it is \
+                 finished; the next leaf found from the last one's position, no epsilon \
+                 (Havran & Bittner 2007 §5.3, Alg. 3)",
+            )
+            .capped()
+            .reads(&[BOXES_AUX]),
+            |s, q, tri, rays, hits, stats| {
+                walk::trace::<{ walk::SLTR }>(s, q, tri, rays, None, true, hits, stats)
+            },
+            |s| s.gpu_sltr(true),
+        )
+        .with_hints(hints, |s, q, tri, rays, h, hits, stats| {
+            walk::trace::<{ walk::SLTR }>(s, q, tri, rays, h, true, hits, stats)
+        }),
+        Traversal::with_gpu(
+            TraversalInfo::new(
+                "sltr-root",
+                "Havran & Bittner 2007 §5.3, Alg. 3",
+                "SLTR started at the root",
+            )
+            .capped()
+            .reads(&[BOXES_AUX]),
+            |s, q, tri, rays, hits, stats| {
+                walk::trace::<{ walk::SLTR }>(s, q, tri, rays, None, false, hits, stats)
+            },
+            |s| s.gpu_sltr(false),
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "seq",
+                "Havran & Bittner 2007 §6 (Kaplan 1985)",
+                "SEQ: the kd-tree's sequential traversal (Kaplan 1985) over the same tree; no \
+                 boxes read",
+            )
+            .capped(),
+            |s, q, tri, rays, hits, stats| {
+                s.kd.trace(kd_row("sequential"), q, tri, rays, hits, stats)
+            },
+        ),
+    ];
+
+    /// The kd-tree's nodes, references and triangles; BTR and SLTR add the boxes
+    /// ([`BOXES_AUX`]).
+    fn own_memory(&self) -> MemoryReport {
+        Accel::memory(&self.kd)
+    }
+
+    /// [`BOXES_AUX`]: 32 bytes and a depth byte per augmented node.
+    fn aux_bytes(&self, aux: &str) -> u64 {
+        match aux {
+            BOXES_AUX => self.boxes_bytes(),
+            _ => 0,
+        }
+    }
+
+    /// The kd-tree's figures, then `d_min`, `n_b` (N_B), `m_kd_bytes` (M_KD as the paper
+    /// counts it: 8 bytes per node, 4 per reference, 24 + 4 per augmented node),
+    /// `m_kd_htr_bytes` (the same without boxes: HTR's and SEQ's M_KD), `aug_bytes` (our real
+    /// bytes of the boxes, links, node indices and depths).
+    fn report(&self) -> BuildReport {
+        let mut r = Accel::build_report(&self.kd);
+        let v = self.kd.view();
+        let base = (8 * v.nodes().len() + 4 * v.refs().len()) as f64;
+        let nb = self.aug.len() as f64;
+        r.extra.extend([
+            ("d_min".into(), self.params.d_min as f64),
+            ("n_b".into(), nb),
+            ("m_kd_bytes".into(), base + 28.0 * nb),
+            ("m_kd_htr_bytes".into(), base),
+            ("aug_bytes".into(), self.boxes_bytes() as f64),
+        ]);
+        r
+    }
+
+    /// The kd-tree's checks, then: one record per augmented node (the root and the interior
+    /// nodes at depths that are multiples of `d_min + 1`) in node order, with the node's cell
+    /// and depth, linked to the augmented ancestor `d_min + 1` levels up, whose box holds it.
+    fn check(&self) -> Result<(), AccelError> {
+        Accel::validate(&self.kd)?;
+        self.check_invariants().map_err(AccelError::Invalid)
+    }
+}
+
+/// Trace `rays` with traversal `ti` of a [`SparseBoxes`] given as `Accel` with its hints
+/// computed first (tests and tools; the harness does this through [`tb_core::par`]).
+pub fn trace_hinted(
+    s: &SparseBoxes,
+    ti: usize,
+    q: Query,
+    tri: TriTestKind,
+    rays: &[Ray],
+    stats: Option<&mut [TraversalStats]>,
+) -> Vec<HitRecord> {
+    let h = s.batch_hints(ti, q, rays);
+    let mut hits = vec![HitRecord::MISS; rays.len()];
+    s.trace_hinted(ti, q, tri, rays, h.as_deref(), &mut hits, stats);
+    hits
+}

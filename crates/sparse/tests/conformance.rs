@@ -1,0 +1,356 @@
+//! The shared conformance suite (`tb_scene::conformance`) for every traversal of the table,
+//! start nodes in use (the kernels find them per ray when no hints are given, as the hints
+//! would), and the identities between the traversals.
+
+use tb_core::{Accel, HitRecord, Query, Ray, Structure, TraversalStats, TriTestKind};
+use tb_sparse::{SparseBoxes, SparseParams};
+
+fn index(name: &str) -> usize {
+    SparseBoxes::TRAVERSALS
+        .iter()
+        .position(|t| t.info.name == name)
+        .unwrap()
+}
+
+fn run(params: SparseParams) {
+    tb_scene::conformance::assert_conforms(&move |tris| {
+        let s = SparseBoxes::build(tris, &params);
+        Accel::validate(&s).expect("valid sparse boxes");
+        Box::new(s) as Box<dyn Accel>
+    });
+}
+
+#[test]
+fn conforms_default() {
+    run(SparseParams::default());
+}
+
+/// The arena and city stand-ins, small: every traversal, every ray kind, zero mismatches.
+#[test]
+fn conforms_on_the_stand_ins() {
+    let scenes: Vec<tb_scene::Scene> = [
+        "builtin:arena?rows=3&seats=24&roof=6",
+        "builtin:city?blocks=3&storeys=4",
+    ]
+    .iter()
+    .map(|s| {
+        let mut s = tb_scene::load(s, std::path::Path::new(".")).unwrap();
+        let c = &mut s.view.as_mut().unwrap().camera;
+        (c.width, c.height) = (40, 30);
+        s
+    })
+    .collect();
+    let res = tb_scene::conformance::check_scenes(
+        &scenes,
+        &|tris| {
+            Box::new(SparseBoxes::build(
+                tris,
+                &SparseParams {
+                    d_min: 1,
+                    ..Default::default()
+                },
+            ))
+        },
+        TriTestKind::Watertight,
+    );
+    let bad: Vec<_> = res.iter().filter(|r| r.mismatches > 0).collect();
+    assert!(bad.is_empty(), "{bad:?}");
+    assert!(res.len() >= 2 * 6 * 6, "{}", res.len());
+}
+
+#[test]
+fn conforms_dense_and_sparse_boxes() {
+    for d_min in [1, 5] {
+        run(SparseParams {
+            d_min,
+            ..Default::default()
+        });
+    }
+}
+
+/// Trace with the hints of the batch (as the harness does), with counters.
+fn traced(
+    s: &SparseBoxes,
+    ti: usize,
+    q: Query,
+    rays: &[Ray],
+) -> (Vec<HitRecord>, Vec<TraversalStats>) {
+    let mut stats = vec![TraversalStats::default(); rays.len()];
+    let hits = tb_sparse::trace_hinted(s, ti, q, TriTestKind::Watertight, rays, Some(&mut stats));
+    (hits, stats)
+}
+
+/// BTR from the root is HTR (the same stack walk: same nodes, leaves and tests, ray by ray);
+/// SLTR from the root visits HTR's leaves in HTR's order (same leaves and triangle tests,
+/// more interior nodes), closest hit, on the suite's scenes and every ray kind; no ray of
+/// SLTR or SEQ ends on the step cap; the start-node variants give the same answers with hints
+/// as without.
+#[test]
+fn root_walks_visit_htr_leaves() {
+    let (htr, btr_root, sltr_root) = (index("htr"), index("btr-root"), index("sltr-root"));
+    let mut compared = 0;
+    for scene in tb_scene::conformance::suite_scenes() {
+        let s = SparseBoxes::build(&scene.triangles, &SparseParams::default());
+        for b in tb_scene::conformance::batches(&scene, TriTestKind::Watertight) {
+            let q = b.kind.query();
+            let (h0, s0) = traced(&s, htr, q, &b.rays);
+            let (h1, s1) = traced(&s, btr_root, q, &b.rays);
+            assert_eq!(h0, h1, "{}", scene.source);
+            for (a, c) in s0.iter().zip(&s1) {
+                assert_eq!(
+                    (a.interior, a.leaves, a.prims),
+                    (c.interior, c.leaves, c.prims),
+                    "{}",
+                    scene.source
+                );
+            }
+            if q == Query::Closest {
+                let (h2, s2) = traced(&s, sltr_root, q, &b.rays);
+                assert_eq!(h0, h2, "{}", scene.source);
+                for (a, c) in s0.iter().zip(&s2) {
+                    assert_eq!((a.leaves, a.prims), (c.leaves, c.prims), "{}", scene.source);
+                    assert!(c.interior >= a.interior);
+                }
+            }
+            for name in ["sltr", "sltr-root", "seq", "btr"] {
+                let (h, st) = traced(&s, index(name), q, &b.rays);
+                assert!(
+                    st.iter().all(|x| x.capped == 0),
+                    "{}: {name} capped",
+                    scene.source
+                );
+                let mut plain = vec![HitRecord::MISS; b.rays.len()];
+                s.trace(
+                    index(name),
+                    q,
+                    TriTestKind::Watertight,
+                    &b.rays,
+                    &mut plain,
+                    None,
+                );
+                assert_eq!(h, plain, "{}: {name}", scene.source);
+            }
+            compared += b.rays.len();
+        }
+    }
+    assert!(compared > 100_000, "{compared}");
+}
+
+/// Start nodes are in use: on the suite's scenes with a view, primary rays get the eye's start
+/// node (one for all), and secondary rays one per origin, below the root for most.
+#[test]
+fn start_nodes_are_used() {
+    let (mut deep, mut total) = (0usize, 0usize);
+    for scene in tb_scene::conformance::suite_scenes() {
+        if scene.view.is_none() {
+            continue;
+        }
+        let s = SparseBoxes::build(
+            &scene.triangles,
+            &SparseParams {
+                d_min: 1,
+                ..Default::default()
+            },
+        );
+        for b in tb_scene::conformance::batches(&scene, TriTestKind::Watertight) {
+            let h = s
+                .batch_hints(index("sltr"), b.kind.query(), &b.rays)
+                .unwrap();
+            assert_eq!(h.len(), b.rays.len());
+            if b.kind == tb_scene::rays::RayKind::Primary {
+                assert!(h.iter().all(|&x| x == h[0]), "{}", scene.source);
+            }
+            deep += h.iter().filter(|&&x| x != 0).count();
+            total += h.len();
+        }
+    }
+    println!("{deep} of {total} rays start below the root");
+    assert!(deep * 2 > total, "{deep} of {total}");
+    assert!(s_no_hints());
+}
+
+/// Traversals without start nodes take no hints.
+fn s_no_hints() -> bool {
+    let tris = tb_scene::load("builtin:cornell", std::path::Path::new("."))
+        .unwrap()
+        .triangles;
+    let s = SparseBoxes::build(&tris, &SparseParams::default());
+    let rays = [Ray::new(
+        tb_core::Vec3::new(0.0, 1.0, 3.0),
+        -tb_core::Vec3::Z,
+    )];
+    ["htr", "btr-root", "sltr-root", "seq"]
+        .iter()
+        .all(|n| s.batch_hints(index(n), Query::Closest, &rays).is_none())
+}
+
+/// The start node of a secondary ray, located from its origin (the generating hit point
+/// offset off the surface toward the incoming ray), is the augmented node where the generating
+/// ray terminated (the deepest augmented ancestor of the leaf holding the hit point, a point
+/// on a split plane counted on the side the ray came from) on nearly every ray: they differ
+/// only where the offset crosses an augmented cell's face. Measured on the teapot in its
+/// stadium, shadow rays.
+#[test]
+fn secondary_start_is_where_the_generating_ray_ended() {
+    let scene = tb_scene::load(
+        "builtin:teapot-stadium?teapot_tess=3&segments=8",
+        std::path::Path::new("."),
+    )
+    .unwrap();
+    let view = scene.view.clone().unwrap();
+    let p = SparseParams {
+        d_min: 1,
+        ..Default::default()
+    };
+    let s = SparseBoxes::build(&scene.triangles, &p);
+    let v = s.kd().view();
+    // The augmented ancestor of the leaf holding `q`, ties to the side `d` comes from.
+    let ended = |q: tb_core::Vec3, d: tb_core::Vec3| -> u32 {
+        let (mut i, mut depth, mut last) = (0usize, 0u32, 0usize);
+        loop {
+            let n = v.nodes()[i];
+            if n.is_leaf() {
+                break;
+            }
+            if depth % p.period() == 0 {
+                last = i;
+            }
+            let (a, sp) = (n.axis(), n.split());
+            let left = q[a] < sp || (q[a] == sp && d[a] > 0.0);
+            i = if left { i + 1 } else { n.link() };
+            depth += 1;
+        }
+        s.aug_of(last).unwrap() as u32
+    };
+    let prim = tb_scene::rays::primary(&view.camera);
+    let hits = tb_core::par::trace(
+        &s,
+        index("htr"),
+        Query::Closest,
+        TriTestKind::Watertight,
+        &prim,
+    );
+    let light = view.light.unwrap();
+    let (mut same, mut n) = (0, 0);
+    for (r, h) in prim.iter().zip(&hits) {
+        if !h.is_hit() {
+            continue;
+        }
+        let sh = tb_scene::rays::shadow(&scene.triangles, &[*r], &[*h], light);
+        let Some(sr) = sh.first() else { continue };
+        same += (s.start_node(sr.origin) == ended(r.at(h.t), r.dir)) as usize;
+        n += 1;
+    }
+    println!("{same} of {n} secondary rays start where the generating ray ended");
+    assert!(n > 100 && same * 100 >= n * 95, "{same} of {n}");
+}
+
+/// `validate` finds broken records; the figures are those of the records.
+#[test]
+fn validate_and_figures() {
+    let tris = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new("."))
+        .unwrap()
+        .triangles;
+    for d_min in [1, 3, 16] {
+        let p = SparseParams {
+            d_min,
+            ..Default::default()
+        };
+        let s = SparseBoxes::build(&tris, &p);
+        Accel::validate(&s).unwrap();
+        let a = s.augmented();
+        assert_eq!(a[0].node, 0);
+        // Every record sits d_min + 1 levels below its parent's, every interior node at such a
+        // depth has one.
+        for (k, r) in a.iter().enumerate().skip(1) {
+            assert_eq!(s.aug_depths()[k] % (d_min as u8 + 1), 0);
+            assert!(a[r.parent as usize].cell().contains_box(&r.cell()));
+            assert_eq!(s.aug_of(r.node as usize), Some(k));
+        }
+        let rep = Accel::build_report(&s);
+        let get = |k: &str| rep.extra.iter().find(|e| e.0 == k).unwrap().1;
+        assert_eq!(get("n_b") as usize, a.len());
+        assert_eq!(
+            get("m_kd_bytes") - get("m_kd_htr_bytes"),
+            28.0 * a.len() as f64
+        );
+        let (htr, btr) = (
+            s.memory_for(index("htr")).bytes,
+            s.memory_for(index("btr")).bytes,
+        );
+        assert_eq!(btr - htr, 33 * a.len() as u64);
+    }
+    // Denser boxes: more of them.
+    let n = |d_min| {
+        SparseBoxes::build(
+            &tris,
+            &SparseParams {
+                d_min,
+                ..Default::default()
+            },
+        )
+        .augmented()
+        .len()
+    };
+    assert!(n(1) > n(3) && n(3) > n(16));
+    // Corruption is found.
+    let s = SparseBoxes::build(&tris, &SparseParams::default());
+    let bad = |f: fn(&mut Vec<tb_sparse::AugNode>)| {
+        let mut v = s.augmented().to_vec();
+        f(&mut v);
+        s.with_records(v)
+    };
+    assert!(Accel::validate(&bad(|v| v[3].parent = 3)).is_err());
+    assert!(Accel::validate(&bad(|v| v[3].node += 1)).is_err());
+    assert!(Accel::validate(&bad(|v| v[2].max[0] += 1.0)).is_err());
+    assert!(Accel::validate(&bad(|v| {
+        v.pop();
+    }))
+    .is_err());
+    // Bad parameters are errors.
+    let e = SparseBoxes::try_build(
+        tris.into(),
+        &SparseParams {
+            d_min: 0,
+            ..Default::default()
+        },
+    );
+    assert!(matches!(e, Err(tb_core::AccelError::Params(_))));
+}
+
+/// The harness's path: hints computed once for a batch, split into chunks with the rays by
+/// `tb_core::par::trace_hinted_into` (more rays than one chunk), give the answers and counters
+/// of the kernels that find their start nodes themselves.
+#[test]
+fn chunked_hints_match() {
+    let scene = tb_scene::load(
+        "builtin:teapot-stadium?teapot_tess=3&segments=8",
+        std::path::Path::new("."),
+    )
+    .unwrap();
+    let mut cam = scene.view.clone().unwrap().camera;
+    (cam.width, cam.height) = (64, 48);
+    let rays = tb_scene::rays::primary(&cam);
+    assert!(rays.len() > tb_core::par::CHUNK);
+    let s = SparseBoxes::build(&scene.triangles, &SparseParams::default());
+    for name in ["btr", "sltr"] {
+        let ti = index(name);
+        let hints = s.batch_hints(ti, Query::Closest, &rays).unwrap();
+        assert!(hints.iter().all(|&h| h == hints[0] && h != 0), "{name}");
+        let mut a = vec![HitRecord::MISS; rays.len()];
+        let mut sa = vec![TraversalStats::default(); rays.len()];
+        tb_core::par::trace_hinted_into(
+            &s,
+            ti,
+            Query::Closest,
+            TriTestKind::Watertight,
+            &rays,
+            Some(&hints),
+            &mut a,
+            Some(&mut sa),
+        );
+        let (b, sb) = tb_core::par::count(&s, ti, Query::Closest, TriTestKind::Watertight, &rays);
+        assert_eq!(a, b, "{name}");
+        assert_eq!(sa, sb, "{name}");
+    }
+}
