@@ -5,6 +5,7 @@
                                                          #   convergence (convergence.csv)
     python3 scripts/plot.py bars RESULTS.csv [--ray-kind primary] [--counters steps,prims]
     python3 scripts/plot.py sweep RESULTS.csv --param max_leaf [--metric mrays_per_s]
+        [--line COLUMN=VALUE]
     python3 scripts/plot.py convergence CONVERGENCE.csv [--metric rmse|rel_mse]
 
 - bars: MRays/s per scene, one bar per structure x traversal (x parameter set when a sweep
@@ -12,7 +13,11 @@
   rows fill (`steps` split by what a step is: BVH nodes and R-tree boxes never share an axis);
   one ray kind, thread count and triangle test;
 - sweep: a metric against one parameter, one line per scene x structure x traversal, error bars
-  on timing metrics;
+  on timing metrics. The metric is a column, `stat:KEY` (a build figure) or several joined by
+  `+` and added up (`planes_per_ray+prims_per_ray`). --line COLUMN=VALUE (repeatable, all must
+  hold) draws the matching rows as dashed horizontal reference lines in their scene's colour
+  instead of sweep points (e.g. `--line param:measure=sah`: the SAH tree against the COS-ORTH
+  beta sweep);
 - convergence: error against render time, log-log, one panel per scene x integrator, one
   line per structure x traversal x device; budget rows (frame_budget_ms, read from convergence-budget.csv beside it) are printed as a table.
 
@@ -28,7 +33,7 @@ import sys
 import textwrap
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import (SPREAD_COLUMNS, TIMING_COLUMNS, apply_filters, column,  # noqa: E402
+from common import (SPREAD_COLUMNS, TIMING_COLUMNS, amount, apply_filters, column,  # noqa: E402
                     counter_columns, counter_def, counter_name, is_noisy, number, params_of,
                     pick, read_rows, rel_spread, steps_meaning, threads_phrase, unit,
                     varying_params)
@@ -216,22 +221,55 @@ def bars(args):
     save(fig, args.out or default_out(args.csv, "bars"), args.dpi)
 
 
+def metric_label(metric, rows):
+    """The y label of a metric: its unit, and for counters what they count; a `+` sum names
+    each part."""
+    parts = metric.split("+")
+    if all(p.endswith("_per_ray") for p in parts):
+        defs = []
+        for p in parts:
+            if counter_name(p) == "steps":
+                meanings = {steps_meaning(r["structure"], r["traversal"]) for r in rows}
+                defs.append(meanings.pop() if len(meanings) == 1 else "see the legend")
+            else:
+                defs.append(counter_def(p))
+        names = " + ".join(counter_name(p) for p in parts)
+        return textwrap.fill(f"{names} per ray: {' + '.join(defs)}", 40)
+    return textwrap.fill(" + ".join(unit(p) for p in parts), 40)
+
+
 def sweep(args):
     rows = apply_filters(read_rows(args.csv), args.filter)
-    rows = [r for r in rows if args.param in params_of(r)]
-    if rows and args.metric not in rows[0] and not args.metric.startswith("param:"):
-        sys.exit(f"error: --metric {args.metric}: no such column")
-    rows = [r for r in rows if number(column(r, args.metric)) is not None]
-    if not rows:
-        sys.exit(f"error: no rows with parameter `{args.param}` and a value of {args.metric}")
+    for part in args.metric.split("+"):
+        if rows and part not in rows[0] and not part.startswith(("param:", "stat:")):
+            sys.exit(f"error: --metric {args.metric}: no column `{part}`")
+    rows = [r for r in rows if amount(r, args.metric) is not None]
+    # Reference rows (e.g. the SAH tree against the multi-kd-tree paper's COS-ORTH beta sweep,
+    # Tables 6-7): dashed horizontal lines, not points of the sweep. They need not have the
+    # swept parameter.
+    refs = apply_filters(rows, args.line) if args.line else []
+    if args.line and not refs:
+        sys.exit(f"error: --line {' '.join(args.line)}: no row matches (with a value of "
+                 f"{args.metric})")
+    ref_ids = {id(r) for r in refs}
+    rows = [r for r in rows if id(r) in ref_ids or args.param in params_of(r)]
+    if not [r for r in rows if id(r) not in ref_ids]:
+        sys.exit(f"error: no rows with parameter `{args.param}` and a value of {args.metric}"
+                 + (" besides the --line rows" if refs else ""))
     rows, what = select(rows, args)
+    refs = [r for r in rows if id(r) in ref_ids]
+    rows = [r for r in rows if id(r) not in ref_ids]
+    if not rows:
+        sys.exit(f"error: no sweep rows left with {what} (only --line rows)")
+    if args.line and not refs:
+        print(f"note: no --line row with {what}")
     others = [k for k in varying_params(rows) if k != args.param]
     several_devices = len({r.get("device", "cpu") for r in rows}) > 1
     steps = args.metric == "steps_per_ray" and len(
         {steps_meaning(r["structure"], r["traversal"]) for r in rows}) > 1
     if steps:
         print("note: steps mean different things for these structures; each line says which")
-    lines = {}
+    lines, scene_of = {}, {}
     for r in rows:
         p = params_of(r)
         key = f"{r['scene']} {r['structure']} {r['traversal']}"
@@ -245,10 +283,16 @@ def sweep(args):
         x = number(p[args.param])
         if x is None:
             sys.exit(f"error: parameter `{args.param}` is not numeric ({p[args.param]})")
-        lines.setdefault(key, []).append((x, number(column(r, args.metric)), r))
-    fig, ax = plt.subplots(figsize=(6.5, 4.2), layout="constrained")
+        lines.setdefault(key, []).append((x, amount(r, args.metric), r))
+        scene_of[key] = r["scene"]
+    # Wide enough for the legend outside the axes to leave the axes their room.
+    longest = max(len(k) for k in lines) + (40 if refs else 0)
+    fig, ax = plt.subplots(figsize=(max(6.5, 4.0 + 0.065 * longest), 4.2), layout="constrained")
     xs = sorted({p[0] for pts in lines.values() for p in pts})
-    log = xs[0] > 0 and xs[-1] / xs[0] >= 8
+    # A log axis for geometric sweeps (1, 2, 4, 8), a linear one for evenly spaced values
+    # (beta 0.5, 1, 1.5, ...), whose ticks would pile up at the right of a log axis.
+    ratios = sorted(b / a for a, b in zip(xs, xs[1:])) if xs[0] > 0 else []
+    log = bool(ratios) and xs[-1] / xs[0] >= 8 and ratios[len(ratios) // 2] >= 1.5
     spread = args.metric in SPREAD_COLUMNS
 
     def dodge(x, i):
@@ -258,32 +302,49 @@ def sweep(args):
         k = (i - (len(lines) - 1) / 2) * min(0.04, 0.3 / len(lines))
         return x * 2 ** k if log else x + k * (xs[-1] - xs[0] or 1) / max(1, len(xs) - 1)
 
+    colour = {}  # scene -> the colour of its first line
     for i, (key, pts) in enumerate(lines.items()):
         pts.sort(key=lambda p: p[0])
         ys = [p[1] for p in pts]
         err = error_bars([p[2] for p in pts], args.metric, ys)
         ax.errorbar([dodge(p[0], i) for p in pts], ys, yerr=err, label=key, capsize=2.5,
                     elinewidth=0.8, markersize=4, **line_style(i))
+        colour.setdefault(scene_of[key], line_style(i)["color"])
+    ref_scene = {}  # legend label of a reference line -> its scene
+    for r in refs:
+        y = amount(r, args.metric)
+        c = colour.get(r["scene"], "0.4")
+        lab = f"{r['scene']} {r['structure']} {r['traversal']} [{', '.join(args.line)}]: {y:.4g}"
+        ref_scene[lab] = r["scene"]
+        ax.axhline(y, linestyle="--", linewidth=1.2, color=c, label=lab)
+        rel = rel_spread(r, args.metric)
+        if rel:
+            ax.axhspan(y * (1 - rel), y * (1 + rel), color=c, alpha=0.12, linewidth=0)
     if log:
         ax.set_xscale("log", base=2)
         ax.set_xticks(xs)
         ax.set_xticklabels([f"{x:g}" for x in xs])
         ax.minorticks_off()
     ax.set_xlabel(args.param)
-    if args.metric.endswith("_per_ray"):
-        meanings = {steps_meaning(r["structure"], r["traversal"]) for r in rows}
-        what_is = (meanings.pop() if len(meanings) == 1 else "see the legend") \
-            if counter_name(args.metric) == "steps" else counter_def(args.metric)
-        ax.set_ylabel(textwrap.fill(f"{unit(args.metric)}: {what_is}", 40))
-    else:
-        ax.set_ylabel(unit(args.metric))
+    ax.set_ylabel(metric_label(args.metric, rows + refs))
     note = CI_NOTE if args.metric in SPREAD_COLUMNS else ""
-    note += noisy_note(rows, args.metric)
+    if refs:
+        note += ("; " if note else "") + "dashed: --line rows"
+        if args.metric in SPREAD_COLUMNS:
+            note += " (band: their CI)"
+    note += noisy_note(rows + refs, args.metric)
     ax.set_title(f"{args.metric} against {args.param}\n{what}" + (f"\n{note.lstrip('; ')}" if note else ""),
                  fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, borderaxespad=0)
-    metric = "" if args.metric == "mrays_per_s" else args.metric
+    # The legend: each scene's reference lines right after that scene's sweep lines.
+    handles, labels = ax.get_legend_handles_labels()
+    order = {k: i for i, k in enumerate(lines)}
+    ref_at = {lab: max((order[k] for k in lines if scene_of[k] == sc), default=len(lines)) + 0.5
+              for lab, sc in ref_scene.items()}
+    pairs = sorted(zip(handles, labels), key=lambda hl: ref_at.get(hl[1], order.get(hl[1], 0)))
+    ax.legend([h for h, _ in pairs], [lab for _, lab in pairs], loc="upper left",
+              bbox_to_anchor=(1.02, 1.0), fontsize=8, borderaxespad=0)
+    metric = "" if args.metric == "mrays_per_s" else args.metric.replace(":", "-")
     save(fig, args.out or default_out(args.csv, "sweep", args.param, metric), args.dpi)
 
 
@@ -394,7 +455,12 @@ def main(argv):
     common(s)
     selection(s)
     s.add_argument("--param", required=True, help="parameter key, e.g. max_leaf")
-    s.add_argument("--metric", default="mrays_per_s")
+    s.add_argument("--metric", default="mrays_per_s",
+                   help="a column, stat:KEY (a build figure), or several joined by + and added "
+                        "up, e.g. planes_per_ray+prims_per_ray")
+    s.add_argument("--line", action="append", metavar="COLUMN=VALUE",
+                   help="draw the rows that match as dashed horizontal reference lines instead "
+                        "of sweep points (e.g. param:measure=sah); repeatable, all must hold")
     c = sub.add_parser("convergence", help="error against time, log-log")
     common(c)
     c.add_argument("--metric", default="rmse", choices=["rmse", "rel_mse"])

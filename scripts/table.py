@@ -12,11 +12,15 @@ several joined by `+` (`--cols structure+traversal`). Every cell must come from 
 row: when several rows fall in one cell, narrow them with --filter COLUMN=VALUE (VALUE may list
 alternatives `A|B`; the error names the columns that differ), or add them up with --sum COLUMN
 (e.g. `--sum ray_kind`: the R-tree paper's "primary and shadow rays" times are the sum of the
-two batches). A percentage is 100 · (value − baseline) / baseline of the same row.
+two batches). A percentage is 100 · (value − baseline) / baseline of the same row. --value
+takes a column, `stat:KEY` (one build figure of the `build_stats` column) or several of these
+joined by `+`, added up (e.g. `planes_per_ray+prims_per_ray`, the multi-kd-tree paper's
+traversal steps).
 
 Timing values (trace_ms_median, mrays_per_s) print as `value ± half-width` of the median's 95%
 confidence interval (the CSV's trace_ms_ci, relative to the median; mrays_per_s takes the same
-relative half-width); a summed cell combines the half-widths of its rows in quadrature. A cell
+relative half-width); only a single timing column has one, a `+` sum of columns none. A summed
+cell (--sum) combines the half-widths of its rows in quadrature. A cell
 of a timing column whose row is flagged `noisy` is marked †, explained under the table.
 """
 
@@ -26,8 +30,8 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import (TIMING_COLUMNS, apply_filters, column, is_noisy, number, read_rows,  # noqa: E402
-                    rel_spread)
+from common import (TIMING_COLUMNS, amount, apply_filters, column, is_noisy,  # noqa: E402
+                    read_rows, rel_spread)
 
 
 # Columns that identify a row (the others are measurements).
@@ -50,7 +54,8 @@ def cell_of(rows, args):
     """The cell of one row, or of several rows added up (--sum)."""
     cells = []
     for r in rows:
-        v = number(column(r, args.value))
+        # A `+` sum (amount) is never in SPREAD_COLUMNS / TIMING_COLUMNS: no ± and no †.
+        v = amount(r, args.value)
         rel = rel_spread(r, args.value)
         noisy = args.value in TIMING_COLUMNS and is_noisy(r)
         cells.append(Cell(v, None if v is None or rel is None else abs(v) * rel, noisy))
@@ -227,7 +232,9 @@ def main(argv):
     p.add_argument("csv")
     p.add_argument("--rows", default="scene")
     p.add_argument("--cols", required=True, help="column or param:KEY whose values are the columns")
-    p.add_argument("--value", default="mrays_per_s")
+    p.add_argument("--value", default="mrays_per_s",
+                   help="a column, stat:KEY (a build figure), or several joined by + and added "
+                        "up, e.g. planes_per_ray+prims_per_ray")
     p.add_argument("--baseline", required=True, help="the column value the others are compared with")
     p.add_argument("--filter", action="append", metavar="COLUMN=VALUE")
     p.add_argument("--sum", metavar="COLUMN",
@@ -242,6 +249,8 @@ def main(argv):
     if args.digits is not None and args.digits < 0:
         p.error("--digits must be 0 or more")
     rows = apply_filters(read_rows(args.csv), args.filter)
+    for part in args.value.split("+") if rows else []:
+        column(rows[0], part)  # an unknown column is an error here, naming the columns
     rows = [r for r in rows if column(r, args.cols) != ""]
     if not rows:
         sys.exit("error: no rows left after the filters")

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Self-test of the scripts: builds tiny CSVs in a temporary directory, checks table.py's
-± spreads, sums, noisy marks and LaTeX output, and that plot.py writes its PNGs.
+± spreads, sums, noisy marks, LaTeX output and `stat:KEY` / `a+b` values, and that plot.py
+writes its PNGs (sweeps of summed metrics with --line reference rows included).
 No network, a few seconds:
 
     python3 scripts/test_scripts.py [-v]
@@ -19,7 +20,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 HEADER = ["scene", "structure", "params", "traversal", "device", "threads", "triangle_test",
           "ray_kind", "rays", "build_ms", "trace_ms_median", "mrays_per_s", "timed_runs",
           "trace_ms_ci", "noisy", "interior_per_ray", "leaves_per_ray", "planes_per_ray",
-          "boxes_per_ray", "steps_per_ray", "cells_per_ray"]
+          "boxes_per_ray", "steps_per_ray", "cells_per_ray", "prims_per_ray", "build_stats"]
 
 
 def row(scene, structure, params, traversal, ray_kind, ms, ci, noisy=False, threads="1",
@@ -58,6 +59,24 @@ def sweep_rows():
                 rows.append(row("teapot", structure, f"max_leaf={leaf};variant={i}", traversal,
                                 kind, 10.0 + i + leaf, 0.05, steps=5.0 + leaf,
                                 boxes=3.0 if structure == "rtree" else 1.0))
+    return rows
+
+
+def multikd_rows():
+    """A multi-kd-tree run in small: SAH and COS-ORTH trees (beta swept; the SAH rows carry a
+    beta too), two scenes, two ray kinds, recursive-direction only."""
+    rows = []
+    for scene, extra in [("sibenik", 0.0), ("sponza", 5.0)]:
+        for measure, betas in [("sah", [2]), ("cos-orth", [0.5, 1, 1.5, 2, 2.5])]:
+            for beta in betas:
+                for kind, ms in [("primary", 20.0), ("path1", 25.0)]:
+                    r = row(scene, "multi-kd", f"measure={measure};beta={beta};trees=multi",
+                            "recursive-direction", kind, ms, 0.1)
+                    planes = 30.0 + extra + (0.0 if measure == "sah" else beta)
+                    r["planes_per_ray"], r["prims_per_ray"] = planes, 10.25
+                    nodes = 1000 if measure == "sah" else 3000 + int(10 * beta)
+                    r["build_stats"] = f"trees=1;nodes={nodes};references=800;paper_bytes=19200"
+                    rows.append(r)
     return rows
 
 
@@ -101,6 +120,8 @@ class Table(unittest.TestCase):
         cls.tmp = tempfile.TemporaryDirectory()
         cls.csv = os.path.join(cls.tmp.name, "results.csv")
         write(cls.csv, results_rows())
+        cls.mk = os.path.join(cls.tmp.name, "multikd.csv")
+        write(cls.mk, multikd_rows())
         cls.base = ["--cols", "param:strategy", "--baseline", "r-star", "--filter", "threads=1"]
 
     @classmethod
@@ -166,6 +187,51 @@ class Table(unittest.TestCase):
                   "--filter", "ray_kind=primary")
         self.assertIn("|---|---:|", out)
 
+    def test_stat_value(self):
+        out = run("table.py", self.mk, "--cols", "param:measure", "--value", "stat:nodes",
+                  "--baseline", "sah", "--filter", "param:beta=2|", "--filter", "ray_kind=primary")
+        self.assertIn("3,020", out)
+        self.assertIn("+202.0%", out)
+        self.assertNotIn("3,020.00", out)  # build figures are whole numbers
+        self.assertNotIn("±", out)
+
+    def test_summed_value(self):
+        # Table 4 of the multi-kd-tree paper: planes + triangles per ray, no ± on a sum.
+        out = run("table.py", self.mk, "--rows", "scene+ray_kind", "--cols", "param:measure",
+                  "--value", "planes_per_ray+prims_per_ray", "--baseline", "sah",
+                  "--filter", "param:beta=2", "--filter", "traversal=recursive-direction")
+        self.assertIn("sibenik/primary", out)
+        self.assertIn("40.25", out)   # sah: 30 + 10.25
+        self.assertIn("42.25", out)   # cos-orth beta 2: 32 + 10.25
+        self.assertIn("+5.0%", out)
+        self.assertIn("45.25", out)   # sponza sah: 35 + 10.25
+        self.assertNotIn("±", out)
+        self.assertNotIn("†", out)
+        # A single timing column keeps its ±; --sum over ray kinds adds the summed values.
+        out = run("table.py", self.mk, "--cols", "param:measure", "--value", "mrays_per_s",
+                  "--baseline", "sah", "--filter", "param:beta=2", "--filter", "ray_kind=primary")
+        self.assertIn("50.00 ± 5.00", out)
+        out = run("table.py", self.mk, "--cols", "param:measure", "--baseline", "sah",
+                  "--value", "planes_per_ray+prims_per_ray", "--filter", "param:beta=2",
+                  "--sum", "ray_kind")
+        self.assertIn("80.50", out)   # sibenik sah: 40.25 primary + 40.25 path1
+        self.assertNotIn("±", out)
+
+    def test_summed_value_latex(self):
+        out = run("table.py", self.mk, "--cols", "param:measure", "--baseline", "sah",
+                  "--value", "planes_per_ray+prims_per_ray", "--filter", "param:beta=2",
+                  "--filter", "ray_kind=primary", "--format", "latex")
+        self.assertTrue(out.startswith("% caption: planes_per_ray+prims_per_ray"), out)
+        self.assertIn("sibenik & 40.25 & 42.25 & +5.0\\%", out)
+
+    def test_unknown_value_column(self):
+        p = subprocess.run([sys.executable, os.path.join(HERE, "table.py"), self.mk,
+                            "--cols", "param:measure", "--baseline", "sah",
+                            "--value", "planes_per_ray+nope_per_ray"],
+                           capture_output=True, text=True)
+        self.assertNotEqual(p.returncode, 0)
+        self.assertIn("nope_per_ray", p.stderr)
+
     def test_two_rows_in_a_cell(self):
         p = subprocess.run([sys.executable, os.path.join(HERE, "table.py"), self.csv,
                             "--cols", "param:strategy", "--baseline", "r-star"],
@@ -183,6 +249,8 @@ class Plot(unittest.TestCase):
         write(cls.results, results_rows())
         cls.sweep = os.path.join(d, "sweep.csv")
         write(cls.sweep, sweep_rows())
+        cls.mk = os.path.join(d, "multikd.csv")
+        write(cls.mk, multikd_rows())
         cls.conv = os.path.join(d, "convergence.csv")
         cols, rows = convergence_rows()
         write(cls.conv, rows, cols)
@@ -214,6 +282,36 @@ class Plot(unittest.TestCase):
         self.assertIn("tie broken in favour of primary", out)
         run("plot.py", "sweep", self.sweep, "--param", "max_leaf", "--metric", "steps_per_ray")
         self.png(os.path.join(self.tmp.name, "sweep-max_leaf-steps_per_ray.png"))
+
+    def test_sweep_summed_metric_with_line(self):
+        # Tables 6-7 of the multi-kd-tree paper: COS-ORTH against beta, the SAH dashed.
+        out = run("plot.py", "sweep", self.mk, "--param", "beta", "--metric",
+                  "planes_per_ray+prims_per_ray", "--filter", "param:measure=cos-orth|sah",
+                  "--filter", "traversal=recursive-direction", "--ray-kind", "path1",
+                  "--line", "param:measure=sah")
+        self.png(os.path.join(self.tmp.name, "multikd-sweep-beta-planes_per_ray+prims_per_ray.png"))
+        self.assertIn("ray kind: path1", out)
+        # Timing metric (the reference line gets a CI band), stat:KEY, a repeated --line.
+        run("plot.py", "sweep", self.mk, "--param", "beta", "--line", "param:measure=sah",
+            "--line", "scene=sibenik", "--out", os.path.join(self.tmp.name, "l2.png"))
+        self.png(os.path.join(self.tmp.name, "l2.png"))
+        run("plot.py", "sweep", self.mk, "--param", "beta", "--metric", "stat:nodes",
+            "--filter", "param:measure=cos-orth")
+        self.png(os.path.join(self.tmp.name, "multikd-sweep-beta-stat-nodes.png"))
+
+    def test_sweep_line_matches_nothing(self):
+        p = subprocess.run([sys.executable, os.path.join(HERE, "plot.py"), "sweep", self.mk,
+                            "--param", "beta", "--line", "param:measure=nope"],
+                           capture_output=True, text=True, env={**os.environ, "MPLBACKEND": "Agg"})
+        self.assertNotEqual(p.returncode, 0)
+        self.assertIn("--line", p.stderr)
+
+    def test_sweep_without_line_keeps_reference_points(self):
+        # Without --line the SAH rows (beta=2) are ordinary sweep points, as before.
+        out = run("plot.py", "sweep", self.mk, "--param", "beta", "--metric",
+                  "planes_per_ray+prims_per_ray", "--out", os.path.join(self.tmp.name, "n.png"))
+        self.png(os.path.join(self.tmp.name, "n.png"))
+        self.assertIn("wrote", out)
 
     def test_convergence(self):
         out = run("plot.py", self.conv)
