@@ -128,17 +128,7 @@ pub fn finish(meta: &mut Value, status: &str, started: SystemTime) {
         let total = m.get("duration_s").and_then(Value::as_f64).unwrap_or(0.0);
         m.insert("status".into(), Value::from(status));
         m.insert("end".into(), Value::from(now_rfc3339()));
-        m.insert("duration_s".into(), Value::from((total + secs).round_to(3)));
-    }
-}
-
-trait Round {
-    fn round_to(self, digits: i32) -> f64;
-}
-
-impl Round for f64 {
-    fn round_to(self, digits: i32) -> f64 {
-        let k = 10f64.powi(digits);
-        (self * k).round() / k
+        let ms = ((total + secs) * 1e3).round();
+        m.insert("duration_s".into(), Value::from(ms / 1e3));
     }
 }

@@ -66,8 +66,18 @@ use view::Aux;
 
 pub use layout::{DepthFirst, KdLayout, Layout, Nodes, Treelet};
 pub use stackless::{MAX_SHORT_STACK, STEP_CAP};
-pub use traverse::STACK_SIZE;
+pub use traverse::{split_decision, Decision, Kind, SLACK, STACK_SIZE};
 pub use view::{BackNode, KdStart, KdView};
+
+/// Bytes per node of auxiliary array `aux` ([`BACKTRACK_AUX`]: cell and parent;
+/// [`ROPES_AUX`]: six ropes), for every structure over kd nodes.
+pub(crate) fn aux_bytes_per_node(aux: &str) -> usize {
+    match aux {
+        BACKTRACK_AUX => std::mem::size_of::<BackNode>(),
+        ROPES_AUX => std::mem::size_of::<[u32; 6]>(),
+        _ => 0,
+    }
+}
 
 /// The auxiliary array of cells and parents ([`KdTree::back_nodes`]), read by `backtrack` and
 /// `ropes`.
@@ -726,12 +736,7 @@ impl Structure for KdTree {
     /// [`BACKTRACK_AUX`]: 32 bytes per node (cell and parent); [`ROPES_AUX`]: 24 bytes per
     /// node (six ropes); built or not.
     fn aux_bytes(&self, aux: &str) -> u64 {
-        let per_node = match aux {
-            BACKTRACK_AUX => std::mem::size_of::<BackNode>(),
-            ROPES_AUX => std::mem::size_of::<[u32; 6]>(),
-            _ => 0,
-        };
-        (per_node * self.nodes.len()) as u64
+        (aux_bytes_per_node(aux) * self.nodes.len()) as u64
     }
 
     fn prepare_aux(&self, aux: &str) {

@@ -632,12 +632,7 @@ impl Structure for MultiKdTree {
     }
 
     fn aux_bytes(&self, aux: &str) -> u64 {
-        let per_node = match aux {
-            BACKTRACK_AUX => std::mem::size_of::<BackNode>(),
-            ROPES_AUX => std::mem::size_of::<[u32; 6]>(),
-            _ => 0,
-        };
-        (per_node * self.nodes.len()) as u64
+        (crate::aux_bytes_per_node(aux) * self.nodes.len()) as u64
     }
 
     fn prepare_aux(&self, aux: &str) {

@@ -23,7 +23,7 @@ pub const STACK_SIZE: usize = 64;
 /// point (a vertex at a cell corner) give distances within `4·2^-24·t`; decisions "near only"
 /// and "far only" are taken only when the distance clears the interval by this factor, and both
 /// children are visited otherwise (the split distance then clamped to the interval).
-pub(crate) const SLACK: f32 = 1.0 + 8.0 * f32::EPSILON;
+pub const SLACK: f32 = 1.0 + 8.0 * f32::EPSILON;
 
 /// Pop the next pending subtree `(node, entry, exit)` off `stack[..*sp]`, skipping those whose
 /// entry distance (`entry_t`) lies beyond the closest hit `best_t` (any-hit queries skip
@@ -182,8 +182,8 @@ pub(crate) fn leaf<T: TriTest, C: Counter, const ANY: bool>(
 }
 
 /// What to visit at an interior node.
-#[derive(Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Kind {
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
     NearOnly,
     FarOnly,
     Both,
@@ -195,15 +195,15 @@ pub(crate) enum Kind {
 /// the slab interval of its cell whatever path led there (plane distances computed by the one
 /// formula, start-cell faces counting as the start interval): the stackless traversals
 /// recompute it from a cell and reproduce exactly these decisions.
-#[derive(Clone, Copy)]
-pub(crate) struct Decision {
-    pub(crate) kind: Kind,
-    pub(crate) near: usize,
-    pub(crate) far: usize,
+#[derive(Clone, Copy, Debug)]
+pub struct Decision {
+    pub kind: Kind,
+    pub near: usize,
+    pub far: usize,
     /// End of the near child's interval.
-    pub(crate) near_tf: f32,
+    pub near_tf: f32,
     /// Start of the far child's interval.
-    pub(crate) far_tn: f32,
+    pub far_tn: f32,
 }
 
 #[inline(always)]
@@ -215,14 +215,29 @@ pub(crate) fn decide<L: Layout>(
     tn: f32,
     tf: f32,
 ) -> Decision {
+    split_decision(l, n, idx, &s.org, &s.inv, &s.neg, tn, tf)
+}
+
+/// [`Decision`] at interior node `n` (index `idx`, children by layout `l`) for a ray with
+/// origin `org`, reciprocal direction `inv` and direction signs `neg` over `[tn, tf]`: the one
+/// rule every kd traversal shares, exported so that structures walking a borrowed kd-tree
+/// (sparse boxes) take exactly the kd-tree's decisions (their counters then compare ray for
+/// ray with `recursive-direction`).
+#[inline(always)]
+pub fn split_decision<L: Layout>(
+    l: L,
+    n: KdNode,
+    idx: usize,
+    org: &[f32; 3],
+    inv: &[f32; 3],
+    neg: &[bool; 3],
+    tn: f32,
+    tf: f32,
+) -> Decision {
     let a = n.axis();
-    let t = (n.split() - s.org[a]) * s.inv[a];
+    let t = (n.split() - org[a]) * inv[a];
     let (left, right) = l.children(idx, n);
-    let (near, far) = if s.neg[a] {
-        (right, left)
-    } else {
-        (left, right)
-    };
+    let (near, far) = if neg[a] { (right, left) } else { (left, right) };
     let kind = if t > tf * SLACK {
         Kind::NearOnly
     } else if t * SLACK < tn {

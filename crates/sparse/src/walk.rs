@@ -55,14 +55,10 @@ use tb_core::{
     Aabb, Counter, HitRecord, MollerTrumbore, NoStats, Query, Ray, TraversalStats, TriTest,
     TriTestKind, Triangle, Vec3, Watertight,
 };
-use tb_kdtree::{KdNode, KdView, STACK_SIZE};
+use tb_kdtree::{split_decision, Decision, DepthFirst, KdNode, KdView, Kind, SLACK, STACK_SIZE};
 
 pub(crate) const BTR: u8 = 0;
 pub(crate) const SLTR: u8 = 1;
-
-/// Rounding allowance of plane distances (the kd-tree's: two planes through one point give
-/// distances within `4·2^-24·t`).
-const SLACK: f32 = 1.0 + 8.0 * f32::EPSILON;
 
 /// "Not looked up yet" for a record index.
 const NONE: u32 = u32::MAX;
@@ -145,46 +141,11 @@ impl Best {
     }
 }
 
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Kind {
-    NearOnly,
-    FarOnly,
-    Both,
-}
-
-/// The decision at an interior node (the kd-tree's `recursive-direction`).
-struct Decision {
-    kind: Kind,
-    near: usize,
-    far: usize,
-    near_tf: f32,
-    far_tn: f32,
-}
-
+/// The decision at an interior node: the kd-tree's own rule ([`split_decision`], that of
+/// `recursive-direction`), children in the depth-first layout.
 #[inline(always)]
 fn decide(n: KdNode, idx: usize, s: &Setup, tn: f32, tf: f32) -> Decision {
-    let a = n.axis();
-    let t = (n.split() - s.org[a]) * s.inv[a];
-    let (left, right) = (idx + 1, n.link());
-    let (near, far) = if s.neg[a] {
-        (right, left)
-    } else {
-        (left, right)
-    };
-    let kind = if t > tf * SLACK {
-        Kind::NearOnly
-    } else if t * SLACK < tn {
-        Kind::FarOnly
-    } else {
-        Kind::Both
-    };
-    Decision {
-        kind,
-        near,
-        far,
-        near_tf: min_num(tf, t),
-        far_tn: max_num(tn, t),
-    }
+    split_decision(DepthFirst, n, idx, &s.org, &s.inv, &s.neg, tn, tf)
 }
 
 impl<'a> Ctx<'a> {
