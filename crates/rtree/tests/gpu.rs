@@ -4,7 +4,8 @@
 //! and a sorted child order, every traversal, on every conformance-suite scene and ray kind
 //! (an even sample of at most [`MAX_RAYS`] rays per batch, to keep the test short on
 //! lavapipe), with the watertight test, the GPU must give the CPU's hits and counters ray for
-//! ray (`t`, `u`, `v` bit for bit where the adapter has `SHADER_F64`). tb-harness's
+//! ray (`t`, `u`, `v` bit for bit where the adapter has `SHADER_F64`), and the timed variant
+//! (no counters) the counting variant's hits bit for bit. tb-harness's
 //! `gpu_oracle` checks the default build against the oracle as well. Without an adapter the
 //! tests print a notice and pass, unless `TRACE_BENCH_REQUIRE_GPU=1`. On an adapter without
 //! `SHADER_F64` (or where the driver contracts into FMAs) a few grazing rays may differ, as
@@ -16,7 +17,7 @@ use tb_rtree::{ChildOrder, Rtree, RtreeParams, Strategy, GPU_NODES};
 use tb_scene::conformance;
 
 /// Rays per batch checked.
-const MAX_RAYS: usize = 400;
+const MAX_RAYS: usize = 256;
 
 /// The builds checked: (strategy, m, M, child order).
 fn builds() -> Vec<RtreeParams> {
@@ -109,6 +110,18 @@ fn programs_match_the_cpu_for_every_strategy_and_m() {
                         stats[differ[0]],
                     );
                     assert!(stats.iter().all(|s| s.capped == 0));
+                    // The timed variant (COUNT = false) answers as the counting one.
+                    let (timed, _) = gpu.trace_once(&s, rays, query, tri, false).expect("trace");
+                    let same = |a: &tb_core::HitRecord, b: &tb_core::HitRecord| {
+                        (a.prim, a.t.to_bits(), a.u.to_bits(), a.v.to_bits())
+                            == (b.prim, b.t.to_bits(), b.u.to_bits(), b.v.to_bits())
+                    };
+                    assert!(
+                        timed.iter().zip(&hits).all(|(a, b)| same(a, b)),
+                        "{} {p:?} {name} {}: the timed variant's hits differ",
+                        scene.source,
+                        kind.name()
+                    );
                     checked += 1;
                     rays_checked += rays.len();
                 }
