@@ -16,7 +16,9 @@
 //! No step cap: like the CPU walks, the kernels visit every slot at most once per ray and
 //! `capped` stays 0. Size: the slot array is bound whole; where it exceeds the adapter's
 //! `max_storage_buffer_binding_size` (Conference with `M = 4`: 695 MiB, over the 128 MiB many
-//! adapters bind), tb-gpu refuses the upload with one line naming the array and the limit.
+//! adapters bind), tb-gpu refuses the upload with one line naming the array and the limit (the
+//! row's note in a run). Splitting the array over several bindings would not rescue that case:
+//! a program has 4 buffers of its own at most, and 4 × 128 MiB is still under 695 MiB.
 
 use crate::{Rtree, MAX_LAYOUT_BYTES, MAX_LEVELS, MAX_M};
 use std::borrow::Cow;
