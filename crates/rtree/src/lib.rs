@@ -14,7 +14,7 @@
 //!   node, in [`ChildOrder`]; empty slots hold the empty box and `count = 0`. Leaves (level 0)
 //!   hold their triangles as a run of [`Rtree::triangles`] (copied in leaf order;
 //!   [`Rtree::prim_ids`] maps back to scene indices).
-//! - **Traversals** (module `traverse`, [`TRAVERSALS`]): `stackless` (Listing 1), `ordered`
+//! - **Traversals** (module `traverse`, [`Structure::TRAVERSALS`]): `stackless` (Listing 1), `ordered`
 //!   (Listing 2) and `stack` (the conventional stack-based scheme of Table 3).
 //! - **GPU** (module `gpu`, `shaders/`): the same three walks as WGSL kernels over the same
 //!   packed array (the paper's CUDA tracer ran `stackless` and `ordered`, Tables 1-3), with
