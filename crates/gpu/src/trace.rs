@@ -129,6 +129,21 @@ impl Gpu {
         self.dispatch_cap = Some(rays);
     }
 
+    /// Lower `max_storage_buffer_binding_size` as this device sees it to `bytes` (never
+    /// raising it): [`Gpu::upload`] then refuses arrays over `bytes` as it refuses those over
+    /// the adapter's limit, and batches are split to match, so tests exercise both paths
+    /// without scenes of hundreds of MiB.
+    pub fn limit_binding(&mut self, bytes: u64) {
+        let l = &mut self.limits.max_storage_buffer_binding_size;
+        *l = (*l).min(bytes);
+    }
+
+    /// The adapter's `max_storage_buffer_binding_size` (after [`Gpu::limit_binding`]): the
+    /// largest array a program may bind.
+    pub fn max_binding(&self) -> u64 {
+        self.limits.max_storage_buffer_binding_size
+    }
+
     fn fits(&self, what: &'static str, bytes: u64, binding: bool) -> Result<(), GpuError> {
         let l = &self.limits;
         if bytes > l.max_buffer_size || (binding && bytes > l.max_storage_buffer_binding_size) {

@@ -14,11 +14,17 @@
 //!   node, in [`ChildOrder`]; empty slots hold the empty box and `count = 0`. Leaves (level 0)
 //!   hold their triangles as a run of [`Rtree::triangles`] (copied in leaf order;
 //!   [`Rtree::prim_ids`] maps back to scene indices).
-//! - **Traversals** (module `traverse`, [`TRAVERSALS`]): `stackless` (Listing 1), `ordered`
+//! - **Traversals** (module `traverse`, [`Structure::TRAVERSALS`]): `stackless` (Listing 1), `ordered`
 //!   (Listing 2) and `stack` (the conventional stack-based scheme of Table 3).
+//! - **GPU** (module `gpu`, `shaders/`): the same three walks as WGSL kernels over the same
+//!   packed array (the paper's CUDA tracer ran `stackless` and `ordered`, Tables 1-3), with
+//!   the per-ray counters of the CPU walks.
 
 mod build;
+mod gpu;
 mod traverse;
+
+pub use gpu::GPU_NODES;
 
 use serde::{Deserialize, Serialize};
 use tb_core::params::ParamKind;
@@ -163,7 +169,9 @@ impl RtreeParams {
 /// | 4..7 | box max | box max | `−inf` |
 /// | 7 | `count`: entries (non-empty first) | `count`: triangles | 0 |
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Serialize, Deserialize, bytemuck::Pod, bytemuck::Zeroable,
+)]
 pub struct RtreeNode {
     pub min: [f32; 3],
     pub index: u32,
@@ -467,7 +475,7 @@ struct Figures {
 impl Structure for Rtree {
     const NAME: &'static str = "rtree";
     const TRAVERSALS: &'static [Traversal<Self>] = &[
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "stackless",
                 "Feldmann 2015 §4.1, Listing 1",
@@ -477,8 +485,9 @@ impl Structure for Rtree {
             |t, query, tri, rays, hits, stats| {
                 dispatch(&traverse::Stackless(t), query, tri, rays, hits, stats)
             },
+            Rtree::gpu_stackless,
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "ordered",
                 "Feldmann 2015 §4.2, Listing 2",
@@ -488,8 +497,9 @@ impl Structure for Rtree {
             |t, query, tri, rays, hits, stats| {
                 dispatch(&traverse::Ordered(t), query, tri, rays, hits, stats)
             },
+            Rtree::gpu_ordered,
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "stack",
                 "Feldmann 2015 §5.2, Table 3",
@@ -499,6 +509,7 @@ impl Structure for Rtree {
             |t, query, tri, rays, hits, stats| {
                 dispatch(&traverse::Stack(t), query, tri, rays, hits, stats)
             },
+            Rtree::gpu_stack,
         ),
     ];
 

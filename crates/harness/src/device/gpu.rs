@@ -19,7 +19,7 @@ use crate::output::Row;
 use crate::validation::{self, Sample};
 use std::collections::HashMap;
 use tb_core::{Accel, HitRecord, Query, Ray, StatsSummary, TriTestKind};
-use tb_gpu::{Gpu, GpuRays, GpuStructure};
+use tb_gpu::{Gpu, GpuError, GpuRays, GpuStructure};
 
 /// The run's GPU, or why there is none.
 pub struct GpuDevice {
@@ -33,8 +33,18 @@ pub struct GpuDevice {
 /// Per-build GPU state: the uploaded program of each traversal and the ray batches.
 #[derive(Default)]
 struct GpuBuild {
-    programs: HashMap<usize, Result<GpuStructure, String>>,
+    programs: HashMap<usize, Result<GpuStructure, UploadError>>,
     rays: HashMap<usize, GpuRays>,
+}
+
+/// Why a build's program is not on the GPU.
+enum UploadError {
+    /// The adapter cannot hold or run it (an array over `max_storage_buffer_binding_size`,
+    /// too many buffers, a loop too long for llvmpipe): the row's note; the device stays
+    /// usable for the next rows.
+    Refused(String),
+    /// A device or program error: it fails the row and, as any device error, later GPU rows.
+    Failed(String),
 }
 
 impl GpuDevice {
@@ -176,18 +186,23 @@ fn measure_on(
     row: &mut Row,
 ) -> Result<Outcome, String> {
     let (b, query, tri) = (job.batch, job.batch.query, job.tri);
-    let s = build
-        .programs
-        .entry(job.traversal)
-        .or_insert_with(|| {
-            let program = job
-                .accel
-                .gpu_program(job.traversal)
-                .ok_or("no GPU program")?;
-            gpu.upload(&program).map_err(|e| e.to_string())
+    let upload = build.programs.entry(job.traversal).or_insert_with(|| {
+        let program = job
+            .accel
+            .gpu_program(job.traversal)
+            .ok_or_else(|| UploadError::Failed("no GPU program".into()))?;
+        gpu.upload(&program).map_err(|e| match e {
+            GpuError::TooLarge { .. } | GpuError::Unsupported(_) => {
+                UploadError::Refused(e.to_string())
+            }
+            e => UploadError::Failed(e.to_string()),
         })
-        .as_ref()
-        .map_err(|e| e.clone())?;
+    });
+    let s = match upload {
+        Ok(s) => s,
+        Err(UploadError::Refused(note)) => return Ok(Outcome::Unsupported(note.clone())),
+        Err(UploadError::Failed(e)) => return Err(e.clone()),
+    };
     if let std::collections::hash_map::Entry::Vacant(v) = build.rays.entry(job.batch_index) {
         v.insert(gpu.upload_rays(&b.rays).map_err(|e| e.to_string())?);
     }

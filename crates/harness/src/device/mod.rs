@@ -41,7 +41,8 @@ pub struct Job<'a> {
 pub enum Outcome {
     /// The row is measured; the validation, when a sample was given.
     Measured(Option<Checked>),
-    /// The device cannot run this job (no GPU kernel for the traversal): the row's note.
+    /// The device cannot run this job (no GPU kernel for the traversal, or a program the
+    /// adapter refuses, e.g. an array over its binding size): the row's note.
     Unsupported(String),
 }
 

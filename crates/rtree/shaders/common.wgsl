@@ -1,0 +1,62 @@
+// The part shared by the R-tree's GPU programs (tb_rtree, Feldmann 2015 section 4; the
+// traversals follow in stackless.wgsl, ordered.wgsl and stack.wgsl), on tb-gpu's prelude
+// (tb_core::gpu).
+//
+// The packed level-order array of section 4 (Figure 4): a complete M-ary tree of N slots,
+// empty slots included, root first; slot n has its entries at M*n + 1 .. M*n + M (the paper's
+// n_e), its parent at (n - 1) / M (n_p). The paper keeps the first slot of every level,
+// Delta_L(l), and the root level L in CUDA constant memory; in the complete layout
+// n_e(n) = (n - Delta_L(l)) * M + Delta_L(l - 1) = M * n + 1 on every level, so only
+// Delta_L(0) (is a slot a leaf?) and L remain, and they sit in the meta_ uniform, WGSL's
+// counterpart of constant memory (uniform address space):
+//   meta_.counts.y = N (slots), .z = Delta_L(0) (first leaf slot), .w = L (root level).
+// M is an override constant (one program per M, so that `/ M` is a constant division and the
+// stacks get their exact size).
+
+// tb_rtree::RtreeNode, 32 bytes. Intermediate node: `count` entries at M*n + 1 ..; leaf:
+// triangles index .. index + count of the leaf-ordered triangle array (the prelude's `tris`);
+// empty slot: count == 0 (and the empty box).
+struct Node { bmin: vec3<f32>, index: u32, bmax: vec3<f32>, count: u32 }
+
+@group(0) @binding(5) var<storage, read> nodes: array<Node>;     // GpuProgram::buffers[0]
+@group(0) @binding(6) var<storage, read> prim_ids: array<u32>;   // GpuProgram::buffers[1]
+
+override M: u32 = 4u;   // RtreeParams::big_m (GpuProgram::constants)
+
+// The closest hit so far: t, slot in the leaf-ordered triangles (MISS_PRIM: none), u, v.
+struct Best { t: f32, slot: u32, u: f32, v: f32 }
+
+fn no_hit(r: Ray) -> Best {
+    return Best(r.tmax, MISS_PRIM, 0.0, 0.0);
+}
+
+fn record(b: Best) -> Hit {
+    if b.slot == MISS_PRIM {
+        return miss();
+    }
+    return Hit(b.t, prim_ids[b.slot], b.u, b.v);
+}
+
+// Test the triangles of a leaf as tb_rtree's `leaf` does (prims counted per leaf for the
+// closest hit, per test for any hit). Returns true when ANY and a triangle was hit (then
+// `*best` holds that hit).
+fn leaf(node: Node, p: Pre, r: Ray, best: ptr<function, Best>, st: ptr<function, Stats>) -> bool {
+    (*st).leaves += 1u;
+    let first = node.index;
+    if !ANY {
+        (*st).prims += node.count;
+    }
+    for (var k = 0u; k < node.count; k++) {
+        if ANY {
+            (*st).prims += 1u;
+        }
+        let h = intersect(p, r, first + k, (*best).t);
+        if h.w != 0.0 {
+            *best = Best(h.x, first + k, h.y, h.z);
+            if ANY {
+                return true;
+            }
+        }
+    }
+    return false;
+}

@@ -1,0 +1,67 @@
+// R-tree `stack` (Feldmann 2015 section 5.2, Table 3's third column; the reference the paper
+// ran on the CPU only), program `rtree/stack-mM`: conventional depth-first with one stack. At
+// an intermediate node the boxes of its entries are tested and those hit pushed with their
+// entry distance in reverse memory order (so they are visited in memory order, as by
+// `stackless`); an entry popped after a hit closer than its entry distance was found is
+// skipped. STACK_SIZE: at most M - 1 pending entries per level above the current node and M
+// at its own, for the most levels tb_rtree builds for this M. The same walk as tb_rtree's CPU
+// `Stack`, node for node, so the counters agree ray for ray: boxes, interior, leaves, prims,
+// steps = interior + leaves.
+
+fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
+    if meta_.counts.y == 0u {
+        return miss();
+    }
+    let first_leaf = meta_.counts.z;
+    let rb = ray_box(r);
+    var best = no_hit(r);
+    (*st).boxes += 1u;
+    let root = nodes[0];
+    let rs = slab(rb, root.bmin, root.bmax, r.tmin, best.t);
+    if !(rs.x <= rs.y) {
+        return miss();
+    }
+    (*st).steps += 1u;
+    let p = prepare(r);
+    // Pending entries: (slot, bits of the entry distance).
+    var stack: array<vec2<u32>, STACK_SIZE>;
+    var sp = 0u;
+    var n = 0u;
+    loop {
+        let node = nodes[n];
+        if n < first_leaf {
+            (*st).interior += 1u;
+            let first = n * M + 1u;
+            for (var i = node.count; i > 0u; i--) {
+                let e = first + i - 1u;
+                (*st).boxes += 1u;
+                let c = nodes[e];
+                let s = slab(rb, c.bmin, c.bmax, r.tmin, best.t);
+                if s.x <= s.y {
+                    stack[sp] = vec2<u32>(e, bitcast<u32>(s.x));
+                    sp += 1u;
+                }
+            }
+        } else if leaf(node, p, r, &best, st) {
+            return record(best);
+        }
+        var popped = false;
+        loop {
+            if sp == 0u {
+                break;
+            }
+            sp -= 1u;
+            let e = stack[sp];
+            if ANY || bitcast<f32>(e.y) <= best.t * EXIT_SCALE {
+                n = e.x;
+                (*st).steps += 1u;
+                popped = true;
+                break;
+            }
+        }
+        if !popped {
+            break;
+        }
+    }
+    return record(best);
+}
