@@ -56,10 +56,11 @@ mod view;
 mod start_tests;
 
 use stackless::Stackless;
+use std::borrow::Cow;
 use std::sync::{Arc, OnceLock};
 use tb_core::{
-    build_with, dispatch, Aabb, AccelError, BuildReport, Family, MemoryReport, ParamKind, Params,
-    Structure, Traversal, TraversalInfo, Triangle,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Family, GpuBuffer, GpuProgram,
+    MemoryReport, ParamKind, Params, Structure, Traversal, TraversalInfo, Triangle,
 };
 use traverse::Tree;
 use view::Aux;
@@ -559,6 +560,133 @@ pub(crate) fn intersect(a: &Aabb, b: &Aabb) -> Aabb {
     }
 }
 
+/// The GPU kernels of `shaders/kdtree.wgsl` (its override constant `KERNEL`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum GpuKernel {
+    Recursive = 0,
+    Restart = 1,
+    PushDown = 2,
+    ShortStack = 3,
+    Ropes = 4,
+    Sequential = 5,
+}
+
+/// Little-endian bytes of `w` (the GPU's words).
+fn words(w: impl IntoIterator<Item = u32>) -> Cow<'static, [u8]> {
+    Cow::Owned(w.into_iter().flat_map(u32::to_le_bytes).collect())
+}
+
+/// The GPU programs (`shaders/kd.wgsl` then `shaders/kdtree.wgsl`, on tb-gpu's prelude; README
+/// "GPU"): one per traversal, each the CPU kernel's walk in the CPU's order with the same
+/// decisions (so the counters agree ray for ray), in either layout, from the tree's start.
+impl KdTree {
+    /// The program `name` running `kernel`: the triangles in scene order; buffers: the node
+    /// array (two words per [`KdNode`]), the references, a 12-word header (the start node; the
+    /// layout: 0 depth-first, else the treelet block's slot mask; the start cell; the step cap)
+    /// and the auxiliary arrays (`ropes`: [`KdTree::back_nodes`] then [`KdTree::ropes`], else
+    /// one unused word); meta words: the node count and the short stack's size
+    /// ([`KdParams::short_stack`], as the CPU kernel's). The stack holds [`STACK_SIZE`]
+    /// entries for `recursive-direction`, [`MAX_SHORT_STACK`] for `short-stack` (the circular
+    /// stack uses the first `short_stack`), none for the others.
+    fn gpu(&self, name: &'static str, kernel: GpuKernel) -> GpuProgram<'_> {
+        let mask = match self.params.layout {
+            KdLayout::DepthFirst => 0,
+            KdLayout::Treelet => (1u32 << self.params.treelet_height) - 1,
+        };
+        let (b0, b1) = (self.start.cell.min, self.start.cell.max);
+        let header = [
+            self.start.node,
+            0,
+            0,
+            0,
+            mask,
+            b0.x.to_bits(),
+            b0.y.to_bits(),
+            b0.z.to_bits(),
+            b1.x.to_bits(),
+            b1.y.to_bits(),
+            b1.z.to_bits(),
+            self.params.step_cap,
+        ];
+        let aux = if kernel == GpuKernel::Ropes {
+            let back = self.back_nodes().iter().flat_map(|b| {
+                let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));
+                [lo[0], lo[1], lo[2], b.parent, hi[0], hi[1], hi[2], 0]
+            });
+            words(back.chain(self.ropes().iter().flatten().copied()))
+        } else {
+            words([0])
+        };
+        let stack_size = match kernel {
+            GpuKernel::Recursive => STACK_SIZE,
+            GpuKernel::ShortStack => MAX_SHORT_STACK,
+            _ => 1,
+        };
+        GpuProgram {
+            name,
+            source: concat!(
+                include_str!("../shaders/kd.wgsl"),
+                include_str!("../shaders/kdtree.wgsl")
+            ),
+            triangles: Cow::Borrowed(&self.tris),
+            buffers: vec![
+                GpuBuffer {
+                    what: "the kd-tree node array",
+                    bytes: words(self.nodes.iter().flat_map(|n| [n.bits, n.data])),
+                },
+                GpuBuffer {
+                    what: "the kd-tree reference array",
+                    bytes: words(self.prim_refs.iter().copied()),
+                },
+                GpuBuffer {
+                    what: "the kd-tree header",
+                    bytes: words(header),
+                },
+                GpuBuffer {
+                    what: "the kd-tree cell, parent and rope arrays",
+                    bytes: aux,
+                },
+            ],
+            meta: [self.nodes.len() as u32, self.params.short_stack, 0],
+            stack_size: stack_size as u32,
+            constants: vec![("KERNEL", kernel as u32 as f64)],
+            unrolled_triangle_loop: None,
+        }
+    }
+
+    /// `recursive-direction` with its full stack in the invocation's memory (review §3.2,
+    /// Alg. 2; Novák 2009's finding, review §5.2: a conventional stack in memory is viable on
+    /// GPUs).
+    fn gpu_recursive(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/recursive-direction", GpuKernel::Recursive)
+    }
+
+    /// `restart` (Foley and Sugerman 2005; review §5.1).
+    fn gpu_restart(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/restart", GpuKernel::Restart)
+    }
+
+    /// `push-down` (Horn et al. 2007; review §5.2, Alg. 4).
+    fn gpu_push_down(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/push-down", GpuKernel::PushDown)
+    }
+
+    /// `short-stack` (Horn et al. 2007; review §5.2), `short_stack` entries.
+    fn gpu_short_stack(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/short-stack", GpuKernel::ShortStack)
+    }
+
+    /// `sequential` (Kaplan 1985; review §3.1, Alg. 1).
+    fn gpu_sequential(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/sequential", GpuKernel::Sequential)
+    }
+
+    /// `ropes` (Havran et al. 1998, Popov et al. 2007; review §3.3): reads the cells and ropes.
+    fn gpu_ropes(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/ropes", GpuKernel::Ropes)
+    }
+}
+
 /// A traversal table row's trace fn: the kernel `$kernel` (an expression of the tree `$kd` and
 /// the kernels' input `$w`, a [`Tree`] from the tree's start) compiled for each layout; the
 /// layout is picked once per batch, then [`tb_core::dispatch`] picks the variant for the
@@ -584,7 +712,7 @@ impl Structure for KdTree {
     /// The traversals every [`KdTree`] offers; the restart-type ones end a ray after
     /// [`KdParams::step_cap`] steps, `backtrack` and `ropes` read auxiliary arrays.
     const TRAVERSALS: &'static [Traversal<Self>] = &[
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "recursive-direction",
                 "Hapala & Havran 2011 §3.2, Alg. 2",
@@ -594,6 +722,7 @@ impl Structure for KdTree {
                  epsilon)",
             ),
             per_layout!(|kd, w| traverse::RecursiveDirection(w)),
+            KdTree::gpu_recursive,
         ),
         Traversal::cpu(
             TraversalInfo::new(
@@ -615,7 +744,7 @@ impl Structure for KdTree {
             ),
             per_layout!(|kd, w| traverse::RecursiveOrigin(w)),
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "restart",
                 "Hapala & Havran 2011 §5.1",
@@ -625,8 +754,9 @@ impl Structure for KdTree {
             )
             .capped(),
             per_layout!(|kd, w| Stackless::<_, { stackless::RESTART }>(w, Aux::default())),
+            KdTree::gpu_restart,
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "push-down",
                 "Hapala & Havran 2011 §5.2, Alg. 4",
@@ -635,8 +765,9 @@ impl Structure for KdTree {
             )
             .capped(),
             per_layout!(|kd, w| Stackless::<_, { stackless::PUSH_DOWN }>(w, Aux::default())),
+            KdTree::gpu_push_down,
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "short-stack",
                 "Hapala & Havran 2011 §5.2",
@@ -646,8 +777,9 @@ impl Structure for KdTree {
             )
             .capped(),
             per_layout!(|kd, w| Stackless::<_, { stackless::SHORT_STACK }>(w, Aux::default())),
+            KdTree::gpu_short_stack,
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "sequential",
                 "Hapala & Havran 2011 §3.1, Alg. 1",
@@ -659,6 +791,7 @@ impl Structure for KdTree {
             )
             .capped(),
             per_layout!(|kd, w| Stackless::<_, { stackless::SEQUENTIAL }>(w, Aux::default())),
+            KdTree::gpu_sequential,
         ),
         Traversal::cpu(
             TraversalInfo::new(
@@ -678,7 +811,7 @@ impl Structure for KdTree {
                 }
             )),
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "ropes",
                 "Hapala & Havran 2011 §3.3",
@@ -696,6 +829,7 @@ impl Structure for KdTree {
                     ropes: kd.ropes(),
                 }
             )),
+            KdTree::gpu_ropes,
         ),
         Traversal::cpu(
             TraversalInfo::new(

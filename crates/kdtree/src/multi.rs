@@ -362,7 +362,8 @@ impl MultiKdTree {
         }
     }
 
-    /// The GPU program of `recursive-direction` (`shaders/multikd.wgsl`: the CPU kernel's walk
+    /// The GPU program of `recursive-direction` (`shaders/kd.wgsl`'s `recursive` from the ray's
+    /// root, picked in `shaders/multikd.wgsl`: the CPU kernel's walk
     /// in the CPU's order, so the counters agree ray for ray): the triangles in scene order,
     /// the node array, the references and a 12-word header (roots X, Y, Z; the pick rule; the
     /// layout; the root cell), the node count in `meta[0]`.
@@ -398,7 +399,10 @@ impl MultiKdTree {
         ];
         GpuProgram {
             name: "multi-kd/recursive-direction",
-            source: include_str!("../shaders/multikd.wgsl"),
+            source: concat!(
+                include_str!("../shaders/kd.wgsl"),
+                include_str!("../shaders/multikd.wgsl")
+            ),
             triangles: Cow::Borrowed(&self.tris),
             buffers: vec![
                 GpuBuffer {
