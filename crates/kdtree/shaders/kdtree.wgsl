@@ -12,6 +12,7 @@ const K_PUSH_DOWN: u32 = 2u;   // push-down, §5.2 Alg. 4 (Horn et al. 2007)
 const K_SHORT_STACK: u32 = 3u; // short-stack, §5.2 (Horn et al. 2007)
 const K_ROPES: u32 = 4u;       // ropes, §3.3 (Havran et al. 1998, Popov et al. 2007)
 const K_SEQUENTIAL: u32 = 5u;  // sequential, §3.1 Alg. 1 (Kaplan 1985)
+const K_BACKTRACK: u32 = 6u;   // backtrack, §5.1.1 Alg. 3 (Foley and Sugerman 2005)
 override KERNEL: u32 = 0u;
 
 // ---- 64-bit depth masks as vec2<u32> (x: bits 0..31, y: bits 32..63) ----
@@ -49,7 +50,48 @@ fn highest(v: vec2<u32>) -> u32 {
     return firstLeadingBit(v.x);
 }
 
-// ---- restart, push-down, short-stack (stackless.rs `Stackless::stackless`) ----
+// ---- restart, push-down, short-stack, backtrack (stackless.rs `Stackless::stackless`) ----
+
+// buffers[3]: per node its cell and parent (8 words: min xyz, parent, max xyz, 0; the
+// BACKTRACK_AUX array), then per node its six ropes (6 words from word 8·nodes; ROPES_AUX), as
+// far as the program reads them (`backtrack`: the cells, `ropes`: both); one word for the
+// programs that read neither.
+@group(0) @binding(8) var<storage, read> aux: array<u32>;
+
+fn aux_min(i: u32) -> vec3<f32> {
+    let b = 8u * i;
+    return vec3<f32>(bitcast<f32>(aux[b]), bitcast<f32>(aux[b + 1u]), bitcast<f32>(aux[b + 2u]));
+}
+fn aux_max(i: u32) -> vec3<f32> {
+    let b = 8u * i + 4u;
+    return vec3<f32>(bitcast<f32>(aux[b]), bitcast<f32>(aux[b + 1u]), bitcast<f32>(aux[b + 2u]));
+}
+fn aux_parent(i: u32) -> u32 {
+    return aux[8u * i + 3u];
+}
+
+// stackless.rs `cell_interval`: the interval of the node with cell `lo..hi`, the slab interval
+// with the plane distances of `decide`, the start cell's faces counting as `[t0, t1]`.
+fn cell_interval(rb: RayBox, lo: vec3<f32>, hi: vec3<f32>, t0: f32, t1: f32) -> vec2<f32> {
+    let rlo = cell_min();
+    let rhi = cell_max();
+    var tn = t0;
+    var tf = t1;
+    for (var a = 0u; a < 3u; a++) {
+        let neg = rb.neg[a];
+        let np = select(lo[a], hi[a], neg);
+        let fp = select(hi[a], lo[a], neg);
+        let rn = select(rlo[a], rhi[a], neg);
+        let rf = select(rhi[a], rlo[a], neg);
+        if np != rn {
+            tn = max_num(tn, (np - rb.org[a]) * rb.inv[a]);
+        }
+        if fp != rf {
+            tf = min_num(tf, (fp - rb.org[a]) * rb.inv[a]);
+        }
+    }
+    return vec2<f32>(tn, tf);
+}
 
 // The state of a restart-type walk kept between leaves: the depth of the current node, `both`
 // (bit k: the node at depth k on the way sent the ray both ways and the walk went near), `path`
@@ -67,7 +109,7 @@ fn below(t: Track, at: u32) -> Track {
     return Track(pd + 1u, keep_below(t.both, pd), path);
 }
 
-// One restart-type walk `k` (K_RESTART, K_PUSH_DOWN, K_SHORT_STACK) of a ray clipped to
+// One restart-type walk `k` (K_RESTART, K_PUSH_DOWN, K_SHORT_STACK, K_BACKTRACK) of a ray clipped to
 // `[t0, t1]` from the start node, with the closest hit `best` and `steps0` steps taken; the
 // step cap (header word 11) ends it as on the CPU. The short stack is a circular array of
 // `meta_.counts.z` entries (KdParams::short_stack, as the CPU kernel's), at most STACK_SIZE.
@@ -79,7 +121,11 @@ fn below(t: Track, at: u32) -> Track {
 // - `push-down` (Horn et al. 2007; review §5.2, Alg. 4): restart at the pushed-down node, the
 //   deepest node above every subtree still to visit;
 // - `short-stack` (Horn et al. 2007; review §5.2): push-down with a circular short stack of far
-//   children, the oldest overwritten when full; a restart only when it runs dry.
+//   children, the oldest overwritten when full; a restart only when it runs dry;
+// - `backtrack` (Foley and Sugerman 2005, kd-backtrack; review §5.1.1, Alg. 3): from a leaf
+//   climb the parent links, recomputing each node's interval from its cell (the auxiliary
+//   array), up to the first node where the walk went both ways from the near child, then
+//   descend into its far child.
 fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, steps0: u32,
              st: ptr<function, Stats>) -> Hit {
     var best = best0;
@@ -88,6 +134,7 @@ fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, s
     let cap = header[11];
     let size = meta_.counts.z;
     let df = depth_first();
+    let track = k != K_BACKTRACK;
     // Far child, its interval (f32 bits), and its parent's depth << 1 | whether it is the right
     // child; `count` entries, the newest at `top - 1` (mod `size`).
     var stack: array<vec4<u32>, STACK_SIZE>;
@@ -136,12 +183,16 @@ fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, s
                 push = false;
                 idx = d.near;
                 tf = d.near_tf;
-                tr.both = bit_set(tr.both, tr.depth);
+                if track {
+                    tr.both = bit_set(tr.both, tr.depth);
+                }
             }
-            if !df && go_right {
-                tr.path = bit_set(tr.path, tr.depth);
+            if track {
+                if !df && go_right {
+                    tr.path = bit_set(tr.path, tr.depth);
+                }
+                tr.depth += 1u;
             }
-            tr.depth += 1u;
             if push {
                 pd = idx;
                 pd_tn = tn;
@@ -184,6 +235,42 @@ fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, s
             if popped {
                 continue;
             }
+        }
+        if k == K_BACKTRACK {
+            if last == root {
+                // The start node is a leaf: there is nothing to climb to.
+                return answer(best);
+            }
+            (*st).restarts += 1u;
+            // Climb from the leaf.
+            var child = last;
+            var x = aux_parent(last);
+            var found_up = false;
+            loop {
+                (*st).interior += 1u;
+                (*st).steps += 1u;
+                (*st).planes += 1u;
+                (*st).boxes += 1u;
+                steps += 1u;
+                let xi = cell_interval(rb, aux_min(x), aux_max(x), t0, t1);
+                let d = decide(x, nodes[x], rb, xi.x, xi.y);
+                if d.kind == BOTH && child == d.near && (ANY || d.far_tn <= best.t) {
+                    idx = d.far;
+                    tn = d.far_tn;
+                    tf = xi.y;
+                    found_up = true;
+                    break;
+                }
+                if x == root {
+                    break;
+                }
+                child = x;
+                x = aux_parent(x);
+            }
+            if !found_up {
+                return answer(best);
+            }
+            continue;
         }
         (*st).restarts += 1u;
         // Descend from the pushed-down node toward the last leaf, down to the deepest node that
@@ -256,11 +343,6 @@ fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, s
 }
 
 // ---- sequential and ropes (stackless.rs `crawl`, `Walk::locate`) ----
-
-// buffers[3]: per node its cell and parent (8 words: min xyz, parent, max xyz, 0; the
-// BACKTRACK_AUX array), then per node its six ropes (6 words from word 8·nodes; ROPES_AUX).
-// One word for the programs that read neither.
-@group(0) @binding(8) var<storage, read> aux: array<u32>;
 
 const NO_ROPE: u32 = 0xffffffffu;
 // SLACK − 1 = 8·2^-23.
@@ -403,10 +485,7 @@ fn crawl(w: ptr<function, Walk>, rope_walk: bool, r: Ray, rb: RayBox, p: Pre, t0
             if rope == NO_ROPE {
                 return 0u;
             }
-            let b = 8u * rope;
-            let lo = vec3<f32>(bitcast<f32>(aux[b]), bitcast<f32>(aux[b + 1u]), bitcast<f32>(aux[b + 2u]));
-            let hi = vec3<f32>(bitcast<f32>(aux[b + 4u]), bitcast<f32>(aux[b + 5u]), bitcast<f32>(aux[b + 6u]));
-            loc = locate(w, rb, rope, lo, hi, tn, st);
+            loc = locate(w, rb, rope, aux_min(rope), aux_max(rope), tn, st);
         } else {
             (*st).restarts += 1u;
             loc = locate(w, rb, header[0], lo_c, hi_c, tn, st);

@@ -32,6 +32,12 @@
 //!   traversals is traced or prepared; each traversal's memory figure counts the arrays it
 //!   reads, built or not (review Table 3, "additional memory").
 //!
+//! - **GPU** (`shaders/kd.wgsl`, `shaders/kdtree.wgsl`; README "GPU"): `recursive-direction`
+//!   with its full stack in the invocation's memory (review §3.2; Novák 2009, review §5.2: a
+//!   conventional stack in memory is viable on GPUs), `restart` (§5.1), `push-down` (§5.2),
+//!   `short-stack` (§5.2), `backtrack` (§5.1.1), `sequential` (§3.1) and `ropes` (§3.3) as
+//!   programs `kdtree/NAME`, both layouts, each the CPU kernel's walk decision for decision, so
+//!   hits and counters agree ray for ray (tests `gpu.rs`; tb-harness `gpu_oracle`).
 //! - **Multi-kd-trees** (Torres et al. 2012): module `measure`, the direction-specialised cell
 //!   measures ([`measure::Heuristic`], weights by numerical integration, the per-ray tree
 //!   choice); module `multi`, [`multi::MultiKdTree`] (registry name `multi-kd`): three trees in
@@ -569,6 +575,7 @@ enum GpuKernel {
     ShortStack = 3,
     Ropes = 4,
     Sequential = 5,
+    Backtrack = 6,
 }
 
 /// Little-endian bytes of `w` (the GPU's words).
@@ -583,8 +590,8 @@ impl KdTree {
     /// The program `name` running `kernel`: the triangles in scene order; buffers: the node
     /// array (two words per [`KdNode`]), the references, a 12-word header (the start node; the
     /// layout: 0 depth-first, else the treelet block's slot mask; the start cell; the step cap)
-    /// and the auxiliary arrays (`ropes`: [`KdTree::back_nodes`] then [`KdTree::ropes`], else
-    /// one unused word); meta words: the node count and the short stack's size
+    /// and the auxiliary arrays (`backtrack`: [`KdTree::back_nodes`]; `ropes`: those then
+    /// [`KdTree::ropes`]; else one unused word); meta words: the node count and the short stack's size
     /// ([`KdParams::short_stack`], as the CPU kernel's). The stack holds [`STACK_SIZE`]
     /// entries for `recursive-direction`, [`MAX_SHORT_STACK`] for `short-stack` (the circular
     /// stack uses the first `short_stack`), none for the others.
@@ -608,14 +615,16 @@ impl KdTree {
             b1.z.to_bits(),
             self.params.step_cap,
         ];
-        let aux = if kernel == GpuKernel::Ropes {
-            let back = self.back_nodes().iter().flat_map(|b| {
+        let back = || {
+            self.back_nodes().iter().flat_map(|b| {
                 let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));
                 [lo[0], lo[1], lo[2], b.parent, hi[0], hi[1], hi[2], 0]
-            });
-            words(back.chain(self.ropes().iter().flatten().copied()))
-        } else {
-            words([0])
+            })
+        };
+        let aux = match kernel {
+            GpuKernel::Ropes => words(back().chain(self.ropes().iter().flatten().copied())),
+            GpuKernel::Backtrack => words(back()),
+            _ => words([0]),
         };
         let stack_size = match kernel {
             GpuKernel::Recursive => STACK_SIZE,
@@ -679,6 +688,12 @@ impl KdTree {
     /// `sequential` (Kaplan 1985; review §3.1, Alg. 1).
     fn gpu_sequential(&self) -> GpuProgram<'_> {
         self.gpu("kdtree/sequential", GpuKernel::Sequential)
+    }
+
+    /// `backtrack` (Foley and Sugerman 2005; review §5.1.1, Alg. 3): reads the cells and
+    /// parents.
+    fn gpu_backtrack(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/backtrack", GpuKernel::Backtrack)
     }
 
     /// `ropes` (Havran et al. 1998, Popov et al. 2007; review §3.3): reads the cells and ropes.
@@ -793,7 +808,7 @@ impl Structure for KdTree {
             per_layout!(|kd, w| Stackless::<_, { stackless::SEQUENTIAL }>(w, Aux::default())),
             KdTree::gpu_sequential,
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "backtrack",
                 "Hapala & Havran 2011 §5.1.1, Alg. 3",
@@ -810,6 +825,7 @@ impl Structure for KdTree {
                     ropes: &[],
                 }
             )),
+            KdTree::gpu_backtrack,
         ),
         Traversal::with_gpu(
             TraversalInfo::new(

@@ -123,7 +123,8 @@ fn layouts_short_stacks_and_caps_match_the_cpu() {
         "checked: {}",
         checked.iter().cloned().collect::<Vec<_>>().join(", ")
     );
-    // Six traversals with a GPU program in three layouts and with the cap, short-stack four more.
-    assert!(checked.len() >= 6 * 4 + 4, "{} cases", checked.len());
+    // Seven traversals with a GPU program in three layouts and with the cap, short-stack four
+    // more.
+    assert!(checked.len() >= 7 * 4 + 4, "{} cases", checked.len());
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
