@@ -112,7 +112,7 @@ fn below(t: Track, at: u32) -> Track {
 // One restart-type walk `k` (K_RESTART, K_PUSH_DOWN, K_SHORT_STACK, K_BACKTRACK) of a ray clipped to
 // `[t0, t1]` from the start node, with the closest hit `best` and `steps0` steps taken; the
 // step cap (header word 11) ends it as on the CPU. The short stack is a circular array of
-// `meta_.counts.z` entries (KdParams::short_stack, as the CPU kernel's), at most STACK_SIZE.
+// STACK_SIZE entries (the program's stack size: KdParams::short_stack, as the CPU kernel's).
 //
 // - `restart` (Foley and Sugerman 2005, kd-restart; review §5.1): after each leaf, restart at
 //   the start node and descend toward the last leaf down to the deepest node that sent the ray
@@ -132,7 +132,7 @@ fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, s
     var steps = steps0;
     let root = header[0];
     let cap = header[11];
-    let size = meta_.counts.z;
+    let size = STACK_SIZE;
     let df = depth_first();
     let track = k != K_BACKTRACK;
     // Far child, its interval (f32 bits), and its parent's depth << 1 | whether it is the right

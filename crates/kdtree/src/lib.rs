@@ -578,6 +578,43 @@ enum GpuKernel {
     Backtrack = 6,
 }
 
+/// The names of the `short-stack` GPU programs by stack size 1 ..= [`MAX_SHORT_STACK`] (the
+/// size is the program's `STACK_SIZE`, so the compiler sizes the stack exactly).
+const SHORT_STACK_PROGRAMS: [&str; MAX_SHORT_STACK] = [
+    "kdtree/short-stack-1",
+    "kdtree/short-stack-2",
+    "kdtree/short-stack-3",
+    "kdtree/short-stack-4",
+    "kdtree/short-stack-5",
+    "kdtree/short-stack-6",
+    "kdtree/short-stack-7",
+    "kdtree/short-stack-8",
+    "kdtree/short-stack-9",
+    "kdtree/short-stack-10",
+    "kdtree/short-stack-11",
+    "kdtree/short-stack-12",
+    "kdtree/short-stack-13",
+    "kdtree/short-stack-14",
+    "kdtree/short-stack-15",
+    "kdtree/short-stack-16",
+    "kdtree/short-stack-17",
+    "kdtree/short-stack-18",
+    "kdtree/short-stack-19",
+    "kdtree/short-stack-20",
+    "kdtree/short-stack-21",
+    "kdtree/short-stack-22",
+    "kdtree/short-stack-23",
+    "kdtree/short-stack-24",
+    "kdtree/short-stack-25",
+    "kdtree/short-stack-26",
+    "kdtree/short-stack-27",
+    "kdtree/short-stack-28",
+    "kdtree/short-stack-29",
+    "kdtree/short-stack-30",
+    "kdtree/short-stack-31",
+    "kdtree/short-stack-32",
+];
+
 /// Little-endian bytes of `w` (the GPU's words).
 fn words(w: impl IntoIterator<Item = u32>) -> Cow<'static, [u8]> {
     Cow::Owned(w.into_iter().flat_map(u32::to_le_bytes).collect())
@@ -591,10 +628,10 @@ impl KdTree {
     /// array (two words per [`KdNode`]), the references, a 12-word header (the start node; the
     /// layout: 0 depth-first, else the treelet block's slot mask; the start cell; the step cap)
     /// and the auxiliary arrays (`backtrack`: [`KdTree::back_nodes`]; `ropes`: those then
-    /// [`KdTree::ropes`]; else one unused word); meta words: the node count and the short stack's size
-    /// ([`KdParams::short_stack`], as the CPU kernel's). The stack holds [`STACK_SIZE`]
-    /// entries for `recursive-direction`, [`MAX_SHORT_STACK`] for `short-stack` (the circular
-    /// stack uses the first `short_stack`), none for the others.
+    /// [`KdTree::ropes`]; else one unused word); meta word: the node count. The stack holds
+    /// [`STACK_SIZE`] entries for `recursive-direction`, [`KdParams::short_stack`] for
+    /// `short-stack` (the circular stack; one program per size, [`SHORT_STACK_PROGRAMS`], since
+    /// a program's stack size is fixed by its name), none for the others.
     fn gpu(&self, name: &'static str, kernel: GpuKernel) -> GpuProgram<'_> {
         let mask = match self.params.layout {
             KdLayout::DepthFirst => 0,
@@ -628,7 +665,7 @@ impl KdTree {
         };
         let stack_size = match kernel {
             GpuKernel::Recursive => STACK_SIZE,
-            GpuKernel::ShortStack => MAX_SHORT_STACK,
+            GpuKernel::ShortStack => self.params.short_stack as usize,
             _ => 1,
         };
         GpuProgram {
@@ -656,7 +693,7 @@ impl KdTree {
                     bytes: aux,
                 },
             ],
-            meta: [self.nodes.len() as u32, self.params.short_stack, 0],
+            meta: [self.nodes.len() as u32, 0, 0],
             stack_size: stack_size as u32,
             constants: vec![("KERNEL", kernel as u32 as f64)],
             unrolled_triangle_loop: None,
@@ -680,9 +717,11 @@ impl KdTree {
         self.gpu("kdtree/push-down", GpuKernel::PushDown)
     }
 
-    /// `short-stack` (Horn et al. 2007; review §5.2), `short_stack` entries.
+    /// `short-stack` (Horn et al. 2007; review §5.2): program `kdtree/short-stack-N` with a
+    /// circular stack of `N = short_stack` entries.
     fn gpu_short_stack(&self) -> GpuProgram<'_> {
-        self.gpu("kdtree/short-stack", GpuKernel::ShortStack)
+        let name = SHORT_STACK_PROGRAMS[self.params.short_stack as usize - 1];
+        self.gpu(name, GpuKernel::ShortStack)
     }
 
     /// `sequential` (Kaplan 1985; review §3.1, Alg. 1).
