@@ -19,8 +19,9 @@
 //!   key, traced in that order, the answers put back in the rays' order; the sort is inside
 //!   the timed call, so a `-sorted` row's time is the paper's "inc." and the plain row's the
 //!   traversal without sorting.
-//! - **GPU** (`recursive-direction` only, `shaders/multikd.wgsl`): the per-ray choice from the
-//!   header and the stack walk of the CPU kernel in its order, so hits and counters agree ray
+//! - **GPU** (`recursive-direction` only, `shaders/multikd.wgsl` on the kd-tree's
+//!   `shaders/kd.wgsl`): the per-ray choice from the header and the kd-tree's full-stack walk
+//!   (the CPU kernel's, in its order) from the chosen root, so hits and counters agree ray
 //!   for ray (tb-harness `gpu_oracle`); either layout. The `-sorted` rows and a GPU sort pass
 //!   are CPU only.
 //! - **Controls**: `measure = sah` builds one SAH tree (the three patch measures are the same)
