@@ -32,6 +32,12 @@
 //!   traversals is traced or prepared; each traversal's memory figure counts the arrays it
 //!   reads, built or not (review Table 3, "additional memory").
 //!
+//! - **GPU** (`shaders/kd.wgsl`, `shaders/kdtree.wgsl`; README "GPU"): `recursive-direction`
+//!   with its full stack in the invocation's memory (review §3.2; Novák 2009, review §5.2: a
+//!   conventional stack in memory is viable on GPUs), `restart` (§5.1), `push-down` (§5.2),
+//!   `short-stack` (§5.2), `backtrack` (§5.1.1), `sequential` (§3.1) and `ropes` (§3.3) as
+//!   programs `kdtree/NAME`, both layouts, each the CPU kernel's walk decision for decision, so
+//!   hits and counters agree ray for ray (tests `gpu.rs`; tb-harness `gpu_oracle`).
 //! - **Multi-kd-trees** (Torres et al. 2012): module `measure`, the direction-specialised cell
 //!   measures ([`measure::Heuristic`], weights by numerical integration, the per-ray tree
 //!   choice); module `multi`, [`multi::MultiKdTree`] (registry name `multi-kd`): three trees in
@@ -56,10 +62,11 @@ mod view;
 mod start_tests;
 
 use stackless::Stackless;
+use std::borrow::Cow;
 use std::sync::{Arc, OnceLock};
 use tb_core::{
-    build_with, dispatch, Aabb, AccelError, BuildReport, Family, MemoryReport, ParamKind, Params,
-    Structure, Traversal, TraversalInfo, Triangle,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Family, GpuBuffer, GpuProgram,
+    MemoryReport, ParamKind, Params, Structure, Traversal, TraversalInfo, Triangle,
 };
 use traverse::Tree;
 use view::Aux;
@@ -559,6 +566,181 @@ pub(crate) fn intersect(a: &Aabb, b: &Aabb) -> Aabb {
     }
 }
 
+/// The GPU kernels of `shaders/kdtree.wgsl` (its override constant `KERNEL`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum GpuKernel {
+    Recursive = 0,
+    Restart = 1,
+    PushDown = 2,
+    ShortStack = 3,
+    Ropes = 4,
+    Sequential = 5,
+    Backtrack = 6,
+}
+
+/// The names of the `short-stack` GPU programs by stack size 1 ..= [`MAX_SHORT_STACK`] (the
+/// size is the program's `STACK_SIZE`, so the compiler sizes the stack exactly).
+const SHORT_STACK_PROGRAMS: [&str; MAX_SHORT_STACK] = [
+    "kdtree/short-stack-1",
+    "kdtree/short-stack-2",
+    "kdtree/short-stack-3",
+    "kdtree/short-stack-4",
+    "kdtree/short-stack-5",
+    "kdtree/short-stack-6",
+    "kdtree/short-stack-7",
+    "kdtree/short-stack-8",
+    "kdtree/short-stack-9",
+    "kdtree/short-stack-10",
+    "kdtree/short-stack-11",
+    "kdtree/short-stack-12",
+    "kdtree/short-stack-13",
+    "kdtree/short-stack-14",
+    "kdtree/short-stack-15",
+    "kdtree/short-stack-16",
+    "kdtree/short-stack-17",
+    "kdtree/short-stack-18",
+    "kdtree/short-stack-19",
+    "kdtree/short-stack-20",
+    "kdtree/short-stack-21",
+    "kdtree/short-stack-22",
+    "kdtree/short-stack-23",
+    "kdtree/short-stack-24",
+    "kdtree/short-stack-25",
+    "kdtree/short-stack-26",
+    "kdtree/short-stack-27",
+    "kdtree/short-stack-28",
+    "kdtree/short-stack-29",
+    "kdtree/short-stack-30",
+    "kdtree/short-stack-31",
+    "kdtree/short-stack-32",
+];
+
+/// Little-endian bytes of `w` (the GPU's words).
+fn words(w: impl IntoIterator<Item = u32>) -> Cow<'static, [u8]> {
+    Cow::Owned(w.into_iter().flat_map(u32::to_le_bytes).collect())
+}
+
+/// The GPU programs (`shaders/kd.wgsl` then `shaders/kdtree.wgsl`, on tb-gpu's prelude; README
+/// "GPU"): one per traversal, each the CPU kernel's walk in the CPU's order with the same
+/// decisions (so the counters agree ray for ray), in either layout, from the tree's start.
+impl KdTree {
+    /// The program `name` running `kernel`: the triangles in scene order; buffers: the node
+    /// array (two words per [`KdNode`]), the references, a 12-word header (the start node; the
+    /// layout: 0 depth-first, else the treelet block's slot mask; the start cell; the step cap)
+    /// and the auxiliary arrays (`backtrack`: [`KdTree::back_nodes`]; `ropes`: those then
+    /// [`KdTree::ropes`]; else one unused word); meta word: the node count. The stack holds
+    /// [`STACK_SIZE`] entries for `recursive-direction`, [`KdParams::short_stack`] for
+    /// `short-stack` (the circular stack; one program per size, [`SHORT_STACK_PROGRAMS`], since
+    /// a program's stack size is fixed by its name), none for the others.
+    fn gpu(&self, name: &'static str, kernel: GpuKernel) -> GpuProgram<'_> {
+        let mask = match self.params.layout {
+            KdLayout::DepthFirst => 0,
+            KdLayout::Treelet => (1u32 << self.params.treelet_height) - 1,
+        };
+        let (b0, b1) = (self.start.cell.min, self.start.cell.max);
+        let header = [
+            self.start.node,
+            0,
+            0,
+            0,
+            mask,
+            b0.x.to_bits(),
+            b0.y.to_bits(),
+            b0.z.to_bits(),
+            b1.x.to_bits(),
+            b1.y.to_bits(),
+            b1.z.to_bits(),
+            self.params.step_cap,
+        ];
+        let back = || {
+            self.back_nodes().iter().flat_map(|b| {
+                let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));
+                [lo[0], lo[1], lo[2], b.parent, hi[0], hi[1], hi[2], 0]
+            })
+        };
+        let aux = match kernel {
+            GpuKernel::Ropes => words(back().chain(self.ropes().iter().flatten().copied())),
+            GpuKernel::Backtrack => words(back()),
+            _ => words([0]),
+        };
+        let stack_size = match kernel {
+            GpuKernel::Recursive => STACK_SIZE,
+            GpuKernel::ShortStack => self.params.short_stack as usize,
+            _ => 1,
+        };
+        GpuProgram {
+            name,
+            source: concat!(
+                include_str!("../shaders/kd.wgsl"),
+                include_str!("../shaders/kdtree.wgsl")
+            ),
+            triangles: Cow::Borrowed(&self.tris),
+            buffers: vec![
+                GpuBuffer {
+                    what: "the kd-tree node array",
+                    bytes: words(self.nodes.iter().flat_map(|n| [n.bits, n.data])),
+                },
+                GpuBuffer {
+                    what: "the kd-tree reference array",
+                    bytes: words(self.prim_refs.iter().copied()),
+                },
+                GpuBuffer {
+                    what: "the kd-tree header",
+                    bytes: words(header),
+                },
+                GpuBuffer {
+                    what: "the kd-tree cell, parent and rope arrays",
+                    bytes: aux,
+                },
+            ],
+            meta: [self.nodes.len() as u32, 0, 0],
+            stack_size: stack_size as u32,
+            constants: vec![("KERNEL", kernel as u32 as f64)],
+            unrolled_triangle_loop: None,
+        }
+    }
+
+    /// `recursive-direction` with its full stack in the invocation's memory (review §3.2,
+    /// Alg. 2; Novák 2009's finding, review §5.2: a conventional stack in memory is viable on
+    /// GPUs).
+    fn gpu_recursive(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/recursive-direction", GpuKernel::Recursive)
+    }
+
+    /// `restart` (Foley and Sugerman 2005; review §5.1).
+    fn gpu_restart(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/restart", GpuKernel::Restart)
+    }
+
+    /// `push-down` (Horn et al. 2007; review §5.2, Alg. 4).
+    fn gpu_push_down(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/push-down", GpuKernel::PushDown)
+    }
+
+    /// `short-stack` (Horn et al. 2007; review §5.2): program `kdtree/short-stack-N` with a
+    /// circular stack of `N = short_stack` entries.
+    fn gpu_short_stack(&self) -> GpuProgram<'_> {
+        let name = SHORT_STACK_PROGRAMS[self.params.short_stack as usize - 1];
+        self.gpu(name, GpuKernel::ShortStack)
+    }
+
+    /// `sequential` (Kaplan 1985; review §3.1, Alg. 1).
+    fn gpu_sequential(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/sequential", GpuKernel::Sequential)
+    }
+
+    /// `backtrack` (Foley and Sugerman 2005; review §5.1.1, Alg. 3): reads the cells and
+    /// parents.
+    fn gpu_backtrack(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/backtrack", GpuKernel::Backtrack)
+    }
+
+    /// `ropes` (Havran et al. 1998, Popov et al. 2007; review §3.3): reads the cells and ropes.
+    fn gpu_ropes(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/ropes", GpuKernel::Ropes)
+    }
+}
+
 /// A traversal table row's trace fn: the kernel `$kernel` (an expression of the tree `$kd` and
 /// the kernels' input `$w`, a [`Tree`] from the tree's start) compiled for each layout; the
 /// layout is picked once per batch, then [`tb_core::dispatch`] picks the variant for the
@@ -584,7 +766,7 @@ impl Structure for KdTree {
     /// The traversals every [`KdTree`] offers; the restart-type ones end a ray after
     /// [`KdParams::step_cap`] steps, `backtrack` and `ropes` read auxiliary arrays.
     const TRAVERSALS: &'static [Traversal<Self>] = &[
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "recursive-direction",
                 "Hapala & Havran 2011 §3.2, Alg. 2",
@@ -594,6 +776,7 @@ impl Structure for KdTree {
                  epsilon)",
             ),
             per_layout!(|kd, w| traverse::RecursiveDirection(w)),
+            KdTree::gpu_recursive,
         ),
         Traversal::cpu(
             TraversalInfo::new(
@@ -615,7 +798,7 @@ impl Structure for KdTree {
             ),
             per_layout!(|kd, w| traverse::RecursiveOrigin(w)),
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "restart",
                 "Hapala & Havran 2011 §5.1",
@@ -625,8 +808,9 @@ impl Structure for KdTree {
             )
             .capped(),
             per_layout!(|kd, w| Stackless::<_, { stackless::RESTART }>(w, Aux::default())),
+            KdTree::gpu_restart,
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "push-down",
                 "Hapala & Havran 2011 §5.2, Alg. 4",
@@ -635,8 +819,9 @@ impl Structure for KdTree {
             )
             .capped(),
             per_layout!(|kd, w| Stackless::<_, { stackless::PUSH_DOWN }>(w, Aux::default())),
+            KdTree::gpu_push_down,
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "short-stack",
                 "Hapala & Havran 2011 §5.2",
@@ -646,8 +831,9 @@ impl Structure for KdTree {
             )
             .capped(),
             per_layout!(|kd, w| Stackless::<_, { stackless::SHORT_STACK }>(w, Aux::default())),
+            KdTree::gpu_short_stack,
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "sequential",
                 "Hapala & Havran 2011 §3.1, Alg. 1",
@@ -659,8 +845,9 @@ impl Structure for KdTree {
             )
             .capped(),
             per_layout!(|kd, w| Stackless::<_, { stackless::SEQUENTIAL }>(w, Aux::default())),
+            KdTree::gpu_sequential,
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "backtrack",
                 "Hapala & Havran 2011 §5.1.1, Alg. 3",
@@ -677,8 +864,9 @@ impl Structure for KdTree {
                     ropes: &[],
                 }
             )),
+            KdTree::gpu_backtrack,
         ),
-        Traversal::cpu(
+        Traversal::with_gpu(
             TraversalInfo::new(
                 "ropes",
                 "Hapala & Havran 2011 §3.3",
@@ -696,6 +884,7 @@ impl Structure for KdTree {
                     ropes: kd.ropes(),
                 }
             )),
+            KdTree::gpu_ropes,
         ),
         Traversal::cpu(
             TraversalInfo::new(

@@ -19,8 +19,9 @@
 //!   key, traced in that order, the answers put back in the rays' order; the sort is inside
 //!   the timed call, so a `-sorted` row's time is the paper's "inc." and the plain row's the
 //!   traversal without sorting.
-//! - **GPU** (`recursive-direction` only, `shaders/multikd.wgsl`): the per-ray choice from the
-//!   header and the stack walk of the CPU kernel in its order, so hits and counters agree ray
+//! - **GPU** (`recursive-direction` only, `shaders/multikd.wgsl` on the kd-tree's
+//!   `shaders/kd.wgsl`): the per-ray choice from the header and the kd-tree's full-stack walk
+//!   (the CPU kernel's, in its order) from the chosen root, so hits and counters agree ray
 //!   for ray (tb-harness `gpu_oracle`); either layout. The `-sorted` rows and a GPU sort pass
 //!   are CPU only.
 //! - **Controls**: `measure = sah` builds one SAH tree (the three patch measures are the same)
@@ -362,7 +363,8 @@ impl MultiKdTree {
         }
     }
 
-    /// The GPU program of `recursive-direction` (`shaders/multikd.wgsl`: the CPU kernel's walk
+    /// The GPU program of `recursive-direction` (`shaders/kd.wgsl`'s `recursive` from the ray's
+    /// root, picked in `shaders/multikd.wgsl`: the CPU kernel's walk
     /// in the CPU's order, so the counters agree ray for ray): the triangles in scene order,
     /// the node array, the references and a 12-word header (roots X, Y, Z; the pick rule; the
     /// layout; the root cell), the node count in `meta[0]`.
@@ -398,7 +400,10 @@ impl MultiKdTree {
         ];
         GpuProgram {
             name: "multi-kd/recursive-direction",
-            source: include_str!("../shaders/multikd.wgsl"),
+            source: concat!(
+                include_str!("../shaders/kd.wgsl"),
+                include_str!("../shaders/multikd.wgsl")
+            ),
             triangles: Cow::Borrowed(&self.tris),
             buffers: vec![
                 GpuBuffer {

@@ -222,7 +222,12 @@ fn measure_on(
     gpu.trace(s, g_rays, query, tri, true)
         .map_err(|e| e.to_string())?;
     let (stats, _) = gpu.read_stats(g_rays).map_err(|e| e.to_string())?;
-    row.set_counters(&StatsSummary::from_stats(&stats), job.info.counters);
+    let summary = StatsSummary::from_stats(&stats);
+    row.set_counters(&summary, job.info.counters);
+    // Rays ended by the step cap, as the CPU rows count them (the kernel writes `capped`).
+    if job.info.step_cap {
+        row.capped_rays = Some(summary.capped);
+    }
 
     let checked = sample.map(|smp| {
         let got: Vec<HitRecord> = smp.idx.iter().map(|&i| hits[i]).collect();

@@ -1,0 +1,550 @@
+// The kd-tree's traversals on the GPU (tb_kdtree; Hapala and Havran 2011, "Review: Kd-tree
+// traversal algorithms for ray tracing", CGF 30(1)): shaders/kd.wgsl (nodes, references,
+// header, the split decision, the leaf test, `recursive`) then this file, on tb-gpu's prelude
+// (tb_core::gpu). One program per traversal (`kdtree/NAME`), the kernel chosen by the override
+// constant KERNEL; each repeats its CPU kernel (traverse.rs, stackless.rs) decision for
+// decision, in the CPU's order, so the counters agree ray for ray. One thread per ray.
+
+// Which traversal (GpuProgram::constants).
+const K_RECURSIVE: u32 = 0u;   // recursive-direction, §3.2 Alg. 2, full stack (Novák 2009)
+const K_RESTART: u32 = 1u;     // restart, §5.1 (Foley and Sugerman 2005)
+const K_PUSH_DOWN: u32 = 2u;   // push-down, §5.2 Alg. 4 (Horn et al. 2007)
+const K_SHORT_STACK: u32 = 3u; // short-stack, §5.2 (Horn et al. 2007)
+const K_ROPES: u32 = 4u;       // ropes, §3.3 (Havran et al. 1998, Popov et al. 2007)
+const K_SEQUENTIAL: u32 = 5u;  // sequential, §3.1 Alg. 1 (Kaplan 1985)
+const K_BACKTRACK: u32 = 6u;   // backtrack, §5.1.1 Alg. 3 (Foley and Sugerman 2005)
+override KERNEL: u32 = 0u;
+
+// ---- 64-bit depth masks as vec2<u32> (x: bits 0..31, y: bits 32..63) ----
+
+fn bit_set(v: vec2<u32>, k: u32) -> vec2<u32> {
+    if k < 32u {
+        return v | vec2<u32>(1u << k, 0u);
+    }
+    return v | vec2<u32>(0u, 1u << (k - 32u));
+}
+
+fn bit_get(v: vec2<u32>, k: u32) -> bool {
+    if k < 32u {
+        return ((v.x >> k) & 1u) == 1u;
+    }
+    return ((v.y >> (k - 32u)) & 1u) == 1u;
+}
+
+// The bits below `k` (k <= 64).
+fn keep_below(v: vec2<u32>, k: u32) -> vec2<u32> {
+    if k >= 64u {
+        return v;
+    }
+    if k >= 32u {
+        return vec2<u32>(v.x, v.y & ((1u << (k - 32u)) - 1u));
+    }
+    return vec2<u32>(v.x & ((1u << k) - 1u), 0u);
+}
+
+// Index of the highest set bit of a non-zero mask.
+fn highest(v: vec2<u32>) -> u32 {
+    if v.y != 0u {
+        return 32u + firstLeadingBit(v.y);
+    }
+    return firstLeadingBit(v.x);
+}
+
+// ---- restart, push-down, short-stack, backtrack (stackless.rs `Stackless::stackless`) ----
+
+// buffers[3]: per node its cell and parent (8 words: min xyz, parent, max xyz, 0; the
+// BACKTRACK_AUX array), then per node its six ropes (6 words from word 8·nodes; ROPES_AUX), as
+// far as the program reads them (`backtrack`: the cells, `ropes`: both); one word for the
+// programs that read neither.
+@group(0) @binding(8) var<storage, read> aux: array<u32>;
+
+fn aux_min(i: u32) -> vec3<f32> {
+    let b = 8u * i;
+    return vec3<f32>(bitcast<f32>(aux[b]), bitcast<f32>(aux[b + 1u]), bitcast<f32>(aux[b + 2u]));
+}
+fn aux_max(i: u32) -> vec3<f32> {
+    let b = 8u * i + 4u;
+    return vec3<f32>(bitcast<f32>(aux[b]), bitcast<f32>(aux[b + 1u]), bitcast<f32>(aux[b + 2u]));
+}
+fn aux_parent(i: u32) -> u32 {
+    return aux[8u * i + 3u];
+}
+
+// stackless.rs `cell_interval`: the interval of the node with cell `lo..hi`, the slab interval
+// with the plane distances of `decide`, the start cell's faces counting as `[t0, t1]`.
+fn cell_interval(rb: RayBox, lo: vec3<f32>, hi: vec3<f32>, t0: f32, t1: f32) -> vec2<f32> {
+    let rlo = cell_min();
+    let rhi = cell_max();
+    var tn = t0;
+    var tf = t1;
+    for (var a = 0u; a < 3u; a++) {
+        let neg = rb.neg[a];
+        let np = select(lo[a], hi[a], neg);
+        let fp = select(hi[a], lo[a], neg);
+        let rn = select(rlo[a], rhi[a], neg);
+        let rf = select(rhi[a], rlo[a], neg);
+        if np != rn {
+            tn = max_num(tn, (np - rb.org[a]) * rb.inv[a]);
+        }
+        if fp != rf {
+            tf = min_num(tf, (fp - rb.org[a]) * rb.inv[a]);
+        }
+    }
+    return vec2<f32>(tn, tf);
+}
+
+// The state of a restart-type walk kept between leaves: the depth of the current node, `both`
+// (bit k: the node at depth k on the way sent the ray both ways and the walk went near), `path`
+// (bit k: the walk went right at depth k; treelet layout only).
+struct Track { depth: u32, both: vec2<u32>, path: vec2<u32> }
+
+// stackless.rs `below`: the track of the far child of the node at depth `at >> 1` (`at & 1`:
+// the right child), bits from that depth on cleared.
+fn below(t: Track, at: u32) -> Track {
+    let pd = at >> 1u;
+    var path = keep_below(t.path, pd);
+    if (at & 1u) == 1u {
+        path = bit_set(path, pd);
+    }
+    return Track(pd + 1u, keep_below(t.both, pd), path);
+}
+
+// One restart-type walk `k` (K_RESTART, K_PUSH_DOWN, K_SHORT_STACK, K_BACKTRACK) of a ray clipped to
+// `[t0, t1]` from the start node, with the closest hit `best` and `steps0` steps taken; the
+// step cap (header word 11) ends it as on the CPU. The short stack is a circular array of
+// STACK_SIZE entries (the program's stack size: KdParams::short_stack, as the CPU kernel's).
+//
+// - `restart` (Foley and Sugerman 2005, kd-restart; review §5.1): after each leaf, restart at
+//   the start node and descend toward the last leaf down to the deepest node that sent the ray
+//   both ways, continuing in the far child of the deepest one whose far side starts before the
+//   closest hit (the next subtree the stack traversal would pop);
+// - `push-down` (Horn et al. 2007; review §5.2, Alg. 4): restart at the pushed-down node, the
+//   deepest node above every subtree still to visit;
+// - `short-stack` (Horn et al. 2007; review §5.2): push-down with a circular short stack of far
+//   children, the oldest overwritten when full; a restart only when it runs dry;
+// - `backtrack` (Foley and Sugerman 2005, kd-backtrack; review §5.1.1, Alg. 3): from a leaf
+//   climb the parent links, recomputing each node's interval from its cell (the auxiliary
+//   array), up to the first node where the walk went both ways from the near child, then
+//   descend into its far child.
+fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, steps0: u32,
+             st: ptr<function, Stats>) -> Hit {
+    var best = best0;
+    var steps = steps0;
+    let root = header[0];
+    let cap = header[11];
+    let size = STACK_SIZE;
+    let df = depth_first();
+    let track = k != K_BACKTRACK;
+    // Far child, its interval (f32 bits), and its parent's depth << 1 | whether it is the right
+    // child; `count` entries, the newest at `top - 1` (mod `size`).
+    var stack: array<vec4<u32>, STACK_SIZE>;
+    var top = 0u;
+    var count = 0u;
+    // The pushed-down node, its interval and depth, and whether it may still be pushed down.
+    var pd = root;
+    var pd_tn = t0;
+    var pd_tf = t1;
+    var pd_depth = 0u;
+    var push = k == K_PUSH_DOWN || k == K_SHORT_STACK;
+    var idx = root;
+    var tn = t0;
+    var tf = t1;
+    var tr = Track(0u, vec2<u32>(0u), vec2<u32>(0u));
+    // The ray lies in a split plane it met (its children overlap in `t`).
+    var in_plane = false;
+    loop {
+        // Descend to the first leaf of the subtree, near first.
+        loop {
+            let n = nodes[idx];
+            if is_leaf(n) {
+                break;
+            }
+            (*st).interior += 1u;
+            (*st).steps += 1u;
+            (*st).planes += 1u;
+            steps += 1u;
+            let d = decide(idx, n, rb, tn, tf);
+            let near_right = rb.neg[n.x & 3u];
+            var go_right = near_right;
+            if d.kind == NEAR_ONLY {
+                idx = d.near;
+            } else if d.kind == FAR_ONLY {
+                idx = d.far;
+                go_right = !near_right;
+            } else {
+                // `far_tn < near_tf` only for `t = NaN` (see `decide`).
+                in_plane = in_plane || d.far_tn < d.near_tf;
+                if k == K_SHORT_STACK {
+                    stack[top] = vec4<u32>(d.far, bitcast<u32>(d.far_tn), bitcast<u32>(tf),
+                                           (tr.depth << 1u) | select(1u, 0u, near_right));
+                    top = select(top + 1u, 0u, top + 1u == size);
+                    count = min(count + 1u, size);
+                }
+                push = false;
+                idx = d.near;
+                tf = d.near_tf;
+                if track {
+                    tr.both = bit_set(tr.both, tr.depth);
+                }
+            }
+            if track {
+                if !df && go_right {
+                    tr.path = bit_set(tr.path, tr.depth);
+                }
+                tr.depth += 1u;
+            }
+            if push {
+                pd = idx;
+                pd_tn = tn;
+                pd_tf = tf;
+                pd_depth = tr.depth;
+            }
+        }
+        steps += 1u;
+        if leaf(nodes[idx], p, r, &best, st) {
+            return best;
+        }
+        // A hit before the end of the leaf's interval ends the ray (Foley and Sugerman's early
+        // exit), unless the ray lies in a split plane.
+        if best.t < tf && !in_plane {
+            return answer(best);
+        }
+        if steps >= cap {
+            (*st).capped = 1u;
+            return answer(best);
+        }
+        let last = idx;
+        if k == K_SHORT_STACK {
+            var popped = false;
+            loop {
+                if count == 0u {
+                    break;
+                }
+                top = select(top - 1u, size - 1u, top == 0u);
+                count -= 1u;
+                let e = stack[top];
+                if ANY || bitcast<f32>(e.y) <= best.t {
+                    idx = e.x;
+                    tn = bitcast<f32>(e.y);
+                    tf = bitcast<f32>(e.z);
+                    tr = below(tr, e.w);
+                    popped = true;
+                    break;
+                }
+            }
+            if popped {
+                continue;
+            }
+        }
+        if k == K_BACKTRACK {
+            if last == root {
+                // The start node is a leaf: there is nothing to climb to.
+                return answer(best);
+            }
+            (*st).restarts += 1u;
+            // Climb from the leaf.
+            var child = last;
+            var x = aux_parent(last);
+            var found_up = false;
+            loop {
+                (*st).interior += 1u;
+                (*st).steps += 1u;
+                (*st).planes += 1u;
+                (*st).boxes += 1u;
+                steps += 1u;
+                let xi = cell_interval(rb, aux_min(x), aux_max(x), t0, t1);
+                let d = decide(x, nodes[x], rb, xi.x, xi.y);
+                if d.kind == BOTH && child == d.near && (ANY || d.far_tn <= best.t) {
+                    idx = d.far;
+                    tn = d.far_tn;
+                    tf = xi.y;
+                    found_up = true;
+                    break;
+                }
+                if x == root {
+                    break;
+                }
+                child = x;
+                x = aux_parent(x);
+            }
+            if !found_up {
+                return answer(best);
+            }
+            continue;
+        }
+        (*st).restarts += 1u;
+        // Descend from the pushed-down node toward the last leaf, down to the deepest node that
+        // sent the ray both ways; continue in the far child of the deepest one whose far side
+        // starts before the closest hit. None below the pushed-down node: the ray is done.
+        let live = tr.both ^ keep_below(tr.both, pd_depth);
+        var found = false;
+        var cand = vec4<u32>(0u);
+        var pending = 0u;
+        if any(live != vec2<u32>(0u)) {
+            let deepest = highest(live);
+            var x = pd;
+            var xn = pd_tn;
+            var xf = pd_tf;
+            var xd = pd_depth;
+            loop {
+                if xd > deepest {
+                    break;
+                }
+                let n = nodes[x];
+                (*st).interior += 1u;
+                (*st).steps += 1u;
+                (*st).planes += 1u;
+                steps += 1u;
+                let d = decide(x, n, rb, xn, xf);
+                var toward: u32;
+                if df {
+                    // The left subtree of `x` is `x + 1 .. link`.
+                    let link = n.x >> 2u;
+                    let in_left = last < link;
+                    toward = select(link, x + 1u, in_left);
+                } else {
+                    let c = children(x, n);
+                    toward = select(c.x, c.y, bit_get(tr.path, xd));
+                }
+                if d.kind == BOTH {
+                    if toward == d.near {
+                        if ANY || d.far_tn <= best.t {
+                            let far_right = !rb.neg[n.x & 3u];
+                            cand = vec4<u32>(d.far, bitcast<u32>(d.far_tn), bitcast<u32>(xf),
+                                             (xd << 1u) | select(0u, 1u, far_right));
+                            found = true;
+                            pending += 1u;
+                        }
+                        xf = d.near_tf;
+                    } else {
+                        xn = d.far_tn;
+                    }
+                }
+                x = toward;
+                xd += 1u;
+            }
+        }
+        if !found {
+            return answer(best);
+        }
+        idx = cand.x;
+        tn = bitcast<f32>(cand.y);
+        tf = bitcast<f32>(cand.z);
+        tr = below(tr, cand.w);
+        push = pending == 1u && (k == K_PUSH_DOWN || k == K_SHORT_STACK);
+        if push {
+            pd = idx;
+            pd_tn = tn;
+            pd_tf = tf;
+            pd_depth = tr.depth;
+        }
+    }
+    return answer(best);
+}
+
+// ---- sequential and ropes (stackless.rs `crawl`, `Walk::locate`) ----
+
+const NO_ROPE: u32 = 0xffffffffu;
+// SLACK − 1 = 8·2^-23.
+const SLACK_EPS: f32 = 0.00000095367431640625;
+
+fn is_nan(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7fffffffu) > 0x7f800000u;
+}
+
+// The state of one sequential or ropes walk (stackless.rs `Walk`).
+struct Walk {
+    // Per axis, the coordinate of the last exit face crossed on that axis (initially the start
+    // cell's entry face).
+    floor: vec3<f32>,
+    // The axis of the exit face just crossed (3 before the first).
+    exact: u32,
+    // For rays lying in a split plane: the side to take per axis, and the axes met.
+    mask: u32,
+    seen: u32,
+    steps: u32,
+    // A plane distance within rounding of the located point was met.
+    ambiguous: bool,
+}
+
+// A located leaf and its cell.
+struct Loc { idx: u32, lo: vec3<f32>, hi: vec3<f32> }
+
+// Kaplan's point location (review §3.1; `Walk::locate`) below node `idx0` with cell
+// `lo0..hi0` of the ray point at distance `tn`, exact on the axes of crossed exit faces.
+fn locate(w: ptr<function, Walk>, rb: RayBox, idx0: u32, lo0: vec3<f32>, hi0: vec3<f32>, tn: f32,
+          st: ptr<function, Stats>) -> Loc {
+    var idx = idx0;
+    var lo = lo0;
+    var hi = hi0;
+    let origin = tn == 0.0;
+    let below_t = tn - SLACK_EPS * abs(tn);
+    let above_t = tn + SLACK_EPS * abs(tn);
+    loop {
+        let n = nodes[idx];
+        if is_leaf(n) {
+            return Loc(idx, lo, hi);
+        }
+        (*st).interior += 1u;
+        (*st).steps += 1u;
+        (*st).planes += 1u;
+        (*w).steps += 1u;
+        let a = n.x & 3u;
+        let sp = bitcast<f32>(n.y);
+        let t = (sp - rb.org[a]) * rb.inv[a];
+        let neg = rb.neg[a];
+        var left: bool;
+        if is_nan(t) {
+            // The ray lies in the plane: the side chosen by the pass.
+            (*w).seen |= 1u << a;
+            left = (((*w).mask >> a) & 1u) == 0u;
+        } else {
+            let fl = (*w).floor[a];
+            var behind = select(sp <= fl, sp >= fl, neg);
+            if origin {
+                let lower = sp < rb.org[a];
+                let upper = sp > rb.org[a];
+                behind = behind || select(lower, upper, neg);
+            } else if a != (*w).exact {
+                if !behind && t >= below_t && t <= above_t {
+                    (*w).ambiguous = true;
+                }
+                behind = behind || t < below_t;
+            }
+            left = behind == neg;
+        }
+        let c = children(idx, n);
+        if left {
+            hi[a] = sp;
+            idx = c.x;
+        } else {
+            lo[a] = sp;
+            idx = c.y;
+        }
+    }
+    return Loc(idx, lo, hi);
+}
+
+// One walk of `sequential` (`rope` false) or `ropes` (stackless.rs `crawl`): locate the entry
+// leaf, then leave each leaf through its exit face and locate the next leaf, from the start
+// node or below the exit face's rope. 0: the ray is done with no stop; 1: stop (any hit found
+// or the step cap reached); 2: ambiguous (handed to restart).
+fn crawl(w: ptr<function, Walk>, rope_walk: bool, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32,
+         best: ptr<function, Hit>, st: ptr<function, Stats>) -> u32 {
+    let lo_c = cell_min();
+    let hi_c = cell_max();
+    let cap = header[11];
+    let n_nodes = meta_.counts.y;
+    var loc = locate(w, rb, header[0], lo_c, hi_c, t0, st);
+    var tn = t0;
+    loop {
+        if (*w).ambiguous {
+            return 2u;
+        }
+        (*w).steps += 1u;
+        if leaf(nodes[loc.idx], p, r, best, st) {
+            return 1u;
+        }
+        if (*w).steps >= cap {
+            (*st).capped = 1u;
+            return 1u;
+        }
+        // The exit: the nearest far plane that is not a start-cell face; another far plane
+        // within rounding of it (a ray through a cell edge or corner) is an ambiguity.
+        (*st).boxes += 1u;
+        var ts = vec3<f32>(bitcast<f32>(0x7f800000u));
+        var tf = bitcast<f32>(0x7f800000u);
+        var face = 3u;
+        for (var a = 0u; a < 3u; a++) {
+            let far = select(loc.hi[a], loc.lo[a], rb.neg[a]);
+            let rootf = select(hi_c[a], lo_c[a], rb.neg[a]);
+            if far != rootf {
+                let t = (far - rb.org[a]) * rb.inv[a];
+                ts[a] = t;
+                if t < tf {
+                    tf = t;
+                    face = a;
+                }
+            }
+        }
+        if face == 3u || (*best).t <= tf || tf > t1 * SLACK {
+            return 0u;
+        }
+        let reach = tf + SLACK_EPS * abs(tf);
+        for (var a = 0u; a < 3u; a++) {
+            if a != face && ts[a] <= reach {
+                return 2u;
+            }
+        }
+        (*w).floor[face] = select(loc.hi[face], loc.lo[face], rb.neg[face]);
+        (*w).exact = face;
+        tn = max_num(tn, tf);
+        if rope_walk {
+            let side = select(1u, 0u, rb.neg[face]);
+            let rope = aux[8u * n_nodes + 6u * loc.idx + 2u * face + side];
+            if rope == NO_ROPE {
+                return 0u;
+            }
+            loc = locate(w, rb, rope, aux_min(rope), aux_max(rope), tn, st);
+        } else {
+            (*st).restarts += 1u;
+            loc = locate(w, rb, header[0], lo_c, hi_c, tn, st);
+        }
+    }
+    return 0u;
+}
+
+// `sequential` (Kaplan 1985; review §3.1, Alg. 1) and `ropes` (MacDonald and Booth 1990,
+// Havran et al. 1998, Popov et al. 2007; review §3.3) as stackless.rs runs them: a walk per
+// combination of sides on the zero-direction axes where the ray lay in a split plane (`passes`),
+// and a ray whose point location was ambiguous within rounding handed to `restart` with its
+// closest hit and steps (one restart counted).
+fn crawl_passes(rope_walk: bool, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit,
+                st: ptr<function, Stats>) -> Hit {
+    var best = best0;
+    let floor0 = select(cell_min(), cell_max(), rb.neg);
+    let zero = select(0u, 1u, r.dir.x == 0.0) | select(0u, 2u, r.dir.y == 0.0)
+        | select(0u, 4u, r.dir.z == 0.0);
+    var steps = 0u;
+    var ambiguous = false;
+    for (var m = 0u; m < 8u; m++) {
+        if m != 0u && (m & ~zero) != 0u {
+            continue;
+        }
+        var w = Walk(floor0, 3u, m, 0u, steps, false);
+        let res = crawl(&w, rope_walk, r, rb, p, t0, t1, &best, st);
+        steps = w.steps;
+        ambiguous = res == 2u;
+        let stop = res != 0u;
+        if stop || (m == 0u && w.seen == 0u) {
+            break;
+        }
+    }
+    if !ambiguous {
+        return answer(best);
+    }
+    (*st).restarts += 1u;
+    return stackless(K_RESTART, r, rb, p, t0, t1, best, steps, st);
+}
+
+fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
+    if KERNEL == K_RECURSIVE {
+        return recursive(r, header[0], st);
+    }
+    // traverse.rs `start`: the start cell's test, the ray clipped to it.
+    (*st).boxes += 1u;
+    if meta_.counts.y == 0u {
+        return miss();
+    }
+    let rb = ray_box(r);
+    let s = clip(r, rb);
+    if !(s.x <= s.y) {
+        return miss();
+    }
+    let p = prepare(r);
+    let best = Hit(r.tmax, MISS_PRIM, 0.0, 0.0);
+    if KERNEL == K_SEQUENTIAL || KERNEL == K_ROPES {
+        return crawl_passes(KERNEL == K_ROPES, r, rb, p, s.x, s.y, best, st);
+    }
+    return stackless(KERNEL, r, rb, p, s.x, s.y, best, 0u, st);
+}
