@@ -453,5 +453,107 @@ fn builtin_triangles(spec: &str) -> u64 {
         "city" => 8.0e5 * (p("blocks", 28.0) / 28.0).powi(2) * p("storeys", 18.0) / 18.0,
         _ => 1000.0,
     };
-    (t.max(1.0)) as u64
+    t.max(1.0).round() as u64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shard_specs() {
+        assert_eq!(Shard::parse("2/4"), Ok(Shard { k: 2, n: 4 }));
+        for bad in ["0/4", "5/4", "1/0", "a/2", "3"] {
+            assert!(Shard::parse(bad).is_err(), "{bad}");
+        }
+        let env = |vars: &'static [(&'static str, &'static str)]| {
+            move |k: &str| {
+                vars.iter()
+                    .find(|(n, _)| *n == k)
+                    .map(|(_, v)| v.to_string())
+            }
+        };
+        // --array=0-3 and --array=1-4: shards 1..=4 of 4; --array=0-6:2 likewise.
+        let a = env(&[
+            ("SLURM_ARRAY_TASK_ID", "0"),
+            ("SLURM_ARRAY_TASK_MIN", "0"),
+            ("SLURM_ARRAY_TASK_MAX", "3"),
+        ]);
+        assert_eq!(Shard::slurm(&a), Ok(Shard { k: 1, n: 4 }));
+        let b = env(&[
+            ("SLURM_ARRAY_TASK_ID", "4"),
+            ("SLURM_ARRAY_TASK_MIN", "1"),
+            ("SLURM_ARRAY_TASK_COUNT", "4"),
+        ]);
+        assert_eq!(Shard::slurm(&b), Ok(Shard { k: 4, n: 4 }));
+        let c = env(&[
+            ("SLURM_ARRAY_TASK_ID", "4"),
+            ("SLURM_ARRAY_TASK_MIN", "0"),
+            ("SLURM_ARRAY_TASK_MAX", "6"),
+            ("SLURM_ARRAY_TASK_STEP", "2"),
+        ]);
+        assert_eq!(Shard::slurm(&c), Ok(Shard { k: 3, n: 4 }));
+        assert!(Shard::slurm(&env(&[])).is_err());
+    }
+
+    #[test]
+    fn log2_in_fixed_point() {
+        assert_eq!(log2_fixed(1024), 10 * 1024);
+        assert_eq!(log2_fixed(3), 1024 + 512);
+        assert!(log2_fixed(1_000_000) / 1024 == 19);
+    }
+
+    #[test]
+    fn lpt_balances_and_keeps_builds_whole() {
+        let scene = |label: &str, triangles| SceneEstimate {
+            label: label.into(),
+            triangles,
+            batch_rays: vec![1 << 16, 1 << 16],
+            validated_rays: 1024,
+        };
+        let scenes = [scene("a", 70_000), scene("b", 75_000), scene("c", 280_000)];
+        let builds: Vec<BuildEstimate> = (0..12)
+            .map(|i| BuildEstimate {
+                structure: i / 3,
+                param_set: i % 3,
+                name: "rtree",
+                params: format!("m={i}"),
+                variants: 2,
+            })
+            .collect();
+        let run = RunEstimate {
+            device_rows: vec![1],
+            passes: 5,
+            build_repeat: 1,
+        };
+        let p = plan(Shard { k: 2, n: 4 }, &scenes, &builds, &run);
+        assert_eq!(p.units.len(), 36);
+        assert!(p.units.iter().all(|u| (1..=4).contains(&u.shard)));
+        let costs: Vec<u64> = (1..=4).map(|k| p.cost_of(k)).collect();
+        let (lo, hi) = (costs.iter().min().unwrap(), costs.iter().max().unwrap());
+        assert!(*hi as f64 <= 1.5 * *lo as f64, "{costs:?}");
+        // The same partition for every shard index (every machine).
+        let q = plan(Shard { k: 4, n: 4 }, &scenes, &builds, &run);
+        let shards = |p: &ShardPlan| p.units.iter().map(|u| u.shard).collect::<Vec<_>>();
+        assert_eq!(shards(&p), shards(&q));
+        assert_eq!(
+            (1..=4)
+                .map(|k| plan(Shard { k, n: 4 }, &scenes, &builds, &run).rows())
+                .sum::<usize>(),
+            36 * 2 * 2
+        );
+        // More shards than units: the extra shards are empty.
+        let one = plan(Shard { k: 1, n: 40 }, &scenes[..1], &builds[..1], &run);
+        assert_eq!(one.units.len(), 1);
+        assert_eq!(one.rows(), 4);
+    }
+
+    #[test]
+    fn builtin_triangle_formulas() {
+        assert_eq!(builtin_triangles("cornell"), 32);
+        assert_eq!(builtin_triangles("sphereflake"), 65_602);
+        assert_eq!(builtin_triangles("teapot-stadium"), 16_256 + 130);
+        assert_eq!(builtin_triangles("soup?count=20000&seed=7"), 20_000);
+        assert_eq!(builtin_triangles("arena"), 1_399_314);
+    }
 }
