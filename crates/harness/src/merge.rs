@@ -32,6 +32,8 @@ struct ShardDir {
     meta: Value,
     k: u64,
     rows: Vec<Row>,
+    /// A torn last line of `results.csv` (the shard was interrupted), left out.
+    torn: bool,
 }
 
 fn refuse(msg: String) -> HarnessError {
@@ -52,12 +54,12 @@ fn read_shard(dir: &Path) -> Result<ShardDir, HarnessError> {
     })?;
     let cp = dir.join("results.csv");
     let (rows, torn) = read_csv_resume(&cp)?;
-    let _ = torn;
     Ok(ShardDir {
         dir: dir.to_path_buf(),
         meta,
         k,
         rows,
+        torn: torn > 0,
     })
 }
 
@@ -77,7 +79,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
     }
     if out.join("results.csv").exists() {
         return Err(HarnessError::io(
-            &out.join("results.csv"),
+            out.join("results.csv"),
             "already exists: choose another --out",
         ));
     }
@@ -87,7 +89,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
         .collect::<Result<Vec<_>, _>>()?;
     let first = &shards[0];
     // Same run: config, binary, partition.
-    let same: [(&str, fn(&Value) -> Value); 5] = [
+    type Field = fn(&Value) -> Value;
+    let same: [(&str, Field); 5] = [
         ("config hash", |m| m["config_hash"].clone()),
         ("commit", |m| m["build"]["commit"].clone()),
         ("features", |m| m["build"]["features"].clone()),
@@ -151,6 +154,13 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
         scene_first.entry(sc).or_insert(i);
     }
     let mut report = MergeReport::default();
+    for s in shards.iter().filter(|s| s.torn) {
+        report.notes.push(format!(
+            "{}: left out a torn last line of results.csv (an interrupted shard: rerun it with \
+             --resume)",
+            s.dir.display()
+        ));
+    }
     // Rows in plan order; rows outside the plan (none, from a shard of this plan) last.
     let mut seen: HashSet<RowKey> = HashSet::new();
     let mut rows: Vec<(usize, usize, Row)> = Vec::new();
@@ -245,9 +255,7 @@ fn merged_meta(shards: &[ShardDir], report: &MergeReport, n: u64) -> Value {
             hosts.push(s.meta["host"].clone());
         }
     }
-    let failed = shards
-        .iter()
-        .any(|s| s.meta["status"] != Value::from("complete"));
+    let failed = shards.iter().any(|s| s.meta["status"] != "complete");
     let status = match (report.missing.is_empty(), failed) {
         (false, _) => "incomplete",
         (true, true) => "complete-with-failures",

@@ -260,7 +260,8 @@ pub fn plan(
             .or_default()
             .push(i);
     }
-    let mut order: Vec<(u64, (&str, &str, &str), Vec<usize>)> = groups
+    type Group<'a> = (u64, (&'a str, &'a str, &'a str), Vec<usize>);
+    let mut order: Vec<Group> = groups
         .into_iter()
         .map(|(key, idx)| (idx.iter().map(|&i| units[i].cost).sum(), key, idx))
         .collect();
@@ -346,7 +347,8 @@ impl ShardPlan {
                     .iter()
                     .map(|s| s.to_string())
                     .collect();
-                out.push(format!("{} (shards {})", u.scene, shards.join(", ")));
+                let s = if shards.len() == 1 { "" } else { "s" };
+                out.push(format!("{} (shard{s} {})", u.scene, shards.join(", ")));
             }
         }
         out

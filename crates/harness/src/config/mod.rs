@@ -428,16 +428,9 @@ pub fn parse_with(
     if raw.scenes.is_empty() {
         return Err(cx.err(0..0, "scene", "the config names no [[scene]]"));
     }
-    let shard = match ov.shard {
-        None => None,
-        Some(sel) => Some(plan_shard(
-            sel,
-            &raw,
-            &structures,
-            &run_settings,
-            &scenes_root,
-        )),
-    };
+    let shard = ov
+        .shard
+        .map(|sel| plan_shard(sel, &raw, &structures, &run_settings, &scenes_root));
     let mut scenes: Vec<SceneSpec> = Vec::new();
     let mut skipped_scenes = Vec::new();
     for s in &raw.scenes {
