@@ -22,6 +22,11 @@ confidence interval (the CSV's trace_ms_ci, relative to the median; mrays_per_s 
 relative half-width); only a single timing column has one, a `+` sum of columns none. A summed
 cell (--sum) combines the half-widths of its rows in quadrature. A cell
 of a timing column whose row is flagged `noisy` is marked †, explained under the table.
+
+When the cells of a timing value (the timing columns, build_ms, upload_ms, readback_ms) come
+from more than one machine (the `host` column, e.g. a run merged from shards that ran on
+several cluster nodes), a warning on stderr names the hosts: counters are host-independent,
+timings are not; narrow with --filter host=NAME or rerun on one machine.
 """
 
 import argparse
@@ -65,6 +70,21 @@ def cell_of(rows, args):
     return Cell(sum(c.value for c in cells),
                 None if None in halves else math.sqrt(sum(h * h for h in halves)),
                 any(c.noisy for c in cells))
+
+
+# Values measured in time: comparing them across machines compares the machines.
+TIMED = TIMING_COLUMNS | {"build_ms", "upload_ms", "readback_ms"}
+
+
+def warn_hosts(rows, value):
+    """Warn on stderr when a table of timings mixes rows of several hosts."""
+    if not any(part in TIMED for part in value.split("+")):
+        return
+    hosts = list(dict.fromkeys(r.get("host", "") for r in rows if r.get("host")))
+    if len(hosts) > 1:
+        print(f"warning: this table compares timings taken on {len(hosts)} hosts "
+              f"({', '.join(hosts)}): counters are host-independent, timings are not; "
+              "narrow with --filter host=NAME", file=sys.stderr)
 
 
 def name_of(spec):
@@ -255,6 +275,7 @@ def main(argv):
     if not rows:
         sys.exit("error: no rows left after the filters")
     row_keys, col_keys, cells = build(rows, args)
+    warn_hosts(rows, args.value)
     if args.digits is None:
         whole = all(c.value is None or (c.value == int(c.value) and c.half is None)
                     for c in cells.values())

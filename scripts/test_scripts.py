@@ -128,6 +128,25 @@ class Table(unittest.TestCase):
     def tearDownClass(cls):
         cls.tmp.cleanup()
 
+    def test_hosts_warning(self):
+        rows = results_rows()
+        for i, r in enumerate(rows):
+            r["host"] = "node1" if i % 2 else "node2"
+        path = os.path.join(self.tmp.name, "hosts.csv")
+        write(path, rows, HEADER + ["host"])
+        args = [sys.executable, os.path.join(HERE, "table.py"), path, *self.base,
+                "--filter", "ray_kind=primary"]
+        p = subprocess.run(args, capture_output=True, text=True)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        self.assertIn("timings taken on 2 hosts (node2, node1)", p.stderr)
+        # Counters do not depend on the host: no warning.
+        p = subprocess.run(args + ["--value", "steps_per_ray"], capture_output=True, text=True)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        self.assertNotIn("hosts", p.stderr)
+        # One host: no warning.
+        p = subprocess.run(args + ["--filter", "host=node1"], capture_output=True, text=True)
+        self.assertNotIn("hosts", p.stderr)
+
     def test_spread_and_header(self):
         out = run("table.py", self.csv, *self.base, "--value", "trace_ms_median",
                   "--filter", "ray_kind=primary")

@@ -61,6 +61,12 @@ enum Cmd {
         backend: Option<tb_gpu::Backend>,
         #[command(flatten)]
         select: Select,
+        /// Run one shard of the config's work units (one scene x one build with all its rows),
+        /// `K/N` with K in 1..=N, or `slurm` to read the job array task from
+        /// SLURM_ARRAY_TASK_ID / _COUNT / _MIN / _MAX. Deterministic for a config and binary;
+        /// combine the shards' folders with `trace-bench merge`.
+        #[arg(long, value_parser = parse_shard)]
+        shard: Option<tb_harness::shard::Shard>,
         /// Continue an interrupted run: keep its rows, skip finished combinations.
         #[arg(long)]
         resume: bool,
@@ -118,6 +124,17 @@ enum Cmd {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Merge the results folders of the shards of one run (`run --shard K/N`) into one:
+    /// refuses shards of another config or binary, lists the work units no shard completed
+    /// (exit 1), keeps each row's host.
+    Merge {
+        /// The shards' output folders.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// The merged folder (must not hold results yet).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// List the structures, their traversals and parameters.
     List,
     /// List the built-in scenes and their parameters.
@@ -170,6 +187,7 @@ fn dispatch(cli: Cli) -> Result<i32> {
             adapter,
             backend,
             select,
+            shard,
             resume,
             force,
             scenes_root,
@@ -185,6 +203,7 @@ fn dispatch(cli: Cli) -> Result<i32> {
                 sets: select.sets,
                 scenes: select.scenes,
                 structures: select.structures,
+                shard,
             };
             cmd_run(&config, out, ov, resume, force, quiet)
         }
@@ -216,6 +235,30 @@ fn dispatch(cli: Cli) -> Result<i32> {
             max,
             out,
         } => cmd_diff(&a, &b, &channel, max, &out),
+        Cmd::Merge { dirs, out } => {
+            let r = tb_harness::merge::merge(&dirs, &out)?;
+            for n in &r.notes {
+                eprintln!("note: {n}");
+            }
+            for m in &r.missing {
+                println!("missing: {m}");
+            }
+            println!(
+                "merged {} shard folders: {} rows to {}",
+                dirs.len(),
+                r.rows,
+                out.join("results.csv").display()
+            );
+            if r.missing.is_empty() {
+                Ok(0)
+            } else {
+                println!(
+                    "incomplete: {} work units have missing rows (rerun their shards with --resume)",
+                    r.missing.len()
+                );
+                Ok(1)
+            }
+        }
         Cmd::List => {
             print!("{}", tb_harness::registry::Registry::builtin().listing());
             Ok(0)
@@ -314,10 +357,16 @@ fn cmd_run(
     quiet: bool,
 ) -> Result<i32> {
     let exp = load(config, &ov, quiet)?;
-    let out = match out {
-        Some(o) => o,
-        None => default_out(&exp.name, resume)?,
+    let out = match (out, ov.shard) {
+        (Some(o), _) => o,
+        (None, Some(s)) => PathBuf::from("results")
+            .join(&exp.name)
+            .join(format!("shard-{}-of-{}", s.k, s.n)),
+        (None, None) => default_out(&exp.name, resume)?,
     };
+    if resume {
+        check_resume(&out, &exp)?;
+    }
     if force {
         // Only what a run writes; anything else in the directory stays.
         for f in ["results.csv", "results.json", "convergence.csv"] {
@@ -365,6 +414,40 @@ fn cmd_run(
         return Ok(1);
     }
     Ok(0)
+}
+
+/// `--resume` continues the same run: the same config and the same shard.
+fn check_resume(out: &Path, exp: &config::Experiment) -> Result<()> {
+    let p = out.join("results.json");
+    let Some(meta) = std::fs::read_to_string(&p)
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .map(|d| d["meta"].clone())
+    else {
+        return Ok(());
+    };
+    if let Some(h) = meta["config_hash"].as_str() {
+        if h != exp.config_hash {
+            bail!(
+                "{}: --resume of a run of another config (hash {h}, this one {}): choose another --out",
+                p.display(),
+                exp.config_hash
+            );
+        }
+    }
+    let was = meta["shard"]["k"]
+        .as_u64()
+        .map(|k| format!("{k}/{}", meta["shard"]["n"]));
+    let now = exp.shard.as_ref().map(|p| p.shard.to_string());
+    if was != now {
+        bail!(
+            "{}: --resume of {} but this run is {}",
+            p.display(),
+            was.map_or("an unsharded run".into(), |s| format!("shard {s}")),
+            now.map_or("unsharded".into(), |s| format!("shard {s}"))
+        );
+    }
+    Ok(())
 }
 
 fn cmd_validate(config: &Path, ov: Overrides, show: usize, quiet: bool) -> Result<i32> {
@@ -475,6 +558,10 @@ fn cmd_diff(a: &Path, b: &Path, channel: &str, max: Option<f32>, out: &Path) -> 
     );
     println!("wrote {} (colour scale ±{scale})", out.display());
     Ok(0)
+}
+
+fn parse_shard(s: &str) -> std::result::Result<tb_harness::shard::Shard, String> {
+    tb_harness::shard::Shard::parse(s)
 }
 
 fn parse_device(s: &str) -> std::result::Result<Device, String> {

@@ -17,12 +17,14 @@ pub mod convergence;
 pub mod device;
 pub mod error;
 pub mod images;
+pub mod merge;
 pub mod meta;
 pub mod output;
 pub mod params;
 pub mod progress;
 pub mod registry;
 pub mod runner;
+pub mod shard;
 pub mod timing;
 pub mod validation;
 

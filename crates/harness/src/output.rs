@@ -307,6 +307,39 @@ impl Sink {
     }
 }
 
+/// Write a whole results folder at once (`trace-bench merge`): `results.csv`, `params.csv` and
+/// `results.json` of `rows` with `meta`, as a run writes them.
+pub fn write_all(dir: &Path, meta: serde_json::Value, rows: &[Row]) -> Result<(), HarnessError> {
+    std::fs::create_dir_all(dir).map_err(|e| HarnessError::io(dir, e))?;
+    let p = dir.join("results.csv");
+    let mut csv = csv::WriterBuilder::new()
+        .has_headers(false)
+        .from_path(&p)
+        .map_err(|e| HarnessError::io(&p, e))?;
+    csv.write_record(header())
+        .map_err(|e| HarnessError::io(&p, e))?;
+    for r in rows {
+        csv.serialize(r).map_err(|e| HarnessError::io(&p, e))?;
+    }
+    csv.flush().map_err(|e| HarnessError::io(&p, e))?;
+    let lp = dir.join("params.csv");
+    let mut long = csv::Writer::from_path(&lp).map_err(|e| HarnessError::io(&lp, e))?;
+    long.write_record(["row", "group", "key", "value"])
+        .map_err(|e| HarnessError::io(&lp, e))?;
+    for (i, r) in rows.iter().enumerate() {
+        for rec in long_records(i, r) {
+            long.write_record(&rec)
+                .map_err(|e| HarnessError::io(&lp, e))?;
+        }
+    }
+    long.flush().map_err(|e| HarnessError::io(&lp, e))?;
+    let jp = dir.join("results.json");
+    let doc =
+        serde_json::json!({ "meta": meta, "rows": rows.iter().map(row_json).collect::<Vec<_>>() });
+    let text = serde_json::to_string_pretty(&doc).map_err(|e| HarnessError::io(&jp, e))?;
+    std::fs::write(&jp, text).map_err(|e| HarnessError::io(&jp, e))
+}
+
 /// A resumed run's metadata: the earlier session's `start` and `duration_s`, and every
 /// session's start in `resumed` (nothing when the earlier results.json is unreadable).
 fn carry_meta(path: &Path, meta: &mut serde_json::Value) {

@@ -241,6 +241,13 @@ pub struct Experiment {
     pub images: Option<images::ImageSpec>,
     /// `[convergence]`: error against run time ([`crate::convergence`]).
     pub convergence: Option<convergence::ConvergenceSpec>,
+    /// `--shard K/N`: the partition of the run's work units and this shard's part
+    /// ([`crate::shard`]); only the scenes of this shard's units are loaded.
+    pub shard: Option<crate::shard::ShardPlan>,
+    /// SHA-256 of the effective config (the text after `--set`) and the command-line options
+    /// that change the rows (threads, repeat, devices, adapter, backend, `--scene`,
+    /// `--structure`); shards of one run share it (`trace-bench merge` checks).
+    pub config_hash: String,
 }
 
 /// Overrides from the command line.
@@ -261,6 +268,36 @@ pub struct Overrides {
     pub scenes: Vec<String>,
     /// `--structure NAME[:traversal]`: run only these structures (and traversals).
     pub structures: Vec<String>,
+    /// `--shard K/N`: run only this shard's work units ([`crate::shard`]).
+    pub shard: Option<crate::shard::Shard>,
+}
+
+impl Overrides {
+    /// The options that change which rows a run writes or how they are measured, as text
+    /// for [`Experiment::config_hash`] (not the scenes root, which differs between machines,
+    /// nor the shard, which shards of one run differ in).
+    fn hashed(&self) -> String {
+        format!(
+            "threads={:?}\nrepeat={:?}\ndevices={:?}\nadapter={:?}\nbackend={:?}\nscenes={:?}\nstructures={:?}\n",
+            self.threads,
+            self.repeat,
+            self.devices.as_ref().map(|d| d.iter().map(|d| d.name()).collect::<Vec<_>>()),
+            self.adapter,
+            self.backend.map(|b| format!("{b:?}")),
+            self.scenes,
+            self.structures
+        )
+    }
+}
+
+/// SHA-256 of the effective config text and the hashed overrides, hex.
+fn config_hash(text: &str, ov: &Overrides) -> String {
+    use sha2::Digest;
+    let mut h = sha2::Sha256::new();
+    h.update(text.as_bytes());
+    h.update([0u8]);
+    h.update(ov.hashed().as_bytes());
+    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// 1-based line of byte offset `pos` in `text`.
@@ -391,9 +428,20 @@ pub fn parse_with(
     if raw.scenes.is_empty() {
         return Err(cx.err(0..0, "scene", "the config names no [[scene]]"));
     }
+    let shard = ov
+        .shard
+        .map(|sel| plan_shard(sel, &raw, &structures, &run_settings, &scenes_root));
     let mut scenes: Vec<SceneSpec> = Vec::new();
     let mut skipped_scenes = Vec::new();
     for s in &raw.scenes {
+        if shard.as_ref().is_some_and(|p| {
+            let label = scenes::label_of(s);
+            // Scenes the plan does not know (absent files) go on to the check, which
+            // reports them.
+            p.scene_cost.contains_key(&label) && !p.needs_scene(&label)
+        }) {
+            continue;
+        }
         match scenes::check_scene(&cx, s, &scenes_root, validate, progress)? {
             Ok(spec) => {
                 if scenes.iter().any(|o| o.label == spec.label) {
@@ -412,7 +460,23 @@ pub fn parse_with(
         }
     }
 
-    if scenes.is_empty() {
+    if let Some(p) = &shard {
+        let out = p.left_out();
+        skipped_scenes.push(format!(
+            "shard {}: {} of {} work units (scene x build), {} rows, estimated {:.1} s; {}",
+            p.shard,
+            p.units.iter().filter(|u| u.shard == p.shard.k).count(),
+            p.units.len(),
+            p.rows(),
+            p.cost_of(p.shard.k) as f64 / 1e9,
+            if out.is_empty() {
+                "no scene left out".to_string()
+            } else {
+                format!("left out, not loaded: {}", out.join(", "))
+            }
+        ));
+    }
+    if scenes.is_empty() && shard.is_none() {
         return Err(HarnessError::ConfigSyntax {
             file: file.into(),
             message: format!("no scene to run: {}", skipped_scenes.join("; ")),
@@ -440,7 +504,47 @@ pub fn parse_with(
         skipped_scenes,
         images,
         convergence,
+        shard,
+        config_hash: config_hash(text, ov),
     })
+}
+
+/// The partition of the run for `--shard` ([`crate::shard::plan`]), from the scene tables
+/// (not loaded) and the checked structures.
+fn plan_shard(
+    sel: crate::shard::Shard,
+    raw: &RawConfig,
+    structures: &[StructureSpec],
+    run: &RunSettings,
+    scenes_root: &Path,
+) -> crate::shard::ShardPlan {
+    let scenes: Vec<crate::shard::SceneEstimate> = raw
+        .scenes
+        .iter()
+        .filter_map(|s| scenes::estimate(s, scenes_root, run.validate))
+        .collect();
+    let mut builds = Vec::new();
+    for (si, st) in structures.iter().enumerate() {
+        for (pi, p) in st.param_sets.iter().enumerate() {
+            builds.push(crate::shard::BuildEstimate {
+                structure: si,
+                param_set: pi,
+                name: st.family.name,
+                params: p.to_string(),
+                variants: st.traversals.len() * run.triangle_tests.len(),
+            });
+        }
+    }
+    let device_rows = crate::runner::plan::device_threads(&run.devices, &run.threads)
+        .into_iter()
+        .flat_map(|(_, t)| t)
+        .collect();
+    let est = crate::shard::RunEstimate {
+        device_rows,
+        passes: (run.timing.warmup + run.timing.repeat + 1) as u64,
+        build_repeat: run.build_repeat as u64,
+    };
+    crate::shard::plan(sel, &scenes, &builds, &est)
 }
 
 fn parse_validate(cx: &Ctx, v: &Spanned<toml::Value>, key: &str) -> Result<Validate, HarnessError> {

@@ -130,14 +130,7 @@ pub(super) fn check_scene(
     if random_count == 0 || random_count > 1 << 28 {
         return Err(cx.err(span, "scene.random.count", "must be in 1..=2^28"));
     }
-    let label = s.name.clone().unwrap_or_else(|| {
-        let l = scene_label(src);
-        if enclosed {
-            format!("{l}-boxed")
-        } else {
-            l
-        }
-    });
+    let label = label_of(s);
     let scene_validate = match &s.validate {
         None => validate,
         Some(v) => parse_validate(cx, v, "scene.validate")?,
@@ -154,6 +147,91 @@ pub(super) fn check_scene(
         random_count,
         validate: scene_validate,
     }))
+}
+
+/// The label of a scene table: its `name`, else derived from the source (`-boxed` when
+/// enclosed).
+pub(super) fn label_of(s: &RawScene) -> String {
+    s.name.clone().unwrap_or_else(|| {
+        let l = scene_label(s.source.get_ref());
+        if s.enclose == Some(true) {
+            format!("{l}-boxed")
+        } else {
+            l
+        }
+    })
+}
+
+/// What the shard planner knows of a scene table without loading the scene
+/// ([`crate::shard`]): its label, estimated triangles, the rays of each batch (the camera's
+/// pixels, 256 x 256 where the table gives no size: the built-in scenes' default view) and the
+/// rays the oracle checks. `None` when the file is absent (optional scenes are skipped; the
+/// others fail the config check).
+pub(super) fn estimate(
+    s: &RawScene,
+    scenes_root: &Path,
+    validate: Validate,
+) -> Option<crate::shard::SceneEstimate> {
+    let triangles = crate::shard::triangles_of(s.source.get_ref(), scenes_root)?;
+    let cam = s.camera.as_ref().map(|c| c.get_ref());
+    let pixels = cam.and_then(|c| c.width).unwrap_or(256) as u64
+        * cam.and_then(|c| c.height).unwrap_or(256) as u64;
+    let mut kinds = Vec::new();
+    for k in s
+        .rays
+        .as_ref()
+        .map(|r| r.get_ref().clone())
+        .unwrap_or_default()
+    {
+        if let Some(k) = RayKindSpec::parse(&k) {
+            if !kinds.contains(&k) {
+                kinds.push(k);
+            }
+        }
+    }
+    if kinds.is_empty() {
+        kinds.push(RayKindSpec::Primary);
+    }
+    let mut batch_rays = Vec::new();
+    for k in kinds {
+        match k {
+            RayKindSpec::Primary | RayKindSpec::Shadow => batch_rays.push(pixels),
+            RayKindSpec::Ao => {
+                batch_rays.push(pixels * s.ao.as_ref().and_then(|a| a.samples).unwrap_or(4) as u64)
+            }
+            RayKindSpec::Path => {
+                let b = s.path.as_ref().map_or(2, |p| p.bounces);
+                batch_rays.extend(std::iter::repeat_n(pixels, b as usize));
+            }
+            RayKindSpec::Random => {
+                batch_rays.push(s.random.as_ref().map_or(1 << 16, |r| r.count) as u64)
+            }
+            RayKindSpec::Stress => batch_rays.push(1000),
+        }
+    }
+    let validate = match &s.validate {
+        Some(v) => match v.get_ref() {
+            toml::Value::String(x) if x == "off" => Validate::Off,
+            toml::Value::Boolean(false) => Validate::Off,
+            toml::Value::Integer(n) if *n > 0 => Validate::Sample(*n as usize),
+            _ => Validate::All,
+        },
+        None => validate,
+    };
+    let validated_rays = batch_rays
+        .iter()
+        .map(|&n| match validate {
+            Validate::Off => 0,
+            Validate::All => n,
+            Validate::Sample(k) => n.min(k as u64),
+        })
+        .sum();
+    Some(crate::shard::SceneEstimate {
+        label: label_of(s),
+        triangles,
+        batch_rays,
+        validated_rays,
+    })
 }
 
 /// The camera of a scene: the config's, filling what it leaves out from the default view.

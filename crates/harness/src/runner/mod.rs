@@ -133,6 +133,10 @@ impl<'a> Run<'a> {
                 if let Some(g) = &gpu {
                     meta["adapter"] = g.meta();
                 }
+                meta["config_hash"] = exp.config_hash.clone().into();
+                if let Some(p) = &exp.shard {
+                    meta["shard"] = p.meta();
+                }
                 Some(Sink::open(&opts.out, meta, opts.resume)?)
             }
             Mode::Validate => None,
@@ -146,7 +150,11 @@ impl<'a> Run<'a> {
             Mode::Validate => vec![(DeviceKind::Cpu, vec![0])],
         };
         let cpu = CpuDevice::new(&exp.run.threads, !running).map_err(HarnessError::Other)?;
-        let progress = Progress::new(plan::total_rows(exp, &devices) as u64, opts.quiet);
+        let total = match &exp.shard {
+            Some(p) if opts.mode == Mode::Run => p.rows(),
+            _ => plan::total_rows(exp, &devices),
+        };
+        let progress = Progress::new(total as u64, opts.quiet);
         let conv = match opts.mode {
             Mode::Run => crate::convergence::Runner::open(exp, &opts.out, opts.resume)?,
             Mode::Validate => None,
@@ -180,8 +188,13 @@ impl<'a> Run<'a> {
         }
         let tris: Arc<[Triangle]> = spec.scene.triangles.as_slice().into();
         let mut oracle = Oracle::new(tris.clone());
-        for st in &self.exp.structures {
-            for params in &st.param_sets {
+        for (si, st) in self.exp.structures.iter().enumerate() {
+            for (pi, params) in st.param_sets.iter().enumerate() {
+                if let Some(p) = &self.exp.shard {
+                    if !p.runs(&spec.label, si, pi) {
+                        continue;
+                    }
+                }
                 self.structure(spec, &tris, &batches, &mut oracle, st, params)?;
             }
         }
@@ -435,11 +448,27 @@ impl<'a> Run<'a> {
         self.summary.mismatches += row.mismatches.unwrap_or(0);
         if let Some(s) = self.sink.as_mut() {
             s.push(row.clone())?;
+            abort_hook(s.rows().len());
         }
         self.summary.written += 1;
         self.summary.rows.push(row);
         self.progress.inc();
         Ok(())
+    }
+}
+
+/// Fault injection for the tests of `--resume`: with `TRACE_BENCH_ABORT_AFTER_ROWS=N` in the
+/// environment, the process aborts (as if killed: no clean-up, results.json says "running")
+/// once `results.csv` holds `N` rows.
+fn abort_hook(rows: usize) {
+    if let Some(n) = std::env::var("TRACE_BENCH_ABORT_AFTER_ROWS")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+    {
+        if rows >= n {
+            eprintln!("TRACE_BENCH_ABORT_AFTER_ROWS={n}: aborting after {rows} rows");
+            std::process::abort();
+        }
     }
 }
 
