@@ -40,12 +40,13 @@ mkdir -p "$out"
 run_shard() {
     local k=$1 t0 rc
     shift
-    t0=$(date +%s.%N)
+    t0=$(date +%s%N)
     rc=0
     "$bin" run "$config" --shard "$k/$n" --out "$out/shard-$k" --quiet "${resume[@]}" "$@" \
         >"$out/shard-$k.log" 2>&1 || rc=$?
-    printf 'shard %d/%d: exit %d, wall %.1f s (log %s)\n' "$k" "$n" "$rc" \
-        "$(echo "$(date +%s.%N) - $t0" | bc)" "$out/shard-$k.log"
+    local ms=$((($(date +%s%N) - t0) / 1000000))
+    printf 'shard %d/%d: exit %d, wall %d.%03d s (log %s)\n' "$k" "$n" "$rc" \
+        $((ms / 1000)) $((ms % 1000)) "$out/shard-$k.log"
     return "$rc"
 }
 
