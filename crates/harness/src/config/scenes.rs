@@ -76,6 +76,13 @@ pub(super) fn check_scene(
     if scene.triangles.is_empty() {
         return Err(cx.err(span, "scene.source", "the scene has no triangles"));
     }
+    if let Some(inset) = &s.inset {
+        // Pérard-Gayot et al. 2017 §6.2, Figure 8: the scene scaled down inside itself.
+        let i = inset.get_ref();
+        scene
+            .inset(i.scale, i.at.map(Vec3::from))
+            .map_err(|m| cx.err(inset.span(), "scene.inset", m))?;
+    }
     let view = scene.view.clone();
     let needs_camera = kinds.iter().any(|k| {
         matches!(
@@ -131,7 +138,10 @@ pub(super) fn check_scene(
         return Err(cx.err(span, "scene.random.count", "must be in 1..=2^28"));
     }
     let label = s.name.clone().unwrap_or_else(|| {
-        let l = scene_label(src);
+        let mut l = scene_label(src);
+        if s.inset.is_some() {
+            l.push_str("-inset");
+        }
         if enclosed {
             format!("{l}-boxed")
         } else {
