@@ -29,7 +29,7 @@ const GEM: f64 = 0.035;
 /// `builtin:crown?tess=K&points=P&gems=G&gem_tess=T`: a band of `128·K x 32·K` quads per
 /// surface (outer with relief, inner plain) joined by rim strips, `P` teeth, `G` gems (in
 /// two rows) and `P` tip gems of `20·4^T` triangles each: `16384·K² + 512·K +
-/// 20·4^T·(G + P)` triangles (defaults 13, 16, 128, 4: 3,543,808). Generated in parallel,
+/// 20·4^T·(G + P)` triangles (defaults 13, 16, 128, 4: 3,512,832). Generated in parallel,
 /// deterministic.
 pub(super) fn crown(params: &Params) -> Result<Scene, SceneError> {
     let tess = params.u32("tess", 13)?;
