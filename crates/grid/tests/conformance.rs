@@ -330,3 +330,48 @@ fn lattice_rays(lat: &Lattice) -> Vec<Ray> {
     }
     rays
 }
+
+/// The irregular-grid paper's scenes, small: the hairball (thin intertwined tubes), the crown
+/// (a detailed object with gems), both animated teapots at a late frame (exploded: triangles
+/// scattered; deformed) and a scene inside itself (Figure 8). Every grid and phase against
+/// brute force.
+#[test]
+fn paper_scenes_small_conform() {
+    let mut scenes: Vec<tb_scene::Scene> = [
+        "builtin:hairball?strands=60&segments=24&sides=4",
+        "builtin:crown?tess=1&gems=12&points=5&gem_tess=1",
+        "builtin:explode?tess=4&frame=40",
+        "builtin:deform?tess=4&frame=13",
+    ]
+    .iter()
+    .map(|s| tb_scene::load(s, std::path::Path::new(".")).unwrap())
+    .collect();
+    let mut inset =
+        tb_scene::load("builtin:city?blocks=3&storeys=4", std::path::Path::new(".")).unwrap();
+    let centre = inset.bounds.center();
+    inset.inset(0.05, Some(centre)).unwrap();
+    inset.source.push_str("+inset");
+    scenes.push(inset);
+    for s in &mut scenes {
+        if let Some(v) = &mut s.view {
+            (v.camera.width, v.camera.height) = (48, 48);
+        }
+    }
+    let cfgs = configs();
+    let infos: Vec<&'static TraversalInfo> = cfgs
+        .iter()
+        .map(|(l, _)| {
+            &*Box::leak(Box::new(TraversalInfo::new(
+                Box::leak(l.clone().into_boxed_str()),
+                "",
+                "",
+            )))
+        })
+        .collect();
+    tb_scene::conformance::assert_conforms_scenes(&scenes, &|tris| {
+        Box::new(All(
+            cfgs.iter().map(|(_, c)| Built::new(*c, tris)).collect(),
+            infos.clone(),
+        ))
+    });
+}

@@ -15,6 +15,7 @@ pub mod check;
 pub mod config;
 pub mod convergence;
 pub mod device;
+pub mod dynamic;
 pub mod error;
 pub mod images;
 pub mod merge;

@@ -7,6 +7,11 @@
 //! - `soup`: random small triangles in the unit cube;
 //! - `teapot`, `teapot-stadium`: the Utah teapot (Newell's 32 bicubic Bezier patches)
 //!   alone, or in the middle of a huge, coarse stadium ("teapot in a stadium");
+//! - `hairball`, `crown`: stand-ins for the irregular-grids paper's Hairball (2.9M triangles
+//!   of long, thin, intertwined tubes) and Crown (a detailed object of 3.5M triangles)
+//!   (Pérard-Gayot et al. 2017, §6);
+//! - `explode`, `deform`: animated teapots (a `frame` parameter) for that paper's dynamic
+//!   scenes (§6.3, Table 4);
 //! - `arena`, `city`: stand-ins for the sparse-boxes paper's scenes (Havran and Bittner 2007),
 //!   a tiered stadium bowl with seats and a roof, and a city of blocks seen from street level.
 //!
@@ -19,10 +24,13 @@ use crate::error::SceneError;
 pub use crate::procedural::{BuiltinInfo, Params};
 use crate::scene::Scene;
 
+mod animated;
 mod arena;
 mod city;
 mod common;
 mod cornell;
+mod crown;
+mod hairball;
 mod soup;
 mod spd;
 mod teapot;
@@ -122,6 +130,56 @@ pub const PROCEDURAL: &[BuiltinInfo] = &[
             "seed=7: seed of the building heights",
         ],
     },
+    BuiltinInfo {
+        name: "hairball",
+        doc: "stand-in for the Hairball of Pérard-Gayot et al. 2017 (2.9M triangles): long thin \
+              open tubes along random wandering curves pulled back into a unit ball, crossing \
+              and overlapping everywhere; 2*sides*segments*strands triangles (default \
+              2,880,000); camera outside the ball",
+        params: &[
+            "strands=2400: number of tubes, 1..=10000000",
+            "segments=100: segments per tube (centre line 3 ball radii long), 1..=100000",
+            "sides=6: sides of each tube, 3..=64",
+            "radius=0.006: tube radius in ball radii, (0, 0.1]",
+            "seed=1: random seed of the curves",
+        ],
+    },
+    BuiltinInfo {
+        name: "crown",
+        doc: "stand-in for the Crown of Pérard-Gayot et al. 2017 (3.5M triangles): a finely \
+              tessellated band with carved relief and pointed teeth, rows of gems set into it, \
+              a gem on every tip; 16384*tess^2 + 512*tess + 20*4^gem_tess*(gems + points) \
+              triangles (default 3,512,832)",
+        params: &[
+            "tess=13: band resolution, 128*tess x 32*tess quads per surface, 1..=200",
+            "points=16: teeth (each with a tip gem), 3..=1000",
+            "gems=128: gems set into the band (two rows), 0..=100000",
+            "gem_tess=4: icosphere subdivisions per gem, 20*4^gem_tess triangles, 0..=8",
+        ],
+    },
+    BuiltinInfo {
+        name: "explode",
+        doc: "animated (Pérard-Gayot et al. 2017 §6.3): the teapot exploding, every triangle \
+              flying out from the centre and spinning (seeded per triangle), at frame `frame` \
+              of `frames`; 64*tess^2 - 8*tess triangles (default 253,512); frame 0 is intact",
+        params: &[
+            "tess=63: teapot grid resolution per patch edge, 1..=880",
+            "frame=0: the frame, 0..frames",
+            "frames=60: frames of the animation (time = frame/frames), 1..=1000000",
+            "seed=1: seed of the directions, speeds and spins",
+        ],
+    },
+    BuiltinInfo {
+        name: "deform",
+        doc: "animated (Pérard-Gayot et al. 2017 §6.3): the teapot twisting and bulging with a \
+              wave travelling up it (a smooth per-vertex deformation, the mesh stays closed), at \
+              frame `frame` of `frames`; 64*tess^2 - 8*tess triangles (default 1,637,120)",
+        params: &[
+            "tess=160: teapot grid resolution per patch edge, 1..=880",
+            "frame=0: the frame, 0..frames",
+            "frames=60: frames of the animation (time = frame/frames), 1..=1000000",
+        ],
+    },
 ];
 
 /// Load `NAME?params` (the part after `builtin:`).
@@ -148,6 +206,10 @@ fn load_procedural(name: &str, params: &Params) -> Result<Scene, SceneError> {
         "teapot-stadium" => teapot::teapot_stadium(params),
         "arena" => arena::arena(params),
         "city" => city::city(params),
+        "hairball" => hairball::hairball(params),
+        "crown" => crown::crown(params),
+        "explode" => animated::explode(params),
+        "deform" => animated::deform(params),
         _ => Err(SceneError::Builtin {
             spec: name.into(),
             message: format!(

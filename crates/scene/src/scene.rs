@@ -55,6 +55,33 @@ impl Scene {
         std::mem::size_of_val(self.triangles.as_slice())
     }
 
+    /// Insert a copy of the scene inside itself, scaled by `scale` about the centre of its
+    /// bounds and moved so that this centre lands on `at` (the scene's own centre when `None`):
+    /// the "scene in scene" case of Pérard-Gayot et al. 2017 (§6.2, Figure 8: "a scaled down
+    /// copy of the San Miguel scene inside itself"), a teapot in a stadium made of any scene.
+    /// The copy's triangles follow the original's; the view and the own rays are kept.
+    /// `scale` must be in (0, 1) and `at` finite (else a message saying which).
+    pub fn inset(&mut self, scale: f32, at: Option<Vec3>) -> Result<(), String> {
+        if !(scale > 0.0 && scale < 1.0) {
+            return Err(format!("scale must be in (0, 1), got {scale}"));
+        }
+        if at.is_some_and(|p| !p.is_finite()) {
+            return Err("`at` must be finite".into());
+        }
+        let c = self.bounds.center();
+        let to = at.unwrap_or(c);
+        let map = |p: Vec3| to + (p - c) * scale;
+        let n = self.triangles.len();
+        self.triangles.reserve(n);
+        for i in 0..n {
+            let t = self.triangles[i];
+            let copy = Triangle::new(map(t.v0), map(t.v1), map(t.v2));
+            self.bounds = self.bounds.union(&copy.bounds());
+            self.triangles.push(copy);
+        }
+        Ok(())
+    }
+
     /// Put the scene inside a closed box (12 triangles appended): the bounds of the scene and
     /// of `points` (the camera's eye, the light), grown on every side by `margin` times their
     /// diagonal, so that no ray leaves the scene (Torres et al. 2012 §6: "a bounding box
@@ -115,5 +142,49 @@ mod tests {
         );
         let fresh = Scene::from_triangles("t", s.triangles.clone());
         assert_eq!(fresh.bounds, s.bounds);
+    }
+
+    /// The inset doubles the triangles, keeps the originals first, puts the copy's centre at
+    /// `at` with its extent scaled, grows the bounds when `at` is outside, and refuses bad
+    /// scales and points.
+    #[test]
+    fn inset_adds_a_scaled_copy_at_the_point() {
+        let tris = vec![
+            Triangle::new(
+                Vec3::ZERO,
+                Vec3::new(4.0, 0.0, 0.0),
+                Vec3::new(0.0, 2.0, 0.0),
+            ),
+            Triangle::new(Vec3::new(0.0, 0.0, 8.0), Vec3::X, Vec3::Y),
+        ];
+        let mut s = Scene::from_triangles("t", tris.clone());
+        s.inset(0.25, Some(Vec3::new(1.0, 1.0, 1.0))).unwrap();
+        assert_eq!(s.triangles.len(), 4);
+        assert_eq!(&s.triangles[..2], &tris[..]);
+        let copy = Scene::from_triangles("c", s.triangles[2..].to_vec());
+        assert!((copy.bounds.center() - Vec3::ONE).length() < 1e-6);
+        assert!((copy.bounds.extent() - Vec3::new(1.0, 0.5, 2.0)).length() < 1e-6);
+        assert_eq!(s.bounds, Scene::from_triangles("t", tris.clone()).bounds);
+        let mut far = Scene::from_triangles("t", tris.clone());
+        far.inset(0.5, Some(Vec3::new(0.0, 10.0, 0.0))).unwrap();
+        assert_eq!(far.bounds.max.y, 10.5);
+        let mut centred = Scene::from_triangles("t", tris.clone());
+        centred.inset(0.1, None).unwrap();
+        assert!(
+            (Scene::from_triangles("c", centred.triangles[2..].to_vec())
+                .bounds
+                .center()
+                - centred.bounds.center())
+            .length()
+                < 1e-6
+        );
+        let mut bad = Scene::from_triangles("t", tris);
+        for scale in [0.0, 1.0, -0.5, f32::NAN] {
+            assert!(bad.inset(scale, None).unwrap_err().contains("scale"));
+        }
+        assert!(bad
+            .inset(0.5, Some(Vec3::new(f32::INFINITY, 0.0, 0.0)))
+            .is_err());
+        assert_eq!(bad.triangles.len(), 2);
     }
 }

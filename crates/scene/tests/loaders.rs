@@ -414,6 +414,10 @@ fn procedural_scenes_load_with_defaults() {
         ("teapot-stadium", 16_386),
         ("arena", 1_399_314),
         ("city", 759_258),
+        ("hairball", 2_880_000),
+        ("crown", 3_512_832),
+        ("explode", 253_512),
+        ("deform", 1_637_120),
     ];
     let names: Vec<&str> = tb_scene::builtin::PROCEDURAL
         .iter()
@@ -483,6 +487,17 @@ fn size_parameters_scale_as_documented() {
         ("teapot?tess=2", 240),
         ("teapot-stadium?teapot_tess=1&segments=5", 56 + 2 + 20),
         ("teapot-stadium?stadium=10&segments=3", 16_256 + 2 + 12),
+        ("hairball?strands=3&segments=5&sides=4", 2 * 4 * 5 * 3),
+        (
+            "crown?tess=1&gems=2&points=3&gem_tess=0",
+            16_384 + 512 + 20 * 5,
+        ),
+        (
+            "crown?tess=2&gems=0&points=4&gem_tess=1",
+            16_384 * 4 + 1024 + 80 * 4,
+        ),
+        ("explode?tess=2&frame=59", 240),
+        ("deform?tess=2&frames=10&frame=9", 240),
     ];
     for (spec, n) in cases {
         let s = builtin(spec).unwrap_or_else(|e| panic!("{e}"));
@@ -505,6 +520,21 @@ fn size_parameters_scale_as_documented() {
         builtin("mount?seed=1").unwrap().triangles,
         builtin("mount?seed=2").unwrap().triangles
     );
+    // The explosion starts from the intact teapot and scatters it; frames differ; the hairball
+    // stays near its unit ball.
+    let intact = builtin("explode?tess=3&frame=0").unwrap();
+    assert_eq!(
+        intact.triangles,
+        builtin("teapot?tess=3").unwrap().triangles
+    );
+    let late = builtin("explode?tess=3&frame=50").unwrap();
+    assert!(late.bounds.diagonal() > 2.0 * intact.bounds.diagonal());
+    assert_ne!(
+        builtin("deform?tess=3&frame=1").unwrap().triangles,
+        builtin("deform?tess=3&frame=2").unwrap().triangles
+    );
+    let h = builtin("hairball?strands=50&segments=40").unwrap();
+    assert!(h.bounds.max.max_element() < 1.6 && h.bounds.min.min_element() > -1.6);
     // The stadium is huge next to the teapot.
     let st = builtin("teapot-stadium").unwrap();
     let tp = builtin("teapot").unwrap();
@@ -534,6 +564,14 @@ fn bad_parameters_are_errors() {
         "teapot-stadium?stadium=-5",
         "teapot-stadium?segments=2",
         "cornell?scale=0",
+        "hairball?sides=2",
+        "hairball?radius=0",
+        "hairball?strands=0",
+        "crown?tess=0",
+        "crown?gem_tess=9",
+        "explode?frame=60",
+        "explode?frame=5&frames=5",
+        "deform?frames=0",
         "cornell?scale=nan",
         "no-such-scene",
     ] {

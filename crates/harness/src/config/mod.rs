@@ -7,6 +7,7 @@
 //! modules ([`crate::images`], [`crate::convergence`]) read from, never the other way round.
 
 pub mod convergence;
+pub mod dynamic;
 pub mod images;
 pub mod overrides;
 mod run;
@@ -43,6 +44,7 @@ struct RawConfig {
     #[serde(default, rename = "structure")]
     structures: Vec<RawStructure>,
     convergence: Option<Spanned<convergence::RawConvergence>>,
+    dynamic: Option<Spanned<dynamic::RawDynamic>>,
 }
 
 #[derive(Deserialize, Default)]
@@ -81,6 +83,16 @@ struct RawScene {
     validate: Option<Spanned<toml::Value>>,
     optional: Option<bool>,
     enclose: Option<bool>,
+    inset: Option<Spanned<RawInset>>,
+}
+
+/// `inset = { scale = 0.01, at = [x, y, z] }`: the scene inside itself (Figure 8 of
+/// Pérard-Gayot et al. 2017), see [`tb_scene::Scene::inset`].
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawInset {
+    scale: f32,
+    at: Option<[f32; 3]>,
 }
 
 #[derive(Deserialize)]
@@ -248,6 +260,8 @@ pub struct Experiment {
     /// that change the rows (threads, repeat, devices, adapter, backend, `--scene`,
     /// `--structure`); shards of one run share it (`trace-bench merge` checks).
     pub config_hash: String,
+    /// `[dynamic]`: per-frame rebuilds within frame budgets ([`crate::dynamic`]).
+    pub dynamic: Option<dynamic::DynamicSpec>,
 }
 
 /// Overrides from the command line.
@@ -492,6 +506,10 @@ pub fn parse_with(
         None => None,
         Some(c) => Some(convergence::check(&cx, c, &scenes)?),
     };
+    let dynamic = match &raw.dynamic {
+        None => None,
+        Some(d) => Some(dynamic::check(&cx, d, &scenes, &structures)?),
+    };
 
     Ok(Experiment {
         name,
@@ -506,6 +524,7 @@ pub fn parse_with(
         convergence,
         shard,
         config_hash: config_hash(text, ov),
+        dynamic,
     })
 }
 

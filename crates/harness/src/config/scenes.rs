@@ -76,6 +76,13 @@ pub(super) fn check_scene(
     if scene.triangles.is_empty() {
         return Err(cx.err(span, "scene.source", "the scene has no triangles"));
     }
+    if let Some(inset) = &s.inset {
+        // Pérard-Gayot et al. 2017 §6.2, Figure 8: the scene scaled down inside itself.
+        let i = inset.get_ref();
+        scene
+            .inset(i.scale, i.at.map(Vec3::from))
+            .map_err(|m| cx.err(inset.span(), "scene.inset", m))?;
+    }
     let view = scene.view.clone();
     let needs_camera = kinds.iter().any(|k| {
         matches!(
@@ -153,7 +160,10 @@ pub(super) fn check_scene(
 /// enclosed).
 pub(super) fn label_of(s: &RawScene) -> String {
     s.name.clone().unwrap_or_else(|| {
-        let l = scene_label(s.source.get_ref());
+        let mut l = scene_label(s.source.get_ref());
+        if s.inset.is_some() {
+            l.push_str("-inset");
+        }
         if s.enclose == Some(true) {
             format!("{l}-boxed")
         } else {
@@ -172,7 +182,11 @@ pub(super) fn estimate(
     scenes_root: &Path,
     validate: Validate,
 ) -> Option<crate::shard::SceneEstimate> {
-    let triangles = crate::shard::triangles_of(s.source.get_ref(), scenes_root)?;
+    let mut triangles = crate::shard::triangles_of(s.source.get_ref(), scenes_root)?;
+    if s.inset.is_some() {
+        // The scene and its scaled-down copy.
+        triangles *= 2;
+    }
     let cam = s.camera.as_ref().map(|c| c.get_ref());
     let pixels = cam.and_then(|c| c.width).unwrap_or(256) as u64
         * cam.and_then(|c| c.height).unwrap_or(256) as u64;

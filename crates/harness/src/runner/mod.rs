@@ -69,8 +69,16 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
     let mut r = Run::open(exp, opts)?;
     // Notes are collected in the summary and printed once, after the run (stderr).
     r.summary.notes.extend(exp.skipped_scenes.iter().cloned());
-    for spec in &exp.scenes {
-        r.scene(spec)?;
+    // A `[dynamic]` run measures frames only ([`crate::dynamic`]); validation still checks
+    // every structure on each scene's first frame as configured.
+    if let (Some(_), Mode::Run) = (&exp.dynamic, opts.mode) {
+        let progress = &r.progress;
+        let notes = crate::dynamic::run(exp, &opts.out, &|m| progress.step(m))?;
+        r.summary.notes.extend(notes);
+    } else {
+        for spec in &exp.scenes {
+            r.scene(spec)?;
+        }
     }
     r.progress.finish();
     if r.loaded_rows > 0 {

@@ -21,7 +21,7 @@ fn v32(p: DVec3) -> Vec3 {
 
 /// The 20 faces of a unit icosphere subdivided `tess` times (20·4^tess triangles). Shared
 /// edges are split with the same arithmetic on both sides, so the mesh is watertight.
-fn unit_icosphere(tess: u32) -> Vec<[DVec3; 3]> {
+pub(super) fn unit_icosphere(tess: u32) -> Vec<[DVec3; 3]> {
     let v = crate::procedural::icosahedron_vertices();
     let faces = &crate::procedural::ICOSAHEDRON_FACES;
     let mut tris: Vec<[DVec3; 3]> = faces.iter().map(|f| [v[f[0]], v[f[1]], v[f[2]]]).collect();

@@ -217,7 +217,7 @@ pub(super) fn teapot_triangles(k: u32) -> Vec<Triangle> {
     out
 }
 
-fn check_tess(params: &Params, key: &str, k: u32) -> Result<u64, SceneError> {
+pub(super) fn check_tess(params: &Params, key: &str, k: u32) -> Result<u64, SceneError> {
     params.check(
         (1..=880).contains(&k),
         &format!("parameter `{key}` must be in 1..=880"),
@@ -232,7 +232,7 @@ fn check_tess(params: &Params, key: &str, k: u32) -> Result<u64, SceneError> {
 }
 
 /// Camera close to the teapot so that it fills the view.
-fn teapot_camera() -> crate::camera::Camera {
+pub(super) fn teapot_camera() -> crate::camera::Camera {
     camera(
         Vec3::new(4.5, 5.0, 9.0),
         Vec3::new(0.25, 1.4, 0.0),
