@@ -38,7 +38,7 @@ use tb_core::{
 };
 
 pub use traverse::STACK_SIZE;
-pub use wide::{WideNode, EMPTY_SLOT, WIDE_STACK_SIZE};
+pub use wide::{LeafBlock, WideNode, EMPTY_SLOT, WIDE_STACK_SIZE};
 
 /// The BVH in the registry.
 pub static FAMILY: Family = Family::new::<Bvh, BvhParams>(
@@ -214,6 +214,10 @@ impl BvhNode {
 pub struct Bvh {
     nodes: Vec<BvhNode>,
     wide: WideNodes,
+    /// Wide builds: the leaves' triangles in blocks of four (see [`LeafBlock`]).
+    blocks: Vec<LeafBlock>,
+    /// The triangle slot of each block's lane 0.
+    block_first: Vec<u32>,
     triangles: Vec<Triangle>,
     prim_ids: Vec<u32>,
     /// Triangles in the scene (`prim_ids` holds each once, or at least once for the SBVH).
@@ -276,15 +280,25 @@ impl Bvh {
                 limit: u32::MAX as u64 - 1,
             });
         }
-        let triangles = order.iter().map(|&i| tris[i as usize]).collect();
-        let wide = match params.width {
-            4 => WideNodes::W4(wide::collapse::<4>(&nodes)),
-            8 => WideNodes::W8(wide::collapse::<8>(&nodes)),
-            _ => WideNodes::None,
+        let triangles: Vec<Triangle> = order.iter().map(|&i| tris[i as usize]).collect();
+        let (wide, (blocks, block_first)) = match params.width {
+            4 => {
+                let mut w = wide::collapse::<4>(&nodes);
+                let b = wide::pack_leaves(&mut w, &triangles, &order);
+                (WideNodes::W4(w), b)
+            }
+            8 => {
+                let mut w = wide::collapse::<8>(&nodes);
+                let b = wide::pack_leaves(&mut w, &triangles, &order);
+                (WideNodes::W8(w), b)
+            }
+            _ => (WideNodes::None, (Vec::new(), Vec::new())),
         };
         Ok(Bvh {
             nodes,
             wide,
+            blocks,
+            block_first,
             triangles,
             prim_ids: order,
             n_scene: tris.len(),
@@ -304,6 +318,12 @@ impl Bvh {
         &self.wide
     }
 
+    /// Wide builds: the leaves' triangles in blocks of four, which the wide nodes' leaf slots
+    /// name (empty for `width = 2`).
+    pub fn leaf_blocks(&self) -> &[LeafBlock] {
+        &self.blocks
+    }
+
     /// The triangles in leaf order (leaf `l` owns `triangles()[l.prim_range()]`).
     pub fn triangles(&self) -> &[Triangle] {
         &self.triangles
@@ -320,13 +340,7 @@ impl Bvh {
     }
 
     /// The wide program of [`Bvh::gpu_ordered`].
-    fn gpu_wide<'a>(
-        &'a self,
-        name: &'static str,
-        bytes: &'a [u8],
-        n: usize,
-        width: u32,
-    ) -> GpuProgram<'a> {
+    fn gpu_wide(&self, name: &'static str, bytes: Vec<u8>, n: usize, width: u32) -> GpuProgram<'_> {
         GpuProgram {
             name,
             source: include_str!("../shaders/wide.wgsl"),
@@ -334,7 +348,7 @@ impl Bvh {
             buffers: vec![
                 GpuBuffer {
                     what: "the wide BVH node array",
-                    bytes: Cow::Borrowed(bytes),
+                    bytes: Cow::Owned(bytes),
                 },
                 GpuBuffer {
                     what: "the primitive-id array",
@@ -357,15 +371,20 @@ impl Bvh {
     /// `meta[0]`.
     ///
     /// Wide builds get `shaders/wide.wgsl` (programs `bvh/ordered-w4`, `bvh/ordered-w8`, the
-    /// wide walk in the CPU's order): the wide nodes, the primitive ids and the binary root
-    /// node (its box is tested first), the wide node count in `meta[0]`.
+    /// wide walk in the CPU's order): the wide nodes (leaves naming their first triangle in
+    /// the leaf-ordered triangles, not their first block), the primitive ids and the binary
+    /// root node (its box is tested first), the wide node count in `meta[0]`.
     fn gpu_ordered(&self) -> GpuProgram<'_> {
+        fn bytes<const N: usize>(w: &[WideNode<N>], first: &[u32]) -> Vec<u8> {
+            bytemuck::cast_slice(&wide::unpack_leaves(w, first)).to_vec()
+        }
+        let first = &self.block_first;
         match &self.wide {
             WideNodes::W4(w) if !w.is_empty() => {
-                return self.gpu_wide("bvh/ordered-w4", bytemuck::cast_slice(w), w.len(), 4)
+                return self.gpu_wide("bvh/ordered-w4", bytes(w, first), w.len(), 4)
             }
             WideNodes::W8(w) if !w.is_empty() => {
-                return self.gpu_wide("bvh/ordered-w8", bytemuck::cast_slice(w), w.len(), 8)
+                return self.gpu_wide("bvh/ordered-w8", bytes(w, first), w.len(), 8)
             }
             _ => {}
         }
@@ -520,10 +539,12 @@ impl Bvh {
             self.check_coverage()?;
         }
         let root = nodes[0].bounds();
+        let leaves = (self.blocks.as_slice(), self.block_first.as_slice());
+        let ids = self.prim_ids.as_slice();
         match (&self.wide, self.params.width) {
             (WideNodes::None, 2) => Ok(()),
-            (WideNodes::W4(w), 4) => wide::check(w, n_tris, &root),
-            (WideNodes::W8(w), 8) => wide::check(w, n_tris, &root),
+            (WideNodes::W4(w), 4) => wide::check(w, leaves, &self.triangles, ids, &root),
+            (WideNodes::W8(w), 8) => wide::check(w, leaves, &self.triangles, ids, &root),
             _ => Err(format!(
                 "wide nodes do not match width {}",
                 self.params.width
@@ -630,12 +651,24 @@ impl Structure for Bvh {
                 WideNodes::None => dispatch(&traverse::Ordered(b), query, tri, rays, hits, stats),
                 WideNodes::W4(nodes) => {
                     let isa = wide::Isa::detect(4, scalar);
-                    let k = wide::Wide { bvh: b, nodes, isa };
+                    let (blocks, root) = (&b.blocks[..], b.nodes.first());
+                    let k = wide::Wide {
+                        nodes,
+                        blocks,
+                        isa,
+                        root,
+                    };
                     dispatch(&k, query, tri, rays, hits, stats)
                 }
                 WideNodes::W8(nodes) => {
                     let isa = wide::Isa::detect(8, scalar);
-                    let k = wide::Wide { bvh: b, nodes, isa };
+                    let (blocks, root) = (&b.blocks[..], b.nodes.first());
+                    let k = wide::Wide {
+                        nodes,
+                        blocks,
+                        isa,
+                        root,
+                    };
                     dispatch(&k, query, tri, rays, hits, stats)
                 }
             }
@@ -643,8 +676,9 @@ impl Structure for Bvh {
         Bvh::gpu_ordered,
     )];
 
-    /// The arrays the CPU traversal reads: the binary nodes (`width = 2`) or the wide ones,
-    /// the triangles and the primitive ids.
+    /// The arrays the CPU traversal reads: the binary nodes, the triangles and the primitive
+    /// ids (`width = 2`), or the wide nodes and the leaf blocks (triangles and primitive ids
+    /// in blocks of four) and the triangles and primitive ids (kept for the GPU program).
     fn own_memory(&self) -> MemoryReport {
         let (node_bytes, nodes, node_size) = match &self.wide {
             WideNodes::None => (
@@ -665,6 +699,7 @@ impl Structure for Bvh {
         };
         MemoryReport {
             bytes: (node_bytes
+                + std::mem::size_of_val(self.blocks.as_slice())
                 + std::mem::size_of_val(self.triangles.as_slice())
                 + std::mem::size_of_val(self.prim_ids.as_slice())) as u64,
             nodes: nodes as u64,

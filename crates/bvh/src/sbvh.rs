@@ -9,8 +9,9 @@
 //! 2. when the children of that split overlap, `A(B_L ∩ B_R) > alpha·A(root)` (§4.4, the
 //!    overlap threshold restricting spatial splits to where they pay), the best **spatial
 //!    split** is found too: the node box is cut into `bins` equal slabs per axis, each reference
-//!    is *chopped* into the slabs it spans (the triangle's part in each slab,
-//!    [`tb_core::clip::slab_box`]), and per boundary the SAH
+//!    is *chopped* into the slabs it spans (the triangle's part in each slab, the box
+//!    [`tb_core::clip::slab_box`] gives, computed by [`chop`] for all slabs at once so that
+//!    each plane's edge crossings are found once), and per boundary the SAH
 //!    cost uses the union of the chopped boxes and the counts of references entering left of it
 //!    and leaving right of it (§4.2);
 //! 3. the cheaper split is made, or a leaf when `|n| ≤ min_leaf` or, for `|n| ≤ max_leaf`, when
@@ -30,7 +31,7 @@
 
 use crate::build::MEDIAN_DEPTH;
 use crate::{BvhNode, BvhParams};
-use tb_core::clip::{clip_box, slab_box};
+use tb_core::clip::{clip_box, tolerance};
 use tb_core::{Aabb, Triangle, Vec3};
 
 /// A reference: a conservative box of the part of triangle `id` inside the node.
@@ -305,6 +306,7 @@ impl Ctx<'_> {
         let mut enter = vec![0u32; nb];
         let mut exit = vec![0u32; nb];
         let mut right = vec![(Aabb::EMPTY, 0u32); nb];
+        let mut cross = Vec::with_capacity(nb + 1);
         for axis in 0..3 {
             if ext[axis] <= 0.0 {
                 continue;
@@ -331,12 +333,11 @@ impl Ctx<'_> {
                     continue;
                 }
                 let tri = &self.tris[r.id as usize];
-                for k in first..=last {
-                    let c = slab_box(tri, &r.b, axis, plane(k), plane(k + 1));
+                chop(tri, &r.b, axis, first..=last, &plane, &mut cross, |k, c| {
                     if !c.is_empty() {
                         boxes[k] = boxes[k].union(&c);
                     }
-                }
+                });
             }
             let mut acc = (Aabb::EMPTY, 0u32);
             for k in (1..nb).rev() {
@@ -454,6 +455,80 @@ impl Ctx<'_> {
     }
 }
 
+/// Chop a reference (triangle `tri`, box `lim`) into the slabs `bins` on `axis`, slab `k`
+/// between `plane(k)` and `plane(k + 1)`: calls `out(k, box)` with, bit for bit,
+/// `tb_core::clip::slab_box(tri, lim, axis, plane(k), plane(k + 1))` (Stich et al. 2009 §4.2's
+/// chopping), with the same operations in the same order, but the triangle's bounds and
+/// tolerance computed once and each plane's edge crossings once for the two slabs it bounds.
+/// `cross` is scratch space.
+fn chop(
+    tri: &Triangle,
+    lim: &Aabb,
+    axis: usize,
+    bins: std::ops::RangeInclusive<usize>,
+    plane: &impl Fn(usize) -> f32,
+    cross: &mut Vec<([Vec3; 3], u8)>,
+    mut out: impl FnMut(usize, Aabb),
+) {
+    let (first, last) = (*bins.start(), *bins.end());
+    let v = [tri.v0, tri.v1, tri.v2];
+    // Where edge `i` (v[i] → v[i + 1]) crosses plane `first + j` strictly (bit `i` of the
+    // mask set).
+    cross.clear();
+    for k in first..=last + 1 {
+        let c = plane(k);
+        let mut x = [Vec3::ZERO; 3];
+        let mut m = 0u8;
+        for i in 0..3 {
+            let (p, q) = (v[i], v[(i + 1) % 3]);
+            if (p[axis] < c && q[axis] > c) || (p[axis] > c && q[axis] < c) {
+                let t = (c - p[axis]) / (q[axis] - p[axis]);
+                x[i] = p + (q - p) * t;
+                x[i][axis] = c;
+                m |= 1 << i;
+            }
+        }
+        cross.push((x, m));
+    }
+    let tb = tri.bounds();
+    let tol = tolerance(&tb);
+    for k in bins {
+        let (lo, hi) = (plane(k), plane(k + 1));
+        let mut cell = *lim;
+        cell.min[axis] = cell.min[axis].max(lo);
+        cell.max[axis] = cell.max[axis].min(hi);
+        if cell.is_empty() {
+            out(k, Aabb::EMPTY);
+            continue;
+        }
+        if tb.min[axis] >= lo && tb.max[axis] <= hi {
+            out(k, tb_core::clip::intersect(&tb, &cell));
+            continue;
+        }
+        let (cl, ch) = (&cross[k - first], &cross[k - first + 1]);
+        let mut pb = Aabb::EMPTY;
+        for i in 0..3 {
+            let p = v[i];
+            if p[axis] >= lo && p[axis] <= hi {
+                pb.grow(p);
+            }
+            if cl.1 & (1 << i) != 0 {
+                pb.grow(cl.0[i]);
+            }
+            if ch.1 & (1 << i) != 0 {
+                pb.grow(ch.0[i]);
+            }
+        }
+        if pb.is_empty() {
+            out(k, Aabb::EMPTY);
+            continue;
+        }
+        let grown = Aabb::new(pb.min - tol, pb.max + tol);
+        let o = tb_core::clip::intersect(&grown, &cell);
+        out(k, if o.is_empty() { cell } else { o });
+    }
+}
+
 /// Object-median split (by index when `axis` is `None`): the lower half of the centres left.
 fn median(mut refs: Vec<Ref>, axis: Option<usize>) -> (Vec<Ref>, Vec<Ref>) {
     let mid = refs.len() / 2;
@@ -472,4 +547,69 @@ fn obj_bin(c: f32, min: f32, scale: f32, nb: usize) -> usize {
 #[inline(always)]
 fn spatial_bin(x: f32, lo: f32, w: f32, nb: usize) -> usize {
     (((x - lo) / w) as usize).min(nb - 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `chop` gives `slab_box`'s boxes bit for bit (so the SBVH is the one built with it).
+    #[test]
+    fn chop_equals_slab_box() {
+        let mut s = 0x2545f4914f6cdd1du64;
+        let mut rnd = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut cross = Vec::new();
+        let mut n = 0;
+        for k in 0..3000 {
+            let mut v = || Vec3::new(rnd(), rnd(), rnd()) * 10.0 - 5.0;
+            let mut tri = Triangle::new(v(), v(), v());
+            if k % 5 == 0 {
+                // A vertex on a slab plane.
+                tri.v1.x = -5.0 + 10.0 / 8.0 * 3.0;
+            }
+            let tb = tri.bounds();
+            // Sometimes a reference box already cut down.
+            let lim = if k % 2 == 0 {
+                tb
+            } else {
+                let mut l = tb;
+                l.min.y = l.min.y.max(tb.min.y + (tb.max.y - tb.min.y) * rnd());
+                l
+            };
+            let nb = 8;
+            let (lo, hi) = (-5.0f32, 5.0f32);
+            let w = (hi - lo) / nb as f32;
+            let plane = |k: usize| if k == nb { hi } else { lo + w * k as f32 };
+            for axis in 0..3 {
+                let first = spatial_bin(lim.min[axis], lo, w, nb);
+                let last = spatial_bin(lim.max[axis], lo, w, nb).max(first);
+                chop(
+                    &tri,
+                    &lim,
+                    axis,
+                    first..=last,
+                    &plane,
+                    &mut cross,
+                    |b, c| {
+                        let want =
+                            tb_core::clip::slab_box(&tri, &lim, axis, plane(b), plane(b + 1));
+                        let bits = |a: &Aabb| {
+                            (
+                                a.min.to_array().map(f32::to_bits),
+                                a.max.to_array().map(f32::to_bits),
+                            )
+                        };
+                        assert_eq!(bits(&c), bits(&want), "{tri:?} axis {axis} bin {b}");
+                        n += 1;
+                    },
+                );
+            }
+        }
+        assert!(n > 10_000);
+    }
 }

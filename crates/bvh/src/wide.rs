@@ -20,15 +20,26 @@
 //!   into the node, Embree's approach), so the node test has no per-lane select.
 //! - **SIMD**: BVH4 uses SSE (part of x86-64), BVH8 AVX when the CPU has it (runtime
 //!   detection, once per batch); a scalar lane loop everywhere else (and when `simd = "scalar"`).
+//! - **Leaves** ([`LeafBlock`]): each leaf's triangles are copied into blocks of four in
+//!   structure-of-arrays layout (as Embree's `triangle4`), with their primitive ids, so that
+//!   the SIMD paths test four triangles at once ([`TriTest::intersect4`]: the watertight or
+//!   Möller–Trumbore test lane by lane with the scalar operations, bit for bit the scalar
+//!   answers). The block's hit lanes are then resolved in triangle order with
+//!   [`TriTest::still_hits`] against the closest hit so far, which gives exactly the scalar
+//!   loop's hit (the same triangle, `t`, `u`, `v`), and the counters count the triangles the
+//!   scalar loop tests (any-hit: up to the first hit). `simd = "scalar"` tests the lanes one
+//!   by one with [`TriTest::intersect`], the reference.
 //!
 //! Counters keep their binary meaning: `interior` and `leaves` count wide nodes and leaves
 //! visited (`steps` their sum), `boxes` the child boxes tested (1 for the root, then one per
 //! child of each interior node visited), `prims` the triangle tests.
 
-use crate::{Bvh, BvhNode};
+#[cfg(doc)]
+use crate::Bvh;
+use crate::BvhNode;
 use std::mem::MaybeUninit;
 use tb_core::slab::{max_num, min_num, EXIT_SCALE};
-use tb_core::{Aabb, Counter, HitRecord, Ray, TriTest, Vec3};
+use tb_core::{Aabb, Counter, HitRecord, Ray, Tri4, TriTest, Triangle, Vec3};
 
 /// Marks an empty child slot in [`WideNode::count`] (its box is empty: `min = +inf`,
 /// `max = −inf`, which every ray with a non-NaN origin misses).
@@ -45,7 +56,9 @@ pub const WIDE_STACK_SIZE: usize = 7 * MAX_DEPTH + 1;
 ///
 /// Child `i`'s box is `(min[0][i], min[1][i], min[2][i])`–`(max[0][i], ...)`; `count[i]` is
 /// 0 for an interior child (`child[i]` its node index), the number of triangles of a leaf
-/// (`child[i]` the first, in [`Bvh::triangles`]), or [`EMPTY_SLOT`]. Used slots come first.
+/// (`child[i]` its first [`LeafBlock`] in [`Bvh::leaf_blocks`], the leaf's `⌈count / 4⌉`
+/// blocks consecutive), or [`EMPTY_SLOT`]. Used slots come first. (The GPU program gets a copy
+/// whose leaves name their first triangle in [`Bvh::triangles`] instead.)
 #[repr(C, align(32))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WideNode<const N: usize> {
@@ -90,6 +103,66 @@ impl<const N: usize> WideNode<N> {
         self.child[i] = child;
         self.count[i] = count;
     }
+}
+
+/// Four triangles of a wide leaf (lanes past the leaf's end: a degenerate triangle at the
+/// origin, primitive id `u32::MAX`), 160 bytes.
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeafBlock {
+    pub tris: Tri4,
+    /// The scene index of each lane's triangle.
+    pub prim: [u32; 4],
+}
+
+/// Copy each leaf's triangles of the collapsed tree into [`LeafBlock`]s and make the leaf
+/// slots name their first block (in node order, so siblings' blocks are adjacent). Returns
+/// the blocks and, per block, the triangle slot of its lane 0.
+pub(crate) fn pack_leaves<const N: usize>(
+    nodes: &mut [WideNode<N>],
+    tris: &[Triangle],
+    prim_ids: &[u32],
+) -> (Vec<LeafBlock>, Vec<u32>) {
+    let mut blocks = Vec::new();
+    let mut first = Vec::new();
+    for n in nodes.iter_mut() {
+        for s in 0..n.children() {
+            if n.count[s] == 0 {
+                continue;
+            }
+            let start = n.child[s] as usize;
+            let end = start + n.count[s] as usize;
+            n.child[s] = blocks.len() as u32;
+            for k in (start..end).step_by(4) {
+                let e = (k + 4).min(end);
+                let mut prim = [u32::MAX; 4];
+                prim[..e - k].copy_from_slice(&prim_ids[k..e]);
+                blocks.push(LeafBlock {
+                    tris: Tri4::new(&tris[k..e]),
+                    prim,
+                });
+                first.push(k as u32);
+            }
+        }
+    }
+    (blocks, first)
+}
+
+/// The nodes with each leaf naming its first triangle (the GPU program's layout) instead of
+/// its first block.
+pub(crate) fn unpack_leaves<const N: usize>(
+    nodes: &[WideNode<N>],
+    block_first: &[u32],
+) -> Vec<WideNode<N>> {
+    let mut out = nodes.to_vec();
+    for n in &mut out {
+        for s in 0..n.children() {
+            if n.count[s] != 0 {
+                n.child[s] = block_first[n.child[s] as usize];
+            }
+        }
+    }
+    out
 }
 
 /// Collapse the binary tree `bin` (root 0, see [`BvhNode`]) into wide nodes of `N` slots,
@@ -232,6 +305,8 @@ impl WideRay {
 /// Tests all `N` child boxes of a node: returns the mask of hit children (bit `i` for slot
 /// `i`) and their entry distances.
 trait BoxTest<const N: usize> {
+    /// Whether leaves are tested four triangles at once ([`TriTest::intersect4`]).
+    const SIMD_LEAVES: bool;
     /// # Safety
     /// The instruction set of the implementation must be available.
     unsafe fn test(node: &WideNode<N>, r: &WideRay, tmin: f32, tmax: f32) -> (u32, [f32; N]);
@@ -241,6 +316,7 @@ trait BoxTest<const N: usize> {
 struct Scalar;
 
 impl<const N: usize> BoxTest<N> for Scalar {
+    const SIMD_LEAVES: bool = false;
     #[inline(always)]
     unsafe fn test(node: &WideNode<N>, r: &WideRay, tmin: f32, tmax: f32) -> (u32, [f32; N]) {
         let p = node as *const WideNode<N> as *const f32;
@@ -273,6 +349,7 @@ mod x86 {
     pub(super) struct Sse;
 
     impl BoxTest<4> for Sse {
+        const SIMD_LEAVES: bool = true;
         #[inline(always)]
         unsafe fn test(node: &WideNode<4>, r: &WideRay, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
             // SAFETY: SSE is part of x86-64; the loads read rows inside the node.
@@ -305,6 +382,7 @@ mod x86 {
     pub(super) struct Avx;
 
     impl BoxTest<8> for Avx {
+        const SIMD_LEAVES: bool = true;
         #[inline(always)]
         unsafe fn test(node: &WideNode<8>, r: &WideRay, tmin: f32, tmax: f32) -> (u32, [f32; 8]) {
             // SAFETY: the caller runs this inside an `avx` function on a CPU that has it; the
@@ -338,12 +416,15 @@ mod x86 {
 
 /// The `ordered` traversal of a wide [`Bvh`] of width `N`.
 pub(crate) struct Wide<'a, const N: usize> {
-    pub bvh: &'a Bvh,
     pub nodes: &'a [WideNode<N>],
+    pub blocks: &'a [LeafBlock],
     pub isa: Isa,
+    /// The binary root (its box is tested first).
+    pub root: Option<&'a BvhNode>,
 }
 
-/// A pending child: node index or first triangle, triangle count (0: interior), entry distance.
+/// A pending child: node index or first leaf block, triangle count (0: interior), entry
+/// distance.
 #[derive(Clone, Copy)]
 struct Entry {
     index: u32,
@@ -404,10 +485,9 @@ impl<const N: usize> Wide<'_, N> {
         ray: &Ray,
         c: &mut C,
     ) -> HitRecord {
-        let bvh = self.bvh;
         let nodes = self.nodes;
-        let tris = bvh.triangles();
-        let Some(root) = bvh.nodes().first() else {
+        let blocks = self.blocks;
+        let Some(root) = self.root else {
             return HitRecord::MISS;
         };
         // A NaN origin or direction misses every triangle (both tests compare with NaN); it
@@ -425,7 +505,7 @@ impl<const N: usize> Wide<'_, N> {
             return HitRecord::MISS;
         }
         let pre = T::prepare(ray);
-        let mut hit_slot = usize::MAX;
+        let mut hit_prim: Option<u32> = None;
         let (mut hit_u, mut hit_v) = (0.0f32, 0.0f32);
         let mut stack: [MaybeUninit<Entry>; WIDE_STACK_SIZE] =
             [MaybeUninit::uninit(); WIDE_STACK_SIZE];
@@ -520,28 +600,62 @@ impl<const N: usize> Wide<'_, N> {
                 c.leaf();
                 c.steps(1);
                 let first = cur.index as usize;
-                // SAFETY: leaf ranges lie inside `triangles` (checked by `validate`).
-                let leaf = unsafe { tris.get_unchecked(first..first + cur.count as usize) };
+                let count = cur.count as usize;
+                // SAFETY: a leaf's ⌈count / 4⌉ blocks lie inside `blocks` (checked by
+                // `validate`).
+                let leaf = unsafe { blocks.get_unchecked(first..first + count.div_ceil(4)) };
                 if ANY {
-                    for (k, tri) in leaf.iter().enumerate() {
-                        c.prims(1);
-                        if let Some((t, u, v)) = T::intersect(&pre, ray, tri, best_t) {
+                    // The first hit in triangle order ends the ray; the triangles before it
+                    // and it are the ones tested.
+                    for (j, b) in leaf.iter().enumerate() {
+                        let lanes = (count - 4 * j).min(4);
+                        if let Some((i, (t, u, v))) =
+                            first_hit::<B, T, N>(&pre, ray, b, lanes, best_t)
+                        {
+                            c.prims(i as u32 + 1);
                             return HitRecord {
                                 t,
-                                prim: bvh.prim_ids()[first + k],
+                                prim: b.prim[i],
                                 u,
                                 v,
                             };
                         }
+                        c.prims(lanes as u32);
                     }
                 } else {
                     c.prims(cur.count);
-                    for (k, tri) in leaf.iter().enumerate() {
-                        if let Some((t, u, v)) = T::intersect(&pre, ray, tri, best_t) {
-                            best_t = t;
-                            hit_slot = first + k;
-                            hit_u = u;
-                            hit_v = v;
+                    for (j, b) in leaf.iter().enumerate() {
+                        let lanes = (count - 4 * j).min(4);
+                        if B::SIMD_LEAVES {
+                            let l = T::intersect4(&pre, ray, &b.tris, best_t);
+                            let mut cand = (l.hit | l.redo) & ((1 << lanes) - 1);
+                            while cand != 0 {
+                                let i = cand.trailing_zeros() as usize;
+                                cand &= cand - 1;
+                                let h = if l.redo & (1 << i) != 0 {
+                                    T::intersect(&pre, ray, &b.tris.lane(i), best_t)
+                                } else if T::still_hits(&l, i, best_t) {
+                                    Some((l.t[i], l.u[i], l.v[i]))
+                                } else {
+                                    None
+                                };
+                                if let Some((t, u, v)) = h {
+                                    best_t = t;
+                                    hit_prim = Some(b.prim[i]);
+                                    hit_u = u;
+                                    hit_v = v;
+                                }
+                            }
+                        } else {
+                            for i in 0..lanes {
+                                let tri = b.tris.lane(i);
+                                if let Some((t, u, v)) = T::intersect(&pre, ray, &tri, best_t) {
+                                    best_t = t;
+                                    hit_prim = Some(b.prim[i]);
+                                    hit_u = u;
+                                    hit_v = v;
+                                }
+                            }
                         }
                     }
                 }
@@ -559,16 +673,44 @@ impl<const N: usize> Wide<'_, N> {
                 }
             }
         }
-        if hit_slot == usize::MAX {
-            HitRecord::MISS
-        } else {
-            HitRecord {
+        match hit_prim {
+            None => HitRecord::MISS,
+            Some(prim) => HitRecord {
                 t: best_t,
-                prim: bvh.prim_ids()[hit_slot],
+                prim,
                 u: hit_u,
                 v: hit_v,
+            },
+        }
+    }
+}
+
+/// The first of the `lanes` triangles of block `b` (in lane order) that the ray hits within
+/// `[tmin, tmax)`: its lane and `(t, u, v)`, as the scalar loop finds it.
+#[inline(always)]
+fn first_hit<B: BoxTest<N>, T: TriTest, const N: usize>(
+    pre: &T::Pre,
+    ray: &Ray,
+    b: &LeafBlock,
+    lanes: usize,
+    tmax: f32,
+) -> Option<(usize, (f32, f32, f32))> {
+    if B::SIMD_LEAVES {
+        let l = T::intersect4(pre, ray, &b.tris, tmax);
+        let mut cand = (l.hit | l.redo) & ((1 << lanes) - 1);
+        while cand != 0 {
+            let i = cand.trailing_zeros() as usize;
+            cand &= cand - 1;
+            if l.redo & (1 << i) == 0 {
+                return Some((i, (l.t[i], l.u[i], l.v[i])));
+            }
+            if let Some(h) = T::intersect(pre, ray, &b.tris.lane(i), tmax) {
+                return Some((i, h));
             }
         }
+        None
+    } else {
+        (0..lanes).find_map(|i| T::intersect(pre, ray, &b.tris.lane(i), tmax).map(|h| (i, h)))
     }
 }
 
@@ -576,13 +718,22 @@ tb_core::kernel_by_query!(traverse: [const N: usize] Wide<'_, N>);
 
 /// Check the wide tree against the binary one it was collapsed from: every node reachable
 /// once, children after parents, child boxes inside the parent's slot box, used slots first,
-/// leaves equal to the binary leaves (each triangle slot in exactly one leaf), the depth
-/// within the stack.
+/// leaves equal to the binary leaves (each triangle slot in exactly one leaf), each leaf's
+/// blocks its triangles and primitive ids in order (each block in exactly one leaf), the
+/// depth within the stack.
 pub(crate) fn check<const N: usize>(
     nodes: &[WideNode<N>],
-    n_tris: usize,
+    leaves: (&[LeafBlock], &[u32]),
+    tris: &[Triangle],
+    prim_ids: &[u32],
     root: &Aabb,
 ) -> Result<(), String> {
+    let (blocks, block_first) = leaves;
+    let n_tris = tris.len();
+    if blocks.len() != block_first.len() {
+        return Err("leaf blocks and their first slots differ in number".into());
+    }
+    let mut block_used = vec![false; blocks.len()];
     if nodes.is_empty() {
         return if n_tris == 0 {
             Ok(())
@@ -617,9 +768,34 @@ pub(crate) fn check<const N: usize>(
                 }
                 stack.push((child, cb, depth + 1));
             } else {
-                if child + count > n_tris {
+                let nb = count.div_ceil(4);
+                if child + nb > blocks.len() {
+                    return Err(format!("wide node {i} slot {s}: leaf blocks out of range"));
+                }
+                let first = block_first[child] as usize;
+                if first + count > n_tris {
                     return Err(format!("wide node {i} slot {s}: leaf out of range"));
                 }
+                for j in 0..nb {
+                    if std::mem::replace(&mut block_used[child + j], true) {
+                        return Err(format!("leaf block {} in two wide leaves", child + j));
+                    }
+                    let (k, e) = (first + 4 * j, (first + 4 * j + 4).min(first + count));
+                    let b = &blocks[child + j];
+                    let prims_ok = b.prim[..e - k] == prim_ids[k..e]
+                        && b.prim[e - k..].iter().all(|&p| p == u32::MAX);
+                    if block_first[child + j] as usize != k
+                        || b.tris != Tri4::new(&tris[k..e])
+                        || !prims_ok
+                    {
+                        return Err(format!(
+                            "wide node {i} slot {s}: leaf block {} differs from triangle slots \
+                             {k}..{e}",
+                            child + j
+                        ));
+                    }
+                }
+                let child = first;
                 for k in child..child + count {
                     if std::mem::replace(&mut owned[k], true) {
                         return Err(format!("triangle slot {k} in two wide leaves"));
@@ -633,6 +809,9 @@ pub(crate) fn check<const N: usize>(
     }
     if let Some(k) = owned.iter().position(|v| !v) {
         return Err(format!("triangle slot {k} is in no wide leaf"));
+    }
+    if let Some(b) = block_used.iter().position(|v| !v) {
+        return Err(format!("leaf block {b} is in no wide leaf"));
     }
     Ok(())
 }

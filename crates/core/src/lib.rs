@@ -40,4 +40,4 @@ pub use params::{ParamError, ParamKind, ParamSet, ParamSpec, ParamType, ParamVal
 pub use stats::{
     Counter, CounterDef, CounterSet, NoStats, StatsSummary, TraversalStats, COUNTERS, N_COUNTERS,
 };
-pub use tri::{MollerTrumbore, TriTest, TriTestKind, Watertight};
+pub use tri::{Lanes4, MollerTrumbore, Tri4, TriTest, TriTestKind, Watertight};

@@ -41,6 +41,92 @@ pub trait TriTest: Send + Sync + 'static {
     /// Intersect the triangle with the ray, accepting `t` in `[ray.tmin, tmax)`. Returns
     /// `(t, u, v)` with `u, v` the barycentrics of `v1`, `v2`.
     fn intersect(pre: &Self::Pre, ray: &Ray, tri: &Triangle, tmax: f32) -> Option<(f32, f32, f32)>;
+    /// The same test on the four triangles of `tris` at once (SSE on x86-64, lane by lane
+    /// elsewhere), every lane with the scalar test's operations in the scalar test's order, so
+    /// that a lane in [`Lanes4::hit`] has bit for bit the `(t, u, v)` [`TriTest::intersect`]
+    /// returns for that triangle and `tmax`, and a lane in neither `hit` nor `redo` is a miss
+    /// of [`TriTest::intersect`]. Lanes the SIMD code cannot answer exactly are in
+    /// [`Lanes4::redo`]: the caller asks [`TriTest::intersect`] about them. Lanes past the
+    /// triangles of a partly filled block are answered too (and must be masked off).
+    fn intersect4(pre: &Self::Pre, ray: &Ray, tris: &Tri4, tmax: f32) -> Lanes4;
+    /// Whether lane `i` of `l`, a hit of `intersect4(pre, ray, tris, tmax0)`, is still a hit of
+    /// [`TriTest::intersect`] with a `tmax ≤ tmax0` (the closest hit so far, found meanwhile
+    /// in the same block): the test's `tmax` comparisons replayed on the lane's values. With it
+    /// a block's lanes resolved in order give exactly the scalar loop's answer.
+    fn still_hits(l: &Lanes4, i: usize, tmax: f32) -> bool;
+}
+
+/// Four triangles in structure-of-arrays layout for [`TriTest::intersect4`] (as Embree's
+/// `triangle4` blocks): `v[k][a][l]` is coordinate `a` of vertex `k` of lane `l`'s triangle.
+/// Unused lanes hold a degenerate triangle at the origin.
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Tri4 {
+    pub v: [[[f32; 4]; 3]; 3],
+}
+
+impl Tri4 {
+    /// The block of `tris` (at most four; lanes past them hold zeros).
+    pub fn new(tris: &[Triangle]) -> Tri4 {
+        assert!(tris.len() <= 4, "a Tri4 holds at most 4 triangles");
+        let mut b = Tri4::default();
+        for (l, t) in tris.iter().enumerate() {
+            for (k, v) in [t.v0, t.v1, t.v2].into_iter().enumerate() {
+                for a in 0..3 {
+                    b.v[k][a][l] = v[a];
+                }
+            }
+        }
+        b
+    }
+
+    /// Lane `l`'s triangle (bit for bit the one given to [`Tri4::new`]).
+    #[inline(always)]
+    pub fn lane(&self, l: usize) -> Triangle {
+        let v = |k: usize| Vec3::new(self.v[k][0][l], self.v[k][1][l], self.v[k][2][l]);
+        Triangle::new(v(0), v(1), v(2))
+    }
+}
+
+/// The answers of [`TriTest::intersect4`], lane `l` in bit `l` of the masks.
+#[derive(Clone, Copy, Debug)]
+pub struct Lanes4 {
+    /// Lanes hit within `[ray.tmin, tmax)`.
+    pub hit: u32,
+    /// Lanes to be tested again with [`TriTest::intersect`] (watertight: an edge function is
+    /// exactly zero, which the scalar test recomputes in double precision).
+    pub redo: u32,
+    /// Per lane: `t` and the barycentrics `u`, `v` (as [`TriTest::intersect`] returns them).
+    pub t: [f32; 4],
+    pub u: [f32; 4],
+    pub v: [f32; 4],
+    /// Watertight: the sign-normalised scaled distance `tt` and determinant `det` its `tmax`
+    /// comparison uses (unused by Möller–Trumbore).
+    pub tt: [f32; 4],
+    pub det: [f32; 4],
+}
+
+impl Lanes4 {
+    /// Lane by lane with the scalar test (the portable fallback): every lane it hits is put in
+    /// `redo`, so the caller's scalar re-test gives the answer.
+    #[allow(dead_code)]
+    fn by_lanes<T: TriTest>(pre: &T::Pre, ray: &Ray, tris: &Tri4, tmax: f32) -> Lanes4 {
+        let mut redo = 0;
+        for l in 0..4 {
+            if T::intersect(pre, ray, &tris.lane(l), tmax).is_some() {
+                redo |= 1 << l;
+            }
+        }
+        Lanes4 {
+            hit: 0,
+            redo,
+            t: [0.0; 4],
+            u: [0.0; 4],
+            v: [0.0; 4],
+            tt: [0.0; 4],
+            det: [0.0; 4],
+        }
+    }
 }
 
 /// Möller–Trumbore 1997, "Fast, minimum storage ray-triangle intersection", two-sided.
@@ -78,6 +164,22 @@ impl TriTest for MollerTrumbore {
         } else {
             None
         }
+    }
+
+    #[inline(always)]
+    fn intersect4(_: &(), ray: &Ray, tris: &Tri4, tmax: f32) -> Lanes4 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: SSE and SSE2 are part of x86-64.
+            unsafe { sse::moller_trumbore4(ray, tris, tmax) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        Lanes4::by_lanes::<Self>(&(), ray, tris, tmax)
+    }
+
+    #[inline(always)]
+    fn still_hits(l: &Lanes4, i: usize, tmax: f32) -> bool {
+        l.t[i] < tmax
     }
 }
 
@@ -178,6 +280,177 @@ impl TriTest for Watertight {
         // u weighs v0 (edge opposite), v weighs v1, w weighs v2 in Woop et al.'s convention.
         Some((t, v * inv, w * inv))
     }
+
+    #[inline(always)]
+    fn intersect4(p: &WatertightPre, ray: &Ray, tris: &Tri4, tmax: f32) -> Lanes4 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: SSE and SSE2 are part of x86-64.
+            unsafe { sse::watertight4(p, ray, tris, tmax) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        Lanes4::by_lanes::<Self>(p, ray, tris, tmax)
+    }
+
+    #[inline(always)]
+    fn still_hits(l: &Lanes4, i: usize, tmax: f32) -> bool {
+        // The scalar test's two `tmax` comparisons (the `tmin` ones do not depend on `tmax`),
+        // negated as the scalar test rejects: a NaN passes there too.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        let keep = !(l.tt[i] >= tmax * l.det[i]) && !(l.t[i] >= tmax);
+        keep
+    }
+}
+
+/// The 4-wide tests with SSE: each line is the scalar test's operation on four lanes (no fused
+/// multiply-add, IEEE division, ordered comparisons that are false for NaN as Rust's are).
+#[cfg(target_arch = "x86_64")]
+mod sse {
+    use super::{Lanes4, Tri4, WatertightPre};
+    use crate::geom::Ray;
+    use std::arch::x86_64::*;
+
+    #[inline(always)]
+    unsafe fn store(v: __m128) -> [f32; 4] {
+        let mut a = [0.0f32; 4];
+        // SAFETY: four floats into a four-float array.
+        unsafe { _mm_storeu_ps(a.as_mut_ptr(), v) };
+        a
+    }
+
+    /// `x != 0 && x` finite: `0 < |x| < inf` (false for NaN).
+    #[inline(always)]
+    unsafe fn nonzero_finite(x: __m128) -> __m128 {
+        unsafe {
+            let abs = _mm_andnot_ps(_mm_set1_ps(-0.0), x);
+            _mm_and_ps(
+                _mm_cmpgt_ps(abs, _mm_setzero_ps()),
+                _mm_cmplt_ps(abs, _mm_set1_ps(f32::INFINITY)),
+            )
+        }
+    }
+
+    /// [`super::Watertight::intersect`] on four lanes.
+    #[inline(always)]
+    pub(super) unsafe fn watertight4(p: &WatertightPre, ray: &Ray, b: &Tri4, tmax: f32) -> Lanes4 {
+        // SAFETY: aligned loads of the block's rows; SSE/SSE2 only.
+        unsafe {
+            let o = ray.origin.to_array();
+            let rel =
+                |k: usize, a: usize| _mm_sub_ps(_mm_load_ps(b.v[k][a].as_ptr()), _mm_set1_ps(o[a]));
+            let (sx, sy, sz) = (_mm_set1_ps(p.sx), _mm_set1_ps(p.sy), _mm_set1_ps(p.sz));
+            let (az, bz, cz) = (rel(0, p.kz), rel(1, p.kz), rel(2, p.kz));
+            let ax = _mm_sub_ps(rel(0, p.kx), _mm_mul_ps(sx, az));
+            let ay = _mm_sub_ps(rel(0, p.ky), _mm_mul_ps(sy, az));
+            let bx = _mm_sub_ps(rel(1, p.kx), _mm_mul_ps(sx, bz));
+            let by = _mm_sub_ps(rel(1, p.ky), _mm_mul_ps(sy, bz));
+            let cx = _mm_sub_ps(rel(2, p.kx), _mm_mul_ps(sx, cz));
+            let cy = _mm_sub_ps(rel(2, p.ky), _mm_mul_ps(sy, cz));
+            let u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
+            let v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
+            let w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
+            let zero = _mm_setzero_ps();
+            // An exactly zero edge function: the scalar test recomputes in f64.
+            let redo = _mm_or_ps(
+                _mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)),
+                _mm_cmpeq_ps(w, zero),
+            );
+            let neg = _mm_or_ps(
+                _mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)),
+                _mm_cmplt_ps(w, zero),
+            );
+            let pos = _mm_or_ps(
+                _mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)),
+                _mm_cmpgt_ps(w, zero),
+            );
+            let det = _mm_add_ps(_mm_add_ps(u, v), w);
+            let (azs, bzs, czs) = (_mm_mul_ps(sz, az), _mm_mul_ps(sz, bz), _mm_mul_ps(sz, cz));
+            let tt = _mm_add_ps(
+                _mm_add_ps(_mm_mul_ps(u, azs), _mm_mul_ps(v, bzs)),
+                _mm_mul_ps(w, czs),
+            );
+            // `det < 0`: flip both signs (exact); lanes with det = 0 or NaN are rejected anyway.
+            let flip = _mm_and_ps(_mm_cmplt_ps(det, zero), _mm_set1_ps(-0.0));
+            let (tt_s, det_s) = (_mm_xor_ps(tt, flip), _mm_xor_ps(det, flip));
+            let (tmin_v, tmax_v) = (_mm_set1_ps(ray.tmin), _mm_set1_ps(tmax));
+            let out1 = _mm_or_ps(
+                _mm_cmplt_ps(tt_s, _mm_mul_ps(tmin_v, det_s)),
+                _mm_cmpge_ps(tt_s, _mm_mul_ps(tmax_v, det_s)),
+            );
+            let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
+            let t = _mm_mul_ps(tt, inv);
+            let out2 = _mm_or_ps(_mm_cmplt_ps(t, tmin_v), _mm_cmpge_ps(t, tmax_v));
+            let reject = _mm_or_ps(_mm_or_ps(redo, _mm_and_ps(neg, pos)), _mm_or_ps(out1, out2));
+            let hit = _mm_andnot_ps(reject, nonzero_finite(det));
+            Lanes4 {
+                hit: _mm_movemask_ps(hit) as u32,
+                redo: _mm_movemask_ps(redo) as u32,
+                t: store(t),
+                u: store(_mm_mul_ps(v, inv)),
+                v: store(_mm_mul_ps(w, inv)),
+                tt: store(tt_s),
+                det: store(det_s),
+            }
+        }
+    }
+
+    /// [`super::MollerTrumbore::intersect`] on four lanes (glam's `dot` and `cross` spelt out
+    /// in their order of operations).
+    #[inline(always)]
+    pub(super) unsafe fn moller_trumbore4(ray: &Ray, b: &Tri4, tmax: f32) -> Lanes4 {
+        // SAFETY: aligned loads of the block's rows; SSE/SSE2 only.
+        unsafe {
+            let row = |k: usize, a: usize| _mm_load_ps(b.v[k][a].as_ptr());
+            let v0 = [row(0, 0), row(0, 1), row(0, 2)];
+            let e1 = [0, 1, 2].map(|a| _mm_sub_ps(row(1, a), v0[a]));
+            let e2 = [0, 1, 2].map(|a| _mm_sub_ps(row(2, a), v0[a]));
+            let d = ray.dir.to_array().map(|x| _mm_set1_ps(x));
+            let o = ray.origin.to_array().map(|x| _mm_set1_ps(x));
+            // glam: cross(a, b) = (a.y·b.z − b.y·a.z, a.z·b.x − b.z·a.x, a.x·b.y − b.x·a.y),
+            // dot(a, b) = (a.x·b.x + a.y·b.y) + a.z·b.z.
+            let cross = |a: &[__m128; 3], b: &[__m128; 3]| {
+                [
+                    _mm_sub_ps(_mm_mul_ps(a[1], b[2]), _mm_mul_ps(b[1], a[2])),
+                    _mm_sub_ps(_mm_mul_ps(a[2], b[0]), _mm_mul_ps(b[2], a[0])),
+                    _mm_sub_ps(_mm_mul_ps(a[0], b[1]), _mm_mul_ps(b[0], a[1])),
+                ]
+            };
+            let dot = |a: &[__m128; 3], b: &[__m128; 3]| {
+                _mm_add_ps(
+                    _mm_add_ps(_mm_mul_ps(a[0], b[0]), _mm_mul_ps(a[1], b[1])),
+                    _mm_mul_ps(a[2], b[2]),
+                )
+            };
+            let p = cross(&d, &e2);
+            let det = dot(&e1, &p);
+            let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
+            let s = [0, 1, 2].map(|a| _mm_sub_ps(o[a], v0[a]));
+            let u = _mm_mul_ps(dot(&s, &p), inv);
+            let (zero, one) = (_mm_setzero_ps(), _mm_set1_ps(1.0));
+            let u_in = _mm_and_ps(_mm_cmpge_ps(u, zero), _mm_cmple_ps(u, one));
+            let q = cross(&s, &e1);
+            let v = _mm_mul_ps(dot(&d, &q), inv);
+            let v_out = _mm_or_ps(_mm_cmplt_ps(v, zero), _mm_cmpgt_ps(_mm_add_ps(u, v), one));
+            let t = _mm_mul_ps(dot(&e2, &q), inv);
+            let t_in = _mm_and_ps(
+                _mm_cmpge_ps(t, _mm_set1_ps(ray.tmin)),
+                _mm_cmplt_ps(t, _mm_set1_ps(tmax)),
+            );
+            let hit = _mm_andnot_ps(
+                v_out,
+                _mm_and_ps(_mm_and_ps(nonzero_finite(det), u_in), t_in),
+            );
+            Lanes4 {
+                hit: _mm_movemask_ps(hit) as u32,
+                redo: 0,
+                t: store(t),
+                u: store(u),
+                v: store(v),
+                tt: [0.0; 4],
+                det: [0.0; 4],
+            }
+        }
+    }
 }
 
 /// The geometric normal of `tri` facing against `dir` (for offsetting secondary rays).
@@ -254,6 +527,111 @@ mod tests {
                 "ray {i} slipped through the shared edge"
             );
         }
+    }
+
+    /// `intersect4` resolved as the wide BVH resolves it (lanes in order, `still_hits` against
+    /// the closest so far, `redo` lanes by the scalar test) against the scalar loop.
+    fn four_equals_scalar<T: TriTest>(tris: &[Triangle], ray: &Ray) -> usize {
+        let pre = T::prepare(ray);
+        let mut hits = 0;
+        for chunk in tris.chunks(4) {
+            let block = Tri4::new(chunk);
+            for (l, t) in chunk.iter().enumerate() {
+                assert_eq!(block.lane(l), *t);
+            }
+            // Scalar loop, closest hit.
+            let mut best = (ray.tmax, None);
+            for (l, t) in chunk.iter().enumerate() {
+                if let Some(h) = T::intersect(&pre, ray, t, best.0) {
+                    best = (h.0, Some((l, h)));
+                }
+            }
+            let l4 = T::intersect4(&pre, ray, &block, ray.tmax);
+            let mut four = (ray.tmax, None);
+            let mut cand = (l4.hit | l4.redo) & ((1 << chunk.len()) - 1);
+            while cand != 0 {
+                let i = cand.trailing_zeros() as usize;
+                cand &= cand - 1;
+                let h = if l4.redo & (1 << i) != 0 {
+                    T::intersect(&pre, ray, &chunk[i], four.0)
+                } else {
+                    T::still_hits(&l4, i, four.0).then_some((l4.t[i], l4.u[i], l4.v[i]))
+                };
+                if let Some(h) = h {
+                    four = (h.0, Some((i, h)));
+                }
+            }
+            let bits = |x: Option<(usize, (f32, f32, f32))>| {
+                x.map(|(i, h)| (i, h.0.to_bits(), h.1.to_bits(), h.2.to_bits()))
+            };
+            assert_eq!(bits(four.1), bits(best.1), "{ray:?} {chunk:?}");
+            // Every lane on its own: hit lanes carry the scalar answer, other lanes miss.
+            for (l, t) in chunk.iter().enumerate() {
+                let s = T::intersect(&pre, ray, t, ray.tmax);
+                if l4.redo & (1 << l) == 0 {
+                    let got = (l4.hit & (1 << l) != 0).then_some((l4.t[l], l4.u[l], l4.v[l]));
+                    assert_eq!(bits(got.map(|h| (l, h))), bits(s.map(|h| (l, h))));
+                }
+                hits += s.is_some() as usize;
+            }
+        }
+        hits
+    }
+
+    #[test]
+    fn four_wide_tests_equal_the_scalar_ones() {
+        // A deterministic generator (no dependency): triangles around the origin, some sharing
+        // edges and vertices, some degenerate; rays from outside, some through vertices and
+        // edges, axis-parallel, and finite segments.
+        let mut s = 0x9e3779b97f4a7c15u64;
+        let mut rnd = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        let mut tris = Vec::new();
+        for i in 0..400 {
+            let c = Vec3::new(rnd(), rnd(), rnd());
+            let a = c + Vec3::new(rnd(), rnd(), rnd()) * 0.5;
+            let b = c + Vec3::new(rnd(), rnd(), rnd()) * 0.5;
+            let t = match i % 7 {
+                // Shares the edge c–a of the previous triangle.
+                0 if !tris.is_empty() => {
+                    let p: &Triangle = tris.last().unwrap();
+                    Triangle::new(p.v0, p.v1, b)
+                }
+                // Degenerate.
+                1 => Triangle::new(c, a, a),
+                _ => Triangle::new(c, a, b),
+            };
+            tris.push(t);
+        }
+        let mut hits = 0;
+        for k in 0..3000 {
+            let o = Vec3::new(rnd(), rnd(), rnd()) * 3.0;
+            let tri = tris[k % tris.len()];
+            let target = match k % 4 {
+                0 => tri.v0,
+                1 => (tri.v0 + tri.v1) * 0.5,
+                _ => Vec3::new(rnd(), rnd(), rnd()),
+            };
+            let mut d = (target - o).normalize_or_zero();
+            if k % 9 == 0 {
+                d = [Vec3::X, -Vec3::Y, Vec3::Z][k % 3];
+            }
+            if d == Vec3::ZERO {
+                continue;
+            }
+            let ray = if k % 5 == 0 {
+                Ray::segment(o, d, 0.5, 3.0 + rnd())
+            } else {
+                Ray::new(o, d)
+            };
+            hits += four_equals_scalar::<Watertight>(&tris, &ray);
+            hits += four_equals_scalar::<MollerTrumbore>(&tris, &ray);
+        }
+        assert!(hits > 1000, "too few hits ({hits}) to mean anything");
     }
 
     #[test]
