@@ -442,6 +442,13 @@ pub fn parse_with(
     if raw.scenes.is_empty() {
         return Err(cx.err(0..0, "scene", "the config names no [[scene]]"));
     }
+    if ov.shard.is_some() && raw.dynamic.is_some() {
+        return Err(cx.err(
+            0..0,
+            "dynamic",
+            "a [dynamic] run measures frames of one scene and cannot be sharded: drop --shard",
+        ));
+    }
     let shard = ov
         .shard
         .map(|sel| plan_shard(sel, &raw, &structures, &run_settings, &scenes_root));
