@@ -30,6 +30,23 @@ fn no_hit(r: Ray) -> Best {
     return Best(r.tmax, MISS_PRIM, 0.0, 0.0);
 }
 
+// The root's box test that opens the stack-based walks (ordered.wgsl, stack.wgsl), counted as
+// tb_rtree's CPU walks count it: one box, then one step when the root is entered. False for an
+// empty tree (nothing counted) or a ray that misses the root's box.
+fn enter_root(r: Ray, rb: RayBox, st: ptr<function, Stats>) -> bool {
+    if meta_.counts.y == 0u {
+        return false;
+    }
+    (*st).boxes += 1u;
+    let root = nodes[0];
+    let rs = slab(rb, root.bmin, root.bmax, r.tmin, r.tmax);
+    if !(rs.x <= rs.y) {
+        return false;
+    }
+    (*st).steps += 1u;
+    return true;
+}
+
 fn record(b: Best) -> Hit {
     if b.slot == MISS_PRIM {
         return miss();

@@ -9,19 +9,12 @@
 // steps = interior + leaves.
 
 fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
-    if meta_.counts.y == 0u {
+    let rb = ray_box(r);
+    if !enter_root(r, rb, st) {
         return miss();
     }
     let first_leaf = meta_.counts.z;
-    let rb = ray_box(r);
     var best = no_hit(r);
-    (*st).boxes += 1u;
-    let root = nodes[0];
-    let rs = slab(rb, root.bmin, root.bmax, r.tmin, best.t);
-    if !(rs.x <= rs.y) {
-        return miss();
-    }
-    (*st).steps += 1u;
     let p = prepare(r);
     // Pending entries: (slot, bits of the entry distance).
     var stack: array<vec2<u32>, STACK_SIZE>;
