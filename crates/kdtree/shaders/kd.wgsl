@@ -117,6 +117,16 @@ fn clip(r: Ray, rb: RayBox) -> vec2<f32> {
     return slab(rb, cell_min(), cell_max(), r.tmin, r.tmax);
 }
 
+// traverse.rs `start`: the start cell's test (one box), the ray clipped to the cell; an
+// interval with x > y when the tree is empty or the ray misses the cell.
+fn enter(r: Ray, rb: RayBox, st: ptr<function, Stats>) -> vec2<f32> {
+    (*st).boxes += 1u;
+    if meta_.counts.y == 0u {
+        return vec2<f32>(1.0, 0.0);
+    }
+    return clip(r, rb);
+}
+
 // `recursive-direction` from node `root` (review §3.2, Alg. 2; traverse.rs
 // `RecursiveDirection`): the stack-based traversal with near/far by the sign of the direction,
 // the far child pushed with its entry and exit distances when the ray crosses the plane,
@@ -125,12 +135,8 @@ fn clip(r: Ray, rb: RayBox) -> vec2<f32> {
 // is viable on GPUs; review §5.2). Counters as the CPU: boxes 1 (the start cell),
 // interior/planes/steps per interior node, leaves/steps per leaf, prims per triangle test.
 fn recursive(r: Ray, root: u32, st: ptr<function, Stats>) -> Hit {
-    (*st).boxes += 1u;
-    if meta_.counts.y == 0u {
-        return miss();
-    }
     let rb = ray_box(r);
-    let s = clip(r, rb);
+    let s = enter(r, rb, st);
     if !(s.x <= s.y) {
         return miss();
     }

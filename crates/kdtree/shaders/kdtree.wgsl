@@ -531,13 +531,8 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     if KERNEL == K_RECURSIVE {
         return recursive(r, header[0], st);
     }
-    // traverse.rs `start`: the start cell's test, the ray clipped to it.
-    (*st).boxes += 1u;
-    if meta_.counts.y == 0u {
-        return miss();
-    }
     let rb = ray_box(r);
-    let s = clip(r, rb);
+    let s = enter(r, rb, st);
     if !(s.x <= s.y) {
         return miss();
     }
