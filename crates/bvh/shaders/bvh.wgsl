@@ -21,17 +21,14 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     }
     let rb = ray_box(r);
     let tmin = r.tmin;
-    var best_t = r.tmax;
+    var best = Best(r.tmax, MISS_PRIM, 0.0, 0.0);
     (*st).boxes += 1u;
     let root = nodes[0];
-    let rs = slab(rb, root.bmin, root.bmax, tmin, best_t);
+    let rs = slab(rb, root.bmin, root.bmax, tmin, best.t);
     if !(rs.x <= rs.y) {
         return miss();
     }
     let p = prepare(r);
-    var hit_slot = MISS_PRIM;
-    var hit_u = 0.0;
-    var hit_v = 0.0;
     // Pending far children: (node index, bits of the entry distance).
     var stack: array<vec2<u32>, STACK_SIZE>;
     var sp = 0u;
@@ -44,8 +41,8 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             let l = node.index;
             let a = nodes[l];
             let b = nodes[l + 1u];
-            let sa = slab(rb, a.bmin, a.bmax, tmin, best_t);
-            let sb = slab(rb, b.bmin, b.bmax, tmin, best_t);
+            let sa = slab(rb, a.bmin, a.bmax, tmin, best.t);
+            let sb = slab(rb, b.bmin, b.bmax, tmin, best.t);
             let hit_a = sa.x <= sa.y;
             let hit_b = sb.x <= sb.y;
             if hit_a {
@@ -67,26 +64,8 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                 continue;
             }
         } else {
-            (*st).leaves += 1u;
-            (*st).steps += 1u;
-            let first = node.index;
-            if !ANY {
-                (*st).prims += node.count;
-            }
-            for (var k = 0u; k < node.count; k++) {
-                if ANY {
-                    (*st).prims += 1u;
-                }
-                let h = intersect(p, r, first + k, best_t);
-                if h.w != 0.0 {
-                    if ANY {
-                        return Hit(h.x, prim_ids[first + k], h.y, h.z);
-                    }
-                    best_t = h.x;
-                    hit_slot = first + k;
-                    hit_u = h.y;
-                    hit_v = h.z;
-                }
+            if leaf(node.index, node.count, p, r, &best, st) {
+                return record(best);
             }
         }
         // Pop the next pending subtree, skipping those entered beyond the closest hit.
@@ -97,7 +76,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             }
             sp -= 1u;
             let e = stack[sp];
-            if ANY || bitcast<f32>(e.y) <= best_t * EXIT_SCALE {
+            if ANY || bitcast<f32>(e.y) <= best.t * EXIT_SCALE {
                 node = nodes[e.x];
                 popped = true;
                 break;
@@ -107,8 +86,5 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             break;
         }
     }
-    if hit_slot == MISS_PRIM {
-        return miss();
-    }
-    return Hit(best_t, prim_ids[hit_slot], hit_u, hit_v);
+    return record(best);
 }

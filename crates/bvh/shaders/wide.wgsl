@@ -37,18 +37,15 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     }
     let rb = ray_box(r);
     let tmin = r.tmin;
-    var best_t = r.tmax;
+    var best = Best(r.tmax, MISS_PRIM, 0.0, 0.0);
     (*st).boxes += 1u;
     let rmin = vec3<f32>(root_node[0], root_node[1], root_node[2]);
     let rmax = vec3<f32>(root_node[4], root_node[5], root_node[6]);
-    let rs = slab(rb, rmin, rmax, tmin, best_t);
+    let rs = slab(rb, rmin, rmax, tmin, best.t);
     if !(rs.x <= rs.y) {
         return miss();
     }
     let p = prepare(r);
-    var hit_slot = MISS_PRIM;
-    var hit_u = 0.0;
-    var hit_v = 0.0;
     // Pending children: (node index or first triangle, triangle count) and entry distance.
     var stack: array<vec2<u32>, STACK_SIZE>;
     var stack_t: array<f32, STACK_SIZE>;
@@ -74,7 +71,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                     wf(base + 4u * WIDTH + s),
                     wf(base + 5u * WIDTH + s)
                 );
-                let h = slab(rb, bmin, bmax, tmin, best_t);
+                let h = slab(rb, bmin, bmax, tmin, best.t);
                 if !(h.x <= h.y) {
                     continue;
                 }
@@ -118,26 +115,8 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                 continue;
             }
         } else {
-            (*st).leaves += 1u;
-            (*st).steps += 1u;
-            let first = cur.x;
-            if !ANY {
-                (*st).prims += cur.y;
-            }
-            for (var k = 0u; k < cur.y; k++) {
-                if ANY {
-                    (*st).prims += 1u;
-                }
-                let h = intersect(p, r, first + k, best_t);
-                if h.w != 0.0 {
-                    if ANY {
-                        return Hit(h.x, prim_ids[first + k], h.y, h.z);
-                    }
-                    best_t = h.x;
-                    hit_slot = first + k;
-                    hit_u = h.y;
-                    hit_v = h.z;
-                }
+            if leaf(cur.x, cur.y, p, r, &best, st) {
+                return record(best);
             }
         }
         // Pop the next pending child, skipping those entered beyond the closest hit.
@@ -147,7 +126,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                 break;
             }
             sp -= 1u;
-            if ANY || stack_t[sp] <= best_t * EXIT_SCALE {
+            if ANY || stack_t[sp] <= best.t * EXIT_SCALE {
                 cur = stack[sp];
                 popped = true;
                 break;
@@ -157,8 +136,5 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             break;
         }
     }
-    if hit_slot == MISS_PRIM {
-        return miss();
-    }
-    return Hit(best_t, prim_ids[hit_slot], hit_u, hit_v);
+    return record(best);
 }

@@ -343,7 +343,10 @@ impl Bvh {
     fn gpu_wide(&self, name: &'static str, bytes: Vec<u8>, n: usize, width: u32) -> GpuProgram<'_> {
         GpuProgram {
             name,
-            source: include_str!("../shaders/wide.wgsl"),
+            source: concat!(
+                include_str!("../shaders/common.wgsl"),
+                include_str!("../shaders/wide.wgsl")
+            ),
             triangles: Cow::Borrowed(&self.triangles),
             buffers: vec![
                 GpuBuffer {
@@ -390,7 +393,10 @@ impl Bvh {
         }
         GpuProgram {
             name: "bvh/ordered",
-            source: include_str!("../shaders/bvh.wgsl"),
+            source: concat!(
+                include_str!("../shaders/common.wgsl"),
+                include_str!("../shaders/bvh.wgsl")
+            ),
             triangles: Cow::Borrowed(&self.triangles),
             buffers: vec![
                 GpuBuffer {
