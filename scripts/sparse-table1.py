@@ -2,8 +2,8 @@
 """Our Table 1 of Havran and Bittner 2007 ("Stackless Ray Traversal for kD-Trees with Sparse
 Boxes") beside the paper's, from a results.csv of configs/sparse-boxes.toml.
 
-Rows of structure `sparse-boxes` are grouped by scene (the label before `@`: one scene table
-per view) and traversal; per-ray counters are averaged over the views weighted by their rays,
+Rows of structure `sparse-boxes` are grouped by scene (the label before `@`: the rows of each
+of a table's `views`) and traversal; per-ray counters are averaged over the views weighted by their rays,
 T_R is the mean trace time per view in seconds. N_B and M_KD come from `build_stats` (`n_b`;
 `m_kd_bytes` for BTR/SLTR, `m_kd_htr_bytes` for HTR/SEQ, which read no box). Then the paper's
 claims, each with our ratio.

@@ -16,10 +16,21 @@ pub struct Batch {
 
 /// Generate the batches a scene asks for, in the order primary, shadow, ao, path1..k, random,
 /// stress. Secondary rays start at hits found with the watertight test by the default BVH, so
-/// they are the same whatever structures and triangle tests the experiment runs.
-pub fn generate_batches(spec: &SceneSpec, seed: u64, notes: &mut Vec<String>) -> Vec<Batch> {
+/// they are the same whatever structures and triangle tests the experiment runs; `gen` holds
+/// that BVH once built, so the views of one table build it once. `first_view`: random and
+/// stress rays do not depend on the camera, so only a table's first view traces them.
+pub fn generate_batches(
+    spec: &SceneSpec,
+    seed: u64,
+    gen: &mut Option<Box<dyn tb_core::Accel>>,
+    first_view: bool,
+    notes: &mut Vec<String>,
+) -> Vec<Batch> {
     let tris = &spec.scene.triangles;
-    let wants = |k: RayKindSpec| spec.rays.contains(&k);
+    let wants = |k: RayKindSpec| {
+        spec.rays.contains(&k)
+            && (first_view || !matches!(k, RayKindSpec::Random | RayKindSpec::Stress))
+    };
     let secondary =
         wants(RayKindSpec::Shadow) || wants(RayKindSpec::Ao) || wants(RayKindSpec::Path);
     let mut out = Vec::new();
@@ -36,11 +47,13 @@ pub fn generate_batches(spec: &SceneSpec, seed: u64, notes: &mut Vec<String>) ->
         });
     }
     if secondary {
-        notes.push(format!(
-            "{}: secondary rays start at primary hits found by bvh (default params, watertight test)",
-            spec.label
-        ));
-        let gen = crate::registry::generator(tris);
+        if first_view {
+            notes.push(format!(
+                "{}: secondary rays start at primary hits found by bvh (default params, watertight test)",
+                spec.table
+            ));
+        }
+        let gen = gen.get_or_insert_with(|| crate::registry::generator(tris));
         let hits = tb_core::par::trace(
             gen.as_ref(),
             0,

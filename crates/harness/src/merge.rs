@@ -171,8 +171,13 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
                 dropped += 1;
                 continue;
             }
+            // A view's row (`TABLE@VIEW`) belongs to its table's unit.
+            let table = match r.scene.rsplit_once('@') {
+                Some((t, _)) if !scene_first.contains_key(r.scene.as_str()) => t,
+                _ => r.scene.as_str(),
+            };
             let u = unit_of
-                .get(&(r.scene.as_str(), r.structure.as_str(), r.params.as_str()))
+                .get(&(table, r.structure.as_str(), r.params.as_str()))
                 .copied()
                 .unwrap_or(usize::MAX);
             rows.push((u, rows.len(), r.clone()));

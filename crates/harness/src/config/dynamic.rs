@@ -102,6 +102,16 @@ pub(super) fn check(
         }
     };
     for s in scenes {
+        if s.label != s.table {
+            return Err(cx.err(
+                raw.span(),
+                "dynamic",
+                format!(
+                    "scene `{}`: a dynamic experiment traces one view per scene: drop `views`",
+                    s.table
+                ),
+            ));
+        }
         let src = &s.scene.source;
         if !src.starts_with("builtin:") || src.contains("frame=") {
             return Err(cx.err(

@@ -20,6 +20,7 @@ use crate::error::HarnessError;
 use crate::registry::Registry;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use tb_core::Vec3;
 use tb_core::{Family, ParamSet, TraversalInfo};
 use tb_scene::{Camera, PixelOrder, Scene};
@@ -84,6 +85,20 @@ struct RawScene {
     optional: Option<bool>,
     enclose: Option<bool>,
     inset: Option<Spanned<RawInset>>,
+    views: Option<Spanned<Vec<RawView>>>,
+}
+
+/// One entry of `views = [...]`: a viewpoint of the scene table (eye, target, up, fov over
+/// the table's camera, and its light), traced on the same load and build as the others.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawView {
+    name: Option<String>,
+    eye: Option<[f32; 3]>,
+    target: Option<[f32; 3]>,
+    up: Option<[f32; 3]>,
+    fov: Option<f32>,
+    light: Option<[f32; 3]>,
 }
 
 /// `inset = { scale = 0.01, at = [x, y, z] }`: the scene inside itself (Figure 8 of
@@ -210,11 +225,17 @@ impl RayKindSpec {
     }
 }
 
-/// A checked scene entry, loaded.
+/// A checked scene entry, loaded: one per scene table, or one per view of a table with
+/// `views` (the views share the loaded scene, and the runner builds each structure once for
+/// all of them).
 pub struct SceneSpec {
-    /// Label used in result rows (config `name`, else derived from the source).
+    /// Label used in result rows: the table's label (config `name`, else derived from the
+    /// source), `TABLE@VIEW` for a view of a table with `views`.
     pub label: String,
-    pub scene: Scene,
+    /// The scene table's label: equal to `label` without views; the views of one table share
+    /// it, their scene and their builds (and form one shard unit with each build).
+    pub table: String,
+    pub scene: Arc<Scene>,
     pub rays: Vec<RayKindSpec>,
     pub camera: Option<Camera>,
     pub light: Option<Vec3>,
@@ -464,18 +485,20 @@ pub fn parse_with(
             continue;
         }
         match scenes::check_scene(&cx, s, &scenes_root, validate, progress)? {
-            Ok(spec) => {
-                if scenes.iter().any(|o| o.label == spec.label) {
-                    return Err(cx.err(
-                        s.source.span(),
-                        "scene.name",
-                        format!(
-                            "two scenes are labelled `{}`; give one a `name`",
-                            spec.label
-                        ),
-                    ));
+            Ok(specs) => {
+                for spec in specs {
+                    if scenes.iter().any(|o| o.label == spec.label) {
+                        return Err(cx.err(
+                            s.source.span(),
+                            "scene.name",
+                            format!(
+                                "two scenes are labelled `{}`; give one a `name`",
+                                spec.label
+                            ),
+                        ));
+                    }
+                    scenes.push(spec)
                 }
-                scenes.push(spec)
             }
             Err(note) => skipped_scenes.push(note),
         }

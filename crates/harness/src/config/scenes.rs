@@ -1,21 +1,24 @@
 //! The `[[scene]]` tables: ray kinds, camera (over the scene's default view), light, AO,
 //! path and random settings; the scene loaded.
 
-use super::{parse_validate, scene_label, Ctx, RawScene, RayKindSpec, SceneSpec, Validate};
+use super::{
+    parse_validate, scene_label, Ctx, RawScene, RawView, RayKindSpec, SceneSpec, Validate,
+};
 use crate::error::HarnessError;
 use std::path::Path;
+use std::sync::Arc;
 use tb_core::Vec3;
 use tb_scene::{Camera, View};
 
-/// Check one scene table and load the scene: `Ok(Err(note))` when an optional file scene is
-/// absent and skipped.
+/// Check one scene table and load the scene: one spec, or one per entry of `views` (sharing
+/// the loaded scene); `Ok(Err(note))` when an optional file scene is absent and skipped.
 pub(super) fn check_scene(
     cx: &Ctx,
     s: &RawScene,
     scenes_root: &Path,
     validate: Validate,
     progress: &mut dyn FnMut(&str),
-) -> Result<Result<SceneSpec, String>, HarnessError> {
+) -> Result<Result<Vec<SceneSpec>, String>, HarnessError> {
     let src = s.source.get_ref();
     let span = s.source.span();
     let mut kinds = Vec::new();
@@ -90,13 +93,56 @@ pub(super) fn check_scene(
             RayKindSpec::Primary | RayKindSpec::Shadow | RayKindSpec::Ao | RayKindSpec::Path
         )
     });
-    let camera = check_camera(cx, s, view.as_ref())?;
-    if needs_camera && camera.is_none() {
-        return Err(cx.err(
-            span,
-            "scene.camera",
-            "primary, shadow, ao and path rays need a camera: this scene has no default view",
-        ));
+    let table = label_of(s);
+    let table_light = s
+        .light
+        .map(Vec3::from)
+        .or(view.as_ref().and_then(|v| v.light));
+    // The viewpoints: the table's own camera and light, or each entry of `views` over them.
+    let views: Vec<(String, Option<Camera>, Option<Vec3>)> = match &s.views {
+        None => vec![(
+            table.clone(),
+            check_camera(cx, s, view.as_ref(), None)?,
+            table_light,
+        )],
+        Some(vs) => {
+            if vs.get_ref().is_empty() {
+                return Err(cx.err(vs.span(), "scene.views", "needs at least one view"));
+            }
+            let mut out: Vec<(String, Option<Camera>, Option<Vec3>)> = Vec::new();
+            for (i, v) in vs.get_ref().iter().enumerate() {
+                let name = v.name.clone().unwrap_or_else(|| (i + 1).to_string());
+                if name.is_empty() || name.contains(['@', '/', '\\']) || name.trim() != name {
+                    return Err(cx.err(
+                        vs.span(),
+                        "scene.views.name",
+                        format!("view name `{name}`: give a non-empty name without `@`, `/`, `\\` or surrounding spaces"),
+                    ));
+                }
+                let label = format!("{table}@{name}");
+                if out.iter().any(|(l, _, _)| *l == label) {
+                    return Err(cx.err(
+                        vs.span(),
+                        "scene.views.name",
+                        format!("two views are named `{name}`"),
+                    ));
+                }
+                let cam = check_camera(cx, s, view.as_ref(), Some((v, &name)))?;
+                out.push((label, cam, v.light.map(Vec3::from).or(table_light)));
+            }
+            out
+        }
+    };
+    if needs_camera {
+        if let Some((label, _, _)) = views.iter().find(|(_, c, _)| c.is_none()) {
+            return Err(cx.err(
+                span,
+                "scene.camera",
+                format!(
+                    "{label}: primary, shadow, ao and path rays need a camera: this scene has no default view"
+                ),
+            ));
+        }
     }
     if kinds.contains(&RayKindSpec::Stress) && scene.own_rays.is_empty() {
         return Err(cx.err(
@@ -105,15 +151,15 @@ pub(super) fn check_scene(
             "ray kind `stress` needs a stress scene (builtin:stress/NAME) that comes with its own rays",
         ));
     }
-    let light = s
-        .light
-        .map(Vec3::from)
-        .or(view.as_ref().and_then(|v| v.light));
     let enclosed = s.enclose == Some(true);
     if enclosed {
-        // Torres et al. 2012 §6: the Bunny inside a box, so that no ray leaves the scene.
-        let mut points: Vec<Vec3> = camera.iter().map(|c| c.eye).collect();
-        points.extend(light);
+        // Torres et al. 2012 §6: the Bunny inside a box, so that no ray leaves the scene
+        // (every view's eye and light inside it).
+        let mut points: Vec<Vec3> = Vec::new();
+        for (_, c, l) in &views {
+            points.extend(c.iter().map(|c| c.eye));
+            points.extend(*l);
+        }
         scene.enclose(&points, 0.05);
     }
     let diag = scene.bounds.diagonal();
@@ -137,23 +183,27 @@ pub(super) fn check_scene(
     if random_count == 0 || random_count > 1 << 28 {
         return Err(cx.err(span, "scene.random.count", "must be in 1..=2^28"));
     }
-    let label = label_of(s);
     let scene_validate = match &s.validate {
         None => validate,
         Some(v) => parse_validate(cx, v, "scene.validate")?,
     };
-    Ok(Ok(SceneSpec {
-        label,
-        scene,
-        rays: kinds,
-        camera,
-        light,
-        ao_samples,
-        ao_distance,
-        bounces,
-        random_count,
-        validate: scene_validate,
-    }))
+    let scene = Arc::new(scene);
+    Ok(Ok(views
+        .into_iter()
+        .map(|(label, camera, light)| SceneSpec {
+            label,
+            table: table.clone(),
+            scene: scene.clone(),
+            rays: kinds.clone(),
+            camera,
+            light,
+            ao_samples,
+            ao_distance,
+            bounces,
+            random_count,
+            validate: scene_validate,
+        })
+        .collect()))
 }
 
 /// The label of a scene table: its `name`, else derived from the source (`-boxed` when
@@ -206,8 +256,17 @@ pub(super) fn estimate(
     if kinds.is_empty() {
         kinds.push(RayKindSpec::Primary);
     }
+    // Every view traces the camera's batches; random and stress rays, which do not depend on
+    // the camera, only the first view.
+    let views = s.views.as_ref().map_or(1, |v| v.get_ref().len().max(1));
     let mut batch_rays = Vec::new();
     for k in kinds {
+        let per_view = if matches!(k, RayKindSpec::Random | RayKindSpec::Stress) {
+            1
+        } else {
+            views
+        };
+        let start = batch_rays.len();
         match k {
             RayKindSpec::Primary | RayKindSpec::Shadow => batch_rays.push(pixels),
             RayKindSpec::Ao => {
@@ -221,6 +280,10 @@ pub(super) fn estimate(
                 batch_rays.push(s.random.as_ref().map_or(1 << 16, |r| r.count) as u64)
             }
             RayKindSpec::Stress => batch_rays.push(1000),
+        }
+        let one: Vec<u64> = batch_rays[start..].to_vec();
+        for _ in 1..per_view {
+            batch_rays.extend(&one);
         }
     }
     let validate = match &s.validate {
@@ -248,49 +311,93 @@ pub(super) fn estimate(
     })
 }
 
-/// The camera of a scene: the config's, filling what it leaves out from the default view.
+/// The camera of a scene: the config's, filling what it leaves out from the default view;
+/// for a view of `views` (`over`: the entry and its name), the entry's eye, target, up and
+/// fov over that.
 fn check_camera(
     cx: &Ctx,
     s: &RawScene,
     view: Option<&View>,
+    over: Option<(&RawView, &str)>,
 ) -> Result<Option<Camera>, HarnessError> {
-    Ok(match (&s.camera, view) {
-        (None, Some(v)) => Some(v.camera),
-        (None, None) => None,
-        (Some(c), v) => {
-            let rc = c.get_ref();
-            let base = v.map(|v| v.camera);
-            let pick =
-                |o: Option<[f32; 3]>, b: Option<Vec3>, key: &str| -> Result<Vec3, HarnessError> {
-                    o.map(Vec3::from).or(b).ok_or_else(|| {
-                        cx.err(
-                            c.span(),
-                            &format!("scene.camera.{key}"),
-                            "missing (the scene has no default view)",
-                        )
-                    })
-                };
-            let cam = Camera {
-                eye: pick(rc.eye, base.map(|b| b.eye), "eye")?,
-                target: pick(rc.target, base.map(|b| b.target), "target")?,
-                up: pick(rc.up, Some(base.map(|b| b.up).unwrap_or(Vec3::Y)), "up")?,
-                fov: rc.fov.or(base.map(|b| b.fov)).ok_or_else(|| {
-                    cx.err(
-                        c.span(),
-                        "scene.camera.fov",
-                        "missing (the scene has no default view)",
-                    )
-                })?,
-                width: rc.width.or(base.map(|b| b.width)).unwrap_or(512),
-                height: rc.height.or(base.map(|b| b.height)).unwrap_or(512),
-                order: rc.order.or(base.map(|b| b.order)).unwrap_or_default(),
-            };
-            cam.check()
-                .map_err(|m| cx.err(c.span(), "scene.camera", m))?;
-            if cam.width as u64 * cam.height as u64 > 64 << 20 {
-                return Err(cx.err(c.span(), "scene.camera", "more than 64M pixels"));
-            }
-            Some(cam)
-        }
-    })
+    let base = view.map(|v| v.camera);
+    let rc = s.camera.as_ref().map(|c| c.get_ref());
+    if rc.is_none() && over.is_none() {
+        return Ok(base);
+    }
+    let (span, prefix, whose) = match (over, &s.camera, &s.views) {
+        (Some((_, name)), _, Some(vs)) => (
+            vs.span(),
+            "scene.views",
+            format!(" for view `{name}` (not in the view, the table's camera or a default view)"),
+        ),
+        (_, Some(c), _) => (
+            c.span(),
+            "scene.camera",
+            " (the scene has no default view)".to_string(),
+        ),
+        _ => (s.source.span(), "scene.camera", String::new()),
+    };
+    let v = over.map(|(v, _)| v);
+    let pick = |o: Option<[f32; 3]>,
+                t: Option<[f32; 3]>,
+                b: Option<Vec3>,
+                key: &str|
+     -> Result<Vec3, HarnessError> {
+        o.or(t).map(Vec3::from).or(b).ok_or_else(|| {
+            cx.err(
+                span.clone(),
+                &format!("{prefix}.{key}"),
+                format!("missing{whose}"),
+            )
+        })
+    };
+    let cam = Camera {
+        eye: pick(
+            v.and_then(|v| v.eye),
+            rc.and_then(|c| c.eye),
+            base.map(|b| b.eye),
+            "eye",
+        )?,
+        target: pick(
+            v.and_then(|v| v.target),
+            rc.and_then(|c| c.target),
+            base.map(|b| b.target),
+            "target",
+        )?,
+        up: pick(
+            v.and_then(|v| v.up),
+            rc.and_then(|c| c.up),
+            Some(base.map(|b| b.up).unwrap_or(Vec3::Y)),
+            "up",
+        )?,
+        fov: v
+            .and_then(|v| v.fov)
+            .or(rc.and_then(|c| c.fov))
+            .or(base.map(|b| b.fov))
+            .ok_or_else(|| {
+                cx.err(
+                    span.clone(),
+                    &format!("{prefix}.fov"),
+                    format!("missing{whose}"),
+                )
+            })?,
+        width: rc
+            .and_then(|c| c.width)
+            .or(base.map(|b| b.width))
+            .unwrap_or(512),
+        height: rc
+            .and_then(|c| c.height)
+            .or(base.map(|b| b.height))
+            .unwrap_or(512),
+        order: rc
+            .and_then(|c| c.order)
+            .or(base.map(|b| b.order))
+            .unwrap_or_default(),
+    };
+    cam.check().map_err(|m| cx.err(span.clone(), prefix, m))?;
+    if cam.width as u64 * cam.height as u64 > 64 << 20 {
+        return Err(cx.err(span, prefix, "more than 64M pixels"));
+    }
+    Ok(Some(cam))
 }

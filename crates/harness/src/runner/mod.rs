@@ -76,8 +76,10 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
         let notes = crate::dynamic::run(exp, &opts.out, &|m| progress.step(m))?;
         r.summary.notes.extend(notes);
     } else {
-        for spec in &exp.scenes {
-            r.scene(spec)?;
+        // The views of one scene table are consecutive specs sharing the scene: one group,
+        // loaded once, each structure built once for all of them.
+        for views in exp.scenes.chunk_by(|a, b| a.table == b.table) {
+            r.scene(views)?;
         }
     }
     r.progress.finish();
@@ -183,60 +185,90 @@ impl<'a> Run<'a> {
         })
     }
 
-    /// Every build and row of one scene.
-    fn scene(&mut self, spec: &SceneSpec) -> Result<(), HarnessError> {
-        self.progress
-            .step(&format!("{}: generating rays", spec.label));
-        let batches = generate_batches(spec, self.exp.run.seed, &mut self.summary.notes);
-        if let (Some(_), Mode::Run) = (&self.exp.images, self.opts.mode) {
-            let out = &self.opts.out;
-            self.summary
-                .notes
-                .extend(crate::images::write_scene(spec, out)?);
+    /// Every build and row of one scene table: its views (one spec without `views`) share
+    /// the scene and each build; their batches are generated once, up front.
+    fn scene(&mut self, views: &[SceneSpec]) -> Result<(), HarnessError> {
+        let mut batches: Vec<Batch> = Vec::new();
+        let mut ranges = Vec::with_capacity(views.len());
+        let mut gen = None;
+        for (i, spec) in views.iter().enumerate() {
+            self.progress
+                .step(&format!("{}: generating rays", spec.label));
+            let start = batches.len();
+            batches.extend(generate_batches(
+                spec,
+                self.exp.run.seed,
+                &mut gen,
+                i == 0,
+                &mut self.summary.notes,
+            ));
+            ranges.push(start..batches.len());
+            if let (Some(_), Mode::Run) = (&self.exp.images, self.opts.mode) {
+                let out = &self.opts.out;
+                self.summary
+                    .notes
+                    .extend(crate::images::write_scene(spec, out)?);
+            }
         }
-        let tris: Arc<[Triangle]> = spec.scene.triangles.as_slice().into();
+        drop(gen);
+        let first = &views[0];
+        let tris: Arc<[Triangle]> = first.scene.triangles.as_slice().into();
+        // One oracle for the table: its samples are keyed by the batch's index over all views.
         let mut oracle = Oracle::new(tris.clone());
+        let group = Group {
+            views,
+            ranges: &ranges,
+            batches: &batches,
+        };
         for (si, st) in self.exp.structures.iter().enumerate() {
             for (pi, params) in st.param_sets.iter().enumerate() {
                 if let Some(p) = &self.exp.shard {
-                    if !p.runs(&spec.label, si, pi) {
+                    if !p.runs(&first.table, si, pi) {
                         continue;
                     }
                 }
-                self.structure(spec, &tris, &batches, &mut oracle, st, params)?;
+                self.structure(&group, &tris, &mut oracle, st, params)?;
             }
         }
         Ok(())
     }
 
-    /// Build one structure x parameter set and measure its rows.
+    /// Build one structure x parameter set and measure its rows on every view.
     fn structure(
         &mut self,
-        spec: &SceneSpec,
+        g: &Group,
         tris: &Arc<[Triangle]>,
-        batches: &[Batch],
         oracle: &mut Oracle,
         st: &StructureSpec,
         params: &ParamSet,
     ) -> Result<(), HarnessError> {
         let params_s = params.to_string();
-        let (todo, skipped) = plan::todo(
-            &spec.label,
-            st,
-            &params_s,
-            &self.exp.run.triangle_tests,
-            batches,
-            &self.devices,
-            &self.done,
-        );
-        self.summary.skipped += skipped;
-        for _ in 0..skipped {
-            self.progress.inc();
+        // The rows still to do, per view, with batch indices over all views.
+        let mut todo: Vec<Vec<Combo>> = Vec::with_capacity(g.views.len());
+        for (spec, range) in g.views.iter().zip(g.ranges) {
+            let (mut t, skipped) = plan::todo(
+                &spec.label,
+                st,
+                &params_s,
+                &self.exp.run.triangle_tests,
+                &g.batches[range.clone()],
+                &self.devices,
+                &self.done,
+            );
+            for c in &mut t {
+                c.bi += range.start;
+            }
+            self.summary.skipped += skipped;
+            for _ in 0..skipped {
+                self.progress.inc();
+            }
+            todo.push(t);
         }
-        if todo.is_empty() {
+        if todo.iter().all(Vec::is_empty) {
             return Ok(());
         }
-        let base = Row {
+        let first = &g.views[0];
+        let base_of = |spec: &SceneSpec| Row {
             scene: spec.label.clone(),
             source: spec.scene.source.clone(),
             triangles: tris.len() as u64,
@@ -247,7 +279,7 @@ impl<'a> Run<'a> {
         };
         self.progress.step(&format!(
             "{}: building {} [{params_s}]",
-            spec.label, st.family.name
+            first.table, st.family.name
         ));
         let built = match build::build(
             st.family,
@@ -258,24 +290,33 @@ impl<'a> Run<'a> {
         ) {
             Ok(b) => b,
             Err(e) => {
-                let msg = format!("{} {} [{params_s}]: {e}", spec.label, st.family.name);
+                let msg = format!("{} {} [{params_s}]: {e}", first.table, st.family.name);
                 self.progress.line(&format!("error: {msg}"));
                 self.summary.failures.push(msg);
-                for c in todo {
-                    let mut row = row_of(&base, st, &c, &batches[c.bi]);
-                    row.note = format!("build failed: {e}");
-                    self.emit(row)?;
+                for (spec, t) in g.views.iter().zip(todo) {
+                    let base = base_of(spec);
+                    for c in t {
+                        let mut row = row_of(&base, st, &c, &g.batches[c.bi]);
+                        row.note = format!("build failed: {e}");
+                        self.emit(row)?;
+                    }
                 }
                 return Ok(());
             }
         };
-        self.after_build(spec, st, &built, &params_s)?;
         self.cpu.begin_build();
-        if let Some(g) = self.gpu.as_mut() {
-            g.begin_build();
+        if let Some(gpu) = self.gpu.as_mut() {
+            gpu.begin_build();
         }
-        for c in todo {
-            self.row(spec, batches, oracle, st, &built, &base, c)?;
+        for (spec, t) in g.views.iter().zip(todo) {
+            if t.is_empty() {
+                continue;
+            }
+            let base = base_of(spec);
+            self.after_build(spec, st, &built, &params_s)?;
+            for c in t {
+                self.row(spec, g.batches, oracle, st, &built, &base, c)?;
+            }
         }
         Ok(())
     }
@@ -463,6 +504,14 @@ impl<'a> Run<'a> {
         self.progress.inc();
         Ok(())
     }
+}
+
+/// The views of one scene table (one spec for a table without `views`) with their batches:
+/// view `i`'s are `batches[ranges[i]]`.
+struct Group<'g> {
+    views: &'g [SceneSpec],
+    ranges: &'g [std::ops::Range<usize>],
+    batches: &'g [Batch],
 }
 
 /// Fault injection for the tests of `--resume`: with `TRACE_BENCH_ABORT_AFTER_ROWS=N` in the

@@ -43,11 +43,15 @@ pub fn total_rows(exp: &Experiment, devices: &[(Device, Vec<usize>)]) -> usize {
     let batches: usize = exp
         .scenes
         .iter()
-        .map(|s| {
+        .enumerate()
+        .map(|(i, s)| {
+            // Random and stress rays: once per table, not per view.
+            let first_view = i == 0 || exp.scenes[i - 1].table != s.table;
             s.rays
                 .iter()
                 .map(|k| match k {
                     RayKindSpec::Path => s.bounces as usize,
+                    RayKindSpec::Random | RayKindSpec::Stress if !first_view => 0,
                     _ => 1,
                 })
                 .sum::<usize>()
