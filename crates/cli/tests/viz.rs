@@ -114,6 +114,9 @@ params = {{ max_leaf = [2, 8] }}
         // A swept structure's files name the swept parameter.
         "bvh-max_leaf=2-ordered-watertight-steps.png",
         "bvh-max_leaf=8-ordered-watertight.exr",
+        // Two kd traversals on the same rays, side by side on one scale (Figure 5 of the
+        // sparse-boxes paper).
+        "kdtree-watertight-steps-side-by-side.png",
     ] {
         let p = img.join(f);
         assert!(p.is_file(), "{} missing", p.display());
@@ -138,6 +141,9 @@ params = {{ max_leaf = [2, 8] }}
     assert!((mean - row.steps_per_ray.unwrap()).abs() < 1e-9);
     let index = fs::read_to_string(out.join("images/index.csv")).unwrap();
     assert!(index.contains("images/cornell/kdtree-havran-watertight-steps.png,cornell,kdtree"));
+    assert!(index.lines().any(|l| l
+        .starts_with("images/cornell/kdtree-watertight-steps-side-by-side.png,cornell,kdtree,")
+        && l.contains(",havran|restart,watertight,steps,")));
 
     // Convergence: 4 passes x 5 combinations in convergence.csv, one budget row each in
     // convergence-budget.csv; RMSE falls.

@@ -21,7 +21,9 @@ use std::fs::OpenOptions;
 use std::path::{Path, PathBuf};
 use tb_core::{Accel, Query, TriTestKind};
 use tb_render::colormap::srgb;
-use tb_render::heatmap::{counter_channels, heatmap, percentile99, to_row_major};
+use tb_render::heatmap::{
+    counter_channels, heatmap, heatmaps_side_by_side, percentile99, to_row_major,
+};
 use tb_render::{Channels, Rgb8};
 use tb_scene::rays;
 
@@ -184,6 +186,8 @@ pub fn write_build(
     } else {
         format!("{}-{tag}", accel.name())
     };
+    // Per triangle test and counter, each traversal's values: drawn side by side after.
+    let mut panels: Vec<(TriTestKind, &str, Vec<(&str, Vec<f32>)>)> = Vec::new();
     for &ti in traversals {
         let info = accel.traversals()[ti];
         let tname = info.name;
@@ -231,8 +235,59 @@ pub fn write_build(
                     .write_png(&png)
                     .map_err(err)?;
                 row(&png, counter, max.to_string())?;
+                if traversals.len() > 1 {
+                    let at = match panels
+                        .iter()
+                        .position(|(t, n, _)| *t == tri && *n == counter)
+                    {
+                        Some(i) => i,
+                        None => {
+                            panels.push((tri, counter, Vec::new()));
+                            panels.len() - 1
+                        }
+                    };
+                    panels[at].2.push((tname, v.to_vec()));
+                }
             }
         }
+    }
+    // The traversals side by side on one scale (Figure 5 of Havran and Bittner 2007): the
+    // fixed `heatmap_max`, else the largest of the panels' 99th percentiles.
+    for (tri, counter, p) in panels.iter().filter(|(_, _, p)| p.len() > 1) {
+        let max = match images.max {
+            HeatMax::Fixed(m) => m,
+            HeatMax::Auto => p.iter().map(|(_, v)| percentile99(v)).fold(0.0, f32::max),
+        };
+        let names: Vec<&str> = p.iter().map(|(n, _)| *n).collect();
+        let stem = safe_name(&format!("{name}-{}-{counter}-side-by-side", tri.name()));
+        let png = dir.join(format!("{stem}.png"));
+        let what = tb_core::COUNTERS
+            .iter()
+            .find(|d| d.name == *counter)
+            .map_or(*counter, |d| d.doc);
+        let title = format!(
+            "{} · {name} · {} · {}\n{counter}: {what}",
+            spec.label,
+            names.join(" | "),
+            tri.name()
+        );
+        let refs: Vec<(&str, &[f32])> = p.iter().map(|(n, v)| (*n, v.as_slice())).collect();
+        heatmaps_side_by_side(&refs, cam.width, cam.height, max, images.colormap, &title)
+            .write_png(&png)
+            .map_err(err)?;
+        index(
+            out,
+            [
+                &rel(out, &png),
+                &spec.label,
+                accel.name(),
+                params,
+                &names.join("|"),
+                tri.name(),
+                counter,
+                &max.to_string(),
+            ],
+        )?;
     }
     Ok(None)
 }

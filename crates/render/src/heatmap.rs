@@ -266,6 +266,52 @@ pub fn heatmap(
     )
 }
 
+/// Heat maps of the same rays side by side on one colour scale, each panel labelled, with one
+/// colour bar (the sparse-boxes paper's Figure 5: HTR, BTR and SLTR next to each other):
+/// `panels` are (label, row-major values of `width x height`), `map` from 0 to `max`; values
+/// at or above `max` take the top colour.
+pub fn heatmaps_side_by_side(
+    panels: &[(&str, &[f32])],
+    width: u32,
+    height: u32,
+    max: f32,
+    map: ColorMap,
+    title: &str,
+) -> Rgb8 {
+    let max = if max > 0.0 { max } else { 1.0 };
+    let s = text_scale(height);
+    let glyph = 8 * s;
+    let gap = glyph;
+    let label_h = glyph + glyph / 2;
+    let n = panels.len().max(1) as u32;
+    let (w, h) = (n * width + (n - 1) * gap, height + label_h);
+    let mut canvas = Rgb8::filled(w, h, [255, 255, 255]);
+    for (i, (label, v)) in panels.iter().enumerate() {
+        let x0 = i as u32 * (width + gap);
+        draw_text(&mut canvas, label, x0, glyph / 4, s, [0, 0, 0]);
+        for y in 0..height {
+            for x in 0..width {
+                let c = map.eval(v[(y * width + x) as usize] / max);
+                canvas.set(x0 + x, y + label_h, c);
+            }
+        }
+    }
+    let colours: Vec<[u8; 3]> = canvas
+        .data
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    with_bar(
+        &colours,
+        w,
+        h,
+        &|v| map.eval(v / max),
+        (0.0, max),
+        &labelled(0.0, max, "", "+"),
+        title,
+    )
+}
+
 /// A difference map `b − a` of two row-major images of the same rays: blue where `b` is below
 /// `a`, white where equal, red where above, saturating at `±max` (default: the 99th
 /// percentile of `|b − a|`, at least 1, so a few outliers do not wash out the map). Returns the
@@ -351,6 +397,26 @@ mod tests {
         assert!(titled.height > img.height);
         let top = titled.height - h - pad;
         assert_eq!(titled.get(0, top), ColorMap::Viridis.eval(0.0));
+    }
+
+    #[test]
+    fn side_by_side_panels_share_one_scale() {
+        let (w, h) = (16, 8);
+        let low = vec![0.0f32; (w * h) as usize];
+        let high = vec![300.0f32; (w * h) as usize];
+        let jet = crate::colormap::jet;
+        let img =
+            heatmaps_side_by_side(&[("a", &low), ("b", &high)], w, h, 255.0, ColorMap::Jet, "");
+        let single = heatmap(&low, w, h, 255.0, ColorMap::Jet, "");
+        // Two panels and a gap wider than one map; one colour bar.
+        assert!(img.width >= single.width + w);
+        // The bottom row of each panel: 0 is dark blue, 300 >= 255 dark red.
+        let y = img.height - 1 - 5;
+        assert_eq!(img.get(0, y), jet(0.0));
+        let gap = img.width - single.width - w;
+        assert_eq!(img.get(w + gap, y), jet(1.0));
+        // Between the panels: white.
+        assert_eq!(img.get(w + gap / 2, y), [255, 255, 255]);
     }
 
     #[test]
