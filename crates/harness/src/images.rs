@@ -151,6 +151,9 @@ pub fn varying_tag(sweep: &[String], set: &str) -> String {
         .join(",")
 }
 
+/// Each traversal's name and per-pixel values of one counter.
+type Panels<'a> = Vec<(&'a str, Vec<f32>)>;
+
 /// One built structure's heat maps: for each traversal and triangle test, count over the
 /// primary rays and write the EXR and the PNGs. `tag` is [`varying_tag`] of its parameters.
 /// Returns a note when nothing is written (no camera, or a structure without counters).
@@ -187,7 +190,7 @@ pub fn write_build(
         format!("{}-{tag}", accel.name())
     };
     // Per triangle test and counter, each traversal's values: drawn side by side after.
-    let mut panels: Vec<(TriTestKind, &str, Vec<(&str, Vec<f32>)>)> = Vec::new();
+    let mut panels: Vec<(TriTestKind, &str, Panels)> = Vec::new();
     for &ti in traversals {
         let info = accel.traversals()[ti];
         let tname = info.name;
