@@ -255,8 +255,20 @@ pub fn heatmap(
 ) -> Rgb8 {
     let max = if max > 0.0 { max } else { 1.0 };
     let colours: Vec<[u8; 3]> = values.iter().map(|&v| map.eval(v / max)).collect();
+    with_scale(&colours, width, height, max, map, title)
+}
+
+/// [`with_bar`] for a colour map from 0 to `max` (the top label reads `max+`).
+fn with_scale(
+    colours: &[[u8; 3]],
+    width: u32,
+    height: u32,
+    max: f32,
+    map: ColorMap,
+    title: &str,
+) -> Rgb8 {
     with_bar(
-        &colours,
+        colours,
         width,
         height,
         &|v| map.eval(v / max),
@@ -301,15 +313,7 @@ pub fn heatmaps_side_by_side(
         .chunks_exact(3)
         .map(|c| [c[0], c[1], c[2]])
         .collect();
-    with_bar(
-        &colours,
-        w,
-        h,
-        &|v| map.eval(v / max),
-        (0.0, max),
-        &labelled(0.0, max, "", "+"),
-        title,
-    )
+    with_scale(&colours, w, h, max, map, title)
 }
 
 /// A difference map `b − a` of two row-major images of the same rays: blue where `b` is below
