@@ -73,7 +73,7 @@ use view::Aux;
 
 pub use layout::{DepthFirst, KdLayout, Layout, Nodes, Treelet};
 pub use stackless::{MAX_SHORT_STACK, STEP_CAP};
-pub use traverse::{split_decision, Decision, Kind, SLACK, STACK_SIZE};
+pub use traverse::{split_decision, Best, Decision, Kind, SLACK, STACK_SIZE};
 pub use view::{BackNode, KdStart, KdView};
 
 /// Bytes per node of auxiliary array `aux` ([`BACKTRACK_AUX`]: cell and parent;

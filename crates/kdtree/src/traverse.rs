@@ -112,17 +112,18 @@ fn setup<L>(w: &Tree<'_, L>, ray: &Ray) -> Option<Setup> {
     })
 }
 
-/// The closest hit so far.
-pub(crate) struct Best {
-    pub(crate) t: f32,
-    prim: u32,
-    u: f32,
-    v: f32,
+/// The closest hit so far of one ray: distance, primitive (`u32::MAX`: none yet) and
+/// barycentrics; shared with the kernels built on the kd-tree (sparse boxes).
+pub struct Best {
+    pub t: f32,
+    pub prim: u32,
+    pub u: f32,
+    pub v: f32,
 }
 
 impl Best {
     #[inline(always)]
-    pub(crate) fn new(tmax: f32) -> Self {
+    pub fn new(tmax: f32) -> Self {
         Best {
             t: tmax,
             prim: u32::MAX,
@@ -132,7 +133,7 @@ impl Best {
     }
 
     #[inline(always)]
-    pub(crate) fn record(&self) -> HitRecord {
+    pub fn record(&self) -> HitRecord {
         if self.prim == u32::MAX {
             HitRecord::MISS
         } else {

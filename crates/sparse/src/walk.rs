@@ -55,7 +55,9 @@ use tb_core::{
     Aabb, Counter, HitRecord, MollerTrumbore, NoStats, Query, Ray, TraversalStats, TriTest,
     TriTestKind, Triangle, Vec3, Watertight,
 };
-use tb_kdtree::{split_decision, Decision, DepthFirst, KdNode, KdView, Kind, SLACK, STACK_SIZE};
+use tb_kdtree::{
+    split_decision, Best, Decision, DepthFirst, KdNode, KdView, Kind, SLACK, STACK_SIZE,
+};
 
 pub(crate) const BTR: u8 = 0;
 pub(crate) const SLTR: u8 = 1;
@@ -116,29 +118,6 @@ struct Setup {
     org: [f32; 3],
     inv: [f32; 3],
     neg: [bool; 3],
-}
-
-/// The closest hit so far.
-struct Best {
-    t: f32,
-    prim: u32,
-    u: f32,
-    v: f32,
-}
-
-impl Best {
-    fn record(&self) -> HitRecord {
-        if self.prim == u32::MAX {
-            HitRecord::MISS
-        } else {
-            HitRecord {
-                t: self.t,
-                prim: self.prim,
-                u: self.u,
-                v: self.v,
-            }
-        }
-    }
 }
 
 /// The decision at an interior node: the kd-tree's own rule ([`split_decision`], that of
@@ -262,12 +241,7 @@ impl<'a> Ctx<'a> {
         let s = setup(ray);
         let inv = ray.inv_dir();
         let pre = T::prepare(ray);
-        let mut best = Best {
-            t: ray.tmax,
-            prim: u32::MAX,
-            u: 0.0,
-            v: 0.0,
-        };
+        let mut best = Best::new(ray.tmax);
         let nodes = self.nodes;
         let mut sa = self.start(ray, hint);
         // The node whose subtree is finished (none yet).
@@ -393,12 +367,7 @@ impl<'a> Ctx<'a> {
             return HitRecord::MISS;
         };
         let pre = T::prepare(ray);
-        let mut best = Best {
-            t: ray.tmax,
-            prim: u32::MAX,
-            u: 0.0,
-            v: 0.0,
-        };
+        let mut best = Best::new(ray.tmax);
         let (nodes, aug, p) = (self.nodes, self.aug, self.period);
         let st = self.start(ray, hint);
         // The record whose subtree the walk knows: the bits are valid at depths >= `dtop`.
