@@ -5,7 +5,7 @@
 use std::path::Path;
 use tb_harness::config::{self, Overrides};
 use tb_harness::dynamic::{samples_within, ChoiceRow, DynamicRow};
-use tb_harness::runner::{self, Mode, RunOptions};
+use tb_harness::runner::{self, RunOptions};
 
 fn text(scene: &str, structure: &str) -> String {
     format!(
@@ -58,13 +58,7 @@ fn frames_are_rebuilt_and_samples_fit_the_budget() {
     );
     let exp = parse(&t).unwrap();
     let out = tempfile::tempdir().unwrap();
-    let opts = RunOptions {
-        out: out.path().join("run"),
-        resume: false,
-        quiet: true,
-        mode: Mode::Run,
-        max_report: 4,
-    };
+    let opts = RunOptions::quiet(out.path().join("run"));
     let summary = runner::run(&exp, &opts).unwrap();
     assert!(summary.failures.is_empty(), "{:?}", summary.failures);
     assert!(

@@ -20,7 +20,7 @@ use tb_core::{
 use tb_harness::config::{self, Overrides};
 use tb_harness::output::Row;
 use tb_harness::registry::Registry;
-use tb_harness::runner::{self, Mode, RunOptions};
+use tb_harness::runner::{self, RunOptions};
 
 tb_core::params! {
     /// Parameters of the slab list.
@@ -265,13 +265,7 @@ fn run(text: &str) -> Vec<Row> {
     )
     .unwrap_or_else(|e| panic!("{e}"));
     let out = tempfile::tempdir().unwrap();
-    let opts = RunOptions {
-        out: out.path().join("run"),
-        resume: false,
-        quiet: true,
-        mode: Mode::Run,
-        max_report: 4,
-    };
+    let opts = RunOptions::quiet(out.path().join("run"));
     let summary = runner::run(&exp, &opts).unwrap();
     assert!(summary.failures.is_empty(), "{:?}", summary.failures);
     summary.rows

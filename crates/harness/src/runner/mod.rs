@@ -48,6 +48,20 @@ pub struct RunOptions {
     pub max_report: usize,
 }
 
+impl RunOptions {
+    /// A fresh run into `out` ([`Mode::Run`], no progress output, no resume): what a program
+    /// or test embedding the runner usually wants.
+    pub fn quiet(out: PathBuf) -> Self {
+        RunOptions {
+            out,
+            resume: false,
+            quiet: true,
+            mode: Mode::Run,
+            max_report: 4,
+        }
+    }
+}
+
 /// What a run did.
 #[derive(Debug, Default)]
 pub struct RunSummary {
