@@ -17,6 +17,7 @@ pub mod convergence;
 pub mod device;
 pub mod dynamic;
 pub mod error;
+pub mod heap;
 pub mod images;
 pub mod merge;
 pub mod meta;

@@ -71,6 +71,12 @@ macro_rules! define_row {
             pub node_bytes: Option<u32>,
             pub sah_cost: Option<f64>,
             pub build_stats: String,
+            /// The most heap the build held at once above what was live before it, bytes
+            /// (measured by the binary's counting allocator, [`crate::heap`]; empty where it
+            /// is not installed).
+            pub build_heap_peak_bytes: Option<u64>,
+            /// The heap the build still held when it returned (the structure), bytes.
+            pub build_heap_kept_bytes: Option<u64>,
             pub validated_rays: Option<u64>,
             pub mismatches: Option<u64>,
             pub note: String,

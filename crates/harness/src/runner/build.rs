@@ -1,6 +1,7 @@
 //! Building one structure x parameter set: timed and repeated, checked with
 //! [`tb_core::Accel::validate`], with the build's columns for its rows.
 
+use crate::heap::{self, HeapUse};
 use crate::output::Row;
 use crate::timing::median;
 use std::sync::Arc;
@@ -17,6 +18,8 @@ pub struct Built {
     sah_cost: Option<f64>,
     /// `name=value;…` of the build report's extra figures.
     build_stats: String,
+    /// The heap the last build held at its peak and kept (measured where the binary counts).
+    heap: Option<HeapUse>,
 }
 
 /// Build `family` over `tris` with `params` `repeat` times (at least once; the median time is
@@ -30,14 +33,20 @@ pub fn build(
 ) -> Result<Built, AccelError> {
     let mut times = Vec::new();
     let mut last = None;
+    let mut heap_use = None;
     for _ in 0..repeat.max(1) {
         drop(last.take());
-        let t0 = Instant::now();
-        let accel = (family.build)(tris, params)?;
-        for &ti in traversals {
-            accel.prepare(ti);
-        }
-        times.push(t0.elapsed().as_secs_f64() * 1e3);
+        let (built, used) = heap::measure(|| {
+            let t0 = Instant::now();
+            let accel = (family.build)(tris, params)?;
+            for &ti in traversals {
+                accel.prepare(ti);
+            }
+            Ok::<_, AccelError>((accel, t0.elapsed().as_secs_f64() * 1e3))
+        });
+        let (accel, ms) = built?;
+        times.push(ms);
+        heap_use = used;
         last = Some(accel);
     }
     let accel = last.expect("at least one build");
@@ -54,6 +63,7 @@ pub fn build(
         mem: accel.memory(),
         sah_cost: report.sah_cost,
         build_stats,
+        heap: heap_use,
         accel,
     })
 }
@@ -69,5 +79,7 @@ impl Built {
         row.node_bytes = Some(self.mem.node_bytes);
         row.sah_cost = self.sah_cost;
         row.build_stats = self.build_stats.clone();
+        row.build_heap_peak_bytes = self.heap.map(|h| h.peak);
+        row.build_heap_kept_bytes = self.heap.map(|h| h.kept);
     }
 }

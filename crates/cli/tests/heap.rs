@@ -1,0 +1,85 @@
+//! The measured build heap (`build_heap_peak_bytes`, `build_heap_kept_bytes`): this test
+//! binary installs the counting allocator, as the `trace-bench` binary does.
+
+mod common;
+use common::*;
+
+use std::fs;
+use tb_harness::heap::{self, CountingAlloc};
+use tb_harness::output::read_csv;
+
+#[global_allocator]
+static HEAP: CountingAlloc = CountingAlloc;
+
+const MIB: u64 = 1 << 20;
+
+#[test]
+fn measure_sees_a_freed_scratch_array_in_the_peak_and_not_in_what_is_kept() {
+    assert!(heap::installed());
+    let (kept, used) = heap::measure(|| {
+        let scratch = std::hint::black_box(vec![1u8; 2 * MIB as usize]);
+        let out = std::hint::black_box(vec![2u8; MIB as usize]);
+        drop(scratch);
+        out
+    });
+    let used = used.expect("counted");
+    // Other test threads may allocate a little meanwhile.
+    assert!(
+        used.peak >= 3 * MIB && used.peak < 3 * MIB + MIB / 4,
+        "{used:?}"
+    );
+    assert!(used.kept >= MIB && used.kept < MIB + MIB / 4, "{used:?}");
+    drop(kept);
+}
+
+#[test]
+fn rows_report_the_build_heap_of_every_structure() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("c.toml");
+    fs::write(
+        &cfg,
+        r#"
+[run]
+threads = 1
+repeat = 2
+warmup = 0
+
+[[scene]]
+source = "builtin:sphereflake?size=2"
+rays = ["random"]
+random = { count = 500 }
+
+[[structure]]
+name = "bvh"
+
+[[structure]]
+name = "kdtree"
+
+[[structure]]
+name = "irregular-grid"
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    assert_eq!(run_quiet(&cfg, &out), 0);
+    let rows = read_csv(&out.join("results.csv")).unwrap();
+    assert!(rows.len() >= 3);
+    for r in &rows {
+        let (peak, kept) = (
+            r.build_heap_peak_bytes.unwrap(),
+            r.build_heap_kept_bytes.unwrap(),
+        );
+        // The structure's nodes are among what its build kept, and a build holds at least
+        // what it keeps.
+        if let (Some(n), Some(b)) = (r.nodes, r.node_bytes) {
+            let nodes = n * u64::from(b);
+            assert!(
+                kept >= nodes,
+                "{}: kept {kept} < nodes {nodes}",
+                r.structure
+            );
+        }
+        assert!(kept > 0, "{}", r.structure);
+        assert!(peak >= kept, "{}: peak {peak} < kept {kept}", r.structure);
+    }
+}
