@@ -338,5 +338,49 @@ class Plot(unittest.TestCase):
         self.assertIn("budget_ms", out)
 
 
+def irregular_rows():
+    """Table 1 and Table 5 rows of one scene: SBVH, the irregular grid's phases, the uniform
+    grid with macro regions and with M, E, M + E (built-heap columns on the M + E row)."""
+    rows = []
+    variants = [
+        ("bvh", "builder=sbvh", 20.0, 0.0, 4.0, 10.0, 1e6),
+        ("irregular-grid", "lambda_1=0.12;initial=two-level;merge=false;expansion=0", 0, 12.0, 8.0, 11.0, 2e6),
+        ("irregular-grid", "lambda_1=0.12;initial=two-level;merge=true;expansion=0", 0, 9.0, 8.0, 12.0, 2e6),
+        ("irregular-grid", "lambda_1=0.12;initial=two-level;merge=true;expansion=3", 0, 6.0, 7.0, 14.0, 2e6),
+        ("uniform-grid", "lambda=5;macro_regions=true", 0, 30.0, 9.0, 8.0, 3e6),
+        ("irregular-grid", "lambda_1=5;initial=uniform;merge=true;expansion=0", 0, 20.0, 9.0, 9.0, 2e6),
+        ("irregular-grid", "lambda_1=5;initial=uniform;merge=false;expansion=3", 0, 15.0, 9.0, 10.0, 9e6),
+        ("irregular-grid", "lambda_1=5;initial=uniform;merge=true;expansion=3", 0, 12.0, 9.0, 9.9, 2.5e6),
+    ]
+    for structure, params, interior, cells, prims, mrays, mem in variants:
+        for scene in ["sponza", "sponza@b"]:
+            r = row(scene, structure, params, "walk", "primary", 1000.0 / mrays, 0.01)
+            r["interior_per_ray"], r["leaves_per_ray"] = (interior, 5.0) if interior else ("", "")
+            r["cells_per_ray"], r["prims_per_ray"], r["memory_bytes"] = (cells or ""), prims, mem
+            if params.endswith("merge=true;expansion=3") and "two-level" in params:
+                r["build_heap_peak_bytes"], r["build_heap_kept_bytes"] = 6e6, 2e6
+            rows.append(r)
+    return rows
+
+
+class Irregular(unittest.TestCase):
+    def test_tables_and_claims(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "results.csv")
+            write(path, irregular_rows(),
+                  HEADER + ["memory_bytes", "build_heap_peak_bytes", "build_heap_kept_bytes"])
+            out = run("irregular-tables.py", path)
+        # N_T of the SBVH is interior + leaves (25); merge & expansion: 6 cells, -76 %.
+        self.assertIn("N_T  25.00", out)
+        self.assertIn("+ Merge & Exp.   N_T   6.00  (-76%)", out)
+        self.assertIn("sponza N_T -76 %, N_I +75 % -> agree", out)
+        # M + E against macro regions: 9.9 / 8.0 MRays/s, less memory than E.
+        self.assertIn("sponza +24 %, memory M + E 2.5 MB vs E 9.0 MB -> agree", out)
+        self.assertIn("sponza 3.00x -> agree", out)
+        # Table 3 reads the views: 14 / 10 MRays/s at view b.
+        self.assertIn("sponza@b", out)
+        self.assertIn("10.00 / 14.00 (+40%)", out)
+
+
 if __name__ == "__main__":
     unittest.main()
