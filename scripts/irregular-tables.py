@@ -216,9 +216,10 @@ def main():
     hp = heap(rows)
     print("\nClaims (paper, then ours):")
     for scene, dt, di in t1:
+        # The paper's cuts run from -72 % to -81 % (Table 1); a deeper cut agrees.
         print(f"  merge & expansion cut N_T by 50-80 % against the SBVH while N_I rises: {scene} "
               f"N_T {dt * 100:+.0f} %, N_I {di * 100:+.0f} % -> "
-              f"{'agree' if -0.8 <= dt <= -0.5 and di > 0 else 'disagree'}")
+              f"{'agree' if dt <= -0.5 and di > 0 else 'disagree'}")
     for scene, t in t5.items():
         if {"Macro regions", "Ours (M + E)", "Ours (E)"} <= t.keys():
             g = t["Ours (M + E)"][0] / t["Macro regions"][0] - 1
