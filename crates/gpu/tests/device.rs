@@ -108,6 +108,7 @@ fn echo<'a>(tris: &'a [Triangle], first: &[u32]) -> GpuProgram<'a> {
         stack_size: 5,
         constants: vec![("SCALE", 3.0)],
         unrolled_triangle_loop: None,
+        needs_f64: false,
     }
 }
 
