@@ -76,7 +76,11 @@ impl UniformGrid {
             ),
             &self.tris,
             vec![
-                header("the uniform grid's lattice", lat, (!macros.is_empty()) as u8 as f64),
+                header(
+                    "the uniform grid's lattice",
+                    lat,
+                    (!macros.is_empty()) as u8 as f64,
+                ),
                 GpuBuffer {
                     what: "the uniform grid's cell ranges",
                     bytes: words(self.start.iter().copied()),
@@ -98,7 +102,7 @@ impl TwoLevelGrid {
     /// `two-level-grid/dda`: the top lattice, the top cells (first leaf, resolution), the
     /// leaf ranges, the references.
     pub(crate) fn gpu_dda(&self) -> GpuProgram<'_> {
-                program(
+        program(
             "two-level-grid/dda",
             concat!(
                 include_str!("../shaders/grid.wgsl"),
@@ -128,7 +132,7 @@ impl IrregularGrid {
     /// `irregular-grid/walk`: the base lattice and the deepest octree level, the voxel map,
     /// the cells (lo, begin, hi, end), the references.
     pub(crate) fn gpu_walk(&self) -> GpuProgram<'_> {
-                program(
+        program(
             "irregular-grid/walk",
             concat!(
                 include_str!("../shaders/grid.wgsl"),
@@ -136,7 +140,11 @@ impl IrregularGrid {
             ),
             &self.tris,
             vec![
-                header("the irregular grid's base lattice", &self.base, self.dmax as f64),
+                header(
+                    "the irregular grid's base lattice",
+                    &self.base,
+                    self.dmax as f64,
+                ),
                 GpuBuffer {
                     what: "the irregular grid's voxel map",
                     bytes: words(self.map.iter().copied()),

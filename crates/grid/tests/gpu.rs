@@ -79,7 +79,10 @@ fn cases() -> Vec<(&'static str, Builder)> {
         ("uniform M+E", irregular(uni)),
         (
             "uniform E",
-            irregular(IrregularParams { merge: false, ..uni }),
+            irregular(IrregularParams {
+                merge: false,
+                ..uni
+            }),
         ),
     ]
 }
@@ -99,7 +102,10 @@ fn check(
         let program = accel
             .gpu_program(ti)
             .unwrap_or_else(|| panic!("{case} {}: no GPU program", info.name));
-        assert!(program.needs_f64, "{case}: the grid programs compute in f64");
+        assert!(
+            program.needs_f64,
+            "{case}: the grid programs compute in f64"
+        );
         let s = gpu
             .upload(&program)
             .unwrap_or_else(|e| panic!("{case} {}: {e}", info.name));
