@@ -188,6 +188,28 @@ fn malformed_programs_are_refused() {
 }
 
 #[test]
+fn f64_programs_are_refused_without_shader_f64() {
+    let Some(mut gpu) = open_or_skip() else {
+        return;
+    };
+    let tris = [triangle()];
+    let mut p = echo(&tris, &[1, 2]);
+    p.needs_f64 = true;
+    if gpu.adapter().f64 {
+        gpu.upload(&p).unwrap();
+        gpu.forgo_f64();
+    }
+    let e = refusal(&gpu, &p);
+    assert!(
+        matches!(&e, GpuError::Unsupported(m) if m.contains("test/echo") && m.contains("SHADER_F64")),
+        "{e}"
+    );
+    // A program without f64 still runs.
+    p.needs_f64 = false;
+    gpu.upload(&p).unwrap();
+}
+
+#[test]
 fn unrolled_loops_are_refused_beyond_llvmpipes_limit() {
     let Some(gpu) = open_or_skip() else { return };
     if !gpu.adapter().driver.contains("llvmpipe") {
