@@ -366,6 +366,7 @@ impl Bvh {
             stack_size: WIDE_STACK_SIZE as u32,
             constants: vec![("WIDTH", width as f64)],
             unrolled_triangle_loop: None,
+            needs_f64: false,
         }
     }
 
@@ -412,6 +413,7 @@ impl Bvh {
             stack_size: STACK_SIZE as u32,
             constants: Vec::new(),
             unrolled_triangle_loop: None,
+            needs_f64: false,
         }
     }
 

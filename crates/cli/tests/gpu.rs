@@ -95,7 +95,7 @@ fn gpu_config_writes_cpu_and_gpu_rows_that_agree() {
             assert!(g.trace_ms_median.is_none());
             continue;
         }
-        assert!(g.note.is_empty(), "{}", g.note);
+        assert_eq!(g.note, tb_harness::device::gpu::CPU_BUILD_NOTE);
         assert!(!g.adapter.is_empty());
         assert!(g.upload_ms.is_some() && g.readback_ms.is_some());
         assert!(g.trace_ms_median.is_some_and(|t| t >= 0.0));

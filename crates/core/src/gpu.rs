@@ -33,6 +33,10 @@
 //! them). To agree with the CPU ray for ray it visits nodes in the CPU's order with the
 //! prelude's tests.
 //!
+//! A program whose source uses `f64` beyond the prelude's fallback sets
+//! [`GpuProgram::needs_f64`]; the GPU crate then refuses it on adapters without
+//! `SHADER_F64` (a one-line [`GpuProgram::name`]d refusal, a row's note in a run).
+//!
 //! The GPU crate compiles one module per [`GpuProgram::name`] and caches pipelines by (name,
 //! query, triangle test, counting): source, stack size and constants are fixed per name (a
 //! second program of the same name with other values is refused); what varies per build goes
@@ -73,4 +77,8 @@ pub struct GpuProgram<'a> {
     /// invocation's loops after 65535 iterations, so such a program unrolled `k` times
     /// handles at most `k · 65000` triangles there and is refused beyond.
     pub unrolled_triangle_loop: Option<u32>,
+    /// The source computes in `f64` (declares `f64` values or `array<f64>` buffers, e.g. to
+    /// repeat a CPU walk's `f64` arithmetic): tb-gpu refuses it, with one line naming the
+    /// program, on an adapter without `SHADER_F64`, instead of failing to compile it.
+    pub needs_f64: bool,
 }

@@ -70,6 +70,7 @@ impl BruteForce {
             stack_size: 0,
             constants: Vec::new(),
             unrolled_triangle_loop: Some(GPU_UNROLL),
+            needs_f64: false,
         }
     }
 }

@@ -37,7 +37,8 @@
 //! binding size cannot be split (every ray may need all of it) and gives
 //! [`GpuError::TooLarge`]; a program may have as many buffers as
 //! `max_storage_buffers_per_shader_stage` leaves beside the 4 common storage buffers (4 on
-//! every WebGPU adapter).
+//! every WebGPU adapter). A program that computes in `f64` ([`GpuProgram::needs_f64`]) is
+//! refused ([`GpuError::Unsupported`], one line) on an adapter without `SHADER_F64`.
 
 mod device;
 mod kernels;

@@ -138,6 +138,14 @@ impl Gpu {
         *l = (*l).min(bytes);
     }
 
+    /// Act as an adapter without `SHADER_F64` from now on (tests of the refusal and of the
+    /// f32 fallback on adapters that have it): programs that need `f64` are refused, and the
+    /// watertight test's fallback of programs compiled from now on runs in f32.
+    pub fn forgo_f64(&mut self) {
+        self.summary.f64 = false;
+        self.kernels = crate::kernels::Kernels::new(false);
+    }
+
     /// The adapter's `max_storage_buffer_binding_size` (after [`Gpu::limit_binding`]): the
     /// largest array a program may bind.
     pub fn max_binding(&self) -> u64 {
@@ -179,10 +187,17 @@ impl Gpu {
     ///
     /// `Err`: [`GpuError::TooLarge`] for an array over one storage binding (named by
     /// [`tb_core::GpuBuffer::what`]); [`GpuError::Unsupported`] for more buffers than the
-    /// adapter binds, or a program with an unrolled triangle loop over too many triangles for
-    /// llvmpipe; [`GpuError::Program`] for a malformed program (a buffer that is not whole
+    /// adapter binds, a program with an unrolled triangle loop over too many triangles for
+    /// llvmpipe, or a program that computes in `f64` ([`GpuProgram::needs_f64`]) on an adapter
+    /// without `SHADER_F64`; [`GpuError::Program`] for a malformed program (a buffer that is not whole
     /// 4-byte words, a name reused with other code, WGSL that does not compile).
     pub fn upload(&self, p: &GpuProgram<'_>) -> Result<GpuStructure, GpuError> {
+        if p.needs_f64 && !self.summary.f64 {
+            return Err(GpuError::Unsupported(format!(
+                "{} computes in f64, and adapter {} lacks SHADER_F64",
+                p.name, self.summary.name
+            )));
+        }
         let n_tris = p.triangles.len() as u64;
         if let Some(unroll) = p.unrolled_triangle_loop {
             let most = unroll as u64 * LLVMPIPE_LOOP_MAX;

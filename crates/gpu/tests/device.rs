@@ -108,6 +108,7 @@ fn echo<'a>(tris: &'a [Triangle], first: &[u32]) -> GpuProgram<'a> {
         stack_size: 5,
         constants: vec![("SCALE", 3.0)],
         unrolled_triangle_loop: None,
+        needs_f64: false,
     }
 }
 
@@ -184,6 +185,28 @@ fn malformed_programs_are_refused() {
         matches!(&e, GpuError::Program(m) if m.contains("unique")),
         "{e}"
     );
+}
+
+#[test]
+fn f64_programs_are_refused_without_shader_f64() {
+    let Some(mut gpu) = open_or_skip() else {
+        return;
+    };
+    let tris = [triangle()];
+    let mut p = echo(&tris, &[1, 2]);
+    p.needs_f64 = true;
+    if gpu.adapter().f64 {
+        gpu.upload(&p).unwrap();
+        gpu.forgo_f64();
+    }
+    let e = refusal(&gpu, &p);
+    assert!(
+        matches!(&e, GpuError::Unsupported(m) if m.contains("test/echo") && m.contains("SHADER_F64")),
+        "{e}"
+    );
+    // A program without f64 still runs.
+    p.needs_f64 = false;
+    gpu.upload(&p).unwrap();
 }
 
 #[test]

@@ -87,14 +87,14 @@ pub struct IrregularGrid {
     /// The top-level grid.
     top: Lattice,
     /// The virtual base grid: the top level refined by 2^dmax.
-    base: Lattice,
-    dmax: u32,
+    pub(crate) base: Lattice,
+    pub(crate) dmax: u32,
     /// Voxel map (§4.1): one word per top cell, `D << 28 | index` of its second level in this
     /// same array, then the second levels (`2^D` per axis each, x fastest): cell indices.
-    map: Vec<u32>,
-    cells: Vec<Cell>,
-    refs: Vec<u32>,
-    tris: Arc<[Triangle]>,
+    pub(crate) map: Vec<u32>,
+    pub(crate) cells: Vec<Cell>,
+    pub(crate) refs: Vec<u32>,
+    pub(crate) tris: Arc<[Triangle]>,
     figures: Vec<(String, f64)>,
 }
 
@@ -685,7 +685,7 @@ impl Walk<'_> {
 
 impl Structure for IrregularGrid {
     const NAME: &'static str = "irregular-grid";
-    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::with_gpu(
         TraversalInfo::new(
             "walk",
             "Pérard-Gayot et al. 2017 §5",
@@ -695,6 +695,7 @@ impl Structure for IrregularGrid {
         |g, query, tri, rays, hits, stats| {
             tb_core::dispatch(&Walk(g), query, tri, rays, hits, stats)
         },
+        IrregularGrid::gpu_walk,
     )];
 
     fn own_memory(&self) -> MemoryReport {

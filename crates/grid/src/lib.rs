@@ -44,13 +44,21 @@
 //! far origins of `stress/ray-limits` among our scenes) test every triangle instead
 //! (`Lattice::far`), which the counters show.
 //!
+//! # GPU (module `gpu`)
+//!
+//! Each traversal has a WGSL kernel of its own (`shaders/`): `uniform-grid/dda`,
+//! `two-level-grid/dda` and `irregular-grid/walk`, the CPU walks step for step in `f64`, so
+//! hits and counters equal the CPU's ray for ray (on adapters with `SHADER_F64`; refused
+//! elsewhere). Construction stays on the CPU.
+//!
 //! # Not done yet (issue 16)
 //!
-//! GPU kernels, the procedural hairball / large-object / scene-in-scene built-ins, dynamic
+//! GPU construction, the procedural hairball / large-object / scene-in-scene built-ins, dynamic
 //! scenes (Table 4), the λ_1 × λ_2 sweep (Figure 6) and the SBVH comparison (the binned `bvh`
 //! stands in, see `configs/irregular-grid.toml`).
 
 mod common;
+mod gpu;
 mod irregular;
 mod two_level;
 mod uniform;

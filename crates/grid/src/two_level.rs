@@ -54,12 +54,12 @@ impl TopCell {
 /// Per-ray counters of `dda`: `cells` (and `steps`): top and leaf cells visited (N_T);
 /// `interior`: top cells visited; `leaves`: leaf cells visited; `prims`: triangle tests (N_I).
 pub struct TwoLevelGrid {
-    top: Lattice,
-    tops: Vec<TopCell>,
+    pub(crate) top: Lattice,
+    pub(crate) tops: Vec<TopCell>,
     /// `start[l]..start[l+1]` indexes `refs` for leaf cell `l`.
-    start: Vec<u32>,
-    refs: Vec<u32>,
-    tris: Arc<[Triangle]>,
+    pub(crate) start: Vec<u32>,
+    pub(crate) refs: Vec<u32>,
+    pub(crate) tris: Arc<[Triangle]>,
     figures: Vec<(String, f64)>,
 }
 
@@ -250,7 +250,7 @@ impl Dda<'_> {
 
 impl Structure for TwoLevelGrid {
     const NAME: &'static str = "two-level-grid";
-    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::with_gpu(
         TraversalInfo::new(
             "dda",
             "Kalojanov et al. 2011 §4",
@@ -259,6 +259,7 @@ impl Structure for TwoLevelGrid {
         |g, query, tri, rays, hits, stats| {
             tb_core::dispatch(&Dda(g), query, tri, rays, hits, stats)
         },
+        TwoLevelGrid::gpu_dda,
     )];
 
     fn own_memory(&self) -> MemoryReport {

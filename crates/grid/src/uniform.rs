@@ -35,15 +35,15 @@ tb_core::params! {
 /// in one step counts once); `prims`: triangle tests (N_I; a triangle in several visited cells
 /// is tested in each, there is no mailbox); the others stay 0.
 pub struct UniformGrid {
-    lat: Lattice,
+    pub(crate) lat: Lattice,
     /// `start[c]..start[c+1]` indexes `refs` for cell `c` (x fastest).
-    start: Vec<u32>,
+    pub(crate) start: Vec<u32>,
     /// Scene indices of the triangles, sorted by cell then index.
-    refs: Vec<u32>,
+    pub(crate) refs: Vec<u32>,
     /// With macro regions: per cell, the box `[lo, hi)` in voxels that the walk leaves in
     /// one step (the cell itself when it is not empty).
-    macros: Vec<[u32; 6]>,
-    tris: Arc<[Triangle]>,
+    pub(crate) macros: Vec<[u32; 6]>,
+    pub(crate) tris: Arc<[Triangle]>,
     times_ms: [f64; 2],
 }
 
@@ -262,7 +262,7 @@ fn largest(room: u32, ok: impl Fn(u32) -> bool) -> u32 {
 
 impl Structure for UniformGrid {
     const NAME: &'static str = "uniform-grid";
-    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::with_gpu(
         TraversalInfo::new(
             "dda",
             "Amanatides & Woo 1987; Devillers 1989",
@@ -272,6 +272,7 @@ impl Structure for UniformGrid {
         |g, query, tri, rays, hits, stats| {
             tb_core::dispatch(&Dda(g), query, tri, rays, hits, stats)
         },
+        UniformGrid::gpu_dda,
     )];
 
     fn own_memory(&self) -> MemoryReport {

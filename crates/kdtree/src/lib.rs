@@ -697,6 +697,7 @@ impl KdTree {
             stack_size: stack_size as u32,
             constants: vec![("KERNEL", kernel as u32 as f64)],
             unrolled_triangle_loop: None,
+            needs_f64: false,
         }
     }
 

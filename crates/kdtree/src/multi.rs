@@ -423,6 +423,7 @@ impl MultiKdTree {
             stack_size: STACK_SIZE as u32,
             constants: Vec::new(),
             unrolled_triangle_loop: None,
+            needs_f64: false,
         }
     }
 

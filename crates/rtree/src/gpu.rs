@@ -91,6 +91,7 @@ impl Rtree {
             stack_size: stack,
             constants: vec![("M", m as f64)],
             unrolled_triangle_loop: None,
+            needs_f64: false,
         }
     }
 

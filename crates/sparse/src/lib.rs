@@ -377,6 +377,7 @@ impl SparseBoxes {
             stack_size: 0,
             constants: vec![("START", start as u32 as f64)],
             unrolled_triangle_loop: None,
+            needs_f64: false,
         }
     }
 }

@@ -7,7 +7,8 @@
 //! Rules (README, "GPU"): a GPU row has `device = gpu`, `threads = 0` (the column counts CPU
 //! worker threads; one host thread drives the GPU), the adapter's `name / backend / driver`,
 //! `upload_ms` (structure plus rays, host to device), `trace_ms_*` (kernel time: timestamps
-//! or wall time around submit-and-wait) and `readback_ms` (hits, device to host). A
+//! or wall time around submit-and-wait), `readback_ms` (hits, device to host) and the note
+//! [`CPU_BUILD_NOTE`] (every structure is built on the CPU, then uploaded). A
 //! structure or traversal without a GPU kernel gets a row whose `note` says so. When the GPU
 //! cannot be used (no adapter, a lost device, a validation error) the run prints one error
 //! line, writes the GPU rows with the error as `note`, still writes every CPU row, and fails
@@ -20,6 +21,11 @@ use crate::validation::{self, Sample};
 use std::collections::HashMap;
 use tb_core::{Accel, HitRecord, Query, Ray, StatsSummary, TriTestKind};
 use tb_gpu::{Gpu, GpuError, GpuRays, GpuStructure};
+
+/// The note of every measured GPU row: no structure is built on the GPU (the built arrays are
+/// uploaded; the row's build columns are the CPU build's). The papers of the GPU grids build
+/// on the GPU (Pérard-Gayot et al. 2017 §4, Kalojanov et al. 2011), so the rows say so.
+pub const CPU_BUILD_NOTE: &str = "built on the CPU";
 
 /// The run's GPU, or why there is none.
 pub struct GpuDevice {
@@ -110,6 +116,13 @@ impl Device for GpuDevice {
         let gpu = self.gpu.as_ref().map_err(|e| e.clone())?;
         row.adapter = gpu.adapter().label();
         let r = measure_on(gpu, &mut self.build, job, sample, row);
+        if let Ok(Outcome::Measured(_)) = &r {
+            row.note = if row.note.is_empty() {
+                CPU_BUILD_NOTE.to_string()
+            } else {
+                format!("{}; {CPU_BUILD_NOTE}", row.note)
+            };
+        }
         if let Err(e) = &r {
             // A device error leaves the device unusable: later GPU rows name the same cause.
             self.gpu = Err(e.clone());

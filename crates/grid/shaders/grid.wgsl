@@ -1,0 +1,311 @@
+// What the grid programs share (tb_grid's `common` module in WGSL, on tb-gpu's prelude,
+// contract in tb_core::gpu): the lattice, the ray clipped to it, the cell walk's steps (voxel
+// of a point, exits through the far planes, the monotone advance of Pérard-Gayot et al. 2017
+// §5), the reference tests and the brute-force answer of rays from far away. Positions and
+// plane distances are computed in f64 from the f32 ray, operation for operation as the CPU
+// walk does (so the programs need SHADER_F64: GpuProgram::needs_f64), which makes the cells
+// visited, and so the counters, equal to the CPU's ray for ray.
+//
+// Every program declares `hdr: array<f64>` (binding 5), whose lattices are read by `lattice`:
+// 16 words each, min (3), size (3), 1/size (3), resolution (3), delta (3), mag.
+
+struct Lat {
+    lo: vec3<f64>,
+    size: vec3<f64>,
+    inv: vec3<f64>,
+    res: vec3<u32>,
+    delta: vec3<f64>,
+    mag: f64,
+}
+
+// tb_grid::common::WalkRay: origin, direction, 1/direction in f64 and the interval inside
+// the lattice's box.
+struct WalkRay {
+    o: vec3<f64>,
+    d: vec3<f64>,
+    inv: vec3<f64>,
+    t0: f64,
+    t1: f64,
+    ok: bool,
+}
+
+// One step of the walk: the next voxel, `ok = false` when it would leave the lattice.
+struct Next {
+    v: vec3<u32>,
+    ok: bool,
+}
+
+// The lattice stored at word `k` of `hdr`.
+fn lattice(k: u32) -> Lat {
+    let h = k;
+    return Lat(
+        vec3<f64>(hdr[h], hdr[h + 1u], hdr[h + 2u]),
+        vec3<f64>(hdr[h + 3u], hdr[h + 4u], hdr[h + 5u]),
+        vec3<f64>(hdr[h + 6u], hdr[h + 7u], hdr[h + 8u]),
+        vec3<u32>(u32(hdr[h + 9u]), u32(hdr[h + 10u]), u32(hdr[h + 11u])),
+        vec3<f64>(hdr[h + 12u], hdr[h + 13u], hdr[h + 14u]),
+        hdr[h + 15u],
+    );
+}
+
+// +inf in f64, made at run time (a constant would be folded, and infinite constants are
+// rejected): the f32 infinity of the `meta_` uniform's first word's unused high bits.
+fn inf64() -> f64 {
+    return f64(bitcast<f32>(0x7f800000u | (meta_.counts.x & 0u)));
+}
+
+// NaN test through f32 (NaN converts to NaN; no bitcast of f64 in WGSL).
+fn is_nan64(x: f64) -> bool {
+    return (bitcast<u32>(f32(x)) & 0x7fffffffu) > 0x7f800000u;
+}
+
+// Rust's f64::max / f64::min: a NaN operand yields the other.
+fn max64(a: f64, b: f64) -> f64 {
+    if is_nan64(a) {
+        return b;
+    }
+    if is_nan64(b) {
+        return a;
+    }
+    return select(a, b, b > a);
+}
+fn min64(a: f64, b: f64) -> f64 {
+    if is_nan64(a) {
+        return b;
+    }
+    if is_nan64(b) {
+        return a;
+    }
+    return select(a, b, b < a);
+}
+
+// Lattice::plane: position of plane `i` of axis `a`.
+fn plane(l: Lat, a: u32, i: u32) -> f64 {
+    return l.lo[a] + f64(i) * l.size[a];
+}
+
+// Lattice::index: linear index of voxel `v` (x fastest).
+fn index(l: Lat, v: vec3<u32>) -> u32 {
+    return v.x + l.res.x * (v.y + l.res.y * v.z);
+}
+
+// Lattice::voxel: voxel along `a` of coordinate `p`, clamped to the lattice (a NaN gives 0,
+// as Rust's `f as u32` then `min`).
+fn voxel(l: Lat, a: u32, p: f64) -> u32 {
+    let f = floor((p - l.lo[a]) * l.inv[a]);
+    if f >= 0.0lf {
+        let top = l.res[a] - 1u;
+        if f >= f64(top) {
+            return top;
+        }
+        return u32(f);
+    }
+    return 0u;
+}
+
+// f32::max as glam's Vec3::max_element uses it (NaN ignored).
+fn max32(a: f32, b: f32) -> f32 {
+    if (bitcast<u32>(a) & 0x7fffffffu) > 0x7f800000u {
+        return b;
+    }
+    return select(a, b, b > a);
+}
+
+// Lattice::far: the f32 triangle test's rounding at this origin may exceed the reference
+// margin; such rays test every triangle.
+fn far(l: Lat, r: Ray) -> bool {
+    let a = abs(r.origin);
+    let o = f64(max32(a.x, max32(a.y, a.z)));
+    let e = (o + l.mag) * (1.0lf / 2097152.0lf);
+    return e > min64(min64(l.delta.x, l.delta.y), l.delta.z);
+}
+
+// WalkRay::clip_to: `w` clipped to the lattice's box inside its current interval.
+fn clip_to(w: WalkRay, l: Lat) -> WalkRay {
+    var t0 = w.t0;
+    var t1 = w.t1;
+    var out = w;
+    out.ok = false;
+    for (var a = 0u; a < 3u; a++) {
+        let lo = l.lo[a];
+        let hi = plane(l, a, l.res[a]);
+        let o = w.o[a];
+        let d = w.d[a];
+        if d == 0.0lf {
+            if o < lo || o > hi {
+                return out;
+            }
+        } else {
+            var n = hi;
+            var f = lo;
+            if d > 0.0lf {
+                n = lo;
+                f = hi;
+            }
+            t0 = max64(t0, (n - o) / d);
+            t1 = min64(t1, (f - o) / d);
+        }
+    }
+    if t0 > t1 || is_nan64(t0) || is_nan64(t1) {
+        return out;
+    }
+    out.t0 = t0;
+    out.t1 = t1;
+    out.ok = true;
+    return out;
+}
+
+// WalkRay::clip: the ray in f64, clipped to the lattice's box.
+fn clip(r: Ray, l: Lat) -> WalkRay {
+    let d = vec3<f64>(r.dir);
+    let one = 1.0lf;
+    let w = WalkRay(
+        vec3<f64>(r.origin),
+        d,
+        vec3<f64>(one / d.x, one / d.y, one / d.z),
+        f64(r.tmin),
+        f64(r.tmax),
+        true,
+    );
+    return clip_to(w, l);
+}
+
+// WalkRay::voxel_at: the voxel holding the ray's point at `t`.
+fn voxel_at(w: WalkRay, l: Lat, t: f64) -> vec3<u32> {
+    var v = vec3<u32>(0u);
+    for (var a = 0u; a < 3u; a++) {
+        if w.d[a] == 0.0lf {
+            v[a] = voxel(l, a, w.o[a]);
+        } else {
+            v[a] = voxel(l, a, w.o[a] + t * w.d[a]);
+        }
+    }
+    return v;
+}
+
+// WalkRay::exits and argmin3: the axis and distance of the nearest far plane of the box of
+// voxels lo..hi (ties to the lower axis; +inf on axes the ray is parallel to).
+struct Exit {
+    axis: u32,
+    t: f64,
+}
+
+fn exit(w: WalkRay, l: Lat, lo: vec3<u32>, hi: vec3<u32>) -> Exit {
+    var t = vec3<f64>(0.0lf);
+    for (var a = 0u; a < 3u; a++) {
+        if w.d[a] > 0.0lf {
+            t[a] = (plane(l, a, hi[a]) - w.o[a]) * w.inv[a];
+        } else if w.d[a] < 0.0lf {
+            t[a] = (plane(l, a, lo[a]) - w.o[a]) * w.inv[a];
+        } else {
+            t[a] = inf64();
+        }
+    }
+    var k = 0u;
+    for (var a = 1u; a < 3u; a++) {
+        if t[a] < t[k] {
+            k = a;
+        }
+    }
+    return Exit(k, t[k]);
+}
+
+// WalkRay::advance: the monotone advance of §5 from voxel `v` leaving the box lo..hi at `t`
+// through the far plane of `axis`.
+fn advance(w: WalkRay, l: Lat, t: f64, axis: u32, v: vec3<u32>, lo: vec3<u32>, hi: vec3<u32>) -> Next {
+    var n = v;
+    for (var a = 0u; a < 3u; a++) {
+        if a == axis {
+            if w.d[a] > 0.0lf {
+                if hi[a] >= l.res[a] {
+                    return Next(n, false);
+                }
+                n[a] = hi[a];
+            } else {
+                if lo[a] == 0u {
+                    return Next(n, false);
+                }
+                n[a] = lo[a] - 1u;
+            }
+        } else if w.d[a] != 0.0lf {
+            let p = clamp(voxel(l, a, w.o[a] + t * w.d[a]), lo[a], hi[a] - 1u);
+            if w.d[a] > 0.0lf {
+                n[a] = max(p, v[a]);
+            } else {
+                n[a] = min(p, v[a]);
+            }
+        }
+    }
+    return Next(n, true);
+}
+
+// Whether the walk goes on after a cell whose box exits at `e`: the closest hit so far lies
+// beyond the exit and the ray's interval does too (the test of tb_grid::common::walk).
+fn goes_on(best: f32, e: Exit, w: WalkRay) -> bool {
+    return !(f64(best) <= e.t || e.t >= w.t1);
+}
+
+// The closest hit so far (`best.t` is the ray's tmax until one is found).
+fn no_hit(r: Ray) -> Hit {
+    return Hit(r.tmax, MISS_PRIM, 0.0, 0.0);
+}
+
+// The hit as the CPU returns it: a miss keeps HitRecord::MISS.
+fn record(h: Hit) -> Hit {
+    if h.prim == MISS_PRIM {
+        return miss();
+    }
+    return h;
+}
+
+// test_refs: the references `begin..end` (scene indices in `refs`), closest hit into `best`;
+// true when ANY and one was found.
+fn test_refs(p: Pre, r: Ray, begin: u32, end: u32, best: ptr<function, Hit>, st: ptr<function, Stats>) -> bool {
+    for (var k = begin; k < end; k++) {
+        (*st).prims += 1u;
+        let id = refs[k];
+        let h = intersect(p, r, id, (*best).t);
+        if h.w != 0.0 {
+            *best = Hit(h.x, id, h.y, h.z);
+            if ANY {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+// One triangle of brute_force.
+fn brute_one(k: u32, p: Pre, r: Ray, best: ptr<function, Hit>, st: ptr<function, Stats>, done: ptr<function, bool>) {
+    if *done || k >= meta_.counts.x {
+        return;
+    }
+    (*st).prims += 1u;
+    let h = intersect(p, r, k, (*best).t);
+    if h.w != 0.0 {
+        *best = Hit(h.x, k, h.y, h.z);
+        if ANY {
+            *done = true;
+        }
+    }
+}
+
+// brute_force: every triangle in index order (rays from far away, Lattice::far). Unrolled 8
+// times: llvmpipe ends an invocation's loops after 65535 iterations in all.
+fn brute_force(r: Ray, st: ptr<function, Stats>) -> Hit {
+    let p = prepare(r);
+    var best = no_hit(r);
+    var done = false;
+    let n = meta_.counts.x;
+    for (var k = 0u; k < n && !done; k += 8u) {
+        brute_one(k, p, r, &best, st, &done);
+        brute_one(k + 1u, p, r, &best, st, &done);
+        brute_one(k + 2u, p, r, &best, st, &done);
+        brute_one(k + 3u, p, r, &best, st, &done);
+        brute_one(k + 4u, p, r, &best, st, &done);
+        brute_one(k + 5u, p, r, &best, st, &done);
+        brute_one(k + 6u, p, r, &best, st, &done);
+        brute_one(k + 7u, p, r, &best, st, &done);
+    }
+    return record(best);
+}

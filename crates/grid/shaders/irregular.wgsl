@@ -1,0 +1,60 @@
+// The irregular grid's `walk` (Pérard-Gayot et al. 2017 §5), program `irregular-grid/walk` on
+// grid.wgsl: tb_grid's IrregularGrid::walk cell for cell: on the virtual base grid, the cell
+// of the current voxel from the two-level voxel map, its references, then the exit through
+// the far planes of the cell's box and the monotone advance. Buffers: the base lattice
+// (`hdr`, then word 16: the deepest octree level D_max), the voxel map (`vmap`: per top cell
+// `D << 28 | index` of its second level, then the second levels), the cells (`cells`, 8
+// words each: lo, begin, hi, end) and the references (`refs`). Counters: cells and steps per
+// cell visited, prims per test.
+
+@group(0) @binding(5) var<storage, read> hdr: array<f64>;
+@group(0) @binding(6) var<storage, read> vmap: array<u32>;
+@group(0) @binding(7) var<storage, read> cells: array<u32>;
+@group(0) @binding(8) var<storage, read> refs: array<u32>;
+
+// IrregularGrid::lookup: the cell holding base voxel `v` (two dependent reads, §5 step a).
+fn lookup(top_res: vec3<u32>, dmax: u32, v: vec3<u32>) -> u32 {
+    let t = v >> vec3<u32>(dmax);
+    let e = vmap[t.x + top_res.x * (t.y + top_res.y * t.z)];
+    let d = e >> 28u;
+    let first = e & 0x0fffffffu;
+    let mask = (1u << dmax) - 1u;
+    let s = (v & vec3<u32>(mask)) >> vec3<u32>(dmax - d);
+    return vmap[first + (s.x | (s.y << d) | (s.z << (2u * d)))];
+}
+
+fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
+    let base = lattice(0u);
+    let w = clip(r, base);
+    if !w.ok {
+        return miss();
+    }
+    if far(base, r) {
+        return brute_force(r, st);
+    }
+    let dmax = u32(hdr[16]);
+    let top_res = base.res >> vec3<u32>(dmax);
+    let p = prepare(r);
+    var best = no_hit(r);
+    var v = voxel_at(w, base, w.t0);
+    loop {
+        (*st).cells += 1u;
+        (*st).steps += 1u;
+        let c = 8u * lookup(top_res, dmax, v);
+        if test_refs(p, r, cells[c + 3u], cells[c + 7u], &best, st) {
+            break;
+        }
+        let lo = vec3<u32>(cells[c], cells[c + 1u], cells[c + 2u]);
+        let hi = vec3<u32>(cells[c + 4u], cells[c + 5u], cells[c + 6u]);
+        let x = exit(w, base, lo, hi);
+        if !goes_on(best.t, x, w) {
+            break;
+        }
+        let n = advance(w, base, x.t, x.axis, v, lo, hi);
+        if !n.ok {
+            break;
+        }
+        v = n.v;
+    }
+    return record(best);
+}
