@@ -305,11 +305,20 @@ impl Ctx<'_> {
             return None;
         }
         let c = self.p.leaf_cost;
-        let mut order: Vec<u32> = (0..n as u32).collect();
-        order.sort_unstable_by(|&a, &b| {
-            let (ca, cb) = (refs[a as usize].c2()[axis], refs[b as usize].c2()[axis]);
-            ca.total_cmp(&cb).then(a.cmp(&b))
-        });
+        // Sort keys: the centre's bits made monotonic (as `f32::total_cmp` orders), then the
+        // position; one integer sort, no indirection into `refs` while sorting.
+        let mut keys: Vec<u64> = refs
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let b = r.c2()[axis].to_bits();
+                let m = if b >> 31 == 1 { !b } else { b | 1 << 31 };
+                (m as u64) << 32 | i as u64
+            })
+            .collect();
+        keys.sort_unstable();
+        let order: Vec<u32> = keys.iter().map(|&k| k as u32).collect();
+        drop(keys);
         // right[k]: A(box of order[k..])·c(n − k), for k ≥ 1.
         let mut right = vec![0.0f32; n];
         let mut acc = Aabb::EMPTY;
