@@ -7,10 +7,12 @@
 //! 2. bins the centroids on all three axes at once into `bins` equal intervals of the
 //!    centroid bounds, keeping per bin a box and a count (one pass);
 //! 3. sweeps the bins of each axis to find the boundary of least SAH cost
-//!    `C_trav·A(n) + C_isect·(A(L)·|L| + A(R)·|R|)` (costs kept unnormalised by `A(n)`);
+//!    `C_trav·A(n) + C_isect·(A(L)·c(|L|) + A(R)·c(|R|))` (costs kept unnormalised by
+//!    `A(n)`), the children priced as leaves, `c(k)` the leaf price of `leaf_cost`: `k`
+//!    (`linear`) or `⌈k/4⌉` (`blocks`, the wide trees' leaf blocks of four);
 //! 4. makes a leaf when `|n| ≤ min_leaf`, or when `|n| ≤ max_leaf` and the leaf cost
-//!    `C_isect·A(n)·|n|` is at most the best split's; otherwise partitions the references in
-//!    place at the chosen boundary (one pass).
+//!    `C_isect·A(n)·c(|n|)` is at most the best split's; otherwise partitions the references
+//!    in place at the chosen boundary (one pass).
 //!
 //! Where binning cannot separate the primitives (all centroids coincide, a zero-area node,
 //! every centroid in one bin) and `|n| > max_leaf`, the node is split at the object median
@@ -310,7 +312,7 @@ impl Builder<'_> {
             for k in (1..nb).rev() {
                 acc = acc.union(&bins[k].bounds);
                 cnt += bins[k].count;
-                self.right_cost[k] = acc.half_area() * cnt as f32;
+                self.right_cost[k] = acc.half_area() * p.leaf_cost.units(cnt as usize);
                 self.right_count[k] = cnt;
             }
             acc = Aabb::EMPTY;
@@ -321,7 +323,8 @@ impl Builder<'_> {
                 if cnt == 0 || self.right_count[k + 1] == 0 {
                     continue;
                 }
-                let cost = acc.half_area() * cnt as f32 + self.right_cost[k + 1];
+                let cost =
+                    acc.half_area() * p.leaf_cost.units(cnt as usize) + self.right_cost[k + 1];
                 if cost < best_cost {
                     best_cost = cost;
                     best = Some((axis, k));
@@ -335,7 +338,7 @@ impl Builder<'_> {
         };
         if n <= max_leaf {
             let split_cost = p.c_trav * area + p.c_isect * best_cost;
-            let leaf_cost = p.c_isect * area * n as f32;
+            let leaf_cost = p.c_isect * area * p.leaf_cost.units(n);
             if leaf_cost <= split_cost {
                 return None;
             }

@@ -11,15 +11,18 @@
 //!   adjacent (pbrt-v3 §4.3.4 "Compact BVH for traversal", with sibling pairs instead of
 //!   left-child-next); triangles are copied into leaf order, [`Bvh::prim_ids`] maps back to the
 //!   scene's indices. The arrays are plain `#[repr(C)]` data, uploadable to a GPU unchanged.
-//! - **SBVH** (`builder = "sbvh"`, module `sbvh`): object and spatial splits with the overlap
+//! - **SBVH** (`builder = "sbvh"`, module `sbvh`): object splits by a full SAH sweep (or
+//!   binned, `object_split`) and spatial splits with the overlap
 //!   threshold `alpha` and reference unsplitting (Stich, Friedrich and Dietrich 2009), the
 //!   triangles clipped by `tb_core::clip` (shared with the kd-tree builder); a triangle may be
 //!   referenced by several leaves, so `validate` checks coverage instead of a permutation.
 //! - **Parallel builds**: both builders split large nodes on the current rayon pool (or a pool
 //!   of `build_threads`), giving the same tree as one thread.
-//! - **Wide BVHs** (`width = 4` or `8`, module `wide`): collapsed from the binary tree, child
-//!   boxes in SoA layout tested at once with SSE or AVX (runtime detection, scalar fallback),
-//!   nearest child first; GPU program `shaders/wide.wgsl`.
+//! - **Wide BVHs** (`width = 4` or `8`, module `wide`): collapsed from the binary tree,
+//!   SAH-optimally by dynamic programming (Ylitie, Karras and Laine 2017 §3.1; `collapse`),
+//!   child boxes in SoA layout tested at once with SSE or AVX (runtime detection, scalar
+//!   fallback), nearest child first, leaves in SoA blocks of four triangles (their SAH price
+//!   per block with `leaf_cost = "blocks"`); GPU program `shaders/wide.wgsl`.
 //! - **Traversal** `ordered` (module `traverse`): depth-first with a fixed-size stack, both
 //!   children's boxes tested at their parent and the nearer visited first (pbrt-v3 §4.3.5), the
 //!   slab test made robust as in Ize 2013, "Robust BVH ray traversal" (see [`Aabb::intersect`]).
@@ -43,7 +46,8 @@ pub use wide::{LeafBlock, WideNode, EMPTY_SLOT, WIDE_STACK_SIZE};
 /// The BVH in the registry.
 pub static FAMILY: Family = Family::new::<Bvh, BvhParams>(
     "binned SAH BVH or SBVH, binary (32-byte flat nodes) or 4/8-wide with SIMD child-box tests \
-     (MacDonald and Booth 1990; Wald 2007; Stich et al. 2009; Wald et al. 2008)",
+     (MacDonald and Booth 1990; Wald 2007; Stich et al. 2009; Wald et al. 2008; Ylitie et al. \
+     2017)",
     |tris, set| {
         build_with(set, |p: &BvhParams| {
             p.check()?;
@@ -82,6 +86,70 @@ tb_core::params! {
         /// build threads: 0 = the current rayon pool (all threads in the harness), n = a pool
         /// of n threads (1: sequential); the tree is the same for every count
         build_threads: u32 = 0, ParamKind::Int { min: 0, max: 1024 };
+        /// SAH price of a leaf of `n` triangles: `linear`, `C_isect·n` (MacDonald and Booth
+        /// 1990), or `blocks`, `C_isect·⌈n/4⌉` (the wide trees test a leaf's triangles four at
+        /// once in SoA blocks, `LeafBlock`, so a leaf of 3 costs what a leaf of 1 costs);
+        /// used by both builders (leaf or split, the reported SAH cost) and the collapse
+        leaf_cost: LeafCost = LeafCost::Linear, ParamKind::Choice(LeafCost::NAMES);
+        /// how a wide tree (`width` 4 or 8) is collapsed from the binary one: `sah`, the
+        /// SAH-optimal collapse by dynamic programming (Ylitie, Karras and Laine 2017 §3.1),
+        /// or `greedy`, opening the child of largest area until the node is full (Wald et
+        /// al. 2008 §3)
+        collapse: Collapse = Collapse::Sah, ParamKind::Choice(Collapse::NAMES);
+        /// SBVH object splits: `sweep`, the full SAH sweep over the references sorted by
+        /// centre on each axis (Stich et al. 2009 §4, as the original SBVH), or `binned`
+        /// (`bins` bins of the centre bounds, as the binned builder)
+        object_split: ObjectSplit = ObjectSplit::Sweep, ParamKind::Choice(ObjectSplit::NAMES);
+    }
+}
+
+tb_core::choice! {
+    /// The SAH price of a leaf's triangles (parameter `leaf_cost`).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum LeafCost {
+        /// One triangle test per triangle: `C_isect·n`.
+        Linear = "linear",
+        /// One test of a block of four per started block: `C_isect·⌈n/4⌉` (the wide trees'
+        /// [`LeafBlock`]s, `TriTest::intersect4`).
+        Blocks = "blocks",
+    }
+}
+
+impl LeafCost {
+    /// The number of triangle tests (or blocks of four) a leaf of `n` triangles is priced at;
+    /// the SAH leaf cost is `C_isect` times this times the leaf's area.
+    #[inline(always)]
+    pub fn units(self, n: usize) -> f32 {
+        match self {
+            LeafCost::Linear => n as f32,
+            LeafCost::Blocks => n.div_ceil(4) as f32,
+        }
+    }
+}
+
+tb_core::choice! {
+    /// How the wide trees are collapsed from the binary one (parameter `collapse`).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Collapse {
+        /// SAH-optimal by dynamic programming over the binary tree (Ylitie, Karras and Laine
+        /// 2017, "Efficient incoherent ray traversal on GPUs through compressed wide BVHs",
+        /// §3.1).
+        Sah = "sah",
+        /// Greedy: open the interior child of largest surface area until the node is full
+        /// (Wald, Benthin and Boulos 2008 §3).
+        Greedy = "greedy",
+    }
+}
+
+tb_core::choice! {
+    /// How the SBVH finds its object splits (parameter `object_split`).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum ObjectSplit {
+        /// Full SAH sweep over the references sorted by box centre on each axis (Stich,
+        /// Friedrich and Dietrich 2009 §4, after Wald 2007's sweep): every split position.
+        Sweep = "sweep",
+        /// Binned SAH over the centre bounds (`bins` bins; Wald 2007).
+        Binned = "binned",
     }
 }
 
@@ -89,11 +157,11 @@ tb_core::choice! {
     /// Which builder makes the binary tree.
     #[derive(Clone, Copy, Debug, PartialEq, Eq)]
     pub enum Builder {
-        /// Binned SAH over triangle centroids, object splits (Wald 2007); single-threaded.
+        /// Binned SAH over triangle centroids, object splits (Wald 2007); parallel (rayon).
         Binned = "binned",
-        /// Spatial-split BVH: binned object and spatial splits with reference unsplitting
-        /// (Stich, Friedrich and Dietrich 2009); triangles may be referenced by several
-        /// leaves; parallel (rayon).
+        /// Spatial-split BVH: object splits (full SAH sweep, or binned: `object_split`) and
+        /// binned spatial splits with reference unsplitting (Stich, Friedrich and Dietrich
+        /// 2009); triangles may be referenced by several leaves; parallel (rayon).
         Sbvh = "sbvh",
     }
 }
@@ -281,14 +349,15 @@ impl Bvh {
             });
         }
         let triangles: Vec<Triangle> = order.iter().map(|&i| tris[i as usize]).collect();
+        let cost = wide::CostModel::of(params);
         let (wide, (blocks, block_first)) = match params.width {
             4 => {
-                let mut w = wide::collapse::<4>(&nodes);
+                let mut w = wide::collapse::<4>(&nodes, params.collapse, &cost);
                 let b = wide::pack_leaves(&mut w, &triangles, &order);
                 (WideNodes::W4(w), b)
             }
             8 => {
-                let mut w = wide::collapse::<8>(&nodes);
+                let mut w = wide::collapse::<8>(&nodes, params.collapse, &cost);
                 let b = wide::pack_leaves(&mut w, &triangles, &order);
                 (WideNodes::W8(w), b)
             }
@@ -437,7 +506,7 @@ impl Bvh {
     }
 
     /// Tree figures: (interior count, leaf count, max depth, sum of leaf depths, max leaf size,
-    /// Σ interior area, Σ leaf area × size).
+    /// Σ interior area, Σ leaf area × leaf price (`leaf_cost`)).
     fn figures(&self) -> TreeFigures {
         let mut t = TreeFigures::default();
         let nodes = self.nodes();
@@ -449,7 +518,7 @@ impl Bvh {
                 t.leaves += 1;
                 t.leaf_depth_sum += d as u64;
                 t.max_leaf = t.max_leaf.max(n.count);
-                t.leaf_area_prims += a * n.count as f64;
+                t.leaf_area_prims += a * self.params.leaf_cost.units(n.count as usize) as f64;
             } else {
                 t.interior += 1;
                 t.interior_area += a;
@@ -616,19 +685,25 @@ impl Bvh {
         Ok(())
     }
 
-    /// `wide_nodes` and `wide_fill` of a wide build (none for `width = 2`).
+    /// `wide_nodes`, `wide_fill` and `wide_sah_cost` of a wide build (none for `width = 2`).
     fn wide_figures(&self) -> Vec<(String, f64)> {
-        fn figs<const N: usize>(w: &[WideNode<N>]) -> Vec<(String, f64)> {
-            let used: usize = w.iter().map(|n| n.children()).sum();
-            vec![
-                ("wide_nodes".into(), w.len() as f64),
-                ("wide_fill".into(), used as f64 / w.len().max(1) as f64),
-            ]
+        let cm = wide::CostModel::of(&self.params);
+        let root = self.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds());
+        let figs = |used: usize, n: usize, sah: Option<f64>| {
+            let mut v = vec![
+                ("wide_nodes".to_string(), n as f64),
+                ("wide_fill".to_string(), used as f64 / n.max(1) as f64),
+            ];
+            v.extend(sah.map(|c| ("wide_sah_cost".to_string(), c)));
+            v
+        };
+        fn used<const N: usize>(w: &[WideNode<N>]) -> usize {
+            w.iter().map(|n| n.children()).sum()
         }
         match &self.wide {
             WideNodes::None => Vec::new(),
-            WideNodes::W4(w) => figs(w),
-            WideNodes::W8(w) => figs(w),
+            WideNodes::W4(w) => figs(used(w), w.len(), wide::sah(w, &root, &cm)),
+            WideNodes::W8(w) => figs(used(w), w.len(), wide::sah(w, &root, &cm)),
         }
     }
 }
@@ -716,11 +791,14 @@ impl Structure for Bvh {
         }
     }
 
-    /// For `width` 4 or 8 the SAH cost is the binary tree's; extra figures `wide_nodes` and
-    /// `wide_fill` (mean used slots per wide node) are added.
+    /// For `width` 4 or 8 the SAH cost is the binary tree's; extra figures `wide_nodes`,
+    /// `wide_fill` (mean used slots per wide node) and `wide_sah_cost` (the wide tree's SAH
+    /// cost, `C_trav` per wide node visited, the quantity the `sah` collapse minimises) are
+    /// added.
     ///
-    /// `sah_cost = (C_trav·Σ_interior A(n) + C_isect·Σ_leaves A(l)·|l|) / A(root)` with `A`
-    /// the surface area (`None` for an empty tree or a root of zero area); extra figures:
+    /// `sah_cost = (C_trav·Σ_interior A(n) + C_isect·Σ_leaves A(l)·c(|l|)) / A(root)` with `A`
+    /// the surface area and `c` the leaf price of `leaf_cost` (`|l|`, or `⌈|l|/4⌉` for
+    /// `blocks`) (`None` for an empty tree or a root of zero area); extra figures:
     /// `nodes`, `leaves`, `depth_max` (root depth 0), `leaf_depth_mean`, `prims_per_leaf_mean`,
     /// `leaf_size_max`.
     fn report(&self) -> BuildReport {

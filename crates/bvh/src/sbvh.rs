@@ -4,8 +4,11 @@
 //!
 //! A node holds *references*: a triangle and a conservative box of the part of it inside the
 //! node (at the root its bounds). Per node (§4):
-//! 1. the best **object split** is found by binned SAH over the references' box centres, as in
-//!    the binned builder (`build`);
+//! 1. the best **object split** is found by a full SAH sweep (`object_split = "sweep"`, the
+//!    original SBVH's: on each axis the references sorted by box centre, every boundary
+//!    between two consecutive ones tried, the right-hand boxes accumulated in a backward pass;
+//!    the three axes in parallel for large nodes), or by binned SAH over the centres as in the
+//!    binned builder (`object_split = "binned"`, `build`);
 //! 2. when the children of that split overlap, `A(B_L ∩ B_R) > alpha·A(root)` (§4.4, the
 //!    overlap threshold restricting spatial splits to where they pay), the best **spatial
 //!    split** is found too: the node box is cut into `bins` equal slabs per axis, each reference
@@ -15,11 +18,12 @@
 //!    cost uses the union of the chopped boxes and the counts of references entering left of it
 //!    and leaving right of it (§4.2);
 //! 3. the cheaper split is made, or a leaf when `|n| ≤ min_leaf` or, for `|n| ≤ max_leaf`, when
-//!    the leaf cost is no higher. A spatial split sends each straddling reference to both sides
+//!    the leaf cost is no higher. Costs price a side of `k` references at `A·c(k)`, `c` the
+//!    leaf price of `leaf_cost` (`k`, or `⌈k/4⌉` for `blocks`). A spatial split sends each straddling reference to both sides
 //!    (its triangle clipped to each child's cell by [`tb_core::clip::clip_box`], the routine
 //!    the kd-tree builder clips with) unless **reference unsplitting** (§4.3) is
-//!    cheaper: putting it wholly into one child, `A(B_L ∪ B)·N_L + A(B_R)·(N_R − 1)` or the
-//!    mirror, against `A(B_L)·N_L + A(B_R)·N_R`.
+//!    cheaper: putting it wholly into one child, `A(B_L ∪ B)·c(N_L) + A(B_R)·c(N_R − 1)` or
+//!    the mirror, against `A(B_L)·c(N_L) + A(B_R)·c(N_R)`.
 //!
 //! A spatial split that would not make both children smaller than the node falls back to the
 //! object split; the fallbacks and depth bound of the binned builder (object median splits
@@ -30,7 +34,8 @@
 //! holds a copy of the triangle, and `validate` checks coverage instead of a permutation.
 
 use crate::build::MEDIAN_DEPTH;
-use crate::{BvhNode, BvhParams};
+use crate::{BvhNode, BvhParams, ObjectSplit};
+use rayon::prelude::*;
 use tb_core::clip::{clip_box, tolerance};
 use tb_core::{Aabb, Triangle, Vec3};
 
@@ -129,6 +134,8 @@ fn bounds_of(refs: &[Ref]) -> (Aabb, Aabb) {
 
 /// The chosen split.
 enum Split {
+    /// The references flagged `true` (by position) go left: a boundary of the sweep.
+    Sorted(Vec<bool>),
     /// References with centre bin `≤ k` on `axis` go left (bins of `map`).
     Object {
         axis: usize,
@@ -207,7 +214,7 @@ impl Ctx<'_> {
         };
         if n <= max_leaf {
             let split_cost = p.c_trav * area + p.c_isect * cost;
-            if p.c_isect * area * n as f32 <= split_cost {
+            if p.c_isect * area * p.leaf_cost.units(n) <= split_cost {
                 return None;
             }
         }
@@ -235,7 +242,7 @@ impl Ctx<'_> {
                 if n <= max_leaf {
                     let p = self.p;
                     let split_cost = p.c_trav * area + p.c_isect * cost;
-                    if p.c_isect * area * n as f32 <= split_cost {
+                    if p.c_isect * area * p.leaf_cost.units(n) <= split_cost {
                         return None;
                     }
                 }
@@ -245,9 +252,95 @@ impl Ctx<'_> {
         }
     }
 
-    /// Best binned object split: its cost `A(L)·|L| + A(R)·|R|` (half areas), the split, and
-    /// the children's overlap area.
+    /// Best object split (`object_split`): its cost `A(L)·c(|L|) + A(R)·c(|R|)` (half
+    /// areas), the split, and the children's overlap area.
     fn object(&self, refs: &[Ref], cb: &Aabb) -> Option<(f32, Split, f32)> {
+        match self.p.object_split {
+            ObjectSplit::Sweep => self.sweep(refs, cb),
+            ObjectSplit::Binned => self.binned(refs, cb),
+        }
+    }
+
+    /// Best object split by the full SAH sweep (Stich et al. 2009 §4): per axis with centres
+    /// not all equal, the references sorted by centre (ties by position, so the order is
+    /// deterministic) and every boundary between two consecutive ones tried; the first axis
+    /// of least cost wins. Large nodes sweep the three axes in parallel.
+    fn sweep(&self, refs: &[Ref], cb: &Aabb) -> Option<(f32, Split, f32)> {
+        let ext = cb.extent();
+        let axes: Vec<usize> = (0..3).filter(|&a| ext[a] > 0.0).collect();
+        let per_axis: Vec<Option<(f32, usize, Vec<u32>)>> = if refs.len() >= PAR_MIN {
+            axes.par_iter().map(|&a| self.sweep_axis(refs, a)).collect()
+        } else {
+            axes.iter().map(|&a| self.sweep_axis(refs, a)).collect()
+        };
+        let mut best: Option<(f32, usize, Vec<u32>)> = None;
+        for r in per_axis.into_iter().flatten() {
+            if best.as_ref().is_none_or(|b| r.0 < b.0) {
+                best = Some(r);
+            }
+        }
+        let (cost, k, order) = best?;
+        let mut left = vec![false; refs.len()];
+        let mut lb = Aabb::EMPTY;
+        let mut rb = Aabb::EMPTY;
+        for (j, &i) in order.iter().enumerate() {
+            let r = &refs[i as usize];
+            if j <= k {
+                left[i as usize] = true;
+                lb = lb.union(&r.b);
+            } else {
+                rb = rb.union(&r.b);
+            }
+        }
+        let ov = tb_core::clip::intersect(&lb, &rb);
+        let overlap = if ov.is_empty() { 0.0 } else { ov.half_area() };
+        Some((cost, Split::Sorted(left), overlap))
+    }
+
+    /// The sweep on one axis: the least cost, the last position in the sorted order that goes
+    /// left, and the order (indices into `refs`).
+    fn sweep_axis(&self, refs: &[Ref], axis: usize) -> Option<(f32, usize, Vec<u32>)> {
+        let n = refs.len();
+        if n < 2 {
+            return None;
+        }
+        let c = self.p.leaf_cost;
+        // Sort keys: the centre's bits made monotonic (as `f32::total_cmp` orders), then the
+        // position; one integer sort, no indirection into `refs` while sorting.
+        let mut keys: Vec<u64> = refs
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let b = r.c2()[axis].to_bits();
+                let m = if b >> 31 == 1 { !b } else { b | 1 << 31 };
+                (m as u64) << 32 | i as u64
+            })
+            .collect();
+        keys.sort_unstable();
+        let order: Vec<u32> = keys.iter().map(|&k| k as u32).collect();
+        drop(keys);
+        // right[k]: A(box of order[k..])·c(n − k), for k ≥ 1.
+        let mut right = vec![0.0f32; n];
+        let mut acc = Aabb::EMPTY;
+        for k in (1..n).rev() {
+            acc = acc.union(&refs[order[k] as usize].b);
+            right[k] = acc.half_area() * c.units(n - k);
+        }
+        let mut left = Aabb::EMPTY;
+        let mut best: Option<(f32, usize)> = None;
+        for k in 0..n - 1 {
+            left = left.union(&refs[order[k] as usize].b);
+            let cost = left.half_area() * c.units(k + 1) + right[k + 1];
+            if best.is_none_or(|b| cost < b.0) {
+                best = Some((cost, k));
+            }
+        }
+        best.map(|(cost, k)| (cost, k, order))
+    }
+
+    /// Best binned object split (`bins` bins of the centre bounds per axis, Wald 2007).
+    fn binned(&self, refs: &[Ref], cb: &Aabb) -> Option<(f32, Split, f32)> {
+        let c = self.p.leaf_cost;
         let nb = self.p.bins as usize;
         let ext = cb.extent();
         let mut best: Option<(f32, Split, f32)> = None;
@@ -277,7 +370,8 @@ impl Ctx<'_> {
                 if left.1 == 0 || r.1 == 0 {
                     continue;
                 }
-                let cost = left.0.half_area() * left.1 as f32 + r.0.half_area() * r.1 as f32;
+                let cost = left.0.half_area() * c.units(left.1 as usize)
+                    + r.0.half_area() * c.units(r.1 as usize);
                 if best.as_ref().is_none_or(|b| cost < b.0) {
                     let ov = tb_core::clip::intersect(&left.0, &r.0);
                     let overlap = if ov.is_empty() { 0.0 } else { ov.half_area() };
@@ -299,6 +393,7 @@ impl Ctx<'_> {
 
     /// Best spatial split (§4.2): chopped references binned into equal slabs of the node box.
     fn spatial(&self, refs: &[Ref], bounds: &Aabb) -> Option<(f32, Split)> {
+        let c = self.p.leaf_cost;
         let nb = self.p.bins as usize;
         let ext = bounds.extent();
         let mut best: Option<(f32, Split)> = None;
@@ -351,7 +446,8 @@ impl Ctx<'_> {
                 if left.1 == 0 || r.1 == 0 || left.0.is_empty() || r.0.is_empty() {
                     continue;
                 }
-                let cost = left.0.half_area() * left.1 as f32 + r.0.half_area() * r.1 as f32;
+                let cost = left.0.half_area() * c.units(left.1 as usize)
+                    + r.0.half_area() * c.units(r.1 as usize);
                 if best.as_ref().is_none_or(|b| cost < b.0) {
                     best = Some((
                         cost,
@@ -379,6 +475,23 @@ impl Ctx<'_> {
         split: Split,
     ) -> Result<(Vec<Ref>, Vec<Ref>), Vec<Ref>> {
         match split {
+            Split::Sorted(left) => {
+                let k = left.iter().filter(|&&g| g).count();
+                let mut l = Vec::with_capacity(k);
+                let mut r = Vec::with_capacity(refs.len() - k);
+                for (x, &go_left) in refs.iter().zip(&left) {
+                    if go_left {
+                        l.push(*x);
+                    } else {
+                        r.push(*x);
+                    }
+                }
+                if l.is_empty() || r.is_empty() {
+                    // Cannot happen (the sweep keeps both sides non-empty).
+                    return Ok(median(refs, None));
+                }
+                Ok((l, r))
+            }
             Split::Object {
                 axis,
                 k,
@@ -405,8 +518,9 @@ impl Ctx<'_> {
                 nr,
             } => {
                 let n = refs.len();
+                let c = |k: u32| self.p.leaf_cost.units(k as usize);
                 let (al, ar) = (lb.half_area(), rb.half_area());
-                let c_split = al * nl as f32 + ar * nr as f32;
+                let c_split = al * c(nl) + ar * c(nr);
                 let mut lcell = *bounds;
                 lcell.max[axis] = pos;
                 let mut rcell = *bounds;
@@ -420,10 +534,8 @@ impl Ctx<'_> {
                         r.push(*x);
                     } else {
                         // Reference unsplitting (§4.3).
-                        let c1 = lb.union(&x.b).half_area() * nl as f32
-                            + ar * nr.saturating_sub(1) as f32;
-                        let c2 = al * nl.saturating_sub(1) as f32
-                            + rb.union(&x.b).half_area() * nr as f32;
+                        let c1 = lb.union(&x.b).half_area() * c(nl) + ar * c(nr.saturating_sub(1));
+                        let c2 = al * c(nl.saturating_sub(1)) + rb.union(&x.b).half_area() * c(nr);
                         if c1 < c_split && c1 <= c2 {
                             l.push(*x);
                         } else if c2 < c_split {

@@ -100,3 +100,38 @@ fn conforms_sbvh_alpha0_bvh8() {
         ..Default::default()
     });
 }
+
+/// The greedy collapse (the SAH one is the default of the rows above).
+#[test]
+fn conforms_bvh8_greedy_collapse() {
+    run(BvhParams {
+        width: 8,
+        collapse: tb_bvh::Collapse::Greedy,
+        ..Default::default()
+    });
+}
+
+/// Leaves priced by blocks of four: larger leaves, and the collapse merging subtrees into
+/// leaves of up to `max_leaf` triangles.
+#[test]
+fn conforms_blocks_bvh4_leaf8() {
+    run(BvhParams {
+        width: 4,
+        max_leaf: 8,
+        leaf_cost: tb_bvh::LeafCost::Blocks,
+        ..Default::default()
+    });
+}
+
+/// The SBVH with binned object splits (the sweep is the default) and leaves priced by blocks.
+#[test]
+fn conforms_sbvh_binned_objects_blocks_bvh8() {
+    run(BvhParams {
+        builder: tb_bvh::Builder::Sbvh,
+        object_split: tb_bvh::ObjectSplit::Binned,
+        leaf_cost: tb_bvh::LeafCost::Blocks,
+        width: 8,
+        max_leaf: 8,
+        ..Default::default()
+    });
+}

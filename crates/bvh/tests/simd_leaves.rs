@@ -4,7 +4,7 @@
 
 mod common;
 
-use tb_bvh::{Builder, Bvh, BvhParams, Simd};
+use tb_bvh::{Builder, Bvh, BvhParams, LeafCost, Simd};
 use tb_core::{Accel, HitRecord, Query, TraversalStats, TriTestKind, Vec3};
 
 fn trace(
@@ -32,15 +32,17 @@ fn simd_equals_scalar_bit_for_bit() {
     ];
     for tris in &scenes {
         let rays = common::rays(tris, 3000, 23);
-        for (builder, width, max_leaf) in [
-            (Builder::Binned, 4, 4),
-            (Builder::Binned, 8, 8),
-            (Builder::Sbvh, 8, 4),
+        for (builder, width, max_leaf, leaf_cost) in [
+            (Builder::Binned, 4, 4, LeafCost::Linear),
+            (Builder::Binned, 8, 8, LeafCost::Linear),
+            (Builder::Sbvh, 8, 4, LeafCost::Linear),
+            (Builder::Sbvh, 8, 8, LeafCost::Blocks),
         ] {
             let p = |simd| BvhParams {
                 builder,
                 width,
                 max_leaf,
+                leaf_cost,
                 c_isect: 0.5,
                 simd,
                 ..Default::default()
