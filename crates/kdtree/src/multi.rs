@@ -1085,7 +1085,7 @@ mod tests {
                 assert_eq!(h, plain.0, "{name}-sorted uncounted");
                 // The walk traces each ray with the tree its entry names: another tree in the
                 // hints changes the counters (so the comparisons above can fail).
-                let next = |e: u32| e & RAY_MASK | ((e >> TREE_SHIFT) + 1) % 3 << TREE_SHIFT;
+                let next = |e: u32| e & RAY_MASK | (((e >> TREE_SHIFT) + 1) % 3) << TREE_SHIFT;
                 let wrong: Vec<u32> = hints.iter().map(|&e| next(e)).collect();
                 let (_, ws) = traced(&m, presorted, q, &rays, Some(&wrong));
                 assert_ne!(ws, plain.1, "{name}: hints' trees ignored");
