@@ -80,6 +80,25 @@ def multikd_rows():
     return rows
 
 
+def table5_rows():
+    """configs/multikd.toml in small: two views of one scene, SAH and SPHERE-ORTH, the plain,
+    -presorted and -sorted rows; the sort costs 2 ms of path1's -sorted 10 ms per view."""
+    rows = []
+    for view in ["1", "2"]:
+        for measure in ["sah", "sphere-orth"]:
+            for traversal, extra in [("recursive-direction", 1.0),
+                                     ("recursive-direction-presorted", 0.0),
+                                     ("recursive-direction-sorted", 2.0)]:
+                for kind, ms in [("primary", 5.0), ("path1", 8.0)]:
+                    ms = ms + (extra if kind == "path1" else 0.0)
+                    ms = ms * (0.5 if measure == "sah" else 1.0)
+                    r = row(f"sponza@{view}", "multi-kd", f"measure={measure};trees=multi",
+                            traversal, kind, ms, 0.1)
+                    r["planes_per_ray"], r["prims_per_ray"] = 30.0, 10.0
+                    rows.append(r)
+    return rows
+
+
 def convergence_rows():
     cols = ["scene", "structure", "params", "traversal", "triangle_test", "device", "threads",
             "integrator", "width", "height", "pass", "spp", "elapsed_ms", "build_ms", "rmse",
@@ -123,6 +142,8 @@ class Table(unittest.TestCase):
         cls.mk = os.path.join(cls.tmp.name, "multikd.csv")
         write(cls.mk, multikd_rows())
         cls.base = ["--cols", "param:strategy", "--baseline", "r-star", "--filter", "threads=1"]
+        cls.t5 = os.path.join(cls.tmp.name, "table5.csv")
+        write(cls.t5, table5_rows())
 
     @classmethod
     def tearDownClass(cls):
@@ -205,6 +226,19 @@ class Table(unittest.TestCase):
         out = run("table.py", self.csv, *self.base, "--format", "markdown",
                   "--filter", "ray_kind=primary")
         self.assertIn("|---|---:|", out)
+
+    def test_multikd_table5(self):
+        out = run("multikd-table5.py", self.t5)
+        self.assertIn("=== Table 5, threads=1", out)
+        self.assertIn("PT SPONZA", out)
+        # Views pooled: 2 x 1M rays in 2 x 10 ms (-sorted) = 100 MRays/s; presorted 125; the
+        # sort 2 of 10 ms = 20%; SAH takes half the time, a gain of -100%.
+        line = next(l for l in out.splitlines() if l.strip().startswith("ours SPONZA")
+                    and "125.00" in l)
+        self.assertIn("100.00", line)
+        self.assertIn("20.0%", line)
+        self.assertIn("-100.00", line)
+        self.assertIn("2 views, steps=equal, mism 0", line)
 
     def test_stat_value(self):
         out = run("table.py", self.mk, "--cols", "param:measure", "--value", "stat:nodes",

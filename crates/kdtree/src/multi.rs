@@ -13,17 +13,27 @@
 //! - **Traversal** (§5): every kd-tree traversal of the review ([`crate::KdTree`]'s table, same
 //!   names) runs unchanged from the root the header gives for the ray's patch
 //!   ([`Heuristic::pick`]: cube mapping for the cubic heuristics, the spherical patches
-//!   otherwise): the per-ray choice wraps the traversal kernel ([`KdStart`]). Each also comes
-//!   as `NAME-sorted` (§6, "ray arrangement"): the rays of each traced chunk (the runner's
-//!   [`tb_core::par::CHUNK`] rays) first ordered by tree index with a counting sort on the 2-bit
-//!   key, traced in that order, the answers put back in the rays' order; the sort is inside
-//!   the timed call, so a `-sorted` row's time is the paper's "inc." and the plain row's the
-//!   traversal without sorting.
+//!   otherwise): the per-ray choice wraps the traversal kernel ([`KdStart`]).
+//! - **Ray arrangement** (§6): before traversal the rays are sorted by tree index with a
+//!   counting sort on the 2-bit key ([`MultiKdTree::arrange`]), in blocks of
+//!   [`ARRANGE_BLOCK`] rays (the runner's [`tb_core::par::CHUNK`], so one block is one traced
+//!   chunk), and traced in that order, each with the tree its entry names, the answers written
+//!   to the rays' own places. Every traversal comes as
+//!   - `NAME` (rays in the order given, the tree picked per ray in the walk),
+//!   - `NAME-sorted`: the arrangement computed inside the timed call (the paper's "inc.":
+//!     the *Sort* kernel's time added to *TI*'s), and
+//!   - `NAME-presorted`: the same arrangement computed per batch by the untimed start-hint
+//!     pass ([`tb_core::Accel::batch_hints`], as the paper's rays carry the tree index chosen
+//!     when they were generated), the timed call only walking it (the paper's "n.inc.").
+//!
+//!   Both run the same walk of the same arrangement, so `time(-sorted) - time(-presorted)` is
+//!   the time of arranging (computing each ray's key, counting, placing) and nothing else;
+//!   the three give the same hits and counters ray for ray.
 //! - **GPU** (`recursive-direction` only, `shaders/multikd.wgsl` on the kd-tree's
 //!   `shaders/kd.wgsl`): the per-ray choice from the header and the kd-tree's full-stack walk
 //!   (the CPU kernel's, in its order) from the chosen root, so hits and counters agree ray
-//!   for ray (tb-harness `gpu_oracle`); either layout. The `-sorted` rows and a GPU sort pass
-//!   are CPU only.
+//!   for ray (tb-harness `gpu_oracle`); either layout. The `-sorted` and `-presorted` rows
+//!   are CPU only (no GPU sort pass yet).
 //! - **Controls**: `measure = sah` builds one SAH tree (the three patch measures are the same)
 //!   and every header entry names it; `trees = x | y | z` builds only that patch's tree with
 //!   the chosen measure and every ray traverses it (is the gain from specialising per
@@ -49,16 +59,18 @@ use std::borrow::Cow;
 use std::sync::{Arc, OnceLock};
 use tb_core::{
     build_with, dispatch, Aabb, AccelError, BuildReport, Counter, Family, GpuBuffer, GpuProgram,
-    HitRecord, Kernel, MemoryReport, ParamKind, Params, Query, Ray, Structure, TraceFn, Traversal,
-    TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle,
+    HitRecord, Kernel, MemoryReport, MollerTrumbore, NoStats, ParamKind, Params, Query, Ray,
+    Structure, Traversal, TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle,
+    Watertight,
 };
 
 /// The multi-kd-tree in the registry.
 pub static FAMILY: Family = Family::new::<MultiKdTree, MultiKdParams>(
     "Multi-kd-tree: three kd-trees built with direction-specialised SAH measures \
      (sphere/cube/cos, orthogonal/oblique), one node array with a header of roots, each ray \
-     traversing the tree of its direction's patch; every kd traversal, plain and \
-     `-sorted` by tree index (Torres et al. 2012)",
+     traversing the tree of its direction's patch; every kd traversal, plain, `-sorted` by \
+     tree index in the timed call and `-presorted` by the untimed hint pass (Torres et al. \
+     2012)",
     |tris, set| {
         build_with(set, |p: &MultiKdParams| {
             MultiKdTree::try_build(tris.clone(), p)
@@ -427,29 +439,46 @@ impl MultiKdTree {
         }
     }
 
-    /// The order of `rays` by tree index (stable counting sort on the 2-bit key, §6).
-    pub fn sort_by_tree(&self, rays: &[Ray], order: &mut Vec<u32>) {
-        let mut count = [0u32; 4];
-        let keys: Vec<u8> = rays
-            .iter()
-            .map(|r| {
-                let k = self.tree_of(r.dir.to_array()) as u8;
-                count[k as usize] += 1;
-                k
-            })
-            .collect();
-        let mut start = [0u32; 4];
-        for k in 1..4 {
-            start[k] = start[k - 1] + count[k - 1];
-        }
-        order.clear();
-        order.resize(rays.len(), 0);
-        for (i, &k) in keys.iter().enumerate() {
-            order[start[k as usize] as usize] = i as u32;
-            start[k as usize] += 1;
+    /// The ray arrangement of §6: `rays` in blocks of [`ARRANGE_BLOCK`], each block stably
+    /// counting-sorted by tree index (the 2-bit key, [`MultiKdTree::tree_of`]). Entry `p` of
+    /// `out` names the ray traced `p`-th: `j | tree << TREE_SHIFT`, the ray being number `j`
+    /// of the block holding position `p` (so the entries of a block stay right for any slice
+    /// of the rays cut at multiples of [`ARRANGE_BLOCK`], as the runner's chunks are).
+    pub fn arrange(&self, rays: &[Ray], out: &mut Vec<u32>) {
+        out.clear();
+        out.resize(rays.len(), 0);
+        let mut keys = [0u8; ARRANGE_BLOCK];
+        for (block, dst) in rays
+            .chunks(ARRANGE_BLOCK)
+            .zip(out.chunks_mut(ARRANGE_BLOCK))
+        {
+            // start[k + 1] counts key k; then start[k] is where key k's run begins.
+            let mut start = [0usize; 4];
+            for (k, r) in keys.iter_mut().zip(block) {
+                *k = self.tree_of(r.dir.to_array()) as u8;
+                start[*k as usize + 1] += 1;
+            }
+            for k in 1..4 {
+                start[k] += start[k - 1];
+            }
+            for (j, &k) in keys[..block.len()].iter().enumerate() {
+                dst[start[k as usize]] = j as u32 | (k as u32) << TREE_SHIFT;
+                start[k as usize] += 1;
+            }
         }
     }
 }
+
+/// Where an [`MultiKdTree::arrange`] entry keeps the tree index: `j | tree << TREE_SHIFT`,
+/// `j` (below bit 30) the ray's number within its block.
+pub const TREE_SHIFT: u32 = 30;
+
+/// The ray number bits of an arrangement entry.
+const RAY_MASK: u32 = (1 << TREE_SHIFT) - 1;
+
+/// Rays sorted together by [`MultiKdTree::arrange`]: one traced chunk of the runner.
+pub const ARRANGE_BLOCK: usize = tb_core::par::CHUNK;
+const _: () = assert!(ARRANGE_BLOCK <= RAY_MASK as usize + 1);
 
 /// The SAH-type cost of `t` under the measure with weights `w`:
 /// `(C_trav·Σ_interior μ(n) + C_isect·Σ_leaves μ(l)·|l|) / μ(root)`.
@@ -490,21 +519,118 @@ impl<K: Kernel> Kernel for PerRay<K> {
     }
 }
 
-/// A traversal row's trace fn: the kd kernel `$kernel` (of the tree `$m` and a walk input
-/// `$w`) per header entry, compiled per layout, the entry picked per ray.
-macro_rules! per_ray {
-    (|$m:ident, $w:ident| $kernel:expr) => {
-        |$m: &MultiKdTree, query, tri, rays, hits, stats| match $m.kd.layout {
-            KdLayout::DepthFirst => {
-                let k = $m.per_ray(DepthFirst, |$w| $kernel);
-                dispatch(&k, query, tri, rays, hits, stats)
+/// One traced chunk: the query, the triangle test, the rays, their arrangement
+/// ([`MultiKdTree::arrange`]; `None`: the order given, the tree picked per ray in the walk),
+/// and where the answers go.
+struct Batch<'a> {
+    query: Query,
+    tri: TriTestKind,
+    rays: &'a [Ray],
+    order: Option<&'a [u32]>,
+    hits: &'a mut [HitRecord],
+    stats: Option<&'a mut [TraversalStats]>,
+}
+
+/// Trace batch `b` with plain row `row`'s kernel.
+fn trace_row(m: &MultiKdTree, row: usize, b: Batch<'_>) {
+    match m.kd.layout {
+        KdLayout::DepthFirst => trace_in(m, DepthFirst, row, b),
+        KdLayout::Treelet => trace_in(m, Treelet::new(m.kd.treelet_height), row, b),
+    }
+}
+
+/// [`trace_row`] in layout `l`: the kd-tree's kernel of row `row` per header entry (the
+/// kd-tree's table order; a row added there fails [`PLAIN`]'s check and the table test).
+fn trace_in<L: Layout>(m: &MultiKdTree, l: L, row: usize, b: Batch<'_>) {
+    macro_rules! go {
+        (|$w:ident| $kernel:expr) => {
+            walk(&m.per_ray(l, |$w| $kernel), b)
+        };
+    }
+    let ropes = || Aux {
+        back: m.back_nodes(),
+        ropes: m.ropes(),
+    };
+    match row {
+        0 => go!(|w| traverse::RecursiveDirection(w)),
+        1 => go!(|w| traverse::Havran(w)),
+        2 => go!(|w| traverse::RecursiveOrigin(w)),
+        3 => go!(|w| Stackless::<_, { stackless::RESTART }>(w, Aux::default())),
+        4 => go!(|w| Stackless::<_, { stackless::PUSH_DOWN }>(w, Aux::default())),
+        5 => go!(|w| Stackless::<_, { stackless::SHORT_STACK }>(w, Aux::default())),
+        6 => go!(|w| Stackless::<_, { stackless::SEQUENTIAL }>(w, Aux::default())),
+        7 => go!(|w| Stackless::<_, { stackless::BACKTRACK }>(
+            w,
+            Aux {
+                back: m.back_nodes(),
+                ropes: &[],
             }
-            KdLayout::Treelet => {
-                let k = $m.per_ray(Treelet::new($m.kd.treelet_height), |$w| $kernel);
-                dispatch(&k, query, tri, rays, hits, stats)
+        )),
+        8 => go!(|w| Stackless::<_, { stackless::ROPES }>(w, ropes())),
+        9 => go!(|w| traverse::Branchless(w)),
+        10 => go!(|w| traverse::StackSpilling(w)),
+        _ => unreachable!("multi-kd: no plain traversal {row}"),
+    }
+}
+
+/// Run the per-tree kernels `k` over batch `b`: [`dispatch`] of the per-ray choice, or the
+/// walk of its arrangement; monomorphised per triangle test and for counting or timing.
+fn walk<K: Kernel>(k: &PerRay<K>, b: Batch<'_>) {
+    let Some(order) = b.order else {
+        return dispatch(k, b.query, b.tri, b.rays, b.hits, b.stats);
+    };
+    let (q, rays, hits, stats) = (b.query, b.rays, b.hits, b.stats);
+    match b.tri {
+        TriTestKind::Watertight => arranged::<K, Watertight>(&k.k, q, rays, order, hits, stats),
+        TriTestKind::MollerTrumbore => {
+            arranged::<K, MollerTrumbore>(&k.k, q, rays, order, hits, stats)
+        }
+    }
+}
+
+/// The walk of an arrangement: entry `p` names ray `p - p % ARRANGE_BLOCK + j` and its tree;
+/// the ray is traced with that tree's kernel and its answer written to its own place.
+fn arranged<K: Kernel, T: TriTest>(
+    k: &[K; 3],
+    query: Query,
+    rays: &[Ray],
+    order: &[u32],
+    hits: &mut [HitRecord],
+    stats: Option<&mut [TraversalStats]>,
+) {
+    assert_eq!(rays.len(), hits.len(), "one hit record per ray");
+    assert_eq!(rays.len(), order.len(), "one arrangement entry per ray");
+    let at = |p: usize, e: u32| {
+        (
+            p - p % ARRANGE_BLOCK + (e & RAY_MASK) as usize,
+            e >> TREE_SHIFT,
+        )
+    };
+    match stats {
+        None => {
+            for (p, &e) in order.iter().enumerate() {
+                let (i, t) = at(p, e);
+                hits[i] = one::<K, T, NoStats>(&k[t as usize], query, &rays[i], &mut NoStats);
             }
         }
-    };
+        Some(stats) => {
+            assert_eq!(rays.len(), stats.len(), "one stats record per ray");
+            for (p, &e) in order.iter().enumerate() {
+                let (i, t) = at(p, e);
+                let mut local = TraversalStats::default();
+                hits[i] = one::<K, T, _>(&k[t as usize], query, &rays[i], &mut local);
+                stats[i] = local;
+            }
+        }
+    }
+}
+
+#[inline(always)]
+fn one<K: Kernel, T: TriTest, C: Counter>(k: &K, query: Query, ray: &Ray, c: &mut C) -> HitRecord {
+    match query {
+        Query::Closest => k.closest::<T, C>(ray, c),
+        Query::Any => k.any::<T, C>(ray, c),
+    }
 }
 
 /// The kd-tree's row `i` (name, paper, doc, counters): the kernels are the same.
@@ -517,18 +643,54 @@ const fn sorted_info(i: usize, name: &'static str) -> TraversalInfo {
     TraversalInfo {
         name,
         doc: "the traversal named without `-sorted`, the rays of each traced chunk first \
-              counting-sorted by tree index (2-bit key) and put back after (Torres et al. \
-              2012 §6); the sort is timed with the traversal (the paper's \"inc.\")",
+              counting-sorted by tree index (2-bit key) and walked in that order (Torres et \
+              al. 2012 §6); the sort is timed with the traversal (the paper's \"inc.\")",
         ..KdTree::TRAVERSALS[i].info
     }
 }
 
-/// Plain traversals in the kd-tree's order, then their `-sorted` forms (the table below lists
-/// every kd traversal: a new one there fails this).
+/// Row `i` of the kd-tree's table as `NAME-presorted`.
+const fn presorted_info(i: usize, name: &'static str) -> TraversalInfo {
+    TraversalInfo {
+        name,
+        doc: "the traversal named without `-presorted`, walking the `-sorted` rows' \
+              arrangement by tree index computed per batch by the untimed hint pass (Torres \
+              et al. 2012 §6, the paper's \"n.inc.\"); without hints it sorts as `-sorted`",
+        ..KdTree::TRAVERSALS[i].info
+    }
+}
+
+/// Plain traversals in the kd-tree's order, then their `-sorted` and `-presorted` forms (the
+/// table below lists every kd traversal: a new one there fails this).
 const PLAIN: usize = 11;
 const _: () = assert!(KdTree::TRAVERSALS.len() == PLAIN);
 
-/// `-sorted` row: order the chunk by tree, trace with plain row `I`, scatter the answers back.
+/// Plain row `I`: the tree picked per ray, rays in the order given.
+fn plain<const I: usize>(
+    m: &MultiKdTree,
+    query: Query,
+    tri: TriTestKind,
+    rays: &[Ray],
+    hits: &mut [HitRecord],
+    stats: Option<&mut [TraversalStats]>,
+) {
+    let order = None;
+    trace_row(
+        m,
+        I,
+        Batch {
+            query,
+            tri,
+            rays,
+            order,
+            hits,
+            stats,
+        },
+    )
+}
+
+/// `-sorted` row: arrange the chunk by tree ([`MultiKdTree::arrange`]) and walk it, both in
+/// this (timed) call.
 fn sorted<const I: usize>(
     m: &MultiKdTree,
     query: Query,
@@ -537,79 +699,86 @@ fn sorted<const I: usize>(
     hits: &mut [HitRecord],
     stats: Option<&mut [TraversalStats]>,
 ) {
-    let plain: TraceFn<MultiKdTree> = MultiKdTree::TRAVERSALS[I].trace;
     let mut order = Vec::new();
-    m.sort_by_tree(rays, &mut order);
-    let sorted_rays: Vec<Ray> = order.iter().map(|&i| rays[i as usize]).collect();
-    let mut sh = vec![HitRecord::MISS; rays.len()];
-    match stats {
-        None => {
-            plain(m, query, tri, &sorted_rays, &mut sh, None);
+    m.arrange(rays, &mut order);
+    let order = Some(&order[..]);
+    trace_row(
+        m,
+        I,
+        Batch {
+            query,
+            tri,
+            rays,
+            order,
+            hits,
+            stats,
+        },
+    )
+}
+
+/// The hints of the `-presorted` rows: the batch's arrangement ([`MultiKdTree::arrange`]).
+fn arrangement(m: &MultiKdTree, _: Query, rays: &[Ray]) -> Vec<u32> {
+    let mut order = Vec::new();
+    m.arrange(rays, &mut order);
+    order
+}
+
+/// `-presorted` row with hints: walk the arrangement the hint pass found (`None`: arrange
+/// here, as `-sorted`).
+fn presorted<const I: usize>(
+    m: &MultiKdTree,
+    query: Query,
+    tri: TriTestKind,
+    rays: &[Ray],
+    hints: Option<&[u32]>,
+    hits: &mut [HitRecord],
+    stats: Option<&mut [TraversalStats]>,
+) {
+    match hints {
+        Some(order) => {
+            let order = Some(order);
+            trace_row(
+                m,
+                I,
+                Batch {
+                    query,
+                    tri,
+                    rays,
+                    order,
+                    hits,
+                    stats,
+                },
+            )
         }
-        Some(stats) => {
-            let mut ss = vec![TraversalStats::default(); rays.len()];
-            plain(m, query, tri, &sorted_rays, &mut sh, Some(&mut ss));
-            for (&i, s) in order.iter().zip(ss) {
-                stats[i as usize] = s;
-            }
-        }
+        None => sorted::<I>(m, query, tri, rays, hits, stats),
     }
-    for (&i, h) in order.iter().zip(sh) {
-        hits[i as usize] = h;
-    }
+}
+
+/// Row `I` as `-presorted`: traced without hints it sorts (as `-sorted`).
+macro_rules! presorted_row {
+    ($i:literal, $name:literal) => {
+        Traversal::cpu(presorted_info($i, $name), sorted::<$i>)
+            .with_hints(arrangement, presorted::<$i>)
+    };
 }
 
 impl Structure for MultiKdTree {
     const NAME: &'static str = "multi-kd";
 
     /// The kd-tree's traversals (same names, same kernels) with the per-ray tree choice, then
-    /// each as `NAME-sorted`.
+    /// each as `NAME-sorted`, then each as `NAME-presorted` (see the module doc).
     const TRAVERSALS: &'static [Traversal<Self>] = &[
-        Traversal::with_gpu(
-            kd_info(0),
-            per_ray!(|m, w| traverse::RecursiveDirection(w)),
-            MultiKdTree::gpu_recursive_direction,
-        ),
-        Traversal::cpu(kd_info(1), per_ray!(|m, w| traverse::Havran(w))),
-        Traversal::cpu(kd_info(2), per_ray!(|m, w| traverse::RecursiveOrigin(w))),
-        Traversal::cpu(
-            kd_info(3),
-            per_ray!(|m, w| Stackless::<_, { stackless::RESTART }>(w, Aux::default())),
-        ),
-        Traversal::cpu(
-            kd_info(4),
-            per_ray!(|m, w| Stackless::<_, { stackless::PUSH_DOWN }>(w, Aux::default())),
-        ),
-        Traversal::cpu(
-            kd_info(5),
-            per_ray!(|m, w| Stackless::<_, { stackless::SHORT_STACK }>(w, Aux::default())),
-        ),
-        Traversal::cpu(
-            kd_info(6),
-            per_ray!(|m, w| Stackless::<_, { stackless::SEQUENTIAL }>(w, Aux::default())),
-        ),
-        Traversal::cpu(
-            kd_info(7),
-            per_ray!(|m, w| Stackless::<_, { stackless::BACKTRACK }>(
-                w,
-                Aux {
-                    back: m.back_nodes(),
-                    ropes: &[],
-                }
-            )),
-        ),
-        Traversal::cpu(
-            kd_info(8),
-            per_ray!(|m, w| Stackless::<_, { stackless::ROPES }>(
-                w,
-                Aux {
-                    back: m.back_nodes(),
-                    ropes: m.ropes(),
-                }
-            )),
-        ),
-        Traversal::cpu(kd_info(9), per_ray!(|m, w| traverse::Branchless(w))),
-        Traversal::cpu(kd_info(10), per_ray!(|m, w| traverse::StackSpilling(w))),
+        Traversal::with_gpu(kd_info(0), plain::<0>, MultiKdTree::gpu_recursive_direction),
+        Traversal::cpu(kd_info(1), plain::<1>),
+        Traversal::cpu(kd_info(2), plain::<2>),
+        Traversal::cpu(kd_info(3), plain::<3>),
+        Traversal::cpu(kd_info(4), plain::<4>),
+        Traversal::cpu(kd_info(5), plain::<5>),
+        Traversal::cpu(kd_info(6), plain::<6>),
+        Traversal::cpu(kd_info(7), plain::<7>),
+        Traversal::cpu(kd_info(8), plain::<8>),
+        Traversal::cpu(kd_info(9), plain::<9>),
+        Traversal::cpu(kd_info(10), plain::<10>),
         Traversal::cpu(sorted_info(0, "recursive-direction-sorted"), sorted::<0>),
         Traversal::cpu(sorted_info(1, "havran-sorted"), sorted::<1>),
         Traversal::cpu(sorted_info(2, "recursive-origin-sorted"), sorted::<2>),
@@ -621,6 +790,17 @@ impl Structure for MultiKdTree {
         Traversal::cpu(sorted_info(8, "ropes-sorted"), sorted::<8>),
         Traversal::cpu(sorted_info(9, "branchless-sorted"), sorted::<9>),
         Traversal::cpu(sorted_info(10, "stack-spilling-sorted"), sorted::<10>),
+        presorted_row!(0, "recursive-direction-presorted"),
+        presorted_row!(1, "havran-presorted"),
+        presorted_row!(2, "recursive-origin-presorted"),
+        presorted_row!(3, "restart-presorted"),
+        presorted_row!(4, "push-down-presorted"),
+        presorted_row!(5, "short-stack-presorted"),
+        presorted_row!(6, "sequential-presorted"),
+        presorted_row!(7, "backtrack-presorted"),
+        presorted_row!(8, "ropes-presorted"),
+        presorted_row!(9, "branchless-presorted"),
+        presorted_row!(10, "stack-spilling-presorted"),
     ];
 
     /// Nodes (8 bytes each, unused treelet slots and block padding included), references,
@@ -726,15 +906,20 @@ mod tests {
     #[test]
     fn table_mirrors_the_kd_tree_table() {
         let kd = KdTree::TRAVERSALS;
+        let all = MultiKdTree::TRAVERSALS;
         assert_eq!(kd.len(), PLAIN);
-        assert_eq!(MultiKdTree::TRAVERSALS.len(), 2 * PLAIN);
+        assert_eq!(all.len(), 3 * PLAIN);
         for (i, t) in kd.iter().enumerate() {
-            assert_eq!(MultiKdTree::TRAVERSALS[i].info.name, t.info.name);
-            assert_eq!(
-                MultiKdTree::TRAVERSALS[PLAIN + i].info.name,
-                format!("{}-sorted", t.info.name)
-            );
-            assert_eq!(MultiKdTree::TRAVERSALS[PLAIN + i].info.aux, t.info.aux);
+            assert_eq!(all[i].info.name, t.info.name);
+            for (row, suffix) in [(PLAIN + i, "-sorted"), (2 * PLAIN + i, "-presorted")] {
+                assert_eq!(all[row].info.name, format!("{}{suffix}", t.info.name));
+                assert_eq!(all[row].info.aux, t.info.aux);
+                assert_eq!(all[row].info.counters, t.info.counters);
+                assert!(all[row].gpu.is_none());
+            }
+            // Only the `-presorted` rows take hints (the arrangement).
+            assert!(all[i].hints.is_none() && all[PLAIN + i].hints.is_none());
+            assert!(all[2 * PLAIN + i].hints.is_some());
         }
     }
 
@@ -810,10 +995,11 @@ mod tests {
     }
 
     /// Each ray traverses its patch's tree: counters equal those of the kd-tree built alone
-    /// with that patch's measure, ray for ray; `-sorted` rows give the same hits and
-    /// counters as the plain ones.
+    /// with that patch's measure, ray for ray; `-sorted` and `-presorted` rows (with the hint
+    /// pass's arrangement, over the whole batch and chunked as the runner does, and without
+    /// hints) give the same hits and counters as the plain ones, ray for ray.
     #[test]
-    fn rays_traverse_their_patch_tree_and_sorting_changes_nothing() {
+    fn rays_traverse_their_patch_tree_and_arranging_changes_nothing() {
         for layout in [KdLayout::DepthFirst, KdLayout::Treelet] {
             per_ray_in(MultiKdParams {
                 measure: Heuristic::CubeObli,
@@ -821,6 +1007,34 @@ mod tests {
                 ..Default::default()
             });
         }
+    }
+
+    /// Rays from inside and around [`grid`], in every direction: more than two arrangement
+    /// blocks, the last one partial.
+    fn random_rays(n: usize) -> Vec<Ray> {
+        let mut s = 7u32;
+        let mut next = || {
+            s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (s >> 8) as f32 / (1 << 24) as f32
+        };
+        (0..n)
+            .map(|_| {
+                let o = Vec3::new(next() * 9.0 - 1.0, next() * 7.0 - 1.0, next() * 9.0 - 1.0);
+                let d = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
+                Ray::new(o, d)
+            })
+            .collect()
+    }
+
+    type Traced = (Vec<HitRecord>, Vec<TraversalStats>);
+
+    /// Row `t` over `rays` (counting), hinted with `hints` over the whole batch when given.
+    fn traced(m: &MultiKdTree, t: usize, q: Query, rays: &[Ray], hints: Option<&[u32]>) -> Traced {
+        let n = rays.len();
+        let (mut h, mut st) = (vec![HitRecord::MISS; n], vec![TraversalStats::default(); n]);
+        let tri = TriTestKind::Watertight;
+        m.trace_hinted(t, q, tri, rays, hints, &mut h, Some(&mut st));
+        (h, st)
     }
 
     fn per_ray_in(p: MultiKdParams) {
@@ -836,45 +1050,61 @@ mod tests {
                 .unwrap()
             })
             .collect();
-        let mut s = 7u32;
-        let mut next = || {
-            s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            (s >> 8) as f32 / (1 << 24) as f32
-        };
-        let rays: Vec<Ray> = (0..600)
-            .map(|_| {
-                let o = Vec3::new(next() * 9.0 - 1.0, next() * 7.0 - 1.0, next() * 9.0 - 1.0);
-                let d = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
-                Ray::new(o, d)
-            })
-            .collect();
+        let rays = random_rays(2 * ARRANGE_BLOCK + 300);
+        let n = rays.len();
         let tri = TriTestKind::Watertight;
         for t in 0..PLAIN {
+            let name = KdTree::TRAVERSALS[t].info.name;
+            let (sorted, presorted) = (PLAIN + t, 2 * PLAIN + t);
             for q in [Query::Closest, Query::Any] {
-                let n = rays.len();
-                let (mut h, mut st) =
-                    (vec![HitRecord::MISS; n], vec![TraversalStats::default(); n]);
-                m.trace(t, q, tri, &rays, &mut h, Some(&mut st));
-                let (mut h2, mut st2) = (h.clone(), st.clone());
-                m.trace(PLAIN + t, q, tri, &rays, &mut h2, Some(&mut st2));
-                assert_eq!(h, h2, "{}", KdTree::TRAVERSALS[t].info.name);
-                assert_eq!(st, st2);
-                let mut h3 = vec![HitRecord::MISS; n];
-                m.trace(PLAIN + t, q, tri, &rays, &mut h3, None);
-                assert_eq!(h, h3);
-                for (k, r) in rays.iter().enumerate() {
+                let plain = traced(&m, t, q, &rays, None);
+                let hints = m.batch_hints(presorted, q, &rays).expect("hints");
+                assert_eq!(m.batch_hints(sorted, q, &rays), None);
+                assert_eq!(traced(&m, sorted, q, &rays, None), plain, "{name}-sorted");
+                let pre = traced(&m, presorted, q, &rays, Some(&hints));
+                assert_eq!(pre, plain, "{name}-presorted");
+                assert_eq!(
+                    traced(&m, presorted, q, &rays, None),
+                    plain,
+                    "{name}-presorted"
+                );
+                // Chunked as the runner traces (the hints cut with the rays), timed variant.
+                let mut h = vec![HitRecord::MISS; n];
+                tb_core::par::trace_hinted_into(
+                    &m,
+                    presorted,
+                    q,
+                    tri,
+                    &rays,
+                    Some(&hints),
+                    &mut h,
+                    None,
+                );
+                assert_eq!(h, plain.0, "{name}-presorted in chunks");
+                let mut h = vec![HitRecord::MISS; n];
+                m.trace(sorted, q, tri, &rays, &mut h, None);
+                assert_eq!(h, plain.0, "{name}-sorted uncounted");
+                // The walk traces each ray with the tree its entry names: another tree in the
+                // hints changes the counters (so the comparisons above can fail).
+                let next = |e: u32| e & RAY_MASK | (((e >> TREE_SHIFT) + 1) % 3) << TREE_SHIFT;
+                let wrong: Vec<u32> = hints.iter().map(|&e| next(e)).collect();
+                let (_, ws) = traced(&m, presorted, q, &rays, Some(&wrong));
+                assert_ne!(ws, plain.1, "{name}: hints' trees ignored");
+                for (k, r) in rays.iter().enumerate().step_by(3) {
                     let a = &alone[m.tree_of(r.dir.to_array())];
                     let (mut ha, mut sa) = ([HitRecord::MISS], [TraversalStats::default()]);
                     a.trace(t, q, tri, std::slice::from_ref(r), &mut ha, Some(&mut sa));
-                    assert_eq!(ha[0], h[k]);
-                    assert_eq!(sa[0], st[k], "{} ray {k}", KdTree::TRAVERSALS[t].info.name);
+                    assert_eq!(ha[0], plain.0[k]);
+                    assert_eq!(sa[0], plain.1[k], "{name} ray {k}");
                 }
             }
         }
     }
 
+    /// The arrangement: per block, a stable counting sort by tree index, entries naming the
+    /// ray within its block and its tree.
     #[test]
-    fn counting_sort_groups_by_tree_stably() {
+    fn arrangement_groups_by_tree_stably_per_block() {
         let m = MultiKdTree::build(&grid(), &MultiKdParams::default());
         let dirs = [
             Vec3::Z,
@@ -886,8 +1116,34 @@ mod tests {
         ];
         let rays: Vec<Ray> = dirs.iter().map(|&d| Ray::new(Vec3::ZERO, d)).collect();
         let mut order = Vec::new();
-        m.sort_by_tree(&rays, &mut order);
-        assert_eq!(order, [1, 3, 2, 5, 0, 4]);
+        m.arrange(&rays, &mut order);
+        let t = |i: u32, tree: u32| i | tree << TREE_SHIFT;
+        assert_eq!(
+            order,
+            [t(1, 0), t(3, 0), t(2, 1), t(5, 1), t(0, 2), t(4, 2)]
+        );
+        // Blocks sort apart, numbering their rays from 0.
+        let rays = random_rays(2 * ARRANGE_BLOCK + 5);
+        m.arrange(&rays, &mut order);
+        for (b, (block, entries)) in rays
+            .chunks(ARRANGE_BLOCK)
+            .zip(order.chunks(ARRANGE_BLOCK))
+            .enumerate()
+        {
+            let mut seen = vec![false; block.len()];
+            let mut last = None;
+            for &e in entries {
+                let (j, tree) = ((e & RAY_MASK) as usize, e >> TREE_SHIFT);
+                assert!(
+                    !std::mem::replace(&mut seen[j], true),
+                    "block {b}: ray {j} twice"
+                );
+                assert_eq!(tree as usize, m.tree_of(block[j].dir.to_array()));
+                assert!(last < Some((tree, j)), "block {b}: not stable by tree");
+                last = Some((tree, j));
+            }
+            assert!(seen.iter().all(|&s| s));
+        }
     }
 
     #[test]

@@ -1,9 +1,10 @@
 //! Multi-kd-trees (Torres et al. 2012) against the oracle: the shared conformance suite
 //! (`tb_scene::conformance`) for every heuristic, the single-tree controls and the treelet
 //! layout, every robust kd traversal (the inherently non-robust `recursive-origin` is left out
-//! here as in the kd-tree's own suite). The `-sorted` rows run for one heuristic: the unit
-//! tests show they answer and count exactly as the plain rows, ray for ray, so the other
-//! variants run the plain rows only (CI time).
+//! here as in the kd-tree's own suite). The `-sorted` and `-presorted` rows (the latter with
+//! the arrangement of its hint pass) run for one heuristic: the unit tests show they answer
+//! and count exactly as the plain rows, ray for ray, so the other variants run the plain rows
+//! only (CI time).
 
 use std::sync::Arc;
 use tb_core::{
@@ -14,23 +15,25 @@ use tb_kdtree::measure::Heuristic;
 use tb_kdtree::multi::{MultiKdParams, MultiKdTree, Trees};
 use tb_kdtree::KdLayout;
 
-/// A multi-kd-tree exposing only its robust traversals (all but `recursive-origin` and
-/// `recursive-origin-sorted`), with or without the `-sorted` rows.
+/// A multi-kd-tree exposing only its robust traversals (all but the `recursive-origin` rows),
+/// with or without the `-sorted` and `-presorted` rows; a traced `-presorted` row walks the
+/// arrangement of its hint pass over the traced rays.
 struct Robust(MultiKdTree, Vec<usize>);
 
 impl Robust {
     fn new(m: MultiKdTree, sorted: bool) -> Self {
         let all = MultiKdTree::TRAVERSALS;
+        let arranged = |n: &str| n.ends_with("-sorted") || n.ends_with("-presorted");
         let which = (0..all.len())
             .filter(|&i| !all[i].info.name.starts_with("recursive-origin"))
-            .filter(|&i| sorted || !all[i].info.name.ends_with("-sorted"))
+            .filter(|&i| sorted || !arranged(all[i].info.name))
             .collect::<Vec<_>>();
         assert_eq!(
             which.len(),
             if sorted {
-                all.len() - 2
+                all.len() - 3
             } else {
-                all.len() / 2 - 1
+                all.len() / 3 - 1
             }
         );
         Robust(m, which)
@@ -77,7 +80,10 @@ impl Accel for Robust {
         hits: &mut [HitRecord],
         stats: Option<&mut [TraversalStats]>,
     ) {
-        self.0.trace(self.1[t], query, tri, rays, hits, stats)
+        let t = self.1[t];
+        let hints = self.0.batch_hints(t, query, rays);
+        self.0
+            .trace_hinted(t, query, tri, rays, hints.as_deref(), hits, stats)
     }
 }
 
@@ -89,7 +95,7 @@ fn run(p: MultiKdParams, sorted: bool) {
 }
 
 #[test]
-fn sphere_orth_conforms_plain_and_sorted() {
+fn sphere_orth_conforms_plain_sorted_and_presorted() {
     run(MultiKdParams::default(), true);
 }
 
