@@ -170,10 +170,14 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("csv")
     ap.add_argument("--threads", default=None, help="one thread count (default: each)")
+    ap.add_argument("--triangle-test", default="watertight",
+                    help="the rows of one triangle test (default: watertight; the config may "
+                         "run both, and pooling them would count each view twice)")
     a = ap.parse_args()
     rows = [r for r in read_rows(a.csv)
             if r["structure"] == "multi-kd" and r["device"] == "cpu"
             and r["traversal"] in (PLAIN, PRE, SORTED)
+            and r["triangle_test"] == a.triangle_test
             and params_of(r).get("trees", "multi") == "multi"
             and params_of(r).get("measure") in MEASURES]
     if a.threads:
