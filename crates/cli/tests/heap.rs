@@ -5,16 +5,26 @@ mod common;
 use common::*;
 
 use std::fs;
+use std::sync::{Mutex, MutexGuard};
 use tb_harness::heap::{self, CountingAlloc};
 use tb_harness::output::read_csv;
 
 #[global_allocator]
 static HEAP: CountingAlloc = CountingAlloc;
 
+/// The counter is global: the tests of this file take turns, so that one's run (rays,
+/// batches) is not counted in the other's measurement.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn serial() -> MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 const MIB: u64 = 1 << 20;
 
 #[test]
 fn measure_sees_a_freed_scratch_array_in_the_peak_and_not_in_what_is_kept() {
+    let _turn = serial();
     assert!(heap::installed());
     let (kept, used) = heap::measure(|| {
         let scratch = std::hint::black_box(vec![1u8; 2 * MIB as usize]);
@@ -23,7 +33,7 @@ fn measure_sees_a_freed_scratch_array_in_the_peak_and_not_in_what_is_kept() {
         out
     });
     let used = used.expect("counted");
-    // Other test threads may allocate a little meanwhile.
+    // libtest's own threads may allocate a little meanwhile.
     assert!(
         used.peak >= 3 * MIB && used.peak < 3 * MIB + MIB / 4,
         "{used:?}"
@@ -34,6 +44,7 @@ fn measure_sees_a_freed_scratch_array_in_the_peak_and_not_in_what_is_kept() {
 
 #[test]
 fn rows_report_the_build_heap_of_every_structure() {
+    let _turn = serial();
     let dir = tempfile::tempdir().unwrap();
     let cfg = dir.path().join("c.toml");
     fs::write(
