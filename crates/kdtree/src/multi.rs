@@ -665,19 +665,22 @@ const fn presorted_info(i: usize, name: &'static str) -> TraversalInfo {
 const PLAIN: usize = 11;
 const _: () = assert!(KdTree::TRAVERSALS.len() == PLAIN);
 
-/// Plain row `I`: the tree picked per ray, rays in the order given.
-fn plain<const I: usize>(
+/// Row `row` over `rays`, in the arrangement `order` ([`MultiKdTree::arrange`]) or, with
+/// `None`, in the rays' order with the tree picked per ray: the one call of the plain,
+/// `-sorted` and `-presorted` rows.
+fn trace_order(
     m: &MultiKdTree,
+    row: usize,
     query: Query,
     tri: TriTestKind,
     rays: &[Ray],
+    order: Option<&[u32]>,
     hits: &mut [HitRecord],
     stats: Option<&mut [TraversalStats]>,
 ) {
-    let order = None;
     trace_row(
         m,
-        I,
+        row,
         Batch {
             query,
             tri,
@@ -687,6 +690,18 @@ fn plain<const I: usize>(
             stats,
         },
     )
+}
+
+/// Plain row `I`: the tree picked per ray, rays in the order given.
+fn plain<const I: usize>(
+    m: &MultiKdTree,
+    query: Query,
+    tri: TriTestKind,
+    rays: &[Ray],
+    hits: &mut [HitRecord],
+    stats: Option<&mut [TraversalStats]>,
+) {
+    trace_order(m, I, query, tri, rays, None, hits, stats)
 }
 
 /// `-sorted` row: arrange the chunk by tree ([`MultiKdTree::arrange`]) and walk it, both in
@@ -701,19 +716,7 @@ fn sorted<const I: usize>(
 ) {
     let mut order = Vec::new();
     m.arrange(rays, &mut order);
-    let order = Some(&order[..]);
-    trace_row(
-        m,
-        I,
-        Batch {
-            query,
-            tri,
-            rays,
-            order,
-            hits,
-            stats,
-        },
-    )
+    trace_order(m, I, query, tri, rays, Some(&order), hits, stats)
 }
 
 /// The hints of the `-presorted` rows: the batch's arrangement ([`MultiKdTree::arrange`]).
@@ -735,21 +738,7 @@ fn presorted<const I: usize>(
     stats: Option<&mut [TraversalStats]>,
 ) {
     match hints {
-        Some(order) => {
-            let order = Some(order);
-            trace_row(
-                m,
-                I,
-                Batch {
-                    query,
-                    tri,
-                    rays,
-                    order,
-                    hits,
-                    stats,
-                },
-            )
-        }
+        Some(order) => trace_order(m, I, query, tri, rays, Some(order), hits, stats),
         None => sorted::<I>(m, query, tri, rays, hits, stats),
     }
 }
