@@ -33,12 +33,9 @@ fn measure_sees_a_freed_scratch_array_in_the_peak_and_not_in_what_is_kept() {
         out
     });
     let used = used.expect("counted");
-    // libtest's own threads may allocate a little meanwhile.
-    assert!(
-        used.peak >= 3 * MIB && used.peak < 3 * MIB + MIB / 4,
-        "{used:?}"
-    );
-    assert!(used.kept >= MIB && used.kept < MIB + MIB / 4, "{used:?}");
+    // libtest's own threads may allocate or free a few bytes meanwhile (CI saw 24 freed).
+    assert!(used.peak.abs_diff(3 * MIB) < MIB / 4, "{used:?}");
+    assert!(used.kept.abs_diff(MIB) < MIB / 4, "{used:?}");
     drop(kept);
 }
 
