@@ -111,7 +111,6 @@ impl IrregularGrid {
     /// `merge`, §4.3 `expansion` passes.
     pub fn build(tris: &Arc<[Triangle]>, p: &IrregularParams) -> Result<IrregularGrid, AccelError> {
         let mut fig = Vec::new();
-        let mut peak = 0usize;
         let t = Instant::now();
         let bounds = grid_bounds(tris);
         let ext = bounds.extent().to_array().map(f64::from);
@@ -163,7 +162,6 @@ impl IrregularGrid {
         let dmax = depth.iter().copied().max().unwrap_or(0);
         let base = top.refined(1 << dmax);
         let w = initial(&top, &base, dmax, &depth, &tstart, &trefs, tris);
-        peak = peak.max(bytes_of(&w) + (tstart.len() + trefs.len()) * 4);
         drop((tstart, trefs));
         fig.push(("build_init_ms".into(), ms(t)));
         fig.push(("cells_initial".into(), w.cells.len() as f64));
@@ -175,9 +173,7 @@ impl IrregularGrid {
             loop {
                 let before = w.cells.len();
                 for a in 0..3 {
-                    let (nw, pk) = merge_pass(&base, dmax, w, a, p);
-                    w = nw;
-                    peak = peak.max(pk);
+                    w = merge_pass(&base, dmax, w, a, p);
                     passes += 1;
                 }
                 let after = w.cells.len();
@@ -195,7 +191,6 @@ impl IrregularGrid {
             c.lo = lo;
             c.hi = hi;
         }
-        peak = peak.max(bytes_of(&w) + w.cells.len() * 24);
         fig.push(("build_expand_ms".into(), ms(t)));
         let Work {
             cells, refs, map, ..
@@ -205,7 +200,6 @@ impl IrregularGrid {
         fig.push(("voxel_map_bytes".into(), (map.len() * 4) as f64));
         fig.push(("cells_bytes".into(), (cells.len() * 32) as f64));
         fig.push(("refs_bytes".into(), (refs.len() * 4) as f64));
-        fig.push(("build_peak_bytes".into(), peak as f64));
         fig.push(("top_res_x".into(), res[0] as f64));
         fig.push(("top_res_y".into(), res[1] as f64));
         fig.push(("top_res_z".into(), res[2] as f64));
@@ -286,10 +280,6 @@ impl IrregularGrid {
 
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
-}
-
-fn bytes_of(w: &Work) -> usize {
-    w.cells.len() * 32 + w.refs.len() * 4 + w.map.len() * 4
 }
 
 #[inline(always)]
@@ -430,15 +420,14 @@ fn cost(base: &Lattice, n: usize, lo: [u32; 3], hi: [u32; 3], p: &IrregularParam
 /// merge candidate; (2) along each merge chain, candidates at even positions merge with their
 /// successor, those at odd positions are residue (pairwise merges only); (3) merged cells
 /// replace their pairs (references united, sorted), the others stay; (4) the voxel map's
-/// entries of removed cells point to their new cells. Returns the new state and the bytes held
-/// at the peak of the pass.
+/// entries of removed cells point to their new cells. Returns the new state.
 fn merge_pass(
     base: &Lattice,
     dmax: u32,
     w: Work,
     axis: usize,
     p: &IrregularParams,
-) -> (Work, usize) {
+) -> Work {
     let Work {
         cells,
         refs,
@@ -574,19 +563,15 @@ fn merge_pass(
             }
         })
         .collect();
-    let peak = n * 32 + refs.len() * 4 + map.len() * 4 + n * 20 + total * 4 + new_cells.len() * 32;
     map[n_top..]
         .par_iter_mut()
         .for_each(|e| *e = new_id[*e as usize]);
-    (
-        Work {
-            cells: new_cells,
-            refs: new_refs,
-            map,
-            n_top,
-        },
-        peak,
-    )
+    Work {
+        cells: new_cells,
+        refs: new_refs,
+        map,
+        n_top,
+    }
 }
 
 fn top_lattice(base: &Lattice, dmax: u32) -> Lattice {
@@ -712,8 +697,9 @@ impl Structure for IrregularGrid {
 
     /// Extra figures: time per build phase (`build_init_ms`, `build_merge_ms`,
     /// `build_expand_ms`), cells after each phase, merge passes, memory per part
-    /// (`voxel_map_bytes`, `cells_bytes`, `refs_bytes`) and the estimated peak of the arrays
-    /// held during construction (`build_peak_bytes`), top-level resolution, deepest octree.
+    /// (`voxel_map_bytes`, `cells_bytes`, `refs_bytes`), top-level resolution, deepest octree.
+    /// The peak heap of the build is measured for every structure by the harness
+    /// (`build_heap_peak_bytes`).
     fn report(&self) -> BuildReport {
         BuildReport {
             sah_cost: None,
