@@ -45,7 +45,7 @@ mod kernels;
 mod trace;
 
 pub use device::{AdapterChoice, AdapterSummary, Backend, Gpu};
-pub use tb_core::{GpuBuffer, GpuProgram};
+pub use tb_core::{GpuArrange, GpuBuffer, GpuProgram};
 pub use trace::{GpuRays, GpuStructure, Timing};
 
 use tb_core::TraversalStats;

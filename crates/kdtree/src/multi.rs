@@ -436,6 +436,7 @@ impl MultiKdTree {
             constants: Vec::new(),
             unrolled_triangle_loop: None,
             needs_f64: false,
+            arrange: None,
         }
     }
 
