@@ -109,8 +109,9 @@ fn layout(device: &wgpu::Device, n: usize, arranged: bool) -> Layouts {
             entries: &[storage(0, false)],
         })
     });
-    let groups: Vec<Option<&wgpu::BindGroupLayout>> =
-        std::iter::once(Some(&group0)).chain(group1.as_ref().map(Some)).collect();
+    let groups: Vec<Option<&wgpu::BindGroupLayout>> = std::iter::once(Some(&group0))
+        .chain(group1.as_ref().map(Some))
+        .collect();
     let pipeline = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: None,
         bind_group_layouts: &groups,

@@ -389,9 +389,9 @@ impl Gpu {
         let sort = match s.arrange {
             Some(a) => {
                 let g1 = self.arrangement(a, rays, &layouts, &chunks)?;
-                let passes =
-                    self.kernels
-                        .sort_pipelines(&self.device, s.program, s.buffers.len());
+                let passes = self
+                    .kernels
+                    .sort_pipelines(&self.device, s.program, s.buffers.len());
                 let (ms, _) = self.timed_pass(|pass| {
                     for (((_, len), g0), g1) in chunks.iter().zip(&groups).zip(&g1) {
                         let wgs = len.div_ceil(WORKGROUP as u64) as u32;
@@ -457,14 +457,12 @@ impl Gpu {
                 resource: s.meta.as_entire_binding(),
             },
         ];
-        entries.extend(
-            (COMMON_BINDINGS..)
-                .zip(&s.buffers)
-                .map(|(binding, b)| wgpu::BindGroupEntry {
-                    binding,
-                    resource: b.as_entire_binding(),
-                }),
-        );
+        entries.extend((COMMON_BINDINGS..).zip(&s.buffers).map(|(binding, b)| {
+            wgpu::BindGroupEntry {
+                binding,
+                resource: b.as_entire_binding(),
+            }
+        }));
         self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: None,
             layout: &layouts.group0,
@@ -583,7 +581,10 @@ impl Gpu {
             Some((_, _, read)) => {
                 let t: Vec<u64> = self.map_read(read, 16)?;
                 let ticks = t[1].saturating_sub(t[0]) as f64;
-                (ticks * self.queue.get_timestamp_period() as f64 * 1e-6, true)
+                (
+                    ticks * self.queue.get_timestamp_period() as f64 * 1e-6,
+                    true,
+                )
             }
             None => (wall_ms, false),
         })

@@ -64,9 +64,9 @@ use crate::{
 use std::borrow::Cow;
 use std::sync::{Arc, OnceLock};
 use tb_core::{
-    build_with, dispatch, Aabb, AccelError, BuildReport, Counter, Family, GpuBuffer, GpuProgram,
-    GpuArrange, HitRecord, Kernel, MemoryReport, MollerTrumbore, NoStats, ParamKind, Params, Query, Ray,
-    Structure, Traversal, TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Counter, Family, GpuArrange, GpuBuffer,
+    GpuProgram, HitRecord, Kernel, MemoryReport, MollerTrumbore, NoStats, ParamKind, Params, Query,
+    Ray, Structure, Traversal, TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle,
     Watertight,
 };
 

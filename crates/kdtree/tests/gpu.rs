@@ -16,8 +16,8 @@
 
 use std::collections::BTreeSet;
 use tb_core::{Accel, Query, Ray, TriTestKind};
-use tb_kdtree::multi::{MultiKdParams, MultiKdTree, ARRANGE_BLOCK, TREE_SHIFT};
 use tb_kdtree::measure::Heuristic;
+use tb_kdtree::multi::{MultiKdParams, MultiKdTree, ARRANGE_BLOCK, TREE_SHIFT};
 use tb_kdtree::{KdLayout, KdParams, KdTree};
 use tb_scene::conformance;
 
@@ -173,7 +173,10 @@ fn multi_kd_sort_pass_is_the_cpu_arrangement() {
                 .enumerate()
                 .map(|(p, &e)| (p - p % ARRANGE_BLOCK) as u32 + (e & ((1 << TREE_SHIFT) - 1)))
                 .collect();
-            for name in ["recursive-direction-sorted", "recursive-direction-presorted"] {
+            for name in [
+                "recursive-direction-sorted",
+                "recursive-direction-presorted",
+            ] {
                 let row = multi_row(&m, name);
                 let program = m.gpu_program(row).expect("a GPU program");
                 assert!(program.arrange.is_some(), "{name}");

@@ -237,7 +237,8 @@ fn measure_on(
         Ok::<_, String>(t.kernel_ms + sort.unwrap_or(0.0))
     })?;
     // The warm-up runs' sorts are not timed runs.
-    let sorts = &mut sorts[sorts.len().saturating_sub(times.len())..];
+    let warmups = sorts.len().saturating_sub(times.len());
+    let sorts = &mut sorts[warmups..];
     row.sort_ms = (!sorts.is_empty()).then(|| crate::timing::median(sorts));
     let (hits, readback_ms) = gpu.read_hits(g_rays).map_err(|e| e.to_string())?;
     crate::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);
