@@ -314,7 +314,7 @@ fn cpu_order(rays: &[Ray], keys: u32, step: usize) -> Vec<u32> {
     let key = |r: &Ray| KEY_TABLE[r.origin.x as usize].min(keys - 1);
     let mut order = Vec::new();
     for first in (0..rays.len()).step_by(step) {
-        let mut idx: Vec<u32> = (first..rays.len().min(first + step) as usize)
+        let mut idx: Vec<u32> = (first..rays.len().min(first + step))
             .map(|i| i as u32)
             .collect();
         idx.sort_by_key(|&i| key(&rays[i as usize]));
