@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Our Table 5 of Torres et al. 2012 ("Improving ray traversal by using several specialized
 kd-trees", MRays/s with the sort by tree index included, "inc.", and not included, "n.inc.")
-beside the paper's, from a results.csv of configs/multikd.toml.
+beside the paper's, from the results.csv of configs/multikd.toml (CPU rows) and, where given, of
+its GPU run (GPU rows; the paper's figures are GPU figures).
 
 Rows of structure `multi-kd` with `trees=multi`, traversal `recursive-direction` (rays as
 generated, the tree picked per ray), `recursive-direction-presorted` (the arrangement by tree
@@ -19,11 +20,17 @@ heuristic, with our plain (unsorted) MRays/s and the sort share. Gains are the p
 column of the same kind: the paper gives SAH one value). `steps=` says whether the three rows'
 traversal steps per ray (planes + prims) agree, as they must; `mism` sums oracle mismatches.
 
-    python3 scripts/multikd-table5.py results/multikd/LATEST/results.csv [--threads N]
+    python3 scripts/multikd-table5.py results/multikd/LATEST/results.csv [GPU.csv] [--threads N]
 
---threads picks one thread count (the CSV's, e.g. 16 for the config's `0`); by default each
-thread count gets its own tables (the paper's figures are GPU figures: compare gains and
-shares, not MRays/s).
+--threads picks one thread count of the CPU rows (the CSV's, e.g. 16 for the config's `0`); by
+default each thread count gets its own tables, and the GPU rows theirs (the paper's figures are
+GPU figures: compare gains and shares, not MRays/s).
+
+GPU rows (`device = gpu`, e.g. `trace-bench run configs/multikd.toml --device gpu --structure
+multi-kd:recursive-direction,multi-kd:recursive-direction-presorted,multi-kd:recursive-direction-sorted`):
+tb-gpu sorts each dispatch's rays by tree index in compute passes timed on their own
+(`sort_ms`); `-presorted` rows' time is the trace alone (n.inc.), `-sorted` rows' the sort plus
+the trace (inc.), and the sort's share is `sort_ms` / the `-sorted` time.
 """
 
 import argparse
@@ -85,6 +92,7 @@ class Pool:
 
     def __init__(self):
         self.rays, self.ms, self.steps, self.mism, self.views = 0, 0.0, 0.0, 0, 0
+        self.sort_ms = None
 
     def add(self, r):
         n = int(r["rays"])
@@ -94,6 +102,8 @@ class Pool:
         self.steps += steps * n
         self.mism += int(r.get("mismatches") or 0)
         self.views += 1
+        if r.get("sort_ms"):
+            self.sort_ms = (self.sort_ms or 0.0) + float(r["sort_ms"])
 
     def mrays(self):
         return self.rays / self.ms / 1e3 if self.ms > 0 else float("nan")
@@ -142,7 +152,9 @@ def print_kind(kind, renderers, pools, scenes):
                 if not (pre and srt and sah_pre and sah_srt):
                     cells.append(f"  {'-':>37}")
                     continue
-                share = 100.0 * (srt.ms - pre.ms) / srt.ms if srt.ms else float("nan")
+                # The GPU times its sort (`sort_ms`); on the CPU it is the difference of the rows.
+                sort_ms = srt.sort_ms if srt.sort_ms is not None else srt.ms - pre.ms
+                share = 100.0 * sort_ms / srt.ms if srt.ms else float("nan")
                 cells.append(f"  {cell(pre.mrays(), sah_pre.mrays())} / "
                              f"{cell(srt.mrays(), sah_srt.mrays())} {share:5.1f}%")
                 notes.append(f"{m}: plain {plain.mrays():.2f}" if plain else f"{m}: no plain row")
@@ -168,32 +180,40 @@ def print_kind(kind, renderers, pools, scenes):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("csv")
+    ap.add_argument("csv", nargs="+", help="results.csv files (CPU and GPU rows)")
     ap.add_argument("--threads", default=None, help="one thread count (default: each)")
     ap.add_argument("--triangle-test", default="watertight",
                     help="the rows of one triangle test (default: watertight; the config may "
                          "run both, and pooling them would count each view twice)")
     a = ap.parse_args()
-    rows = [r for r in read_rows(a.csv)
-            if r["structure"] == "multi-kd" and r["device"] == "cpu"
+    rows = [r for path in a.csv for r in read_rows(path)
+            if r["structure"] == "multi-kd" and r["device"] in ("cpu", "gpu")
             and r["traversal"] in (PLAIN, PRE, SORTED)
             and r["triangle_test"] == a.triangle_test
             and params_of(r).get("trees", "multi") == "multi"
             and params_of(r).get("measure") in MEASURES]
     if a.threads:
-        rows = [r for r in rows if r["threads"] == a.threads]
+        rows = [r for r in rows if r["device"] == "gpu" or r["threads"] == a.threads]
     if not rows:
-        raise SystemExit(f"no multi-kd recursive-direction rows (trees=multi) in {a.csv}")
-    for threads in sorted({r["threads"] for r in rows}, key=int):
+        raise SystemExit(f"no multi-kd recursive-direction rows (trees=multi) in {', '.join(a.csv)}")
+    # GPU rows without a time (no kernel, no adapter) are left out.
+    rows = [r for r in rows if r.get("trace_ms_median")]
+    groups = sorted({(r["device"], r["threads"]) for r in rows},
+                    key=lambda g: (g[0] == "gpu", int(g[1])))
+    for device, threads in groups:
         pools = defaultdict(Pool)
         for r in rows:
-            if r["threads"] == threads:
+            if (r["device"], r["threads"]) == (device, threads):
                 key = (r["scene"].split("@")[0], r["ray_kind"], params_of(r)["measure"],
                        r["traversal"])
                 pools[key].add(r)
         scenes = sorted({k[0] for k in pools}, key=lambda s: list(SCENES).index(s)
                         if s in SCENES else len(SCENES))
-        print(f"=== Table 5, threads={threads} (paper: one GPU)")
+        if device == "gpu":
+            adapters = sorted({r.get("adapter") or "?" for r in rows if r["device"] == "gpu"})
+            print(f"=== Table 5, GPU {'; '.join(adapters)} (paper: one GPU)")
+        else:
+            print(f"=== Table 5, threads={threads} (paper: one GPU)")
         print()
         for kind, renderers in KINDS:
             if any(k[1] == kind for k in pools):

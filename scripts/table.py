@@ -23,9 +23,9 @@ relative half-width); only a single timing column has one, a `+` sum of columns 
 cell (--sum) combines the half-widths of its rows in quadrature. A cell
 of a timing column whose row is flagged `noisy` is marked †, explained under the table.
 
-When the cells of a timing value (the timing columns, build_ms, upload_ms, readback_ms) come
-from more than one machine (the `host` column, e.g. a run merged from shards that ran on
-several cluster nodes), a warning on stderr names the hosts: counters are host-independent,
+When the cells of a timing value (the timing columns, build_ms, upload_ms, readback_ms,
+sort_ms) come from more than one machine (the `host` column, e.g. a run merged from shards that
+ran on several cluster nodes), a warning on stderr names the hosts: counters are host-independent,
 timings are not; narrow with --filter host=NAME or rerun on one machine.
 """
 
@@ -73,7 +73,7 @@ def cell_of(rows, args):
 
 
 # Values measured in time: comparing them across machines compares the machines.
-TIMED = TIMING_COLUMNS | {"build_ms", "upload_ms", "readback_ms"}
+TIMED = TIMING_COLUMNS | {"build_ms", "upload_ms", "readback_ms", "sort_ms"}
 
 
 def warn_hosts(rows, value):

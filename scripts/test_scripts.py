@@ -80,6 +80,31 @@ def multikd_rows():
     return rows
 
 
+def table5_gpu_rows():
+    """The GPU run of table5_rows' config: path1's trace 4 ms, its sort about 1 ms (`sort_ms`
+    on both sorted rows; in the time of -sorted only)."""
+    rows = []
+    for view in ["1", "2"]:
+        for measure in ["sah", "sphere-orth"]:
+            for traversal, extra in [("recursive-direction", 0.5),
+                                     ("recursive-direction-presorted", 0.0),
+                                     ("recursive-direction-sorted", 1.0)]:
+                for kind, ms in [("primary", 2.0), ("path1", 4.0)]:
+                    ms = ms + (extra if kind == "path1" else 0.0)
+                    r = row(f"sponza@{view}", "multi-kd", f"measure={measure};trees=multi",
+                            traversal, kind, ms, 0.1, threads="0")
+                    r["device"], r["adapter"] = "gpu", "TestGPU / vulkan / test"
+                    # Timed apart from the trace: the -sorted row's median sort 1.25 ms.
+                    sort = {"recursive-direction-presorted": 1.0,
+                            "recursive-direction-sorted": 1.25}
+                    r["sort_ms"] = sort.get(traversal, "")
+                    r["planes_per_ray"], r["prims_per_ray"] = 30.0, 10.0
+                    rows.append(r)
+    # A GPU row without a time (no adapter) is left out.
+    rows.append({**rows[0], "trace_ms_median": "", "mrays_per_s": "", "note": "no adapter"})
+    return rows
+
+
 def table5_rows():
     """configs/multikd.toml in small: two views of one scene, SAH and SPHERE-ORTH, the plain,
     -presorted and -sorted rows; the sort costs 2 ms of path1's -sorted 10 ms per view."""
@@ -144,6 +169,8 @@ class Table(unittest.TestCase):
         cls.base = ["--cols", "param:strategy", "--baseline", "r-star", "--filter", "threads=1"]
         cls.t5 = os.path.join(cls.tmp.name, "table5.csv")
         write(cls.t5, table5_rows())
+        cls.t5_gpu = os.path.join(cls.tmp.name, "table5-gpu.csv")
+        write(cls.t5_gpu, table5_gpu_rows(), HEADER + ["adapter", "sort_ms", "note"])
 
     @classmethod
     def tearDownClass(cls):
@@ -238,6 +265,21 @@ class Table(unittest.TestCase):
         self.assertIn("100.00", line)
         self.assertIn("20.0%", line)
         self.assertIn("-100.00", line)
+        self.assertIn("2 views, steps=equal, mism 0", line)
+
+    def test_multikd_table5_gpu(self):
+        out = run("multikd-table5.py", self.t5, self.t5_gpu)
+        self.assertIn("=== Table 5, threads=1", out)
+        self.assertIn("=== Table 5, GPU TestGPU / vulkan / test", out)
+        gpu = out[out.index("=== Table 5, GPU"):]
+        # 2 x 1M rays in 2 x 4 ms (-presorted) = 250 MRays/s, in 2 x 5 ms (-sorted, the sort
+        # included) = 200; the sort's share from -sorted's own sort_ms, 1.25 of 5 ms = 25% (not
+        # the difference of the rows); SAH as fast, a gain of 0.
+        line = next(l for l in gpu.splitlines() if l.strip().startswith("ours SPONZA")
+                    and "250.00" in l)
+        self.assertIn("200.00", line)
+        self.assertIn("25.0%", line)
+        self.assertIn("+0.00", line)
         self.assertIn("2 views, steps=equal, mism 0", line)
 
     def test_stat_value(self):

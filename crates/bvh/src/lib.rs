@@ -436,6 +436,7 @@ impl Bvh {
             constants: vec![("WIDTH", width as f64)],
             unrolled_triangle_loop: None,
             needs_f64: false,
+            arrange: None,
         }
     }
 
@@ -483,6 +484,7 @@ impl Bvh {
             constants: Vec::new(),
             unrolled_triangle_loop: None,
             needs_f64: false,
+            arrange: None,
         }
     }
 

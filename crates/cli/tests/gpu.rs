@@ -1,5 +1,6 @@
 //! `trace-bench run` with `devices = ["cpu", "gpu"]` (configs/gpu.toml): both rows for every
-//! combination, GPU rows validated with zero mismatches and counters equal to the CPU rows';
+//! combination, GPU rows validated with zero mismatches and counters equal to the CPU rows'
+//! (the multi-kd rows sorted by tree index on the GPU included, with their `sort_ms`);
 //! structures without a GPU kernel get a note; a missing adapter fails the run only when the
 //! GPU is required, and the CPU rows are written either way.
 
@@ -70,6 +71,10 @@ fn gpu_config_writes_cpu_and_gpu_rows_that_agree() {
     // As in tb-gpu's oracle tests: exact with the watertight test where its fallback runs in
     // f64 as on the CPU; else a bounded share of rays may differ (FMA contraction, f32).
     let exact_wt = json["meta"]["adapter"]["watertight_fallback"] == "f64";
+    assert!(
+        gpu.iter().any(|g| g.sort_ms.is_some()),
+        "configs/gpu.toml has GPU rows sorted by tree index"
+    );
     for c in &cpu {
         let g = gpu
             .iter()
@@ -100,6 +105,15 @@ fn gpu_config_writes_cpu_and_gpu_rows_that_agree() {
         assert!(g.upload_ms.is_some() && g.readback_ms.is_some());
         assert!(g.trace_ms_median.is_some_and(|t| t >= 0.0));
         assert_eq!(g.validated_rays, Some(g.rays));
+        // The GPU sort pass by tree index: timed on the multi-kd `-sorted` and `-presorted`
+        // rows only (`sort_ms`); the CPU rows derive it from their times.
+        assert_eq!(
+            g.sort_ms.is_some_and(|t| t >= 0.0),
+            g.traversal.ends_with("-sorted") || g.traversal.ends_with("-presorted"),
+            "{:?}",
+            g.key()
+        );
+        assert_eq!(c.sort_ms, None);
         if g.triangle_test == "watertight" && exact_wt {
             assert_eq!(g.mismatches, Some(0), "{:?}", g.key());
             assert_eq!(counters(g), counters(c), "{:?}", g.key());

@@ -37,8 +37,23 @@
 //! [`GpuProgram::needs_f64`]; the GPU crate then refuses it on adapters without
 //! `SHADER_F64` (a one-line [`GpuProgram::name`]d refusal, a row's note in a run).
 //!
+//! # Ray arrangement by key
+//!
+//! A program may ask for its rays to be sorted before they are traced ([`GpuProgram::arrange`],
+//! [`GpuArrange`]: e.g. Torres et al. 2012 §6, the multi-kd-tree's rays by tree index). Its
+//! source then also defines `fn ray_key(r: Ray) -> u32`, the ray's key in `0..keys` (it may
+//! read the program's own buffers; a larger value counts as `keys - 1`). Per dispatch chunk
+//! the GPU crate runs, before the trace and timed on its own, a stable counting sort of the
+//! chunk's ray indices by key (compute passes: per-workgroup histograms, one exclusive scan in
+//! key-major order, a stable scatter by in-workgroup rank); `main` then traces ray `perm[i]`
+//! in thread `i` and writes its hit and counters at the ray's own index, so hits and counters
+//! come back in ray order, the same ray for ray as without the sort. The module then also
+//! binds group 1, binding 0 (the sort's histograms and permutation, one storage buffer beside
+//! the program's: 4 of its own buffers at most still leaves it within WebGPU's 8).
+//!
 //! The GPU crate compiles one module per [`GpuProgram::name`] and caches pipelines by (name,
-//! query, triangle test, counting): source, stack size and constants are fixed per name (a
+//! query, triangle test, counting): source, stack size, constants and the number of keys are
+//! fixed per name (a
 //! second program of the same name with other values is refused); what varies per build goes
 //! in the triangles, buffers and meta words.
 
@@ -81,4 +96,25 @@ pub struct GpuProgram<'a> {
     /// repeat a CPU walk's `f64` arithmetic): tb-gpu refuses it, with one line naming the
     /// program, on an adapter without `SHADER_F64`, instead of failing to compile it.
     pub needs_f64: bool,
+    /// Sort the rays by `ray_key` before tracing them (see the module doc); `None`: traced in
+    /// the order given.
+    pub arrange: Option<GpuArrange>,
+}
+
+/// A program's ray arrangement: rays stably sorted by a small key before the trace (Torres et
+/// al. 2012 §6: a counting sort on the tree index).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GpuArrange {
+    /// Number of keys, 1 to [`GpuArrange::MAX_KEYS`]: `ray_key` returns values below it.
+    pub keys: u32,
+    /// Whether a row's trace time includes the sort's (the paper's "inc."); else the sort
+    /// runs untimed before the trace ("n.inc."). tb-gpu times both either way
+    /// (`Timing::sort_ms`); the runner adds the sort's time to the row's when `true`.
+    pub timed: bool,
+}
+
+impl GpuArrange {
+    /// Most keys a program may declare (histograms stay small; the scan stays within
+    /// llvmpipe's loop limit at the largest dispatch).
+    pub const MAX_KEYS: u32 = 16;
 }

@@ -34,7 +34,7 @@ pub use compare::{
     T_ULPS,
 };
 pub use geom::{Aabb, HitRecord, Ray, Triangle, Vec3};
-pub use gpu::{GpuBuffer, GpuProgram};
+pub use gpu::{GpuArrange, GpuBuffer, GpuProgram};
 pub use oracle::BruteForce;
 pub use params::{ParamError, ParamKind, ParamSet, ParamSpec, ParamType, ParamValue, Params};
 pub use stats::{

@@ -71,6 +71,7 @@ impl BruteForce {
             constants: Vec::new(),
             unrolled_triangle_loop: Some(GPU_UNROLL),
             needs_f64: false,
+            arrange: None,
         }
     }
 }

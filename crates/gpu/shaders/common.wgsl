@@ -5,7 +5,8 @@
 // The host prepends `const STACK_SIZE` (GpuProgram::stack_size), `const WORKGROUP_SIZE` and
 // `struct Stats` with `fn zero_stats()` (tb_core::stats::wgsl_stats_struct: one u32 per
 // counter, then `capped`), and appends one `edge_fallback` (f64 where the adapter has
-// SHADER_F64, else f32) and then the program's source.
+// SHADER_F64, else f32), `fn ray_index` (shaders/unsorted.wgsl, or shaders/arrange.wgsl for a
+// program with a ray key) and then the program's source.
 
 struct Ray { origin: vec3<f32>, tmin: f32, dir: vec3<f32>, tmax: f32 }   // tb_core::Ray, 32 B
 struct Hit { t: f32, prim: u32, u: f32, v: f32 }                          // tb_core::HitRecord
@@ -180,17 +181,20 @@ fn intersect(p: Pre, r: Ray, i: u32, tmax: f32) -> vec4<f32> {
     return moller_trumbore(r, v0, v1, v2, tmax);
 }
 
-// One thread per ray: the program's `walk` traces it (counters start at zero; `capped` stays 0
-// unless the program sets it), the hit is written, and the counters in the counting variant.
+// One thread per ray: the program's `walk` traces ray `ray_index(i)` of the dispatch (`i`
+// itself, or the i-th of the sorted order for a program with a ray key: shaders/arrange.wgsl)
+// (counters start at zero; `capped` stays 0 unless the program sets it), its hit is written at
+// the ray's own index, and its counters in the counting variant.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
     if i >= arrayLength(&rays) {
         return;
     }
+    let j = ray_index(i);
     var st = zero_stats();
-    hits[i] = walk(rays[i], &st);
+    hits[j] = walk(rays[j], &st);
     if COUNT {
-        stats[i] = st;
+        stats[j] = st;
     }
 }

@@ -1,6 +1,7 @@
 //! Shader modules, bind group layouts and pipeline variants of the programs structures hand
-//! over, each made on first use and cached (by program name; layouts by buffer count;
-//! pipelines by program, query, triangle test and counting).
+//! over, each made on first use and cached (by program name; layouts by buffer count and
+//! whether the program sorts its rays; pipelines by program, query, triangle test and
+//! counting, the sort passes' by program).
 
 use crate::{GpuError, WORKGROUP};
 use std::collections::HashMap;
@@ -11,6 +12,12 @@ use tb_core::{GpuProgram, Query, TriTestKind};
 const COMMON: &str = include_str!("../shaders/common.wgsl");
 const EDGE_F64: &str = include_str!("../shaders/edge_f64.wgsl");
 const EDGE_F32: &str = include_str!("../shaders/edge_f32.wgsl");
+const UNSORTED: &str = include_str!("../shaders/unsorted.wgsl");
+const ARRANGE: &str = include_str!("../shaders/arrange.wgsl");
+
+/// The entry points of the sort passes of a program with a ray key (`shaders/arrange.wgsl`),
+/// in the order they run.
+pub(crate) const SORT_PASSES: [&str; 3] = ["tb_histogram", "tb_scan", "tb_scatter"];
 
 /// Bindings of the prelude (rays, hits, stats, triangles, meta); a program's buffers follow.
 pub(crate) const COMMON_BINDINGS: u32 = 5;
@@ -23,6 +30,17 @@ struct Module {
     source: &'static str,
     stack_size: u32,
     constants: Vec<(&'static str, f64)>,
+    /// Keys of its ray arrangement (0: none).
+    keys: u32,
+}
+
+/// Layouts of a program: group 0 (the common bindings and its buffers), group 1 (the
+/// arrangement buffer) where it sorts its rays, and the pipeline layout of both.
+#[derive(Clone)]
+pub(crate) struct Layouts {
+    pub(crate) group0: wgpu::BindGroupLayout,
+    pub(crate) group1: Option<wgpu::BindGroupLayout>,
+    pipeline: wgpu::PipelineLayout,
 }
 
 /// A pipeline variant: program name, query, triangle test, counting (else timed).
@@ -32,9 +50,12 @@ type Variant = (&'static str, Query, TriTestKind, bool);
 struct Cache {
     /// Shader modules by program name.
     modules: HashMap<&'static str, Module>,
-    /// Bind group and pipeline layouts by the number of the program's own buffers.
-    layouts: HashMap<usize, (wgpu::BindGroupLayout, wgpu::PipelineLayout)>,
+    /// Bind group and pipeline layouts by the number of the program's own buffers and
+    /// whether it sorts its rays.
+    layouts: HashMap<(usize, bool), Layouts>,
     pipelines: HashMap<Variant, wgpu::ComputePipeline>,
+    /// The sort passes' pipelines ([`SORT_PASSES`]) by program name.
+    sorts: HashMap<&'static str, Vec<wgpu::ComputePipeline>>,
 }
 
 /// The device's compiled programs; every entry is made on first use.
@@ -58,8 +79,9 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
 }
 
 /// The layouts of a program with `n` buffers of its own: the common bindings 0–4, then `n`
-/// read-only storage buffers at 5, 6, ….
-fn layout(device: &wgpu::Device, n: usize) -> (wgpu::BindGroupLayout, wgpu::PipelineLayout) {
+/// read-only storage buffers at 5, 6, …; and, when it sorts its rays (`arranged`), group 1
+/// with the arrangement buffer.
+fn layout(device: &wgpu::Device, n: usize, arranged: bool) -> Layouts {
     let mut entries = vec![
         storage(0, true),
         storage(1, false),
@@ -77,16 +99,29 @@ fn layout(device: &wgpu::Device, n: usize) -> (wgpu::BindGroupLayout, wgpu::Pipe
         },
     ];
     entries.extend((0..n as u32).map(|k| storage(COMMON_BINDINGS + k, true)));
-    let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+    let group0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: None,
         entries: &entries,
     });
-    let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+    let group1 = arranged.then(|| {
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("arrangement"),
+            entries: &[storage(0, false)],
+        })
+    });
+    let groups: Vec<Option<&wgpu::BindGroupLayout>> = std::iter::once(Some(&group0))
+        .chain(group1.as_ref().map(Some))
+        .collect();
+    let pipeline = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: None,
-        bind_group_layouts: &[Some(&bgl)],
+        bind_group_layouts: &groups,
         immediate_size: 0,
     });
-    (bgl, pl)
+    Layouts {
+        group0,
+        group1,
+        pipeline,
+    }
 }
 
 impl Kernels {
@@ -102,15 +137,25 @@ impl Kernels {
     }
 
     /// The full WGSL of `p`: `STACK_SIZE`, `WORKGROUP_SIZE`, the `Stats` record, the common
-    /// prelude, the edge fallback, the program's source.
+    /// prelude, the edge fallback, `ray_index` (with `KEYS` and the sort passes for a program
+    /// that sorts its rays), the program's source.
     fn source(&self, p: &GpuProgram<'_>) -> String {
         let edge = if self.f64 { EDGE_F64 } else { EDGE_F32 };
+        let order = match p.arrange {
+            Some(a) => format!("const KEYS: u32 = {}u;\n{ARRANGE}", a.keys),
+            None => UNSORTED.to_string(),
+        };
         format!(
-            "const STACK_SIZE: u32 = {}u;\nconst WORKGROUP_SIZE: u32 = {WORKGROUP}u;\n{}{COMMON}\n{edge}\n{}",
+            "const STACK_SIZE: u32 = {}u;\nconst WORKGROUP_SIZE: u32 = {WORKGROUP}u;\n{}{COMMON}\n{edge}\n{order}\n{}",
             p.stack_size,
             wgsl_stats_struct(),
             p.source
         )
+    }
+
+    /// Keys of `p`'s arrangement, 0 for none.
+    fn keys(p: &GpuProgram<'_>) -> u32 {
+        p.arrange.map_or(0, |a| a.keys)
     }
 
     /// Compile `p`'s shader module and make its layouts, unless done before; `Err` when a
@@ -123,14 +168,19 @@ impl Kernels {
         check: impl FnOnce() -> Result<(), GpuError>,
     ) -> Result<(), GpuError> {
         let mut cache = self.cache();
+        let keys = Self::keys(p);
         cache
             .layouts
-            .entry(p.buffers.len())
-            .or_insert_with(|| layout(device, p.buffers.len()));
+            .entry((p.buffers.len(), keys > 0))
+            .or_insert_with(|| layout(device, p.buffers.len(), keys > 0));
         if let Some(m) = cache.modules.get(p.name) {
-            if m.source != p.source || m.stack_size != p.stack_size || m.constants != p.constants {
+            if m.source != p.source
+                || m.stack_size != p.stack_size
+                || m.constants != p.constants
+                || m.keys != keys
+            {
                 return Err(GpuError::Program(format!(
-                    "GPU program `{}`: another program of that name (other source, stack size or constants) was compiled before; names must be unique",
+                    "GPU program `{}`: another program of that name (other source, stack size, constants or keys) was compiled before; names must be unique",
                     p.name
                 )));
             }
@@ -151,52 +201,102 @@ impl Kernels {
                 source: p.source,
                 stack_size: p.stack_size,
                 constants: p.constants.clone(),
+                keys,
             },
         );
         Ok(())
     }
 
-    /// The pipeline of variant `v` (made on first use) and the bind group layout of a program
-    /// with `n` buffers. The program must have been prepared ([`Gpu::upload`]).
+    /// The override constants of `m`'s pipelines: the prelude's for variant (query, triangle
+    /// test, counting), then the program's own.
+    fn constants(m: &Module, query: Query, tri: TriTestKind, count: bool) -> Vec<(&str, f64)> {
+        let flag = |b: bool| if b { 1.0 } else { 0.0 };
+        let mut constants = vec![
+            ("ANY", flag(query == Query::Any)),
+            ("COUNT", flag(count)),
+            ("WATERTIGHT", flag(tri == TriTestKind::Watertight)),
+            ("EXIT_SCALE", tb_core::slab::EXIT_SCALE as f64),
+        ];
+        constants.extend(m.constants.iter().copied());
+        constants
+    }
+
+    fn make_pipeline(
+        device: &wgpu::Device,
+        m: &Module,
+        l: &Layouts,
+        entry: &str,
+        constants: &[(&str, f64)],
+    ) -> wgpu::ComputePipeline {
+        device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: Some(&l.pipeline),
+            module: &m.module,
+            entry_point: Some(entry),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                zero_initialize_workgroup_memory: false,
+            },
+            cache: None,
+        })
+    }
+
+    /// The pipeline of variant `v` (made on first use) and the layouts of a program with `n`
+    /// buffers (sorting its rays when `arranged`). The program must have been prepared
+    /// ([`Gpu::upload`]).
     pub(crate) fn pipeline(
         &self,
         device: &wgpu::Device,
         v: Variant,
         n: usize,
-    ) -> (wgpu::ComputePipeline, wgpu::BindGroupLayout) {
+        arranged: bool,
+    ) -> (wgpu::ComputePipeline, Layouts) {
         let mut cache = self.cache();
         let Cache {
             modules,
             layouts,
             pipelines,
+            ..
         } = &mut *cache;
-        let (bgl, pl) = &layouts[&n];
+        let l = &layouts[&(n, arranged)];
         let pipeline = pipelines
             .entry(v)
             .or_insert_with(|| {
                 let (name, query, tri, count) = v;
                 let m = &modules[name];
-                let flag = |b: bool| if b { 1.0 } else { 0.0 };
-                let mut constants = vec![
-                    ("ANY", flag(query == Query::Any)),
-                    ("COUNT", flag(count)),
-                    ("WATERTIGHT", flag(tri == TriTestKind::Watertight)),
-                    ("EXIT_SCALE", tb_core::slab::EXIT_SCALE as f64),
-                ];
-                constants.extend(m.constants.iter().copied());
-                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(name),
-                    layout: Some(pl),
-                    module: &m.module,
-                    entry_point: Some("main"),
-                    compilation_options: wgpu::PipelineCompilationOptions {
-                        constants: &constants,
-                        zero_initialize_workgroup_memory: false,
-                    },
-                    cache: None,
-                })
+                let constants = Self::constants(m, query, tri, count);
+                Self::make_pipeline(device, m, l, "main", &constants)
             })
             .clone();
-        (pipeline, bgl.clone())
+        (pipeline, l.clone())
+    }
+
+    /// The pipelines of the sort passes ([`SORT_PASSES`]) of program `name`, which sorts its
+    /// rays and has been prepared.
+    pub(crate) fn sort_pipelines(
+        &self,
+        device: &wgpu::Device,
+        name: &'static str,
+        n: usize,
+    ) -> Vec<wgpu::ComputePipeline> {
+        let mut cache = self.cache();
+        let Cache {
+            modules,
+            layouts,
+            sorts,
+            ..
+        } = &mut *cache;
+        let l = &layouts[&(n, true)];
+        sorts
+            .entry(name)
+            .or_insert_with(|| {
+                let m = &modules[name];
+                let constants = Self::constants(m, Query::Closest, TriTestKind::Watertight, false);
+                SORT_PASSES
+                    .iter()
+                    .map(|entry| Self::make_pipeline(device, m, l, entry, &constants))
+                    .collect()
+            })
+            .clone()
     }
 }

@@ -31,6 +31,15 @@
 //! see the README's GPU section for what Vulkan allows and what the tests check
 //! (`crates/harness/tests/gpu_oracle.rs` checks every registered program against the CPU).
 //!
+//! Ray arrangement: a program with a ray key ([`GpuProgram::arrange`], [`GpuArrange`]) gets
+//! `shaders/arrange.wgsl` in place of `shaders/unsorted.wgsl` before its source: per dispatch,
+//! a stable counting sort of the rays' indices by `ray_key` in three compute passes
+//! (per-workgroup histograms, one exclusive scan in key-major order, a scatter by
+//! in-workgroup rank) into a permutation (group 1), submitted as its own compute pass before
+//! the trace and timed on its own ([`Timing::sort_ms`]); `main` then traces ray `perm[i]` in
+//! thread `i`, writing its hit and counters at the ray's own index. [`Gpu::read_order`] reads
+//! the permutation back (tests).
+//!
 //! Limits: a batch is split into dispatches of at most [`Gpu::max_rays_per_dispatch`] rays, so
 //! that every bound buffer range respects `max_storage_buffer_binding_size` and the workgroup
 //! count respects `max_compute_workgroups_per_dimension`; a program's array that exceeds the
@@ -45,7 +54,7 @@ mod kernels;
 mod trace;
 
 pub use device::{AdapterChoice, AdapterSummary, Backend, Gpu};
-pub use tb_core::{GpuBuffer, GpuProgram};
+pub use tb_core::{GpuArrange, GpuBuffer, GpuProgram};
 pub use trace::{GpuRays, GpuStructure, Timing};
 
 use tb_core::TraversalStats;

@@ -1,13 +1,15 @@
 //! Uploads of a structure's program and of ray batches, dispatch (split by the adapter's
-//! limits), timing and readback.
+//! limits), the sort passes of programs with a ray key, timing and readback.
 
 use crate::device::Gpu;
-use crate::kernels::COMMON_BINDINGS;
+use crate::kernels::{Layouts, COMMON_BINDINGS};
 use crate::{one_line, GpuError, STATS_BYTES, WORKGROUP};
 use bytemuck::{Pod, Zeroable};
-use std::sync::mpsc;
+use std::sync::{mpsc, Mutex};
 use std::time::Instant;
-use tb_core::{GpuProgram, HitRecord, Query, Ray, TraversalStats, TriTestKind, N_COUNTERS};
+use tb_core::{
+    GpuArrange, GpuProgram, HitRecord, Query, Ray, TraversalStats, TriTestKind, N_COUNTERS,
+};
 
 const RAY_BYTES: u64 = 32;
 const HIT_BYTES: u64 = 16;
@@ -34,6 +36,7 @@ const fn max(a: u64, b: u64) -> u64 {
 /// name of the shader module that traces them ([`Gpu::upload`]).
 pub struct GpuStructure {
     program: &'static str,
+    arrange: Option<GpuArrange>,
     tris: wgpu::Buffer,
     buffers: Vec<wgpu::Buffer>,
     meta: wgpu::Buffer,
@@ -48,6 +51,11 @@ impl GpuStructure {
     pub fn program(&self) -> &'static str {
         self.program
     }
+
+    /// The program's ray arrangement ([`GpuProgram::arrange`]).
+    pub fn arrange(&self) -> Option<GpuArrange> {
+        self.arrange
+    }
 }
 
 /// A ray batch resident on the GPU with its hit and counter buffers.
@@ -56,8 +64,27 @@ pub struct GpuRays {
     rays: wgpu::Buffer,
     hits: wgpu::Buffer,
     stats: wgpu::Buffer,
+    /// The histograms and permutations of the last sorted trace (made on first use).
+    arranged: Mutex<Option<Arranged>>,
     /// Host-to-device copy of the rays, ms.
     pub upload_ms: f64,
+}
+
+/// The arrangement buffer of a batch: per dispatch, a region of `shaders/arrange.wgsl`'s
+/// layout (the `keys x workgroups` counts padded to 64 words, then the permutation).
+struct Arranged {
+    keys: u32,
+    /// Dispatches as (first ray, rays).
+    chunks: Vec<(u64, u64)>,
+    /// Each dispatch's region as (byte offset, words of counts before the permutation).
+    regions: Vec<(u64, u64)>,
+    buffer: wgpu::Buffer,
+}
+
+/// Words before the permutation in a dispatch of `len` rays sorted by `keys` keys: the
+/// `keys x workgroups` counts, padded to 64 words (as `tb_perm_base` in `arrange.wgsl`).
+fn count_words(keys: u32, len: u64) -> u64 {
+    (keys as u64 * len.div_ceil(WORKGROUP as u64)).next_multiple_of(64)
 }
 
 impl GpuRays {
@@ -78,6 +105,10 @@ pub struct Timing {
     /// Kernel time, ms: GPU timestamps around the compute pass where the adapter has
     /// `TIMESTAMP_QUERY`, else wall time from submit to the end of the wait.
     pub kernel_ms: f64,
+    /// For a program with a ray key ([`GpuProgram::arrange`]): the sort passes' time, ms,
+    /// measured as `kernel_ms` but around their own compute pass (submitted before the
+    /// trace's); not part of `kernel_ms`.
+    pub sort_ms: Option<f64>,
     /// Whether `kernel_ms` comes from timestamps.
     pub timestamps: bool,
     /// Dispatches the batch was split into.
@@ -209,12 +240,23 @@ impl Gpu {
             }
         }
         let bindable = self.limits.max_storage_buffers_per_shader_stage;
-        if COMMON_STORAGE as u64 + p.buffers.len() as u64 > bindable as u64 {
+        let sorting = p.arrange.is_some() as u64;
+        if COMMON_STORAGE as u64 + p.buffers.len() as u64 + sorting > bindable as u64 {
             return Err(GpuError::Unsupported(format!(
-                "{}: {} buffers of its own and {COMMON_STORAGE} common ones, over the adapter's max_storage_buffers_per_shader_stage of {bindable}",
+                "{}: {} buffers of its own, {COMMON_STORAGE} common ones and {sorting} for sorting its rays, over the adapter's max_storage_buffers_per_shader_stage of {bindable}",
                 p.name,
                 p.buffers.len()
             )));
+        }
+        if let Some(a) = p.arrange {
+            if !(1..=GpuArrange::MAX_KEYS).contains(&a.keys) {
+                return Err(GpuError::Program(format!(
+                    "GPU program `{}`: {} ray keys, not 1 to {}",
+                    p.name,
+                    a.keys,
+                    GpuArrange::MAX_KEYS
+                )));
+            }
         }
         if n_tris > u32::MAX as u64 {
             return Err(GpuError::Program(format!(
@@ -261,6 +303,7 @@ impl Gpu {
         self.wait()?;
         Ok(GpuStructure {
             program: p.name,
+            arrange: p.arrange,
             tris,
             buffers,
             meta,
@@ -306,12 +349,24 @@ impl Gpu {
             rays: rays_buf,
             hits,
             stats,
+            arranged: Mutex::new(None),
             upload_ms: start.elapsed().as_secs_f64() * 1e3,
         })
     }
 
+    /// The dispatches of a batch of `n` rays, as (first ray, rays).
+    fn chunks(&self, n: u64) -> Vec<(u64, u64)> {
+        let step = self.max_rays_per_dispatch();
+        (0..n.div_ceil(step))
+            .map(|c| (c * step, step.min(n - c * step)))
+            .collect()
+    }
+
     /// One pass of the structure's program over the batch: `count` picks the counting variant
-    /// (writes per-ray [`TraversalStats`]) or the timed one (no counters).
+    /// (writes per-ray [`TraversalStats`]) or the timed one (no counters). A program with a ray
+    /// key ([`GpuProgram::arrange`]) first sorts each dispatch's rays by key in its own compute
+    /// pass, timed on its own ([`Timing::sort_ms`]), then traces them in that order, each
+    /// ray's hit and counters written at its own index.
     pub fn trace(
         &self,
         s: &GpuStructure,
@@ -320,52 +375,170 @@ impl Gpu {
         tri: TriTestKind,
         count: bool,
     ) -> Result<Timing, GpuError> {
-        let (pipeline, bgl) = self.kernels.pipeline(
+        let (pipeline, layouts) = self.kernels.pipeline(
             &self.device,
             (s.program, query, tri, count),
             s.buffers.len(),
+            s.arrange.is_some(),
         );
-        let step = self.max_rays_per_dispatch();
-        let mut groups = Vec::new();
-        let mut first = 0u64;
-        while first < rays.n {
-            let len = step.min(rays.n - first);
-            let mut entries = vec![
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: range(&rays.rays, first, len, RAY_BYTES),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: range(&rays.hits, first, len, HIT_BYTES),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: range(&rays.stats, first, len, STATS_BYTES),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: s.tris.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: s.meta.as_entire_binding(),
-                },
-            ];
-            entries.extend((COMMON_BINDINGS..).zip(&s.buffers).map(|(binding, b)| {
-                wgpu::BindGroupEntry {
-                    binding,
-                    resource: b.as_entire_binding(),
+        let chunks = self.chunks(rays.n);
+        let groups: Vec<wgpu::BindGroup> = chunks
+            .iter()
+            .map(|&(first, len)| self.bind_group(s, rays, &layouts, first, len))
+            .collect();
+        let sort = match s.arrange {
+            Some(a) => {
+                let g1 = self.arrangement(a, rays, &layouts, &chunks)?;
+                let passes = self
+                    .kernels
+                    .sort_pipelines(&self.device, s.program, s.buffers.len());
+                let (ms, _) = self.timed_pass(|pass| {
+                    for (((_, len), g0), g1) in chunks.iter().zip(&groups).zip(&g1) {
+                        let wgs = len.div_ceil(WORKGROUP as u64) as u32;
+                        pass.set_bind_group(0, g0, &[]);
+                        pass.set_bind_group(1, g1, &[]);
+                        // Histograms, the scan (one workgroup), the scatter.
+                        for (p, n) in passes.iter().zip([wgs, 1, wgs]) {
+                            pass.set_pipeline(p);
+                            pass.dispatch_workgroups(n, 1, 1);
+                        }
+                    }
+                })?;
+                Some((g1, ms))
+            }
+            None => None,
+        };
+        let (kernel_ms, timestamps) = self.timed_pass(|pass| {
+            pass.set_pipeline(&pipeline);
+            for (c, ((_, len), g0)) in chunks.iter().zip(&groups).enumerate() {
+                pass.set_bind_group(0, g0, &[]);
+                if let Some((g1, _)) = &sort {
+                    pass.set_bind_group(1, &g1[c], &[]);
                 }
-            }));
-            let bg = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: None,
-                layout: &bgl,
-                entries: &entries,
+                pass.dispatch_workgroups(len.div_ceil(WORKGROUP as u64) as u32, 1, 1);
+            }
+        })?;
+        Ok(Timing {
+            kernel_ms,
+            sort_ms: sort.map(|(_, ms)| ms),
+            timestamps,
+            dispatches: chunks.len() as u32,
+        })
+    }
+
+    /// The group-0 bind group of the dispatch of rays `first .. first + len`.
+    fn bind_group(
+        &self,
+        s: &GpuStructure,
+        rays: &GpuRays,
+        layouts: &Layouts,
+        first: u64,
+        len: u64,
+    ) -> wgpu::BindGroup {
+        let mut entries = vec![
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: range(&rays.rays, first, len, RAY_BYTES),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: range(&rays.hits, first, len, HIT_BYTES),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: range(&rays.stats, first, len, STATS_BYTES),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: s.tris.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 4,
+                resource: s.meta.as_entire_binding(),
+            },
+        ];
+        entries.extend((COMMON_BINDINGS..).zip(&s.buffers).map(|(binding, b)| {
+            wgpu::BindGroupEntry {
+                binding,
+                resource: b.as_entire_binding(),
+            }
+        }));
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &layouts.group0,
+            entries: &entries,
+        })
+    }
+
+    /// The group-1 bind groups (one per dispatch of `chunks`) of the batch's arrangement
+    /// buffer for `a.keys` keys, the buffer made when the batch has none of that shape.
+    fn arrangement(
+        &self,
+        a: GpuArrange,
+        rays: &GpuRays,
+        layouts: &Layouts,
+        chunks: &[(u64, u64)],
+    ) -> Result<Vec<wgpu::BindGroup>, GpuError> {
+        let mut slot = rays.arranged.lock().unwrap_or_else(|p| p.into_inner());
+        if slot
+            .as_ref()
+            .is_none_or(|x| x.keys != a.keys || x.chunks != chunks)
+        {
+            // Every region but the last is a multiple of 64 words (its ray count is a
+            // multiple of 256), so every region starts 256-byte aligned.
+            let mut regions = Vec::with_capacity(chunks.len());
+            let mut bytes = 0;
+            for &(_, len) in chunks {
+                let counts = count_words(a.keys, len);
+                regions.push((bytes, counts));
+                bytes += 4 * (counts + len);
+            }
+            self.fits("the ray arrangement", bytes, false)?;
+            let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("arrangement"),
+                size: bytes.max(64),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
             });
-            groups.push((bg, len.div_ceil(WORKGROUP as u64) as u32));
-            first += len;
+            *slot = Some(Arranged {
+                keys: a.keys,
+                chunks: chunks.to_vec(),
+                regions,
+                buffer,
+            });
         }
+        let arr = slot.as_ref().expect("made above");
+        let g1 = layouts
+            .group1
+            .as_ref()
+            .expect("a program that sorts its rays has group 1");
+        Ok(chunks
+            .iter()
+            .zip(&arr.regions)
+            .map(|(&(_, len), &(offset, counts))| {
+                self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: None,
+                    layout: g1,
+                    entries: &[wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &arr.buffer,
+                            offset,
+                            size: wgpu::BufferSize::new(4 * (counts + len)),
+                        }),
+                    }],
+                })
+            })
+            .collect())
+    }
+
+    /// Submit one compute pass (what `encode` records) and wait: its time in ms, from GPU
+    /// timestamps around the pass where the adapter has them (`true`), else the wall time
+    /// from submit to the end of the wait.
+    fn timed_pass(
+        &self,
+        encode: impl FnOnce(&mut wgpu::ComputePass<'_>),
+    ) -> Result<(f64, bool), GpuError> {
         let ts = self.summary.timestamps.then(|| {
             let set = self.device.create_query_set(&wgpu::QuerySetDescriptor {
                 label: None,
@@ -394,11 +567,7 @@ impl Gpu {
                         end_of_pass_write_index: Some(1),
                     }),
             });
-            pass.set_pipeline(&pipeline);
-            for (bg, wgs) in &groups {
-                pass.set_bind_group(0, bg, &[]);
-                pass.dispatch_workgroups(*wgs, 1, 1);
-            }
+            encode(&mut pass);
         }
         if let Some((set, resolve, read)) = &ts {
             enc.resolve_query_set(set, 0..2, resolve, 0);
@@ -408,19 +577,40 @@ impl Gpu {
         self.queue.submit([enc.finish()]);
         self.wait()?;
         let wall_ms = start.elapsed().as_secs_f64() * 1e3;
-        let kernel_ms = match &ts {
+        Ok(match &ts {
             Some((_, _, read)) => {
                 let t: Vec<u64> = self.map_read(read, 16)?;
                 let ticks = t[1].saturating_sub(t[0]) as f64;
-                ticks * self.queue.get_timestamp_period() as f64 * 1e-6
+                (
+                    ticks * self.queue.get_timestamp_period() as f64 * 1e-6,
+                    true,
+                )
             }
-            None => wall_ms,
-        };
-        Ok(Timing {
-            kernel_ms,
-            timestamps: ts.is_some(),
-            dispatches: groups.len() as u32,
+            None => (wall_ms, false),
         })
+    }
+
+    /// The order of the last trace over `rays` by a program with a ray key: entry `p` is the
+    /// index in the batch of the ray traced `p`-th (dispatch by dispatch, each sorted stably
+    /// by key). `Err` when no such trace ran over `rays`.
+    pub fn read_order(&self, rays: &GpuRays) -> Result<Vec<u32>, GpuError> {
+        let slot = rays.arranged.lock().unwrap_or_else(|p| p.into_inner());
+        let Some(a) = slot.as_ref() else {
+            return Err(GpuError::Program(
+                "no program with a ray key has traced this batch".into(),
+            ));
+        };
+        let (words, _): (Vec<u32>, f64) = self.read_back(&a.buffer, a.buffer.size())?;
+        let mut order = Vec::with_capacity(rays.n as usize);
+        for (&(first, len), &(offset, counts)) in a.chunks.iter().zip(&a.regions) {
+            let base = (offset / 4 + counts) as usize;
+            order.extend(
+                words[base..base + len as usize]
+                    .iter()
+                    .map(|&j| j + first as u32),
+            );
+        }
+        Ok(order)
     }
 
     fn staging(&self, size: u64) -> wgpu::Buffer {

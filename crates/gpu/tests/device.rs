@@ -109,6 +109,7 @@ fn echo<'a>(tris: &'a [Triangle], first: &[u32]) -> GpuProgram<'a> {
         constants: vec![("SCALE", 3.0)],
         unrolled_triangle_loop: None,
         needs_f64: false,
+        arrange: None,
     }
 }
 
@@ -252,5 +253,142 @@ fn prelude_matches_the_cpu_on_shared_edges() {
         if gpu.adapter().f64 {
             assert_eq!((hit_diffs, stat_diffs), (0, 0));
         }
+    }
+}
+
+/// A program with a ray key: ray `i` is `origin = (c, i, 0)`, its key `table[c]` (a program
+/// buffer, so `ray_key` reads the program's own data; values at or over `keys` clamp); `walk`
+/// answers with the ray's own number and counts it, so a hit or counter written at another
+/// ray's place shows.
+const KEYED: &str = "
+@group(0) @binding(5) var<storage, read> table: array<u32>;
+
+fn ray_key(r: Ray) -> u32 {
+    return table[u32(r.origin.x)];
+}
+
+fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
+    (*st).leaves = u32(r.origin.y);
+    return Hit(r.tmax, u32(r.origin.y), r.origin.x, 0.0);
+}
+";
+
+/// Key table of the keyed test programs: class `c` of a ray has key `KEY_TABLE[c]`.
+const KEY_TABLE: [u32; 6] = [2, 0, 1, 2, 7, 1];
+
+fn keyed(name: &'static str, keys: u32) -> GpuProgram<'static> {
+    GpuProgram {
+        name,
+        source: KEYED,
+        triangles: Cow::Owned(Vec::new()),
+        buffers: vec![GpuBuffer {
+            what: "the key table",
+            bytes: Cow::Owned(KEY_TABLE.iter().flat_map(|w| w.to_ne_bytes()).collect()),
+        }],
+        meta: [0; 3],
+        stack_size: 0,
+        constants: Vec::new(),
+        unrolled_triangle_loop: None,
+        needs_f64: false,
+        arrange: Some(tb_gpu::GpuArrange { keys, timed: true }),
+    }
+}
+
+/// `n` rays of pseudo-random classes (0..6, fixed seed): ray `i` at `(class, i, 0)`.
+fn keyed_rays(n: usize) -> Vec<Ray> {
+    let mut x = 0x9e37_79b9u32;
+    (0..n)
+        .map(|i| {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            let c = (x % KEY_TABLE.len() as u32) as f32;
+            Ray::segment(Vec3::new(c, i as f32, 0.0), Vec3::X, 0.0, 1.0 + i as f32)
+        })
+        .collect()
+}
+
+/// The CPU's arrangement of `rays` in dispatches of `step`: each dispatch's indices stably
+/// sorted by key (clamped to `keys - 1`).
+fn cpu_order(rays: &[Ray], keys: u32, step: usize) -> Vec<u32> {
+    let key = |r: &Ray| KEY_TABLE[r.origin.x as usize].min(keys - 1);
+    let mut order = Vec::new();
+    for first in (0..rays.len()).step_by(step) {
+        let mut idx: Vec<u32> = (first..rays.len().min(first + step))
+            .map(|i| i as u32)
+            .collect();
+        idx.sort_by_key(|&i| key(&rays[i as usize]));
+        order.extend(idx);
+    }
+    order
+}
+
+/// The sort pass of a program with a ray key (Torres et al. 2012 §6's counting sort by tree
+/// index, as compute passes): per dispatch, the GPU's permutation is the CPU's stable sort of
+/// the same keys (a stable sort is unique), with batches split into several dispatches, sizes
+/// not a multiple of the workgroup, a single key, keys clamped, an empty batch; hits and
+/// counters come back at the rays' own places, and the sort is timed on its own.
+#[test]
+fn sort_pass_is_the_stable_counting_sort_per_dispatch() {
+    let Some(mut gpu) = open_or_skip() else {
+        return;
+    };
+    let full = gpu.max_rays_per_dispatch() as usize;
+    gpu.limit_dispatch(300);
+    let step = gpu.max_rays_per_dispatch() as usize;
+    assert_eq!(step, 256);
+    for (name, keys) in [("test/keyed3", 3), ("test/keyed1", 1), ("test/keyed16", 16)] {
+        let gs = gpu.upload(&keyed(name, keys)).unwrap();
+        for n in [0, 1, 63, 2 * step + 77, 5 * step] {
+            let rays = keyed_rays(n);
+            let r = gpu.upload_rays(&rays).unwrap();
+            for count in [false, true] {
+                let t = gpu
+                    .trace(&gs, &r, Query::Closest, TriTestKind::Watertight, count)
+                    .unwrap();
+                assert!(t.sort_ms.is_some_and(|ms| ms >= 0.0), "{t:?}");
+                assert_eq!(t.dispatches as usize, n.div_ceil(step));
+                let order = gpu.read_order(&r).unwrap();
+                assert_eq!(order, cpu_order(&rays, keys, step), "{name}, {n} rays");
+                let (hits, _) = gpu.read_hits(&r).unwrap();
+                for (i, h) in hits.iter().enumerate() {
+                    assert_eq!((h.prim, h.t), (i as u32, rays[i].tmax), "{name} ray {i}");
+                }
+                if count {
+                    let (stats, _) = gpu.read_stats(&r).unwrap();
+                    assert!(stats.iter().enumerate().all(|(i, s)| s.leaves == i as u32));
+                }
+            }
+        }
+    }
+    // One dispatch of the adapter's own size (more workgroups than the scan's 64 threads).
+    let mut gpu = open_or_skip().unwrap();
+    gpu.limit_dispatch(full as u64);
+    let gs = gpu.upload(&keyed("test/keyed3", 3)).unwrap();
+    let rays = keyed_rays(40_000.min(full) + 5);
+    let r = gpu.upload_rays(&rays).unwrap();
+    gpu.trace(&gs, &r, Query::Any, TriTestKind::Watertight, false)
+        .unwrap();
+    assert_eq!(gpu.read_order(&r).unwrap(), cpu_order(&rays, 3, full));
+}
+
+#[test]
+fn programs_without_a_key_have_no_sort() {
+    let Some(gpu) = open_or_skip() else { return };
+    let brute = BruteForce::new(&[triangle()]);
+    let gs = gpu.upload(&program(&brute)).unwrap();
+    let r = gpu.upload_rays(&[Ray::new(Vec3::ZERO, Vec3::Z)]).unwrap();
+    let t = gpu
+        .trace(&gs, &r, Query::Closest, TriTestKind::Watertight, false)
+        .unwrap();
+    assert_eq!(t.sort_ms, None);
+    assert!(gpu.read_order(&r).is_err());
+    // Keys out of range are refused.
+    for keys in [0, tb_gpu::GpuArrange::MAX_KEYS + 1] {
+        let e = refusal(&gpu, &keyed("test/keyed-bad", keys));
+        assert!(
+            matches!(&e, GpuError::Program(m) if m.contains("ray keys")),
+            "{e}"
+        );
     }
 }

@@ -55,6 +55,7 @@ fn program<'a>(
         constants: Vec::new(),
         unrolled_triangle_loop: None,
         needs_f64: true,
+        arrange: None,
     }
 }
 

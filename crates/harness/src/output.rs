@@ -55,6 +55,11 @@ macro_rules! define_row {
             pub upload_ms: Option<f64>,
             /// GPU rows: device-to-host copy of the hits (median), not in `trace_ms_*`.
             pub readback_ms: Option<f64>,
+            /// GPU rows of a program that sorts its rays by key (`tb_core::GpuArrange`): the
+            /// sort passes' time over the batch, ms, median over the timed runs; in
+            /// `trace_ms_*` when the sort is timed (multi-kd `-sorted`, "inc."), not otherwise
+            /// (`-presorted`, "n.inc."). Empty on other rows.
+            pub sort_ms: Option<f64>,
             pub hit_rate: Option<f64>,
             $(
                 #[doc = concat!("Mean per ray: ", $doc, ".")]

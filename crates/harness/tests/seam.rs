@@ -203,6 +203,7 @@ impl Structure for SlabList {
             constants: Vec::new(),
             unrolled_triangle_loop: None,
             needs_f64: false,
+            arrange: None,
         },
     )];
 

@@ -8,7 +8,9 @@
 // child pushed with its entry and exit distances when the plane distance lies in the interval
 // (SLACK), pending entries skipped when they start beyond the closest hit. Counters as the CPU:
 // boxes 1 (the root cell), interior/planes/steps per interior node, leaves/steps per leaf, prims
-// per triangle test. One thread per ray.
+// per triangle test. One thread per ray. The programs `multi-kd/recursive-direction-sorted`
+// (the `-sorted` and `-presorted` rows) are the same walk, the rays of each dispatch first sorted
+// by tree index (`ray_key`) by tb-gpu's sort pass.
 
 // measure::Heuristic::pick, operation for operation.
 fn pick(d: vec3<f32>) -> u32 {
@@ -32,6 +34,12 @@ fn pick(d: vec3<f32>) -> u32 {
         return 0u;
     }
     return 1u;
+}
+
+// The ray key of the `-sorted` / `-presorted` programs (tb_core::gpu, "Ray arrangement by
+// key"): the tree index, as MultiKdTree::arrange sorts by (§6's 2-bit key; 3 keys).
+fn ray_key(r: Ray) -> u32 {
+    return pick(r.dir);
 }
 
 fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {

@@ -698,6 +698,7 @@ impl KdTree {
             constants: vec![("KERNEL", kernel as u32 as f64)],
             unrolled_triangle_loop: None,
             needs_f64: false,
+            arrange: None,
         }
     }
 

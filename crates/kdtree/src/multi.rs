@@ -32,8 +32,14 @@
 //! - **GPU** (`recursive-direction` only, `shaders/multikd.wgsl` on the kd-tree's
 //!   `shaders/kd.wgsl`): the per-ray choice from the header and the kd-tree's full-stack walk
 //!   (the CPU kernel's, in its order) from the chosen root, so hits and counters agree ray
-//!   for ray (tb-harness `gpu_oracle`); either layout. The `-sorted` and `-presorted` rows
-//!   are CPU only (no GPU sort pass yet).
+//!   for ray (tb-harness `gpu_oracle`); either layout. `recursive-direction-sorted` and
+//!   `-presorted` have GPU programs too: the same walk after tb-gpu's sort pass (a stable
+//!   counting sort of each dispatch's rays by the tree index, `ray_key` in `multikd.wgsl`,
+//!   as compute passes timed on their own; `tb_core::gpu`), the sort's time added to the
+//!   row's trace time for `-sorted` ("inc.") and not for `-presorted` ("n.inc."), the `sort_ms`
+//!   column giving it for both; hits and counters are written at the rays' own places, so
+//!   they equal the plain row's ray for ray. On the GPU the sorted blocks are the dispatches
+//!   (`Gpu::max_rays_per_dispatch` rays), not [`ARRANGE_BLOCK`].
 //! - **Controls**: `measure = sah` builds one SAH tree (the three patch measures are the same)
 //!   and every header entry names it; `trees = x | y | z` builds only that patch's tree with
 //!   the chosen measure and every ray traverses it (is the gain from specialising per
@@ -58,9 +64,9 @@ use crate::{
 use std::borrow::Cow;
 use std::sync::{Arc, OnceLock};
 use tb_core::{
-    build_with, dispatch, Aabb, AccelError, BuildReport, Counter, Family, GpuBuffer, GpuProgram,
-    HitRecord, Kernel, MemoryReport, MollerTrumbore, NoStats, ParamKind, Params, Query, Ray,
-    Structure, Traversal, TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Counter, Family, GpuArrange, GpuBuffer,
+    GpuProgram, HitRecord, Kernel, MemoryReport, MollerTrumbore, NoStats, ParamKind, Params, Query,
+    Ray, Structure, Traversal, TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle,
     Watertight,
 };
 
@@ -381,6 +387,26 @@ impl MultiKdTree {
     /// the node array, the references and a 12-word header (roots X, Y, Z; the pick rule; the
     /// layout; the root cell), the node count in `meta[0]`.
     fn gpu_recursive_direction(&self) -> GpuProgram<'_> {
+        self.gpu_program(None)
+    }
+
+    /// The GPU program of `recursive-direction-sorted`: [`Self::gpu_recursive_direction`]'s
+    /// walk of the rays of each dispatch stably sorted by tree index (tb-gpu's sort pass on
+    /// `shaders/multikd.wgsl`'s `ray_key`, the header's pick rule: 3 keys), the sort timed
+    /// with the trace (the paper's "inc.").
+    fn gpu_sorted(&self) -> GpuProgram<'_> {
+        self.gpu_program(Some(true))
+    }
+
+    /// The GPU program of `recursive-direction-presorted`: as [`Self::gpu_sorted`], the sort
+    /// run but not counted in the trace time (the paper's "n.inc.").
+    fn gpu_presorted(&self) -> GpuProgram<'_> {
+        self.gpu_program(Some(false))
+    }
+
+    /// The `recursive-direction` program, its rays sorted by tree index first when `sort` is
+    /// `Some(timed)`.
+    fn gpu_program(&self, sort: Option<bool>) -> GpuProgram<'_> {
         let words = |w: &[u32]| -> Cow<'_, [u8]> {
             Cow::Owned(w.iter().flat_map(|x| x.to_le_bytes()).collect())
         };
@@ -411,7 +437,11 @@ impl MultiKdTree {
             0,
         ];
         GpuProgram {
-            name: "multi-kd/recursive-direction",
+            name: if sort.is_some() {
+                "multi-kd/recursive-direction-sorted"
+            } else {
+                "multi-kd/recursive-direction"
+            },
             source: concat!(
                 include_str!("../shaders/kd.wgsl"),
                 include_str!("../shaders/multikd.wgsl")
@@ -436,6 +466,10 @@ impl MultiKdTree {
             constants: Vec::new(),
             unrolled_triangle_loop: None,
             needs_f64: false,
+            arrange: sort.map(|timed| GpuArrange {
+                keys: self.header.len() as u32,
+                timed,
+            }),
         }
     }
 
@@ -768,7 +802,11 @@ impl Structure for MultiKdTree {
         Traversal::cpu(kd_info(8), plain::<8>),
         Traversal::cpu(kd_info(9), plain::<9>),
         Traversal::cpu(kd_info(10), plain::<10>),
-        Traversal::cpu(sorted_info(0, "recursive-direction-sorted"), sorted::<0>),
+        Traversal::with_gpu(
+            sorted_info(0, "recursive-direction-sorted"),
+            sorted::<0>,
+            MultiKdTree::gpu_sorted,
+        ),
         Traversal::cpu(sorted_info(1, "havran-sorted"), sorted::<1>),
         Traversal::cpu(sorted_info(2, "recursive-origin-sorted"), sorted::<2>),
         Traversal::cpu(sorted_info(3, "restart-sorted"), sorted::<3>),
@@ -779,7 +817,12 @@ impl Structure for MultiKdTree {
         Traversal::cpu(sorted_info(8, "ropes-sorted"), sorted::<8>),
         Traversal::cpu(sorted_info(9, "branchless-sorted"), sorted::<9>),
         Traversal::cpu(sorted_info(10, "stack-spilling-sorted"), sorted::<10>),
-        presorted_row!(0, "recursive-direction-presorted"),
+        Traversal::with_gpu(
+            presorted_info(0, "recursive-direction-presorted"),
+            sorted::<0>,
+            MultiKdTree::gpu_presorted,
+        )
+        .with_hints(arrangement, presorted::<0>),
         presorted_row!(1, "havran-presorted"),
         presorted_row!(2, "recursive-origin-presorted"),
         presorted_row!(3, "restart-presorted"),
@@ -904,7 +947,8 @@ mod tests {
                 assert_eq!(all[row].info.name, format!("{}{suffix}", t.info.name));
                 assert_eq!(all[row].info.aux, t.info.aux);
                 assert_eq!(all[row].info.counters, t.info.counters);
-                assert!(all[row].gpu.is_none());
+                // `recursive-direction` alone has GPU programs, in all three forms.
+                assert_eq!(all[row].gpu.is_some(), i == 0);
             }
             // Only the `-presorted` rows take hints (the arrangement).
             assert!(all[i].hints.is_none() && all[PLAIN + i].hints.is_none());

@@ -92,6 +92,7 @@ impl Rtree {
             constants: vec![("M", m as f64)],
             unrolled_triangle_loop: None,
             needs_f64: false,
+            arrange: None,
         }
     }
 

@@ -378,6 +378,7 @@ impl SparseBoxes {
             constants: vec![("START", start as u32 as f64)],
             unrolled_triangle_loop: None,
             needs_f64: false,
+            arrange: None,
         }
     }
 }

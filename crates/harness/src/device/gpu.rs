@@ -7,7 +7,9 @@
 //! Rules (README, "GPU"): a GPU row has `device = gpu`, `threads = 0` (the column counts CPU
 //! worker threads; one host thread drives the GPU), the adapter's `name / backend / driver`,
 //! `upload_ms` (structure plus rays, host to device), `trace_ms_*` (kernel time: timestamps
-//! or wall time around submit-and-wait), `readback_ms` (hits, device to host) and the note
+//! or wall time around submit-and-wait; for a program that sorts its rays by key, plus the
+//! sort's time where [`tb_core::GpuArrange::timed`]), `sort_ms` (that sort's time, whether
+//! counted or not), `readback_ms` (hits, device to host) and the note
 //! [`CPU_BUILD_NOTE`] (every structure is built on the CPU, then uploaded). A
 //! structure or traversal without a GPU kernel gets a row whose `note` says so. When the GPU
 //! cannot be used (no adapter, a lost device, a validation error) the run prints one error
@@ -222,11 +224,22 @@ fn measure_on(
     let g_rays = &build.rays[&job.batch_index];
     row.upload_ms = Some(s.upload_ms + g_rays.upload_ms);
 
+    // A program that sorts its rays: the sort's time per run, added to the trace's when the
+    // program says the sort is timed ("inc."), kept apart otherwise ("n.inc.").
+    let timed_sort = s.arrange().is_some_and(|a| a.timed);
+    let mut sorts = Vec::new();
     let mut times = job.timing.run(|| {
-        gpu.trace(s, g_rays, query, tri, false)
-            .map(|t| t.kernel_ms)
-            .map_err(|e| e.to_string())
+        let t = gpu
+            .trace(s, g_rays, query, tri, false)
+            .map_err(|e| e.to_string())?;
+        sorts.extend(t.sort_ms);
+        let sort = if timed_sort { t.sort_ms } else { None };
+        Ok::<_, String>(t.kernel_ms + sort.unwrap_or(0.0))
     })?;
+    // The warm-up runs' sorts are not timed runs.
+    let warmups = sorts.len().saturating_sub(times.len());
+    let sorts = &mut sorts[warmups..];
+    row.sort_ms = (!sorts.is_empty()).then(|| crate::timing::median(sorts));
     let (hits, readback_ms) = gpu.read_hits(g_rays).map_err(|e| e.to_string())?;
     crate::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);
     row.readback_ms = Some(readback_ms);
