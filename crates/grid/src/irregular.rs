@@ -421,13 +421,7 @@ fn cost(base: &Lattice, n: usize, lo: [u32; 3], hi: [u32; 3], p: &IrregularParam
 /// successor, those at odd positions are residue (pairwise merges only); (3) merged cells
 /// replace their pairs (references united, sorted), the others stay; (4) the voxel map's
 /// entries of removed cells point to their new cells. Returns the new state.
-fn merge_pass(
-    base: &Lattice,
-    dmax: u32,
-    w: Work,
-    axis: usize,
-    p: &IrregularParams,
-) -> Work {
+fn merge_pass(base: &Lattice, dmax: u32, w: Work, axis: usize, p: &IrregularParams) -> Work {
     let Work {
         cells,
         refs,
