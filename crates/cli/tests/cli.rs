@@ -445,3 +445,71 @@ name = "kdtree"
         1
     );
 }
+
+/// `--structure NAME:traversal` keeps only the tables of that name that run the traversal,
+/// each table once with the traversals asked of it (one build per table, no repeated rows).
+#[test]
+fn structure_filter_keeps_each_table_once_with_its_own_traversals() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("f.toml");
+    std::fs::write(
+        &cfg,
+        r#"
+[run]
+threads = [1]
+repeat = 1
+warmup = 0
+[[scene]]
+source = "builtin:cornell"
+camera = { width = 16, height = 16 }
+[[structure]]
+name = "kdtree"
+traversals = ["ropes", "restart"]
+params = { c_isect = 1.0 }
+[[structure]]
+name = "kdtree"
+traversals = ["push-down", "restart"]
+params = { c_isect = 2.0 }
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let (c, o) = (cfg.to_str().unwrap(), out.to_str().unwrap());
+    let rows_of = |spec: &str| {
+        let args = ["run", c, "--out", o, "--force", "-q", "--structure", spec];
+        assert_eq!(common::run(&args), 0, "{spec}");
+        let mut rows: Vec<(String, String)> =
+            tb_harness::output::read_csv(&out.join("results.csv"))
+                .unwrap()
+                .into_iter()
+                .map(|r| {
+                    let c = r.params.split(';').find(|p| p.starts_with("c_isect="));
+                    (c.unwrap().to_string(), r.traversal)
+                })
+                .collect();
+        rows.sort();
+        rows
+    };
+    let row = |c: &str, t: &str| (format!("c_isect={c}"), t.to_string());
+    // ropes: only the first table runs it.
+    assert_eq!(rows_of("kdtree:ropes"), vec![row("1", "ropes")]);
+    // Two traversals of the first table: one table, not two copies of it.
+    assert_eq!(
+        rows_of("kdtree:ropes,kdtree:restart"),
+        vec![row("1", "restart"), row("1", "ropes"), row("2", "restart")]
+    );
+    // A traversal that no table of that name runs is a one-line error.
+    assert_eq!(
+        common::run(&[
+            "run",
+            c,
+            "--out",
+            o,
+            "--force",
+            "-q",
+            "--structure",
+            "kdtree:havran"
+        ]),
+        1
+    );
+}

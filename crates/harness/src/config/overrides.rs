@@ -94,18 +94,20 @@ pub(super) fn filter(
         });
     }
     if !structures.is_empty() {
-        let mut kept = Vec::new();
+        // Per block of the config: `None` = not asked for; `Some(None)` = asked for whole;
+        // `Some(Some(list))` = only these traversals. A block is kept once, so its builds run
+        // once, however many of its traversals are asked for; `NAME:traversal` picks the
+        // blocks of that name that run the traversal (those that list it, or list none).
+        let mut want: Vec<Option<Option<Vec<String>>>> = vec![None; raw.structures.len()];
         for spec in structures {
             let (name, traversal) = match spec.split_once(':') {
                 Some((n, t)) => (n, Some(t)),
                 None => (spec.as_str(), None),
             };
-            let matching: Vec<_> = raw
-                .structures
-                .iter()
-                .filter(|s| s.name.get_ref() == name)
+            let named: Vec<usize> = (0..raw.structures.len())
+                .filter(|&i| raw.structures[i].name.get_ref() == name)
                 .collect();
-            if matching.is_empty() {
+            if named.is_empty() {
                 let known: Vec<&str> = raw
                     .structures
                     .iter()
@@ -120,13 +122,48 @@ pub(super) fn filter(
                     ),
                 ));
             }
-            for s in matching {
-                let mut s = s.clone();
-                if let Some(t) = traversal {
-                    s.traversals = Some(toml::Spanned::new(s.name.span(), vec![t.to_string()]));
+            let Some(t) = traversal else {
+                for i in named {
+                    want[i] = Some(None);
                 }
-                kept.push(s);
+                continue;
+            };
+            let runs = |i: &usize| {
+                raw.structures[*i]
+                    .traversals
+                    .as_ref()
+                    .is_none_or(|l| l.get_ref().iter().any(|x| x == t))
+            };
+            let running: Vec<usize> = named.iter().copied().filter(runs).collect();
+            if running.is_empty() {
+                return Err(cx.err(
+                    0..0,
+                    "structure",
+                    format!(
+                        "--structure {spec}: no `{name}` table of the config runs traversal `{t}` (its `traversals` lists leave it out)"
+                    ),
+                ));
             }
+            for i in running {
+                match &mut want[i] {
+                    Some(None) => {}
+                    Some(Some(list)) => {
+                        if !list.iter().any(|x| x == t) {
+                            list.push(t.to_string());
+                        }
+                    }
+                    w @ None => *w = Some(Some(vec![t.to_string()])),
+                }
+            }
+        }
+        let mut kept = Vec::new();
+        for (s, w) in raw.structures.iter().zip(want) {
+            let Some(only) = w else { continue };
+            let mut s = s.clone();
+            if let Some(list) = only {
+                s.traversals = Some(toml::Spanned::new(s.name.span(), list));
+            }
+            kept.push(s);
         }
         raw.structures = kept;
     }
