@@ -148,6 +148,32 @@ enum Cmd {
         /// Decimals of the percentages (the paper prints 2, truncated).
         #[arg(long, default_value_t = 4)]
         decimals: usize,
+        /// Also write the tables as rows to this CSV (table, heuristic, beta, patch, axis,
+        /// weight_pct), for `trace-bench claims`.
+        #[arg(long)]
+        csv: Option<PathBuf>,
+    },
+    /// Evaluate a paper's claims (claims/PAPER.toml) against results folders or CSVs:
+    /// claim | paper | ours | verdict (agree, disagree, inconclusive) | why.
+    Claims {
+        /// The claims file.
+        claims: PathBuf,
+        /// Results folders (every CSV in them but params.csv) or CSV files; later ones win
+        /// for rows of the same identity.
+        #[arg(required = true)]
+        results: Vec<PathBuf>,
+        /// text (a table), md (Markdown) or json.
+        #[arg(long, default_value = "text", value_parser = ["text", "md", "json"])]
+        format: String,
+        /// Only these claims (ids; repeat or separate by commas).
+        #[arg(long = "claim", value_delimiter = ',')]
+        only: Vec<String>,
+        /// Exit 1 unless every evaluated claim agrees (CI's guard of the papers' effects).
+        #[arg(long)]
+        require_agree: bool,
+        /// Width of the text table (default: the terminal's, else 160).
+        #[arg(long)]
+        width: Option<u16>,
     },
     /// Print a scene's triangles, bounds, zero-area count and memory.
     Info {
@@ -263,7 +289,19 @@ fn dispatch(cli: Cli) -> Result<i32> {
             print!("{}", tb_harness::registry::Registry::builtin().listing());
             Ok(0)
         }
-        Cmd::Weights { beta, decimals } => {
+        Cmd::Claims {
+            claims,
+            results,
+            format,
+            only,
+            require_agree,
+            width,
+        } => cmd_claims(&claims, &results, &format, &only, require_agree, width),
+        Cmd::Weights {
+            beta,
+            decimals,
+            csv,
+        } => {
             let betas = if beta.is_empty() {
                 tb_harness::TABLE2_BETAS.to_vec()
             } else {
@@ -273,6 +311,19 @@ fn dispatch(cli: Cli) -> Result<i32> {
                 bail!("--beta {b}: beta must be a positive number");
             }
             print!("{}", tb_harness::weight_tables(&betas, decimals.min(12)));
+            if let Some(path) = csv {
+                let mut text = String::from("table,heuristic,beta,patch,axis,weight_pct\n");
+                for (t, h, b, p, a, w) in tb_harness::weight_rows(&betas) {
+                    text.push_str(&format!("{t},{h},{b},{p},{a},{w}\n"));
+                }
+                if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                    std::fs::create_dir_all(dir)
+                        .with_context(|| format!("{}: cannot create", dir.display()))?;
+                }
+                std::fs::write(&path, text)
+                    .with_context(|| format!("{}: cannot write", path.display()))?;
+                eprintln!("wrote {}", path.display());
+            }
             Ok(0)
         }
         Cmd::Scenes => {
@@ -571,4 +622,54 @@ fn parse_device(s: &str) -> std::result::Result<Device, String> {
 fn parse_backend(s: &str) -> std::result::Result<tb_gpu::Backend, String> {
     tb_gpu::Backend::from_name(s)
         .ok_or_else(|| format!("unknown backend `{s}` (known: vulkan, gl, metal, dx12)"))
+}
+
+/// `trace-bench claims`: evaluate a claims file against results and print the verdicts.
+fn cmd_claims(
+    claims: &Path,
+    results: &[PathBuf],
+    format: &str,
+    only: &[String],
+    require_agree: bool,
+    width: Option<u16>,
+) -> Result<i32> {
+    use tb_harness::claims;
+    let file = claims::load(claims)?;
+    if let Some(id) = only.iter().find(|id| file.claim(id).is_none()) {
+        bail!("{}: no claim `{id}`", claims.display());
+    }
+    let rows = claims::RowSet::read(results)?;
+    if rows.replaced > 0 {
+        eprintln!(
+            "note: {} rows appear in several sources; the later source's row is used",
+            rows.replaced
+        );
+    }
+    let mut verdicts = claims::evaluate(&file, &rows);
+    if !only.is_empty() {
+        verdicts.retain(|v| only.contains(&v.id));
+    }
+    match format {
+        "md" => print!("{}", claims::render::markdown(&verdicts)),
+        "json" => {
+            let sources: Vec<String> = results.iter().map(|p| p.display().to_string()).collect();
+            println!(
+                "{}",
+                serde_json::to_string_pretty(&claims::render::json(
+                    &file.paper,
+                    &sources,
+                    &verdicts
+                ))?
+            );
+        }
+        _ => {
+            let w = width
+                .or_else(|| std::env::var("COLUMNS").ok().and_then(|c| c.parse().ok()))
+                .unwrap_or(160);
+            println!("{}", file.paper);
+            print!("{}", claims::render::text(&verdicts, w));
+        }
+    }
+    let all_agree = verdicts.iter().all(|v| v.verdict == claims::Verdict::Agree);
+    Ok(if require_agree && !all_agree { 1 } else { 0 })
 }

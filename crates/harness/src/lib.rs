@@ -12,6 +12,7 @@
 
 pub mod batches;
 pub mod check;
+pub mod claims;
 pub mod config;
 pub mod convergence;
 pub mod device;
@@ -34,4 +35,4 @@ pub use error::HarnessError;
 
 /// Tables 1 and 2 of Torres et al. 2012 (the multi-kd-trees' normalised weights), computed by
 /// numerical integration (`trace-bench weights`).
-pub use tb_kdtree::measure::{weight_tables, TABLE2_BETAS};
+pub use tb_kdtree::measure::{weight_rows, weight_tables, TABLE2_BETAS};

@@ -376,6 +376,37 @@ pub fn weight_tables(betas: &[f64], decimals: usize) -> String {
     out
 }
 
+/// Tables 1 and 2 of the paper as rows (`trace-bench weights --csv`): table (1 or 2),
+/// heuristic, β (1 in Table 1), patch, axis (the face pair weighted) and the weight in percent,
+/// unrounded. Table 2 is the cosine heuristics' patch `N_X` at each of `betas`.
+pub fn weight_rows(betas: &[f64]) -> Vec<(u8, &'static str, f64, &'static str, &'static str, f64)> {
+    let mut out = Vec::new();
+    let table1 = [
+        (Heuristic::SphereOrth, "sphere-orth"),
+        (Heuristic::SphereObli, "sphere-obli"),
+        (Heuristic::CubeOrth, "cube-orth"),
+        (Heuristic::CubeObli, "cube-obli"),
+    ];
+    for (h, name) in table1 {
+        for p in 0..3 {
+            for (a, w) in h.weights(p, 1.0).iter().enumerate() {
+                out.push((1, name, 1.0, AXES[p], AXES[a], 100.0 * w));
+            }
+        }
+    }
+    for (h, name) in [
+        (Heuristic::CosOrth, "cos-orth"),
+        (Heuristic::CosObli, "cos-obli"),
+    ] {
+        for &b in betas {
+            for (a, w) in h.weights(0, b).iter().enumerate() {
+                out.push((2, name, b, AXES[0], AXES[a], 100.0 * w));
+            }
+        }
+    }
+    out
+}
+
 /// The β values of the paper's Table 2.
 pub const TABLE2_BETAS: [f64; 6] = [1.0, 2.0, 3.0, 4.0, 5.0, 10.0];
 

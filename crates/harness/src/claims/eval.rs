@@ -1,0 +1,997 @@
+//! The generic evaluator: rows → pooled values per group and selector → a test → verdicts.
+
+use super::rows::{Row, RowSet};
+use super::schema::{Claim, ClaimsFile, Direction, Need, Pool, Selector, Test};
+use serde::Serialize;
+use std::collections::{BTreeMap, BTreeSet};
+
+/// A claim's (or a group's) verdict.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Verdict {
+    Agree,
+    Disagree,
+    Inconclusive,
+}
+
+impl Verdict {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Agree => "agree",
+            Verdict::Disagree => "disagree",
+            Verdict::Inconclusive => "inconclusive",
+        }
+    }
+}
+
+/// One pooled value: `v` with its 95 % interval `[lo, hi]` (a point for counters).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Value {
+    pub v: f64,
+    pub lo: f64,
+    pub hi: f64,
+    /// A timing (interval, noise) rather than a deterministic counter.
+    pub timed: bool,
+    /// Rows pooled.
+    pub rows: usize,
+    /// Of them, rows flagged `noisy` (timed measures).
+    pub noisy: usize,
+    /// Of them, GPU rows from a software adapter (timed measures).
+    pub software: usize,
+}
+
+impl Value {
+    fn point(v: f64, rows: usize) -> Value {
+        Value {
+            v,
+            lo: v,
+            hi: v,
+            timed: false,
+            rows,
+            noisy: 0,
+            software: 0,
+        }
+    }
+}
+
+/// One group's outcome.
+#[derive(Clone, Debug, Serialize)]
+pub struct GroupResult {
+    /// The group key (`per` values joined by ` · `; empty without `per`).
+    pub group: String,
+    pub verdict: Verdict,
+    /// The compared quantity as shown (`0.93`, `+7.2 %`, `a 1.2 <= b 3.4`).
+    pub shown: String,
+    /// The compared quantity (band tests), with its interval.
+    pub derived: Option<[f64; 3]>,
+    pub why: String,
+    /// Each selector's pooled value.
+    pub values: BTreeMap<String, Value>,
+}
+
+/// One claim on one device.
+#[derive(Clone, Debug, Serialize)]
+pub struct ClaimResult {
+    pub id: String,
+    #[serde(rename = "where")]
+    pub place: String,
+    pub text: String,
+    pub paper: String,
+    pub device: String,
+    pub measure: String,
+    pub verdict: Verdict,
+    pub ours: String,
+    pub why: String,
+    pub note: Option<String>,
+    pub test: Test,
+    pub groups: Vec<GroupResult>,
+}
+
+/// One term of a measure.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Term {
+    Col(String),
+    Build(String),
+    HeapRatio,
+    Time,
+    Mrays,
+}
+
+/// A parsed `measure`: one timed term, or a sum of deterministic ones.
+#[derive(Clone, Debug)]
+pub(crate) struct Measure(Vec<Term>);
+
+/// Columns that are properties of a build (one value per scene table x structure x params).
+const BUILD_COLS: &[&str] = &[
+    "build_ms",
+    "memory_bytes",
+    "nodes",
+    "prim_refs",
+    "node_bytes",
+    "sah_cost",
+    "build_heap_peak_bytes",
+    "build_heap_kept_bytes",
+];
+
+impl Measure {
+    pub(crate) fn parse(s: &str) -> Result<Measure, String> {
+        let terms: Vec<Term> = s
+            .split('+')
+            .map(|t| {
+                let t = t.trim();
+                Ok(match t {
+                    "time" | "trace_ms_median" => Term::Time,
+                    "mrays_per_s" => Term::Mrays,
+                    "heap_ratio" => Term::HeapRatio,
+                    _ if t.starts_with("build:") && t.len() > 6 => Term::Build(t[6..].into()),
+                    _ if !t.is_empty()
+                        && t.bytes()
+                            .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'_') =>
+                    {
+                        Term::Col(t.into())
+                    }
+                    _ => {
+                        return Err(format!(
+                            "`{t}` is not a column, time, mrays_per_s, build:KEY or heap_ratio"
+                        ))
+                    }
+                })
+            })
+            .collect::<Result<_, String>>()?;
+        if terms.len() > 1 && terms.iter().any(|t| matches!(t, Term::Time | Term::Mrays)) {
+            return Err("a time measure (time, mrays_per_s) stands alone".into());
+        }
+        Ok(Measure(terms))
+    }
+
+    fn timed(&self) -> bool {
+        matches!(self.0[..], [Term::Time] | [Term::Mrays])
+    }
+}
+
+fn default_pool(t: &Term) -> Pool {
+    match t {
+        Term::Col(c) if c.ends_with("_per_ray") || c == "hit_rate" => Pool::Rays,
+        Term::Col(c) if c.ends_with("_max") => Pool::Max,
+        Term::Col(c)
+            if matches!(
+                c.as_str(),
+                "capped_rays" | "mismatches" | "validated_rays" | "rays"
+            ) =>
+        {
+            Pool::Sum
+        }
+        _ => Pool::Mean,
+    }
+}
+
+fn per_build(t: &Term) -> bool {
+    match t {
+        Term::Col(c) => BUILD_COLS.contains(&c.as_str()),
+        Term::Build(_) | Term::HeapRatio => true,
+        Term::Time | Term::Mrays => false,
+    }
+}
+
+/// Columns that tell one measurement context (the same rays) from another.
+const CONTEXT: &[&str] = &[
+    "file",
+    "scene",
+    "ray_kind",
+    "device",
+    "triangle_test",
+    "threads",
+    "budget_ms",
+    "frame",
+    "table",
+    "heuristic",
+    "beta",
+    "patch",
+    "axis",
+    "integrator",
+    "pass",
+];
+/// Columns that tell the variants compared (a selector must pick one per context).
+const VARIANT: &[&str] = &["structure", "params", "traversal"];
+
+fn software_adapter(r: &Row) -> bool {
+    r.get("device") == Some("gpu")
+        && r.get("adapter").is_some_and(|a| {
+            let a = a.to_ascii_lowercase();
+            [
+                "llvmpipe",
+                "lavapipe",
+                "swiftshader",
+                "softpipe",
+                "software",
+            ]
+            .iter()
+            .any(|s| a.contains(s))
+        })
+}
+
+// ---------------------------------------------------------------------------------------
+// Matching
+
+fn glob(pat: &str, s: &str) -> bool {
+    // `*` matches any run; iterative with backtracking to the last star.
+    let (p, t): (Vec<char>, Vec<char>) = (pat.chars().collect(), s.chars().collect());
+    let (mut i, mut j, mut star, mut mark) = (0, 0, None, 0);
+    while j < t.len() {
+        if i < p.len() && p[i] != '*' && p[i] == t[j] {
+            i += 1;
+            j += 1;
+        } else if i < p.len() && p[i] == '*' {
+            star = Some(i);
+            mark = j;
+            i += 1;
+        } else if let Some(s) = star {
+            i = s + 1;
+            mark += 1;
+            j = mark;
+        } else {
+            return false;
+        }
+    }
+    p[i..].iter().all(|&c| c == '*')
+}
+
+fn cell_matches(v: &toml::Value, cell: &str) -> bool {
+    match v {
+        toml::Value::String(p) => glob(p, cell),
+        toml::Value::Integer(i) => cell.trim().parse::<f64>().is_ok_and(|x| x == *i as f64),
+        toml::Value::Float(f) => cell
+            .trim()
+            .parse::<f64>()
+            .is_ok_and(|x| x == *f || (x - f).abs() <= 1e-9 * f.abs().max(x.abs())),
+        toml::Value::Boolean(b) => cell.trim() == if *b { "true" } else { "false" },
+        toml::Value::Array(a) => a.iter().any(|x| cell_matches(x, cell)),
+        _ => false,
+    }
+}
+
+fn selector_matches(s: &Selector, r: &Row) -> bool {
+    s.0.iter().all(|(k, v)| match k.as_str() {
+        "scene" => r.table().is_some_and(|c| cell_matches(v, c)),
+        "view" => r.get("scene").is_some_and(|c| cell_matches(v, c)),
+        "params" => {
+            let toml::Value::Table(t) = v else {
+                return false;
+            };
+            let p = r.params();
+            t.iter()
+                .all(|(pk, pv)| p.get(pk.as_str()).is_some_and(|c| cell_matches(pv, c)))
+        }
+        col => r.get(col).is_some_and(|c| cell_matches(v, c)),
+    })
+}
+
+/// The claim's filter on `device`, with the defaults: `file = "results"`,
+/// `triangle_test = "watertight"` and the device, each unless the filter names it and each
+/// only where the row has the column.
+fn filter_matches(c: &Claim, device: &str, r: &Row) -> bool {
+    let f = &c.filter.0;
+    let default =
+        |col: &str, want: &str| f.contains_key(col) || r.get(col).is_none_or(|x| x == want);
+    default("file", "results")
+        && default("triangle_test", "watertight")
+        && default("device", device)
+        && selector_matches(&c.filter, r)
+}
+
+fn group_key(per: &[String], r: &Row) -> String {
+    per.iter()
+        .map(|k| match k.as_str() {
+            "scene" => r.table().unwrap_or("").to_owned(),
+            "view" => r.get("scene").unwrap_or("").to_owned(),
+            k if k.starts_with("param:") => r.params().get(&k[6..]).copied().unwrap_or("").into(),
+            k => r.get(k).unwrap_or("").to_owned(),
+        })
+        .collect::<Vec<_>>()
+        .join(" · ")
+}
+
+fn joined(r: &Row, cols: &[&str]) -> String {
+    cols.iter()
+        .map(|c| r.get(c).unwrap_or(""))
+        .collect::<Vec<_>>()
+        .join("|")
+}
+
+// ---------------------------------------------------------------------------------------
+// Pooling
+
+/// Pool one selector's rows in one group, or say why not.
+fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Value, String> {
+    // One variant per context.
+    let mut seen: BTreeMap<String, (String, &Row)> = BTreeMap::new();
+    for r in rows {
+        let (ctx, var) = (joined(r, CONTEXT), joined(r, VARIANT));
+        if let Some((v0, r0)) = seen.get(&ctx) {
+            if *v0 != var {
+                return Err(format!(
+                    "ambiguous selector `{name}`: it matches rows that differ in {}; make it more specific",
+                    variant_diff(r0, r)
+                ));
+            }
+        } else {
+            seen.insert(ctx, (var, r));
+        }
+    }
+    let rows: Vec<&Row> = seen.into_values().map(|(_, r)| r).collect();
+    let threads: BTreeSet<&str> = rows.iter().filter_map(|r| r.get("threads")).collect();
+    if m.timed() {
+        if threads.len() > 1 {
+            return Err(format!(
+                "`{name}` has rows of several thread counts ({}): a time claim must give threads",
+                threads.into_iter().collect::<Vec<_>>().join(", ")
+            ));
+        }
+        return pool_time(name, &rows, matches!(m.0[0], Term::Mrays));
+    }
+    // Counters do not depend on the thread count: one row per context without threads.
+    let mut by_ctx: BTreeMap<String, &Row> = BTreeMap::new();
+    for r in &rows {
+        let ctx: Vec<&str> = CONTEXT
+            .iter()
+            .filter(|c| **c != "threads")
+            .map(|c| r.get(c).unwrap_or(""))
+            .collect();
+        by_ctx.entry(ctx.join("|")).or_insert(r);
+    }
+    let rows: Vec<&Row> = by_ctx.into_values().collect();
+    let mut total = 0.0;
+    for t in &m.0 {
+        let mut rs = rows.clone();
+        if per_build(t) {
+            let mut b: BTreeMap<String, &Row> = BTreeMap::new();
+            for r in rs {
+                let key = format!(
+                    "{}|{}|{}",
+                    r.table().unwrap_or(""),
+                    r.get("structure").unwrap_or(""),
+                    r.get("params").unwrap_or("")
+                );
+                b.entry(key).or_insert(r);
+            }
+            rs = b.into_values().collect();
+        }
+        let mut xs = Vec::with_capacity(rs.len());
+        for r in &rs {
+            let x = match t {
+                Term::Col(c) => r.num(c),
+                Term::Build(k) => r.build_stat(k),
+                Term::HeapRatio => match (
+                    r.num("build_heap_peak_bytes"),
+                    r.num("build_heap_kept_bytes"),
+                ) {
+                    (Some(p), Some(k)) if k > 0.0 => Some(p / k),
+                    _ => None,
+                },
+                Term::Time | Term::Mrays => unreachable!("timed measures pool in pool_time"),
+            };
+            let Some(x) = x else {
+                return Err(format!(
+                    "`{name}`: {} of {} rows have no {}",
+                    rs.iter()
+                        .filter(|r| match t {
+                            Term::Col(c) => r.num(c).is_none(),
+                            _ => true,
+                        })
+                        .count()
+                        .max(1),
+                    rs.len(),
+                    term_name(t)
+                ));
+            };
+            let w = r.num("rays").unwrap_or(1.0);
+            xs.push((x, w));
+        }
+        let p = pool.unwrap_or_else(|| default_pool(t));
+        total += match p {
+            Pool::Rays => {
+                let w: f64 = xs.iter().map(|x| x.1).sum();
+                xs.iter().map(|(x, w)| x * w).sum::<f64>() / w
+            }
+            Pool::Sum => xs.iter().map(|x| x.0).sum(),
+            Pool::Mean => xs.iter().map(|x| x.0).sum::<f64>() / xs.len() as f64,
+            Pool::Max => xs.iter().map(|x| x.0).fold(f64::NEG_INFINITY, f64::max),
+            Pool::Min => xs.iter().map(|x| x.0).fold(f64::INFINITY, f64::min),
+        };
+    }
+    Ok(Value::point(total, rows.len()))
+}
+
+/// What tells two rows' variants apart: `traversal a / b`, `param k a / b`, ….
+fn variant_diff(a: &Row, b: &Row) -> String {
+    let mut d = Vec::new();
+    for c in ["structure", "traversal"] {
+        if a.get(c) != b.get(c) {
+            d.push(format!(
+                "{c} {} / {}",
+                a.get(c).unwrap_or(""),
+                b.get(c).unwrap_or("")
+            ));
+        }
+    }
+    let (pa, pb) = (a.params(), b.params());
+    let keys: BTreeSet<&str> = pa.keys().chain(pb.keys()).copied().collect();
+    for k in keys {
+        if pa.get(k) != pb.get(k) {
+            d.push(format!(
+                "{k} {} / {}",
+                pa.get(k).unwrap_or(&"-"),
+                pb.get(k).unwrap_or(&"-")
+            ));
+        }
+    }
+    d.join(", ")
+}
+
+fn term_name(t: &Term) -> String {
+    match t {
+        Term::Col(c) => c.clone(),
+        Term::Build(k) => format!("build_stats {k}"),
+        Term::HeapRatio => "build_heap_peak_bytes / build_heap_kept_bytes".into(),
+        Term::Time => "trace_ms_median".into(),
+        Term::Mrays => "mrays_per_s".into(),
+    }
+}
+
+/// Total time over the rows (ms), its 95 % interval from each row's `trace_ms_ci` (relative
+/// half-width; where absent, the row's min and max), or million rays per second over them.
+fn pool_time(name: &str, rows: &[&Row], mrays: bool) -> Result<Value, String> {
+    let (mut t, mut lo, mut hi, mut rays) = (0.0, 0.0, 0.0, 0.0);
+    let (mut noisy, mut software) = (0, 0);
+    for r in rows {
+        let Some(m) = r.num("trace_ms_median") else {
+            return Err(format!("`{name}`: a row has no trace_ms_median"));
+        };
+        let (l, h) = match r.num("trace_ms_ci") {
+            Some(ci) => (m * (1.0 - ci).max(0.0), m * (1.0 + ci)),
+            None => (
+                r.num("trace_ms_min").unwrap_or(m),
+                r.num("trace_ms_max").unwrap_or(m),
+            ),
+        };
+        t += m;
+        lo += l;
+        hi += h;
+        rays += r.num("rays").unwrap_or(0.0);
+        noisy += usize::from(r.get("noisy") == Some("true"));
+        software += usize::from(software_adapter(r));
+    }
+    let (v, lo, hi) = if mrays {
+        let f = |ms: f64| rays / (ms * 1e3);
+        (f(t), f(hi), if lo > 0.0 { f(lo) } else { f64::INFINITY })
+    } else {
+        (t, lo, hi)
+    };
+    Ok(Value {
+        v,
+        lo,
+        hi,
+        timed: true,
+        rows: rows.len(),
+        noisy,
+        software,
+    })
+}
+
+// ---------------------------------------------------------------------------------------
+// Tests
+
+/// A number in four significant digits.
+pub(crate) fn fmt(x: f64) -> String {
+    if !x.is_finite() {
+        return if x.is_nan() {
+            "n/a".into()
+        } else if x > 0.0 {
+            "∞".into()
+        } else {
+            "-∞".into()
+        };
+    }
+    let a = x.abs();
+    if a >= 1000.0 || a == 0.0 {
+        return format!("{x:.0}");
+    }
+    let d = (3 - a.log10().floor() as i32).clamp(0, 8) as usize;
+    let s = format!("{x:.d$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_owned()
+    } else {
+        s
+    }
+}
+
+fn fmt_iv(v: f64, lo: f64, hi: f64, timed: bool) -> String {
+    if timed {
+        format!("{} [{}, {}]", fmt(v), fmt(lo), fmt(hi))
+    } else {
+        fmt(v)
+    }
+}
+
+fn band_text(min: Option<f64>, max: Option<f64>) -> String {
+    match (min, max) {
+        (Some(a), Some(b)) => format!("[{}, {}]", fmt(a), fmt(b)),
+        (Some(a), None) => format!(">= {}", fmt(a)),
+        (None, Some(b)) => format!("<= {}", fmt(b)),
+        (None, None) => "any".into(),
+    }
+}
+
+fn band_verdict(lo: f64, hi: f64, min: Option<f64>, max: Option<f64>) -> Verdict {
+    let (a, b) = (
+        min.unwrap_or(f64::NEG_INFINITY),
+        max.unwrap_or(f64::INFINITY),
+    );
+    if lo >= a && hi <= b {
+        Verdict::Agree
+    } else if hi < a || lo > b {
+        Verdict::Disagree
+    } else {
+        Verdict::Inconclusive
+    }
+}
+
+/// `x` before `y` in an ordering (strict: below `y·(1 − margin)`), with intervals.
+fn before(x: &Value, y: &Value, strict: bool, margin: f64) -> Verdict {
+    if strict {
+        let f = 1.0 - margin;
+        if x.hi < y.lo * f {
+            Verdict::Agree
+        } else if x.lo >= y.hi * f {
+            Verdict::Disagree
+        } else {
+            Verdict::Inconclusive
+        }
+    } else if x.hi <= y.lo {
+        Verdict::Agree
+    } else if x.lo > y.hi {
+        Verdict::Disagree
+    } else {
+        Verdict::Inconclusive
+    }
+}
+
+/// `x` above `y` by the margin (strict), with intervals.
+fn above(x: &Value, y: &Value, margin: f64) -> Verdict {
+    let f = 1.0 + margin;
+    if x.lo > y.hi * f {
+        Verdict::Agree
+    } else if x.hi <= y.lo * f {
+        Verdict::Disagree
+    } else {
+        Verdict::Inconclusive
+    }
+}
+
+fn all_of(vs: impl IntoIterator<Item = Verdict>) -> Verdict {
+    let mut out = Verdict::Agree;
+    for v in vs {
+        match v {
+            Verdict::Disagree => return Verdict::Disagree,
+            Verdict::Inconclusive => out = Verdict::Inconclusive,
+            Verdict::Agree => {}
+        }
+    }
+    out
+}
+
+/// Ratio `n / d` with its interval.
+fn ratio(n: &Value, d: &Value) -> [f64; 3] {
+    [
+        n.lo / d.hi,
+        n.v / d.v,
+        if d.lo > 0.0 {
+            n.hi / d.lo
+        } else {
+            f64::INFINITY
+        },
+    ]
+}
+
+/// Run the test on one group's values.
+fn run_test(
+    test: &Test,
+    vals: &BTreeMap<String, Value>,
+) -> (Verdict, String, Option<[f64; 3]>, String) {
+    let v = |n: &str| vals[n];
+    let timed = vals.values().any(|x| x.timed);
+    let banded = |d: [f64; 3], min, max, pct: bool| {
+        let verdict = band_verdict(d[0], d[2], min, max);
+        let unit = if pct { " %" } else { "" };
+        let shown = if timed {
+            format!("{}{unit} [{}, {}]", fmt(d[1]), fmt(d[0]), fmt(d[2]))
+        } else {
+            format!("{}{unit}", fmt(d[1]))
+        };
+        let why = match verdict {
+            Verdict::Agree => format!("in {}", band_text(min, max)),
+            Verdict::Disagree => format!("outside {}", band_text(min, max)),
+            Verdict::Inconclusive => format!("interval straddles {}", band_text(min, max)),
+        };
+        (verdict, shown, Some(d), why)
+    };
+    match test {
+        Test::Value { of, min, max } => {
+            let x = v(of);
+            banded([x.lo, x.v, x.hi], *min, *max, false)
+        }
+        Test::Ratio { num, den, min, max } => banded(ratio(&v(num), &v(den)), *min, *max, false),
+        Test::Speedup { of, base, min, max } => banded(ratio(&v(base), &v(of)), *min, *max, false),
+        Test::Gain { of, base, min, max } => {
+            let r = ratio(&v(of), &v(base));
+            let g = [
+                100.0 * (1.0 - r[2]),
+                100.0 * (1.0 - r[1]),
+                100.0 * (1.0 - r[0]),
+            ];
+            banded(g, *min, *max, true)
+        }
+        Test::Order {
+            rows,
+            strict,
+            margin,
+        } => {
+            let verdicts: Vec<Verdict> = rows
+                .windows(2)
+                .map(|w| before(&v(&w[0]), &v(&w[1]), *strict, *margin))
+                .collect();
+            let sep = if *strict { " < " } else { " <= " };
+            let shown = rows
+                .iter()
+                .map(|n| format!("{n} {}", fmt_iv(v(n).v, v(n).lo, v(n).hi, timed)))
+                .collect::<Vec<_>>()
+                .join(sep);
+            let broken: Vec<String> = rows
+                .windows(2)
+                .zip(&verdicts)
+                .filter(|(_, x)| **x != Verdict::Agree)
+                .map(|(w, x)| {
+                    let rel = if *x == Verdict::Disagree {
+                        "not below"
+                    } else {
+                        "overlaps"
+                    };
+                    format!("{} {rel} {}", w[0], w[1])
+                })
+                .collect();
+            (all_of(verdicts), shown, None, broken.join("; "))
+        }
+        Test::Least {
+            best,
+            of,
+            margin,
+            direction,
+        } => {
+            let b = v(best);
+            let verdicts: Vec<(Verdict, &String)> = of
+                .iter()
+                .map(|o| {
+                    let x = v(o);
+                    let r = match direction {
+                        Direction::Lowest => before(&b, &x, true, *margin),
+                        Direction::Highest => above(&b, &x, *margin),
+                    };
+                    (r, o)
+                })
+                .collect();
+            // The nearest rival.
+            let rival = of
+                .iter()
+                .min_by(|a, c| {
+                    let key = |n: &str| match direction {
+                        Direction::Lowest => v(n).v,
+                        Direction::Highest => -v(n).v,
+                    };
+                    key(a).total_cmp(&key(c))
+                })
+                .expect("least has rivals");
+            let shown = format!(
+                "{best} {}; next {rival} {}",
+                fmt_iv(b.v, b.lo, b.hi, timed),
+                fmt_iv(v(rival).v, v(rival).lo, v(rival).hi, timed)
+            );
+            let word = match direction {
+                Direction::Lowest => "not below",
+                Direction::Highest => "not above",
+            };
+            let why = verdicts
+                .iter()
+                .filter(|(x, _)| *x != Verdict::Agree)
+                .map(|(x, o)| {
+                    if *x == Verdict::Disagree {
+                        format!("{best} {word} {o} ({})", fmt(v(o).v))
+                    } else {
+                        format!("{best} overlaps {o}")
+                    }
+                })
+                .collect::<Vec<_>>()
+                .join("; ");
+            (all_of(verdicts.into_iter().map(|x| x.0)), shown, None, why)
+        }
+        Test::Equal { a, b, tolerance } => {
+            let (x, y) = (v(a), v(b));
+            let r = ratio(&x, &y);
+            let verdict = if timed {
+                band_verdict(r[0], r[2], Some(1.0 - tolerance), Some(1.0 + tolerance))
+            } else if (x.v - y.v).abs() <= tolerance * x.v.abs().max(y.v.abs()) {
+                Verdict::Agree
+            } else {
+                Verdict::Disagree
+            };
+            let shown = format!(
+                "{a} {}, {b} {} (Δ {} %)",
+                fmt_iv(x.v, x.lo, x.hi, timed),
+                fmt_iv(y.v, y.lo, y.hi, timed),
+                fmt(100.0 * (r[1] - 1.0))
+            );
+            let why = format!("tolerance {} %", fmt(100.0 * tolerance));
+            (verdict, shown, Some(r), why)
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Claims
+
+/// Evaluate every claim of `file` on every device it names against `rows`.
+pub fn evaluate(file: &ClaimsFile, rows: &RowSet) -> Vec<ClaimResult> {
+    let mut out = Vec::new();
+    for c in &file.claims {
+        for d in &c.devices {
+            out.push(evaluate_claim(c, d, rows));
+        }
+    }
+    out
+}
+
+fn evaluate_claim(c: &Claim, device: &str, set: &RowSet) -> ClaimResult {
+    let m = Measure::parse(&c.measure).expect("checked when the file was loaded");
+    let names: Vec<&str> = {
+        let mut seen = BTreeSet::new();
+        c.test
+            .names()
+            .into_iter()
+            .filter(|n| seen.insert(*n))
+            .collect()
+    };
+    let base: Vec<&Row> = set
+        .rows
+        .iter()
+        .filter(|r| filter_matches(c, device, r))
+        .collect();
+    // Selector → group → rows.
+    let mut by: BTreeMap<&str, BTreeMap<String, Vec<&Row>>> = BTreeMap::new();
+    let mut groups: BTreeSet<String> = BTreeSet::new();
+    for n in &names {
+        let s = &c.rows[*n];
+        let e = by.entry(n).or_default();
+        for r in base.iter().filter(|r| selector_matches(s, r)) {
+            let g = group_key(&c.per, r);
+            groups.insert(g.clone());
+            e.entry(g).or_default().push(r);
+        }
+    }
+    let mut results = Vec::new();
+    for g in &groups {
+        let mut vals = BTreeMap::new();
+        let mut problems = Vec::new();
+        for n in &names {
+            match by[n].get(g) {
+                None => problems.push(format!("no rows for `{n}`")),
+                Some(rs) => match pool(n, rs, &m, c.pool) {
+                    Ok(v) => {
+                        vals.insert(n.to_string(), v);
+                    }
+                    Err(e) => problems.push(e),
+                },
+            }
+        }
+        results.push(if problems.is_empty() {
+            let (mut verdict, shown, derived, mut why) = run_test(&c.test, &vals);
+            let noisy: usize = vals.values().map(|v| v.noisy).sum();
+            let software: usize = vals.values().map(|v| v.software).sum();
+            if software > 0 {
+                why = format!(
+                    "timed on a software GPU adapter ({software} rows), not GPU figures; {why}"
+                );
+                verdict = Verdict::Inconclusive;
+            } else if noisy > 0 {
+                why = format!("{noisy} of the timed rows are noisy; {why}");
+                verdict = Verdict::Inconclusive;
+            }
+            GroupResult {
+                group: g.clone(),
+                verdict,
+                shown,
+                derived,
+                why,
+                values: vals,
+            }
+        } else {
+            GroupResult {
+                group: g.clone(),
+                verdict: Verdict::Inconclusive,
+                shown: "—".into(),
+                derived: None,
+                why: problems.join("; "),
+                values: vals,
+            }
+        });
+    }
+    let (verdict, ours, why) = combine(c, device, &results, &base, set);
+    ClaimResult {
+        id: c.id.clone(),
+        place: c.place.clone(),
+        text: c.text.clone(),
+        paper: c.paper.clone(),
+        device: device.into(),
+        measure: c.measure.clone(),
+        verdict,
+        ours,
+        why,
+        note: c.note.clone(),
+        test: c.test.clone(),
+        groups: results,
+    }
+}
+
+/// The claim's verdict, `ours` and `why` from its groups' results.
+fn combine(
+    c: &Claim,
+    device: &str,
+    gs: &[GroupResult],
+    base: &[&Row],
+    set: &RowSet,
+) -> (Verdict, String, String) {
+    if gs.is_empty() {
+        let why = if set.rows.is_empty() {
+            "no rows read".to_owned()
+        } else if base.is_empty() {
+            format!("rows missing: no {device} row matches the claim's filter")
+        } else {
+            let names: Vec<String> = c.test.names().iter().map(|n| format!("`{n}`")).collect();
+            format!("rows missing: no row matches {}", names.join(", "))
+        };
+        return (Verdict::Inconclusive, "—".into(), why);
+    }
+    let count = |v: Verdict| gs.iter().filter(|g| g.verdict == v).count();
+    let (agree, disagree, n) = (count(Verdict::Agree), count(Verdict::Disagree), gs.len());
+    let verdict = match c.need {
+        Need::All if disagree > 0 => Verdict::Disagree,
+        Need::All if agree == n => Verdict::Agree,
+        Need::Any if agree > 0 => Verdict::Agree,
+        Need::Any if disagree == n => Verdict::Disagree,
+        Need::Most if 2 * agree > n => Verdict::Agree,
+        Need::Most if 2 * disagree >= n => Verdict::Disagree,
+        _ => Verdict::Inconclusive,
+    };
+    let ours = if n == 1 {
+        gs[0].shown.clone()
+    } else {
+        let ds: Vec<f64> = gs.iter().filter_map(|g| g.derived.map(|d| d[1])).collect();
+        let pct = if matches!(c.test, Test::Gain { .. }) {
+            " %"
+        } else {
+            ""
+        };
+        if ds.len() == n {
+            let lo = ds.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = ds.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            format!("{}..{}{pct} ({n} groups)", fmt(lo), fmt(hi))
+        } else {
+            format!("{agree} of {n} groups hold")
+        }
+    };
+    let label = |g: &GroupResult| {
+        if g.group.is_empty() {
+            g.why.clone()
+        } else if n > 1 && g.derived.is_some() {
+            format!("{}: {}, {}", g.group, g.shown, g.why)
+        } else {
+            format!("{}: {}", g.group, g.why)
+        }
+    };
+    let list = |v: Verdict| {
+        // Reasons shared by several groups (an ambiguous selector) are said once.
+        let mut sel: Vec<String> = Vec::new();
+        let mut said: BTreeSet<&str> = BTreeSet::new();
+        for g in gs.iter().filter(|g| g.verdict == v) {
+            if g.derived.is_none() && v == Verdict::Inconclusive {
+                if said.insert(g.why.as_str()) {
+                    let k = gs.iter().filter(|h| h.why == g.why).count();
+                    sel.push(if k > 1 {
+                        format!("{} groups: {}", k, g.why)
+                    } else {
+                        label(g)
+                    });
+                }
+            } else {
+                sel.push(label(g));
+            }
+        }
+        let more = sel.len().saturating_sub(4);
+        let mut s = sel.into_iter().take(4).collect::<Vec<_>>().join("; ");
+        if more > 0 {
+            s.push_str(&format!("; +{more} more"));
+        }
+        s
+    };
+    let why = match verdict {
+        Verdict::Agree if n == 1 => gs[0].why.clone(),
+        Verdict::Agree if agree == n => format!("all {n} groups"),
+        Verdict::Agree => format!("{agree} of {n} groups agree: {}", list(Verdict::Agree)),
+        Verdict::Disagree => {
+            let s = list(Verdict::Disagree);
+            if n == 1 {
+                s
+            } else {
+                format!("{disagree} of {n} groups disagree: {s}")
+            }
+        }
+        Verdict::Inconclusive => {
+            let s = list(Verdict::Inconclusive);
+            if n == 1 || count(Verdict::Inconclusive) == 0 {
+                if s.is_empty() {
+                    format!("{agree} of {n} groups agree, {disagree} disagree")
+                } else {
+                    s
+                }
+            } else {
+                format!(
+                    "{} of {n} groups inconclusive: {s}",
+                    count(Verdict::Inconclusive)
+                )
+            }
+        }
+    };
+    (verdict, ours, why)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn glob_matches_stars() {
+        assert!(glob("path*", "path1"));
+        assert!(glob("*", ""));
+        assert!(glob("a*c", "abbbc"));
+        assert!(!glob("a*c", "abbb"));
+        assert!(glob("conference", "conference"));
+        assert!(!glob("conf", "conference"));
+        assert!(glob("*-boxed", "bunny-boxed"));
+    }
+
+    #[test]
+    fn bands_decide_only_clear_intervals() {
+        assert_eq!(band_verdict(0.9, 0.95, None, Some(1.0)), Verdict::Agree);
+        assert_eq!(band_verdict(1.01, 1.2, None, Some(1.0)), Verdict::Disagree);
+        assert_eq!(
+            band_verdict(0.9, 1.1, None, Some(1.0)),
+            Verdict::Inconclusive
+        );
+        assert_eq!(band_verdict(5.0, 5.0, Some(5.0), Some(5.0)), Verdict::Agree);
+    }
+
+    #[test]
+    fn measures_parse() {
+        assert!(Measure::parse("planes_per_ray + prims_per_ray").is_ok());
+        assert!(Measure::parse("time + prims_per_ray").is_err());
+        assert!(Measure::parse("build:paper_bytes").is_ok());
+        assert!(Measure::parse("Bad Name").is_err());
+        assert!(Measure::parse("time").unwrap().timed());
+    }
+
+    #[test]
+    fn numbers_print_in_four_digits() {
+        assert_eq!(fmt(0.123456), "0.1235");
+        assert_eq!(fmt(12.0), "12");
+        assert_eq!(fmt(1234.4), "1234");
+        assert_eq!(fmt(-7.25), "-7.25");
+    }
+}

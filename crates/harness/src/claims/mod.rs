@@ -1,0 +1,48 @@
+//! The papers' claims as data, and one generic evaluator (`trace-bench claims`).
+//!
+//! A claims file (`claims/PAPER.toml`, format in `claims/README.md`) lists a paper's headline
+//! claims: where each stands in the paper, the paper's figure, the rows of a results CSV it
+//! compares (named [`Selector`]s), the measure, how rows pool and group, and a [`Test`] with a
+//! band fixed from the paper's figure. [`evaluate`] turns rows into one [`Verdict`] per claim
+//! and device: `agree`, `disagree` or `inconclusive` (rows missing, a time interval across a
+//! bound, noisy or software-rendered timings). Nothing here knows a paper or a structure: the
+//! files name columns, and any CSV a run writes (`results.csv`, `dynamic.csv`, `weights.csv`)
+//! can be read ([`rows::RowSet`]).
+
+mod eval;
+pub mod render;
+pub mod rows;
+mod schema;
+
+pub use eval::{evaluate, ClaimResult, GroupResult, Value, Verdict};
+pub use rows::RowSet;
+pub use schema::{Claim, ClaimsFile, Direction, Need, Pool, RunSpec, Selector, Test};
+
+use crate::HarnessError;
+use std::path::Path;
+
+/// Read and check a claims file: TOML syntax and types (one line naming the line), then every
+/// claim's ids, selectors, measure and test (one line naming the line of the claim's `id`).
+pub fn load(path: &Path) -> Result<ClaimsFile, HarnessError> {
+    let text = std::fs::read_to_string(path).map_err(|e| HarnessError::io(path, e))?;
+    parse(path, &text)
+}
+
+/// [`load`] on text already read.
+pub fn parse(path: &Path, text: &str) -> Result<ClaimsFile, HarnessError> {
+    let file: ClaimsFile = toml::from_str(text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|s| format!("{}: ", crate::config::line_of(text, s.start)));
+        HarnessError::ConfigSyntax {
+            file: path.into(),
+            message: format!(
+                "{}{}",
+                line.unwrap_or_default(),
+                e.message().trim().replace('\n', " ")
+            ),
+        }
+    })?;
+    file.check(path, text)?;
+    Ok(file)
+}

@@ -1,0 +1,178 @@
+//! Rows of any CSV a run writes, for the claims evaluator: named columns as text, each row
+//! knowing its file stem (`results`, `dynamic`, `weights`, …).
+
+use crate::HarnessError;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// One CSV row: its file stem, and the cells by column.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub file: String,
+    /// Where it was read from (folder or file), for messages.
+    pub origin: Arc<PathBuf>,
+    header: Arc<Vec<String>>,
+    cells: Vec<String>,
+}
+
+impl Row {
+    /// A cell, `None` when the row has no such column (an empty cell is `Some("")`).
+    pub fn get(&self, col: &str) -> Option<&str> {
+        if col == "file" {
+            return Some(&self.file);
+        }
+        self.header
+            .iter()
+            .position(|h| h == col)
+            .and_then(|i| self.cells.get(i))
+            .map(String::as_str)
+    }
+
+    /// A numeric cell; `None` when absent, empty or not a number.
+    pub fn num(&self, col: &str) -> Option<f64> {
+        self.get(col).and_then(|s| s.trim().parse::<f64>().ok())
+    }
+
+    /// The scene table's label: the `scene` column before `@`.
+    pub fn table(&self) -> Option<&str> {
+        self.get("scene").map(|s| s.split('@').next().unwrap_or(s))
+    }
+
+    /// The `params` column as a map (`k=v;k=v`).
+    pub fn params(&self) -> BTreeMap<&str, &str> {
+        kv(self.get("params").unwrap_or(""))
+    }
+
+    /// One `build_stats` entry.
+    pub fn build_stat(&self, key: &str) -> Option<f64> {
+        kv(self.get("build_stats").unwrap_or(""))
+            .get(key)
+            .and_then(|v| v.parse().ok())
+    }
+
+    /// The identity of a results row (the row is the same measurement in two folders).
+    fn identity(&self) -> String {
+        if self.file == "results" {
+            [
+                "scene",
+                "structure",
+                "params",
+                "traversal",
+                "device",
+                "threads",
+                "triangle_test",
+                "ray_kind",
+            ]
+            .iter()
+            .map(|c| self.get(c).unwrap_or(""))
+            .collect::<Vec<_>>()
+            .join("\u{1f}")
+        } else {
+            format!("{}\u{1f}{}", self.file, self.cells.join("\u{1f}"))
+        }
+    }
+}
+
+/// `k=v;k=v` → map.
+pub(crate) fn kv(s: &str) -> BTreeMap<&str, &str> {
+    s.split(';')
+        .filter_map(|p| p.split_once('='))
+        .map(|(k, v)| (k.trim(), v.trim()))
+        .collect()
+}
+
+/// The rows of several results folders and CSV files, the later's row replacing the earlier's
+/// with the same identity.
+#[derive(Clone, Debug, Default)]
+pub struct RowSet {
+    pub rows: Vec<Row>,
+    /// Rows replaced by a later source's row of the same identity.
+    pub replaced: usize,
+    /// The sources read.
+    pub sources: Vec<PathBuf>,
+}
+
+impl RowSet {
+    /// Read each path: a folder gives every `*.csv` in it but `params.csv`; a file is one CSV.
+    pub fn read(paths: &[PathBuf]) -> Result<RowSet, HarnessError> {
+        let mut set = RowSet::default();
+        let mut index: HashMap<String, usize> = HashMap::new();
+        for p in paths {
+            let files = if p.is_dir() {
+                let mut v: Vec<PathBuf> = std::fs::read_dir(p)
+                    .map_err(|e| HarnessError::io(p, e))?
+                    .filter_map(|e| e.ok().map(|e| e.path()))
+                    .filter(|f| {
+                        f.extension().is_some_and(|x| x == "csv")
+                            && f.file_name().is_some_and(|n| n != "params.csv")
+                    })
+                    .collect();
+                v.sort();
+                if v.is_empty() {
+                    return Err(HarnessError::io(p, "no CSV file in this folder"));
+                }
+                v
+            } else if p.exists() {
+                vec![p.clone()]
+            } else {
+                return Err(HarnessError::io(p, "no such file or folder"));
+            };
+            set.sources.push(p.clone());
+            let origin = Arc::new(p.clone());
+            for f in files {
+                for row in read_csv(&f, &origin)? {
+                    let id = row.identity();
+                    match index.get(&id) {
+                        Some(&i) => {
+                            set.rows[i] = row;
+                            set.replaced += 1;
+                        }
+                        None => {
+                            index.insert(id, set.rows.len());
+                            set.rows.push(row);
+                        }
+                    }
+                }
+            }
+        }
+        Ok(set)
+    }
+}
+
+fn read_csv(f: &Path, origin: &Arc<PathBuf>) -> Result<Vec<Row>, HarnessError> {
+    let mut rd = csv::ReaderBuilder::new()
+        .flexible(false)
+        .from_path(f)
+        .map_err(|e| HarnessError::io(f, e))?;
+    let header: Arc<Vec<String>> = Arc::new(
+        rd.headers()
+            .map_err(|e| HarnessError::io(f, e))?
+            .iter()
+            .map(str::to_owned)
+            .collect(),
+    );
+    // A run's rows are `results` whatever the file is called (a baseline, a copy); other
+    // CSVs are known by their stem (`dynamic`, `weights`, …).
+    let is_results = ["structure", "traversal", "ray_kind"]
+        .iter()
+        .all(|c| header.iter().any(|h| h == c));
+    let file = if is_results {
+        "results".to_owned()
+    } else {
+        f.file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    };
+    let mut out = Vec::new();
+    for (i, rec) in rd.records().enumerate() {
+        let rec = rec.map_err(|e| HarnessError::io(f, format!("row {}: {e}", i + 2)))?;
+        out.push(Row {
+            file: file.clone(),
+            origin: origin.clone(),
+            header: header.clone(),
+            cells: rec.iter().map(str::to_owned).collect(),
+        });
+    }
+    Ok(out)
+}

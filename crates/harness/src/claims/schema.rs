@@ -1,0 +1,360 @@
+//! The claims file's schema (serde, unknown keys refused) and its checks.
+
+use crate::HarnessError;
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+/// One paper's claims file.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClaimsFile {
+    /// The paper, as reports name it.
+    pub paper: String,
+    /// The paper's text (a path), for readers.
+    #[serde(default)]
+    pub text: Option<String>,
+    /// What `trace-bench reproduce` runs for this paper, in order.
+    #[serde(default, rename = "run")]
+    pub runs: Vec<RunSpec>,
+    #[serde(default, rename = "claim")]
+    pub claims: Vec<Claim>,
+}
+
+/// One run of `reproduce`: a `trace-bench run` of a config, or another trace-bench command.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunSpec {
+    /// The experiment config (a `trace-bench run`).
+    #[serde(default)]
+    pub config: Option<String>,
+    /// Instead of `config`: a trace-bench command line, `{out}` standing for the run's folder.
+    #[serde(default)]
+    pub exec: Option<Vec<String>>,
+    /// `--set` edits.
+    #[serde(default)]
+    pub set: Vec<String>,
+    /// `--structure` filter.
+    #[serde(default)]
+    pub structure: Vec<String>,
+    /// `--scene` filter.
+    #[serde(default)]
+    pub scene: Vec<String>,
+    /// `--threads`.
+    #[serde(default)]
+    pub threads: Option<Vec<usize>>,
+    /// `--device` (a run naming `gpu` is left out unless reproduce is asked for the GPU).
+    #[serde(default)]
+    pub device: Option<Vec<String>>,
+    /// Wall seconds of the run as declared, measured on the 2-core reference machine.
+    #[serde(default)]
+    pub cost_s: f64,
+    /// The part of `cost_s` that does not shrink with the image (loading, builds).
+    #[serde(default)]
+    pub fixed_s: f64,
+    /// Whether reproduce may shrink the images (same aspect) to fit its budget.
+    #[serde(default)]
+    pub scalable: bool,
+    #[serde(default)]
+    pub note: Option<String>,
+}
+
+/// One claim of a paper.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Claim {
+    pub id: String,
+    /// Where it stands in the paper (table, row, column or section).
+    #[serde(rename = "where")]
+    pub place: String,
+    /// The claim in words.
+    pub text: String,
+    /// The paper's figure(s), as printed.
+    pub paper: String,
+    /// Why this test and this tolerance.
+    #[serde(default)]
+    pub note: Option<String>,
+    /// A column, a sum of columns (`a + b`), `time`, `mrays_per_s`, `build:KEY`, `heap_ratio`.
+    pub measure: String,
+    #[serde(default)]
+    pub pool: Option<Pool>,
+    /// A selector every row of the claim matches.
+    #[serde(default)]
+    pub filter: Selector,
+    /// Group keys; the test runs per group.
+    #[serde(default)]
+    pub per: Vec<String>,
+    #[serde(default)]
+    pub need: Need,
+    /// Devices the claim is evaluated on, once each (default `cpu`).
+    #[serde(default = "default_devices")]
+    pub devices: Vec<String>,
+    /// Named selectors the test compares.
+    pub rows: BTreeMap<String, Selector>,
+    pub test: Test,
+}
+
+fn default_devices() -> Vec<String> {
+    vec!["cpu".into()]
+}
+
+/// How the rows a selector matches in a group pool into one value.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Pool {
+    /// `Σ v·rays / Σ rays`: the per-ray mean over all the rows' rays.
+    Rays,
+    Sum,
+    Mean,
+    Max,
+    Min,
+}
+
+/// How the groups' verdicts combine.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Need {
+    #[default]
+    All,
+    Any,
+    Most,
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Direction {
+    #[default]
+    Lowest,
+    Highest,
+}
+
+/// A claim's test; bands are inclusive, either bound optional.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum Test {
+    /// `min <= v(of) <= max`.
+    Value {
+        of: String,
+        min: Option<f64>,
+        max: Option<f64>,
+    },
+    /// `min <= v(num) / v(den) <= max`.
+    Ratio {
+        num: String,
+        den: String,
+        min: Option<f64>,
+        max: Option<f64>,
+    },
+    /// `min <= 100 (1 − v(of) / v(base)) <= max` (percent; less is better).
+    Gain {
+        of: String,
+        base: String,
+        min: Option<f64>,
+        max: Option<f64>,
+    },
+    /// `min <= v(base) / v(of) <= max`.
+    Speedup {
+        of: String,
+        base: String,
+        min: Option<f64>,
+        max: Option<f64>,
+    },
+    /// `v(a) <= v(b) <= …` (strict: `v(a) < v(b)·(1 − margin)`).
+    Order {
+        rows: Vec<String>,
+        #[serde(default)]
+        strict: bool,
+        #[serde(default)]
+        margin: f64,
+    },
+    /// `v(best)` below (above) every `v(o)` by the margin.
+    Least {
+        best: String,
+        of: Vec<String>,
+        #[serde(default)]
+        margin: f64,
+        #[serde(default)]
+        direction: Direction,
+    },
+    /// `|v(a) − v(b)| <= tolerance · max(|v(a)|, |v(b)|)`.
+    Equal {
+        a: String,
+        b: String,
+        #[serde(default)]
+        tolerance: f64,
+    },
+}
+
+impl Test {
+    /// The selectors the test names, in order.
+    pub fn names(&self) -> Vec<&str> {
+        match self {
+            Test::Value { of, .. } => vec![of],
+            Test::Ratio { num, den, .. } => vec![num, den],
+            Test::Gain { of, base, .. } | Test::Speedup { of, base, .. } => vec![of, base],
+            Test::Order { rows, .. } => rows.iter().map(String::as_str).collect(),
+            Test::Least { best, of, .. } => std::iter::once(best.as_str())
+                .chain(of.iter().map(String::as_str))
+                .collect(),
+            Test::Equal { a, b, .. } => vec![a, b],
+        }
+    }
+
+    /// The band of a band test.
+    pub fn band(&self) -> Option<(Option<f64>, Option<f64>)> {
+        match self {
+            Test::Value { min, max, .. }
+            | Test::Ratio { min, max, .. }
+            | Test::Gain { min, max, .. }
+            | Test::Speedup { min, max, .. } => Some((*min, *max)),
+            _ => None,
+        }
+    }
+}
+
+/// A row selector: column (or `scene`, `view`, `params`, `file`) → value or alternatives.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(transparent)]
+pub struct Selector(pub BTreeMap<String, toml::Value>);
+
+impl Selector {
+    fn check(&self) -> Result<(), String> {
+        for (k, v) in &self.0 {
+            if k == "params" {
+                let toml::Value::Table(t) = v else {
+                    return Err("params: must be a table of parameter = value".into());
+                };
+                for (pk, pv) in t {
+                    check_value(pv).map_err(|m| format!("params.{pk}: {m}"))?;
+                }
+            } else {
+                check_value(v).map_err(|m| format!("{k}: {m}"))?;
+            }
+        }
+        Ok(())
+    }
+}
+
+fn check_value(v: &toml::Value) -> Result<(), String> {
+    match v {
+        toml::Value::String(_)
+        | toml::Value::Integer(_)
+        | toml::Value::Float(_)
+        | toml::Value::Boolean(_) => Ok(()),
+        toml::Value::Array(a) if !a.is_empty() => a.iter().try_for_each(|x| match x {
+            toml::Value::Array(_) | toml::Value::Table(_) => {
+                Err("a list of alternatives holds plain values".into())
+            }
+            x => check_value(x),
+        }),
+        toml::Value::Array(_) => Err("an empty list matches nothing".into()),
+        _ => Err("expected a string, number, boolean or a list of them".into()),
+    }
+}
+
+impl ClaimsFile {
+    /// Every claim's ids, selectors, measure, test and groups, before any row is read.
+    pub(crate) fn check(&self, path: &Path, text: &str) -> Result<(), HarnessError> {
+        let mut ids = BTreeSet::new();
+        for (i, r) in self.runs.iter().enumerate() {
+            let line = find_line(text, "[[run]]", i);
+            let err = |m: String| HarnessError::Config {
+                file: path.into(),
+                line,
+                key: format!("run[{i}]"),
+                message: m,
+            };
+            match (&r.config, &r.exec) {
+                (Some(_), Some(_)) => return Err(err("give config or exec, not both".into())),
+                (None, None) => return Err(err("needs config or exec".into())),
+                (None, Some(e)) if e.is_empty() => return Err(err("exec is empty".into())),
+                _ => {}
+            }
+            if !(r.cost_s >= 0.0 && r.fixed_s >= 0.0 && r.fixed_s <= r.cost_s.max(r.fixed_s)) {
+                return Err(err("cost_s and fixed_s must be seconds >= 0".into()));
+            }
+        }
+        for c in &self.claims {
+            let line = find_line(text, &format!("id = \"{}\"", c.id), 0);
+            let err = |key: &str, m: String| HarnessError::Config {
+                file: path.into(),
+                line,
+                key: format!("claim {}: {key}", c.id),
+                message: m,
+            };
+            if c.id.is_empty()
+                || !c
+                    .id
+                    .bytes()
+                    .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-')
+            {
+                return Err(err("id", "use lowercase letters, digits and '-'".into()));
+            }
+            if !ids.insert(c.id.as_str()) {
+                return Err(err("id", "appears twice in the file".into()));
+            }
+            c.filter.check().map_err(|m| err("filter", m))?;
+            for (name, s) in &c.rows {
+                s.check().map_err(|m| err(&format!("rows.{name}"), m))?;
+            }
+            for n in c.test.names() {
+                if !c.rows.contains_key(n) {
+                    return Err(err(
+                        "test",
+                        format!(
+                            "names rows `{n}`, which claim.rows does not define (it has: {})",
+                            c.rows.keys().cloned().collect::<Vec<_>>().join(", ")
+                        ),
+                    ));
+                }
+            }
+            if let Some((min, max)) = c.test.band() {
+                match (min, max) {
+                    (None, None) => return Err(err("test", "give min, max or both".into())),
+                    (Some(a), Some(b)) if a > b => {
+                        return Err(err("test", format!("min {a} is above max {b}")))
+                    }
+                    _ => {}
+                }
+            }
+            match &c.test {
+                Test::Order { rows, margin, .. } if rows.len() < 2 || *margin < 0.0 => {
+                    return Err(err(
+                        "test",
+                        "order needs two rows or more, margin >= 0".into(),
+                    ))
+                }
+                Test::Least { of, margin, .. } if of.is_empty() || *margin < 0.0 => {
+                    return Err(err("test", "least needs `of` rows, margin >= 0".into()))
+                }
+                Test::Equal { tolerance, .. } if *tolerance < 0.0 => {
+                    return Err(err("test", "tolerance must be >= 0".into()))
+                }
+                _ => {}
+            }
+            super::eval::Measure::parse(&c.measure).map_err(|m| err("measure", m))?;
+            for p in &c.per {
+                if p.is_empty() || p.contains(char::is_whitespace) {
+                    return Err(err("per", format!("`{p}` is not a column or group key")));
+                }
+            }
+            if c.devices.is_empty() {
+                return Err(err("devices", "name at least one device".into()));
+            }
+        }
+        Ok(())
+    }
+
+    /// Claims by id.
+    pub fn claim(&self, id: &str) -> Option<&Claim> {
+        self.claims.iter().find(|c| c.id == id)
+    }
+}
+
+/// 1-based line of the `nth` occurrence of `needle` in `text` (1 when absent).
+fn find_line(text: &str, needle: &str, nth: usize) -> usize {
+    text.match_indices(needle)
+        .nth(nth)
+        .map(|(p, _)| crate::config::line_of(text, p))
+        .unwrap_or(1)
+}
