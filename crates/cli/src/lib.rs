@@ -153,6 +153,34 @@ enum Cmd {
         #[arg(long)]
         csv: Option<PathBuf>,
     },
+    /// Reproduce a paper (or all five): run its claims file's runs scaled to the budget, then
+    /// its claims; write REPORT.md, REPRODUCTION.md and verdicts.json to one folder.
+    Reproduce {
+        /// A paper's key (`feldmann-rtrees`, … : a file stem under --claims-dir), a claims
+        /// file, or `all` (every claims file with runs).
+        paper: String,
+        /// Time for all the runs (`10m`, `90s`, `1h`); images shrink to fit.
+        #[arg(long, default_value = "10m")]
+        budget: String,
+        /// Devices whose runs are made: `cpu` (default), `gpu` or `cpu,gpu`.
+        #[arg(long, value_delimiter = ',', default_value = "cpu", value_parser = ["cpu", "gpu"])]
+        device: Vec<String>,
+        /// The report folder (default results/reproduce/TIMESTAMP); an existing one reuses
+        /// its complete runs and resumes the others.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Where the claims files are.
+        #[arg(long, default_value = "claims")]
+        claims_dir: PathBuf,
+        /// Further results (folders or CSVs) evaluated with each paper's runs, e.g. a GPU run
+        /// made on another machine.
+        #[arg(long = "with")]
+        with: Vec<PathBuf>,
+        #[arg(long, env = "TRACE_BENCH_SCENES")]
+        scenes_root: Option<PathBuf>,
+        #[arg(long, short)]
+        quiet: bool,
+    },
     /// Evaluate a paper's claims (claims/PAPER.toml) against results folders or CSVs:
     /// claim | paper | ours | verdict (agree, disagree, inconclusive) | why.
     Claims {
@@ -289,6 +317,25 @@ fn dispatch(cli: Cli) -> Result<i32> {
             print!("{}", tb_harness::registry::Registry::builtin().listing());
             Ok(0)
         }
+        Cmd::Reproduce {
+            paper,
+            budget,
+            device,
+            out,
+            claims_dir,
+            with,
+            scenes_root,
+            quiet,
+        } => cmd_reproduce(
+            &paper,
+            &budget,
+            device,
+            out,
+            &claims_dir,
+            with,
+            scenes_root,
+            quiet,
+        ),
         Cmd::Claims {
             claims,
             results,
@@ -672,4 +719,87 @@ fn cmd_claims(
     }
     let all_agree = verdicts.iter().all(|v| v.verdict == claims::Verdict::Agree);
     Ok(if require_agree && !all_agree { 1 } else { 0 })
+}
+
+/// `trace-bench reproduce`: runs, claims, report.
+fn cmd_reproduce(
+    paper: &str,
+    budget: &str,
+    devices: Vec<String>,
+    out: Option<PathBuf>,
+    claims_dir: &Path,
+    with: Vec<PathBuf>,
+    scenes_root: Option<PathBuf>,
+    quiet: bool,
+) -> Result<i32> {
+    use tb_harness::claims::reproduce;
+    let budget_s = humantime::parse_duration(budget)
+        .with_context(|| format!("--budget {budget}: expected a duration such as 10m, 90s, 1h"))?
+        .as_secs_f64();
+    if budget_s <= 0.0 {
+        bail!("--budget {budget}: must be more than zero");
+    }
+    let papers = if paper == "all" {
+        reproduce::papers_in(claims_dir)?
+    } else if Path::new(paper).is_file() {
+        vec![PathBuf::from(paper)]
+    } else {
+        let p = claims_dir.join(format!("{paper}.toml"));
+        if !p.is_file() {
+            let known: Vec<String> = reproduce::papers_in(claims_dir)
+                .unwrap_or_default()
+                .iter()
+                .filter_map(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
+                .collect();
+            bail!(
+                "{}: no such claims file (papers: {}, or all)",
+                p.display(),
+                known.join(", ")
+            );
+        }
+        vec![p]
+    };
+    if papers.is_empty() {
+        bail!("{}: no claims file with runs", claims_dir.display());
+    }
+    let out = out.unwrap_or_else(|| {
+        PathBuf::from("results/reproduce").join(
+            tb_harness::meta::now_rfc3339()
+                .replace(':', "")
+                .trim_end_matches('Z')
+                .to_string(),
+        )
+    });
+    let opts = reproduce::Options {
+        papers,
+        // A twentieth of the budget is kept for loading the claims and writing the report.
+        budget_s: budget_s * 0.95,
+        devices,
+        out: out.clone(),
+        exe: std::env::current_exe().context("cannot find the trace-bench executable")?,
+        scenes_root,
+        with,
+        budget_text: budget.to_owned(),
+        quiet,
+    };
+    let reports = reproduce::reproduce(&opts)?;
+    for r in &reports {
+        println!("{}", r.paper);
+        print!("{}", tb_harness::claims::render::text(&r.claims, 160));
+    }
+    println!(
+        "report: {} (REPORT.md, REPRODUCTION.md, verdicts.json)",
+        out.display()
+    );
+    let failed = reports
+        .iter()
+        .flat_map(|r| &r.runs)
+        .filter(|r| r.exit.is_some_and(|c| c != 0))
+        .count();
+    if failed > 0 {
+        eprintln!(
+            "note: {failed} runs exited non-zero (their finished rows are used; see REPORT.md)"
+        );
+    }
+    Ok(0)
 }

@@ -38,7 +38,13 @@ pub struct Value {
     pub noisy: usize,
     /// Of them, GPU rows from a software adapter (timed measures).
     pub software: usize,
+    /// Of them, rows timed fewer than [`MIN_TIMED_RUNS`] times (no interval).
+    pub few_runs: usize,
 }
+
+/// Timed runs a row needs for its spread to bound the median (with fewer the interval is
+/// unknown, not zero).
+pub const MIN_TIMED_RUNS: f64 = 3.0;
 
 impl Value {
     fn point(v: f64, rows: usize) -> Value {
@@ -50,6 +56,7 @@ impl Value {
             rows,
             noisy: 0,
             software: 0,
+            few_runs: 0,
         }
     }
 }
@@ -442,7 +449,7 @@ fn term_name(t: &Term) -> String {
 /// half-width; where absent, the row's min and max), or million rays per second over them.
 fn pool_time(name: &str, rows: &[&Row], mrays: bool) -> Result<Value, String> {
     let (mut t, mut lo, mut hi, mut rays) = (0.0, 0.0, 0.0, 0.0);
-    let (mut noisy, mut software) = (0, 0);
+    let (mut noisy, mut software, mut few_runs) = (0, 0, 0);
     for r in rows {
         let Some(m) = r.num("trace_ms_median") else {
             return Err(format!("`{name}`: a row has no trace_ms_median"));
@@ -460,6 +467,7 @@ fn pool_time(name: &str, rows: &[&Row], mrays: bool) -> Result<Value, String> {
         rays += r.num("rays").unwrap_or(0.0);
         noisy += usize::from(r.get("noisy") == Some("true"));
         software += usize::from(software_adapter(r));
+        few_runs += usize::from(r.num("timed_runs").unwrap_or(0.0) < MIN_TIMED_RUNS);
     }
     let (v, lo, hi) = if mrays {
         let f = |ms: f64| rays / (ms * 1e3);
@@ -475,13 +483,14 @@ fn pool_time(name: &str, rows: &[&Row], mrays: bool) -> Result<Value, String> {
         rows: rows.len(),
         noisy,
         software,
+        few_runs,
     })
 }
 
 // ---------------------------------------------------------------------------------------
 // Tests
 
-/// A number in four significant digits.
+/// A number in five significant digits (whole numbers from 10,000).
 pub(crate) fn fmt(x: f64) -> String {
     if !x.is_finite() {
         return if x.is_nan() {
@@ -493,10 +502,10 @@ pub(crate) fn fmt(x: f64) -> String {
         };
     }
     let a = x.abs();
-    if a >= 1000.0 || a == 0.0 {
+    if a >= 10000.0 || a == 0.0 {
         return format!("{x:.0}");
     }
-    let d = (3 - a.log10().floor() as i32).clamp(0, 8) as usize;
+    let d = (4 - a.log10().floor() as i32).clamp(0, 8) as usize;
     let s = format!("{x:.d$}");
     if s.contains('.') {
         s.trim_end_matches('0').trim_end_matches('.').to_owned()
@@ -795,7 +804,13 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet) -> ClaimResult {
             let (mut verdict, shown, derived, mut why) = run_test(&c.test, &vals);
             let noisy: usize = vals.values().map(|v| v.noisy).sum();
             let software: usize = vals.values().map(|v| v.software).sum();
-            if software > 0 {
+            let few: usize = vals.values().map(|v| v.few_runs).sum();
+            if few > 0 {
+                why = format!(
+                    "{few} timed rows have fewer than {MIN_TIMED_RUNS} timed runs (no interval); {why}"
+                );
+                verdict = Verdict::Inconclusive;
+            } else if software > 0 {
                 why = format!(
                     "timed on a software GPU adapter ({software} rows), not GPU figures; {why}"
                 );
@@ -989,9 +1004,10 @@ mod tests {
 
     #[test]
     fn numbers_print_in_four_digits() {
-        assert_eq!(fmt(0.123456), "0.1235");
+        assert_eq!(fmt(0.123456), "0.12346");
         assert_eq!(fmt(12.0), "12");
-        assert_eq!(fmt(1234.4), "1234");
+        assert_eq!(fmt(55.04431), "55.044");
+        assert_eq!(fmt(12345.4), "12345");
         assert_eq!(fmt(-7.25), "-7.25");
     }
 }

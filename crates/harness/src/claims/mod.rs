@@ -11,6 +11,7 @@
 
 mod eval;
 pub mod render;
+pub mod reproduce;
 pub mod rows;
 mod schema;
 

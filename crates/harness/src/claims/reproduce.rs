@@ -1,0 +1,559 @@
+//! `trace-bench reproduce`: a paper's runs, scaled to a time budget, then its claims, into one
+//! report folder (`REPORT.md`, `REPRODUCTION.md`, `verdicts.json`, `runs/`).
+//!
+//! Each `[[run]]` of a claims file is a child `trace-bench` process (a failed or killed run
+//! leaves the others and its own finished rows; rerunning with the same `--out` reuses every
+//! run whose `results.json` says `complete`, and resumes the others). The budget is shared by
+//! the runs' declared costs (`cost_s`, measured on the 2-core reference machine): when they do
+//! not fit, the images of `scalable` runs shrink by one factor (the variable part of a run's
+//! cost is taken as proportional to its pixels), and the report says so.
+
+use super::eval::{evaluate, ClaimResult, Verdict};
+use super::render::{self, Tally};
+use super::rows::RowSet;
+use super::schema::{ClaimsFile, RunSpec};
+use crate::HarnessError;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+/// What to reproduce.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Claims files, in order.
+    pub papers: Vec<PathBuf>,
+    /// Seconds for all the runs.
+    pub budget_s: f64,
+    /// Devices whose runs are made (`cpu`, `gpu`).
+    pub devices: Vec<String>,
+    /// The report folder.
+    pub out: PathBuf,
+    /// The trace-bench executable for the runs.
+    pub exe: PathBuf,
+    /// `--scenes-root` for the runs.
+    pub scenes_root: Option<PathBuf>,
+    /// Further results folders or CSVs evaluated with each paper's runs (e.g. a GPU run made
+    /// on another machine).
+    pub with: Vec<PathBuf>,
+    /// The budget as the user wrote it (for the report).
+    pub budget_text: String,
+    pub quiet: bool,
+}
+
+/// One planned (and then made) run.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PlannedRun {
+    pub paper: String,
+    pub label: String,
+    pub args: Vec<String>,
+    pub folder: PathBuf,
+    pub cost_s: f64,
+    /// The image scale applied (1 = as declared).
+    pub scale: f64,
+    /// What was scaled, in words.
+    pub scaled: Option<String>,
+    pub wall_s: Option<f64>,
+    pub exit: Option<i32>,
+    pub reused: bool,
+}
+
+/// One paper's outcome.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PaperReport {
+    pub key: String,
+    pub paper: String,
+    pub runs: Vec<PlannedRun>,
+    pub claims: Vec<ClaimResult>,
+    pub tally: Tally,
+}
+
+/// The papers' keys (file stems) in `dir` that have runs, sorted.
+pub fn papers_in(dir: &Path) -> Result<Vec<PathBuf>, HarnessError> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| HarnessError::io(dir, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    v.sort();
+    let mut out = Vec::new();
+    for p in v {
+        if !super::load(&p)?.runs.is_empty() {
+            out.push(p);
+        }
+    }
+    Ok(out)
+}
+
+fn stem(p: &Path) -> String {
+    p.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// Whether the run is made on these devices: a run naming `gpu` only when `gpu` is asked
+/// for, one naming no device (the CPU) only when `cpu` is.
+fn wanted(r: &RunSpec, devices: &[String]) -> bool {
+    let gpu = r
+        .device
+        .as_ref()
+        .is_some_and(|d| d.iter().any(|x| x == "gpu"));
+    if gpu {
+        devices.iter().any(|d| d == "gpu")
+    } else {
+        devices.iter().any(|d| d == "cpu")
+    }
+}
+
+/// The image scale that fits `runs` into `budget_s` (1 when they fit as declared), and the
+/// estimate at that scale.
+pub fn fit(runs: &[&RunSpec], budget_s: f64) -> (f64, f64) {
+    let total: f64 = runs.iter().map(|r| r.cost_s).sum();
+    if total <= budget_s {
+        return (1.0, total);
+    }
+    let fixed: f64 = runs
+        .iter()
+        .map(|r| if r.scalable { r.fixed_s } else { r.cost_s })
+        .sum();
+    let var: f64 = runs
+        .iter()
+        .filter(|r| r.scalable)
+        .map(|r| r.cost_s - r.fixed_s)
+        .sum();
+    if var <= 0.0 {
+        return (1.0, total);
+    }
+    let f = ((budget_s - fixed) / var).clamp(MIN_SCALE, 1.0);
+    (f, fixed + f * var)
+}
+
+/// The smallest pixel scale reproduce applies (1/64 of the pixels: 1024² → 128²).
+pub const MIN_SCALE: f64 = 1.0 / 64.0;
+
+/// The run's `--set` edits with width and height scaled by `sqrt(f)` (multiples of 8, at
+/// least 32 pixels), and what was scaled.
+fn scaled_sets(r: &RunSpec, f: f64) -> (Vec<String>, Option<String>) {
+    if f >= 1.0 || !r.scalable {
+        return (r.set.clone(), None);
+    }
+    let k = f.sqrt();
+    let mut changed = Vec::new();
+    let sets = r
+        .set
+        .iter()
+        .map(|s| {
+            let Some((key, val)) = s.split_once('=') else {
+                return s.clone();
+            };
+            let is_size = key.ends_with(".width") || key.ends_with(".height");
+            match (is_size, val.trim().parse::<f64>()) {
+                (true, Ok(v)) => {
+                    let n = (((v * k) / 8.0).round() * 8.0).max(32.0) as u64;
+                    changed.push(format!("{key} {v} → {n}"));
+                    format!("{key}={n}")
+                }
+                _ => s.clone(),
+            }
+        })
+        .collect();
+    let note = if changed.is_empty() {
+        Some("not scaled: the run sets no width/height".to_owned())
+    } else {
+        Some(changed.join(", "))
+    };
+    (sets, note)
+}
+
+/// The trace-bench arguments of a run into `folder`.
+fn run_args(
+    r: &RunSpec,
+    sets: &[String],
+    folder: &Path,
+    scenes_root: Option<&Path>,
+) -> Vec<String> {
+    let out = folder.display().to_string();
+    if let Some(exec) = &r.exec {
+        return exec.iter().map(|a| a.replace("{out}", &out)).collect();
+    }
+    let mut a = vec![
+        "run".to_owned(),
+        r.config.clone().unwrap_or_default(),
+        "--out".into(),
+        out,
+        "-q".into(),
+    ];
+    for s in sets {
+        a.push("--set".into());
+        a.push(s.clone());
+    }
+    if !r.structure.is_empty() {
+        a.push("--structure".into());
+        a.push(r.structure.join(","));
+    }
+    if !r.scene.is_empty() {
+        a.push("--scene".into());
+        a.push(r.scene.join(","));
+    }
+    if let Some(t) = &r.threads {
+        a.push("--threads".into());
+        a.push(t.iter().map(usize::to_string).collect::<Vec<_>>().join(","));
+    }
+    if let Some(d) = &r.device {
+        a.push("--device".into());
+        a.push(d.join(","));
+    }
+    if let Some(root) = scenes_root {
+        a.push("--scenes-root".into());
+        a.push(root.display().to_string());
+    }
+    a
+}
+
+/// A run folder's status (`complete`, …) from its results.json.
+fn status(folder: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(folder.join("results.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    v["meta"]["status"].as_str().map(str::to_owned)
+}
+
+/// Plan every paper's runs within the budget.
+pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)>, HarnessError> {
+    let mut files = Vec::new();
+    for p in &opts.papers {
+        files.push((p.clone(), super::load(p)?));
+    }
+    let all: Vec<&RunSpec> = files
+        .iter()
+        .flat_map(|(_, f)| f.runs.iter())
+        .filter(|r| wanted(r, &opts.devices))
+        .collect();
+    let (scale, _) = fit(&all, opts.budget_s);
+    let mut out = Vec::new();
+    for (path, file) in files {
+        let key = stem(&path);
+        let mut runs = Vec::new();
+        for (i, r) in file.runs.iter().enumerate() {
+            if !wanted(r, &opts.devices) {
+                continue;
+            }
+            let label = match (&r.config, &r.exec) {
+                (Some(c), _) => stem(Path::new(c)),
+                (None, Some(e)) => e.first().cloned().unwrap_or_default(),
+                _ => String::new(),
+            };
+            let folder = opts
+                .out
+                .join("runs")
+                .join(&key)
+                .join(format!("{i}-{label}"));
+            let (sets, scaled) = scaled_sets(r, scale);
+            let cost = if r.scalable && scaled.as_deref().is_some_and(|s| !s.starts_with("not")) {
+                r.fixed_s + scale * (r.cost_s - r.fixed_s)
+            } else {
+                r.cost_s
+            };
+            runs.push(PlannedRun {
+                paper: key.clone(),
+                label,
+                args: run_args(r, &sets, &folder, opts.scenes_root.as_deref()),
+                folder,
+                cost_s: cost,
+                scale: if scaled.is_some() { scale } else { 1.0 },
+                scaled,
+                wall_s: None,
+                exit: None,
+                reused: false,
+            });
+        }
+        out.push((path, file, runs));
+    }
+    Ok(out)
+}
+
+/// Make the planned runs, evaluate the claims, write the report folder.
+pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
+    let planned = plan(opts)?;
+    std::fs::create_dir_all(&opts.out).map_err(|e| HarnessError::io(&opts.out, e))?;
+    let started = Instant::now();
+    let start_time = crate::meta::now_rfc3339();
+    let mut reports = Vec::new();
+    for (path, file, mut runs) in planned {
+        for r in &mut runs {
+            if status(&r.folder).as_deref() == Some("complete")
+                || (r.args.first().is_some_and(|a| a != "run") && r.folder.is_dir())
+            {
+                r.reused = true;
+                if !opts.quiet {
+                    eprintln!(
+                        "reproduce: {} {}: reused {}",
+                        r.paper,
+                        r.label,
+                        r.folder.display()
+                    );
+                }
+                continue;
+            }
+            let mut args = r.args.clone();
+            if r.args.first().is_some_and(|a| a == "run") && r.folder.join("results.json").exists()
+            {
+                args.push("--resume".into());
+            }
+            std::fs::create_dir_all(&r.folder).map_err(|e| HarnessError::io(&r.folder, e))?;
+            if !opts.quiet {
+                eprintln!(
+                    "reproduce: {} {} (about {:.0} s{}) …",
+                    r.paper,
+                    r.label,
+                    r.cost_s,
+                    r.scaled
+                        .as_deref()
+                        .map(|s| format!("; {s}"))
+                        .unwrap_or_default()
+                );
+            }
+            let t = Instant::now();
+            let st = Command::new(&opts.exe)
+                .args(&args)
+                .stdout(std::process::Stdio::null())
+                .status()
+                .map_err(|e| HarnessError::io(&opts.exe, e))?;
+            r.wall_s = Some(t.elapsed().as_secs_f64());
+            r.exit = st.code();
+            if !opts.quiet {
+                eprintln!(
+                    "reproduce: {} {} done in {:.0} s{}",
+                    r.paper,
+                    r.label,
+                    r.wall_s.unwrap_or(0.0),
+                    if st.success() {
+                        String::new()
+                    } else {
+                        format!(" (exit {:?})", st.code())
+                    }
+                );
+            }
+        }
+        let mut sources: Vec<PathBuf> = runs
+            .iter()
+            .map(|r| r.folder.clone())
+            .filter(|f| f.is_dir() && std::fs::read_dir(f).is_ok_and(|mut d| d.next().is_some()))
+            .collect();
+        sources.extend(opts.with.iter().cloned());
+        let rows = if sources.is_empty() {
+            RowSet::default()
+        } else {
+            RowSet::read(&sources)?
+        };
+        let claims = evaluate(&file, &rows);
+        let tally = Tally::of(&claims);
+        reports.push(PaperReport {
+            key: stem(&path),
+            paper: file.paper.clone(),
+            runs,
+            claims,
+            tally,
+        });
+    }
+    let wall = started.elapsed().as_secs_f64();
+    write_report(opts, &reports, &start_time, wall)?;
+    Ok(reports)
+}
+
+fn write(path: &Path, text: &str) -> Result<(), HarnessError> {
+    let tmp = path.with_extension("tmp");
+    std::fs::write(&tmp, text).map_err(|e| HarnessError::io(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| HarnessError::io(path, e))
+}
+
+/// The machine in one line.
+fn machine() -> String {
+    let h = crate::meta::host_info();
+    format!(
+        "{} ({}, {} logical / {} physical cores, {} GiB, {})",
+        h["name"].as_str().unwrap_or("?"),
+        h["cpu"].as_str().unwrap_or("?"),
+        h["cores"],
+        h["physical_cores"],
+        h["memory_gib"],
+        h["os"].as_str().unwrap_or("?")
+    )
+}
+
+fn commit_line() -> String {
+    let dirty = if crate::meta::dirty() == Some(true) {
+        " (with uncommitted changes)"
+    } else {
+        ""
+    };
+    format!("{}{dirty}", crate::meta::commit())
+}
+
+fn write_report(
+    opts: &Options,
+    reports: &[PaperReport],
+    start: &str,
+    wall: f64,
+) -> Result<(), HarnessError> {
+    let all: Vec<ClaimResult> = reports.iter().flat_map(|r| r.claims.clone()).collect();
+    let head = format!(
+        "Machine: {}  \nCommit: {}  \nStarted: {start}; runs and claims took {:.0} s (budget {}: {:.0} s); devices: {}\n",
+        machine(),
+        commit_line(),
+        wall,
+        opts.budget_text,
+        opts.budget_s,
+        opts.devices.join(", ")
+    );
+    // REPORT.md: per paper the runs (what was scaled) and the verdicts beside the paper's.
+    let mut md = format!(
+        "# trace-bench reproduce\n\n{head}\nVerdicts: {}.\n",
+        Tally::of(&all)
+    );
+    for r in reports {
+        md.push_str(&format!("\n## {} (`claims/{}.toml`)\n\n", r.paper, r.key));
+        md.push_str("| run | estimate | scaled | wall s | exit |\n|---|---|---|---|---|\n");
+        for p in &r.runs {
+            md.push_str(&format!(
+                "| `trace-bench {}` | {:.0} s | {} | {} | {} |\n",
+                p.args.join(" ").replace('|', "\\|"),
+                p.cost_s,
+                p.scaled.clone().unwrap_or_else(|| "as declared".into()),
+                if p.reused {
+                    "reused".into()
+                } else {
+                    p.wall_s.map(|w| format!("{w:.0}")).unwrap_or_default()
+                },
+                p.exit.map(|c| c.to_string()).unwrap_or_default()
+            ));
+        }
+        md.push('\n');
+        md.push_str(&render::markdown(&r.claims));
+    }
+    write(&opts.out.join("REPORT.md"), &md)?;
+    write(
+        &opts.out.join("REPRODUCTION.md"),
+        &reproduction(reports, &head),
+    )?;
+    let json = serde_json::json!({
+        "machine": crate::meta::host_info(),
+        "build": crate::meta::build_info(),
+        "started": start,
+        "wall_s": wall,
+        "budget_s": opts.budget_s,
+        "devices": opts.devices,
+        "tally": Tally::of(&all),
+        "papers": reports,
+    });
+    write(
+        &opts.out.join("verdicts.json"),
+        &serde_json::to_string_pretty(&json).unwrap_or_default(),
+    )
+}
+
+/// REPRODUCTION.md: per paper, each claim's CPU and GPU verdicts side by side, with the
+/// measured reason and the claim's note.
+pub fn reproduction(reports: &[PaperReport], head: &str) -> String {
+    let mut s = format!(
+        "# Reproduction\n\nGenerated by `trace-bench reproduce all`; what holds and what does not, with \
+         the measured reason. Verdicts: `agree`, `disagree`, `inconclusive` (rows missing, a time \
+         interval across the bound, noisy or software-GPU timings); a GPU cell stays `not measured` \
+         until a run on a real GPU (`--device gpu`). Details: `claims/README.md`.\n\n{head}"
+    );
+    for r in reports {
+        s.push_str(&format!("\n## {}\n\n", r.paper));
+        s.push_str(&format!("{}.\n\n", r.tally));
+        s.push_str("| claim | where | paper | CPU: ours | CPU | GPU: ours | GPU | why (measured) |\n|---|---|---|---|---|---|---|---|\n");
+        let mut ids: Vec<&str> = Vec::new();
+        for c in &r.claims {
+            if !ids.contains(&c.id.as_str()) {
+                ids.push(&c.id);
+            }
+        }
+        for id in ids {
+            let on = |d: &str| r.claims.iter().find(|c| c.id == id && c.device == d);
+            let first = r.claims.iter().find(|c| c.id == id).expect("listed");
+            let cell = |c: Option<&ClaimResult>| match c {
+                None => ("".to_owned(), "".to_owned()),
+                Some(c)
+                    if c.device == "gpu" && c.verdict == Verdict::Inconclusive && c.ours == "—" =>
+                {
+                    ("".to_owned(), "not measured".to_owned())
+                }
+                Some(c) => (c.ours.clone(), c.verdict.as_str().to_owned()),
+            };
+            let (co, cv) = cell(on("cpu"));
+            let (go, gv) = cell(on("gpu"));
+            let mut why: Vec<String> = Vec::new();
+            for c in [on("cpu"), on("gpu")].into_iter().flatten() {
+                if !c.why.is_empty() && !(c.device == "gpu" && c.ours == "—") {
+                    why.push(if r.claims.iter().filter(|x| x.id == id).count() > 1 {
+                        format!("{}: {}", c.device.to_uppercase(), c.why)
+                    } else {
+                        c.why.clone()
+                    });
+                }
+            }
+            if let Some(n) = &first.note {
+                why.push(format!("note: {n}"));
+            }
+            let e = |x: &str| x.replace('|', "\\|").replace('\n', " ");
+            s.push_str(&format!(
+                "| `{}` | {} | {} | {} | {} | {} | {} | {} |\n",
+                id,
+                e(&first.place),
+                e(&first.paper),
+                e(&co),
+                cv,
+                e(&go),
+                gv,
+                e(&why.join(" — "))
+            ));
+        }
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(cost: f64, fixed: f64, scalable: bool) -> RunSpec {
+        RunSpec {
+            config: Some("configs/x.toml".into()),
+            exec: None,
+            set: vec![
+                "scene.camera.width=256".into(),
+                "scene.camera.height=192".into(),
+            ],
+            structure: vec![],
+            scene: vec![],
+            threads: None,
+            device: None,
+            cost_s: cost,
+            fixed_s: fixed,
+            scalable,
+            note: None,
+        }
+    }
+
+    #[test]
+    fn fitting_scales_only_the_variable_part() {
+        let (a, b) = (spec(100.0, 20.0, true), spec(50.0, 50.0, false));
+        assert_eq!(fit(&[&a, &b], 200.0), (1.0, 150.0));
+        // 20 + 50 fixed, 80 variable: 110 s leaves 40 s, half the pixels.
+        let (f, est) = fit(&[&a, &b], 110.0);
+        assert!((f - 0.5).abs() < 1e-12 && (est - 110.0).abs() < 1e-9);
+        // Never below the smallest scale.
+        assert_eq!(fit(&[&a, &b], 10.0).0, MIN_SCALE);
+    }
+
+    #[test]
+    fn scaled_sizes_keep_multiples_of_eight() {
+        let (sets, note) = scaled_sets(&spec(1.0, 0.0, true), 0.25);
+        assert_eq!(sets, ["scene.camera.width=128", "scene.camera.height=96"]);
+        assert!(note.unwrap().contains("256 → 128"));
+        let (sets, note) = scaled_sets(&spec(1.0, 0.0, false), 0.25);
+        assert_eq!(sets[0], "scene.camera.width=256");
+        assert!(note.is_none());
+    }
+}
