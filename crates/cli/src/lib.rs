@@ -435,7 +435,7 @@ fn default_out(name: &str, resume: bool) -> Result<PathBuf> {
         let mut dirs: Vec<PathBuf> = std::fs::read_dir(&base)
             .with_context(|| format!("{}: no earlier run to resume", base.display()))?
             .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.join("results.csv").is_file())
+            .filter(|p| p.join("results.csv").is_file() && !p.is_symlink())
             .collect();
         dirs.sort();
         return dirs
@@ -444,6 +444,32 @@ fn default_out(name: &str, resume: bool) -> Result<PathBuf> {
     }
     let stamp = tb_harness::meta::now_rfc3339().replace(':', "-");
     Ok(base.join(stamp.trim_end_matches('Z')))
+}
+
+/// Point `LATEST` beside a new default run folder at it (`results/NAME/LATEST`), so scripts
+/// and docs can name the newest run. Best effort: a failure is a note.
+fn link_latest(out: &Path) {
+    let (Some(parent), Some(name)) = (out.parent(), out.file_name()) else {
+        return;
+    };
+    let result = std::fs::create_dir_all(out).and_then(|_| {
+        let link = parent.join("LATEST");
+        if link.is_symlink() || link.exists() {
+            std::fs::remove_file(&link)?;
+        }
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(name, &link)
+        }
+        #[cfg(not(unix))]
+        {
+            let _ = name;
+            Ok(())
+        }
+    });
+    if let Err(e) = result {
+        eprintln!("note: {}: cannot link LATEST: {e}", parent.display());
+    }
 }
 
 fn cmd_run(
@@ -460,7 +486,13 @@ fn cmd_run(
         (None, Some(s)) => PathBuf::from("results")
             .join(&exp.name)
             .join(format!("shard-{}-of-{}", s.k, s.n)),
-        (None, None) => default_out(&exp.name, resume)?,
+        (None, None) => {
+            let o = default_out(&exp.name, resume)?;
+            if !resume {
+                link_latest(&o);
+            }
+            o
+        }
     };
     if resume {
         check_resume(&out, &exp)?;
@@ -762,14 +794,18 @@ fn cmd_reproduce(
     if papers.is_empty() {
         bail!("{}: no claims file with runs", claims_dir.display());
     }
+    let default_folder = out.is_none();
     let out = out.unwrap_or_else(|| {
         PathBuf::from("results/reproduce").join(
             tb_harness::meta::now_rfc3339()
-                .replace(':', "")
+                .replace(':', "-")
                 .trim_end_matches('Z')
                 .to_string(),
         )
     });
+    if default_folder {
+        link_latest(&out);
+    }
     let opts = reproduce::Options {
         papers,
         // A twentieth of the budget is kept for loading the claims and writing the report.

@@ -74,6 +74,18 @@ pub struct AdapterSummary {
 }
 
 impl AdapterSummary {
+    /// The `adapter_type` column: `discrete`, `integrated`, `virtual`, `software` (a CPU
+    /// rasterizer: lavapipe, llvmpipe, SwiftShader) or `other`.
+    pub fn kind(&self) -> &'static str {
+        match self.device_type.as_str() {
+            "DiscreteGpu" => "discrete",
+            "IntegratedGpu" => "integrated",
+            "VirtualGpu" => "virtual",
+            "Cpu" => "software",
+            _ => "other",
+        }
+    }
+
     /// `name / backend / driver`, the `adapter` column of GPU rows.
     pub fn label(&self) -> String {
         format!("{} / {} / {}", self.name, self.backend, self.driver)

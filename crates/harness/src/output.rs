@@ -28,6 +28,11 @@ macro_rules! define_row {
             pub device: String,
             /// GPU rows: adapter name, backend and driver; empty on the CPU.
             pub adapter: String,
+            /// GPU rows: the adapter's kind, `discrete`, `integrated`, `virtual`, `other` or
+            /// `software` (a CPU rasterizer such as llvmpipe: its times are not GPU figures);
+            /// empty on the CPU.
+            #[serde(default)]
+            pub adapter_type: String,
             /// The machine the row ran on (host name; rows of several machines can be merged).
             #[serde(default)]
             pub host: String,

@@ -53,10 +53,18 @@ fn results(dir: &Path) -> PathBuf {
         "results.csv",
         &[
             HEAD.to_string(),
-            row("s1@v1", "a", "k=1", "primary", 100, 10.0, 0.01, 9, false, 10.0),
-            row("s1@v2", "a", "k=1", "primary", 300, 30.0, 0.01, 9, false, 20.0),
-            row("s1@v1", "b", "k=1", "primary", 100, 20.0, 0.01, 9, false, 20.0),
-            row("s1@v2", "b", "k=1", "primary", 300, 60.0, 0.01, 9, false, 20.0),
+            row(
+                "s1@v1", "a", "k=1", "primary", 100, 10.0, 0.01, 9, false, 10.0,
+            ),
+            row(
+                "s1@v2", "a", "k=1", "primary", 300, 30.0, 0.01, 9, false, 20.0,
+            ),
+            row(
+                "s1@v1", "b", "k=1", "primary", 100, 20.0, 0.01, 9, false, 20.0,
+            ),
+            row(
+                "s1@v2", "b", "k=1", "primary", 300, 60.0, 0.01, 9, false, 20.0,
+            ),
             row("s2", "a", "k=1", "primary", 100, 10.0, 0.3, 9, false, 5.0),
             row("s2", "b", "k=1", "primary", 100, 11.0, 0.3, 9, false, 6.0),
             row("s2", "a", "k=2", "primary", 100, 10.0, 0.01, 9, false, 4.0),
@@ -70,9 +78,7 @@ fn results(dir: &Path) -> PathBuf {
 const BASE: &str = "paper = \"t\"\n";
 
 fn claim(body: &str) -> String {
-    format!(
-        "{BASE}[[claim]]\nid = \"c\"\nwhere = \"T1\"\ntext = \"t\"\npaper = \"p\"\n{body}\n"
-    )
+    format!("{BASE}[[claim]]\nid = \"c\"\nwhere = \"T1\"\ntext = \"t\"\npaper = \"p\"\n{body}\n")
 }
 
 #[test]
@@ -90,11 +96,20 @@ fn views_pool_by_rays_and_groups_decide_together() {
     assert!((g[0] - 0.875).abs() < 1e-12 && (g[1] - 5.0 / 6.0).abs() < 1e-12);
     // A tighter band fails in s1 only: `all` disagrees, `any` agrees, `most` disagrees (1 of 2).
     let tight = c.replace("max = 0.9", "max = 0.85");
-    assert_eq!(eval(&tight, std::slice::from_ref(&r))[0].verdict, Verdict::Disagree);
+    assert_eq!(
+        eval(&tight, std::slice::from_ref(&r))[0].verdict,
+        Verdict::Disagree
+    );
     let any = tight.replace("per = [\"scene\"]", "per = [\"scene\"]\nneed = \"any\"");
-    assert_eq!(eval(&any, std::slice::from_ref(&r))[0].verdict, Verdict::Agree);
+    assert_eq!(
+        eval(&any, std::slice::from_ref(&r))[0].verdict,
+        Verdict::Agree
+    );
     let most = tight.replace("per = [\"scene\"]", "per = [\"scene\"]\nneed = \"most\"");
-    assert_eq!(eval(&most, std::slice::from_ref(&r))[0].verdict, Verdict::Disagree);
+    assert_eq!(
+        eval(&most, std::slice::from_ref(&r))[0].verdict,
+        Verdict::Disagree
+    );
     // Per view: three groups.
     let views = c.replace("per = [\"scene\"]", "per = [\"view\"]");
     assert_eq!(eval(&views, &[r])[0].groups.len(), 3);
@@ -107,17 +122,50 @@ fn every_test_kind_decides_counters() {
     let f = "measure = \"interior_per_ray\"\nfilter = { ray_kind = \"primary\", scene = \"s2\", params = { k = 1 } }\nrows.a = { traversal = \"a\" }\nrows.b = { traversal = \"b\" }\n";
     let cases = [
         // gain = 100 (1 − 5/6) = 16.7 %
-        ("test = { kind = \"gain\", of = \"a\", base = \"b\", min = 10, max = 20 }", Verdict::Agree),
-        ("test = { kind = \"gain\", of = \"a\", base = \"b\", min = 20 }", Verdict::Disagree),
-        ("test = { kind = \"speedup\", of = \"a\", base = \"b\", min = 1.2 }", Verdict::Agree),
-        ("test = { kind = \"value\", of = \"a\", min = 5, max = 5 }", Verdict::Agree),
-        ("test = { kind = \"order\", rows = [\"a\", \"b\"], strict = true }", Verdict::Agree),
-        ("test = { kind = \"order\", rows = [\"b\", \"a\"] }", Verdict::Disagree),
-        ("test = { kind = \"order\", rows = [\"a\", \"b\"], strict = true, margin = 0.2 }", Verdict::Disagree),
-        ("test = { kind = \"least\", best = \"a\", of = [\"b\"] }", Verdict::Agree),
-        ("test = { kind = \"least\", best = \"a\", of = [\"b\"], direction = \"highest\" }", Verdict::Disagree),
-        ("test = { kind = \"equal\", a = \"a\", b = \"b\", tolerance = 0.2 }", Verdict::Agree),
-        ("test = { kind = \"equal\", a = \"a\", b = \"b\", tolerance = 0.1 }", Verdict::Disagree),
+        (
+            "test = { kind = \"gain\", of = \"a\", base = \"b\", min = 10, max = 20 }",
+            Verdict::Agree,
+        ),
+        (
+            "test = { kind = \"gain\", of = \"a\", base = \"b\", min = 20 }",
+            Verdict::Disagree,
+        ),
+        (
+            "test = { kind = \"speedup\", of = \"a\", base = \"b\", min = 1.2 }",
+            Verdict::Agree,
+        ),
+        (
+            "test = { kind = \"value\", of = \"a\", min = 5, max = 5 }",
+            Verdict::Agree,
+        ),
+        (
+            "test = { kind = \"order\", rows = [\"a\", \"b\"], strict = true }",
+            Verdict::Agree,
+        ),
+        (
+            "test = { kind = \"order\", rows = [\"b\", \"a\"] }",
+            Verdict::Disagree,
+        ),
+        (
+            "test = { kind = \"order\", rows = [\"a\", \"b\"], strict = true, margin = 0.2 }",
+            Verdict::Disagree,
+        ),
+        (
+            "test = { kind = \"least\", best = \"a\", of = [\"b\"] }",
+            Verdict::Agree,
+        ),
+        (
+            "test = { kind = \"least\", best = \"a\", of = [\"b\"], direction = \"highest\" }",
+            Verdict::Disagree,
+        ),
+        (
+            "test = { kind = \"equal\", a = \"a\", b = \"b\", tolerance = 0.2 }",
+            Verdict::Agree,
+        ),
+        (
+            "test = { kind = \"equal\", a = \"a\", b = \"b\", tolerance = 0.1 }",
+            Verdict::Disagree,
+        ),
     ];
     for (test, want) in cases {
         let v = eval(&claim(&format!("{f}{test}")), std::slice::from_ref(&r));
@@ -131,14 +179,29 @@ fn time_needs_a_clear_interval_and_quiet_rows() {
     let r = results(t.path());
     let time = "measure = \"time\"\nrows.a = { traversal = \"a\" }\nrows.b = { traversal = \"b\" }\ntest = { kind = \"speedup\", of = \"a\", base = \"b\", min = 1.05 }\n";
     // s1: 40 vs 80 ms, 1 % intervals: clearly 2x.
-    let v = eval(&claim(&format!("{time}filter = {{ scene = \"s1\", ray_kind = \"primary\", params = {{ k = 1 }} }}")), std::slice::from_ref(&r));
+    let v = eval(
+        &claim(&format!(
+            "{time}filter = {{ scene = \"s1\", ray_kind = \"primary\", params = {{ k = 1 }} }}"
+        )),
+        std::slice::from_ref(&r),
+    );
     assert_eq!(v[0].verdict, Verdict::Agree, "{v:?}");
     // s2: 10 vs 11 ms with ±30 %: the interval of 1.1 straddles 1.05.
-    let v = eval(&claim(&format!("{time}filter = {{ scene = \"s2\", ray_kind = \"primary\", params = {{ k = 1 }} }}")), std::slice::from_ref(&r));
+    let v = eval(
+        &claim(&format!(
+            "{time}filter = {{ scene = \"s2\", ray_kind = \"primary\", params = {{ k = 1 }} }}"
+        )),
+        std::slice::from_ref(&r),
+    );
     assert_eq!(v[0].verdict, Verdict::Inconclusive, "{v:?}");
     assert!(v[0].why.contains("straddles"), "{}", v[0].why);
     // Shadow rows are 3x apart but flagged noisy: never a verdict.
-    let v = eval(&claim(&format!("{time}filter = {{ scene = \"s2\", ray_kind = \"shadow\", params = {{ k = 1 }} }}")), std::slice::from_ref(&r));
+    let v = eval(
+        &claim(&format!(
+            "{time}filter = {{ scene = \"s2\", ray_kind = \"shadow\", params = {{ k = 1 }} }}"
+        )),
+        std::slice::from_ref(&r),
+    );
     assert_eq!(v[0].verdict, Verdict::Inconclusive);
     assert!(v[0].why.contains("noisy"), "{}", v[0].why);
 }
@@ -159,22 +222,34 @@ fn too_few_runs_and_software_adapters_give_no_time_verdict() {
     let v = eval(&c, &[one_run]);
     assert_eq!(v[0].verdict, Verdict::Inconclusive);
     assert!(v[0].why.contains("fewer than 3 timed runs"), "{}", v[0].why);
-    let gpu = |s: &str| s.replacen(",cpu,,", ",gpu,llvmpipe (LLVM 15) / Vulkan,", 1).replacen(",1,watertight", ",0,watertight", 1);
+    let gpu = |s: &str| {
+        s.replacen(",cpu,,", ",gpu,llvmpipe (LLVM 15) / Vulkan,", 1)
+            .replacen(",1,watertight", ",0,watertight", 1)
+    };
     let lavapipe = write(
         t.path(),
         "gpu.csv",
         &[
             HEAD.into(),
-            gpu(&row("s", "a", "k=1", "primary", 100, 10.0, 0.01, 9, false, 1.0)),
-            gpu(&row("s", "b", "k=1", "primary", 100, 50.0, 0.01, 9, false, 1.0)),
+            gpu(&row(
+                "s", "a", "k=1", "primary", 100, 10.0, 0.01, 9, false, 1.0,
+            )),
+            gpu(&row(
+                "s", "b", "k=1", "primary", 100, 50.0, 0.01, 9, false, 1.0,
+            )),
         ],
     );
-    let g = c.replace("measure = \"time\"", "measure = \"time\"\ndevices = [\"gpu\"]");
+    let g = c.replace(
+        "measure = \"time\"",
+        "measure = \"time\"\ndevices = [\"gpu\"]",
+    );
     let v = eval(&g, std::slice::from_ref(&lavapipe));
     assert_eq!(v[0].verdict, Verdict::Inconclusive);
     assert!(v[0].why.contains("software GPU adapter"), "{}", v[0].why);
     // Counters on the same rows are fine.
-    let counters = g.replace("measure = \"time\"", "measure = \"interior_per_ray\"").replace("min = 1.5", "min = 1");
+    let counters = g
+        .replace("measure = \"time\"", "measure = \"interior_per_ray\"")
+        .replace("min = 1.5", "min = 1");
     assert_eq!(eval(&counters, &[lavapipe])[0].verdict, Verdict::Agree);
 }
 
@@ -190,7 +265,11 @@ fn missing_and_ambiguous_rows_are_inconclusive_with_their_reason() {
     let c = claim("measure = \"interior_per_ray\"\nfilter = { ray_kind = \"primary\", scene = \"s2\" }\nrows.a = { traversal = \"a\" }\ntest = { kind = \"value\", of = \"a\", min = 0 }");
     let v = eval(&c, std::slice::from_ref(&r));
     assert_eq!(v[0].verdict, Verdict::Inconclusive);
-    assert!(v[0].why.contains("ambiguous selector `a`") && v[0].why.contains("k 1 / 2"), "{}", v[0].why);
+    assert!(
+        v[0].why.contains("ambiguous selector `a`") && v[0].why.contains("k 1 / 2"),
+        "{}",
+        v[0].why
+    );
     // A GPU evaluation of CPU rows: rows missing.
     let g = c.replace("measure", "devices = [\"gpu\"]\nmeasure");
     let v = eval(&g, &[r]);
@@ -203,9 +282,15 @@ fn per_build_measures_and_other_files() {
     let r = results(t.path());
     // Heap ratio 3000 / 1000 and a build_stats entry, once per build whatever the views.
     let c = claim("measure = \"heap_ratio\"\nfilter = { scene = \"s1\" }\nrows.a = { traversal = \"a\" }\ntest = { kind = \"value\", of = \"a\", min = 2.5, max = 3 }");
-    assert_eq!(eval(&c, std::slice::from_ref(&r))[0].verdict, Verdict::Agree);
+    assert_eq!(
+        eval(&c, std::slice::from_ref(&r))[0].verdict,
+        Verdict::Agree
+    );
     let c = claim("measure = \"build:paper_bytes\"\nfilter = { scene = \"s1\" }\nrows.a = { traversal = \"a\" }\ntest = { kind = \"value\", of = \"a\", min = 64, max = 64 }");
-    assert_eq!(eval(&c, std::slice::from_ref(&r))[0].verdict, Verdict::Agree);
+    assert_eq!(
+        eval(&c, std::slice::from_ref(&r))[0].verdict,
+        Verdict::Agree
+    );
     // A weights.csv beside the results: only claims that ask for its file see it.
     write(
         &r,
@@ -217,7 +302,10 @@ fn per_build_measures_and_other_files() {
         ],
     );
     let c = claim("measure = \"weight_pct\"\nfilter = { file = \"weights\" }\nrows.w = { table = 2, beta = 3, axis = \"X\" }\ntest = { kind = \"value\", of = \"w\", min = 54.08, max = 54.09 }");
-    assert_eq!(eval(&c, std::slice::from_ref(&r))[0].verdict, Verdict::Agree);
+    assert_eq!(
+        eval(&c, std::slice::from_ref(&r))[0].verdict,
+        Verdict::Agree
+    );
     let c = claim("measure = \"weight_pct\"\nrows.w = { table = 2 }\ntest = { kind = \"value\", of = \"w\", min = 0 }");
     assert_eq!(eval(&c, &[r])[0].verdict, Verdict::Inconclusive);
 }
@@ -229,7 +317,10 @@ fn a_later_source_replaces_the_same_row() {
     let newer = write(
         t.path(),
         "newer.csv",
-        &[HEAD.into(), row("s2", "a", "k=1", "primary", 100, 10.0, 0.01, 9, false, 7.0)],
+        &[
+            HEAD.into(),
+            row("s2", "a", "k=1", "primary", 100, 10.0, 0.01, 9, false, 7.0),
+        ],
     );
     let set = RowSet::read(&[r, newer]).unwrap();
     assert_eq!(set.replaced, 1);
@@ -238,18 +329,30 @@ fn a_later_source_replaces_the_same_row() {
 
 #[test]
 fn bad_files_name_the_line_and_key() {
-    let e = claims::parse(Path::new("x.toml"), "paper = \"t\"\n[[claim]]\nid = \"a\"\nbogus = 1\n")
-        .unwrap_err()
-        .to_string();
+    let e = claims::parse(
+        Path::new("x.toml"),
+        "paper = \"t\"\n[[claim]]\nid = \"a\"\nbogus = 1\n",
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.starts_with("x.toml: 4: unknown field `bogus`"), "{e}");
     let bad = claim("measure = \"interior_per_ray\"\nrows.a = { traversal = \"a\" }\ntest = { kind = \"ratio\", num = \"a\", den = \"zz\", max = 1 }");
-    let e = claims::parse(Path::new("x.toml"), &bad).unwrap_err().to_string();
-    assert!(e.starts_with("x.toml:3: claim c: test: names rows `zz`"), "{e}");
+    let e = claims::parse(Path::new("x.toml"), &bad)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("x.toml:3: claim c: test: names rows `zz`"),
+        "{e}"
+    );
     let bad = claim("measure = \"interior per ray\"\nrows.a = { traversal = \"a\" }\ntest = { kind = \"value\", of = \"a\", min = 1 }");
-    let e = claims::parse(Path::new("x.toml"), &bad).unwrap_err().to_string();
+    let e = claims::parse(Path::new("x.toml"), &bad)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("claim c: measure:"), "{e}");
     let bad = claim("measure = \"interior_per_ray\"\nrows.a = { traversal = \"a\" }\ntest = { kind = \"value\", of = \"a\" }");
-    let e = claims::parse(Path::new("x.toml"), &bad).unwrap_err().to_string();
+    let e = claims::parse(Path::new("x.toml"), &bad)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("give min, max or both"), "{e}");
 }
 

@@ -73,6 +73,20 @@ impl GpuDevice {
         }
     }
 
+    /// A one-time warning when the adapter is a software rasterizer (lavapipe, llvmpipe):
+    /// its rows measure the CPU, so their times are not GPU figures (`adapter_type` says
+    /// `software` in every such row).
+    pub fn software_warning(&self) -> Option<String> {
+        let a = self.gpu.as_ref().ok()?.adapter();
+        (a.kind() == "software").then(|| {
+            format!(
+                "the GPU adapter `{}` is a software rasterizer running on the CPU: GPU rows' \
+                 counters and hits are valid, their times are not GPU figures (adapter_type = software)",
+                a.name
+            )
+        })
+    }
+
     /// Details for results.json `meta.adapter`.
     pub fn meta(&self) -> serde_json::Value {
         match &self.gpu {
@@ -83,6 +97,7 @@ impl GpuDevice {
                     "backend": a.backend,
                     "driver": a.driver,
                     "device_type": a.device_type,
+                    "adapter_type": a.kind(),
                     "timing": if a.timestamps { "timestamp-queries" } else { "wall-clock" },
                     "watertight_fallback": if a.f64 { "f64" } else { "f32" },
                     "max_rays_per_dispatch": g.max_rays_per_dispatch(),
@@ -117,6 +132,7 @@ impl Device for GpuDevice {
         }
         let gpu = self.gpu.as_ref().map_err(|e| e.clone())?;
         row.adapter = gpu.adapter().label();
+        row.adapter_type = gpu.adapter().kind().to_owned();
         let r = measure_on(gpu, &mut self.build, job, sample, row);
         if let Ok(Outcome::Measured(_)) = &r {
             row.note = if row.note.is_empty() {

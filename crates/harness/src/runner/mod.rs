@@ -147,6 +147,9 @@ impl<'a> Run<'a> {
         if let Some(Err(e)) = gpu.as_ref().map(GpuDevice::describe) {
             gpu_failed(&mut summary, gpu.as_ref(), &e);
         }
+        if let Some(w) = gpu.as_ref().and_then(GpuDevice::software_warning) {
+            summary.notes.push(w);
+        }
         let sink = match opts.mode {
             Mode::Run => {
                 let mut meta = crate::meta::collect(
