@@ -201,20 +201,16 @@ const CONTEXT: &[&str] = &[
 /// Columns that tell the variants compared (a selector must pick one per context).
 const VARIANT: &[&str] = &["structure", "params", "traversal"];
 
+/// A GPU row from a software rasterizer: `adapter_type = software`, or (rows written before
+/// that column) an adapter name of one.
 fn software_adapter(r: &Row) -> bool {
+    const NAMES: [&str; 4] = ["llvmpipe", "lavapipe", "swiftshader", "softpipe"];
     r.get("device") == Some("gpu")
-        && r.get("adapter").is_some_and(|a| {
-            let a = a.to_ascii_lowercase();
-            [
-                "llvmpipe",
-                "lavapipe",
-                "swiftshader",
-                "softpipe",
-                "software",
-            ]
-            .iter()
-            .any(|s| a.contains(s))
-        })
+        && (r.get("adapter_type") == Some("software")
+            || r.get("adapter").is_some_and(|a| {
+                let a = a.to_ascii_lowercase();
+                NAMES.iter().any(|s| a.contains(s))
+            }))
 }
 
 // ---------------------------------------------------------------------------------------
