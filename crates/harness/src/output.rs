@@ -55,6 +55,10 @@ macro_rules! define_row {
             pub noisy: Option<bool>,
             /// 1-minute load average when the row finished (Linux).
             pub load_avg: Option<f64>,
+            /// CPU cores other processes kept busy on average while the row was measured
+            /// (Linux `/proc/stat` less this process's own time).
+            #[serde(default)]
+            pub cpu_others: Option<f64>,
             /// GPU rows: host-to-device copy of the structure and rays (median), not in
             /// `trace_ms_*`.
             pub upload_ms: Option<f64>,

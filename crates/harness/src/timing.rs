@@ -71,6 +71,64 @@ pub fn relative_ci(v: &[f64]) -> f64 {
     }
 }
 
+/// CPU time of the whole machine and of this process at one moment (Linux `/proc/stat` and
+/// `/proc/self/stat`, clock ticks), to measure what other processes took during a row.
+#[derive(Clone, Copy, Debug)]
+pub struct CpuSample {
+    /// Busy ticks of all CPUs (user, nice, system, irq, softirq, steal).
+    busy: u64,
+    /// All ticks of all CPUs (busy, idle, iowait).
+    total: u64,
+    /// This process's user and system ticks.
+    own: u64,
+}
+
+impl CpuSample {
+    /// Now; `None` where `/proc` does not tell.
+    pub fn now() -> Option<CpuSample> {
+        let stat = std::fs::read_to_string("/proc/stat").ok()?;
+        let f: Vec<u64> = stat
+            .lines()
+            .next()?
+            .split_whitespace()
+            .skip(1)
+            .take(8)
+            .map(|x| x.parse().unwrap_or(0))
+            .collect();
+        if f.len() < 8 {
+            return None;
+        }
+        let busy = f[0] + f[1] + f[2] + f[5] + f[6] + f[7];
+        let total = busy + f[3] + f[4];
+        let own_stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+        // Fields after the command name (which may hold spaces) start at `) `: utime and
+        // stime are the 14th and 15th fields, the 12th and 13th after it.
+        let rest = &own_stat[own_stat.rfind(')')? + 2..];
+        let g: Vec<u64> = rest
+            .split_whitespace()
+            .map(|x| x.parse().unwrap_or(0))
+            .collect();
+        let own = g.get(11)? + g.get(12)?;
+        Some(CpuSample { busy, total, own })
+    }
+
+    /// CPU cores that other processes kept busy on average since `earlier`; `None` when too
+    /// little time passed to tell (under two clock ticks per CPU).
+    pub fn others_since(&self, earlier: &CpuSample) -> Option<f64> {
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
+        let total = self.total.saturating_sub(earlier.total) as f64;
+        if total < 2.0 * cpus {
+            return None;
+        }
+        let busy = self.busy.saturating_sub(earlier.busy) as f64;
+        let own = self.own.saturating_sub(earlier.own) as f64;
+        Some(((busy - own).max(0.0) / total * cpus * 100.0).round() / 100.0)
+    }
+}
+
+/// Other processes' average CPU use (cores) above which a row is flagged `noisy`.
+pub const OTHERS_NOISY: f64 = 0.5;
+
 /// The 1-minute load average (Linux `/proc/loadavg`); `None` elsewhere.
 pub fn load_average() -> Option<f64> {
     std::fs::read_to_string("/proc/loadavg")

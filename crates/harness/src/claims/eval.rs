@@ -664,7 +664,12 @@ fn run_test(
                     format!("{} {rel} {}", w[0], w[1])
                 })
                 .collect();
-            (all_of(verdicts), shown, None, broken.join("; "))
+            let why = if broken.is_empty() {
+                format!("in order ({} rows)", rows.len())
+            } else {
+                broken.join("; ")
+            };
+            (all_of(verdicts), shown, None, why)
         }
         Test::Least {
             best,
@@ -716,6 +721,15 @@ fn run_test(
                 })
                 .collect::<Vec<_>>()
                 .join("; ");
+            let why = if why.is_empty() {
+                let word = match direction {
+                    Direction::Lowest => "lowest",
+                    Direction::Highest => "highest",
+                };
+                format!("{word} of {}", of.len() + 1)
+            } else {
+                why
+            };
             (all_of(verdicts.into_iter().map(|x| x.0)), shown, None, why)
         }
         Test::Equal { a, b, tolerance } => {

@@ -99,10 +99,12 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
     r.progress.finish();
     if r.loaded_rows > 0 {
         r.summary.notes.push(format!(
-            "{} rows were timed while the 1-minute load average exceeded the idle level ({:.2} \
-             before the run) by more than their own threads: other work was running; their \
-             timings may be disturbed (columns load_avg, noisy)",
+            "{} rows were timed while other processes kept more than {} CPU cores busy \
+             (measured per row; where /proc does not tell, the 1-minute load average above the \
+             idle level {:.2} by more than the row's threads): their timings may be disturbed \
+             (columns cpu_others, load_avg, noisy)",
             r.loaded_rows,
+            crate::timing::OTHERS_NOISY,
             r.idle_load.unwrap_or(0.0)
         ));
     }
@@ -436,7 +438,12 @@ impl<'a> Run<'a> {
                 .as_mut()
                 .expect("the GPU is opened when a device is gpu"),
         };
-        match device.measure(&job, sample, &mut row) {
+        let before = crate::timing::CpuSample::now();
+        let measured = device.measure(&job, sample, &mut row);
+        row.cpu_others = before
+            .zip(crate::timing::CpuSample::now())
+            .and_then(|(a, b)| b.others_since(&a));
+        match measured {
             Ok(Outcome::Measured(Some(checked))) => {
                 row.validated_rays = Some(checked.validated);
                 row.mismatches = Some(checked.mismatches);
@@ -477,11 +484,18 @@ impl<'a> Run<'a> {
         self.emit(row)
     }
 
-    /// Record the load average of a timed row; flag it noisy when other work was running
-    /// (load above the idle level by more than the row's own threads, plus one).
+    /// Record the load of a timed row; flag it noisy when other work was running: other
+    /// processes kept more than [`crate::timing::OTHERS_NOISY`] cores busy while the row was
+    /// measured (`cpu_others`, sampled per row), or, where that cannot be measured, the load
+    /// average exceeded the idle level by more than the row's own threads, plus one.
     fn note_load(&mut self, row: &mut Row) {
         row.load_avg = crate::timing::load_average();
-        if let (Some(idle), Some(load)) = (self.idle_load, row.load_avg) {
+        if let Some(others) = row.cpu_others {
+            if others > crate::timing::OTHERS_NOISY {
+                row.noisy = Some(true);
+                self.loaded_rows += 1;
+            }
+        } else if let (Some(idle), Some(load)) = (self.idle_load, row.load_avg) {
             let own = if row.device == "gpu" {
                 1.0
             } else {
@@ -495,11 +509,16 @@ impl<'a> Run<'a> {
     }
 
     fn emit(&mut self, row: Row) -> Result<(), HarnessError> {
+        let params = varying_params(self.exp, &row.structure, &row.params);
         self.progress.row(&format!(
-            "done {} {} [{}] {} {} {} {}t {}: {}",
+            "done {} {}{} {} {} {} {}t {}: {}",
             row.scene,
             row.structure,
-            row.params,
+            if params.is_empty() {
+                String::new()
+            } else {
+                format!(" [{params}]")
+            },
             row.traversal,
             row.triangle_test,
             row.device,
@@ -569,4 +588,16 @@ fn gpu_failed(summary: &mut RunSummary, gpu: Option<&GpuDevice>, e: &str) {
             "{msg} (GPU rows carry the error; gpu_required = false)"
         ));
     }
+}
+
+/// The parameters of `params` (`k=v;…`) whose values differ among the config's parameter
+/// sets of structure `name` (the progress lines name only those, as the summary does).
+fn varying_params(exp: &Experiment, name: &str, params: &str) -> String {
+    let sets: Vec<String> = exp
+        .structures
+        .iter()
+        .filter(|s| s.family.name == name)
+        .flat_map(|s| s.param_sets.iter().map(|p| p.to_string()))
+        .collect();
+    crate::images::varying_tag(&sets, params).replace(',', ";")
 }
