@@ -518,7 +518,9 @@ fn cmd_run(
         max_report: 5,
     };
     let summary = runner::run(&exp, &opts)?;
-    println!("{}", runner::table(&summary.rows));
+    if !summary.rows.is_empty() {
+        println!("{}", runner::table(&summary.rows));
+    }
     for n in &summary.notes {
         eprintln!("note: {n}");
     }
@@ -531,12 +533,24 @@ fn cmd_run(
     for r in &summary.mismatch_reports {
         println!("mismatch: {r}");
     }
-    println!(
-        "wrote {} rows to {}",
-        summary.written,
-        out.join("results.csv").display()
-    );
-    println!("      and {}", out.join("results.json").display());
+    if exp.dynamic.is_some() {
+        // A [dynamic] run measures frames, not rows of results.csv.
+        let frames = std::fs::read_to_string(out.join("dynamic.csv"))
+            .map(|t| t.lines().count().saturating_sub(1))
+            .unwrap_or(0);
+        println!(
+            "wrote {frames} frame rows to {} (densities tried: {}; the notes above sum them up)",
+            out.join("dynamic.csv").display(),
+            out.join("dynamic-choice.csv").display()
+        );
+    } else {
+        println!(
+            "wrote {} rows to {}",
+            summary.written,
+            out.join("results.csv").display()
+        );
+        println!("      and {}", out.join("results.json").display());
+    }
     if !summary.failures.is_empty() {
         for f in &summary.failures {
             eprintln!("error: {f}");

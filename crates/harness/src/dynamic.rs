@@ -113,6 +113,9 @@ pub fn run(
     let mut w = csv::Writer::from_path(&path).map_err(|e| HarnessError::io(&path, e))?;
     let mut cw = csv::Writer::from_path(&cpath).map_err(|e| HarnessError::io(&cpath, e))?;
     let mut notes = Vec::new();
+    // Per scene x structure x budget: frames, samples per pixel over them, frames with none
+    // and the mean build + primary time that left none (the summary says what was measured).
+    let mut tally: Vec<(String, &str, f64, u32, u64, u32, f64)> = Vec::new();
     for scene in &exp.scenes {
         for st in &exp.structures {
             for base in &st.param_sets {
@@ -160,10 +163,42 @@ pub fn run(
                         };
                         w.serialize(&row).map_err(|e| HarnessError::io(&path, e))?;
                         w.flush().map_err(|e| HarnessError::io(&path, e))?;
+                        let key = (scene.label.clone(), st.family.name, budget);
+                        let i = match tally
+                            .iter()
+                            .position(|t| (t.0.as_str(), t.1, t.2) == (&key.0, key.1, key.2))
+                        {
+                            Some(i) => i,
+                            None => {
+                                tally.push((key.0, key.1, key.2, 0, 0, 0, 0.0));
+                                tally.len() - 1
+                            }
+                        };
+                        let t = &mut tally[i];
+                        t.3 += 1;
+                        t.4 += u64::from(row.spp);
+                        if row.spp == 0 {
+                            t.5 += 1;
+                            t.6 += row.build_ms + row.primary_ms;
+                        }
                     }
                 }
             }
         }
+    }
+    for (scene, structure, budget, frames, spp, zero, over) in tally {
+        let why = if zero > 0 {
+            format!(
+                "; {zero} of {frames} frames fit no sample: build + primary rays took {:.1} ms on average there",
+                over / zero as f64
+            )
+        } else {
+            String::new()
+        };
+        notes.push(format!(
+            "dynamic: {scene} {structure} within {budget} ms: {:.2} AO samples per pixel on average over {frames} frames{why}",
+            spp as f64 / frames.max(1) as f64
+        ));
     }
     Ok(notes)
 }
