@@ -1,0 +1,156 @@
+//! `trace-bench reproduce` and `claims` end to end: a claims file with two runs (a tiny
+//! config, shrunk to its budget, and `weights --csv`), its verdicts and report; a rerun into
+//! the same folder reuses the complete runs.
+
+use std::fs;
+use std::process::Command;
+
+const CONFIG: &str = r#"
+name = "tiny"
+[run]
+threads = 1
+repeat = 3
+warmup = 0
+validate = 256
+
+[[scene]]
+source = "builtin:sphereflake"
+rays = ["primary"]
+
+[[structure]]
+name = "kdtree"
+traversals = ["recursive-direction", "restart"]
+"#;
+
+#[test]
+fn reproduce_runs_scales_and_reports() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = t.path().join("tiny.toml");
+    fs::write(&cfg, CONFIG).unwrap();
+    let claims = t.path().join("tiny-paper.toml");
+    fs::write(
+        &claims,
+        format!(
+            r#"
+paper = "A tiny paper"
+
+[[run]]
+config = "{cfg}"
+set = ["scene.camera.width=64", "scene.camera.height=64"]
+cost_s = 1000
+fixed_s = 0
+scalable = true
+
+[[run]]
+exec = ["weights", "--csv", "{{out}}/weights.csv"]
+cost_s = 0
+
+[[claim]]
+id = "restart-revisits"
+where = "Table 9"
+text = "restart visits more nodes than the recursive walk"
+paper = "more"
+measure = "interior_per_ray"
+rows.rec = {{ traversal = "recursive-direction" }}
+rows.restart = {{ traversal = "restart" }}
+test = {{ kind = "order", rows = ["rec", "restart"], strict = true }}
+
+[[claim]]
+id = "gpu-only"
+where = "Table 9"
+text = "a GPU figure"
+paper = "1"
+devices = ["gpu"]
+measure = "time"
+rows.rec = {{ traversal = "recursive-direction" }}
+test = {{ kind = "value", of = "rec", min = 0 }}
+
+[[claim]]
+id = "weight"
+where = "Table 1"
+text = "a weight"
+paper = "50.00"
+measure = "weight_pct"
+filter = {{ file = "weights" }}
+rows.w = {{ table = 1, heuristic = "cube-obli", patch = "Y", axis = "Y" }}
+test = {{ kind = "value", of = "w", min = 49.999, max = 50.01 }}
+"#,
+            cfg = cfg.display()
+        ),
+    )
+    .unwrap();
+    let out = t.path().join("report");
+    let exe = env!("CARGO_BIN_EXE_trace-bench");
+    let run = || {
+        Command::new(exe)
+            .args([
+                "reproduce",
+                claims.to_str().unwrap(),
+                "--budget",
+                "20s",
+                "--out",
+            ])
+            .arg(&out)
+            .args(["-q"])
+            .output()
+            .unwrap()
+    };
+    let o = run();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let report = fs::read_to_string(out.join("REPORT.md")).unwrap();
+    // 1000 s declared into 19 s: a 64-pixel image shrinks to the smallest scale (1/64 of the
+    // pixels: 8, kept at 32), and the report says so.
+    assert!(report.contains("scene.camera.width 64 → 32"), "{report}");
+    let v: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(out.join("verdicts.json")).unwrap()).unwrap();
+    let claims_out = &v["papers"][0]["claims"];
+    let verdict = |id: &str| {
+        claims_out
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["id"] == id)
+            .unwrap()["verdict"]
+            .clone()
+    };
+    assert_eq!(verdict("restart-revisits"), "agree", "{report}");
+    assert_eq!(verdict("weight"), "agree", "{report}");
+    assert_eq!(verdict("gpu-only"), "inconclusive");
+    let repro = fs::read_to_string(out.join("REPRODUCTION.md")).unwrap();
+    assert!(
+        repro.contains("| `gpu-only` |") && repro.contains("not measured"),
+        "{repro}"
+    );
+    // The same folder again: both runs reused, the same verdicts.
+    let o = run();
+    assert!(o.status.success());
+    let report = fs::read_to_string(out.join("REPORT.md")).unwrap();
+    assert_eq!(report.matches("| reused |").count(), 2, "{report}");
+    // `claims` on the runs' folders directly, and the CI form failing on a non-agreeing claim.
+    let runs = out.join("runs/tiny-paper");
+    let folders: Vec<String> = fs::read_dir(&runs)
+        .unwrap()
+        .map(|e| e.unwrap().path().display().to_string())
+        .collect();
+    let o = Command::new(exe)
+        .args(["claims", claims.to_str().unwrap(), "--format", "md"])
+        .args(&folders)
+        .output()
+        .unwrap();
+    let md = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success() && md.contains("| `restart-revisits` |"),
+        "{md}"
+    );
+    let o = Command::new(exe)
+        .args(["claims", claims.to_str().unwrap(), "--require-agree"])
+        .args(&folders)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "gpu-only is inconclusive");
+}
