@@ -1,6 +1,7 @@
 """Shared helpers of the plotting scripts: reading trace-bench CSVs, parameter columns, filters."""
 
 import csv
+import os
 import sys
 
 
@@ -11,6 +12,75 @@ def read_rows(path):
             return list(csv.DictReader(f))
     except OSError as e:
         sys.exit(f"error: {path}: {e.strerror}")
+
+
+# --- Several runs: files and folders, concatenated ------------------------------------------
+
+# Columns that identify a row (the others are measurements), in any of the CSVs a run writes:
+# results.csv, convergence.csv (integrator, width, height, pass, budget_ms), dynamic.csv
+# (width, height, budget_ms, frame). A column a CSV lacks counts as empty.
+IDENTITY = ["scene", "structure", "params", "traversal", "device", "adapter", "threads",
+            "triangle_test", "ray_kind", "integrator", "width", "height", "pass", "budget_ms",
+            "frame"]
+
+
+def resolve(path, names=("results.csv",)):
+    """A CSV path as given, or a run folder: FOLDER/NAME, the first of `names` it holds; a
+    folder holding none of them but a `LATEST` entry (results/NAME/LATEST, the harness's link
+    to the newest run) reads FOLDER/LATEST/NAME."""
+    if not os.path.isdir(path):
+        return path
+    for base in (path, os.path.join(path, "LATEST")):
+        for n in names:
+            p = os.path.join(base, n)
+            if os.path.isfile(p):
+                return p
+    sys.exit(f"error: {path}: a folder without {' or '.join(names)} (nor LATEST/ holding one)")
+
+
+def identity_of(row, header):
+    return tuple(row.get(c, "") for c in IDENTITY if c in header)
+
+
+def read_csvs(paths, names=("results.csv",), key=None):
+    """The rows of several CSVs (or run folders, see `resolve`), concatenated in the order
+    given, as dicts over the union of their headers (a column a file lacks is empty). A row
+    whose identity columns (IDENTITY; `key(row)` instead when given) equal a row of an earlier
+    file replaces it: the later file wins, and a note on stderr says how many rows of which file
+    were replaced. A file given twice is read once. Returns (rows, the files read)."""
+    files, seen = [], set()
+    for p in paths:
+        f = resolve(p, names)
+        real = os.path.realpath(f)
+        if real in seen:
+            print(f"note: {f} given twice; read once", file=sys.stderr)
+            continue
+        seen.add(real)
+        files.append(f)
+    tables = [read_rows(f) for f in files]
+    header = list(dict.fromkeys(c for t in tables for r in t[:1] for c in r if c is not None))
+    owner = {}  # identity -> (file index, positions in `out` of that file's rows)
+    out = []
+    same = "identity" if key else ", ".join(c for c in IDENTITY if c in header)
+    for i, t in enumerate(tables):
+        replaced = {}
+        for r in t:
+            r = {c: (r.get(c) if r.get(c) is not None else "") for c in header}
+            k = key(r) if key else identity_of(r, header)
+            prev = owner.get(k)
+            if prev is not None and prev[0] != i:
+                for at in prev[1]:
+                    out[at] = None
+                replaced[prev[0]] = replaced.get(prev[0], 0) + len(prev[1])
+                prev = None
+            if prev is None:
+                prev = owner[k] = (i, [])
+            prev[1].append(len(out))
+            out.append(r)
+        for j, n in sorted(replaced.items()):
+            print(f"note: {n} row(s) of {files[j]} replaced by the same rows (same {same}) of "
+                  f"{files[i]}: the later file wins", file=sys.stderr)
+    return [r for r in out if r is not None], files
 
 
 def params_of(row):
@@ -168,6 +238,52 @@ def is_noisy(row):
     """The row's `noisy` flag (README: the CI is wider than run.target_ci, or the machine was
     loaded while it ran)."""
     return (row.get("noisy") or "").strip().lower() in ("true", "1", "yes")
+
+
+DAGGER = "†"
+NOISY_WHY = ("the median's 95% CI is wider than run.target_ci, or the machine was loaded "
+             "while the row ran")
+# What a noisy row's timings are: the columns --drop-noisy leaves out.
+NOISY_DROPPED = ["trace_ms_min", "trace_ms_median", "trace_ms_max", "mrays_per_s",
+                 "trace_ms_ci", "sort_ms"]
+
+
+def mark(noisy):
+    """† after a figure built from a noisy row, else nothing."""
+    return DAGGER if noisy else ""
+
+
+def add_noisy_option(parser):
+    parser.add_argument("--drop-noisy", action="store_true",
+                        help="leave out the timings of rows flagged noisy (figures built from "
+                             "them print -; counters, which do not depend on the load, stay)")
+
+
+def drop_noisy(rows, enabled=True):
+    """With `enabled`, the rows with the timings of the noisy ones blanked (NOISY_DROPPED; the
+    counters and build figures stay), and a note on stderr saying how many."""
+    if not enabled:
+        return rows
+    n = sum(is_noisy(r) for r in rows)
+    print(f"--drop-noisy: the timings of {n} noisy row(s) of {len(rows)} left out",
+          file=sys.stderr)
+    return [{**r, **{c: "" for c in NOISY_DROPPED if c in r}} if is_noisy(r) else r
+            for r in rows]
+
+
+def timed(row):
+    """Whether a row has a trace time (a skipped or dropped row has none)."""
+    return number(row.get("trace_ms_median")) is not None
+
+
+def noisy_footnote(rows):
+    """The † footnote: how many of the timed rows read are noisy; empty when none is."""
+    t = [r for r in rows if timed(r)]
+    n = sum(is_noisy(r) for r in t)
+    if not n:
+        return ""
+    return (f"{DAGGER} noisy timing ({n} of {len(t)} timed rows): {NOISY_WHY}; a figure built "
+            "from one (a ratio, a change, a sum) is marked too; --drop-noisy leaves them out")
 
 
 def threads_phrase(threads):

@@ -7,8 +7,15 @@ grid: build time (ms) and primary-ray traversal time (ms, median), written as a 
 CSV (`--out` to choose). Table 2 (printed): per scene, the irregular grid's [min, max] over the
 sweep of build time, MRays/s and memory, the two-level grid at its fastest pair, the SBVH.
 
-    python3 scripts/irregular-figure6.py results/irregular-lambda/*/results.csv [--scene crown]
-        [--threads N] [--out fig6.png] [--no-plot]
+    python3 scripts/irregular-figure6.py results/irregular-lambda/LATEST [--scene crown]
+        [--threads N] [--out fig6.png] [--no-plot] [--drop-noisy]
+
+Several CSVs or run folders (FOLDER/results.csv) are read as one; a later file's rows replace
+the same rows of an earlier one (a note on stderr says how many); the PNG goes beside the last.
+MRays/s of a noisy row (Table 2: a [min, max] end, the two-level grid's best, the SBVH) and a
+noisy cell of the primary-ray map are marked †; --drop-noisy leaves the timings of noisy rows
+out (their map cells are blank; build times, memory and counters stay). Only the plot needs
+matplotlib.
 """
 
 import argparse
@@ -16,7 +23,8 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import number, params_of, read_rows  # noqa: E402
+from common import (add_noisy_option, drop_noisy, is_noisy, mark,  # noqa: E402
+                    noisy_footnote, number, params_of, read_csvs)
 
 # The paper's Table 2 (Titan X; SBVH build on one CPU core): build s [ours lo, hi], 2L, SBVH;
 # MRays/s [ours lo, hi], 2L; memory MB [ours lo, hi], 2L, SBVH.
@@ -53,15 +61,24 @@ def table2(rows):
         bv = [r for r in rs if r["structure"] == "bvh"]
 
         def rng(rr, col, scale=1.0):
-            v = [number(r[col]) for r in rr if number(r[col]) is not None]
-            return f"[{min(v) * scale:.3g}, {max(v) * scale:.3g}]" if v else "-"
+            rr = [r for r in rr if number(r[col]) is not None]
+            if not rr:
+                return "-"
+            lo = min(rr, key=lambda r: number(r[col]))
+            hi = max(rr, key=lambda r: number(r[col]))
+            # A timing end from a noisy row is marked (build times and memory have no flag).
+            m = (lambda r: mark(is_noisy(r))) if col == "mrays_per_s" else (lambda r: "")
+            return f"[{number(lo[col]) * scale:.3g}{m(lo)}, {number(hi[col]) * scale:.3g}{m(hi)}]"
 
         def best(rr):
             rr = [r for r in rr if number(r["mrays_per_s"]) is not None]
             return max(rr, key=lambda r: number(r["mrays_per_s"])) if rr else None
 
         def one(r, col, scale=1.0):
-            return f"{number(r[col]) * scale:.3g}" if r and number(r[col]) is not None else "-"
+            if not r or number(r[col]) is None:
+                return "-"
+            return f"{number(r[col]) * scale:.3g}" + (mark(is_noisy(r)) if col == "mrays_per_s"
+                                                      else "")
 
         t, b = best(tl), best(bv)
         print(
@@ -72,6 +89,9 @@ def table2(rows):
         if t:
             p = params_of(t)
             print(f"{'':<22} two-level best at λ_1 = {p.get('lambda_1')}, λ_2 = {p.get('lambda_2')}")
+    note = noisy_footnote(rows)
+    if note:
+        print(note)
     print("\nThe paper (Titan X):")
     for s, (ob, tb, sb, om, tm, omem, tmem, smem) in PAPER.items():
         print(
@@ -92,18 +112,25 @@ def figure6(rows, scene, out):
     l1 = sorted({float(params_of(r)["lambda_1"]) for r in ig})
     l2 = sorted({float(params_of(r)["lambda_2"]) for r in ig})
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))
+    n_noisy = sum(is_noisy(r) for r in ig if number(r["trace_ms_median"]) is not None)
     for ax, (col, title) in zip(axes, [("build_ms", "build time (ms)"), ("trace_ms_median", "primary rays (ms)")]):
         grid = [[float("nan")] * len(l1) for _ in l2]
+        noisy = [[False] * len(l1) for _ in l2]
         for r in ig:
             p = params_of(r)
             v = number(r[col])
             if v is not None:
-                grid[l2.index(float(p["lambda_2"]))][l1.index(float(p["lambda_1"]))] = v
+                j, i = l2.index(float(p["lambda_2"])), l1.index(float(p["lambda_1"]))
+                grid[j][i] = v
+                noisy[j][i] = col == "trace_ms_median" and is_noisy(r)
         im = ax.imshow(grid, origin="lower", cmap="viridis", aspect="auto")
         for j, rowv in enumerate(grid):
             for i, v in enumerate(rowv):
                 if v == v:
-                    ax.text(i, j, f"{v:.0f}", ha="center", va="center", color="w", fontsize=8)
+                    ax.text(i, j, f"{v:.0f}{mark(noisy[j][i])}", ha="center", va="center",
+                            color="w", fontsize=8)
+        if col == "trace_ms_median" and n_noisy:
+            title += f"\n† noisy: {n_noisy} of the cells"
         ax.set_xticks(range(len(l1)), [f"{v:g}" for v in l1])
         ax.set_yticks(range(len(l2)), [f"{v:g}" for v in l2])
         ax.set_xlabel("λ_1 (top level)")
@@ -119,20 +146,24 @@ def figure6(rows, scene, out):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("csv")
+    ap.add_argument("csv", nargs="+", metavar="CSV|FOLDER",
+                    help="results.csv files or run folders of configs/irregular-lambda.toml")
     ap.add_argument("--scene", default="crown")
     ap.add_argument("--threads", type=int)
     ap.add_argument("--ray-kind", default="primary")
     ap.add_argument("--out")
     ap.add_argument("--no-plot", action="store_true", help="print Table 2 only")
+    add_noisy_option(ap)
     a = ap.parse_args()
-    rows = [r for r in read_rows(a.csv) if r["ray_kind"] == a.ray_kind]
+    rows, files = read_csvs(a.csv)
+    rows = [r for r in rows if r["ray_kind"] == a.ray_kind]
     th = pick_threads(rows, a.threads)
     rows = [r for r in rows if int(r["threads"]) == th and r.get("device", "cpu") == "cpu"]
+    rows = drop_noisy(rows, a.drop_noisy)
     print(f"{a.ray_kind} rays, {th} threads")
     table2(rows)
     if not a.no_plot:
-        out = a.out or os.path.join(os.path.dirname(a.csv), "results-figure6.png")
+        out = a.out or os.path.join(os.path.dirname(files[-1]), "results-figure6.png")
         figure6(rows, a.scene, out)
 
 

@@ -16,8 +16,14 @@ may be given; each table reads the rows it needs.
   measured by the binary's counting allocator).
 Then the paper's claims, each with our figures. The paper ran on a Titan X: compare ratios.
 
-    python3 scripts/irregular-tables.py results/irregular-grid/*/results.csv \\
-        results/irregular-table3/*/results.csv [--threads N]
+Several CSVs or run folders (FOLDER/results.csv) are read as one; a later file's rows replace
+the same rows of an earlier one (a note on stderr says how many). An MRays/s figure of a row
+flagged `noisy`, and a change or claim built from one, is marked †; the footnote counts them,
+and the Table 3 claim says how many of its wins and losses rest on a noisy row. --drop-noisy
+leaves the timings of noisy rows out (their cells print -, and the claims skip them).
+
+    python3 scripts/irregular-tables.py results/irregular-grid/LATEST \\
+        results/irregular-table3/LATEST [--threads N] [--drop-noisy]
 """
 
 import argparse
@@ -25,7 +31,8 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import number, params_of, read_rows  # noqa: E402
+from common import (add_noisy_option, drop_noisy, is_noisy, mark,  # noqa: E402
+                    noisy_footnote, number, params_of, read_csvs)
 
 # Table 1 of the paper (primary rays, Titan X): N_T, N_I, MRays/s.
 PAPER_T1 = {
@@ -53,8 +60,14 @@ PAPER_T5 = {
 }
 
 
-def pct(v, ref):
-    return f"({(v / ref - 1) * 100:+.0f}%)" if ref else ""
+def pct(v, ref, noisy=False):
+    return f"({(v / ref - 1) * 100:+.0f}%){mark(noisy)}" if ref and v is not None else ""
+
+
+def mrays(r):
+    """(MRays/s of a row, whether the row is noisy); None when not timed (or dropped)."""
+    v = number(r["mrays_per_s"])
+    return v, v is not None and is_noisy(r)
 
 
 def variant(r):
@@ -111,15 +124,17 @@ def table1(rows):
         if "SBVH" not in rs or "+ Merge & Exp." not in rs:
             continue
         b = rs["SBVH"]
-        bt, bi, bm = n_t(b), number(b["prims_per_ray"]), number(b["mrays_per_s"])
+        bt, bi = n_t(b), number(b["prims_per_ray"])
+        bm, bn = mrays(b)
         print(f"  {scene}")
         for n in names:
             if n not in rs:
                 continue
             r = rs[n]
-            t, i, m = n_t(r), number(r["prims_per_ray"]), number(r["mrays_per_s"])
+            t, i = n_t(r), number(r["prims_per_ray"])
+            m, mn = mrays(r)
             print(f"    {n:<16} N_T {f(t, '6.2f')} {pct(t, bt):>7}  N_I {f(i, '6.2f')} {pct(i, bi):>7}"
-                  f"  {f(m, '7.2f')} MRays/s {pct(m, bm):>7}")
+                  f"  {f(m, '7.2f')}{mark(mn) or ' '}MRays/s {pct(m, bm, mn or bn):>8}")
         me = rs["+ Merge & Exp."]
         claims.append((scene, n_t(me) / bt - 1, number(me["prims_per_ray"]) / bi - 1))
     print("  The paper's Table 1 (Titan X):")
@@ -141,9 +156,13 @@ def table3(rows):
         for kind in ("primary", "ao", "random"):
             rs = {variant(r): r for r in rows if r["scene"] == scene and r["ray_kind"] == kind}
             if "SBVH" in rs and "+ Merge & Exp." in rs:
-                s, o = number(rs["SBVH"]["mrays_per_s"]), number(rs["+ Merge & Exp."]["mrays_per_s"])
-                cells.append(f"{s:.2f} / {o:.2f} {pct(o, s)}")
-                out.append((scene, kind, o / s - 1))
+                (s, sn), (o, on) = mrays(rs["SBVH"]), mrays(rs["+ Merge & Exp."])
+                if s is None or o is None:
+                    cells.append("-")
+                    out.append((scene, kind, None, False))
+                    continue
+                cells.append(f"{s:.2f}{mark(sn)} / {o:.2f}{mark(on)} {pct(o, s, sn or on)}")
+                out.append((scene, kind, o / s - 1, sn or on))
             else:
                 cells.append("-")
         if any(c != "-" for c in cells):
@@ -164,13 +183,14 @@ def table5(rows):
         rs = {variant(r): r for r in rows if r["scene"] == scene and r["ray_kind"] == "primary"}
         if "Macro regions" not in rs:
             continue
-        base = number(rs["Macro regions"]["mrays_per_s"])
+        base, bn = mrays(rs["Macro regions"])
         print(f"  {scene}")
         for n in names:
             if n in rs:
-                m, mem = number(rs[n]["mrays_per_s"]), number(rs[n]["memory_bytes"])
-                print(f"    {n:<14} {m:8.2f} MRays/s {pct(m, base):>7}  {mem / 1e6:8.1f} MB")
-        out[scene] = {n: (number(rs[n]["mrays_per_s"]), number(rs[n]["memory_bytes"]))
+                (m, mn), mem = mrays(rs[n]), number(rs[n]["memory_bytes"])
+                print(f"    {n:<14} {f(m, '8.2f')}{mark(mn) or ' '}MRays/s "
+                      f"{pct(m, base, mn or bn):>8}  {mem / 1e6:8.1f} MB")
+        out[scene] = {n: (*mrays(rs[n]), number(rs[n]["memory_bytes"]))
                       for n in names if n in rs}
     print("  The paper's Table 5 (Titan X; memory MB):")
     for scene, t in PAPER_T5.items():
@@ -199,13 +219,15 @@ def heap(rows):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("csv", nargs="+")
+    ap.add_argument("csv", nargs="+", metavar="CSV|FOLDER",
+                    help="results.csv files or run folders")
     ap.add_argument("--threads", type=int, default=None, help="default: the fewest")
+    add_noisy_option(ap)
     a = ap.parse_args()
-    rows = [r for p in a.csv for r in read_rows(p)]
+    rows, _ = read_csvs(a.csv)
     rows = [r for r in rows if r.get("device", "cpu") == "cpu" and r["triangle_test"]]
     th = pick_threads(rows, a.threads)
-    rows = [r for r in rows if int(r["threads"]) == th]
+    rows = drop_noisy([r for r in rows if int(r["threads"]) == th], a.drop_noisy)
     print(f"(CPU rows with {th} thread(s))\n")
     t1 = table1([r for r in rows if "@" not in r["scene"]])
     print()
@@ -222,18 +244,33 @@ def main():
               f"{'agree' if dt <= -0.5 and di > 0 else 'disagree'}")
     for scene, t in t5.items():
         if {"Macro regions", "Ours (M + E)", "Ours (E)"} <= t.keys():
-            g = t["Ours (M + E)"][0] / t["Macro regions"][0] - 1
-            less = t["Ours (M + E)"][1] < t["Ours (E)"][1]
-            print(f"  M + E beats macro regions (+11 % / +25 %) with less memory than E alone: "
-                  f"{scene} {g * 100:+.0f} %, memory M + E {t['Ours (M + E)'][1] / 1e6:.1f} MB vs "
-                  f"E {t['Ours (E)'][1] / 1e6:.1f} MB -> {'agree' if g > 0 and less else 'disagree'}")
+            (me, men, me_mem), (mr, mrn, _) = t["Ours (M + E)"], t["Macro regions"]
+            less = me_mem < t["Ours (E)"][2]
+            head = (f"  M + E beats macro regions (+11 % / +25 %) with less memory than E alone: "
+                    f"{scene} ")
+            mem = f"memory M + E {me_mem / 1e6:.1f} MB vs E {t['Ours (E)'][2] / 1e6:.1f} MB"
+            if me is None or mr is None:
+                print(head + f"- (a noisy timing left out), {mem}")
+                continue
+            g = me / mr - 1
+            print(head + f"{g * 100:+.0f} %{mark(men or mrn)}, {mem} -> "
+                  f"{'agree' if g > 0 and less else 'disagree'}{mark(men or mrn)}")
     for scene, ratio in hp:
         print(f"  the build peaks at 2.5-3x the final memory: {scene} {ratio:.2f}x -> "
               f"{'agree' if 2.0 <= ratio <= 3.5 else 'disagree'}")
-    wins = sum(1 for _, _, g in t3 if g > 0)
+    cells = [c for c in t3 if c[2] is not None]
+    wins = [c for c in cells if c[2] > 0]
     if t3:
+        nw, nl = sum(c[3] for c in wins), sum(c[3] for c in cells if c[2] <= 0)
+        noisy = (f"; {nw} of the {len(wins)} wins and {nl} of the {len(cells) - len(wins)} "
+                 "losses rest on a noisy row†" if nw or nl else "")
+        left = len(t3) - len(cells)
         print(f"  the irregular grid is about as fast as the SBVH or faster (Table 3): ours faster in "
-              f"{wins} of {len(t3)} scene x view x ray kind cells")
+              f"{len(wins)} of {len(cells)} scene x view x ray kind cells{noisy}"
+              + (f" ({left} cell(s) left out: a noisy timing dropped)" if left else ""))
+    note = noisy_footnote(rows)
+    if note:
+        print("\n" + note)
 
 
 if __name__ == "__main__":

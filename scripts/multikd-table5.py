@@ -20,7 +20,19 @@ heuristic, with our plain (unsorted) MRays/s and the sort share. Gains are the p
 column of the same kind: the paper gives SAH one value). `steps=` says whether the three rows'
 traversal steps per ray (planes + prims) agree, as they must; `mism` sums oracle mismatches.
 
-    python3 scripts/multikd-table5.py results/multikd/LATEST/results.csv [GPU.csv] [--threads N]
+    python3 scripts/multikd-table5.py results/multikd/LATEST [GPU.csv|GPU_FOLDER] [--threads N]
+        [--drop-noisy]
+
+Several CSVs or run folders (FOLDER/results.csv) are read as one; a later file's rows replace
+the same rows of an earlier one (a note on stderr says how many).
+
+Noise: a figure built from a row flagged `noisy` (MRays/s of a pool with one, a gain or a sort
+share built from one) is marked †, and the footnote counts the noisy rows; --drop-noisy leaves
+those rows out (a pool then covers fewer views, which the `views` note shows). A CPU sort share
+that comes out negative (time(-sorted) < time(-presorted)) is not a figure: where the two
+pooled medians' 95% CIs overlap it prints `noise‡` (the difference is within noise); where they
+do not, the share is printed with `!` (the -sorted row was faster beyond the CIs: something other
+than the sort differs between the rows).
 
 --threads picks one thread count of the CPU rows (the CSV's, e.g. 16 for the config's `0`); by
 default each thread count gets its own tables, and the GPU rows theirs (the paper's figures are
@@ -39,7 +51,8 @@ import sys
 from collections import defaultdict
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import params_of, read_rows  # noqa: E402
+from common import (add_noisy_option, drop_noisy, is_noisy, mark, noisy_footnote,  # noqa: E402
+                    number, params_of, read_csvs)
 
 MEASURES = ["sah", "sphere-orth", "sphere-obli", "cube-orth", "cube-obli"]
 SCENES = {"bunny-boxed": "BUNNY", "conference": "CONFROOM", "sponza": "SPONZA",
@@ -93,11 +106,21 @@ class Pool:
     def __init__(self):
         self.rays, self.ms, self.steps, self.mism, self.views = 0, 0.0, 0.0, 0, 0
         self.sort_ms = None
+        self.noisy = 0      # rows flagged noisy
+        self.half2 = 0.0    # sum of the squared absolute half-widths of the medians' 95% CIs
+        self.ci_known = True
 
     def add(self, r):
         n = int(r["rays"])
         self.rays += n
-        self.ms += float(r["trace_ms_median"])
+        ms = float(r["trace_ms_median"])
+        self.ms += ms
+        ci = number(r.get("trace_ms_ci"))
+        if ci is None:
+            self.ci_known = False
+        else:
+            self.half2 += (ms * ci) ** 2
+        self.noisy += is_noisy(r)
         steps = sum(float(r.get(c) or 0) for c in ("planes_per_ray", "prims_per_ray"))
         self.steps += steps * n
         self.mism += int(r.get("mismatches") or 0)
@@ -111,29 +134,52 @@ class Pool:
     def mean_steps(self):
         return self.steps / self.rays if self.rays else float("nan")
 
+    def half(self):
+        """Half-width of the pooled time's 95% CI (the views' in quadrature), None if unknown."""
+        return self.half2 ** 0.5 if self.ci_known else None
 
-def cell(x, sah):
-    return f"{x:7.2f} ({gain(x, sah):+6.2f})"
+
+def cell(x, sah, noisy_x=False, noisy_gain=False):
+    """`MRays/s (gain)`, each followed by † when built from a noisy row (18 characters)."""
+    return f"{x:7.2f}{mark(noisy_x) or ' '} ({gain(x, sah):+6.2f}){mark(noisy_gain) or ' '}"
+
+
+def share_text(srt, pre, notes):
+    """The sort's share of the inc. time, 7 characters: `20.0%` (then † when built from a noisy
+    row), `noise‡` when negative within the CIs, `-3.0%!` when negative beyond them."""
+    if srt.sort_ms is not None:  # timed on its own (GPU)
+        share = 100.0 * srt.sort_ms / srt.ms if srt.ms else float("nan")
+        return f"{share:5.1f}%{mark(srt.noisy > 0) or ' '}"
+    diff = srt.ms - pre.ms
+    share = 100.0 * diff / srt.ms if srt.ms else float("nan")
+    if diff >= 0:
+        return f"{share:5.1f}%{mark(srt.noisy > 0 or pre.noisy > 0) or ' '}"
+    hs, hp = srt.half(), pre.half()
+    if hs is not None and hp is not None and srt.ms + hs >= pre.ms - hp:
+        notes.add("noise")
+        return " noise‡"
+    notes.add("negative")
+    return f"{share:5.1f}%!"
 
 
 # Our ray kinds and the paper's tables of them (one primary batch serves PT and AO).
 KINDS = [("primary", ["PT", "AO"]), ("path1", ["PT"]), ("ao", ["AO"])]
 
 
-def print_kind(kind, renderers, pools, scenes):
+def print_kind(kind, renderers, pools, scenes, notes):
     sorted_kind = kind != "primary"
     print(f"{' and '.join(renderers)} {kind} rays: MRays/s (gain % vs SAH)"
           + (": n.inc. / inc. per heuristic" if sorted_kind else ""))
-    head = f"  {'scene':<22}{'SAH':>9}" + "".join(
-        f"  {m.upper():>{37 if sorted_kind else 16}}" for m in MEASURES[1:])
+    head = f"  {'scene':<22}{'SAH':>9} " + "".join(
+        f"  {m.upper():>{47 if sorted_kind else 18}}" for m in MEASURES[1:])
     print(head)
     paper = [(f"{r} {n}", v) for r in renderers for n, v in PAPER[(r, kind)].items()]
     for name, values in paper:
         sah = values[0]
-        cells = [f"{sah:9.2f}"]
+        cells = [f"{sah:9.2f} "]
         for v in values[1:]:
             if sorted_kind:
-                cells.append(f"  {cell(v[0], sah)} / {cell(v[1], sah)}       ")
+                cells.append(f"  {cell(v[0], sah)} / {cell(v[1], sah)}        ")
             else:
                 cells.append(f"  {cell(v, sah)}")
         print(f"  {name:<22}" + "".join(cells))
@@ -143,36 +189,40 @@ def print_kind(kind, renderers, pools, scenes):
         sah = g("sah", PLAIN)
         if not sah:
             continue
-        cells = [f"{sah.mrays():9.2f}"]
-        notes = []
+        cells = [f"{sah.mrays():9.2f}{mark(sah.noisy > 0) or ' '}"]
+        plain_notes = []
         for m in MEASURES[1:]:
             plain, pre, srt = g(m, PLAIN), g(m, PRE), g(m, SORTED)
             if sorted_kind:
                 sah_pre, sah_srt = g("sah", PRE), g("sah", SORTED)
                 if not (pre and srt and sah_pre and sah_srt):
-                    cells.append(f"  {'-':>37}")
+                    cells.append(f"  {'-':>47}")
                     continue
                 # The GPU times its sort (`sort_ms`); on the CPU it is the difference of the rows.
-                sort_ms = srt.sort_ms if srt.sort_ms is not None else srt.ms - pre.ms
-                share = 100.0 * sort_ms / srt.ms if srt.ms else float("nan")
-                cells.append(f"  {cell(pre.mrays(), sah_pre.mrays())} / "
-                             f"{cell(srt.mrays(), sah_srt.mrays())} {share:5.1f}%")
-                notes.append(f"{m}: plain {plain.mrays():.2f}" if plain else f"{m}: no plain row")
+                cells.append(
+                    f"  {cell(pre.mrays(), sah_pre.mrays(), pre.noisy, pre.noisy + sah_pre.noisy)}"
+                    f" / {cell(srt.mrays(), sah_srt.mrays(), srt.noisy, srt.noisy + sah_srt.noisy)}"
+                    f" {share_text(srt, pre, notes)}")
+                plain_notes.append(f"{m}: plain {plain.mrays():.2f}{mark(plain.noisy > 0)}"
+                                   if plain else f"{m}: no plain row")
             else:
-                cells.append(f"  {cell(plain.mrays(), sah.mrays())}" if plain else f"  {'-':>16}")
+                cells.append(f"  {cell(plain.mrays(), sah.mrays(), plain.noisy, plain.noisy + sah.noisy)}"
+                             if plain else f"  {'-':>18}")
         rows = [p for (s, k, _, _), p in pools.items() if s == scene and k == kind]
         mism = sum(p.mism for p in rows)
         equal = all(
             len({round(p.mean_steps(), 9) for p in (g(m, t) for t in (PLAIN, PRE, SORTED)) if p}) <= 1
             for m in MEASURES)
-        views = max(p.views for p in rows)
+        lo, hi = min(p.views for p in rows), max(p.views for p in rows)
+        views = f"{hi} views" if lo == hi else f"{lo}-{hi} views (pools differ: compare with care)"
         print(f"  {'ours ' + label:<22}" + "".join(cells)
-              + f"   [{views} views, steps={'equal' if equal else 'DIFFER'}, mism {mism}]")
+              + f"   [{views}, steps={'equal' if equal else 'DIFFER'}, mism {mism}]")
         if sorted_kind:
-            print(f"  {'':<22}SAH plain {sah.mrays():.2f}, n.inc. "
-                  f"{g('sah', PRE).mrays() if g('sah', PRE) else float('nan'):.2f}, inc. "
-                  f"{g('sah', SORTED).mrays() if g('sah', SORTED) else float('nan'):.2f}; "
-                  + ", ".join(notes))
+            sp, ss = g("sah", PRE), g("sah", SORTED)
+            print(f"  {'':<22}SAH plain {sah.mrays():.2f}{mark(sah.noisy > 0)}, n.inc. "
+                  f"{sp.mrays() if sp else float('nan'):.2f}{mark(bool(sp and sp.noisy))}, inc. "
+                  f"{ss.mrays() if ss else float('nan'):.2f}{mark(bool(ss and ss.noisy))}; "
+                  + ", ".join(plain_notes))
     if sorted_kind:
         print("  (ours: the last figure of a cell is the sort's share of the inc. time)")
     print()
@@ -180,13 +230,16 @@ def print_kind(kind, renderers, pools, scenes):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("csv", nargs="+", help="results.csv files (CPU and GPU rows)")
+    ap.add_argument("csv", nargs="+", metavar="CSV|FOLDER",
+                    help="results.csv files or run folders (CPU and GPU rows)")
     ap.add_argument("--threads", default=None, help="one thread count (default: each)")
     ap.add_argument("--triangle-test", default="watertight",
                     help="the rows of one triangle test (default: watertight; the config may "
                          "run both, and pooling them would count each view twice)")
+    add_noisy_option(ap)
     a = ap.parse_args()
-    rows = [r for path in a.csv for r in read_rows(path)
+    all_rows, files = read_csvs(a.csv)
+    rows = [r for r in all_rows
             if r["structure"] == "multi-kd" and r["device"] in ("cpu", "gpu")
             and r["traversal"] in (PLAIN, PRE, SORTED)
             and r["triangle_test"] == a.triangle_test
@@ -195,9 +248,10 @@ def main():
     if a.threads:
         rows = [r for r in rows if r["device"] == "gpu" or r["threads"] == a.threads]
     if not rows:
-        raise SystemExit(f"no multi-kd recursive-direction rows (trees=multi) in {', '.join(a.csv)}")
-    # GPU rows without a time (no kernel, no adapter) are left out.
-    rows = [r for r in rows if r.get("trace_ms_median")]
+        raise SystemExit(f"no multi-kd recursive-direction rows (trees=multi) in {', '.join(files)}")
+    # GPU rows without a time (no kernel, no adapter) are left out, and so are noisy rows with
+    # --drop-noisy (their timings blanked).
+    rows = [r for r in drop_noisy(rows, a.drop_noisy) if r.get("trace_ms_median")]
     groups = sorted({(r["device"], r["threads"]) for r in rows},
                     key=lambda g: (g[0] == "gpu", int(g[1])))
     for device, threads in groups:
@@ -215,9 +269,23 @@ def main():
         else:
             print(f"=== Table 5, threads={threads} (paper: one GPU)")
         print()
+        notes = set()
         for kind, renderers in KINDS:
             if any(k[1] == kind for k in pools):
-                print_kind(kind, renderers, pools, scenes)
+                print_kind(kind, renderers, pools, scenes, notes)
+        block = [r for r in rows if (r["device"], r["threads"]) == (device, threads)]
+        for line in [noisy_footnote(block),
+                     "‡ noise: the sort's share came out negative, time(-sorted) < "
+                     "time(-presorted), but the two pooled medians' 95% CIs overlap: the "
+                     "difference of the two timings is within noise, not a figure of the sort"
+                     if "noise" in notes else "",
+                     "! a negative share beyond the CIs (or without them): the -sorted rows were "
+                     "faster than the -presorted ones, which the sort cannot explain; rerun"
+                     if "negative" in notes else ""]:
+            if line:
+                print(line)
+        if any(notes) or noisy_footnote(block):
+            print()
 
 
 if __name__ == "__main__":

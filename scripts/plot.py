@@ -1,12 +1,17 @@
 #!/usr/bin/env python3
 """Plots of trace-bench results (matplotlib).
 
-    python3 scripts/plot.py RESULTS.csv                  # auto: bars (results.csv) or
+    python3 scripts/plot.py RESULTS.csv|FOLDER...        # auto: bars (results.csv) or
                                                          #   convergence (convergence.csv)
-    python3 scripts/plot.py bars RESULTS.csv [--ray-kind primary] [--counters steps,prims]
-    python3 scripts/plot.py sweep RESULTS.csv --param max_leaf [--metric mrays_per_s]
+    python3 scripts/plot.py bars RESULTS.csv... [--ray-kind primary] [--counters steps,prims]
+    python3 scripts/plot.py sweep RESULTS.csv... --param max_leaf [--metric mrays_per_s]
         [--line COLUMN=VALUE]
-    python3 scripts/plot.py convergence CONVERGENCE.csv [--metric rmse|rel_mse]
+    python3 scripts/plot.py convergence CONVERGENCE.csv... [--metric rmse|rel_mse]
+
+Each subcommand takes several CSVs or run folders (FOLDER/results.csv or FOLDER/convergence.csv,
+or FOLDER/LATEST/...), read as one: a later file's rows replace the same rows (same scene,
+structure, params, traversal, device, threads, triangle test, ray kind, ...) of an earlier one,
+with a note on stderr. The PNG goes beside the last file.
 
 - bars: MRays/s per scene, one bar per structure x traversal (x parameter set when a sweep
   varies one), with the median's 95% CI as error bars; then one panel per per-ray counter the
@@ -27,18 +32,23 @@ PNG beside the CSV (`results-bars.png`, `results-sweep-max_leaf.png`, `convergen
 """
 
 import argparse
+import csv
 import math
 import os
 import sys
 import textwrap
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import (SPREAD_COLUMNS, TIMING_COLUMNS, amount, apply_filters, column,  # noqa: E402
+from common import (SPREAD_COLUMNS, TIMING_COLUMNS, amount, apply_filters,  # noqa: E402
                     counter_columns, counter_def, counter_name, is_noisy, number, params_of,
-                    pick, read_rows, rel_spread, steps_meaning, threads_phrase, unit,
+                    pick, read_csvs, resolve, rel_spread, steps_meaning, threads_phrase, unit,
                     varying_params)
 
-import matplotlib  # noqa: E402
+try:
+    import matplotlib  # noqa: E402
+except ImportError:
+    sys.exit("error: plot.py needs matplotlib: pip install -r scripts/requirements.txt "
+             "(table.py and the paper scripts' tables need only the standard library)")
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -119,7 +129,7 @@ def save(fig, out, dpi):
 
 
 def bars(args):
-    all_rows = read_rows(args.csv)
+    all_rows, files = read_csvs(args.csv)
     header = list(all_rows[0].keys()) if all_rows else []
     rows = apply_filters(all_rows, args.filter)
     rows = [r for r in rows if number(r.get("mrays_per_s")) is not None]
@@ -218,7 +228,7 @@ def bars(args):
     fig.legend(handles=handles, loc="outside right upper", fontsize=8,
                title="structure traversal", title_fontsize=8)
     fig.suptitle(f"{what}\n{CI_NOTE}{noisy_note(rows, 'mrays_per_s')}", fontsize=10)
-    save(fig, args.out or default_out(args.csv, "bars"), args.dpi)
+    save(fig, args.out or default_out(files[-1], "bars"), args.dpi)
 
 
 def metric_label(metric, rows):
@@ -238,8 +248,32 @@ def metric_label(metric, rows):
     return textwrap.fill(" + ".join(unit(p) for p in parts), 40)
 
 
+def single_point_hint(lines, param):
+    """A line with one value of the swept parameter among several (e.g. sparse boxes' HTR,
+    which reads no box, at the default d_min) is one point, not a line: say how to draw it as
+    a horizontal reference line (--line) instead."""
+    xs = {p[0] for pts in lines.values() for p in pts}
+    single = {k for k, pts in lines.items() if len({p[0] for p in pts}) == 1}
+    if len(xs) < 2 or not single:
+        return
+    hints = []
+    for k in single:
+        r = lines[k][0][2]
+        for col in ("traversal", "structure"):
+            if all(k2 in single for k2, pts in lines.items() if pts[0][2][col] == r[col]):
+                hints.append(f"--line {col}={r[col]}")
+                break
+        else:
+            hints.append("--line COLUMN=VALUE")
+    hints = sorted(set(hints))
+    print(f"note: {len(single)} line(s) have a single {param} value, drawn as one point: "
+          f"{'; '.join(sorted(single))}. A series that does not depend on {param} reads better "
+          f"as a horizontal reference line: {' or '.join(hints)}")
+
+
 def sweep(args):
-    rows = apply_filters(read_rows(args.csv), args.filter)
+    rows, files = read_csvs(args.csv)
+    rows = apply_filters(rows, args.filter)
     for part in args.metric.split("+"):
         if rows and part not in rows[0] and not part.startswith(("param:", "stat:")):
             sys.exit(f"error: --metric {args.metric}: no column `{part}`")
@@ -285,6 +319,7 @@ def sweep(args):
             sys.exit(f"error: parameter `{args.param}` is not numeric ({p[args.param]})")
         lines.setdefault(key, []).append((x, amount(r, args.metric), r))
         scene_of[key] = r["scene"]
+    single_point_hint(lines, args.param)
     # Wide enough for the legend outside the axes to leave the axes their room.
     longest = max(len(k) for k in lines) + (40 if refs else 0)
     fig, ax = plt.subplots(figsize=(max(6.5, 4.0 + 0.065 * longest), 4.2), layout="constrained")
@@ -345,17 +380,19 @@ def sweep(args):
     ax.legend([h for h, _ in pairs], [lab for _, lab in pairs], loc="upper left",
               bbox_to_anchor=(1.02, 1.0), fontsize=8, borderaxespad=0)
     metric = "" if args.metric == "mrays_per_s" else args.metric.replace(":", "-")
-    save(fig, args.out or default_out(args.csv, "sweep", args.param, metric), args.dpi)
+    save(fig, args.out or default_out(files[-1], "sweep", args.param, metric), args.dpi)
 
 
 def convergence(args):
-    rows = apply_filters(read_rows(args.csv), args.filter)
+    rows, files = read_csvs(args.csv, names=("convergence.csv",))
+    rows = apply_filters(rows, args.filter)
     if rows and "integrator" not in rows[0]:
-        sys.exit(f"error: {args.csv} is not a convergence.csv (no `integrator` column)")
+        sys.exit(f"error: {', '.join(files)}: not a convergence.csv (no `integrator` column)")
     # Frame-budget rows live in convergence-budget.csv beside convergence.csv (older runs
     # mixed them into convergence.csv with `budget_ms` set).
-    side = os.path.join(os.path.dirname(args.csv), "convergence-budget.csv")
-    extra = apply_filters(read_rows(side), args.filter) if os.path.isfile(side) else []
+    sides = [os.path.join(os.path.dirname(f), "convergence-budget.csv") for f in files]
+    sides = [f for f in sides if os.path.isfile(f)]
+    extra = apply_filters(read_csvs(sides)[0], args.filter) if sides else []
     curves = [r for r in rows if not r.get("budget_ms")]
     budgets = [r for r in rows + extra if r.get("budget_ms")]
     panels = list(dict.fromkeys((r["scene"], r["integrator"]) for r in curves))
@@ -408,7 +445,7 @@ def convergence(args):
     fig.legend(list(handles.values()), list(handles.keys()), loc="outside right upper",
                fontsize=8, title="structure traversal device", title_fontsize=8)
     metric = "" if args.metric == "rmse" else args.metric
-    save(fig, args.out or default_out(args.csv, "convergence", metric), args.dpi)
+    save(fig, args.out or default_out(files[-1], "convergence", metric), args.dpi)
     if budgets:
         print(f"{'scene':<12} {'integrator':<10} {'structure':<10} {'traversal':<10} {'budget_ms':>9} {'spp':>5} {'elapsed_ms':>10} {args.metric:>9}")
         for r in budgets:
@@ -421,18 +458,23 @@ def convergence(args):
 def main(argv):
     kinds = {"bars", "sweep", "convergence"}
     if argv and argv[0] not in kinds and not argv[0].startswith("-"):
-        # Auto-detect from the file.
-        path = argv[0]
-        rows = read_rows(path)
-        kind = "convergence" if rows and "integrator" in rows[0] else "bars"
+        # Auto-detect from the file (a folder: results.csv, else convergence.csv).
+        path = resolve(argv[0], ("results.csv", "convergence.csv"))
+        head = []
+        if os.path.isfile(path):  # otherwise read_csvs names the missing file
+            with open(path, newline="") as f:
+                head = next(csv.reader(f), [])
+        kind = "convergence" if "integrator" in head else "bars"
         argv = [kind] + argv
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="kind", required=True)
 
     def common(sp):
-        sp.add_argument("csv")
-        sp.add_argument("--out", help="PNG to write (default: beside the CSV)")
+        sp.add_argument("csv", nargs="+", metavar="CSV|FOLDER",
+                        help="CSVs or run folders, read as one (a later file's rows replace "
+                             "the same rows of an earlier one)")
+        sp.add_argument("--out", help="PNG to write (default: beside the (last) CSV)")
         sp.add_argument("--filter", action="append", metavar="COLUMN=VALUE",
                         help="keep rows where COLUMN (or param:KEY) equals VALUE; repeatable")
         sp.add_argument("--dpi", type=int, default=110)

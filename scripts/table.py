@@ -3,9 +3,13 @@
 each cell a value, with the percentage change against a named baseline column beside every
 other column, as the papers print them.
 
-    python3 scripts/table.py RESULTS.csv --rows scene --cols param:max_leaf \\
+    python3 scripts/table.py RESULTS.csv|RUN_FOLDER... --rows scene --cols param:max_leaf \\
         --value mrays_per_s --baseline 4 [--filter ray_kind=primary] \\
-        [--format text|markdown|latex] [--digits 2] [--no-spread]
+        [--format text|markdown|latex] [--digits 2] [--no-spread] [--drop-noisy]
+
+Several CSVs (or run folders: FOLDER/results.csv, or FOLDER/LATEST/results.csv) are read as one:
+rows with the same identity columns (scene, structure, params, traversal, device, threads,
+triangle test, ray kind, ...) are taken from the later file, with a note on stderr.
 
 --rows / --cols take a CSV column or `param:KEY` (one parameter of the `params` column), or
 several joined by `+` (`--cols structure+traversal`). Every cell must come from exactly one
@@ -21,7 +25,9 @@ Timing values (trace_ms_median, mrays_per_s) print as `value ± half-width` of t
 confidence interval (the CSV's trace_ms_ci, relative to the median; mrays_per_s takes the same
 relative half-width); only a single timing column has one, a `+` sum of columns none. A summed
 cell (--sum) combines the half-widths of its rows in quadrature. A cell
-of a timing column whose row is flagged `noisy` is marked †, explained under the table.
+of a timing column whose row is flagged `noisy` is marked †, and so is a percentage built from
+it (the cell's or the baseline's); the footnote counts the noisy rows. --drop-noisy leaves the
+timings of noisy rows out (their cells print -).
 
 When the cells of a timing value (the timing columns, build_ms, upload_ms, readback_ms,
 sort_ms) come from more than one machine (the `host` column, e.g. a run merged from shards that
@@ -35,24 +41,22 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import (TIMING_COLUMNS, amount, apply_filters, column, is_noisy,  # noqa: E402
-                    read_rows, rel_spread)
+from common import (DAGGER, NOISY_WHY, TIMING_COLUMNS, add_noisy_option,  # noqa: E402
+                    amount, apply_filters, column, drop_noisy, is_noisy, read_csvs, rel_spread)
 
 
 # Columns that identify a row (the others are measurements).
 KEYS = ["scene", "structure", "params", "traversal", "device", "adapter", "threads",
         "triangle_test", "ray_kind", "integrator", "pass", "budget_ms"]
 
-DAGGER = "†"
-NOISY_NOTE = ("noisy timing: the median's 95% CI is wider than run.target_ci, or the machine "
-              "was loaded while the row ran")
-
 
 class Cell:
-    """One table cell: value, absolute half-width of its 95% CI (None: none), noisy flag."""
+    """One table cell: value, absolute half-width of its 95% CI (None: none), noisy flag, and
+    how many of its rows are timed / noisy (for the footnote)."""
 
-    def __init__(self, value, half=None, noisy=False):
+    def __init__(self, value, half=None, noisy=False, timed=0, noisy_rows=0):
         self.value, self.half, self.noisy = value, half, noisy
+        self.timed, self.noisy_rows = timed, noisy_rows
 
 
 def cell_of(rows, args):
@@ -67,9 +71,11 @@ def cell_of(rows, args):
     if any(c.value is None for c in cells):
         return Cell(None)
     halves = [c.half for c in cells]
+    timing = args.value in TIMING_COLUMNS
     return Cell(sum(c.value for c in cells),
                 None if None in halves else math.sqrt(sum(h * h for h in halves)),
-                any(c.noisy for c in cells))
+                any(c.noisy for c in cells), len(cells) if timing else 0,
+                sum(c.noisy for c in cells))
 
 
 # Values measured in time: comparing them across machines compares the machines.
@@ -142,9 +148,10 @@ def layout(row_keys, col_keys, cells, args):
             header.append("%")
             kinds.append("pct")
     body = []
-    any_noisy = False
+    any_noisy = any(c.noisy and c.value is not None for c in cells.values())
     for rk in row_keys:
-        base = cells.get((rk, args.baseline), Cell(None)).value
+        base_cell = cells.get((rk, args.baseline), Cell(None))
+        base = base_cell.value
         line = [rk]
         for ck in col_keys:
             c = cells.get((rk, ck), Cell(None))
@@ -153,15 +160,24 @@ def layout(row_keys, col_keys, cells, args):
             else:
                 half = fmt_num(c.half, args.digits) if c.half is not None and args.spread else ""
                 line.append((fmt_num(c.value, args.digits), half, DAGGER if c.noisy else ""))
-                any_noisy |= c.noisy
             if ck != args.baseline:
                 p = percent(c.value, base)
-                line.append("-" if p is None else f"{p:+.1f}%")
+                # A change built from a noisy cell or a noisy baseline is marked too.
+                noisy = p is not None and (c.noisy or base_cell.noisy)
+                line.append("-" if p is None else f"{p:+.1f}%" + (DAGGER if noisy else ""))
         body.append(line)
     return header, kinds, body, any_noisy
 
 
-def render_text(header, kinds, body, any_noisy, style):
+def footnote(cells):
+    """The † footnote: how many of the table's timed rows are noisy."""
+    shown = [c for c in cells.values() if c.value is not None]
+    n, t = sum(c.noisy_rows for c in shown), sum(c.timed for c in shown)
+    return (f"{DAGGER} noisy timing ({n} of {t} timed rows): {NOISY_WHY}; a % built from one "
+            "is marked too; --drop-noisy leaves them out")
+
+
+def render_text(header, kinds, body, any_noisy, style, note):
     def joined(parts, wv, wh, pm):
         v, h, m = parts
         if not h:
@@ -184,7 +200,12 @@ def render_text(header, kinds, body, any_noisy, style):
     for line in body:
         out = []
         for j, kind in enumerate(kinds):
-            out.append(joined(line[j], *cols[j], pm) if kind == "value" else line[j])
+            if kind == "value":
+                out.append(joined(line[j], *cols[j], pm))
+            elif kind == "pct" and any_noisy and not line[j].endswith(DAGGER):
+                out.append(line[j] + " ")  # the marks line up
+            else:
+                out.append(line[j])
         cells.append(out)
     if style == "markdown":
         align = ["---" if k == "label" else "---:" for k in kinds]
@@ -197,7 +218,7 @@ def render_text(header, kinds, body, any_noisy, style):
                                    for i, (x, w) in enumerate(zip(r, widths))).rstrip()
         out = [line(header), "  ".join("-" * w for w in widths)] + [line(r) for r in cells]
     if any_noisy:
-        out.append(("" if style == "text" else "\n") + f"{DAGGER} {NOISY_NOTE}")
+        out.append(("" if style == "text" else "\n") + note)
     return "\n".join(out)
 
 
@@ -216,7 +237,7 @@ def tex_num(s):
     return "$-$" + tex(s[1:]) if s.startswith("-") and len(s) > 1 else tex(s)
 
 
-def render_latex(header, kinds, body, any_noisy, title, args):
+def render_latex(header, kinds, body, any_noisy, title, args, note):
     ncols = len(kinds)
     out = [f"% caption: {title}",
            "% needs \\usepackage{booktabs}",
@@ -242,14 +263,19 @@ def render_latex(header, kinds, body, any_noisy, title, args):
         out.append(" & ".join(parts) + " \\\\")
     out.append("\\bottomrule")
     if any_noisy:
-        out.append(f"\\multicolumn{{{ncols}}}{{l}}{{\\footnotesize $^\\dagger$ {tex(NOISY_NOTE)}}} \\\\")
+        # `--` would print as an en dash.
+        note = tex(note).replace("--drop-noisy", "\\texttt{-{}-drop-noisy}")
+        out.append(f"\\multicolumn{{{ncols}}}{{l}}{{\\footnotesize {note}}} \\\\")
     out.append("\\end{tabular}")
     return "\n".join(out)
 
 
 def main(argv):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("csv")
+    p.add_argument("csv", nargs="+", metavar="CSV|FOLDER",
+                   help="results.csv files or run folders (FOLDER/results.csv, or "
+                        "FOLDER/LATEST/results.csv); rows of a later file replace the same rows "
+                        "of an earlier one")
     p.add_argument("--rows", default="scene")
     p.add_argument("--cols", required=True, help="column or param:KEY whose values are the columns")
     p.add_argument("--value", default="mrays_per_s",
@@ -265,10 +291,12 @@ def main(argv):
     p.add_argument("--no-spread", dest="spread", action="store_false",
                    help="values only, without ± the half-width of the median's 95%% CI")
     p.add_argument("--format", default="text", choices=["text", "markdown", "latex"])
+    add_noisy_option(p)
     args = p.parse_args(argv)
     if args.digits is not None and args.digits < 0:
         p.error("--digits must be 0 or more")
-    rows = apply_filters(read_rows(args.csv), args.filter)
+    rows, _ = read_csvs(args.csv)
+    rows = drop_noisy(apply_filters(rows, args.filter), args.drop_noisy)
     for part in args.value.split("+") if rows else []:
         column(rows[0], part)  # an unknown column is an error here, naming the columns
     rows = [r for r in rows if column(r, args.cols) != ""]
@@ -288,11 +316,14 @@ def main(argv):
         title += f", summed over {args.sum}"
     if args.spread and any(c.half is not None for c in cells.values()):
         title += "; value ± half-width of the median's 95% CI"
+    if args.drop_noisy:
+        title += ", timings of noisy rows left out"
+    note = footnote(cells)
     if args.format == "latex":
-        print(render_latex(header, kinds, body, any_noisy, title, args))
+        print(render_latex(header, kinds, body, any_noisy, title, args, note))
     else:
         print(title)
-        print(render_text(header, kinds, body, any_noisy, args.format))
+        print(render_text(header, kinds, body, any_noisy, args.format, note))
 
 
 if __name__ == "__main__":

@@ -1,13 +1,20 @@
 #!/usr/bin/env python3
 """Self-test of the scripts: builds tiny CSVs in a temporary directory, checks table.py's
-± spreads, sums, noisy marks, LaTeX output and `stat:KEY` / `a+b` values, and that plot.py
-writes its PNGs (sweeps of summed metrics with --line reference rows included).
-No network, a few seconds:
+± spreads, sums, noisy marks, LaTeX output and `stat:KEY` / `a+b` values, the paper scripts'
+tables, several CSVs and run folders read as one (the later file wins), the noisy marks and
+--drop-noisy of every table script, and that plot.py writes its PNGs (sweeps of summed metrics
+with --line reference rows included). No network, a few seconds:
 
     python3 scripts/test_scripts.py [-v]
+
+The plotting tests need matplotlib (scripts/requirements.txt); without it they are skipped with
+a notice, and the rest run. TRACE_BENCH_REQUIRE_MATPLOTLIB=1 turns the skip into a failure (CI,
+in the virtual environment that installs requirements.txt).
 """
 
 import csv
+import importlib.util
+import re
 import os
 import subprocess
 import sys
@@ -15,6 +22,11 @@ import tempfile
 import unittest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+HAVE_MPL = importlib.util.find_spec("matplotlib") is not None
+REQUIRE_MPL = os.environ.get("TRACE_BENCH_REQUIRE_MATPLOTLIB", "") not in ("", "0")
+MPL_NOTICE = (f"matplotlib is not installed for {sys.executable}: the plotting tests are "
+              "skipped (pip install -r scripts/requirements.txt to run them)")
 
 # The columns of a results.csv that the scripts read (a real one has more).
 HEADER = ["scene", "structure", "params", "traversal", "device", "threads", "triangle_test",
@@ -151,11 +163,23 @@ def write(path, rows, header=HEADER):
 
 
 def run(script, *args):
+    return run2(script, *args)[0]
+
+
+def run2(script, *args):
+    """(stdout, stderr) of a script that must succeed."""
     p = subprocess.run([sys.executable, os.path.join(HERE, script), *args],
                        capture_output=True, text=True, env={**os.environ, "MPLBACKEND": "Agg"})
     if p.returncode != 0:
         raise AssertionError(f"{script} {' '.join(args)} failed:\n{p.stdout}{p.stderr}")
-    return p.stdout
+    return p.stdout, p.stderr
+
+
+def needs_matplotlib(cls):
+    """Skip a test class without matplotlib (a failure with TRACE_BENCH_REQUIRE_MATPLOTLIB=1)."""
+    if HAVE_MPL or REQUIRE_MPL:
+        return cls
+    return unittest.skip(MPL_NOTICE)(cls)
 
 
 class Table(unittest.TestCase):
@@ -217,7 +241,41 @@ class Table(unittest.TestCase):
         # 30 ± 3 plus 40 ± 4 gives 70 ± 5; str: 40 ± 4 plus 53.33 ± 5.33 gives 93.33 ± 6.67.
         self.assertIn("70.00 ± 5.00", out)
         self.assertIn("93.33 ± 6.67†", out)
-        self.assertIn("† noisy", out)
+        # The change built from the noisy cell is marked too; the footnote counts the rows.
+        self.assertIn("+33.3%†", out)
+        self.assertIn("† noisy timing (1 of 8 timed rows)", out)
+        a_line = next(ln for ln in out.splitlines() if ln.startswith("a&b"))
+        self.assertNotIn("†", a_line)
+
+    def test_noisy_baseline_marks_every_change(self):
+        rows = results_rows()
+        for r in rows:
+            r["noisy"] = "true" if (r["scene"] == "cornell" and r["params"].startswith(
+                "strategy=r-star") and r["ray_kind"] == "primary" and r["threads"] == "1") \
+                else "false"
+        path = os.path.join(self.tmp.name, "noisy-base.csv")
+        write(path, rows)
+        out = run("table.py", path, *self.base, "--filter", "ray_kind=primary",
+                  "--value", "trace_ms_median")
+        line = next(ln for ln in out.splitlines() if ln.startswith("cornell"))
+        self.assertIn("30.00 ± 3.00†", line)
+        self.assertIn("40.00 ± 4.00 ", line)   # the cell itself is clean ...
+        self.assertIn("+33.3%†", line)         # ... its change against a noisy base is not
+        # Counters are exact: never marked, and --drop-noisy leaves them alone.
+        out = run("table.py", path, *self.base, "--filter", "ray_kind=primary",
+                  "--value", "steps_per_ray", "--drop-noisy")
+        line = next(ln for ln in out.splitlines() if ln.startswith("cornell"))
+        self.assertEqual(line.split(), ["cornell", "20", "20", "+0.0%"])
+        self.assertNotIn("†", out)
+
+    def test_drop_noisy(self):
+        out, err = run2("table.py", self.csv, *self.base, "--value", "trace_ms_median",
+                        "--sum", "ray_kind", "--drop-noisy", "--format", "markdown")
+        self.assertIn("the timings of 1 noisy row(s) of 8 left out", err)
+        self.assertIn("| cornell | 70.00 ± 5.00 | - | - |", out)
+        self.assertIn("| a&b#1_x% | 70.00 ± 5.00 | 93.33 ± 6.67 | +33.3% |", out)
+        self.assertNotIn("†", out)
+        self.assertIn("timings of noisy rows left out", out.splitlines()[0])
 
     def test_no_spread_digits_thousands(self):
         out = run("table.py", self.csv, *self.base, "--value", "build_ms", "--no-spread",
@@ -335,6 +393,7 @@ class Table(unittest.TestCase):
         self.assertIn("ray_kind", p.stderr)
 
 
+@needs_matplotlib
 class Plot(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -458,5 +517,416 @@ class Irregular(unittest.TestCase):
         self.assertIn("10.00 / 14.00 (+40%)", out)
 
 
+def sparse_rows(noisy=(), scale=1.0):
+    """configs/sparse-boxes.toml in small: one scene, two views, HTR/BTR/SLTR/SEQ, primary and
+    shadow rays; `noisy` lists (view, traversal) pairs flagged noisy; times scaled by `scale`."""
+    rows = []
+    for view in ["1", "2"]:
+        for trav, ni, ms in [("htr", 80.0, 10.0), ("btr", 70.0, 9.0), ("sltr", 120.0, 14.0),
+                             ("seq", 240.0, 19.0)]:
+            for kind in ["primary", "shadow"]:
+                r = row(f"arena@{view}", "sparse-boxes", "d_min=2", trav, kind, ms * scale, 0.02,
+                        noisy=(view, trav) in noisy)
+                r.update(interior_per_ray=ni, prims_per_ray=30.0, leaves_per_ray=9.0,
+                         build_stats="n_b=700000;m_kd_bytes=2000000;m_kd_htr_bytes=1500000",
+                         ups_per_ray=1.0 if trav in ("btr", "sltr") else "", mismatches=0,
+                         triangles=1000)
+                rows.append(r)
+    return rows
+
+
+SPARSE_HEADER = HEADER + ["ups_per_ray", "mismatches", "triangles"]
+
+
+def dmin_rows():
+    """configs/sparse-dmin.toml in small: BTR and SLTR over d_min 1..4, HTR once (its rows
+    carry the default d_min = 2, as the harness writes the full parameter set)."""
+    rows = []
+    for scene in ["sponza", "sibenik"]:
+        for trav in ["btr", "sltr"]:
+            for d in [1, 2, 3, 4]:
+                r = row(scene, "sparse-boxes", f"d_min={d};max_leaf=2", trav, "primary",
+                        10.0 + d, 0.02, steps=60.0 - d)
+                r["interior_per_ray"] = 60.0 - d
+                rows.append(r)
+        r = row(scene, "sparse-boxes", "d_min=2;max_leaf=2", "htr", "primary", 12.0, 0.02)
+        r["interior_per_ray"] = 70.0
+        rows.append(r)
+    return rows
+
+
+DYNAMIC_HEADER = ["scene", "source", "structure", "params", "threads", "width", "height",
+                  "budget_ms", "frame", "triangles", "lambda_1", "lambda_2", "build_ms",
+                  "primary_ms", "ao_ms_per_spp", "spp"]
+
+
+def dynamic_rows(spp_irregular=10, lam=0.3):
+    rows = []
+    for structure, spp, l1 in [("two-level-grid", 5, 0.2), ("irregular-grid", spp_irregular, lam)]:
+        for budget in [100, 50]:
+            for frame in [0, 10, 20]:
+                rows.append(dict(zip(DYNAMIC_HEADER, [
+                    "explode", f"builtin:explode?frame={frame}", structure,
+                    f"lambda_1={l1};lambda_2={8 * l1:g};merge=true", 2, 256, 256, budget, frame,
+                    1000, l1, 8 * l1, 10.0, 5.0, 2.0, spp if budget == 100 else spp // 2])))
+    return rows
+
+
+def run_dirs(tmp, name, tables, file="results.csv", header=HEADER):
+    """results/<name>/<run k>/<file> for each table of rows, and results/<name>/LATEST, a link
+    to the last run folder (as the harness makes it). Returns (the run folders, results/<name>)."""
+    base = os.path.join(tmp, "results", name)
+    dirs = []
+    for k, rows in enumerate(tables):
+        d = os.path.join(base, f"2026-01-0{k + 1}T00-00-00")
+        os.makedirs(d, exist_ok=True)
+        write(os.path.join(d, file), rows, header)
+        dirs.append(d)
+    latest = os.path.join(base, "LATEST")
+    if not os.path.lexists(latest):
+        os.symlink(os.path.basename(dirs[-1]), latest)
+    return dirs, base
+
+
+class SeveralRuns(unittest.TestCase):
+    """Finding 1: every script takes several CSVs and run folders; a later file wins."""
+
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.addCleanup(self.tmp.cleanup)
+
+    def test_table_later_file_wins(self):
+        old = results_rows()
+        new = [dict(r) for r in results_rows() if r["scene"] == "cornell"]
+        for r in new:
+            r["trace_ms_median"] = r["trace_ms_median"] * 2
+        (d1, d2), base = run_dirs(self.tmp.name, "rtree", [old, new])
+        args = [*("--cols", "param:strategy", "--baseline", "r-star", "--filter", "threads=1"),
+                "--value", "trace_ms_median", "--filter", "ray_kind=primary", "--no-spread"]
+        for inputs in ([os.path.join(d1, "results.csv"), os.path.join(d2, "results.csv")],
+                       [d1, d2], [d1, os.path.join(base, "LATEST")]):
+            out, err = run2("table.py", *inputs, *args)
+            self.assertIn("note: 5 row(s) of", err)
+            self.assertIn("the later file wins", err)
+            lines = {ln.split()[0]: ln.split() for ln in out.splitlines()[2:]}
+            self.assertEqual(lines["cornell"][1:3], ["60.00", "80.00"])   # the later run
+            self.assertEqual(lines["a&b#1_x%"][1:3], ["30.00", "40.00"])  # only in the first
+        # The other order: the first run's rows win.
+        cornell = lambda out: next(ln.split()[1:3] for ln in out.splitlines()  # noqa: E731
+                                   if ln.startswith("cornell"))
+        self.assertEqual(cornell(run("table.py", d2, d1, *args)), ["30.00", "40.00"])
+        # results/NAME (no results.csv of its own) reads results/NAME/LATEST.
+        self.assertEqual(cornell(run("table.py", base, *args)), ["60.00", "80.00"])
+        # The same file twice is read once, without a note about replaced rows.
+        out, err = run2("table.py", d1, os.path.join(d1, "results.csv"), *args)
+        self.assertIn("given twice", err)
+        self.assertNotIn("replaced", err)
+
+    def test_folder_without_results(self):
+        p = subprocess.run([sys.executable, os.path.join(HERE, "table.py"), self.tmp.name,
+                            "--cols", "param:strategy", "--baseline", "r-star"],
+                           capture_output=True, text=True)
+        self.assertNotEqual(p.returncode, 0)
+        self.assertIn("a folder without results.csv", p.stderr)
+
+    def test_columns_of_another_version(self):
+        # An older run without the `boxes_per_ray` column beside a newer one: the union of the
+        # columns, empty where a file lacks one.
+        old = [{k: v for k, v in r.items() if k != "boxes_per_ray"}
+               for r in results_rows() if r["scene"] == "cornell"]
+        new = [r for r in results_rows() if r["scene"] != "cornell"]
+        d = self.tmp.name
+        write(os.path.join(d, "old.csv"), old, [c for c in HEADER if c != "boxes_per_ray"])
+        write(os.path.join(d, "new.csv"), new)
+        out = run("table.py", os.path.join(d, "old.csv"), os.path.join(d, "new.csv"),
+                  "--cols", "param:strategy", "--baseline", "r-star", "--filter", "threads=1",
+                  "--filter", "ray_kind=primary", "--value", "boxes_per_ray")
+        self.assertIn("cornell", out)
+        self.assertIn("a&b#1_x%", out)
+
+    def test_sparse_table1(self):
+        (d1, d2), base = run_dirs(self.tmp.name, "sparse-boxes",
+                                  [sparse_rows(), sparse_rows(scale=2.0)], header=SPARSE_HEADER)
+        out, err = run2("sparse-table1.py", d1, d2)
+        self.assertIn("replaced", err)
+        htr = next(ln for ln in out.splitlines() if ln.strip().startswith("HTR")
+                   and "1.50" in ln)
+        self.assertIn("0.020", htr)  # T_R of the second run: 20 ms
+        out2, _ = run2("sparse-table1.py", os.path.join(base, "LATEST"))
+        self.assertEqual(out, out2)
+
+    def test_irregular_figure6(self):
+        rows = []
+        for l1 in [0.1, 0.2]:
+            for l2 in [1, 2]:
+                r = row("crown", "irregular-grid", f"lambda_1={l1};lambda_2={l2}", "walk",
+                        "primary", 10.0 * l1 + l2, 0.01)
+                r["memory_bytes"] = 1e6
+                rows.append(r)
+        newer = [dict(rows[0], trace_ms_median=1.0, mrays_per_s=1000.0)]
+        (d1, d2), _ = run_dirs(self.tmp.name, "irregular-lambda", [rows, newer],
+                               header=HEADER + ["memory_bytes"])
+        out, err = run2("irregular-figure6.py", d1, d2, "--no-plot")
+        self.assertIn("note: 1 row(s) of", err)
+        self.assertIn("1e+03]", out)  # the newer row's 1000 MRays/s is the max
+
+    def test_irregular_table4(self):
+        first = dynamic_rows(spp_irregular=4, lam=0.3)
+        # The second run chose other densities for the same budgets: its rows still replace
+        # the first's (the chosen densities are not part of a row's identity).
+        second = dynamic_rows(spp_irregular=10, lam=0.2)
+        (d1, d2), base = run_dirs(self.tmp.name, "irregular-dynamic", [first, second],
+                                  file="dynamic.csv", header=DYNAMIC_HEADER)
+        out, err = run2("irregular-table4.py", d1, d2)
+        self.assertIn("note: 12 row(s) of", err)
+        self.assertIn("irregular 10 vs two-level 5 spp (median over frames): agree", out)
+        self.assertIn("0.2, 1.6", out)
+        self.assertNotIn("0.3, 2.4", out.split("The paper")[0])
+        self.assertIn("records no `noisy` flag", out)
+        out, _ = run2("irregular-table4.py", base)  # results/NAME -> LATEST/dynamic.csv
+        self.assertIn("irregular 10 vs two-level 5", out)
+
+    def test_irregular_tables_and_multikd(self):
+        header = HEADER + ["memory_bytes", "build_heap_peak_bytes", "build_heap_kept_bytes"]
+        (d1,), _ = run_dirs(self.tmp.name, "irregular-grid", [irregular_rows()], header=header)
+        out = run("irregular-tables.py", d1)
+        self.assertIn("sponza 3.00x -> agree", out)
+        (d2,), base = run_dirs(self.tmp.name, "multikd", [table5_rows()])
+        out = run("multikd-table5.py", base)
+        self.assertIn("2 views, steps=equal, mism 0", out)
+
+    @unittest.skipUnless(HAVE_MPL or REQUIRE_MPL, MPL_NOTICE)
+    def test_plot_folders(self):
+        (d1, d2), base = run_dirs(self.tmp.name, "sweep", [sweep_rows()[:40], sweep_rows()[40:]])
+        out = run("plot.py", "sweep", d1, d2, "--param", "max_leaf")
+        # The PNG goes beside the last file.
+        self.assertIn(os.path.join(d2, "results-sweep-max_leaf.png"), out)
+        out = run("plot.py", base)  # auto-detected: bars, from LATEST/results.csv
+        self.assertIn("results-bars.png", out)
+        cols, rows = convergence_rows()
+        c1 = os.path.join(self.tmp.name, "conv")
+        os.makedirs(c1)
+        write(os.path.join(c1, "convergence.csv"), rows, cols)
+        out = run("plot.py", c1)  # a folder with only convergence.csv: convergence
+        self.assertIn(os.path.join(c1, "convergence.png"), out)
+
+
+class Noise(unittest.TestCase):
+    """Finding 4: every table script marks timings of noisy rows and offers --drop-noisy."""
+
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.addCleanup(self.tmp.cleanup)
+
+    def path(self, name, rows, header=HEADER):
+        p = os.path.join(self.tmp.name, name)
+        write(p, rows, header)
+        return p
+
+    def test_irregular_table3_win_from_noisy_row(self):
+        # Table 3's SBVH row at view b noisy: the irregular grid's "win" there is marked.
+        rows = irregular_rows()
+        for r in rows:
+            if r["scene"] == "sponza@b" and r["params"] == "builder=sbvh":
+                r["noisy"] = "true"
+        p = self.path("irr.csv", rows,
+                      HEADER + ["memory_bytes", "build_heap_peak_bytes", "build_heap_kept_bytes"])
+        out = run("irregular-tables.py", p)
+        self.assertIn("10.00† / 14.00 (+40%)†", out)
+        self.assertIn("ours faster in 2 of 2 scene x view x ray kind cells; 1 of the 2 wins and "
+                      "0 of the 0 losses rest on a noisy row†", out)
+        self.assertIn("† noisy timing (1 of 16 timed rows)", out)
+        out = run("irregular-tables.py", p, "--drop-noisy")
+        self.assertIn("ours faster in 1 of 1 scene x view x ray kind cells (1 cell(s) left out",
+                      out)
+        self.assertNotIn("†", out)
+        # Counters (N_T, N_I) are not timings: the Table 1 claim stays.
+        self.assertIn("sponza N_T -76 %, N_I +75 % -> agree", out)
+
+    def test_irregular_table5_claim_from_noisy_row(self):
+        rows = irregular_rows()
+        for r in rows:
+            if r["scene"] == "sponza" and r["params"] == "lambda=5;macro_regions=true":
+                r["noisy"] = "true"
+        p = self.path("irr5.csv", rows,
+                      HEADER + ["memory_bytes", "build_heap_peak_bytes", "build_heap_kept_bytes"])
+        out = run("irregular-tables.py", p)
+        self.assertIn("sponza +24 %†, memory M + E 2.5 MB vs E 9.0 MB -> agree†", out)
+        out = run("irregular-tables.py", p, "--drop-noisy")
+        self.assertIn("sponza - (a noisy timing left out)", out)
+
+    def test_multikd_negative_share_within_noise(self):
+        rows = table5_rows()
+        for r in rows:
+            if r["traversal"].endswith("-sorted") and r["ray_kind"] == "path1" \
+                    and "sphere-orth" in r["params"]:
+                # 7.9 ms against -presorted's 8 ms, CIs of 10 %: overlapping.
+                r["trace_ms_median"], r["mrays_per_s"] = 7.9, 1e6 / 7.9 / 1000
+        out = run("multikd-table5.py", self.path("neg.csv", rows))
+        line = next(ln for ln in out.splitlines() if ln.strip().startswith("ours SPONZA")
+                    and "125.00" in ln)
+        self.assertIn("noise‡", line)
+        self.assertNotIn("%!", line)
+        self.assertNotRegex(line, r"-\d+\.\d%")  # no negative share printed as a figure
+        self.assertIn("‡ noise: the sort's share came out negative", out)
+        self.assertIn("within noise", out)
+
+    def test_multikd_negative_share_beyond_noise(self):
+        rows = table5_rows()
+        for r in rows:
+            r["trace_ms_ci"] = 0.01
+            if r["traversal"].endswith("-sorted") and r["ray_kind"] == "path1" \
+                    and "sphere-orth" in r["params"]:
+                r["trace_ms_median"], r["mrays_per_s"] = 5.0, 0.2
+        out = run("multikd-table5.py", self.path("neg2.csv", rows))
+        self.assertIn("-60.0%!", out)
+        self.assertIn("! a negative share beyond the CIs", out)
+        self.assertNotIn("‡", out)
+
+    def test_multikd_noisy_and_drop(self):
+        rows = table5_rows()
+        for r in rows:
+            if r["scene"] == "sponza@2" and r["traversal"].endswith("-sorted") \
+                    and r["ray_kind"] == "path1" and "sah" in r["params"]:
+                r["noisy"] = "true"
+        p = self.path("t5n.csv", rows)
+        out = run("multikd-table5.py", p)
+        line = next(ln for ln in out.splitlines() if ln.strip().startswith("ours SPONZA")
+                    and "125.00" in ln)
+        # SPHERE-ORTH's inc. gain is against SAH's noisy -sorted pool: the gain is marked, its
+        # own MRays/s and the share (from the clean sphere-orth rows) are not.
+        self.assertIn("100.00  (-100.00)†", line)
+        self.assertIn(" 20.0% ", line + " ")
+        self.assertIn("† noisy timing (1 of 24 timed rows)", out)
+        out, err = run2("multikd-table5.py", p, "--drop-noisy")
+        self.assertIn("left out", err)
+        self.assertIn("1-2 views (pools differ: compare with care)", out)
+        self.assertNotIn("†", out)
+
+    def test_sparse_noisy_and_drop(self):
+        p = self.path("s.csv", sparse_rows(noisy={("2", "btr")}), SPARSE_HEADER)
+        out = run("sparse-table1.py", p)
+        ours = out[out.index("ours:"):]
+        self.assertIn("0.009†", ours)                       # BTR's T_R
+        self.assertIn("HTR T_R / BTR T_R = 1.111†", ours)    # built from it
+        self.assertIn("SLTR T_R / HTR T_R = 1.400 ", ours)   # not
+        self.assertIn("† noisy timing (1 of 8 timed rows)", out)
+        out = run("sparse-table1.py", p, "--drop-noisy")
+        self.assertIn("HTR T_R / BTR T_R = 1.111 (over the 1 view(s) both timed)", out)
+        ours = out[out.index("ours:"):]
+        btr = next(ln for ln in ours.splitlines() if ln.strip().startswith("BTR "))
+        self.assertEqual(btr.split()[-3:-1], ["2", "1"])  # views 2, timed 1
+        self.assertNotIn("†", ours)
+
+    def test_irregular_figure6_noisy(self):
+        rows = []
+        for l1 in [0.1, 0.2]:
+            r = row("crown", "irregular-grid", f"lambda_1={l1};lambda_2=1", "walk", "primary",
+                    10.0 if l1 == 0.1 else 20.0, 0.01, noisy=l1 == 0.1)
+            r["memory_bytes"] = 1e6
+            rows.append(r)
+        p = self.path("f6.csv", rows, HEADER + ["memory_bytes"])
+        out = run("irregular-figure6.py", p, "--no-plot")
+        self.assertIn("[50, 100†]", out)
+        self.assertIn("† noisy timing (1 of 2 timed rows)", out)
+        out = run("irregular-figure6.py", p, "--no-plot", "--drop-noisy")
+        self.assertIn("[50, 50]", out)
+
+    def test_irregular_table4_noisy_column(self):
+        rows = dynamic_rows()
+        for r in rows:
+            r["noisy"] = "true" if r["structure"] == "irregular-grid" and r["frame"] == 0 \
+                else "false"
+        p = self.path("dynamic.csv", rows, DYNAMIC_HEADER + ["noisy"])
+        out = run("irregular-table4.py", p)
+        self.assertIn("irregular 10† vs two-level 5 spp (median over frames): agree†", out)
+        self.assertIn("† noisy timing (2 of 12 frames)", out)
+        out = run("irregular-table4.py", p, "--drop-noisy")
+        self.assertNotIn("†", out)
+
+
+class SparseBoxes(unittest.TestCase):
+    """Findings 2 and 3: the paper's figures only for primary rays; HTR as a line over d_min."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.csv = os.path.join(cls.tmp.name, "results.csv")
+        write(cls.csv, sparse_rows(), SPARSE_HEADER)
+        cls.dmin = os.path.join(cls.tmp.name, "dmin.csv")
+        write(cls.dmin, dmin_rows())
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_primary_prints_the_paper(self):
+        out = run("sparse-table1.py", self.csv)
+        self.assertIn("paper: 'arena", out)
+        self.assertIn("(paper: 0.848 arena, 0.864 city)", out)
+        self.assertIn("BTR N_I / HTR N_I = 0.875 (paper: 0.848 arena, 0.864 city)", out)
+
+    def test_shadow_does_not_print_the_paper(self):
+        out = run("sparse-table1.py", self.csv, "--ray-kind", "shadow")
+        self.assertNotIn("paper: 'arena", out)
+        for figure in ["0.848", "86.85", "1.04-1.10", "about 1.46", "1.31 arena"]:
+            self.assertNotIn(figure, out)
+        self.assertIn("paper: primary rays only", out)
+        self.assertIn("BTR N_I / HTR N_I = 0.875 (paper: primary rays only)", out)
+        self.assertIn("shadow rays", out)
+
+    def test_config_runs_htr(self):
+        try:
+            import tomllib
+        except ImportError:
+            self.skipTest("tomllib needs Python 3.11")
+        with open(os.path.join(ROOT, "configs", "sparse-dmin.toml"), "rb") as f:
+            config = tomllib.load(f)
+        travs = {t for s in config["structure"] if s["name"] == "sparse-boxes"
+                 for t in s.get("traversals", [])}
+        self.assertTrue({"htr", "btr", "sltr"} <= travs, travs)
+
+    @unittest.skipUnless(HAVE_MPL or REQUIRE_MPL, MPL_NOTICE)
+    def test_dmin_sweep_htr_line(self):
+        # Without --line: HTR is one point at d_min = 2, and the script says how to draw it.
+        out = run("plot.py", "sweep", self.dmin, "--param", "d_min", "--metric",
+                  "interior_per_ray", "--out", os.path.join(self.tmp.name, "a.png"))
+        self.assertIn("--line traversal=htr", out)
+        self.assertIn("sponza sparse-boxes htr", out)
+        # With it: a dashed line per scene, no hint.
+        for metric in ["interior_per_ray", "trace_ms_median"]:
+            out = run("plot.py", "sweep", self.dmin, "--param", "d_min", "--metric", metric,
+                      "--line", "traversal=htr")
+            self.assertNotIn("single d_min value", out)
+            png = os.path.join(self.tmp.name, f"dmin-sweep-d_min-{metric}.png")
+            self.assertIn(png, out)
+            with open(png, "rb") as f:
+                self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+
+
+class WithoutMatplotlib(unittest.TestCase):
+    @unittest.skipIf(HAVE_MPL, "matplotlib is installed")
+    def test_plot_says_what_it_needs(self):
+        p = subprocess.run([sys.executable, os.path.join(HERE, "plot.py"), "bars", "x.csv"],
+                           capture_output=True, text=True)
+        self.assertNotEqual(p.returncode, 0)
+        self.assertIn("plot.py needs matplotlib", p.stderr)
+        self.assertNotIn("Traceback", p.stderr)
+
+    def test_tables_need_no_matplotlib(self):
+        # The table scripts import nothing beyond the standard library (and common.py).
+        for script in ["table.py", "sparse-table1.py", "irregular-tables.py",
+                       "irregular-table4.py", "multikd-table5.py", "irregular-figure6.py"]:
+            with open(os.path.join(HERE, script)) as f:
+                top = re.findall(r"^(?:import|from) (\w+)", f.read(), re.M)
+            self.assertNotIn("matplotlib", top, script)
+
+
 if __name__ == "__main__":
+    if not HAVE_MPL:
+        if REQUIRE_MPL:
+            print(f"error: TRACE_BENCH_REQUIRE_MATPLOTLIB is set, but {MPL_NOTICE}",
+                  file=sys.stderr)
+        else:
+            print(f"notice: {MPL_NOTICE}", file=sys.stderr)
     unittest.main()

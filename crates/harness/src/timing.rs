@@ -156,11 +156,14 @@ pub fn median(v: &mut [f64]) -> f64 {
 /// Fill `trace_ms_{min,median,max}`, `mrays_per_s`, `timed_runs`, `trace_ms_ci` and `noisy`
 /// (the confidence interval wider than `target_ci`) from the times (ms) of the timed runs
 /// over `rays` rays.
+/// One timed run has no interval: `trace_ms_ci` and `noisy` stay empty ("not measured").
 pub fn fill(row: &mut Row, times: &mut [f64], rays: usize, target_ci: f64) {
-    let ci = relative_ci(times);
     row.timed_runs = Some(times.len() as u32);
-    row.trace_ms_ci = Some(ci);
-    row.noisy = Some(ci > target_ci);
+    if times.len() >= 2 {
+        let ci = relative_ci(times);
+        row.trace_ms_ci = Some(ci);
+        row.noisy = Some(ci > target_ci);
+    }
     let med = median(times);
     row.trace_ms_min = times.first().copied();
     row.trace_ms_max = times.last().copied();
@@ -183,6 +186,9 @@ mod tests {
         assert_eq!(row.mrays_per_s, Some(0.5));
         assert_eq!(row.trace_ms_ci, Some(0.75));
         assert_eq!((row.noisy, row.timed_runs), (Some(true), Some(3)));
+        let mut one = Row::default();
+        fill(&mut one, &mut [2.0], 1000, 0.05);
+        assert_eq!((one.trace_ms_ci, one.noisy), (None, None));
     }
 
     #[test]

@@ -485,7 +485,7 @@ pub fn reproduction(reports: &[PaperReport], head: &str) -> String {
             let (go, gv) = cell(on("gpu"));
             let mut why: Vec<String> = Vec::new();
             for c in [on("cpu"), on("gpu")].into_iter().flatten() {
-                if !c.why.is_empty() && !(c.device == "gpu" && c.ours == "—") {
+                if !(c.why.is_empty() || c.device == "gpu" && c.ours == "—") {
                     why.push(if r.claims.iter().filter(|x| x.id == id).count() > 1 {
                         format!("{}: {}", c.device.to_uppercase(), c.why)
                     } else {
