@@ -154,3 +154,72 @@ test = {{ kind = "value", of = "w", min = 49.999, max = 50.01 }}
         .unwrap();
     assert_eq!(o.status.code(), Some(1), "gpu-only is inconclusive");
 }
+
+/// `run.interleave`: the same rows and counters as a run timed row by row; the CPU rows of a
+/// batch share a timing group (over both builds) and carry their rounds in order.
+#[test]
+fn interleaved_runs_keep_rows_and_counters() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = t.path().join("tiny.toml");
+    let text = format!(
+        "{CONFIG}\n[[scene]]\nsource = \"builtin:cornell\"\nrays = [\"primary\", \"shadow\"]\ncamera = {{ width = 32, height = 32 }}\n\n[[structure]]\nname = \"bvh\"\n"
+    )
+    .replace("[run]\n", "[run]\ndevices = [\"cpu\"]\n");
+    fs::write(&cfg, &text).unwrap();
+    let exe = env!("CARGO_BIN_EXE_trace-bench");
+    let run = |out: &str, extra: &[&str]| {
+        let o = Command::new(exe)
+            .args(["run", cfg.to_str().unwrap(), "--out"])
+            .arg(t.path().join(out))
+            .arg("-q")
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let mut rd = csv::Reader::from_path(t.path().join(out).join("results.csv")).unwrap();
+        let head = rd.headers().unwrap().clone();
+        rd.records()
+            .map(|r| {
+                let r = r.unwrap();
+                head.iter()
+                    .zip(r.iter())
+                    .map(|(h, v)| (h.to_owned(), v.to_owned()))
+                    .collect::<std::collections::BTreeMap<_, _>>()
+            })
+            .collect::<Vec<_>>()
+    };
+    let apart = run("apart", &[]);
+    let together = run("together", &["--set", "run.interleave=true"]);
+    assert_eq!(apart.len(), together.len());
+    for (a, b) in apart.iter().zip(&together) {
+        for col in [
+            "scene",
+            "structure",
+            "traversal",
+            "ray_kind",
+            "interior_per_ray",
+            "prims_per_ray",
+            "mismatches",
+        ] {
+            assert_eq!(a[col], b[col], "{col}");
+        }
+        assert!(a["timing_group"].is_empty());
+        assert_eq!(b["trace_ms_runs"].split(';').count(), 3);
+    }
+    // Per view and batch, every row of both builds shares one group.
+    for kind in ["primary"] {
+        let groups: std::collections::BTreeSet<&str> = together
+            .iter()
+            .filter(|r| r["scene"] == "sphereflake" && r["ray_kind"] == kind)
+            .map(|r| r["timing_group"].as_str())
+            .collect();
+        assert_eq!(groups.len(), 1, "{groups:?}");
+        assert!(!groups.iter().next().unwrap().is_empty());
+    }
+    let structures: std::collections::BTreeSet<&str> = together
+        .iter()
+        .filter(|r| r["scene"] == "cornell" && r["ray_kind"] == "shadow")
+        .map(|r| r["structure"].as_str())
+        .collect();
+    assert_eq!(structures.len(), 2);
+}

@@ -50,6 +50,14 @@ macro_rules! define_row {
             /// Half the width of the median's 95 % confidence interval, relative to the
             /// median.
             pub trace_ms_ci: Option<f64>,
+            /// Every timed run's ms in the order they ran, `;`-separated (rows timed together
+            /// pair run for run: see `timing_group`).
+            #[serde(default)]
+            pub trace_ms_runs: String,
+            /// Rows timed interleaved (`run.interleave`: run 1 of each, then run 2, …) share
+            /// this id; empty for a row timed alone.
+            #[serde(default)]
+            pub timing_group: String,
             /// `trace_ms_ci` above `run.target_ci`, or the load average above the machine's
             /// idle level during the row.
             pub noisy: Option<bool>,

@@ -41,6 +41,64 @@ impl TimingPlan {
     }
 }
 
+impl TimingPlan {
+    /// Time `n` rows interleaved: `warmup` untimed rounds, then rounds of one timed pass of
+    /// each row in turn (`once(i)` returns row `i`'s ms), so drift and other load fall on
+    /// every row alike. At least `repeat` rounds; more (up to `max_repeat`) while the 95 %
+    /// interval of any pair's ratio, taken round by round, is wider than `target_ci` (a lone
+    /// row: its own median's), and the rounds have run for less than `max_row_seconds` per
+    /// row. Returns each row's times in round order.
+    pub fn run_interleaved<E>(
+        &self,
+        n: usize,
+        mut once: impl FnMut(usize) -> Result<f64, E>,
+    ) -> Result<Vec<Vec<f64>>, E> {
+        for _ in 0..self.warmup {
+            for i in 0..n {
+                once(i)?;
+            }
+        }
+        let start = Instant::now();
+        let budget = Duration::from_secs_f64(self.max_row_seconds.max(0.0) * n as f64);
+        let mut times = vec![Vec::with_capacity(self.repeat); n];
+        loop {
+            for (i, t) in times.iter_mut().enumerate() {
+                t.push(once(i)?);
+            }
+            let rounds = times.first().map_or(0, Vec::len);
+            if n == 0 || rounds >= self.max_repeat.max(self.repeat) {
+                break;
+            }
+            if rounds >= self.repeat.max(1)
+                && (widest_pair_ci(&times) <= self.target_ci || start.elapsed() >= budget)
+            {
+                break;
+            }
+        }
+        Ok(times)
+    }
+}
+
+/// The widest relative 95 % interval of the round-by-round ratio of any two rows (of the one
+/// row's median when alone).
+pub fn widest_pair_ci(times: &[Vec<f64>]) -> f64 {
+    if times.len() == 1 {
+        return relative_ci(&times[0]);
+    }
+    let mut w: f64 = 0.0;
+    for i in 0..times.len() {
+        for j in i + 1..times.len() {
+            let r: Vec<f64> = times[i]
+                .iter()
+                .zip(&times[j])
+                .map(|(a, b)| a / b.max(1e-12))
+                .collect();
+            w = w.max(relative_ci(&r));
+        }
+    }
+    w
+}
+
 /// The distribution-free 95 % confidence interval of the median of `v` (order statistics,
 /// normal approximation of the binomial: ranks `n/2 ∓ 0.98·√n`; Conover 1999); the whole range
 /// for fewer than 6 values.
@@ -159,6 +217,11 @@ pub fn median(v: &mut [f64]) -> f64 {
 /// One timed run has no interval: `trace_ms_ci` and `noisy` stay empty ("not measured").
 pub fn fill(row: &mut Row, times: &mut [f64], rays: usize, target_ci: f64) {
     row.timed_runs = Some(times.len() as u32);
+    row.trace_ms_runs = times
+        .iter()
+        .map(|t| format!("{t:.6}"))
+        .collect::<Vec<_>>()
+        .join(";");
     if times.len() >= 2 {
         let ci = relative_ci(times);
         row.trace_ms_ci = Some(ci);
@@ -189,6 +252,40 @@ mod tests {
         let mut one = Row::default();
         fill(&mut one, &mut [2.0], 1000, 0.05);
         assert_eq!((one.trace_ms_ci, one.noisy), (None, None));
+    }
+
+    #[test]
+    fn interleaved_rounds_pair_the_rows_and_stop_on_the_ratio() {
+        let plan = TimingPlan {
+            warmup: 1,
+            repeat: 3,
+            max_repeat: 40,
+            target_ci: 0.01,
+            max_row_seconds: 60.0,
+        };
+        // Row 1 always takes twice row 0's time, under a drift that changes both alike:
+        // the ratio is exact from the first rounds, so the minimum of rounds is enough.
+        let mut calls = Vec::new();
+        let t = plan
+            .run_interleaved(2, |i| -> Result<f64, ()> {
+                let round = calls.len() / 2;
+                calls.push(i);
+                Ok((1.0 + round as f64) * (i + 1) as f64)
+            })
+            .unwrap();
+        assert_eq!(calls[..6], [0, 1, 0, 1, 0, 1]);
+        assert_eq!(t[0].len(), 3);
+        assert_eq!(t[1].len(), 3);
+        assert_eq!(widest_pair_ci(&t), 0.0);
+        // A ratio that keeps changing runs to max_repeat.
+        let mut k = 0u32;
+        let t = plan
+            .run_interleaved(2, |i| -> Result<f64, ()> {
+                k += 1;
+                Ok(if i == 0 { 1.0 } else { 1.0 + (k % 7) as f64 })
+            })
+            .unwrap();
+        assert_eq!(t[0].len(), 40);
     }
 
     #[test]

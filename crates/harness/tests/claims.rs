@@ -371,3 +371,42 @@ fn the_projects_claims_files_load() {
     }
     assert!(n >= 1);
 }
+
+/// Rows timed interleaved pair round by round: a steady 2x ratio under a drift that moves
+/// both rows' medians is decided even on rows flagged noisy, while the same times without
+/// `timing_group` (timed apart) are not.
+#[test]
+fn interleaved_rows_pair_round_by_round() {
+    let t = tempfile::tempdir().unwrap();
+    let head = "scene,structure,params,traversal,device,adapter,threads,triangle_test,ray_kind,rays,trace_ms_min,trace_ms_median,trace_ms_max,timed_runs,trace_ms_ci,noisy,trace_ms_runs,timing_group";
+    // Rounds drift from 10 to 40 ms; b takes exactly twice a's time in each round.
+    let a: Vec<f64> = (0..9).map(|k| 10.0 + 4.0 * k as f64).collect();
+    let line = |tr: &str, runs: &[f64], group: &str| {
+        let joined: Vec<String> = runs.iter().map(|x| x.to_string()).collect();
+        format!(
+            "s,kdtree,k=1,{tr},cpu,,1,watertight,primary,100,{},{},{},9,0.4,true,{},{group}",
+            runs[0],
+            runs[4],
+            runs[8],
+            joined.join(";")
+        )
+    };
+    let b: Vec<f64> = a.iter().map(|x| 2.0 * x).collect();
+    let together = write(
+        t.path(),
+        "together.csv",
+        &[head.into(), line("a", &a, "s-1-0"), line("b", &b, "s-1-0")],
+    );
+    let apart = write(
+        t.path(),
+        "apart.csv",
+        &[head.into(), line("a", &a, ""), line("b", &b, "")],
+    );
+    let c = claim("measure = \"time\"\nrows.a = { traversal = \"a\" }\nrows.b = { traversal = \"b\" }\ntest = { kind = \"speedup\", of = \"a\", base = \"b\", min = 1.9, max = 2.1 }");
+    let v = eval(&c, &[together]);
+    assert_eq!(v[0].verdict, Verdict::Agree, "{v:?}");
+    assert!(v[0].why.contains("round by round"), "{}", v[0].why);
+    assert_eq!(v[0].groups[0].derived.unwrap(), [2.0, 2.0, 2.0]);
+    let v = eval(&c, &[apart]);
+    assert_eq!(v[0].verdict, Verdict::Inconclusive, "{v:?}");
+}

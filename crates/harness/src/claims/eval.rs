@@ -25,7 +25,7 @@ impl Verdict {
 }
 
 /// One pooled value: `v` with its 95 % interval `[lo, hi]` (a point for counters).
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize)]
 pub struct Value {
     pub v: f64,
     pub lo: f64,
@@ -40,6 +40,14 @@ pub struct Value {
     pub software: usize,
     /// Of them, rows timed fewer than [`MIN_TIMED_RUNS`] times (no interval).
     pub few_runs: usize,
+    /// Timed rows timed interleaved (`run.interleave`): the pooled value of each round (the
+    /// rows' `trace_ms_runs` summed round by round); empty otherwise.
+    #[serde(skip)]
+    pub runs: Vec<f64>,
+    /// Their `timing_group`s, sorted: two values whose rows were timed together pair round
+    /// for round.
+    #[serde(skip)]
+    pub tgroups: Vec<String>,
 }
 
 /// Timed runs a row needs for its spread to bound the median (with fewer the interval is
@@ -57,7 +65,14 @@ impl Value {
             noisy: 0,
             software: 0,
             few_runs: 0,
+            runs: Vec::new(),
+            tgroups: Vec::new(),
         }
+    }
+
+    /// Whether `self` and `o` were timed interleaved, round for round.
+    fn paired(&self, o: &Value) -> bool {
+        !self.runs.is_empty() && self.runs.len() == o.runs.len() && self.tgroups == o.tgroups
     }
 }
 
@@ -446,7 +461,27 @@ fn term_name(t: &Term) -> String {
 fn pool_time(name: &str, rows: &[&Row], mrays: bool) -> Result<Value, String> {
     let (mut t, mut lo, mut hi, mut rays) = (0.0, 0.0, 0.0, 0.0);
     let (mut noisy, mut software, mut few_runs) = (0, 0, 0);
+    // Round-by-round sums over the rows, where every row was timed interleaved.
+    let mut series: Option<Vec<f64>> = None;
+    let mut interleaved = true;
+    let mut tgroups = Vec::new();
     for r in rows {
+        let tg = r.get("timing_group").unwrap_or("");
+        let runs: Vec<f64> = r
+            .get("trace_ms_runs")
+            .unwrap_or("")
+            .split(';')
+            .filter_map(|x| x.trim().parse().ok())
+            .collect();
+        if tg.is_empty() || runs.is_empty() {
+            interleaved = false;
+        } else {
+            tgroups.push(tg.to_owned());
+            series = Some(match series {
+                None => runs,
+                Some(s) => s.iter().zip(&runs).map(|(a, b)| a + b).collect(),
+            });
+        }
         let Some(m) = r.num("trace_ms_median") else {
             return Err(format!("`{name}`: a row has no trace_ms_median"));
         };
@@ -471,6 +506,18 @@ fn pool_time(name: &str, rows: &[&Row], mrays: bool) -> Result<Value, String> {
     } else {
         (t, lo, hi)
     };
+    let mut runs = if interleaved {
+        series.unwrap_or_default()
+    } else {
+        Vec::new()
+    };
+    if mrays {
+        runs = runs.iter().map(|ms| rays / (ms * 1e3)).collect();
+    }
+    tgroups.sort();
+    if runs.is_empty() {
+        tgroups.clear();
+    }
     Ok(Value {
         v,
         lo,
@@ -480,6 +527,8 @@ fn pool_time(name: &str, rows: &[&Row], mrays: bool) -> Result<Value, String> {
         noisy,
         software,
         few_runs,
+        runs,
+        tgroups,
     })
 }
 
@@ -541,8 +590,32 @@ fn band_verdict(lo: f64, hi: f64, min: Option<f64>, max: Option<f64>) -> Verdict
     }
 }
 
-/// `x` before `y` in an ordering (strict: below `y·(1 − margin)`), with intervals.
+/// The round-by-round ratio `n / d` of values timed together: its median and 95 % interval.
+fn paired_ratio(n: &Value, d: &Value) -> [f64; 3] {
+    let r: Vec<f64> = n
+        .runs
+        .iter()
+        .zip(&d.runs)
+        .map(|(a, b)| a / b.max(1e-300))
+        .collect();
+    let (lo, hi) = crate::timing::median_ci(&r);
+    [lo, crate::timing::median(&mut r.clone()), hi]
+}
+
+/// `x` before `y` in an ordering (strict: below `y·(1 − margin)`), with intervals (of the
+/// paired ratio where they were timed together).
 fn before(x: &Value, y: &Value, strict: bool, margin: f64) -> Verdict {
+    if x.paired(y) {
+        let r = paired_ratio(x, y);
+        let f = if strict { 1.0 - margin } else { 1.0 };
+        return if (strict && r[2] < f) || (!strict && r[2] <= f) {
+            Verdict::Agree
+        } else if (strict && r[0] >= f) || (!strict && r[0] > f) {
+            Verdict::Disagree
+        } else {
+            Verdict::Inconclusive
+        };
+    }
     if strict {
         let f = 1.0 - margin;
         if x.hi < y.lo * f {
@@ -564,6 +637,16 @@ fn before(x: &Value, y: &Value, strict: bool, margin: f64) -> Verdict {
 /// `x` above `y` by the margin (strict), with intervals.
 fn above(x: &Value, y: &Value, margin: f64) -> Verdict {
     let f = 1.0 + margin;
+    if x.paired(y) {
+        let r = paired_ratio(x, y);
+        return if r[0] > f {
+            Verdict::Agree
+        } else if r[2] <= f {
+            Verdict::Disagree
+        } else {
+            Verdict::Inconclusive
+        };
+    }
     if x.lo > y.hi * f {
         Verdict::Agree
     } else if x.hi <= y.lo * f {
@@ -585,8 +668,11 @@ fn all_of(vs: impl IntoIterator<Item = Verdict>) -> Verdict {
     out
 }
 
-/// Ratio `n / d` with its interval.
+/// Ratio `n / d` with its interval (paired round by round where they were timed together).
 fn ratio(n: &Value, d: &Value) -> [f64; 3] {
+    if n.paired(d) {
+        return paired_ratio(n, d);
+    }
     [
         n.lo / d.hi,
         n.v / d.v,
@@ -603,7 +689,7 @@ fn run_test(
     test: &Test,
     vals: &BTreeMap<String, Value>,
 ) -> (Verdict, String, Option<[f64; 3]>, String) {
-    let v = |n: &str| vals[n];
+    let v = |n: &str| &vals[n];
     let timed = vals.values().any(|x| x.timed);
     let banded = |d: [f64; 3], min, max, pct: bool| {
         let verdict = band_verdict(d[0], d[2], min, max);
@@ -625,10 +711,10 @@ fn run_test(
             let x = v(of);
             banded([x.lo, x.v, x.hi], *min, *max, false)
         }
-        Test::Ratio { num, den, min, max } => banded(ratio(&v(num), &v(den)), *min, *max, false),
-        Test::Speedup { of, base, min, max } => banded(ratio(&v(base), &v(of)), *min, *max, false),
+        Test::Ratio { num, den, min, max } => banded(ratio(v(num), v(den)), *min, *max, false),
+        Test::Speedup { of, base, min, max } => banded(ratio(v(base), v(of)), *min, *max, false),
         Test::Gain { of, base, min, max } => {
-            let r = ratio(&v(of), &v(base));
+            let r = ratio(v(of), v(base));
             let g = [
                 100.0 * (1.0 - r[2]),
                 100.0 * (1.0 - r[1]),
@@ -643,14 +729,21 @@ fn run_test(
         } => {
             let verdicts: Vec<Verdict> = rows
                 .windows(2)
-                .map(|w| before(&v(&w[0]), &v(&w[1]), *strict, *margin))
+                .map(|w| before(v(&w[0]), v(&w[1]), *strict, *margin))
                 .collect();
-            let sep = if *strict { " < " } else { " <= " };
-            let shown = rows
-                .iter()
-                .map(|n| format!("{n} {}", fmt_iv(v(n).v, v(n).lo, v(n).hi, timed)))
-                .collect::<Vec<_>>()
-                .join(sep);
+            // Each neighbour pair with the relation measured (`<`, `=`, `>`).
+            let mut shown = String::new();
+            for (i, n) in rows.iter().enumerate() {
+                if i > 0 {
+                    let (a, b) = (v(&rows[i - 1]).v, v(n).v);
+                    shown.push_str(match a.partial_cmp(&b) {
+                        Some(std::cmp::Ordering::Less) => " < ",
+                        Some(std::cmp::Ordering::Equal) => " = ",
+                        _ => " > ",
+                    });
+                }
+                shown.push_str(&format!("{n} {}", fmt_iv(v(n).v, v(n).lo, v(n).hi, timed)));
+            }
             let broken: Vec<String> = rows
                 .windows(2)
                 .zip(&verdicts)
@@ -683,8 +776,8 @@ fn run_test(
                 .map(|o| {
                     let x = v(o);
                     let r = match direction {
-                        Direction::Lowest => before(&b, &x, true, *margin),
-                        Direction::Highest => above(&b, &x, *margin),
+                        Direction::Lowest => before(b, x, true, *margin),
+                        Direction::Highest => above(b, x, *margin),
                     };
                     (r, o)
                 })
@@ -815,6 +908,8 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet) -> ClaimResult {
             let noisy: usize = vals.values().map(|v| v.noisy).sum();
             let software: usize = vals.values().map(|v| v.software).sum();
             let few: usize = vals.values().map(|v| v.few_runs).sum();
+            let timed: Vec<&Value> = vals.values().filter(|v| v.timed).collect();
+            let paired = timed.len() >= 2 && timed.windows(2).all(|w| w[0].paired(w[1]));
             if few > 0 {
                 why = format!(
                     "{few} timed rows have fewer than {MIN_TIMED_RUNS} timed runs (no interval); {why}"
@@ -825,6 +920,11 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet) -> ClaimResult {
                     "timed on a software GPU adapter ({software} rows), not GPU figures; {why}"
                 );
                 verdict = Verdict::Inconclusive;
+            } else if noisy > 0 && paired {
+                // Load fell on every row alike: the round-by-round ratio is what is judged.
+                why = format!(
+                    "{noisy} timed rows noisy, compared round by round (timed interleaved); {why}"
+                );
             } else if noisy > 0 {
                 why = format!("{noisy} of the timed rows are noisy; {why}");
                 verdict = Verdict::Inconclusive;

@@ -186,6 +186,10 @@ fn run_args(
         a.push("--set".into());
         a.push(s.clone());
     }
+    if r.interleave && !sets.iter().any(|s| s.starts_with("run.interleave")) {
+        a.push("--set".into());
+        a.push("run.interleave=true".into());
+    }
     if !r.structure.is_empty() {
         a.push("--structure".into());
         a.push(r.structure.join(","));
@@ -532,6 +536,7 @@ mod tests {
             cost_s: cost,
             fixed_s: fixed,
             scalable,
+            interleave: true,
             note: None,
         }
     }

@@ -55,6 +55,11 @@ pub struct RunSpec {
     /// Whether reproduce may shrink the images (same aspect) to fit its budget.
     #[serde(default)]
     pub scalable: bool,
+    /// Time the run's CPU rows interleaved (`run.interleave`; default true: the rows a time
+    /// claim compares then pair round for round). `false` for runs whose builds of one scene
+    /// would not fit in memory together.
+    #[serde(default = "yes")]
+    pub interleave: bool,
     #[serde(default)]
     pub note: Option<String>,
 }
@@ -92,6 +97,10 @@ pub struct Claim {
     /// Named selectors the test compares.
     pub rows: BTreeMap<String, Selector>,
     pub test: Test,
+}
+
+fn yes() -> bool {
+    true
 }
 
 fn default_devices() -> Vec<String> {

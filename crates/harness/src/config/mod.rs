@@ -56,6 +56,7 @@ struct RawRun {
     max_repeat: Option<u32>,
     target_ci: Option<Spanned<f64>>,
     max_row_seconds: Option<Spanned<f64>>,
+    interleave: Option<bool>,
     warmup: Option<u32>,
     build_repeat: Option<u32>,
     triangle_test: Option<Spanned<OneOrMany<String>>>,

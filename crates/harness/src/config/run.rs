@@ -17,6 +17,9 @@ pub struct RunSettings {
     pub gpu: GpuSpec,
     pub validate: Validate,
     pub seed: u64,
+    /// Time the CPU rows of a scene view that trace the same batch (triangle test, thread
+    /// count) interleaved, round by round, over every build of the table (`run.interleave`).
+    pub interleave: bool,
 }
 
 /// Check `[run]` with the overrides `ov`.
@@ -156,6 +159,7 @@ pub(super) fn check_run(
         gpu,
         validate,
         seed,
+        interleave: run.interleave.unwrap_or(false),
     })
 }
 

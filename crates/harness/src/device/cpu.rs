@@ -64,6 +64,50 @@ impl CpuDevice {
     }
 }
 
+impl CpuDevice {
+    /// Time `jobs` (rows of one batch, triangle test and thread count, of one or several
+    /// builds) interleaved under `plan`: [`crate::timing::TimingPlan::run_interleaved`],
+    /// counters compiled out, each with its own start hints. Each job's times in round order.
+    pub fn time_interleaved(
+        &self,
+        jobs: &[Job],
+        plan: &crate::timing::TimingPlan,
+    ) -> Vec<Vec<f64>> {
+        let hints: Vec<_> = jobs
+            .iter()
+            .map(|j| {
+                self.widest().install(|| {
+                    j.accel
+                        .batch_hints(j.traversal, j.batch.query, &j.batch.rays)
+                })
+            })
+            .collect();
+        let mut hits: Vec<Vec<HitRecord>> = jobs
+            .iter()
+            .map(|j| vec![HitRecord::MISS; j.batch.rays.len()])
+            .collect();
+        let r: Result<_, ()> = plan.run_interleaved(jobs.len(), |i| {
+            let (j, h) = (&jobs[i], hints[i].as_deref());
+            let pool = self.pool(j.threads);
+            let t0 = Instant::now();
+            pool.install(|| {
+                trace_hinted_into(
+                    j.accel,
+                    j.traversal,
+                    j.batch.query,
+                    j.tri,
+                    &j.batch.rays,
+                    h,
+                    &mut hits[i],
+                    None,
+                )
+            });
+            Ok(t0.elapsed().as_secs_f64() * 1e3)
+        });
+        r.unwrap_or_default()
+    }
+}
+
 impl Device for CpuDevice {
     fn name(&self) -> &'static str {
         "cpu"
@@ -128,17 +172,24 @@ impl Device for CpuDevice {
         if job.info.step_cap {
             row.capped_rays = Some(stats.capped);
         }
-        // Timing, counters compiled out.
+        // Timing, counters compiled out (one untimed pass of the same code when the row is
+        // timed later, interleaved: its hits are what is validated).
         let pool = self.pool(job.threads);
         let mut hits = vec![HitRecord::MISS; b.rays.len()];
-        let mut times = job.timing.run(|| -> Result<f64, String> {
-            let t0 = Instant::now();
+        if job.time {
+            let mut times = job.timing.run(|| -> Result<f64, String> {
+                let t0 = Instant::now();
+                pool.install(|| {
+                    trace_hinted_into(accel, ti, b.query, tri, &b.rays, hints, &mut hits, None)
+                });
+                Ok(t0.elapsed().as_secs_f64() * 1e3)
+            })?;
+            crate::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);
+        } else {
             pool.install(|| {
                 trace_hinted_into(accel, ti, b.query, tri, &b.rays, hints, &mut hits, None)
             });
-            Ok(t0.elapsed().as_secs_f64() * 1e3)
-        })?;
-        crate::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);
+        }
         // Validation of what was timed (as on the GPU): the timed pass's hits on the oracle's
         // sample, once per (traversal, test, batch); the report takes the first mismatches
         // once, later rows of the same key keep the counts.

@@ -33,6 +33,9 @@ pub struct Job<'a> {
     pub threads: usize,
     /// How to time it.
     pub timing: crate::timing::TimingPlan,
+    /// Time it here; `false` when the runner times it later, interleaved with the rows of
+    /// the same batch (`run.interleave`, CPU): the device then counts and validates only.
+    pub time: bool,
     /// How many mismatching rays to keep for the report.
     pub max_report: usize,
 }

@@ -239,6 +239,9 @@ impl<'a> Run<'a> {
             ranges: &ranges,
             batches: &batches,
         };
+        if self.exp.run.interleave && self.opts.mode == Mode::Run {
+            return self.scene_interleaved(&group, &tris, &mut oracle);
+        }
         for (si, st) in self.exp.structures.iter().enumerate() {
             for (pi, params) in st.param_sets.iter().enumerate() {
                 if let Some(p) = &self.exp.shard {
@@ -252,23 +255,15 @@ impl<'a> Run<'a> {
         Ok(())
     }
 
-    /// Build one structure x parameter set and measure its rows on every view.
-    fn structure(
-        &mut self,
-        g: &Group,
-        tris: &Arc<[Triangle]>,
-        oracle: &mut Oracle,
-        st: &StructureSpec,
-        params: &ParamSet,
-    ) -> Result<(), HarnessError> {
-        let params_s = params.to_string();
-        // The rows still to do, per view, with batch indices over all views.
+    /// The rows of one build still to do, per view, with batch indices over all views (rows
+    /// an interrupted run wrote are counted as skipped).
+    fn todo(&mut self, g: &Group, st: &StructureSpec, params_s: &str) -> Vec<Vec<Combo>> {
         let mut todo: Vec<Vec<Combo>> = Vec::with_capacity(g.views.len());
         for (spec, range) in g.views.iter().zip(g.ranges) {
             let (mut t, skipped) = plan::todo(
                 &spec.label,
                 st,
-                &params_s,
+                params_s,
                 &self.exp.run.triangle_tests,
                 &g.batches[range.clone()],
                 &self.devices,
@@ -283,61 +278,210 @@ impl<'a> Run<'a> {
             }
             todo.push(t);
         }
-        if todo.iter().all(Vec::is_empty) {
-            return Ok(());
-        }
+        todo
+    }
+
+    /// Build one structure x parameter set (timed); on failure write its rows with the error
+    /// and give `None`.
+    fn build_or_fail(
+        &mut self,
+        g: &Group,
+        tris: &Arc<[Triangle]>,
+        st: &StructureSpec,
+        params: &ParamSet,
+        todo: &[Vec<Combo>],
+    ) -> Result<Option<Built>, HarnessError> {
+        let params_s = params.to_string();
         let first = &g.views[0];
-        let base_of = |spec: &SceneSpec| Row {
-            scene: spec.label.clone(),
-            source: spec.scene.source.clone(),
-            triangles: tris.len() as u64,
-            structure: st.family.name.to_string(),
-            params: params_s.clone(),
-            host: crate::meta::host_name(),
-            ..Default::default()
-        };
         self.progress.step(&format!(
             "{}: building {} [{params_s}]",
             first.table, st.family.name
         ));
-        let built = match build::build(
+        match build::build(
             st.family,
             tris,
             params,
             &st.traversals,
             self.exp.run.build_repeat,
         ) {
-            Ok(b) => b,
+            Ok(b) => {
+                self.cpu.begin_build();
+                if let Some(gpu) = self.gpu.as_mut() {
+                    gpu.begin_build();
+                }
+                Ok(Some(b))
+            }
             Err(e) => {
                 let msg = format!("{} {} [{params_s}]: {e}", first.table, st.family.name);
                 self.progress.line(&format!("error: {msg}"));
                 self.summary.failures.push(msg);
                 for (spec, t) in g.views.iter().zip(todo) {
-                    let base = base_of(spec);
+                    let base = base_row(spec, tris, st, &params_s);
                     for c in t {
-                        let mut row = row_of(&base, st, &c, &g.batches[c.bi]);
+                        let mut row = row_of(&base, st, c, &g.batches[c.bi]);
                         row.note = format!("build failed: {e}");
                         self.emit(row)?;
                     }
                 }
-                return Ok(());
+                Ok(None)
             }
-        };
-        self.cpu.begin_build();
-        if let Some(gpu) = self.gpu.as_mut() {
-            gpu.begin_build();
         }
+    }
+
+    /// Build one structure x parameter set and measure its rows on every view.
+    fn structure(
+        &mut self,
+        g: &Group,
+        tris: &Arc<[Triangle]>,
+        oracle: &mut Oracle,
+        st: &StructureSpec,
+        params: &ParamSet,
+    ) -> Result<(), HarnessError> {
+        let params_s = params.to_string();
+        let todo = self.todo(g, st, &params_s);
+        if todo.iter().all(Vec::is_empty) {
+            return Ok(());
+        }
+        let Some(built) = self.build_or_fail(g, tris, st, params, &todo)? else {
+            return Ok(());
+        };
         for (spec, t) in g.views.iter().zip(todo) {
             if t.is_empty() {
                 continue;
             }
-            let base = base_of(spec);
+            let base = base_row(spec, tris, st, &params_s);
             self.after_build(spec, st, &built, &params_s)?;
             for c in t {
                 self.row(spec, g.batches, oracle, st, &built, &base, c)?;
             }
         }
         Ok(())
+    }
+
+    /// `run.interleave`: every build of the table is made first and kept, its GPU rows
+    /// measured and its CPU rows counted and validated as it is built; then the CPU rows of
+    /// each view x batch x triangle test x thread count are timed together, round by round
+    /// ([`Run::time_interleaved`]), and the table's rows are written in the usual order.
+    fn scene_interleaved(
+        &mut self,
+        g: &Group,
+        tris: &Arc<[Triangle]>,
+        oracle: &mut Oracle,
+    ) -> Result<(), HarnessError> {
+        let exp = self.exp;
+        let first = &g.views[0];
+        let mut builds: Vec<(&StructureSpec, Built)> = Vec::new();
+        let mut rows: Vec<(Row, Option<(usize, usize, Combo)>)> = Vec::new();
+        for (si, st) in exp.structures.iter().enumerate() {
+            for (pi, params) in st.param_sets.iter().enumerate() {
+                if exp
+                    .shard
+                    .as_ref()
+                    .is_some_and(|p| !p.runs(&first.table, si, pi))
+                {
+                    continue;
+                }
+                let params_s = params.to_string();
+                let todo = self.todo(g, st, &params_s);
+                if todo.iter().all(Vec::is_empty) {
+                    continue;
+                }
+                let Some(built) = self.build_or_fail(g, tris, st, params, &todo)? else {
+                    continue;
+                };
+                for (vi, (spec, t)) in g.views.iter().zip(todo).enumerate() {
+                    if t.is_empty() {
+                        continue;
+                    }
+                    let base = base_row(spec, tris, st, &params_s);
+                    self.after_build(spec, st, &built, &params_s)?;
+                    for c in t {
+                        let cpu = c.dev == DeviceKind::Cpu;
+                        let row =
+                            self.measure_row(spec, g.batches, oracle, st, &built, &base, c, !cpu)?;
+                        let awaits = cpu && row.hit_rate.is_some();
+                        rows.push((row, awaits.then_some((builds.len(), vi, c))));
+                    }
+                }
+                builds.push((st, built));
+            }
+        }
+        self.time_interleaved(g, &builds, &mut rows);
+        for (row, _) in rows {
+            self.emit(row)?;
+        }
+        Ok(())
+    }
+
+    /// Time the rows awaiting it, per view x batch x triangle test x thread count, round by
+    /// round over every build ([`CpuDevice::time_interleaved`]); each group's rows share a
+    /// `timing_group` id and its `cpu_others`.
+    fn time_interleaved(
+        &mut self,
+        g: &Group,
+        builds: &[(&StructureSpec, Built)],
+        rows: &mut [(Row, Option<(usize, usize, Combo)>)],
+    ) {
+        type GroupKey = (usize, usize, tb_core::TriTestKind, usize);
+        let mut groups: Vec<(GroupKey, Vec<usize>)> = Vec::new();
+        for (i, (_, w)) in rows.iter().enumerate() {
+            if let Some((_, vi, c)) = w {
+                let key = (*vi, c.bi, c.tri, c.threads);
+                match groups.iter_mut().find(|(k, _)| *k == key) {
+                    Some((_, v)) => v.push(i),
+                    None => groups.push((key, vec![i])),
+                }
+            }
+        }
+        let stamp = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs());
+        let plan = self.exp.run.timing;
+        for (k, ((vi, bi, tri, threads), idx)) in groups.iter().enumerate() {
+            let b = &g.batches[*bi];
+            self.progress.step(&format!(
+                "{}: timing {} rows interleaved ({} {} {threads}t)",
+                g.views[*vi].label,
+                idx.len(),
+                b.name,
+                tri.name()
+            ));
+            let jobs: Vec<Job> = idx
+                .iter()
+                .map(|&i| {
+                    let (bn, _, c) = rows[i].1.expect("grouped rows await timing");
+                    let (st, built) = &builds[bn];
+                    Job {
+                        accel: built.accel.as_ref(),
+                        traversal: c.ti,
+                        info: st.infos[c.ti],
+                        tri: c.tri,
+                        batch_index: c.bi,
+                        batch: b,
+                        threads: c.threads,
+                        timing: plan,
+                        time: true,
+                        max_report: self.opts.max_report,
+                    }
+                })
+                .collect();
+            let before = crate::timing::CpuSample::now();
+            let times = self.cpu.time_interleaved(&jobs, &plan);
+            let others = before
+                .zip(crate::timing::CpuSample::now())
+                .and_then(|(a, b)| b.others_since(&a));
+            for (j, &i) in idx.iter().enumerate() {
+                let row = &mut rows[i].0;
+                let mut t = times.get(j).cloned().unwrap_or_default();
+                if t.is_empty() {
+                    continue;
+                }
+                crate::timing::fill(row, &mut t, b.rays.len(), plan.target_ci);
+                row.timing_group = format!("{}-{stamp}-{k}", g.views[0].table);
+                row.cpu_others = others;
+                self.note_load(row);
+            }
+        }
     }
 
     /// Heat maps and convergence renders of a build, where the config asks for them.
@@ -391,6 +535,23 @@ impl<'a> Run<'a> {
         base: &Row,
         c: Combo,
     ) -> Result<(), HarnessError> {
+        let row = self.measure_row(spec, batches, oracle, st, built, base, c, true)?;
+        self.emit(row)
+    }
+
+    /// Measure one row (`time`: time it too; else count and validate only, for
+    /// [`Run::time_interleaved`]).
+    fn measure_row(
+        &mut self,
+        spec: &SceneSpec,
+        batches: &[Batch],
+        oracle: &mut Oracle,
+        st: &StructureSpec,
+        built: &Built,
+        base: &Row,
+        c: Combo,
+        time: bool,
+    ) -> Result<Row, HarnessError> {
         let b = &batches[c.bi];
         let info = st.infos[c.ti];
         let mut row = row_of(base, st, &c, b);
@@ -400,7 +561,7 @@ impl<'a> Run<'a> {
         }
         if let Some(why) = &b.skipped {
             row.note = why.clone();
-            return self.emit(row);
+            return Ok(row);
         }
         self.progress.step(&format!(
             "{} {} {} {} {} {}t",
@@ -429,6 +590,7 @@ impl<'a> Run<'a> {
             batch: b,
             threads: c.threads,
             timing: self.exp.run.timing,
+            time,
             max_report: self.opts.max_report,
         };
         let device: &mut dyn Device = match c.dev {
@@ -481,7 +643,7 @@ impl<'a> Run<'a> {
         if row.mrays_per_s.is_some() {
             self.note_load(&mut row);
         }
-        self.emit(row)
+        Ok(row)
     }
 
     /// Record the load of a timed row; flag it noisy when other work was running: other
@@ -566,6 +728,19 @@ fn abort_hook(rows: usize) {
 }
 
 /// A row's identity columns on top of the build's `base`.
+/// The columns every row of one view and build shares.
+fn base_row(spec: &SceneSpec, tris: &Arc<[Triangle]>, st: &StructureSpec, params_s: &str) -> Row {
+    Row {
+        scene: spec.label.clone(),
+        source: spec.scene.source.clone(),
+        triangles: tris.len() as u64,
+        structure: st.family.name.to_string(),
+        params: params_s.to_owned(),
+        host: crate::meta::host_name(),
+        ..Default::default()
+    }
+}
+
 fn row_of(base: &Row, st: &StructureSpec, c: &Combo, b: &Batch) -> Row {
     Row {
         traversal: st.infos[c.ti].name.to_string(),
