@@ -322,7 +322,7 @@ fn a_later_source_replaces_the_same_row() {
             row("s2", "a", "k=1", "primary", 100, 10.0, 0.01, 9, false, 7.0),
         ],
     );
-    let set = RowSet::read(&[r, newer]).unwrap();
+    let set = RowSet::read(&[r.clone(), newer]).unwrap();
     assert_eq!(set.replaced, 1);
     assert_eq!(set.rows.len(), 9);
 }
@@ -409,4 +409,18 @@ fn interleaved_rows_pair_round_by_round() {
     assert_eq!(v[0].groups[0].derived.unwrap(), [2.0, 2.0, 2.0]);
     let v = eval(&c, &[apart]);
     assert_eq!(v[0].verdict, Verdict::Inconclusive, "{v:?}");
+}
+
+/// A skipped batch (no rays, empty counters) adds nothing to a pool and does not spoil it.
+#[test]
+fn batches_without_rays_are_left_out() {
+    let t = tempfile::tempdir().unwrap();
+    let mut lines = vec![HEAD.to_string(), row("s", "a", "k=1", "primary", 100, 10.0, 0.01, 9, false, 2.0)];
+    lines.push(
+        row("s", "a", "k=1", "path2", 0, 10.0, 0.01, 9, false, 0.0).replace(",false,0,3000", ",false,,3000"),
+    );
+    let f = write(t.path(), "r.csv", &lines);
+    let c = claim("measure = \"interior_per_ray\"\nrows.a = { traversal = \"a\" }\ntest = { kind = \"value\", of = \"a\", min = 2, max = 2 }");
+    let v = eval(&c, &[f]);
+    assert_eq!(v[0].verdict, Verdict::Agree, "{v:?}");
 }

@@ -321,6 +321,16 @@ fn joined(r: &Row, cols: &[&str]) -> String {
 
 /// Pool one selector's rows in one group, or say why not.
 fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Value, String> {
+    // A batch with no rays (a skipped batch: its `note` says why) measured nothing.
+    let rows: Vec<&Row> = rows
+        .iter()
+        .copied()
+        .filter(|r| r.num("rays") != Some(0.0))
+        .collect();
+    if rows.is_empty() {
+        return Err(format!("`{name}`: its rows have no rays"));
+    }
+    let rows = &rows[..];
     // One variant per context.
     let mut seen: BTreeMap<String, (String, &Row)> = BTreeMap::new();
     for r in rows {
