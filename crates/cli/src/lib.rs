@@ -813,8 +813,7 @@ fn cmd_reproduce(
         PathBuf::from("results/reproduce").join(
             tb_harness::meta::now_rfc3339()
                 .replace(':', "-")
-                .trim_end_matches('Z')
-                .to_string(),
+                .trim_end_matches('Z'),
         )
     });
     if default_folder {

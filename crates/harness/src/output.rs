@@ -41,6 +41,10 @@ macro_rules! define_row {
             pub ray_kind: String,
             pub rays: u64,
             pub build_ms: Option<f64>,
+            /// Every build's ms (`run.build_repeat` of them) in the order they ran,
+            /// `;`-separated.
+            #[serde(default)]
+            pub build_ms_runs: String,
             pub trace_ms_min: Option<f64>,
             pub trace_ms_median: Option<f64>,
             pub trace_ms_max: Option<f64>,

@@ -415,12 +415,48 @@ fn interleaved_rows_pair_round_by_round() {
 #[test]
 fn batches_without_rays_are_left_out() {
     let t = tempfile::tempdir().unwrap();
-    let mut lines = vec![HEAD.to_string(), row("s", "a", "k=1", "primary", 100, 10.0, 0.01, 9, false, 2.0)];
+    let mut lines = vec![
+        HEAD.to_string(),
+        row("s", "a", "k=1", "primary", 100, 10.0, 0.01, 9, false, 2.0),
+    ];
     lines.push(
-        row("s", "a", "k=1", "path2", 0, 10.0, 0.01, 9, false, 0.0).replace(",false,0,3000", ",false,,3000"),
+        row("s", "a", "k=1", "path2", 0, 10.0, 0.01, 9, false, 0.0)
+            .replace(",false,0,3000", ",false,,3000"),
     );
     let f = write(t.path(), "r.csv", &lines);
     let c = claim("measure = \"interior_per_ray\"\nrows.a = { traversal = \"a\" }\ntest = { kind = \"value\", of = \"a\", min = 2, max = 2 }");
     let v = eval(&c, &[f]);
     assert_eq!(v[0].verdict, Verdict::Agree, "{v:?}");
+}
+
+/// Build times are timings: the range of three builds or more is their interval, and one build
+/// gives none.
+#[test]
+fn build_times_need_three_builds() {
+    let t = tempfile::tempdir().unwrap();
+    let head = "scene,structure,params,traversal,device,threads,triangle_test,ray_kind,rays,build_ms,build_ms_runs";
+    let f = write(
+        t.path(),
+        "b.csv",
+        &[
+            head.into(),
+            "s,a,k=1,x,cpu,1,watertight,primary,10,100,90;100;110".into(),
+            "s,a,k=1,x,cpu,1,watertight,shadow,10,100,90;100;110".into(),
+            "s,b,k=1,x,cpu,1,watertight,primary,10,300,290;300;305".into(),
+            "s,c,k=1,x,cpu,1,watertight,primary,10,300,300".into(),
+        ],
+    );
+    let c = |other: &str| {
+        claim(&format!("measure = \"build_ms\"\nrows.a = {{ structure = \"a\" }}\nrows.o = {{ structure = \"{other}\" }}\ntest = {{ kind = \"speedup\", of = \"a\", base = \"o\", min = 2 }}"))
+    };
+    let v = eval(&c("b"), std::slice::from_ref(&f));
+    assert_eq!(v[0].verdict, Verdict::Agree, "{v:?}");
+    // 290 / 110 .. 305 / 90: the interval is the builds' range.
+    let d = v[0].groups[0].derived.unwrap();
+    assert!(
+        (d[0] - 290.0 / 110.0).abs() < 1e-9 && (d[2] - 305.0 / 90.0).abs() < 1e-9,
+        "{d:?}"
+    );
+    let v = eval(&c("c"), &[f]);
+    assert_eq!(v[0].verdict, Verdict::Inconclusive, "{v:?}");
 }

@@ -112,6 +112,8 @@ pub struct ClaimResult {
 /// One term of a measure.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum Term {
+    /// `build_ms`: a timing, with the spread of its builds (`build_ms_runs`).
+    BuildTime,
     Col(String),
     Build(String),
     HeapRatio,
@@ -125,7 +127,6 @@ pub(crate) struct Measure(Vec<Term>);
 
 /// Columns that are properties of a build (one value per scene table x structure x params).
 const BUILD_COLS: &[&str] = &[
-    "build_ms",
     "memory_bytes",
     "nodes",
     "prim_refs",
@@ -145,6 +146,7 @@ impl Measure {
                     "time" | "trace_ms_median" => Term::Time,
                     "mrays_per_s" => Term::Mrays,
                     "heap_ratio" => Term::HeapRatio,
+                    "build_ms" => Term::BuildTime,
                     _ if t.starts_with("build:") && t.len() > 6 => Term::Build(t[6..].into()),
                     _ if !t.is_empty()
                         && t.bytes()
@@ -160,14 +162,18 @@ impl Measure {
                 })
             })
             .collect::<Result<_, String>>()?;
-        if terms.len() > 1 && terms.iter().any(|t| matches!(t, Term::Time | Term::Mrays)) {
-            return Err("a time measure (time, mrays_per_s) stands alone".into());
+        if terms.len() > 1
+            && terms
+                .iter()
+                .any(|t| matches!(t, Term::Time | Term::Mrays | Term::BuildTime))
+        {
+            return Err("a time measure (time, mrays_per_s, build_ms) stands alone".into());
         }
         Ok(Measure(terms))
     }
 
     fn timed(&self) -> bool {
-        matches!(self.0[..], [Term::Time] | [Term::Mrays])
+        matches!(self.0[..], [Term::Time] | [Term::Mrays] | [Term::BuildTime])
     }
 }
 
@@ -190,7 +196,7 @@ fn default_pool(t: &Term) -> Pool {
 fn per_build(t: &Term) -> bool {
     match t {
         Term::Col(c) => BUILD_COLS.contains(&c.as_str()),
-        Term::Build(_) | Term::HeapRatio => true,
+        Term::Build(_) | Term::HeapRatio | Term::BuildTime => true,
         Term::Time | Term::Mrays => false,
     }
 }
@@ -355,6 +361,9 @@ fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Va
                 threads.into_iter().collect::<Vec<_>>().join(", ")
             ));
         }
+        if m.0[0] == Term::BuildTime {
+            return pool_build_time(name, &rows, pool);
+        }
         return pool_time(name, &rows, matches!(m.0[0], Term::Mrays));
     }
     // Counters do not depend on the thread count: one row per context without threads.
@@ -396,7 +405,9 @@ fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Va
                     (Some(p), Some(k)) if k > 0.0 => Some(p / k),
                     _ => None,
                 },
-                Term::Time | Term::Mrays => unreachable!("timed measures pool in pool_time"),
+                Term::Time | Term::Mrays | Term::BuildTime => {
+                    unreachable!("timed measures pool in pool_time")
+                }
             };
             let Some(x) = x else {
                 return Err(format!(
@@ -462,8 +473,59 @@ fn term_name(t: &Term) -> String {
         Term::Build(k) => format!("build_stats {k}"),
         Term::HeapRatio => "build_heap_peak_bytes / build_heap_kept_bytes".into(),
         Term::Time => "trace_ms_median".into(),
+        Term::BuildTime => "build_ms".into(),
         Term::Mrays => "mrays_per_s".into(),
     }
+}
+
+/// Build time: per distinct build its median and the range of its builds (`build_ms_runs`;
+/// fewer than [`MIN_TIMED_RUNS`] builds give no interval), then the mean (or `pool`) over the
+/// builds.
+fn pool_build_time(name: &str, rows: &[&Row], pool: Option<Pool>) -> Result<Value, String> {
+    let mut b: BTreeMap<String, &Row> = BTreeMap::new();
+    for r in rows {
+        let key = format!(
+            "{}|{}|{}",
+            r.table().unwrap_or(""),
+            r.get("structure").unwrap_or(""),
+            r.get("params").unwrap_or("")
+        );
+        b.entry(key).or_insert(r);
+    }
+    let (mut v, mut lo, mut hi, mut few) = (Vec::new(), Vec::new(), Vec::new(), 0);
+    for r in b.values() {
+        let Some(m) = r.num("build_ms") else {
+            return Err(format!("`{name}`: a row has no build_ms"));
+        };
+        let runs: Vec<f64> = r
+            .get("build_ms_runs")
+            .unwrap_or("")
+            .split(';')
+            .filter_map(|x| x.trim().parse().ok())
+            .collect();
+        few += usize::from((runs.len() as f64) < MIN_TIMED_RUNS);
+        v.push(m);
+        lo.push(runs.iter().copied().fold(m, f64::min));
+        hi.push(runs.iter().copied().fold(m, f64::max));
+    }
+    let agg = |x: &[f64]| match pool.unwrap_or(Pool::Mean) {
+        Pool::Sum => x.iter().sum(),
+        Pool::Max => x.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        Pool::Min => x.iter().copied().fold(f64::INFINITY, f64::min),
+        Pool::Mean | Pool::Rays => x.iter().sum::<f64>() / x.len() as f64,
+    };
+    Ok(Value {
+        v: agg(&v),
+        lo: agg(&lo),
+        hi: agg(&hi),
+        timed: true,
+        rows: b.len(),
+        noisy: 0,
+        software: 0,
+        few_runs: few,
+        runs: Vec::new(),
+        tgroups: Vec::new(),
+    })
 }
 
 /// Total time over the rows (ms), its 95 % interval from each row's `trace_ms_ci` (relative
@@ -837,7 +899,7 @@ fn run_test(
         }
         Test::Equal { a, b, tolerance } => {
             let (x, y) = (v(a), v(b));
-            let r = ratio(&x, &y);
+            let r = ratio(x, y);
             let verdict = if timed {
                 band_verdict(r[0], r[2], Some(1.0 - tolerance), Some(1.0 + tolerance))
             } else if (x.v - y.v).abs() <= tolerance * x.v.abs().max(y.v.abs()) {

@@ -14,6 +14,8 @@ pub struct Built {
     /// Median build time, ms: the structure and the auxiliary arrays the config's traversals
     /// read ([`tb_core::Accel::prepare`]).
     pub build_ms: f64,
+    /// Every build's ms in the order they ran (`build_ms_runs`).
+    pub build_runs: Vec<f64>,
     mem: MemoryReport,
     sah_cost: Option<f64>,
     /// `name=value;…` of the build report's extra figures.
@@ -58,7 +60,9 @@ pub fn build(
         .map(|(k, v)| format!("{k}={}", (v * 1000.0).round() / 1000.0))
         .collect::<Vec<_>>()
         .join(";");
+    let build_runs = times.clone();
     Ok(Built {
+        build_runs,
         build_ms: median(&mut times),
         mem: accel.memory(),
         sah_cost: report.sah_cost,
@@ -73,6 +77,12 @@ impl Built {
     /// arrays that traversal reads).
     pub fn fill(&self, row: &mut Row, ti: usize) {
         row.build_ms = Some(self.build_ms);
+        row.build_ms_runs = self
+            .build_runs
+            .iter()
+            .map(|t| format!("{t:.6}"))
+            .collect::<Vec<_>>()
+            .join(";");
         row.memory_bytes = Some(self.accel.memory_for(ti).bytes);
         row.nodes = Some(self.mem.nodes);
         row.prim_refs = Some(self.mem.prim_refs);

@@ -352,7 +352,8 @@ impl<'a> Run<'a> {
             let base = base_row(spec, tris, st, &params_s);
             self.after_build(spec, st, &built, &params_s)?;
             for c in t {
-                self.row(spec, g.batches, oracle, st, &built, &base, c)?;
+                let row = self.measure_row(spec, g.batches, oracle, st, &built, &base, c, true)?;
+                self.emit(row)?;
             }
         }
         Ok(())
@@ -371,7 +372,7 @@ impl<'a> Run<'a> {
         let exp = self.exp;
         let first = &g.views[0];
         let mut builds: Vec<(&StructureSpec, Built)> = Vec::new();
-        let mut rows: Vec<(Row, Option<(usize, usize, Combo)>)> = Vec::new();
+        let mut rows: Vec<PendingRow> = Vec::new();
         for (si, st) in exp.structures.iter().enumerate() {
             for (pi, params) in st.param_sets.iter().enumerate() {
                 if exp
@@ -420,7 +421,7 @@ impl<'a> Run<'a> {
         &mut self,
         g: &Group,
         builds: &[(&StructureSpec, Built)],
-        rows: &mut [(Row, Option<(usize, usize, Combo)>)],
+        rows: &mut [PendingRow],
     ) {
         type GroupKey = (usize, usize, tb_core::TriTestKind, usize);
         let mut groups: Vec<(GroupKey, Vec<usize>)> = Vec::new();
@@ -522,21 +523,6 @@ impl<'a> Run<'a> {
             )?);
         }
         Ok(())
-    }
-
-    /// Measure one row on its device and write it.
-    fn row(
-        &mut self,
-        spec: &SceneSpec,
-        batches: &[Batch],
-        oracle: &mut Oracle,
-        st: &StructureSpec,
-        built: &Built,
-        base: &Row,
-        c: Combo,
-    ) -> Result<(), HarnessError> {
-        let row = self.measure_row(spec, batches, oracle, st, built, base, c, true)?;
-        self.emit(row)
     }
 
     /// Measure one row (`time`: time it too; else count and validate only, for
@@ -728,6 +714,9 @@ fn abort_hook(rows: usize) {
 }
 
 /// A row's identity columns on top of the build's `base`.
+/// A row of an interleaved table, with (build, view, combo) while it awaits its timing.
+type PendingRow = (Row, Option<(usize, usize, Combo)>);
+
 /// The columns every row of one view and build shares.
 fn base_row(spec: &SceneSpec, tris: &Arc<[Triangle]>, st: &StructureSpec, params_s: &str) -> Row {
     Row {
