@@ -198,10 +198,9 @@ def counter_def(col):
 def steps_meaning(structure, traversal):
     """What one `steps` unit is for a structure and traversal (README, `steps_per_ray`):
     rows whose steps mean different things must not share an axis or a column."""
-    if structure in ("bvh", "kdtree"):
+    if structure in ("bvh", "kdtree", "rtree"):
+        # The R-tree's three traversals count the nodes they enter alike (README).
         return "nodes visited"
-    if structure == "rtree":
-        return "node slots reached = boxes tested" if traversal == "stackless" else "nodes visited"
     return f"{structure} {traversal} steps"
 
 

@@ -202,6 +202,10 @@ enum Cmd {
         /// Width of the text table (default: the terminal's, else 160).
         #[arg(long)]
         width: Option<u16>,
+        /// The least relative uncertainty of a compared time (the variation between runs,
+        /// which one run's intervals do not see; claims/README.md).
+        #[arg(long, default_value_t = tb_harness::claims::TIME_FLOOR)]
+        time_floor: f64,
     },
     /// Print a scene's triangles, bounds, zero-area count and memory.
     Info {
@@ -343,7 +347,16 @@ fn dispatch(cli: Cli) -> Result<i32> {
             only,
             require_agree,
             width,
-        } => cmd_claims(&claims, &results, &format, &only, require_agree, width),
+            time_floor,
+        } => cmd_claims(
+            &claims,
+            &results,
+            &format,
+            &only,
+            require_agree,
+            width,
+            time_floor,
+        ),
         Cmd::Weights {
             beta,
             decimals,
@@ -725,8 +738,12 @@ fn cmd_claims(
     only: &[String],
     require_agree: bool,
     width: Option<u16>,
+    time_floor: f64,
 ) -> Result<i32> {
     use tb_harness::claims;
+    if !(time_floor >= 0.0 && time_floor.is_finite()) {
+        bail!("--time-floor {time_floor}: must be a fraction >= 0 (0.2 = ±20 %)");
+    }
     let file = claims::load(claims)?;
     if let Some(id) = only.iter().find(|id| file.claim(id).is_none()) {
         bail!("{}: no claim `{id}`", claims.display());
@@ -738,7 +755,7 @@ fn cmd_claims(
             rows.replaced
         );
     }
-    let mut verdicts = claims::evaluate(&file, &rows);
+    let mut verdicts = claims::evaluate_with(&file, &rows, &claims::Options { time_floor });
     if !only.is_empty() {
         verdicts.retain(|v| only.contains(&v.id));
     }

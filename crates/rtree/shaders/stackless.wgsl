@@ -5,7 +5,8 @@
 // n + 1, climbing to the parent (n - 1) / M while n is its parent's last entry or the next
 // sibling is empty (non-empty entries come first), and ends on climbing back to the root.
 // The same walk as tb_rtree's CPU `Stackless`, slot for slot, so the counters agree ray for
-// ray: steps = boxes (one per slot reached), interior, leaves, prims, restarts (climbs). No
+// ray: boxes (one per slot reached), steps (one per node entered: interior + leaves, as in
+// the stack walks), interior, leaves, prims, restarts (climbs). No
 // stack (STACK_SIZE = 0) and no step cap: the walk ends after at most every slot once.
 
 fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
@@ -18,11 +19,11 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     var best = no_hit(r);
     var n = 0u;
     loop {
-        (*st).steps += 1u;
         (*st).boxes += 1u;
         let node = nodes[n];
         let s = slab(rb, node.bmin, node.bmax, r.tmin, best.t);
         if s.x <= s.y {
+            (*st).steps += 1u;
             if n < first_leaf {
                 (*st).interior += 1u;
                 n = n * M + 1u;

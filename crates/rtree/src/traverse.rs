@@ -156,13 +156,14 @@ impl Stackless<'_> {
         let mut best = Best::new(ray);
         let mut n = 0usize;
         'walk: loop {
-            c.steps(1);
             // SAFETY: `n` is the root, an entry `M·n + 1` of an intermediate node (which the
             // complete layout always holds) or a sibling `n + 1` within the same node.
             let node = unsafe { nodes.get_unchecked(n) };
             c.boxes(1);
             let (tn, tf) = rb.slab::<OCT>(&node.min, &node.max, ray.tmin, best.t);
             if tn <= tf {
+                // A step is a node entered (its box hit), as in `stack` and `ordered`.
+                c.steps(1);
                 if n < first_leaf {
                     c.interior();
                     n = n * m + 1;

@@ -15,7 +15,9 @@ pub mod reproduce;
 pub mod rows;
 mod schema;
 
-pub use eval::{evaluate, ClaimResult, GroupResult, Value, Verdict};
+pub use eval::{
+    evaluate, evaluate_with, ClaimResult, GroupResult, Options, Value, Verdict, TIME_FLOOR,
+};
 pub use rows::RowSet;
 pub use schema::{Claim, ClaimsFile, Direction, Need, Pool, RunSpec, Selector, Test};
 
