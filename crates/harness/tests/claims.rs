@@ -465,3 +465,28 @@ fn build_times_need_three_builds() {
     let v = eval(&c("c"), &[f]);
     assert_eq!(v[0].verdict, Verdict::Inconclusive, "{v:?}");
 }
+
+/// Columns computed from time (the dynamic table's samples per pixel) get the floor between
+/// runs: a 10 % lead is not decided, a 2x one is.
+#[test]
+fn time_derived_columns_get_the_floor() {
+    let t = tempfile::tempdir().unwrap();
+    let f = write(
+        t.path(),
+        "dynamic.csv",
+        &[
+            "scene,structure,params,budget_ms,frame,spp".into(),
+            "s,a,k=1,100,0,11".into(),
+            "s,b,k=1,100,0,10".into(),
+            "s,c,k=1,100,0,22".into(),
+        ],
+    );
+    let c = |other: &str| {
+        claim(&format!("measure = \"spp\"\nfilter = {{ file = \"dynamic\" }}\nrows.x = {{ structure = \"{other}\" }}\nrows.b = {{ structure = \"b\" }}\ntest = {{ kind = \"order\", rows = [\"b\", \"x\"], strict = true }}"))
+    };
+    assert_eq!(
+        eval(&c("a"), std::slice::from_ref(&f))[0].verdict,
+        Verdict::Inconclusive
+    );
+    assert_eq!(eval(&c("c"), &[f])[0].verdict, Verdict::Agree);
+}

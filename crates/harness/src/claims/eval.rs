@@ -224,6 +224,15 @@ fn default_pool(t: &Term) -> Pool {
     }
 }
 
+/// A column computed from wall-clock time (`primary_ms`, `ao_ms_per_spp`, `elapsed_ms`, the
+/// dynamic table's `spp`, …): no interval of its own, but subject to [`TIME_FLOOR`].
+fn time_derived(t: &Term) -> bool {
+    match t {
+        Term::Col(c) => c.ends_with("_ms") || c.contains("_ms_") || c == "spp",
+        _ => false,
+    }
+}
+
 fn per_build(t: &Term) -> bool {
     match t {
         Term::Col(c) => BUILD_COLS.contains(&c.as_str()),
@@ -469,7 +478,9 @@ fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Va
             Pool::Min => xs.iter().map(|x| x.0).fold(f64::INFINITY, f64::min),
         };
     }
-    Ok(Value::point(total, rows.len()))
+    let mut v = Value::point(total, rows.len());
+    v.timed = m.0.iter().any(time_derived);
+    Ok(v)
 }
 
 /// What tells two rows' variants apart: `traversal a / b`, `param k a / b`, ….
