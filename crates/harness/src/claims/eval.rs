@@ -75,7 +75,7 @@ impl Default for Options {
 
 /// `[lo, v, hi]` widened to at least `v / (1 + f) .. v · (1 + f)` (positive values).
 fn floor_iv(d: [f64; 3], f: f64) -> [f64; 3] {
-    if !(d[1] > 0.0) || f <= 0.0 {
+    if d[1].is_nan() || d[1] <= 0.0 || f <= 0.0 {
         return d;
     }
     [d[0].min(d[1] / (1.0 + f)), d[1], d[2].max(d[1] * (1.0 + f))]
