@@ -214,14 +214,19 @@ pub fn median(v: &mut [f64]) -> f64 {
 /// Fill `trace_ms_{min,median,max}`, `mrays_per_s`, `timed_runs`, `trace_ms_ci` and `noisy`
 /// (the confidence interval wider than `target_ci`) from the times (ms) of the timed runs
 /// over `rays` rays.
-/// One timed run has no interval: `trace_ms_ci` and `noisy` stay empty ("not measured").
-pub fn fill(row: &mut Row, times: &mut [f64], rays: usize, target_ci: f64) {
-    row.timed_runs = Some(times.len() as u32);
-    row.trace_ms_runs = times
+/// Times in ms as a `;`-separated list, in order (`trace_ms_runs`, `build_ms_runs`).
+pub fn ms_list(times: &[f64]) -> String {
+    times
         .iter()
         .map(|t| format!("{t:.6}"))
         .collect::<Vec<_>>()
-        .join(";");
+        .join(";")
+}
+
+/// One timed run has no interval: `trace_ms_ci` and `noisy` stay empty ("not measured").
+pub fn fill(row: &mut Row, times: &mut [f64], rays: usize, target_ci: f64) {
+    row.timed_runs = Some(times.len() as u32);
+    row.trace_ms_runs = ms_list(times);
     if times.len() >= 2 {
         let ci = relative_ci(times);
         row.trace_ms_ci = Some(ci);

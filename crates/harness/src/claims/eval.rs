@@ -421,17 +421,7 @@ fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Va
     for t in &m.0 {
         let mut rs = rows.clone();
         if per_build(t) {
-            let mut b: BTreeMap<String, &Row> = BTreeMap::new();
-            for r in rs {
-                let key = format!(
-                    "{}|{}|{}",
-                    r.table().unwrap_or(""),
-                    r.get("structure").unwrap_or(""),
-                    r.get("params").unwrap_or("")
-                );
-                b.entry(key).or_insert(r);
-            }
-            rs = b.into_values().collect();
+            rs = one_per_build(&rs);
         }
         let mut xs = Vec::with_capacity(rs.len());
         for r in &rs {
@@ -466,17 +456,7 @@ fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Va
             let w = r.num("rays").unwrap_or(1.0);
             xs.push((x, w));
         }
-        let p = pool.unwrap_or_else(|| default_pool(t));
-        total += match p {
-            Pool::Rays => {
-                let w: f64 = xs.iter().map(|x| x.1).sum();
-                xs.iter().map(|(x, w)| x * w).sum::<f64>() / w
-            }
-            Pool::Sum => xs.iter().map(|x| x.0).sum(),
-            Pool::Mean => xs.iter().map(|x| x.0).sum::<f64>() / xs.len() as f64,
-            Pool::Max => xs.iter().map(|x| x.0).fold(f64::NEG_INFINITY, f64::max),
-            Pool::Min => xs.iter().map(|x| x.0).fold(f64::INFINITY, f64::min),
-        };
+        total += aggregate(pool.unwrap_or_else(|| default_pool(t)), &xs);
     }
     let mut v = Value::point(total, rows.len());
     v.timed = m.0.iter().any(time_derived);
@@ -509,6 +489,29 @@ fn variant_diff(a: &Row, b: &Row) -> String {
     d.join(", ")
 }
 
+/// One row per build (the first of each), for figures of the build rather than of the rays.
+fn one_per_build<'r>(rows: &[&'r Row]) -> Vec<&'r Row> {
+    let mut b: BTreeMap<String, &Row> = BTreeMap::new();
+    for r in rows {
+        b.entry(r.build_key()).or_insert(r);
+    }
+    b.into_values().collect()
+}
+
+/// Pool `(value, weight)` pairs: `rays` is the weighted mean (weights = rays).
+fn aggregate(p: Pool, xs: &[(f64, f64)]) -> f64 {
+    match p {
+        Pool::Rays => {
+            let w: f64 = xs.iter().map(|x| x.1).sum();
+            xs.iter().map(|(x, w)| x * w).sum::<f64>() / w
+        }
+        Pool::Sum => xs.iter().map(|x| x.0).sum(),
+        Pool::Mean => xs.iter().map(|x| x.0).sum::<f64>() / xs.len() as f64,
+        Pool::Max => xs.iter().map(|x| x.0).fold(f64::NEG_INFINITY, f64::max),
+        Pool::Min => xs.iter().map(|x| x.0).fold(f64::INFINITY, f64::min),
+    }
+}
+
 fn term_name(t: &Term) -> String {
     match t {
         Term::Col(c) => c.clone(),
@@ -524,37 +527,22 @@ fn term_name(t: &Term) -> String {
 /// fewer than [`MIN_TIMED_RUNS`] builds give no interval), then the mean (or `pool`) over the
 /// builds.
 fn pool_build_time(name: &str, rows: &[&Row], pool: Option<Pool>) -> Result<Value, String> {
-    let mut b: BTreeMap<String, &Row> = BTreeMap::new();
-    for r in rows {
-        let key = format!(
-            "{}|{}|{}",
-            r.table().unwrap_or(""),
-            r.get("structure").unwrap_or(""),
-            r.get("params").unwrap_or("")
-        );
-        b.entry(key).or_insert(r);
-    }
+    let b = one_per_build(rows);
     let (mut v, mut lo, mut hi, mut few) = (Vec::new(), Vec::new(), Vec::new(), 0);
-    for r in b.values() {
+    for r in &b {
         let Some(m) = r.num("build_ms") else {
             return Err(format!("`{name}`: a row has no build_ms"));
         };
-        let runs: Vec<f64> = r
-            .get("build_ms_runs")
-            .unwrap_or("")
-            .split(';')
-            .filter_map(|x| x.trim().parse().ok())
-            .collect();
+        let runs = r.nums("build_ms_runs");
         few += usize::from((runs.len() as f64) < MIN_TIMED_RUNS);
         v.push(m);
         lo.push(runs.iter().copied().fold(m, f64::min));
         hi.push(runs.iter().copied().fold(m, f64::max));
     }
-    let agg = |x: &[f64]| match pool.unwrap_or(Pool::Mean) {
-        Pool::Sum => x.iter().sum(),
-        Pool::Max => x.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-        Pool::Min => x.iter().copied().fold(f64::INFINITY, f64::min),
-        Pool::Mean | Pool::Rays => x.iter().sum::<f64>() / x.len() as f64,
+    // Builds are weighted alike (`rays` pooling is the mean over them).
+    let agg = |x: &[f64]| {
+        let w: Vec<(f64, f64)> = x.iter().map(|&v| (v, 1.0)).collect();
+        aggregate(pool.unwrap_or(Pool::Mean), &w)
     };
     Ok(Value {
         v: agg(&v),
@@ -581,12 +569,7 @@ fn pool_time(name: &str, rows: &[&Row], mrays: bool) -> Result<Value, String> {
     let mut tgroups = Vec::new();
     for r in rows {
         let tg = r.get("timing_group").unwrap_or("");
-        let runs: Vec<f64> = r
-            .get("trace_ms_runs")
-            .unwrap_or("")
-            .split(';')
-            .filter_map(|x| x.trim().parse().ok())
-            .collect();
+        let runs = r.nums("trace_ms_runs");
         if tg.is_empty() || runs.is_empty() {
             interleaved = false;
         } else {

@@ -34,6 +34,25 @@ impl Row {
         self.get(col).and_then(|s| s.trim().parse::<f64>().ok())
     }
 
+    /// A `;`-separated list of numbers (`trace_ms_runs`, `build_ms_runs`); empty when absent.
+    pub fn nums(&self, col: &str) -> Vec<f64> {
+        self.get(col)
+            .unwrap_or("")
+            .split(';')
+            .filter_map(|x| x.trim().parse().ok())
+            .collect()
+    }
+
+    /// The build a row's figures come from: scene table x structure x params.
+    pub fn build_key(&self) -> String {
+        format!(
+            "{}|{}|{}",
+            self.table().unwrap_or(""),
+            self.get("structure").unwrap_or(""),
+            self.get("params").unwrap_or("")
+        )
+    }
+
     /// The scene table's label: the `scene` column before `@`.
     pub fn table(&self) -> Option<&str> {
         self.get("scene").map(|s| s.split('@').next().unwrap_or(s))

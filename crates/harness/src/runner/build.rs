@@ -77,12 +77,7 @@ impl Built {
     /// arrays that traversal reads).
     pub fn fill(&self, row: &mut Row, ti: usize) {
         row.build_ms = Some(self.build_ms);
-        row.build_ms_runs = self
-            .build_runs
-            .iter()
-            .map(|t| format!("{t:.6}"))
-            .collect::<Vec<_>>()
-            .join(";");
+        row.build_ms_runs = crate::timing::ms_list(&self.build_runs);
         row.memory_bytes = Some(self.accel.memory_for(ti).bytes);
         row.nodes = Some(self.mem.nodes);
         row.prim_refs = Some(self.mem.prim_refs);
