@@ -178,6 +178,13 @@ enum Cmd {
         with: Vec<PathBuf>,
         #[arg(long, env = "TRACE_BENCH_SCENES")]
         scenes_root: Option<PathBuf>,
+        /// A config edit for every run, after the claims file's own (`--set run.validate=64`;
+        /// repeatable): a smoke test at tiny sizes, or a change the report then records.
+        #[arg(long = "set")]
+        sets: Vec<String>,
+        /// GPU adapter of the GPU runs: a substring of its name (case-insensitive).
+        #[arg(long)]
+        adapter: Option<String>,
         #[arg(long, short)]
         quiet: bool,
     },
@@ -329,6 +336,8 @@ fn dispatch(cli: Cli) -> Result<i32> {
             claims_dir,
             with,
             scenes_root,
+            sets,
+            adapter,
             quiet,
         } => cmd_reproduce(
             &paper,
@@ -338,6 +347,7 @@ fn dispatch(cli: Cli) -> Result<i32> {
             &claims_dir,
             with,
             scenes_root,
+            (sets, adapter),
             quiet,
         ),
         Cmd::Claims {
@@ -793,9 +803,13 @@ fn cmd_reproduce(
     claims_dir: &Path,
     with: Vec<PathBuf>,
     scenes_root: Option<PathBuf>,
+    (sets, adapter): (Vec<String>, Option<String>),
     quiet: bool,
 ) -> Result<i32> {
     use tb_harness::claims::reproduce;
+    if let Some(s) = sets.iter().find(|s| !s.contains('=')) {
+        bail!("--set {s}: expected KEY=VALUE (e.g. run.validate=64)");
+    }
     let budget_s = humantime::parse_duration(budget)
         .with_context(|| format!("--budget {budget}: expected a duration such as 10m, 90s, 1h"))?
         .as_secs_f64();
@@ -845,6 +859,8 @@ fn cmd_reproduce(
         exe: std::env::current_exe().context("cannot find the trace-bench executable")?,
         scenes_root,
         with,
+        sets,
+        adapter,
         budget_text: budget.to_owned(),
         quiet,
     };

@@ -35,6 +35,10 @@ pub struct Options {
     /// Further results folders or CSVs evaluated with each paper's runs (e.g. a GPU run made
     /// on another machine).
     pub with: Vec<PathBuf>,
+    /// `--set` edits for every run, after each run's own (they win).
+    pub sets: Vec<String>,
+    /// `--adapter` for the runs on the GPU.
+    pub adapter: Option<String>,
     /// The budget as the user wrote it (for the report).
     pub budget_text: String,
     pub quiet: bool,
@@ -65,6 +69,26 @@ pub struct PaperReport {
     pub runs: Vec<PlannedRun>,
     pub claims: Vec<ClaimResult>,
     pub tally: Tally,
+    /// The GPU adapters of the rows (`name (type)`), for the report's head.
+    pub adapters: Vec<String>,
+}
+
+/// The distinct GPU adapters of `rows`, `name (type)`.
+fn adapters(rows: &RowSet) -> Vec<String> {
+    let mut v: Vec<String> = Vec::new();
+    for r in &rows.rows {
+        let Some(name) = r.get("adapter").filter(|a| !a.is_empty()) else {
+            continue;
+        };
+        let a = match r.get("adapter_type").filter(|t| !t.is_empty()) {
+            Some(t) => format!("{name} ({t})"),
+            None => name.to_owned(),
+        };
+        if !v.contains(&a) {
+            v.push(a);
+        }
+    }
+    v
 }
 
 /// The papers' keys (file stems) in `dir` that have runs, sorted.
@@ -165,12 +189,7 @@ fn scaled_sets(r: &RunSpec, f: f64) -> (Vec<String>, Option<String>) {
 }
 
 /// The trace-bench arguments of a run into `folder`.
-fn run_args(
-    r: &RunSpec,
-    sets: &[String],
-    folder: &Path,
-    scenes_root: Option<&Path>,
-) -> Vec<String> {
+fn run_args(r: &RunSpec, sets: &[String], folder: &Path, opts: &Options) -> Vec<String> {
     let out = folder.display().to_string();
     if let Some(exec) = &r.exec {
         return exec.iter().map(|a| a.replace("{out}", &out)).collect();
@@ -182,7 +201,7 @@ fn run_args(
         out,
         "-q".into(),
     ];
-    for s in sets {
+    for s in sets.iter().chain(&opts.sets) {
         a.push("--set".into());
         a.push(s.clone());
     }
@@ -205,8 +224,16 @@ fn run_args(
     if let Some(d) = &r.device {
         a.push("--device".into());
         a.push(d.join(","));
+        if let Some(name) = opts
+            .adapter
+            .as_ref()
+            .filter(|_| d.iter().any(|x| x == "gpu"))
+        {
+            a.push("--adapter".into());
+            a.push(name.clone());
+        }
     }
-    if let Some(root) = scenes_root {
+    if let Some(root) = opts.scenes_root.as_deref() {
         a.push("--scenes-root".into());
         a.push(root.display().to_string());
     }
@@ -259,7 +286,7 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
             runs.push(PlannedRun {
                 paper: key.clone(),
                 label,
-                args: run_args(r, &sets, &folder, opts.scenes_root.as_deref()),
+                args: run_args(r, &sets, &folder, opts),
                 folder,
                 cost_s: cost,
                 scale: if scaled.is_some() { scale } else { 1.0 },
@@ -356,6 +383,7 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
             runs,
             claims,
             tally,
+            adapters: adapters(&rows),
         });
     }
     let wall = started.elapsed().as_secs_f64();
@@ -399,8 +427,24 @@ fn write_report(
     wall: f64,
 ) -> Result<(), HarnessError> {
     let all: Vec<ClaimResult> = reports.iter().flat_map(|r| r.claims.clone()).collect();
+    let mut gpus: Vec<&str> = Vec::new();
+    for a in reports.iter().flat_map(|r| &r.adapters) {
+        if !gpus.contains(&a.as_str()) {
+            gpus.push(a);
+        }
+    }
+    let gpu_line = if gpus.is_empty() {
+        String::new()
+    } else {
+        format!("GPU adapter: {}  \n", gpus.join("; "))
+    };
+    let sets = if opts.sets.is_empty() {
+        String::new()
+    } else {
+        format!("; every run with --set {}", opts.sets.join(" --set "))
+    };
     let head = format!(
-        "Machine: {}  \nCommit: {}  \nStarted: {start}; runs and claims took {:.0} s (budget {}: {:.0} s); devices: {}\n",
+        "Machine: {}  \n{gpu_line}Commit: {}  \nStarted: {start}; runs and claims took {:.0} s (budget {}: {:.0} s); devices: {}{sets}\n",
         machine(),
         commit_line(),
         wall,

@@ -1,0 +1,106 @@
+#!/usr/bin/env bash
+# The GPU reference: the GPU columns of every paper table in one report folder, with the claims'
+# verdicts. It is `trace-bench reproduce all --device gpu`: every claims file's GPU runs (R-trees
+# Tables 1-3 and the outside views, the kd review's GPU traversals, multi-kd Table 5's sorted and
+# presorted rows, grids Tables 1-3 and 5 and the inset figure, sparse boxes' SLTR), each row
+# validated against the CPU oracle, then the claims evaluated on those rows.
+#
+#   scripts/gpu-reference.sh [OUT]          on a machine with a GPU (about 5 minutes on one H100;
+#                                           default OUT results/reference/DATE)
+#   scripts/gpu-reference.sh --smoke [OUT]  a functional check at tiny sizes on any adapter
+#                                           (lavapipe in CI): small images, few validated rays,
+#                                           and, where the paper scenes are absent, small
+#                                           generated stand-ins under OUT/scenes
+#
+# Environment: TRACE_BENCH (the binary; default target/release/trace-bench, built if missing),
+# TRACE_BENCH_SCENES (the paper scenes; default ../shared/scenes), GPU_REFERENCE_BUDGET (the
+# reproduce budget, default 10m: the GPU runs' declared costs, 485 s, fit it unscaled; they are
+# the 2-core reference machine's CPU-side estimates), GPU_REFERENCE_ADAPTER (a substring of the
+# adapter's name).
+# The adapter is named in OUT/REPORT.md and OUT/REPRODUCTION.md. Exit status: reproduce's (1 when
+# a run failed); a run on a software adapter without --smoke is refused (its times are not GPU
+# figures).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+smoke=0
+if [ "${1:-}" = "--smoke" ]; then
+  smoke=1
+  shift
+fi
+out=${1:-results/reference/$(date -u +%Y-%m-%d)}
+bin=${TRACE_BENCH:-target/release/trace-bench}
+scenes=${TRACE_BENCH_SCENES:-../shared/scenes}
+budget=${GPU_REFERENCE_BUDGET:-10m}
+
+if [ ! -x "$bin" ]; then
+  cargo build --release --quiet
+  bin=target/release/trace-bench
+fi
+
+args=(reproduce all --device gpu --budget "$budget" --out "$out" -q)
+if [ -n "${GPU_REFERENCE_ADAPTER:-}" ]; then
+  args+=(--adapter "$GPU_REFERENCE_ADAPTER")
+fi
+
+if [ "$smoke" = 1 ]; then
+  # Tiny sizes: every run's images, the random-ray and multi-view counts, and the oracle's
+  # share shrink; the pipeline (kernels, sort pass, oracle, rows, claims) is the same.
+  args+=(--set scene.camera.width=16 --set scene.camera.height=16 --set scene.random.count=256
+    --set run.validate=64 --set run.repeat=1 --set run.warmup=0)
+  need=(stanford-bunny/stanford-bunny.obj.gz sibenik/sibenik.obj.gz
+    conference/conference.obj.gz dabrovic-sponza/sponza.obj.gz)
+  for f in "${need[@]}"; do
+    if [ ! -f "$scenes/$f" ]; then
+      echo "gpu-reference: $scenes/$f absent: small generated stand-ins in $out/scenes"
+      scenes="$out/scenes"
+      mkdir -p "$scenes"
+      python3 - "$scenes" "${need[@]}" <<'EOF'
+# Stand-ins for the paper scenes (smoke test only): a box around every config's cameras and a
+# few hundred triangles at scales from 0.01 to 1000 around the origin, so that rays hit.
+import gzip, os, random, sys
+root, names = sys.argv[1], sys.argv[2:]
+rng = random.Random(7)
+lines = []
+s = 5000.0
+corners = [(x, y, z) for x in (-s, s) for y in (-s, s) for z in (-s, s)]
+lines += ["v %g %g %g" % c for c in corners]
+for a, b, c, d in [(1, 2, 4, 3), (5, 7, 8, 6), (1, 5, 6, 2), (3, 4, 8, 7), (1, 3, 7, 5), (2, 6, 8, 4)]:
+    lines += ["f %d %d %d" % (a, b, c), "f %d %d %d" % (a, c, d)]
+n = 8
+for i in range(600):
+    r = 10 ** rng.uniform(-2, 3)
+    cx, cy, cz = (rng.uniform(-r, r) for _ in range(3))
+    for _ in range(3):
+        lines.append("v %g %g %g" % (cx + rng.uniform(-r, r) / 4, cy + rng.uniform(-r, r) / 4, cz + rng.uniform(-r, r) / 4))
+    lines.append("f %d %d %d" % (n + 1, n + 2, n + 3))
+    n += 3
+text = ("\n".join(lines) + "\n").encode()
+for name in names:
+    path = os.path.join(root, name)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with gzip.open(path, "wb") as f:
+        f.write(text)
+EOF
+      break
+    fi
+  done
+fi
+args+=(--scenes-root "$scenes")
+
+echo "gpu-reference: $bin ${args[*]}"
+mkdir -p "$out"
+status=0
+"$bin" "${args[@]}" >"$out/reproduce.log" 2>&1 || status=$?
+tail -n 3 "$out/reproduce.log"
+adapter=$(grep -m1 '^GPU adapter:' "$out/REPORT.md" 2>/dev/null | sed 's/^GPU adapter: //; s/ *$//' || true)
+echo "gpu-reference: adapter: ${adapter:-none (no GPU row was written)}"
+if [ -z "$adapter" ]; then
+  exit 1
+fi
+if [ "$smoke" = 0 ] && grep -q "(software)\|(cpu)" <<<"$adapter"; then
+  echo "gpu-reference: $adapter is a software adapter: its times are not GPU figures (use --smoke)" >&2
+  exit 1
+fi
+rm -rf "$out/scenes"
+exit "$status"
