@@ -1,5 +1,6 @@
 //! The generic evaluator: rows → pooled values per group and selector → a test → verdicts.
 
+use super::measure::{Measure, Term};
 use super::rows::{Row, RowSet};
 use super::schema::{Claim, ClaimsFile, Direction, Need, Pool, Selector, Test};
 use serde::Serialize;
@@ -140,22 +141,6 @@ pub struct ClaimResult {
     pub groups: Vec<GroupResult>,
 }
 
-/// One term of a measure.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) enum Term {
-    /// `build_ms`: a timing, with the spread of its builds (`build_ms_runs`).
-    BuildTime,
-    Col(String),
-    Build(String),
-    HeapRatio,
-    Time,
-    Mrays,
-}
-
-/// A parsed `measure`: one timed term, or a sum of deterministic ones.
-#[derive(Clone, Debug)]
-pub(crate) struct Measure(Vec<Term>);
-
 /// Columns that are properties of a build (one value per scene table x structure x params).
 const BUILD_COLS: &[&str] = &[
     "memory_bytes",
@@ -166,47 +151,6 @@ const BUILD_COLS: &[&str] = &[
     "build_heap_peak_bytes",
     "build_heap_kept_bytes",
 ];
-
-impl Measure {
-    pub(crate) fn parse(s: &str) -> Result<Measure, String> {
-        let terms: Vec<Term> = s
-            .split('+')
-            .map(|t| {
-                let t = t.trim();
-                Ok(match t {
-                    "time" | "trace_ms_median" => Term::Time,
-                    "mrays_per_s" => Term::Mrays,
-                    "heap_ratio" => Term::HeapRatio,
-                    "build_ms" => Term::BuildTime,
-                    _ if t.starts_with("build:") && t.len() > 6 => Term::Build(t[6..].into()),
-                    _ if !t.is_empty()
-                        && t.bytes()
-                            .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'_') =>
-                    {
-                        Term::Col(t.into())
-                    }
-                    _ => {
-                        return Err(format!(
-                            "`{t}` is not a column, time, mrays_per_s, build:KEY or heap_ratio"
-                        ))
-                    }
-                })
-            })
-            .collect::<Result<_, String>>()?;
-        if terms.len() > 1
-            && terms
-                .iter()
-                .any(|t| matches!(t, Term::Time | Term::Mrays | Term::BuildTime))
-        {
-            return Err("a time measure (time, mrays_per_s, build_ms) stands alone".into());
-        }
-        Ok(Measure(terms))
-    }
-
-    fn timed(&self) -> bool {
-        matches!(self.0[..], [Term::Time] | [Term::Mrays] | [Term::BuildTime])
-    }
-}
 
 fn default_pool(t: &Term) -> Pool {
     match t {

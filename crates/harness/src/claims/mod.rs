@@ -10,6 +10,7 @@
 //! can be read ([`rows::RowSet`]).
 
 mod eval;
+mod measure;
 pub mod render;
 pub mod reproduce;
 pub mod rows;

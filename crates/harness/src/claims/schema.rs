@@ -341,7 +341,7 @@ impl ClaimsFile {
                 }
                 _ => {}
             }
-            super::eval::Measure::parse(&c.measure).map_err(|m| err("measure", m))?;
+            super::measure::Measure::parse(&c.measure).map_err(|m| err("measure", m))?;
             for p in &c.per {
                 if p.is_empty() || p.contains(char::is_whitespace) {
                     return Err(err("per", format!("`{p}` is not a column or group key")));

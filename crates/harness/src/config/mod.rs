@@ -162,6 +162,18 @@ pub enum Validate {
     Sample(usize),
 }
 
+/// The devices rows are written for, each with its thread counts: the run's thread counts on
+/// the CPU; one row, `threads = 0`, on the GPU (one host thread drives it).
+pub fn device_threads(devices: &[Device], threads: &[usize]) -> Vec<(Device, Vec<usize>)> {
+    devices
+        .iter()
+        .map(|&d| match d {
+            Device::Cpu => (d, threads.to_vec()),
+            Device::Gpu => (d, vec![0]),
+        })
+        .collect()
+}
+
 /// A device the rays are traced on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Device {
@@ -585,7 +597,7 @@ fn plan_shard(
             });
         }
     }
-    let device_rows = crate::runner::plan::device_threads(&run.devices, &run.threads)
+    let device_rows = device_threads(&run.devices, &run.threads)
         .into_iter()
         .flat_map(|(_, t)| t)
         .collect();

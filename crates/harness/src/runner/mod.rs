@@ -175,7 +175,7 @@ impl<'a> Run<'a> {
             .map(|s| s.rows().iter().map(Row::key).collect())
             .unwrap_or_default();
         let devices = match opts.mode {
-            Mode::Run => plan::device_threads(&exp.run.devices, &exp.run.threads),
+            Mode::Run => crate::config::device_threads(&exp.run.devices, &exp.run.threads),
             Mode::Validate => vec![(DeviceKind::Cpu, vec![0])],
         };
         let cpu = CpuDevice::new(&exp.run.threads, !running).map_err(HarnessError::Other)?;

@@ -19,18 +19,6 @@ pub struct Combo {
     pub threads: usize,
 }
 
-/// The devices rows are written for, each with its thread counts: the run's thread counts on
-/// the CPU; one row, `threads = 0`, on the GPU (one host thread drives it).
-pub fn device_threads(devices: &[Device], threads: &[usize]) -> Vec<(Device, Vec<usize>)> {
-    devices
-        .iter()
-        .map(|&d| match d {
-            Device::Cpu => (d, threads.to_vec()),
-            Device::Gpu => (d, vec![0]),
-        })
-        .collect()
-}
-
 /// Rows of the whole experiment (for the progress bar).
 pub fn total_rows(exp: &Experiment, devices: &[(Device, Vec<usize>)]) -> usize {
     let per_batch: usize = exp
