@@ -36,8 +36,8 @@ use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use tb_core::params::ParamKind;
 use tb_core::{
-    build_with, dispatch, Aabb, AccelError, BuildReport, Family, GpuBuffer, GpuProgram,
-    MemoryReport, Structure, Traversal, TraversalInfo, Triangle, Vec3,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Family, GpuProgram, MemoryReport,
+    Structure, Traversal, TraversalInfo, Triangle, Vec3,
 };
 
 pub use traverse::STACK_SIZE;
@@ -45,9 +45,12 @@ pub use wide::{LeafBlock, WideNode, EMPTY_SLOT, WIDE_STACK_SIZE};
 
 /// The BVH in the registry.
 pub static FAMILY: Family = Family::new::<Bvh, BvhParams>(
-    "binned SAH BVH or SBVH, binary (32-byte flat nodes) or 4/8-wide with SIMD child-box tests \
-     (MacDonald and Booth 1990; Wald 2007; Stich et al. 2009; Wald et al. 2008; Ylitie et al. \
-     2017)",
+    "binned SAH BVH or SBVH (`builder`; the SBVH's object splits by a full SAH sweep or binned, \
+     `object_split`), binary with 32-byte nodes or 4/8-wide with SIMD child-box tests (`width`), \
+     the wide trees collapsed SAH-optimally by dynamic programming or greedily (`collapse`), a \
+     leaf of n triangles priced at n or at ⌈n/4⌉ SoA blocks of four in the SAH (`leaf_cost = \
+     \"linear\"` or `\"blocks\"`, both builders and the collapse) (MacDonald and Booth 1990; Wald \
+     2007; Stich et al. 2009; Wald et al. 2008; Ylitie, Karras and Laine 2017)",
     |tris, set| {
         build_with(set, |p: &BvhParams| {
             p.check()?;
@@ -410,34 +413,26 @@ impl Bvh {
 
     /// The wide program of [`Bvh::gpu_ordered`].
     fn gpu_wide(&self, name: &'static str, bytes: Vec<u8>, n: usize, width: u32) -> GpuProgram<'_> {
-        GpuProgram {
+        GpuProgram::new(
             name,
-            source: concat!(
+            concat!(
                 include_str!("../shaders/common.wgsl"),
                 include_str!("../shaders/wide.wgsl")
             ),
-            triangles: Cow::Borrowed(&self.triangles),
-            buffers: vec![
-                GpuBuffer {
-                    what: "the wide BVH node array",
-                    bytes: Cow::Owned(bytes),
-                },
-                GpuBuffer {
-                    what: "the primitive-id array",
-                    bytes: Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
-                },
-                GpuBuffer {
-                    what: "the binary root node",
-                    bytes: Cow::Borrowed(bytemuck::cast_slice(&self.nodes[..1])),
-                },
-            ],
-            meta: [n as u32, 0, 0],
-            stack_size: WIDE_STACK_SIZE as u32,
-            constants: vec![("WIDTH", width as f64)],
-            unrolled_triangle_loop: None,
-            needs_f64: false,
-            arrange: None,
-        }
+            &self.triangles[..],
+        )
+        .buffer("the wide BVH node array", Cow::Owned(bytes))
+        .buffer(
+            "the primitive-id array",
+            Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
+        )
+        .buffer(
+            "the binary root node",
+            Cow::Borrowed(bytemuck::cast_slice(&self.nodes[..1])),
+        )
+        .meta([n as u32, 0, 0])
+        .stack(WIDE_STACK_SIZE as u32)
+        .constant("WIDTH", width as f64)
     }
 
     /// The GPU program of `ordered` (`shaders/bvh.wgsl`, the same walk in the same order):
@@ -462,30 +457,24 @@ impl Bvh {
             }
             _ => {}
         }
-        GpuProgram {
-            name: "bvh/ordered",
-            source: concat!(
+        GpuProgram::new(
+            "bvh/ordered",
+            concat!(
                 include_str!("../shaders/common.wgsl"),
                 include_str!("../shaders/bvh.wgsl")
             ),
-            triangles: Cow::Borrowed(&self.triangles),
-            buffers: vec![
-                GpuBuffer {
-                    what: "the BVH node array",
-                    bytes: Cow::Borrowed(bytemuck::cast_slice(&self.nodes)),
-                },
-                GpuBuffer {
-                    what: "the primitive-id array",
-                    bytes: Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
-                },
-            ],
-            meta: [self.nodes.len() as u32, 0, 0],
-            stack_size: STACK_SIZE as u32,
-            constants: Vec::new(),
-            unrolled_triangle_loop: None,
-            needs_f64: false,
-            arrange: None,
-        }
+            &self.triangles[..],
+        )
+        .buffer(
+            "the BVH node array",
+            Cow::Borrowed(bytemuck::cast_slice(&self.nodes)),
+        )
+        .buffer(
+            "the primitive-id array",
+            Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
+        )
+        .meta([self.nodes.len() as u32, 0, 0])
+        .stack(STACK_SIZE as u32)
     }
 
     /// Walk the tree: call `f(node_index, depth)` for every node reachable from the root,

@@ -4,8 +4,8 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
-use tb_harness::config::{self, Device, Overrides};
-use tb_harness::runner::{self, Mode, RunOptions};
+use tb_harness::experiment::config::{self, Device, Overrides};
+use tb_harness::experiment::runner::{self, Mode, RunOptions};
 
 #[derive(Parser)]
 #[command(
@@ -66,7 +66,7 @@ enum Cmd {
         /// SLURM_ARRAY_TASK_ID / _COUNT / _MIN / _MAX. Deterministic for a config and binary;
         /// combine the shards' folders with `trace-bench merge`.
         #[arg(long, value_parser = parse_shard)]
-        shard: Option<tb_harness::shard::Shard>,
+        shard: Option<tb_harness::cluster::shard::Shard>,
         /// Continue an interrupted run: keep its rows, skip finished combinations.
         #[arg(long)]
         resume: bool,
@@ -136,7 +136,13 @@ enum Cmd {
         out: PathBuf,
     },
     /// List the structures, their traversals and parameters.
-    List,
+    List {
+        /// The README's structure table instead: name, what, traversals with their GPU
+        /// programs (README.md holds this output between its `list --markdown` markers; a
+        /// test checks that they agree).
+        #[arg(long)]
+        markdown: bool,
+    },
     /// List the built-in scenes and their parameters.
     Scenes,
     /// Print the normalised weights of the multi-kd-tree heuristics in the layout of Tables 1
@@ -301,7 +307,7 @@ fn dispatch(cli: Cli) -> Result<i32> {
             out,
         } => cmd_diff(&a, &b, &channel, max, &out),
         Cmd::Merge { dirs, out } => {
-            let r = tb_harness::merge::merge(&dirs, &out)?;
+            let r = tb_harness::results::merge::merge(&dirs, &out)?;
             for n in &r.notes {
                 eprintln!("note: {n}");
             }
@@ -324,8 +330,13 @@ fn dispatch(cli: Cli) -> Result<i32> {
                 Ok(1)
             }
         }
-        Cmd::List => {
-            print!("{}", tb_harness::registry::Registry::builtin().listing());
+        Cmd::List { markdown } => {
+            let registry = tb_harness::registry::Registry::builtin();
+            if markdown {
+                print!("{}", registry.markdown().map_err(anyhow::Error::msg)?);
+            } else {
+                print!("{}", registry.listing());
+            }
             Ok(0)
         }
         Cmd::Reproduce {
@@ -373,17 +384,20 @@ fn dispatch(cli: Cli) -> Result<i32> {
             csv,
         } => {
             let betas = if beta.is_empty() {
-                tb_harness::TABLE2_BETAS.to_vec()
+                tb_harness::registry::weights::TABLE2_BETAS.to_vec()
             } else {
                 beta
             };
             if let Some(b) = betas.iter().find(|b| !(**b > 0.0 && b.is_finite())) {
                 bail!("--beta {b}: beta must be a positive number");
             }
-            print!("{}", tb_harness::weight_tables(&betas, decimals.min(12)));
+            print!(
+                "{}",
+                tb_harness::registry::weights::weight_tables(&betas, decimals.min(12))
+            );
             if let Some(path) = csv {
                 let mut text = String::from("table,heuristic,beta,patch,axis,weight_pct\n");
-                for (t, h, b, p, a, w) in tb_harness::weight_rows(&betas) {
+                for (t, h, b, p, a, w) in tb_harness::registry::weights::weight_rows(&betas) {
                     text.push_str(&format!("{t},{h},{b},{p},{a},{w}\n"));
                 }
                 if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -465,7 +479,7 @@ fn default_out(name: &str, resume: bool) -> Result<PathBuf> {
             .pop()
             .with_context(|| format!("{}: no earlier run to resume", base.display()));
     }
-    let stamp = tb_harness::meta::now_rfc3339().replace(':', "-");
+    let stamp = tb_harness::results::meta::now_rfc3339().replace(':', "-");
     Ok(base.join(stamp.trim_end_matches('Z')))
 }
 
@@ -660,10 +674,10 @@ fn cmd_validate(config: &Path, ov: Overrides, show: usize, quiet: bool) -> Resul
 }
 
 fn cmd_check(baseline: &Path, results: &Path, tolerance: f64) -> Result<i32> {
-    let base = tb_harness::output::read_csv(baseline)?;
-    let cur = tb_harness::output::read_csv(results)?;
-    let findings = tb_harness::check::compare(&base, &cur, tolerance);
-    print!("{}", tb_harness::check::report(&findings));
+    let base = tb_harness::results::output::read_csv(baseline)?;
+    let cur = tb_harness::results::output::read_csv(results)?;
+    let findings = tb_harness::results::check::compare(&base, &cur, tolerance);
+    print!("{}", tb_harness::results::check::report(&findings));
     let failed = findings.iter().filter(|f| f.failed).count();
     if failed > 0 {
         println!(
@@ -727,8 +741,8 @@ fn cmd_diff(a: &Path, b: &Path, channel: &str, max: Option<f32>, out: &Path) -> 
     Ok(0)
 }
 
-fn parse_shard(s: &str) -> std::result::Result<tb_harness::shard::Shard, String> {
-    tb_harness::shard::Shard::parse(s)
+fn parse_shard(s: &str) -> std::result::Result<tb_harness::cluster::shard::Shard, String> {
+    tb_harness::cluster::shard::Shard::parse(s)
 }
 
 fn parse_device(s: &str) -> std::result::Result<Device, String> {
@@ -842,7 +856,7 @@ fn cmd_reproduce(
     let default_folder = out.is_none();
     let out = out.unwrap_or_else(|| {
         PathBuf::from("results/reproduce").join(
-            tb_harness::meta::now_rfc3339()
+            tb_harness::results::meta::now_rfc3339()
                 .replace(':', "-")
                 .trim_end_matches('Z'),
         )

@@ -8,7 +8,7 @@ mod common;
 use common::*;
 
 use std::path::{Path, PathBuf};
-use tb_harness::output::{read_csv, Row};
+use tb_harness::results::output::{read_csv, Row};
 
 fn gpu_config() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/gpu.toml")
@@ -100,7 +100,7 @@ fn gpu_config_writes_cpu_and_gpu_rows_that_agree() {
             assert!(g.trace_ms_median.is_none());
             continue;
         }
-        assert_eq!(g.note, tb_harness::device::gpu::CPU_BUILD_NOTE);
+        assert_eq!(g.note, tb_harness::experiment::device::gpu::CPU_BUILD_NOTE);
         assert!(!g.adapter.is_empty());
         assert!(g.upload_ms.is_some() && g.readback_ms.is_some());
         assert!(g.trace_ms_median.is_some_and(|t| t >= 0.0));

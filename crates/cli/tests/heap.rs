@@ -6,8 +6,8 @@ use common::*;
 
 use std::fs;
 use std::sync::{Mutex, MutexGuard};
-use tb_harness::heap::{self, CountingAlloc};
-use tb_harness::output::read_csv;
+use tb_harness::experiment::heap::{self, CountingAlloc};
+use tb_harness::results::output::read_csv;
 
 #[global_allocator]
 static HEAP: CountingAlloc = CountingAlloc;

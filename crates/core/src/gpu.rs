@@ -101,6 +101,76 @@ pub struct GpuProgram<'a> {
     pub arrange: Option<GpuArrange>,
 }
 
+impl<'a> GpuProgram<'a> {
+    /// The program `name` (`structure/traversal`) of WGSL `source` over `triangles`, with no
+    /// further buffer, meta word, stack, constant or arrangement: add those with the methods
+    /// below, so that a new field changes this constructor and no program.
+    pub fn new(
+        name: &'static str,
+        source: &'static str,
+        triangles: impl Into<Cow<'a, [Triangle]>>,
+    ) -> Self {
+        GpuProgram {
+            name,
+            source,
+            triangles: triangles.into(),
+            buffers: Vec::new(),
+            meta: [0; 3],
+            stack_size: 0,
+            constants: Vec::new(),
+            unrolled_triangle_loop: None,
+            needs_f64: false,
+            arrange: None,
+        }
+    }
+
+    /// The next read-only buffer (bound at 5, 6, … in the order added).
+    pub fn buffer(mut self, what: &'static str, bytes: impl Into<Cow<'a, [u8]>>) -> Self {
+        self.buffers.push(GpuBuffer {
+            what,
+            bytes: bytes.into(),
+        });
+        self
+    }
+
+    /// Words 1..=3 of the `meta_` uniform.
+    pub fn meta(mut self, meta: [u32; 3]) -> Self {
+        self.meta = meta;
+        self
+    }
+
+    /// Entries of the traversal stack (`const STACK_SIZE`).
+    pub fn stack(mut self, entries: u32) -> Self {
+        self.stack_size = entries;
+        self
+    }
+
+    /// An override constant of the source.
+    pub fn constant(mut self, name: &'static str, value: f64) -> Self {
+        self.constants.push((name, value));
+        self
+    }
+
+    /// The triangle loop is unrolled `k` times ([`GpuProgram::unrolled_triangle_loop`]).
+    pub fn unrolled_triangle_loop(mut self, k: u32) -> Self {
+        self.unrolled_triangle_loop = Some(k);
+        self
+    }
+
+    /// The source computes in `f64` ([`GpuProgram::needs_f64`]).
+    pub fn in_f64(mut self) -> Self {
+        self.needs_f64 = true;
+        self
+    }
+
+    /// Sort the rays by `ray_key` before the trace ([`GpuProgram::arrange`]; `None`: in the
+    /// order given).
+    pub fn arranged(mut self, arrange: impl Into<Option<GpuArrange>>) -> Self {
+        self.arrange = arrange.into();
+        self
+    }
+}
+
 /// A program's ray arrangement: rays stably sorted by a small key before the trace (Torres et
 /// al. 2012 §6: a counting sort on the tree index).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -7,7 +7,6 @@ use crate::geom::{Aabb, HitRecord, Ray, Triangle};
 use crate::gpu::GpuProgram;
 use crate::stats::Counter;
 use crate::tri::TriTest;
-use std::borrow::Cow;
 use std::sync::Arc;
 
 /// Times the GPU kernel's triangle loop is unrolled (`UNROLL` in `shaders/brute.wgsl`).
@@ -61,18 +60,12 @@ impl BruteForce {
     /// triangle from its vertices (no buffers of its own), the loop unrolled [`GPU_UNROLL`]
     /// times for llvmpipe's limit on loop iterations.
     fn gpu_linear(&self) -> GpuProgram<'_> {
-        GpuProgram {
-            name: "brute-force/linear",
-            source: include_str!("../shaders/brute.wgsl"),
-            triangles: Cow::Borrowed(&self.tris),
-            buffers: Vec::new(),
-            meta: [0; 3],
-            stack_size: 0,
-            constants: Vec::new(),
-            unrolled_triangle_loop: Some(GPU_UNROLL),
-            needs_f64: false,
-            arrange: None,
-        }
+        GpuProgram::new(
+            "brute-force/linear",
+            include_str!("../shaders/brute.wgsl"),
+            &self.tris[..],
+        )
+        .unrolled_triangle_loop(GPU_UNROLL)
     }
 }
 

@@ -11,7 +11,7 @@ use std::path::Path;
 use tb_core::{
     Accel, BruteForce, HitRecord, Query, Ray, TraversalStats, TriTestKind, Triangle, Vec3,
 };
-use tb_gpu::{open_or_skip, Gpu, GpuBuffer, GpuError, GpuProgram};
+use tb_gpu::{open_or_skip, Gpu, GpuError, GpuProgram};
 
 fn program(b: &BruteForce) -> GpuProgram<'_> {
     b.gpu_program(0).expect("brute force has a GPU program")
@@ -90,27 +90,18 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
 ";
 
 fn echo<'a>(tris: &'a [Triangle], first: &[u32]) -> GpuProgram<'a> {
-    GpuProgram {
-        name: "test/echo",
-        source: ECHO,
-        triangles: Cow::Borrowed(tris),
-        buffers: vec![
-            GpuBuffer {
-                what: "the first test array",
-                bytes: Cow::Owned(first.iter().flat_map(|w| w.to_ne_bytes()).collect()),
-            },
-            GpuBuffer {
-                what: "the second test array",
-                bytes: Cow::Owned(2.5f32.to_ne_bytes().to_vec()),
-            },
-        ],
-        meta: [7, 8, 9],
-        stack_size: 5,
-        constants: vec![("SCALE", 3.0)],
-        unrolled_triangle_loop: None,
-        needs_f64: false,
-        arrange: None,
-    }
+    GpuProgram::new("test/echo", ECHO, Cow::Borrowed(tris))
+        .buffer(
+            "the first test array",
+            Cow::Owned(first.iter().flat_map(|w| w.to_ne_bytes()).collect()),
+        )
+        .buffer(
+            "the second test array",
+            Cow::Owned(2.5f32.to_ne_bytes().to_vec()),
+        )
+        .meta([7, 8, 9])
+        .stack(5)
+        .constant("SCALE", 3.0)
 }
 
 #[test]
@@ -277,21 +268,12 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
 const KEY_TABLE: [u32; 6] = [2, 0, 1, 2, 7, 1];
 
 fn keyed(name: &'static str, keys: u32) -> GpuProgram<'static> {
-    GpuProgram {
-        name,
-        source: KEYED,
-        triangles: Cow::Owned(Vec::new()),
-        buffers: vec![GpuBuffer {
-            what: "the key table",
-            bytes: Cow::Owned(KEY_TABLE.iter().flat_map(|w| w.to_ne_bytes()).collect()),
-        }],
-        meta: [0; 3],
-        stack_size: 0,
-        constants: Vec::new(),
-        unrolled_triangle_loop: None,
-        needs_f64: false,
-        arrange: Some(tb_gpu::GpuArrange { keys, timed: true }),
-    }
+    GpuProgram::new(name, KEYED, Cow::Owned(Vec::new()))
+        .buffer(
+            "the key table",
+            Cow::Owned(KEY_TABLE.iter().flat_map(|w| w.to_ne_bytes()).collect()),
+        )
+        .arranged(tb_gpu::GpuArrange { keys, timed: true })
 }
 
 /// `n` rays of pseudo-random classes (0..6, fixed seed): ray `i` at `(class, i, 0)`.

@@ -45,18 +45,13 @@ fn program<'a>(
     triangles: &'a [tb_core::Triangle],
     buffers: Vec<GpuBuffer<'a>>,
 ) -> GpuProgram<'a> {
-    GpuProgram {
-        name,
-        source,
-        triangles: Cow::Borrowed(triangles),
-        buffers,
-        meta: [0; 3],
-        stack_size: 0,
-        constants: Vec::new(),
-        unrolled_triangle_loop: None,
-        needs_f64: true,
-        arrange: None,
-    }
+    buffers
+        .into_iter()
+        .fold(
+            GpuProgram::new(name, source, Cow::Borrowed(triangles)),
+            |p, b| p.buffer(b.what, b.bytes),
+        )
+        .in_f64()
 }
 
 impl UniformGrid {

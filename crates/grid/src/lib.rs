@@ -72,18 +72,22 @@ use tb_core::{build_with, Family};
 
 /// The uniform grid in the registry.
 pub static UNIFORM_FAMILY: Family = Family::new::<UniformGrid, UniformParams>(
-    "uniform grid, equation 1 density λ, 3D-DDA (Amanatides & Woo 1987), optional macro regions (Devillers 1989)",
+    "uniform grid of equation 1's density `lambda`, optional macro regions per empty cell \
+     (`macro_regions`) (Amanatides and Woo 1987; Devillers 1989)",
     |tris, set| build_with(set, |p: &UniformParams| UniformGrid::build(tris, p)),
 );
 
 /// The two-level grid in the registry.
 pub static TWO_LEVEL_FAMILY: Family = Family::new::<TwoLevelGrid, TwoLevelParams>(
-    "two-level grid: λ_1 top level, a uniform λ_2 grid per top cell, nested 3D-DDA (Kalojanov et al. 2011)",
+    "top-level grid of density `lambda_1`, a uniform `lambda_2` grid in each top cell (Kalojanov \
+     et al. 2011)",
     |tris, set| build_with(set, |p: &TwoLevelParams| TwoLevelGrid::build(tris, p)),
 );
 
 /// The irregular grid in the registry.
 pub static IRREGULAR_FAMILY: Family = Family::new::<IrregularGrid, IrregularParams>(
-    "irregular grid: two-level initial subdivision, SAH merge, expansion, §5 walk (Pérard-Gayot et al. 2017)",
+    "two-level (octree per top cell) or uniform (`initial`) voxelization, SAH cell merging \
+     (`merge`, `alpha`), cell expansion passes (`expansion`), two-level voxel map (Pérard-Gayot \
+     et al. 2017)",
     |tris, set| build_with(set, |p: &IrregularParams| IrregularGrid::build(tris, p)),
 );

@@ -113,13 +113,55 @@ impl Registry {
     }
 }
 
+impl Registry {
+    /// The README's structure table (`trace-bench list --markdown`): per family its name, what
+    /// it is (its doc line) and its traversals, each with the name of its GPU program where
+    /// it has one. The programs are those of a build with the default parameters on the
+    /// built-in Cornell box (a program's name may carry a parameter, e.g. the R-tree's `M`).
+    pub fn markdown(&self) -> Result<String, String> {
+        let scene = tb_scene::builtin::load("cornell").map_err(|e| e.to_string())?;
+        let tris: std::sync::Arc<[Triangle]> = scene.triangles.clone().into();
+        let mut s = String::from("| name | what | traversals (GPU program) |\n|---|---|---|\n");
+        for f in &self.families {
+            let accel = (f.build)(&tris, &(f.defaults)())
+                .map_err(|e| format!("building {} on builtin:cornell: {e}", f.name))?;
+            let traversals: Vec<String> = (f.traversals)()
+                .iter()
+                .enumerate()
+                .map(|(i, t)| match accel.gpu_program(i) {
+                    Some(p) => format!("`{}` (`{}`)", t.name, p.name),
+                    None => format!("`{}`", t.name),
+                })
+                .collect();
+            s.push_str(&format!(
+                "| `{}` | {} | {} |\n",
+                f.name,
+                f.doc.replace('|', "\\|"),
+                traversals.join(", ")
+            ));
+        }
+        Ok(s)
+    }
+}
+
 /// Every registered structure family (the GPU oracle test loops over these).
 pub fn families() -> &'static [&'static Family] {
     FAMILIES
 }
 
+/// The structure name of [`generator`] (the label of what it renders, e.g. the shaded image
+/// beside the heat maps).
+pub const GENERATOR_LABEL: &str = "bvh";
+
 /// The accelerator used to generate secondary rays (shadow, AO, path bounces) from primary
 /// hits: the default BVH. It is built only when a scene asks for secondary rays.
 pub fn generator(tris: &[Triangle]) -> Box<dyn Accel> {
     Box::new(tb_bvh::Bvh::build(tris, &tb_bvh::BvhParams::default()))
+}
+
+/// Tables 1 and 2 of Torres et al. 2012, the multi-kd-trees' normalised weights computed by
+/// numerical integration: what the multi-kd family offers beside its structure (`trace-bench
+/// weights`).
+pub mod weights {
+    pub use tb_kdtree::measure::{weight_rows, weight_tables, TABLE2_BETAS};
 }

@@ -3,9 +3,9 @@
 //! automatic densities among the candidates at the 1 : 8 ratio; and its config errors.
 
 use std::path::Path;
-use tb_harness::config::{self, Overrides};
-use tb_harness::dynamic::{samples_within, ChoiceRow, DynamicRow};
-use tb_harness::runner::{self, RunOptions};
+use tb_harness::experiment::config::{self, Overrides};
+use tb_harness::experiment::runner::{self, RunOptions};
+use tb_harness::report::dynamic::{samples_within, ChoiceRow, DynamicRow};
 
 fn text(scene: &str, structure: &str) -> String {
     format!(

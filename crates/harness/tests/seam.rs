@@ -14,13 +14,13 @@ use std::borrow::Cow;
 use std::path::Path;
 use tb_core::params::ParamKind;
 use tb_core::{
-    build_with, dispatch, Aabb, Counter, Family, GpuBuffer, GpuProgram, HitRecord, MemoryReport,
-    Ray, Structure, Traversal, TraversalInfo, TriTest, Triangle, Vec3,
+    build_with, dispatch, Aabb, Counter, Family, GpuProgram, HitRecord, MemoryReport, Ray,
+    Structure, Traversal, TraversalInfo, TriTest, Triangle, Vec3,
 };
-use tb_harness::config::{self, Overrides};
-use tb_harness::output::Row;
+use tb_harness::experiment::config::{self, Overrides};
+use tb_harness::experiment::runner::{self, RunOptions};
 use tb_harness::registry::Registry;
-use tb_harness::runner::{self, RunOptions};
+use tb_harness::results::output::Row;
 
 tb_core::params! {
     /// Parameters of the slab list.
@@ -167,14 +167,11 @@ impl Structure for SlabList {
     const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::with_gpu(
         TraversalInfo::new("in-order", "this test", "every slab box in order"),
         dispatch,
-        |s| GpuProgram {
-            name: "slab-list/in-order",
-            source: SLABS_WGSL,
-            triangles: Cow::Borrowed(&s.tris),
-            buffers: vec![
-                GpuBuffer {
-                    what: "the slab array",
-                    bytes: Cow::Owned(
+        |s| {
+            GpuProgram::new("slab-list/in-order", SLABS_WGSL, &s.tris[..])
+                .buffer(
+                    "the slab array",
+                    Cow::Owned(
                         s.slabs
                             .iter()
                             .flat_map(|b| {
@@ -192,18 +189,10 @@ impl Structure for SlabList {
                             })
                             .collect(),
                     ),
-                },
-                GpuBuffer {
-                    what: "the triangle ids",
-                    bytes: Cow::Owned(words(&s.ids)),
-                },
-            ],
-            meta: [s.slabs.len() as u32, 0, 0],
-            stack_size: 1,
-            constants: Vec::new(),
-            unrolled_triangle_loop: None,
-            needs_f64: false,
-            arrange: None,
+                )
+                .buffer("the triangle ids", Cow::Owned(words(&s.ids)))
+                .meta([s.slabs.len() as u32, 0, 0])
+                .stack(1)
         },
     )];
 
@@ -322,7 +311,7 @@ fn a_structure_defined_here_runs_on_the_cpu_and_the_gpu() {
     assert_eq!(rows.len(), per_device * if gpu { 2 } else { 1 });
     for r in &rows {
         let note = if r.device == "gpu" {
-            tb_harness::device::gpu::CPU_BUILD_NOTE
+            tb_harness::experiment::device::gpu::CPU_BUILD_NOTE
         } else {
             ""
         };
@@ -357,7 +346,7 @@ fn a_structure_defined_here_runs_on_the_cpu_and_the_gpu() {
                 .find(|r| r.device == "cpu" && key(r) == key(g))
                 .expect("a CPU row per GPU row");
             if g.triangle_test == "watertight" {
-                for col in tb_harness::check::counter_columns() {
+                for col in tb_harness::results::check::counter_columns() {
                     assert_eq!(c.counter(col), g.counter(col), "{col}: {g:?}");
                 }
                 assert_eq!(c.hit_rate, g.hit_rate, "{g:?}");

@@ -65,8 +65,8 @@ use stackless::Stackless;
 use std::borrow::Cow;
 use std::sync::{Arc, OnceLock};
 use tb_core::{
-    build_with, dispatch, Aabb, AccelError, BuildReport, Family, GpuBuffer, GpuProgram,
-    MemoryReport, ParamKind, Params, Structure, Traversal, TraversalInfo, Triangle,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Family, GpuProgram, MemoryReport,
+    ParamKind, Params, Structure, Traversal, TraversalInfo, Triangle,
 };
 use traverse::Tree;
 use view::Aux;
@@ -94,8 +94,9 @@ pub const ROPES_AUX: &str = "ropes";
 
 /// The kd-tree in the registry.
 pub static FAMILY: Family = Family::new::<KdTree, KdParams>(
-    "SAH kd-tree with perfect splits, 8-byte nodes; the traversals of the kd-tree review \
-     (Hapala and Havran 2011)",
+    "SAH kd-tree with perfect splits (exact sweep O(N log N) / O(N log² N), min-max binning), \
+     8-byte nodes in depth-first or treelet layout (`layout`, `treelet_height`; Hapala and Havran \
+     2011 §6); `step_cap` ends restart-type walks (counted in `capped_rays`)",
     |tris, set| {
         build_with(set, |p: &KdParams| {
             KdTree::try_build(tris.clone(), p, &SurfaceArea)
@@ -668,38 +669,27 @@ impl KdTree {
             GpuKernel::ShortStack => self.params.short_stack as usize,
             _ => 1,
         };
-        GpuProgram {
+        GpuProgram::new(
             name,
-            source: concat!(
+            concat!(
                 include_str!("../shaders/kd.wgsl"),
                 include_str!("../shaders/kdtree.wgsl")
             ),
-            triangles: Cow::Borrowed(&self.tris),
-            buffers: vec![
-                GpuBuffer {
-                    what: "the kd-tree node array",
-                    bytes: words(self.nodes.iter().flat_map(|n| [n.bits, n.data])),
-                },
-                GpuBuffer {
-                    what: "the kd-tree reference array",
-                    bytes: words(self.prim_refs.iter().copied()),
-                },
-                GpuBuffer {
-                    what: "the kd-tree header",
-                    bytes: words(header),
-                },
-                GpuBuffer {
-                    what: "the kd-tree cell, parent and rope arrays",
-                    bytes: aux,
-                },
-            ],
-            meta: [self.nodes.len() as u32, 0, 0],
-            stack_size: stack_size as u32,
-            constants: vec![("KERNEL", kernel as u32 as f64)],
-            unrolled_triangle_loop: None,
-            needs_f64: false,
-            arrange: None,
-        }
+            &self.tris[..],
+        )
+        .buffer(
+            "the kd-tree node array",
+            words(self.nodes.iter().flat_map(|n| [n.bits, n.data])),
+        )
+        .buffer(
+            "the kd-tree reference array",
+            words(self.prim_refs.iter().copied()),
+        )
+        .buffer("the kd-tree header", words(header))
+        .buffer("the kd-tree cell, parent and rope arrays", aux)
+        .meta([self.nodes.len() as u32, 0, 0])
+        .stack(stack_size as u32)
+        .constant("KERNEL", kernel as u32 as f64)
     }
 
     /// `recursive-direction` with its full stack in the invocation's memory (review §3.2,

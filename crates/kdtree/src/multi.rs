@@ -64,19 +64,18 @@ use crate::{
 use std::borrow::Cow;
 use std::sync::{Arc, OnceLock};
 use tb_core::{
-    build_with, dispatch, Aabb, AccelError, BuildReport, Counter, Family, GpuArrange, GpuBuffer,
-    GpuProgram, HitRecord, Kernel, MemoryReport, MollerTrumbore, NoStats, ParamKind, Params, Query,
-    Ray, Structure, Traversal, TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Counter, Family, GpuArrange, GpuProgram,
+    HitRecord, Kernel, MemoryReport, MollerTrumbore, NoStats, ParamKind, Params, Query, Ray,
+    Structure, Traversal, TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle,
     Watertight,
 };
 
 /// The multi-kd-tree in the registry.
 pub static FAMILY: Family = Family::new::<MultiKdTree, MultiKdParams>(
-    "Multi-kd-tree: three kd-trees built with direction-specialised SAH measures \
-     (sphere/cube/cos, orthogonal/oblique), one node array with a header of roots, each ray \
-     traversing the tree of its direction's patch; every kd traversal, plain, `-sorted` by \
-     tree index in the timed call and `-presorted` by the untimed hint pass (Torres et al. \
-     2012)",
+    "multi-kd-tree: three kd-trees built with direction-specialised SAH measures (`measure`: \
+     sphere, cube, cos, orthogonal or oblique; `sah` is the kd-tree itself), one node array with \
+     a header of roots, each ray traversing the tree of its direction's patch; single-tree \
+     controls (`trees`) (Torres et al. 2012)",
     |tris, set| {
         build_with(set, |p: &MultiKdParams| {
             MultiKdTree::try_build(tris.clone(), p)
@@ -436,41 +435,27 @@ impl MultiKdTree {
             b1.z.to_bits(),
             0,
         ];
-        GpuProgram {
-            name: if sort.is_some() {
+        GpuProgram::new(
+            if sort.is_some() {
                 "multi-kd/recursive-direction-sorted"
             } else {
                 "multi-kd/recursive-direction"
             },
-            source: concat!(
+            concat!(
                 include_str!("../shaders/kd.wgsl"),
                 include_str!("../shaders/multikd.wgsl")
             ),
-            triangles: Cow::Borrowed(&self.tris),
-            buffers: vec![
-                GpuBuffer {
-                    what: "the multi-kd-tree node array",
-                    bytes: words(&nodes),
-                },
-                GpuBuffer {
-                    what: "the multi-kd-tree reference array",
-                    bytes: words(&self.refs),
-                },
-                GpuBuffer {
-                    what: "the multi-kd-tree header",
-                    bytes: words(&header),
-                },
-            ],
-            meta: [self.nodes.len() as u32, 0, 0],
-            stack_size: STACK_SIZE as u32,
-            constants: Vec::new(),
-            unrolled_triangle_loop: None,
-            needs_f64: false,
-            arrange: sort.map(|timed| GpuArrange {
-                keys: self.header.len() as u32,
-                timed,
-            }),
-        }
+            &self.tris[..],
+        )
+        .buffer("the multi-kd-tree node array", words(&nodes))
+        .buffer("the multi-kd-tree reference array", words(&self.refs))
+        .buffer("the multi-kd-tree header", words(&header))
+        .meta([self.nodes.len() as u32, 0, 0])
+        .stack(STACK_SIZE as u32)
+        .arranged(sort.map(|timed| GpuArrange {
+            keys: self.header.len() as u32,
+            timed,
+        }))
     }
 
     /// The ray arrangement of §6: `rays` in blocks of [`ARRANGE_BLOCK`], each block stably

@@ -22,7 +22,7 @@
 
 use crate::{Rtree, MAX_LAYOUT_BYTES, MAX_LEVELS, MAX_M};
 use std::borrow::Cow;
-use tb_core::{GpuBuffer, GpuProgram};
+use tb_core::GpuProgram;
 
 /// What the slot array is called in tb-gpu's errors (e.g. over the binding size).
 pub const GPU_NODES: &str = "the R-tree's packed level-order slot array";
@@ -73,27 +73,15 @@ impl Rtree {
     fn gpu(&self, names: &[&'static str], source: &'static str, stack: u32) -> GpuProgram<'_> {
         let m = self.params.big_m;
         debug_assert!(self.nodes.is_empty() || self.root_level < max_levels(m));
-        GpuProgram {
-            name: names[m as usize - 4],
-            source,
-            triangles: Cow::Borrowed(&self.triangles),
-            buffers: vec![
-                GpuBuffer {
-                    what: GPU_NODES,
-                    bytes: Cow::Borrowed(bytemuck::cast_slice(&self.nodes)),
-                },
-                GpuBuffer {
-                    what: "the R-tree's primitive-id array",
-                    bytes: Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
-                },
-            ],
-            meta: [self.nodes.len() as u32, self.first_leaf, self.root_level],
-            stack_size: stack,
-            constants: vec![("M", m as f64)],
-            unrolled_triangle_loop: None,
-            needs_f64: false,
-            arrange: None,
-        }
+        GpuProgram::new(names[m as usize - 4], source, &self.triangles[..])
+            .buffer(GPU_NODES, Cow::Borrowed(bytemuck::cast_slice(&self.nodes)))
+            .buffer(
+                "the R-tree's primitive-id array",
+                Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
+            )
+            .meta([self.nodes.len() as u32, self.first_leaf, self.root_level])
+            .stack(stack)
+            .constant("M", m as f64)
     }
 
     /// The GPU program of `stackless` (`shaders/stackless.wgsl`, Listing 1, no stack).

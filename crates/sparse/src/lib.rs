@@ -43,9 +43,9 @@ mod walk;
 use std::borrow::Cow;
 use std::sync::Arc;
 use tb_core::{
-    build_with, Aabb, Accel, AccelError, BuildReport, Family, GpuBuffer, GpuProgram, HitRecord,
-    MemoryReport, ParamKind, Params, Query, Ray, Structure, Traversal, TraversalInfo,
-    TraversalStats, TriTestKind, Triangle, Vec3,
+    build_with, Aabb, Accel, AccelError, BuildReport, Family, GpuProgram, HitRecord, MemoryReport,
+    ParamKind, Params, Query, Ray, Structure, Traversal, TraversalInfo, TraversalStats,
+    TriTestKind, Triangle, Vec3,
 };
 use tb_kdtree::{KdBuilder, KdLayout, KdParams, KdTree, SurfaceArea, STACK_SIZE};
 
@@ -54,8 +54,10 @@ pub const BOXES_AUX: &str = "sparse-boxes";
 
 /// The structure in the registry.
 pub static FAMILY: Family = Family::new::<SparseBoxes, SparseParams>(
-    "kd-tree with sparse boxes: augmented nodes every d_min + 1 levels, start nodes, \
-     bottom-up (BTR) and stackless (SLTR) traversal (Havran and Bittner 2007)",
+    "a `kdtree` (depth-first; its builder parameters) with sparse boxes: augmented nodes (box and \
+     parent link) every `d_min + 1` levels, start nodes found once per batch outside timing \
+     (Havran and Bittner 2007); `htr` and `seq` are the kd-tree's `recursive-direction` and \
+     `sequential` over the same tree",
     |tris, set| {
         build_with(set, |p: &SparseParams| {
             SparseBoxes::try_build(tris.clone(), p)
@@ -327,59 +329,53 @@ impl SparseBoxes {
     /// `d_min + 1`.
     fn gpu_sltr(&self, start: bool) -> GpuProgram<'_> {
         let v = self.kd.view();
-        GpuProgram {
-            name: if start {
+        GpuProgram::new(
+            if start {
                 "sparse-boxes/sltr"
             } else {
                 "sparse-boxes/sltr-root"
             },
-            source: include_str!("../shaders/sltr.wgsl"),
-            triangles: Cow::Borrowed(v.triangles()),
-            buffers: vec![
-                GpuBuffer {
-                    what: "the kd-tree node array",
-                    bytes: bytes(v.nodes().iter().flat_map(|n| [n.bits, n.data])),
-                },
-                GpuBuffer {
-                    what: "the kd-tree reference array",
-                    bytes: bytes(v.refs().iter().copied()),
-                },
-                GpuBuffer {
-                    what: "the augmented nodes",
-                    bytes: bytes(self.aug.iter().flat_map(|a| {
-                        [
-                            a.min[0].to_bits(),
-                            a.min[1].to_bits(),
-                            a.min[2].to_bits(),
-                            a.parent,
-                            a.max[0].to_bits(),
-                            a.max[1].to_bits(),
-                            a.max[2].to_bits(),
-                            a.node,
-                        ]
-                    })),
-                },
-                GpuBuffer {
-                    what: "the augmented nodes' depths and the step cap",
-                    bytes: bytes(
-                        self.depth
-                            .iter()
-                            .map(|&d| d as u32)
-                            .chain([self.params.step_cap]),
-                    ),
-                },
-            ],
-            meta: [
-                v.nodes().len() as u32,
-                self.aug.len() as u32,
-                self.params.period(),
-            ],
-            stack_size: 0,
-            constants: vec![("START", start as u32 as f64)],
-            unrolled_triangle_loop: None,
-            needs_f64: false,
-            arrange: None,
-        }
+            include_str!("../shaders/sltr.wgsl"),
+            Cow::Borrowed(v.triangles()),
+        )
+        .buffer(
+            "the kd-tree node array",
+            bytes(v.nodes().iter().flat_map(|n| [n.bits, n.data])),
+        )
+        .buffer(
+            "the kd-tree reference array",
+            bytes(v.refs().iter().copied()),
+        )
+        .buffer(
+            "the augmented nodes",
+            bytes(self.aug.iter().flat_map(|a| {
+                [
+                    a.min[0].to_bits(),
+                    a.min[1].to_bits(),
+                    a.min[2].to_bits(),
+                    a.parent,
+                    a.max[0].to_bits(),
+                    a.max[1].to_bits(),
+                    a.max[2].to_bits(),
+                    a.node,
+                ]
+            })),
+        )
+        .buffer(
+            "the augmented nodes' depths and the step cap",
+            bytes(
+                self.depth
+                    .iter()
+                    .map(|&d| d as u32)
+                    .chain([self.params.step_cap]),
+            ),
+        )
+        .meta([
+            v.nodes().len() as u32,
+            self.aug.len() as u32,
+            self.params.period(),
+        ])
+        .constant("START", start as u32 as f64)
     }
 }
 

@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use std::path::Path;
-use tb_harness::config::{self, Overrides};
+use tb_harness::experiment::config::{self, Overrides};
 
 /// Run `trace-bench ARGS…` in-process; the exit code.
 pub fn run(args: &[&str]) -> i32 {

@@ -639,8 +639,8 @@ fn paired_ratio(n: &Value, d: &Value) -> [f64; 3] {
         .zip(&d.runs)
         .map(|(a, b)| a / b.max(1e-300))
         .collect();
-    let (lo, hi) = crate::timing::median_ci(&r);
-    [lo, crate::timing::median(&mut r.clone()), hi]
+    let (lo, hi) = crate::experiment::timing::median_ci(&r);
+    [lo, crate::experiment::timing::median(&mut r.clone()), hi]
 }
 
 /// `x` before `y` in an ordering (strict: below `y·(1 − margin)`), with intervals (of the

@@ -56,4 +56,3 @@ impl Measure {
         matches!(self.0[..], [Term::Time] | [Term::Mrays] | [Term::BuildTime])
     }
 }
-

@@ -37,7 +37,7 @@ pub fn parse(path: &Path, text: &str) -> Result<ClaimsFile, HarnessError> {
     let file: ClaimsFile = toml::from_str(text).map_err(|e| {
         let line = e
             .span()
-            .map(|s| format!("{}: ", crate::config::line_of(text, s.start)));
+            .map(|s| format!("{}: ", crate::experiment::config::line_of(text, s.start)));
         HarnessError::ConfigSyntax {
             file: path.into(),
             message: format!(

@@ -306,7 +306,7 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
     let planned = plan(opts)?;
     std::fs::create_dir_all(&opts.out).map_err(|e| HarnessError::io(&opts.out, e))?;
     let started = Instant::now();
-    let start_time = crate::meta::now_rfc3339();
+    let start_time = crate::results::meta::now_rfc3339();
     let mut reports = Vec::new();
     for (path, file, mut runs) in planned {
         for r in &mut runs {
@@ -399,7 +399,7 @@ fn write(path: &Path, text: &str) -> Result<(), HarnessError> {
 
 /// The machine in one line.
 fn machine() -> String {
-    let h = crate::meta::host_info();
+    let h = crate::results::meta::host_info();
     format!(
         "{} ({}, {} logical / {} physical cores, {} GiB, {})",
         h["name"].as_str().unwrap_or("?"),
@@ -412,12 +412,12 @@ fn machine() -> String {
 }
 
 fn commit_line() -> String {
-    let dirty = if crate::meta::dirty() == Some(true) {
+    let dirty = if crate::results::meta::dirty() == Some(true) {
         " (with uncommitted changes)"
     } else {
         ""
     };
-    format!("{}{dirty}", crate::meta::commit())
+    format!("{}{dirty}", crate::results::meta::commit())
 }
 
 fn write_report(
@@ -483,8 +483,8 @@ fn write_report(
         &reproduction(reports, &head),
     )?;
     let json = serde_json::json!({
-        "machine": crate::meta::host_info(),
-        "build": crate::meta::build_info(),
+        "machine": crate::results::meta::host_info(),
+        "build": crate::results::meta::build_info(),
         "started": start,
         "wall_s": wall,
         "budget_s": opts.budget_s,

@@ -364,6 +364,6 @@ impl ClaimsFile {
 fn find_line(text: &str, needle: &str, nth: usize) -> usize {
     text.match_indices(needle)
         .nth(nth)
-        .map(|(p, _)| crate::config::line_of(text, p))
+        .map(|(p, _)| crate::experiment::config::line_of(text, p))
         .unwrap_or(1)
 }

@@ -1,0 +1,4 @@
+//! Runs spread over machines: the partition of a run's work units into shards ([`shard`];
+//! `run --shard K/N`, `scripts/slurm/`), whose folders [`crate::results::merge`] combines.
+
+pub mod shard;

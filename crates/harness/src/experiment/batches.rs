@@ -1,0 +1,153 @@
+//! The ray batches of a scene, generated once per scene: primary, shadow, ao, path1..k,
+//! random, stress.
+
+use crate::experiment::config::{RayKindSpec, SceneSpec};
+use tb_core::{Query, Ray, TriTestKind};
+use tb_scene::rays::{self, RayKind};
+
+/// One ray batch of a scene: a kind and its rays (or why there are none).
+pub struct Batch {
+    pub name: String,
+    pub query: Query,
+    pub rays: Vec<Ray>,
+    /// Set when the batch was skipped (no rays traced); the row's note.
+    pub skipped: Option<String>,
+}
+
+/// Generate the batches a scene asks for, in the order primary, shadow, ao, path1..k, random,
+/// stress. Secondary rays start at hits found with the watertight test by the default BVH, so
+/// they are the same whatever structures and triangle tests the experiment runs; `gen` holds
+/// that BVH once built, so the views of one table build it once. `first_view`: random and
+/// stress rays do not depend on the camera, so only a table's first view traces them.
+pub fn generate_batches(
+    spec: &SceneSpec,
+    seed: u64,
+    gen: &mut Option<Box<dyn tb_core::Accel>>,
+    first_view: bool,
+    notes: &mut Vec<String>,
+) -> Vec<Batch> {
+    let tris = &spec.scene.triangles;
+    let wants = |k: RayKindSpec| {
+        spec.rays.contains(&k)
+            && (first_view || !matches!(k, RayKindSpec::Random | RayKindSpec::Stress))
+    };
+    let secondary =
+        wants(RayKindSpec::Shadow) || wants(RayKindSpec::Ao) || wants(RayKindSpec::Path);
+    let mut out = Vec::new();
+    let primary = match (&spec.camera, wants(RayKindSpec::Primary) || secondary) {
+        (Some(c), true) => rays::primary(c),
+        _ => Vec::new(),
+    };
+    if wants(RayKindSpec::Primary) {
+        out.push(Batch {
+            name: RayKind::Primary.name(),
+            query: Query::Closest,
+            rays: primary.clone(),
+            skipped: None,
+        });
+    }
+    if secondary {
+        if first_view {
+            notes.push(format!(
+                "{}: secondary rays start at primary hits found by bvh (default params, watertight test)",
+                spec.table
+            ));
+        }
+        let gen = gen.get_or_insert_with(|| crate::registry::generator(tris));
+        let hits = tb_core::par::trace(
+            gen.as_ref(),
+            0,
+            Query::Closest,
+            TriTestKind::Watertight,
+            &primary,
+        );
+        let nhit = hits.iter().filter(|h| h.is_hit()).count();
+        let none = |what: &str| Some(format!("no {what} rays: no primary ray hits the scene"));
+        if wants(RayKindSpec::Shadow) {
+            match spec.light {
+                Some(light) => {
+                    let r = rays::shadow(tris, &primary, &hits, light);
+                    let skipped = if r.is_empty() { none("shadow") } else { None };
+                    out.push(Batch {
+                        name: RayKind::Shadow.name(),
+                        query: Query::Any,
+                        rays: r,
+                        skipped,
+                    });
+                }
+                None => {
+                    let why = "skipped: the scene has no light (set `light` in the scene table)"
+                        .to_string();
+                    notes.push(format!("{}: shadow rays {why}", spec.label));
+                    out.push(Batch {
+                        name: RayKind::Shadow.name(),
+                        query: Query::Any,
+                        rays: Vec::new(),
+                        skipped: Some(why),
+                    });
+                }
+            }
+        }
+        if wants(RayKindSpec::Ao) {
+            let r = rays::ao(
+                tris,
+                &primary,
+                &hits,
+                spec.ao_samples,
+                spec.ao_distance,
+                seed,
+            );
+            let skipped = if nhit == 0 { none("ao") } else { None };
+            out.push(Batch {
+                name: RayKind::Ao.name(),
+                query: Query::Any,
+                rays: r,
+                skipped,
+            });
+        }
+        if wants(RayKindSpec::Path) {
+            let (mut prev_rays, mut prev_hits) = (primary.clone(), hits);
+            for b in 1..=spec.bounces {
+                let r = rays::bounce(tris, &prev_rays, &prev_hits, seed.wrapping_add(b as u64));
+                let skipped = if r.is_empty() {
+                    Some(format!("no rays: no ray of bounce {} hit the scene", b - 1))
+                } else {
+                    None
+                };
+                let h = tb_core::par::trace(
+                    gen.as_ref(),
+                    0,
+                    Query::Closest,
+                    TriTestKind::Watertight,
+                    &r,
+                );
+                out.push(Batch {
+                    name: RayKind::Path(b).name(),
+                    query: Query::Closest,
+                    rays: r.clone(),
+                    skipped,
+                });
+                prev_rays = r;
+                prev_hits = h;
+            }
+        }
+    }
+    if wants(RayKindSpec::Random) {
+        let r = rays::random(&spec.scene.bounds, spec.random_count, seed);
+        out.push(Batch {
+            name: RayKind::Random.name(),
+            query: Query::Closest,
+            rays: r,
+            skipped: None,
+        });
+    }
+    if wants(RayKindSpec::Stress) {
+        out.push(Batch {
+            name: RayKind::Own.name(),
+            query: Query::Closest,
+            rays: spec.scene.own_rays.clone(),
+            skipped: None,
+        });
+    }
+    out
+}

@@ -1,0 +1,496 @@
+//! Two-stage config: raw serde structs (`deny_unknown_fields`), then a checked
+//! [`Experiment`] with scenes loaded, structures resolved and sweeps expanded, before any work
+//! starts. Every error names the file, the line and the key.
+//!
+//! The schema is documented in README.md ("Config reference"). The image and convergence
+//! sections are checked in their own modules ([`images`], [`convergence`]), which the work
+//! modules ([`crate::report::images`], [`crate::report::convergence`]) read from, never the other way round.
+
+pub(crate) mod ctx;
+pub mod overrides;
+mod run;
+mod scenes;
+pub(crate) mod spec;
+mod structures;
+
+pub use ctx::line_of;
+pub(crate) use ctx::Ctx;
+pub use run::RunSettings;
+pub use spec::{device_threads, Device, GpuSpec, RayKindSpec, SceneSpec, StructureSpec, Validate};
+
+use crate::report::convergence::config as convergence;
+use crate::report::dynamic::config as dynamic;
+use crate::report::images::config as images;
+
+use crate::error::HarnessError;
+use crate::registry::Registry;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use tb_scene::PixelOrder;
+use toml::Spanned;
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum OneOrMany<T> {
+    One(T),
+    Many(Vec<T>),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawConfig {
+    name: Option<String>,
+    scenes_root: Option<String>,
+    #[serde(default)]
+    run: RawRun,
+    #[serde(default, rename = "scene")]
+    scenes: Vec<RawScene>,
+    #[serde(default, rename = "structure")]
+    structures: Vec<RawStructure>,
+    convergence: Option<Spanned<convergence::RawConvergence>>,
+    dynamic: Option<Spanned<dynamic::RawDynamic>>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct RawRun {
+    threads: Option<Spanned<OneOrMany<u32>>>,
+    repeat: Option<u32>,
+    max_repeat: Option<u32>,
+    target_ci: Option<Spanned<f64>>,
+    max_row_seconds: Option<Spanned<f64>>,
+    interleave: Option<bool>,
+    warmup: Option<u32>,
+    build_repeat: Option<u32>,
+    triangle_test: Option<Spanned<OneOrMany<String>>>,
+    devices: Option<Spanned<OneOrMany<String>>>,
+    gpu_adapter: Option<String>,
+    gpu_backend: Option<Spanned<String>>,
+    gpu_required: Option<bool>,
+    validate: Option<Spanned<toml::Value>>,
+    seed: Option<u64>,
+    images: Option<bool>,
+    heatmap_max: Option<Spanned<toml::Value>>,
+    heatmap_colormap: Option<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    source: Spanned<String>,
+    name: Option<String>,
+    rays: Option<Spanned<Vec<String>>>,
+    camera: Option<Spanned<RawCamera>>,
+    light: Option<[f32; 3]>,
+    ao: Option<RawAo>,
+    path: Option<RawPath>,
+    random: Option<RawRandom>,
+    validate: Option<Spanned<toml::Value>>,
+    optional: Option<bool>,
+    enclose: Option<bool>,
+    inset: Option<Spanned<RawInset>>,
+    views: Option<Spanned<Vec<RawView>>>,
+}
+
+/// One entry of `views = [...]`: a viewpoint of the scene table (eye, target, up, fov over
+/// the table's camera, and its light), traced on the same load and build as the others.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawView {
+    name: Option<String>,
+    eye: Option<[f32; 3]>,
+    target: Option<[f32; 3]>,
+    up: Option<[f32; 3]>,
+    fov: Option<f32>,
+    light: Option<[f32; 3]>,
+}
+
+/// `inset = { scale = 0.01, at = [x, y, z] }`: the scene inside itself (Figure 8 of
+/// Pérard-Gayot et al. 2017), see [`tb_scene::Scene::inset`].
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawInset {
+    scale: f32,
+    at: Option<[f32; 3]>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCamera {
+    eye: Option<[f32; 3]>,
+    target: Option<[f32; 3]>,
+    up: Option<[f32; 3]>,
+    fov: Option<f32>,
+    width: Option<u32>,
+    height: Option<u32>,
+    order: Option<PixelOrder>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawAo {
+    samples: Option<u32>,
+    distance: Option<f32>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPath {
+    bounces: u32,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawRandom {
+    count: u32,
+}
+
+#[derive(Deserialize, Clone)]
+#[serde(deny_unknown_fields)]
+struct RawStructure {
+    name: Spanned<String>,
+    traversals: Option<Spanned<Vec<String>>>,
+    params: Option<Spanned<toml::Table>>,
+}
+
+/// A checked experiment: everything needed to run, nothing left to fail on the config.
+pub struct Experiment {
+    pub name: String,
+    pub file: PathBuf,
+    /// The config text as read (stored in results.json).
+    pub text: String,
+    pub scenes_root: PathBuf,
+    /// The checked `[run]` table with the command-line overrides.
+    pub run: RunSettings,
+    pub scenes: Vec<SceneSpec>,
+    pub structures: Vec<StructureSpec>,
+    /// Why scenes marked `optional = true` were left out (file not under the scenes root).
+    pub skipped_scenes: Vec<String>,
+    /// `[run] images = true`: heat maps of primary rays ([`crate::report::images`]).
+    pub images: Option<images::ImageSpec>,
+    /// `[convergence]`: error against run time ([`crate::report::convergence`]).
+    pub convergence: Option<convergence::ConvergenceSpec>,
+    /// `--shard K/N`: the partition of the run's work units and this shard's part
+    /// ([`crate::cluster::shard`]); only the scenes of this shard's units are loaded.
+    pub shard: Option<crate::cluster::shard::ShardPlan>,
+    /// SHA-256 of the effective config (the text after `--set`) and the command-line options
+    /// that change the rows (threads, repeat, devices, adapter, backend, `--scene`,
+    /// `--structure`); shards of one run share it (`trace-bench merge` checks).
+    pub config_hash: String,
+    /// `[dynamic]`: per-frame rebuilds within frame budgets ([`crate::report::dynamic`]).
+    pub dynamic: Option<dynamic::DynamicSpec>,
+}
+
+/// Overrides from the command line.
+#[derive(Clone, Debug, Default)]
+pub struct Overrides {
+    pub scenes_root: Option<PathBuf>,
+    pub threads: Option<Vec<usize>>,
+    pub repeat: Option<usize>,
+    /// `--device`: replaces run.devices; listing `gpu` makes the GPU required.
+    pub devices: Option<Vec<Device>>,
+    /// `--adapter`: replaces run.gpu_adapter.
+    pub adapter: Option<String>,
+    /// `--backend`: replaces run.gpu_backend.
+    pub backend: Option<tb_gpu::Backend>,
+    /// `--set key=value`: edits of the config before it is checked ([`overrides::apply_sets`]).
+    pub sets: Vec<String>,
+    /// `--scene NAME`: run only these scenes (labels or sources).
+    pub scenes: Vec<String>,
+    /// `--structure NAME[:traversal]`: run only these structures (and traversals).
+    pub structures: Vec<String>,
+    /// `--shard K/N`: run only this shard's work units ([`crate::cluster::shard`]).
+    pub shard: Option<crate::cluster::shard::Shard>,
+}
+
+impl Overrides {
+    /// The options that change which rows a run writes or how they are measured, as text
+    /// for [`Experiment::config_hash`] (not the scenes root, which differs between machines,
+    /// nor the shard, which shards of one run differ in).
+    fn hashed(&self) -> String {
+        format!(
+            "threads={:?}\nrepeat={:?}\ndevices={:?}\nadapter={:?}\nbackend={:?}\nscenes={:?}\nstructures={:?}\n",
+            self.threads,
+            self.repeat,
+            self.devices.as_ref().map(|d| d.iter().map(|d| d.name()).collect::<Vec<_>>()),
+            self.adapter,
+            self.backend.map(|b| format!("{b:?}")),
+            self.scenes,
+            self.structures
+        )
+    }
+}
+
+/// SHA-256 of the effective config text and the hashed overrides, hex.
+fn config_hash(text: &str, ov: &Overrides) -> String {
+    use sha2::Digest;
+    let mut h = sha2::Sha256::new();
+    h.update(text.as_bytes());
+    h.update([0u8]);
+    h.update(ov.hashed().as_bytes());
+    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Parse and check `file` against the built-in registry; loads every scene. `progress` is
+/// told each scene as it loads.
+pub fn load(
+    file: &Path,
+    ov: &Overrides,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Experiment, HarnessError> {
+    let text = std::fs::read_to_string(file).map_err(|e| HarnessError::io(file, e))?;
+    parse(file, &text, ov, progress)
+}
+
+/// Parse and check config `text` (read from `file`, named in errors) against the built-in
+/// registry.
+pub fn parse(
+    file: &Path,
+    text: &str,
+    ov: &Overrides,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Experiment, HarnessError> {
+    parse_with(file, text, ov, &Registry::builtin(), progress)
+}
+
+/// [`parse`], resolving structures against `registry` (tests add their own structures).
+pub fn parse_with(
+    file: &Path,
+    text: &str,
+    ov: &Overrides,
+    registry: &Registry,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Experiment, HarnessError> {
+    // `--set`: the effective config (recorded in results.json) is the edited one; its errors
+    // name the file "with --set" and the line in the edited text.
+    let edited;
+    let (text, shown) = if ov.sets.is_empty() {
+        (text, file.to_path_buf())
+    } else {
+        edited = overrides::apply_sets(&file.display().to_string(), text, &ov.sets)?;
+        (
+            edited.as_str(),
+            PathBuf::from(format!("{} (with --set)", file.display())),
+        )
+    };
+    let file_arg = file;
+    let file = shown.as_path();
+    let cx = Ctx { file, text };
+    let mut raw: RawConfig = toml::from_str(text).map_err(|e| {
+        let line = e.span().map(|s| line_of(text, s.start));
+        let msg = match e.message().trim().replace('\n', " ") {
+            m if m.is_empty() => "invalid TOML (a value is missing or malformed here)".into(),
+            m => m,
+        };
+        match line {
+            Some(l) => HarnessError::ConfigSyntax {
+                file: file.into(),
+                message: format!("line {l}: {msg}"),
+            },
+            None => HarnessError::ConfigSyntax {
+                file: file.into(),
+                message: msg,
+            },
+        }
+    })?;
+
+    overrides::filter(&cx, &mut raw, &ov.scenes, &ov.structures)?;
+    let name = raw.name.clone().unwrap_or_else(|| {
+        file_arg
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "experiment".into())
+    });
+    if name.is_empty() || name.contains(['/', '\\']) || name.starts_with('.') {
+        return Err(cx.err(0..0, "name", "must be a plain, non-empty file name"));
+    }
+    let scenes_root = ov
+        .scenes_root
+        .clone()
+        .or_else(|| std::env::var_os("TRACE_BENCH_SCENES").map(PathBuf::from))
+        .or_else(|| raw.scenes_root.as_ref().map(PathBuf::from))
+        .unwrap_or_else(|| PathBuf::from("scenes"));
+
+    let run = &raw.run;
+    let run_settings = run::check_run(&cx, run, ov)?;
+    let validate = run_settings.validate;
+
+    if raw.structures.is_empty() {
+        return Err(cx.err(0..0, "structure", "the config names no [[structure]]"));
+    }
+    let structures = raw
+        .structures
+        .iter()
+        .map(|s| structures::check_structure(&cx, s, registry))
+        .collect::<Result<Vec<_>, _>>()?;
+
+    if raw.scenes.is_empty() {
+        return Err(cx.err(0..0, "scene", "the config names no [[scene]]"));
+    }
+    if ov.shard.is_some() && raw.dynamic.is_some() {
+        return Err(cx.err(
+            0..0,
+            "dynamic",
+            "a [dynamic] run measures frames of one scene and cannot be sharded: drop --shard",
+        ));
+    }
+    let shard = ov
+        .shard
+        .map(|sel| plan_shard(sel, &raw, &structures, &run_settings, &scenes_root));
+    let mut scenes: Vec<SceneSpec> = Vec::new();
+    let mut skipped_scenes = Vec::new();
+    for s in &raw.scenes {
+        if shard.as_ref().is_some_and(|p| {
+            let label = scenes::label_of(s);
+            // Scenes the plan does not know (absent files) go on to the check, which
+            // reports them.
+            p.scene_cost.contains_key(&label) && !p.needs_scene(&label)
+        }) {
+            continue;
+        }
+        match scenes::check_scene(&cx, s, &scenes_root, validate, progress)? {
+            Ok(specs) => {
+                for spec in specs {
+                    if scenes.iter().any(|o| o.label == spec.label) {
+                        return Err(cx.err(
+                            s.source.span(),
+                            "scene.name",
+                            format!(
+                                "two scenes are labelled `{}`; give one a `name`",
+                                spec.label
+                            ),
+                        ));
+                    }
+                    scenes.push(spec)
+                }
+            }
+            Err(note) => skipped_scenes.push(note),
+        }
+    }
+
+    if let Some(p) = &shard {
+        let out = p.left_out();
+        skipped_scenes.push(format!(
+            "shard {}: {} of {} work units (scene x build), {} rows, estimated {:.1} s; {}",
+            p.shard,
+            p.units.iter().filter(|u| u.shard == p.shard.k).count(),
+            p.units.len(),
+            p.rows(),
+            p.cost_of(p.shard.k) as f64 / 1e9,
+            if out.is_empty() {
+                "no scene left out".to_string()
+            } else {
+                format!("left out, not loaded: {}", out.join(", "))
+            }
+        ));
+    }
+    if scenes.is_empty() && shard.is_none() {
+        return Err(HarnessError::ConfigSyntax {
+            file: file.into(),
+            message: format!("no scene to run: {}", skipped_scenes.join("; ")),
+        });
+    }
+    let images = images::check(
+        &cx,
+        run.images,
+        run.heatmap_max.as_ref(),
+        run.heatmap_colormap.as_ref(),
+    )?;
+    let convergence = match &raw.convergence {
+        None => None,
+        Some(c) => Some(convergence::check(&cx, c, &scenes)?),
+    };
+    let dynamic = match &raw.dynamic {
+        None => None,
+        Some(d) => Some(dynamic::check(&cx, d, &scenes, &structures)?),
+    };
+
+    Ok(Experiment {
+        name,
+        file: file_arg.to_path_buf(),
+        text: text.to_string(),
+        scenes_root,
+        run: run_settings,
+        scenes,
+        structures,
+        skipped_scenes,
+        images,
+        convergence,
+        shard,
+        config_hash: config_hash(text, ov),
+        dynamic,
+    })
+}
+
+/// The partition of the run for `--shard` ([`crate::cluster::shard::plan`]), from the scene tables
+/// (not loaded) and the checked structures.
+fn plan_shard(
+    sel: crate::cluster::shard::Shard,
+    raw: &RawConfig,
+    structures: &[StructureSpec],
+    run: &RunSettings,
+    scenes_root: &Path,
+) -> crate::cluster::shard::ShardPlan {
+    let scenes: Vec<crate::cluster::shard::SceneEstimate> = raw
+        .scenes
+        .iter()
+        .filter_map(|s| scenes::estimate(s, scenes_root, run.validate))
+        .collect();
+    let mut builds = Vec::new();
+    for (si, st) in structures.iter().enumerate() {
+        for (pi, p) in st.param_sets.iter().enumerate() {
+            builds.push(crate::cluster::shard::BuildEstimate {
+                structure: si,
+                param_set: pi,
+                name: st.family.name,
+                params: p.to_string(),
+                variants: st.traversals.len() * run.triangle_tests.len(),
+            });
+        }
+    }
+    let device_rows = device_threads(&run.devices, &run.threads)
+        .into_iter()
+        .flat_map(|(_, t)| t)
+        .collect();
+    let est = crate::cluster::shard::RunEstimate {
+        device_rows,
+        passes: (run.timing.warmup + run.timing.repeat + 1) as u64,
+        build_repeat: run.build_repeat as u64,
+    };
+    crate::cluster::shard::plan(sel, &scenes, &builds, &est)
+}
+
+fn parse_validate(cx: &Ctx, v: &Spanned<toml::Value>, key: &str) -> Result<Validate, HarnessError> {
+    Ok(match v.get_ref() {
+        toml::Value::String(s) if s == "all" => Validate::All,
+        toml::Value::String(s) if s == "off" => Validate::Off,
+        toml::Value::Boolean(true) => Validate::All,
+        toml::Value::Boolean(false) => Validate::Off,
+        toml::Value::Integer(n) if *n > 0 => Validate::Sample(*n as usize),
+        other => {
+            return Err(cx.err(
+                v.span(),
+                key,
+                format!("expected \"all\", \"off\" or a positive ray count, found {other}"),
+            ))
+        }
+    })
+}
+
+/// A short label for a scene source: `builtin:stress/flat?x=1` → `stress/flat?x=1`,
+/// `sibenik/sibenik.obj.gz` → `sibenik`.
+pub fn scene_label(src: &str) -> String {
+    if let Some(b) = src.strip_prefix("builtin:") {
+        return b.to_string();
+    }
+    let file = Path::new(src)
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let stem = file.split('.').next().unwrap_or("").to_string();
+    if stem.is_empty() {
+        src.to_string()
+    } else {
+        stem
+    }
+}

@@ -1,0 +1,185 @@
+//! The `[run]` table with the command-line overrides.
+
+use super::{parse_validate, Ctx, Device, GpuSpec, OneOrMany, Overrides, RawRun, Validate};
+use crate::error::HarnessError;
+use tb_core::TriTestKind;
+use toml::Spanned;
+
+/// The checked `[run]` settings (with the command-line overrides).
+pub struct RunSettings {
+    /// Thread counts, each ≥ 1 (0 in the config means all cores).
+    pub threads: Vec<usize>,
+    /// How rows are timed (warmup, repeat, max_repeat, target_ci, max_row_seconds).
+    pub timing: crate::experiment::timing::TimingPlan,
+    pub build_repeat: usize,
+    pub triangle_tests: Vec<TriTestKind>,
+    pub devices: Vec<Device>,
+    pub gpu: GpuSpec,
+    pub validate: Validate,
+    pub seed: u64,
+    /// Time the CPU rows of a scene view that trace the same batch (triangle test, thread
+    /// count) interleaved, round by round, over every build of the table (`run.interleave`).
+    pub interleave: bool,
+}
+
+/// Check `[run]` with the overrides `ov`.
+pub(super) fn check_run(
+    cx: &Ctx,
+    run: &RawRun,
+    ov: &Overrides,
+) -> Result<RunSettings, HarnessError> {
+    let all = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
+    let threads: Vec<usize> = match (&ov.threads, &run.threads) {
+        (Some(t), _) => t.iter().map(|&n| if n == 0 { all } else { n }).collect(),
+        (None, Some(t)) => {
+            let span = t.span();
+            let list: Vec<u32> = match t.get_ref() {
+                OneOrMany::One(n) => vec![*n],
+                OneOrMany::Many(v) => v.clone(),
+            };
+            if list.is_empty() {
+                return Err(cx.err(span, "run.threads", "needs at least one thread count"));
+            }
+            let mut out: Vec<usize> = Vec::new();
+            for n in list {
+                let n = if n == 0 { all } else { n as usize };
+                if n > 1024 {
+                    return Err(cx.err(
+                        span.clone(),
+                        "run.threads",
+                        format!("{n} threads is too many"),
+                    ));
+                }
+                if !out.contains(&n) {
+                    out.push(n);
+                }
+            }
+            out
+        }
+        (None, None) => vec![all],
+    };
+    let repeat = ov.repeat.unwrap_or(run.repeat.unwrap_or(5) as usize).max(1);
+    let warmup = run.warmup.unwrap_or(1) as usize;
+    let timing = timing_plan(cx, run, repeat, warmup)?;
+    let build_repeat = run.build_repeat.unwrap_or(1).max(1) as usize;
+    let triangle_tests = match &run.triangle_test {
+        None => vec![TriTestKind::Watertight],
+        Some(t) => {
+            let span = t.span();
+            let names = match t.get_ref() {
+                OneOrMany::One(s) => vec![s.clone()],
+                OneOrMany::Many(v) => v.clone(),
+            };
+            let mut out = Vec::new();
+            for n in names {
+                let k = TriTestKind::from_name(&n).ok_or_else(|| {
+                    cx.err(
+                        span.clone(),
+                        "run.triangle_test",
+                        format!("unknown triangle test `{n}` (known: watertight, moller-trumbore)"),
+                    )
+                })?;
+                if !out.contains(&k) {
+                    out.push(k);
+                }
+            }
+            if out.is_empty() {
+                return Err(cx.err(span, "run.triangle_test", "needs at least one test"));
+            }
+            out
+        }
+    };
+    let devices = match &run.devices {
+        None => vec![Device::Cpu],
+        Some(d) => {
+            let span = d.span();
+            let names = match d.get_ref() {
+                OneOrMany::One(s) => vec![s.clone()],
+                OneOrMany::Many(v) => v.clone(),
+            };
+            let mut out = Vec::new();
+            for n in names {
+                match Device::from_name(&n) {
+                    Some(d) if !out.contains(&d) => out.push(d),
+                    Some(_) => {}
+                    None => {
+                        return Err(cx.err(
+                            span.clone(),
+                            "run.devices",
+                            format!("unknown device `{n}` (known: cpu, gpu)"),
+                        ))
+                    }
+                }
+            }
+            if out.is_empty() {
+                return Err(cx.err(span, "run.devices", "needs at least one device"));
+            }
+            out
+        }
+    };
+    let devices = ov.devices.clone().unwrap_or(devices);
+    let backend = match (&ov.backend, &run.gpu_backend) {
+        (Some(b), _) => Some(*b),
+        (None, None) => None,
+        (None, Some(b)) => Some(tb_gpu::Backend::from_name(b.get_ref()).ok_or_else(|| {
+            cx.err(
+                b.span(),
+                "run.gpu_backend",
+                format!(
+                    "unknown backend `{}` (known: vulkan, gl, metal, dx12)",
+                    b.get_ref()
+                ),
+            )
+        })?),
+    };
+    let gpu = GpuSpec {
+        choice: tb_gpu::AdapterChoice {
+            name: ov.adapter.clone().or_else(|| run.gpu_adapter.clone()),
+            backend,
+        },
+        required: run.gpu_required.unwrap_or(true)
+            || ov
+                .devices
+                .as_ref()
+                .is_some_and(|d| d.contains(&Device::Gpu)),
+    };
+    let validate = match &run.validate {
+        None => Validate::All,
+        Some(v) => parse_validate(cx, v, "run.validate")?,
+    };
+    let seed = run.seed.unwrap_or(1);
+    Ok(RunSettings {
+        threads,
+        timing,
+        build_repeat,
+        triangle_tests,
+        devices,
+        gpu,
+        validate,
+        seed,
+        interleave: run.interleave.unwrap_or(false),
+    })
+}
+
+/// `run.max_repeat`, `run.target_ci` and `run.max_row_seconds` with `repeat` and `warmup`.
+fn timing_plan(
+    cx: &Ctx,
+    run: &RawRun,
+    repeat: usize,
+    warmup: usize,
+) -> Result<crate::experiment::timing::TimingPlan, HarnessError> {
+    let positive = |v: &Option<Spanned<f64>>, key: &str, default: f64| match v {
+        None => Ok(default),
+        Some(x) if *x.get_ref() > 0.0 && x.get_ref().is_finite() => Ok(*x.get_ref()),
+        Some(x) => Err(cx.err(x.span(), key, "must be positive and finite")),
+    };
+    Ok(crate::experiment::timing::TimingPlan {
+        warmup,
+        repeat,
+        max_repeat: (run.max_repeat.unwrap_or(0) as usize).max(repeat),
+        target_ci: positive(&run.target_ci, "run.target_ci", 0.05)?,
+        max_row_seconds: positive(&run.max_row_seconds, "run.max_row_seconds", 60.0)?,
+    })
+}

@@ -1,0 +1,127 @@
+//! The checked parts of a config that the runner, the devices and the reports read: scenes,
+//! structures, devices, validation.
+
+use std::sync::Arc;
+use tb_core::{Family, ParamSet, TraversalInfo, Vec3};
+use tb_scene::{Camera, Scene};
+
+/// Where oracle validation runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Validate {
+    /// No validation; `mismatches` is empty.
+    Off,
+    /// Every ray of every batch.
+    All,
+    /// A strided sample of at most this many rays per batch (for large scenes, where brute
+    /// force over all rays would take hours).
+    Sample(usize),
+}
+
+/// The devices rows are written for, each with its thread counts: the run's thread counts on
+/// the CPU; one row, `threads = 0`, on the GPU (one host thread drives it).
+pub fn device_threads(devices: &[Device], threads: &[usize]) -> Vec<(Device, Vec<usize>)> {
+    devices
+        .iter()
+        .map(|&d| match d {
+            Device::Cpu => (d, threads.to_vec()),
+            Device::Gpu => (d, vec![0]),
+        })
+        .collect()
+}
+
+/// A device the rays are traced on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Device {
+    /// The host CPU, on a rayon pool per thread count.
+    Cpu,
+    /// A wgpu adapter (crate tb-gpu), chosen by [`GpuSpec`].
+    Gpu,
+}
+
+impl Device {
+    /// Config and column name: `cpu` or `gpu`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Device::Cpu => "cpu",
+            Device::Gpu => "gpu",
+        }
+    }
+
+    /// The device called `s` (`cpu` or `gpu`).
+    pub fn from_name(s: &str) -> Option<Device> {
+        [Device::Cpu, Device::Gpu]
+            .into_iter()
+            .find(|d| d.name() == s)
+    }
+}
+
+/// Which GPU adapter the `gpu` device uses, and whether a GPU failure fails the run.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct GpuSpec {
+    /// Adapter name substring and backend (`run.gpu_adapter`, `run.gpu_backend`, or
+    /// `--adapter`, `--backend`).
+    pub choice: tb_gpu::AdapterChoice,
+    /// Exit non-zero when the GPU cannot be used (no adapter, device lost, validation error).
+    /// True unless the config sets `run.gpu_required = false`; `--device gpu` forces it.
+    pub required: bool,
+}
+
+/// A ray kind a scene asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RayKindSpec {
+    Primary,
+    Shadow,
+    Ao,
+    Path,
+    Random,
+    Stress,
+}
+
+impl RayKindSpec {
+    pub(crate) const NAMES: [&'static str; 6] =
+        ["primary", "shadow", "ao", "path", "random", "stress"];
+
+    pub(crate) fn parse(s: &str) -> Option<Self> {
+        Some(match s {
+            "primary" => Self::Primary,
+            "shadow" => Self::Shadow,
+            "ao" => Self::Ao,
+            "path" => Self::Path,
+            "random" => Self::Random,
+            "stress" => Self::Stress,
+            _ => return None,
+        })
+    }
+}
+
+/// A checked scene entry, loaded: one per scene table, or one per view of a table with
+/// `views` (the views share the loaded scene, and the runner builds each structure once for
+/// all of them).
+pub struct SceneSpec {
+    /// Label used in result rows: the table's label (config `name`, else derived from the
+    /// source), `TABLE@VIEW` for a view of a table with `views`.
+    pub label: String,
+    /// The scene table's label: equal to `label` without views; the views of one table share
+    /// it, their scene and their builds (and form one shard unit with each build).
+    pub table: String,
+    pub scene: Arc<Scene>,
+    pub rays: Vec<RayKindSpec>,
+    pub camera: Option<Camera>,
+    pub light: Option<Vec3>,
+    pub ao_samples: u32,
+    pub ao_distance: f32,
+    pub bounces: u32,
+    pub random_count: usize,
+    /// Oracle validation for this scene (the scene's `validate`, else `run.validate`).
+    pub validate: Validate,
+}
+
+/// A checked structure entry.
+pub struct StructureSpec {
+    pub family: &'static Family,
+    /// The family's traversals (index = position in its table).
+    pub infos: Vec<&'static TraversalInfo>,
+    /// The traversals to run: indices into `infos`.
+    pub traversals: Vec<usize>,
+    pub param_sets: Vec<ParamSet>,
+}

@@ -1,0 +1,773 @@
+//! The runner: for each scene, generate the ray batches once ([`crate::experiment::batches`]); for each
+//! structure and parameter set, plan the rows still to do ([`plan`]), build (timed, repeated,
+//! validated: [`build`]), and hand each row to its device ([`crate::experiment::device`]), which counts in
+//! one pass with [`tb_core::TraversalStats`], validates against the brute-force oracle
+//! ([`crate::experiment::validation`]) and times the trace with counters compiled out. Each row is written
+//! as soon as it is finished.
+
+pub mod build;
+pub mod plan;
+pub mod table;
+
+pub use table::table;
+
+use crate::error::HarnessError;
+use crate::experiment::batches::{generate_batches, Batch};
+use crate::experiment::config::{
+    Device as DeviceKind, Experiment, SceneSpec, StructureSpec, Validate,
+};
+use crate::experiment::device::cpu::CpuDevice;
+use crate::experiment::device::gpu::GpuDevice;
+use crate::experiment::device::{Device, Job, Outcome};
+use crate::experiment::progress::Progress;
+use crate::experiment::validation::{self, Oracle};
+use crate::results::output::{Row, RowKey, Sink};
+use build::Built;
+use plan::Combo;
+use std::collections::HashSet;
+use std::path::PathBuf;
+use std::sync::Arc;
+use tb_core::{ParamSet, Triangle};
+
+/// What the runner does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// Time, count and validate; write results files.
+    Run,
+    /// Oracle comparison only (`trace-bench validate`): no timing, no files.
+    Validate,
+}
+
+/// Options of a run.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Output directory (results.csv, results.json); unused in [`Mode::Validate`].
+    pub out: PathBuf,
+    pub resume: bool,
+    pub quiet: bool,
+    pub mode: Mode,
+    /// How many mismatching rays to keep per combination for the report.
+    pub max_report: usize,
+}
+
+impl RunOptions {
+    /// A fresh run into `out` ([`Mode::Run`], no progress output, no resume): what a program
+    /// or test embedding the runner usually wants.
+    pub fn quiet(out: PathBuf) -> Self {
+        RunOptions {
+            out,
+            resume: false,
+            quiet: true,
+            mode: Mode::Run,
+            max_report: 4,
+        }
+    }
+}
+
+/// What a run did.
+#[derive(Debug, Default)]
+pub struct RunSummary {
+    pub rows: Vec<Row>,
+    pub written: usize,
+    pub skipped: usize,
+    pub mismatches: u64,
+    /// Combinations that could not be completed (build failure, invalid structure).
+    pub failures: Vec<String>,
+    /// Human-readable reports of the first mismatching rays.
+    pub mismatch_reports: Vec<String>,
+    /// Notes about what was left out and why.
+    pub notes: Vec<String>,
+}
+
+/// Run the experiment. Returns what was done; errors only for I/O (results already written
+/// stay written).
+pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessError> {
+    let mut r = Run::open(exp, opts)?;
+    // Notes are collected in the summary and printed once, after the run (stderr).
+    r.summary.notes.extend(exp.skipped_scenes.iter().cloned());
+    // A `[dynamic]` run measures frames only ([`crate::report::dynamic`]); validation still checks
+    // every structure on each scene's first frame as configured.
+    if let (Some(_), Mode::Run) = (&exp.dynamic, opts.mode) {
+        let progress = &r.progress;
+        let notes = crate::report::dynamic::run(exp, &opts.out, &|m| progress.step(m))?;
+        r.summary.notes.extend(notes);
+    } else {
+        // The views of one scene table are consecutive specs sharing the scene: one group,
+        // loaded once, each structure built once for all of them.
+        for views in exp.scenes.chunk_by(|a, b| a.table == b.table) {
+            r.scene(views)?;
+        }
+    }
+    r.progress.finish();
+    if r.loaded_rows > 0 {
+        r.summary.notes.push(format!(
+            "{} rows were timed while other processes kept more than {} CPU cores busy \
+             (measured per row; where /proc does not tell, the 1-minute load average above the \
+             idle level {:.2} by more than the row's threads): their timings may be disturbed \
+             (columns cpu_others, load_avg, noisy)",
+            r.loaded_rows,
+            crate::experiment::timing::OTHERS_NOISY,
+            r.idle_load.unwrap_or(0.0)
+        ));
+    }
+    if let Some(s) = r.sink.as_mut() {
+        let status = if r.summary.failures.is_empty() {
+            "complete"
+        } else {
+            "complete-with-failures"
+        };
+        s.finish(status)?;
+    }
+    Ok(r.summary)
+}
+
+/// The state of a run.
+struct Run<'a> {
+    exp: &'a Experiment,
+    opts: &'a RunOptions,
+    summary: RunSummary,
+    sink: Option<Sink>,
+    /// Rows an interrupted run already wrote.
+    done: HashSet<RowKey>,
+    progress: Progress,
+    conv: Option<crate::report::convergence::Runner>,
+    /// The devices rows are written for, with their thread counts.
+    devices: Vec<(DeviceKind, Vec<usize>)>,
+    cpu: CpuDevice,
+    gpu: Option<GpuDevice>,
+    /// The load average before any work (the machine's idle level).
+    idle_load: Option<f64>,
+    /// Rows timed while the load average exceeded the idle level by more than their threads.
+    loaded_rows: usize,
+}
+
+impl<'a> Run<'a> {
+    fn open(exp: &'a Experiment, opts: &'a RunOptions) -> Result<Self, HarnessError> {
+        let mut summary = RunSummary::default();
+        let running = opts.mode == Mode::Run;
+        // The GPU is opened once, before any work, so results.json names the adapter.
+        let gpu = (running && exp.run.devices.contains(&DeviceKind::Gpu))
+            .then(|| GpuDevice::open(&exp.run.gpu));
+        if let Some(Err(e)) = gpu.as_ref().map(GpuDevice::describe) {
+            gpu_failed(&mut summary, gpu.as_ref(), &e);
+        }
+        if let Some(w) = gpu.as_ref().and_then(GpuDevice::software_warning) {
+            summary.notes.push(w);
+        }
+        let sink = match opts.mode {
+            Mode::Run => {
+                let mut meta = crate::results::meta::collect(
+                    &exp.file.display().to_string(),
+                    &exp.text,
+                    &exp.run.threads,
+                );
+                if let Some(g) = &gpu {
+                    meta["adapter"] = g.meta();
+                }
+                meta["config_hash"] = exp.config_hash.clone().into();
+                if let Some(p) = &exp.shard {
+                    meta["shard"] = p.meta();
+                }
+                Some(Sink::open(&opts.out, meta, opts.resume)?)
+            }
+            Mode::Validate => None,
+        };
+        let done = sink
+            .as_ref()
+            .map(|s| s.rows().iter().map(Row::key).collect())
+            .unwrap_or_default();
+        let devices = match opts.mode {
+            Mode::Run => {
+                crate::experiment::config::device_threads(&exp.run.devices, &exp.run.threads)
+            }
+            Mode::Validate => vec![(DeviceKind::Cpu, vec![0])],
+        };
+        let cpu = CpuDevice::new(&exp.run.threads, !running).map_err(HarnessError::Other)?;
+        let total = match &exp.shard {
+            Some(p) if opts.mode == Mode::Run => p.rows(),
+            _ => plan::total_rows(exp, &devices),
+        };
+        let progress = Progress::new(total as u64, opts.quiet);
+        let conv = match opts.mode {
+            Mode::Run => crate::report::convergence::Runner::open(exp, &opts.out, opts.resume)?,
+            Mode::Validate => None,
+        };
+        Ok(Run {
+            exp,
+            opts,
+            summary,
+            sink,
+            done,
+            progress,
+            conv,
+            devices,
+            cpu,
+            gpu,
+            idle_load: crate::experiment::timing::load_average(),
+            loaded_rows: 0,
+        })
+    }
+
+    /// Every build and row of one scene table: its views (one spec without `views`) share
+    /// the scene and each build; their batches are generated once, up front.
+    fn scene(&mut self, views: &[SceneSpec]) -> Result<(), HarnessError> {
+        let mut batches: Vec<Batch> = Vec::new();
+        let mut ranges = Vec::with_capacity(views.len());
+        let mut gen = None;
+        for (i, spec) in views.iter().enumerate() {
+            self.progress
+                .step(&format!("{}: generating rays", spec.label));
+            let start = batches.len();
+            batches.extend(generate_batches(
+                spec,
+                self.exp.run.seed,
+                &mut gen,
+                i == 0,
+                &mut self.summary.notes,
+            ));
+            ranges.push(start..batches.len());
+            if let (Some(_), Mode::Run) = (&self.exp.images, self.opts.mode) {
+                let out = &self.opts.out;
+                self.summary
+                    .notes
+                    .extend(crate::report::images::write_scene(spec, out)?);
+            }
+        }
+        drop(gen);
+        let first = &views[0];
+        let tris: Arc<[Triangle]> = first.scene.triangles.as_slice().into();
+        // One oracle for the table: its samples are keyed by the batch's index over all views.
+        let mut oracle = Oracle::new(tris.clone());
+        let group = Group {
+            views,
+            ranges: &ranges,
+            batches: &batches,
+        };
+        if self.exp.run.interleave && self.opts.mode == Mode::Run {
+            return self.scene_interleaved(&group, &tris, &mut oracle);
+        }
+        for (si, st) in self.exp.structures.iter().enumerate() {
+            for (pi, params) in st.param_sets.iter().enumerate() {
+                if let Some(p) = &self.exp.shard {
+                    if !p.runs(&first.table, si, pi) {
+                        continue;
+                    }
+                }
+                self.structure(&group, &tris, &mut oracle, st, params)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The rows of one build still to do, per view, with batch indices over all views (rows
+    /// an interrupted run wrote are counted as skipped).
+    fn todo(&mut self, g: &Group, st: &StructureSpec, params_s: &str) -> Vec<Vec<Combo>> {
+        let mut todo: Vec<Vec<Combo>> = Vec::with_capacity(g.views.len());
+        for (spec, range) in g.views.iter().zip(g.ranges) {
+            let (mut t, skipped) = plan::todo(
+                &spec.label,
+                st,
+                params_s,
+                &self.exp.run.triangle_tests,
+                &g.batches[range.clone()],
+                &self.devices,
+                &self.done,
+            );
+            for c in &mut t {
+                c.bi += range.start;
+            }
+            self.summary.skipped += skipped;
+            for _ in 0..skipped {
+                self.progress.inc();
+            }
+            todo.push(t);
+        }
+        todo
+    }
+
+    /// Build one structure x parameter set (timed); on failure write its rows with the error
+    /// and give `None`.
+    fn build_or_fail(
+        &mut self,
+        g: &Group,
+        tris: &Arc<[Triangle]>,
+        st: &StructureSpec,
+        params: &ParamSet,
+        todo: &[Vec<Combo>],
+    ) -> Result<Option<Built>, HarnessError> {
+        let params_s = params.to_string();
+        let first = &g.views[0];
+        self.progress.step(&format!(
+            "{}: building {} [{params_s}]",
+            first.table, st.family.name
+        ));
+        match build::build(
+            st.family,
+            tris,
+            params,
+            &st.traversals,
+            self.exp.run.build_repeat,
+        ) {
+            Ok(b) => {
+                self.cpu.begin_build();
+                if let Some(gpu) = self.gpu.as_mut() {
+                    gpu.begin_build();
+                }
+                Ok(Some(b))
+            }
+            Err(e) => {
+                let msg = format!("{} {} [{params_s}]: {e}", first.table, st.family.name);
+                self.progress.line(&format!("error: {msg}"));
+                self.summary.failures.push(msg);
+                for (spec, t) in g.views.iter().zip(todo) {
+                    let base = base_row(spec, tris, st, &params_s);
+                    for c in t {
+                        let mut row = row_of(&base, st, c, &g.batches[c.bi]);
+                        row.note = format!("build failed: {e}");
+                        self.emit(row)?;
+                    }
+                }
+                Ok(None)
+            }
+        }
+    }
+
+    /// Build one structure x parameter set and measure its rows on every view.
+    fn structure(
+        &mut self,
+        g: &Group,
+        tris: &Arc<[Triangle]>,
+        oracle: &mut Oracle,
+        st: &StructureSpec,
+        params: &ParamSet,
+    ) -> Result<(), HarnessError> {
+        let params_s = params.to_string();
+        let todo = self.todo(g, st, &params_s);
+        if todo.iter().all(Vec::is_empty) {
+            return Ok(());
+        }
+        let Some(built) = self.build_or_fail(g, tris, st, params, &todo)? else {
+            return Ok(());
+        };
+        for (spec, t) in g.views.iter().zip(todo) {
+            if t.is_empty() {
+                continue;
+            }
+            let base = base_row(spec, tris, st, &params_s);
+            self.after_build(spec, st, &built, &params_s)?;
+            for c in t {
+                let row = self.measure_row(spec, g.batches, oracle, st, &built, &base, c, true)?;
+                self.emit(row)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// `run.interleave`: every build of the table is made first and kept, its GPU rows
+    /// measured and its CPU rows counted and validated as it is built; then the CPU rows of
+    /// each view x batch x triangle test x thread count are timed together, round by round
+    /// ([`Run::time_interleaved`]), and the table's rows are written in the usual order.
+    fn scene_interleaved(
+        &mut self,
+        g: &Group,
+        tris: &Arc<[Triangle]>,
+        oracle: &mut Oracle,
+    ) -> Result<(), HarnessError> {
+        let exp = self.exp;
+        let first = &g.views[0];
+        let mut builds: Vec<(&StructureSpec, Built)> = Vec::new();
+        let mut rows: Vec<PendingRow> = Vec::new();
+        for (si, st) in exp.structures.iter().enumerate() {
+            for (pi, params) in st.param_sets.iter().enumerate() {
+                if exp
+                    .shard
+                    .as_ref()
+                    .is_some_and(|p| !p.runs(&first.table, si, pi))
+                {
+                    continue;
+                }
+                let params_s = params.to_string();
+                let todo = self.todo(g, st, &params_s);
+                if todo.iter().all(Vec::is_empty) {
+                    continue;
+                }
+                let Some(built) = self.build_or_fail(g, tris, st, params, &todo)? else {
+                    continue;
+                };
+                for (vi, (spec, t)) in g.views.iter().zip(todo).enumerate() {
+                    if t.is_empty() {
+                        continue;
+                    }
+                    let base = base_row(spec, tris, st, &params_s);
+                    self.after_build(spec, st, &built, &params_s)?;
+                    for c in t {
+                        let cpu = c.dev == DeviceKind::Cpu;
+                        let row =
+                            self.measure_row(spec, g.batches, oracle, st, &built, &base, c, !cpu)?;
+                        let awaits = cpu && row.hit_rate.is_some();
+                        rows.push((row, awaits.then_some((builds.len(), vi, c))));
+                    }
+                }
+                builds.push((st, built));
+            }
+        }
+        self.time_interleaved(g, &builds, &mut rows);
+        for (row, _) in rows {
+            self.emit(row)?;
+        }
+        Ok(())
+    }
+
+    /// Time the rows awaiting it, per view x batch x triangle test x thread count, round by
+    /// round over every build ([`CpuDevice::time_interleaved`]); each group's rows share a
+    /// `timing_group` id and its `cpu_others`.
+    fn time_interleaved(
+        &mut self,
+        g: &Group,
+        builds: &[(&StructureSpec, Built)],
+        rows: &mut [PendingRow],
+    ) {
+        type GroupKey = (usize, usize, tb_core::TriTestKind, usize);
+        let mut groups: Vec<(GroupKey, Vec<usize>)> = Vec::new();
+        for (i, (_, w)) in rows.iter().enumerate() {
+            if let Some((_, vi, c)) = w {
+                let key = (*vi, c.bi, c.tri, c.threads);
+                match groups.iter_mut().find(|(k, _)| *k == key) {
+                    Some((_, v)) => v.push(i),
+                    None => groups.push((key, vec![i])),
+                }
+            }
+        }
+        let stamp = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs());
+        let plan = self.exp.run.timing;
+        for (k, ((vi, bi, tri, threads), idx)) in groups.iter().enumerate() {
+            let b = &g.batches[*bi];
+            self.progress.step(&format!(
+                "{}: timing {} rows interleaved ({} {} {threads}t)",
+                g.views[*vi].label,
+                idx.len(),
+                b.name,
+                tri.name()
+            ));
+            let jobs: Vec<Job> = idx
+                .iter()
+                .map(|&i| {
+                    let (bn, _, c) = rows[i].1.expect("grouped rows await timing");
+                    let (st, built) = &builds[bn];
+                    Job {
+                        accel: built.accel.as_ref(),
+                        traversal: c.ti,
+                        info: st.infos[c.ti],
+                        tri: c.tri,
+                        batch_index: c.bi,
+                        batch: b,
+                        threads: c.threads,
+                        timing: plan,
+                        time: true,
+                        max_report: self.opts.max_report,
+                    }
+                })
+                .collect();
+            let before = crate::experiment::timing::CpuSample::now();
+            let times = self.cpu.time_interleaved(&jobs, &plan);
+            let others = before
+                .zip(crate::experiment::timing::CpuSample::now())
+                .and_then(|(a, b)| b.others_since(&a));
+            for (j, &i) in idx.iter().enumerate() {
+                let row = &mut rows[i].0;
+                let mut t = times.get(j).cloned().unwrap_or_default();
+                if t.is_empty() {
+                    continue;
+                }
+                crate::experiment::timing::fill(row, &mut t, b.rays.len(), plan.target_ci);
+                row.timing_group = format!("{}-{stamp}-{k}", g.views[0].table);
+                row.cpu_others = others;
+                self.note_load(row);
+            }
+        }
+    }
+
+    /// Heat maps and convergence renders of a build, where the config asks for them.
+    fn after_build(
+        &mut self,
+        spec: &SceneSpec,
+        st: &StructureSpec,
+        built: &Built,
+        params_s: &str,
+    ) -> Result<(), HarnessError> {
+        let accel = built.accel.as_ref();
+        if let (Some(img), Mode::Run) = (&self.exp.images, self.opts.mode) {
+            let sweep: Vec<String> = st.param_sets.iter().map(|p| p.to_string()).collect();
+            self.progress
+                .step(&format!("{}: heat maps {}", spec.label, st.family.name));
+            self.summary
+                .notes
+                .extend(crate::report::images::write_build(
+                    spec,
+                    img,
+                    &self.opts.out,
+                    accel,
+                    &crate::report::images::varying_tag(&sweep, params_s),
+                    params_s,
+                    &st.traversals,
+                    &self.exp.run.triangle_tests,
+                )?);
+        }
+        if let Some(c) = self.conv.as_mut() {
+            self.summary.notes.extend(c.build_done(
+                spec,
+                accel,
+                params_s,
+                built.build_ms,
+                &st.traversals,
+                &self.exp.run.triangle_tests,
+                &self.exp.run.devices,
+                self.gpu.as_ref(),
+                &self.progress,
+            )?);
+        }
+        Ok(())
+    }
+
+    /// Measure one row (`time`: time it too; else count and validate only, for
+    /// [`Run::time_interleaved`]).
+    fn measure_row(
+        &mut self,
+        spec: &SceneSpec,
+        batches: &[Batch],
+        oracle: &mut Oracle,
+        st: &StructureSpec,
+        built: &Built,
+        base: &Row,
+        c: Combo,
+        time: bool,
+    ) -> Result<Row, HarnessError> {
+        let b = &batches[c.bi];
+        let info = st.infos[c.ti];
+        let mut row = row_of(base, st, &c, b);
+        built.fill(&mut row, c.ti);
+        if let Some(own) = info.own_triangle_test {
+            row.note = format!("uses its own triangle test ({own})");
+        }
+        if let Some(why) = &b.skipped {
+            row.note = why.clone();
+            return Ok(row);
+        }
+        self.progress.step(&format!(
+            "{} {} {} {} {} {}t",
+            spec.label,
+            st.family.name,
+            info.name,
+            c.tri.name(),
+            b.name,
+            c.threads
+        ));
+        let sample = (spec.validate != Validate::Off).then(|| {
+            let progress = &self.progress;
+            let cpu = &self.cpu;
+            cpu.widest().install(|| {
+                oracle.sample(c.bi, &b.rays, b.query, spec.validate, |n| {
+                    progress.step(&format!("{}: oracle for {} ({n} rays)", spec.label, b.name))
+                })
+            })
+        });
+        let job = Job {
+            accel: built.accel.as_ref(),
+            traversal: c.ti,
+            info,
+            tri: c.tri,
+            batch_index: c.bi,
+            batch: b,
+            threads: c.threads,
+            timing: self.exp.run.timing,
+            time,
+            max_report: self.opts.max_report,
+        };
+        let device: &mut dyn Device = match c.dev {
+            DeviceKind::Cpu => &mut self.cpu,
+            DeviceKind::Gpu => self
+                .gpu
+                .as_mut()
+                .expect("the GPU is opened when a device is gpu"),
+        };
+        let before = crate::experiment::timing::CpuSample::now();
+        let measured = device.measure(&job, sample, &mut row);
+        row.cpu_others = before
+            .zip(crate::experiment::timing::CpuSample::now())
+            .and_then(|(a, b)| b.others_since(&a));
+        match measured {
+            Ok(Outcome::Measured(Some(checked))) => {
+                row.validated_rays = Some(checked.validated);
+                row.mismatches = Some(checked.mismatches);
+                if !checked.first.is_empty() {
+                    let on = if c.dev == DeviceKind::Gpu { " gpu" } else { "" };
+                    let head = format!(
+                        "{} {} [{}] {} {} {}{on}: {} of {} rays mismatch",
+                        spec.label,
+                        st.family.name,
+                        base.params,
+                        info.name,
+                        c.tri.name(),
+                        b.name,
+                        checked.mismatches,
+                        checked.validated
+                    );
+                    self.summary
+                        .mismatch_reports
+                        .push(validation::report(head, &checked.first));
+                }
+            }
+            Ok(Outcome::Measured(None)) => {}
+            Ok(Outcome::Unsupported(note)) => row.note = note,
+            Err(e) => {
+                let first = self.summary.failures.iter().all(|f| !f.contains(&e))
+                    && self.summary.notes.iter().all(|n| !n.contains(&e));
+                if first {
+                    self.progress.line(&format!("error: gpu: {e}"));
+                    gpu_failed(&mut self.summary, self.gpu.as_ref(), &e);
+                }
+                row = row_of(base, st, &c, b);
+                row.note = format!("gpu failed: {e}");
+            }
+        }
+        if row.mrays_per_s.is_some() {
+            self.note_load(&mut row);
+        }
+        Ok(row)
+    }
+
+    /// Record the load of a timed row; flag it noisy when other work was running: other
+    /// processes kept more than [`crate::experiment::timing::OTHERS_NOISY`] cores busy while the row was
+    /// measured (`cpu_others`, sampled per row), or, where that cannot be measured, the load
+    /// average exceeded the idle level by more than the row's own threads, plus one.
+    fn note_load(&mut self, row: &mut Row) {
+        row.load_avg = crate::experiment::timing::load_average();
+        if let Some(others) = row.cpu_others {
+            if others > crate::experiment::timing::OTHERS_NOISY {
+                row.noisy = Some(true);
+                self.loaded_rows += 1;
+            }
+        } else if let (Some(idle), Some(load)) = (self.idle_load, row.load_avg) {
+            let own = if row.device == "gpu" {
+                1.0
+            } else {
+                row.threads as f64
+            };
+            if load > idle + own + 1.0 {
+                row.noisy = Some(true);
+                self.loaded_rows += 1;
+            }
+        }
+    }
+
+    fn emit(&mut self, row: Row) -> Result<(), HarnessError> {
+        let params = varying_params(self.exp, &row.structure, &row.params);
+        self.progress.row(&format!(
+            "done {} {}{} {} {} {} {}t {}: {}",
+            row.scene,
+            row.structure,
+            if params.is_empty() {
+                String::new()
+            } else {
+                format!(" [{params}]")
+            },
+            row.traversal,
+            row.triangle_test,
+            row.device,
+            row.threads,
+            row.ray_kind,
+            match (row.mrays_per_s, row.note.is_empty()) {
+                (Some(m), _) => format!("{m:.2} MRays/s"),
+                (None, false) => row.note.clone(),
+                (None, true) => "validated".into(),
+            }
+        ));
+        self.summary.mismatches += row.mismatches.unwrap_or(0);
+        if let Some(s) = self.sink.as_mut() {
+            s.push(row.clone())?;
+            abort_hook(s.rows().len());
+        }
+        self.summary.written += 1;
+        self.summary.rows.push(row);
+        self.progress.inc();
+        Ok(())
+    }
+}
+
+/// The views of one scene table (one spec for a table without `views`) with their batches:
+/// view `i`'s are `batches[ranges[i]]`.
+struct Group<'g> {
+    views: &'g [SceneSpec],
+    ranges: &'g [std::ops::Range<usize>],
+    batches: &'g [Batch],
+}
+
+/// Fault injection for the tests of `--resume`: with `TRACE_BENCH_ABORT_AFTER_ROWS=N` in the
+/// environment, the process aborts (as if killed: no clean-up, results.json says "running")
+/// once `results.csv` holds `N` rows.
+fn abort_hook(rows: usize) {
+    if let Some(n) = std::env::var("TRACE_BENCH_ABORT_AFTER_ROWS")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+    {
+        if rows >= n {
+            eprintln!("TRACE_BENCH_ABORT_AFTER_ROWS={n}: aborting after {rows} rows");
+            std::process::abort();
+        }
+    }
+}
+
+/// A row's identity columns on top of the build's `base`.
+/// A row of an interleaved table, with (build, view, combo) while it awaits its timing.
+type PendingRow = (Row, Option<(usize, usize, Combo)>);
+
+/// The columns every row of one view and build shares.
+fn base_row(spec: &SceneSpec, tris: &Arc<[Triangle]>, st: &StructureSpec, params_s: &str) -> Row {
+    Row {
+        scene: spec.label.clone(),
+        source: spec.scene.source.clone(),
+        triangles: tris.len() as u64,
+        structure: st.family.name.to_string(),
+        params: params_s.to_owned(),
+        host: crate::results::meta::host_name(),
+        ..Default::default()
+    }
+}
+
+fn row_of(base: &Row, st: &StructureSpec, c: &Combo, b: &Batch) -> Row {
+    Row {
+        traversal: st.infos[c.ti].name.to_string(),
+        device: c.dev.name().into(),
+        threads: c.threads as u32,
+        triangle_test: c.tri.name().into(),
+        ray_kind: b.name.clone(),
+        rays: b.rays.len() as u64,
+        ..base.clone()
+    }
+}
+
+/// Record a GPU failure once: a failure of the run when the GPU was required, else a note.
+fn gpu_failed(summary: &mut RunSummary, gpu: Option<&GpuDevice>, e: &str) {
+    let msg = format!("gpu: {e}");
+    if gpu.is_some_and(|g| g.required) {
+        summary.failures.push(msg);
+    } else {
+        summary.notes.push(format!(
+            "{msg} (GPU rows carry the error; gpu_required = false)"
+        ));
+    }
+}
+
+/// The parameters of `params` (`k=v;…`) whose values differ among the config's parameter
+/// sets of structure `name` (the progress lines name only those, as the summary does).
+fn varying_params(exp: &Experiment, name: &str, params: &str) -> String {
+    let sets: Vec<String> = exp
+        .structures
+        .iter()
+        .filter(|s| s.family.name == name)
+        .flat_map(|s| s.param_sets.iter().map(|p| p.to_string()))
+        .collect();
+    crate::report::images::varying_tag(&sets, params).replace(',', ";")
+}

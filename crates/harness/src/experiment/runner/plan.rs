@@ -1,0 +1,100 @@
+//! The combinations a run measures: per scene and build, traversal x triangle test x batch x
+//! device x thread count, less the rows an interrupted run already wrote (`--resume`).
+
+use crate::experiment::batches::Batch;
+use crate::experiment::config::{Device, Experiment, RayKindSpec, StructureSpec};
+use crate::results::output::RowKey;
+use std::collections::HashSet;
+use tb_core::TriTestKind;
+
+/// One row to measure.
+#[derive(Clone, Copy, Debug)]
+pub struct Combo {
+    /// Index of the traversal in the structure's table.
+    pub ti: usize,
+    pub tri: TriTestKind,
+    /// Index of the batch in the scene's batches.
+    pub bi: usize,
+    pub dev: Device,
+    pub threads: usize,
+}
+
+/// Rows of the whole experiment (for the progress bar).
+pub fn total_rows(exp: &Experiment, devices: &[(Device, Vec<usize>)]) -> usize {
+    let per_batch: usize = exp
+        .structures
+        .iter()
+        .map(|s| s.param_sets.len() * s.traversals.len())
+        .sum::<usize>()
+        * exp.run.triangle_tests.len()
+        * devices.iter().map(|(_, t)| t.len()).sum::<usize>();
+    let batches: usize = exp
+        .scenes
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            // Random and stress rays: once per table, not per view.
+            let first_view = i == 0 || exp.scenes[i - 1].table != s.table;
+            s.rays
+                .iter()
+                .map(|k| match k {
+                    RayKindSpec::Path => s.bounces as usize,
+                    RayKindSpec::Random | RayKindSpec::Stress if !first_view => 0,
+                    _ => 1,
+                })
+                .sum::<usize>()
+        })
+        .sum();
+    per_batch * batches
+}
+
+/// The identity of a row (for `--resume`).
+pub fn key(scene: &str, st: &StructureSpec, params: &str, c: &Combo, batch: &Batch) -> RowKey {
+    RowKey {
+        scene: scene.to_string(),
+        structure: st.family.name.to_string(),
+        params: params.to_string(),
+        traversal: st.infos[c.ti].name.to_string(),
+        device: c.dev.name().to_string(),
+        threads: c.threads as u32,
+        triangle_test: c.tri.name().to_string(),
+        ray_kind: batch.name.clone(),
+    }
+}
+
+/// The rows of one build still to do, in output order, and how many are already done.
+pub fn todo(
+    scene: &str,
+    st: &StructureSpec,
+    params: &str,
+    tests: &[TriTestKind],
+    batches: &[Batch],
+    devices: &[(Device, Vec<usize>)],
+    done: &HashSet<RowKey>,
+) -> (Vec<Combo>, usize) {
+    let mut out = Vec::new();
+    let mut skipped = 0;
+    for &ti in &st.traversals {
+        for &tri in tests {
+            for (bi, b) in batches.iter().enumerate() {
+                for (dev, threads) in devices {
+                    for &threads in threads {
+                        let c = Combo {
+                            ti,
+                            tri,
+                            bi,
+                            dev: *dev,
+                            threads,
+                        };
+                        if done.contains(&key(scene, st, params, &c, b)) {
+                            skipped += 1;
+                        } else {
+                            out.push(c);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    (out, skipped)
+}

@@ -1,0 +1,343 @@
+//! Timed repeats: how many (until the median is known well enough), medians, the confidence
+//! interval of the median, and the timing columns of a row.
+
+use crate::results::output::Row;
+use std::time::{Duration, Instant};
+
+/// How a row is timed: `warmup` untimed runs, then at least `repeat` timed runs, more (up to
+/// `max_repeat`) while the relative half-width of the median's 95 % confidence interval is
+/// above `target_ci` and the row has run for less than `max_row_seconds`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TimingPlan {
+    pub warmup: usize,
+    pub repeat: usize,
+    pub max_repeat: usize,
+    pub target_ci: f64,
+    pub max_row_seconds: f64,
+}
+
+impl TimingPlan {
+    /// Time `once` (one pass, returning its ms) under this plan; the timed runs' ms.
+    pub fn run<E>(&self, mut once: impl FnMut() -> Result<f64, E>) -> Result<Vec<f64>, E> {
+        for _ in 0..self.warmup {
+            once()?;
+        }
+        let start = Instant::now();
+        let budget = Duration::from_secs_f64(self.max_row_seconds.max(0.0));
+        let mut times = Vec::with_capacity(self.repeat);
+        loop {
+            times.push(once()?);
+            let n = times.len();
+            if n >= self.max_repeat.max(self.repeat) {
+                break;
+            }
+            if n >= self.repeat.max(1)
+                && (relative_ci(&times) <= self.target_ci || start.elapsed() >= budget)
+            {
+                break;
+            }
+        }
+        Ok(times)
+    }
+}
+
+impl TimingPlan {
+    /// Time `n` rows interleaved: `warmup` untimed rounds, then rounds of one timed pass of
+    /// each row in turn (`once(i)` returns row `i`'s ms), so drift and other load fall on
+    /// every row alike. At least `repeat` rounds; more (up to `max_repeat`) while the 95 %
+    /// interval of any pair's ratio, taken round by round, is wider than `target_ci` (a lone
+    /// row: its own median's), and the rounds have run for less than `max_row_seconds` per
+    /// row. Returns each row's times in round order.
+    pub fn run_interleaved<E>(
+        &self,
+        n: usize,
+        mut once: impl FnMut(usize) -> Result<f64, E>,
+    ) -> Result<Vec<Vec<f64>>, E> {
+        for _ in 0..self.warmup {
+            for i in 0..n {
+                once(i)?;
+            }
+        }
+        let start = Instant::now();
+        let budget = Duration::from_secs_f64(self.max_row_seconds.max(0.0) * n as f64);
+        let mut times = vec![Vec::with_capacity(self.repeat); n];
+        loop {
+            for (i, t) in times.iter_mut().enumerate() {
+                t.push(once(i)?);
+            }
+            let rounds = times.first().map_or(0, Vec::len);
+            if n == 0 || rounds >= self.max_repeat.max(self.repeat) {
+                break;
+            }
+            if rounds >= self.repeat.max(1)
+                && (widest_pair_ci(&times) <= self.target_ci || start.elapsed() >= budget)
+            {
+                break;
+            }
+        }
+        Ok(times)
+    }
+}
+
+/// The widest relative 95 % interval of the round-by-round ratio of any two rows (of the one
+/// row's median when alone).
+pub fn widest_pair_ci(times: &[Vec<f64>]) -> f64 {
+    if times.len() == 1 {
+        return relative_ci(&times[0]);
+    }
+    let mut w: f64 = 0.0;
+    for i in 0..times.len() {
+        for j in i + 1..times.len() {
+            let r: Vec<f64> = times[i]
+                .iter()
+                .zip(&times[j])
+                .map(|(a, b)| a / b.max(1e-12))
+                .collect();
+            w = w.max(relative_ci(&r));
+        }
+    }
+    w
+}
+
+/// The distribution-free 95 % confidence interval of the median of `v` (order statistics,
+/// normal approximation of the binomial: ranks `n/2 ∓ 0.98·√n`; Conover 1999); the whole range
+/// for fewer than 6 values.
+pub fn median_ci(v: &[f64]) -> (f64, f64) {
+    let mut s = v.to_vec();
+    s.sort_by(|a, b| a.total_cmp(b));
+    let n = s.len();
+    if n == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    if n < 6 {
+        return (s[0], s[n - 1]);
+    }
+    let h = 0.98 * (n as f64).sqrt();
+    let lo = ((n as f64 / 2.0 - h).floor() as usize).clamp(1, n) - 1;
+    let hi = ((n as f64 / 2.0 + 1.0 + h).ceil() as usize).clamp(1, n) - 1;
+    (s[lo], s[hi])
+}
+
+/// Half the width of [`median_ci`] relative to the median.
+pub fn relative_ci(v: &[f64]) -> f64 {
+    let (lo, hi) = median_ci(v);
+    let med = median(&mut v.to_vec());
+    if med > 0.0 {
+        (hi - lo) / (2.0 * med)
+    } else {
+        0.0
+    }
+}
+
+/// CPU time of the whole machine and of this process at one moment (Linux `/proc/stat` and
+/// `/proc/self/stat`, clock ticks), to measure what other processes took during a row.
+#[derive(Clone, Copy, Debug)]
+pub struct CpuSample {
+    /// Busy ticks of all CPUs (user, nice, system, irq, softirq, steal).
+    busy: u64,
+    /// All ticks of all CPUs (busy, idle, iowait).
+    total: u64,
+    /// This process's user and system ticks.
+    own: u64,
+}
+
+impl CpuSample {
+    /// Now; `None` where `/proc` does not tell.
+    pub fn now() -> Option<CpuSample> {
+        let stat = std::fs::read_to_string("/proc/stat").ok()?;
+        let f: Vec<u64> = stat
+            .lines()
+            .next()?
+            .split_whitespace()
+            .skip(1)
+            .take(8)
+            .map(|x| x.parse().unwrap_or(0))
+            .collect();
+        if f.len() < 8 {
+            return None;
+        }
+        let busy = f[0] + f[1] + f[2] + f[5] + f[6] + f[7];
+        let total = busy + f[3] + f[4];
+        let own_stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+        // Fields after the command name (which may hold spaces) start at `) `: utime and
+        // stime are the 14th and 15th fields, the 12th and 13th after it.
+        let rest = &own_stat[own_stat.rfind(')')? + 2..];
+        let g: Vec<u64> = rest
+            .split_whitespace()
+            .map(|x| x.parse().unwrap_or(0))
+            .collect();
+        let own = g.get(11)? + g.get(12)?;
+        Some(CpuSample { busy, total, own })
+    }
+
+    /// CPU cores that other processes kept busy on average since `earlier`; `None` when too
+    /// little time passed to tell (under two clock ticks per CPU).
+    pub fn others_since(&self, earlier: &CpuSample) -> Option<f64> {
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
+        let total = self.total.saturating_sub(earlier.total) as f64;
+        if total < 2.0 * cpus {
+            return None;
+        }
+        let busy = self.busy.saturating_sub(earlier.busy) as f64;
+        let own = self.own.saturating_sub(earlier.own) as f64;
+        Some(((busy - own).max(0.0) / total * cpus * 100.0).round() / 100.0)
+    }
+}
+
+/// Other processes' average CPU use (cores) above which a row is flagged `noisy`.
+pub const OTHERS_NOISY: f64 = 0.5;
+
+/// The 1-minute load average (Linux `/proc/loadavg`); `None` elsewhere.
+pub fn load_average() -> Option<f64> {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
+/// Median of `v` (sorted in place).
+pub fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Fill `trace_ms_{min,median,max}`, `mrays_per_s`, `timed_runs`, `trace_ms_ci` and `noisy`
+/// (the confidence interval wider than `target_ci`) from the times (ms) of the timed runs
+/// over `rays` rays.
+/// Times in ms as a `;`-separated list, in order (`trace_ms_runs`, `build_ms_runs`).
+pub fn ms_list(times: &[f64]) -> String {
+    times
+        .iter()
+        .map(|t| format!("{t:.6}"))
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+/// One timed run has no interval: `trace_ms_ci` and `noisy` stay empty ("not measured").
+pub fn fill(row: &mut Row, times: &mut [f64], rays: usize, target_ci: f64) {
+    row.timed_runs = Some(times.len() as u32);
+    row.trace_ms_runs = ms_list(times);
+    if times.len() >= 2 {
+        let ci = relative_ci(times);
+        row.trace_ms_ci = Some(ci);
+        row.noisy = Some(ci > target_ci);
+    }
+    let med = median(times);
+    row.trace_ms_min = times.first().copied();
+    row.trace_ms_max = times.last().copied();
+    row.trace_ms_median = Some(med);
+    row.mrays_per_s = Some(rays as f64 / (med * 1e3).max(1e-12));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn medians_and_columns() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
+        let mut row = Row::default();
+        fill(&mut row, &mut [2.0, 1.0, 4.0], 1000, 0.05);
+        assert_eq!(row.trace_ms_min, Some(1.0));
+        assert_eq!(row.trace_ms_max, Some(4.0));
+        assert_eq!(row.mrays_per_s, Some(0.5));
+        assert_eq!(row.trace_ms_ci, Some(0.75));
+        assert_eq!((row.noisy, row.timed_runs), (Some(true), Some(3)));
+        let mut one = Row::default();
+        fill(&mut one, &mut [2.0], 1000, 0.05);
+        assert_eq!((one.trace_ms_ci, one.noisy), (None, None));
+    }
+
+    #[test]
+    fn interleaved_rounds_pair_the_rows_and_stop_on_the_ratio() {
+        let plan = TimingPlan {
+            warmup: 1,
+            repeat: 3,
+            max_repeat: 40,
+            target_ci: 0.01,
+            max_row_seconds: 60.0,
+        };
+        // Row 1 always takes twice row 0's time, under a drift that changes both alike:
+        // the ratio is exact from the first rounds, so the minimum of rounds is enough.
+        let mut calls = Vec::new();
+        let t = plan
+            .run_interleaved(2, |i| -> Result<f64, ()> {
+                let round = calls.len() / 2;
+                calls.push(i);
+                Ok((1.0 + round as f64) * (i + 1) as f64)
+            })
+            .unwrap();
+        assert_eq!(calls[..6], [0, 1, 0, 1, 0, 1]);
+        assert_eq!(t[0].len(), 3);
+        assert_eq!(t[1].len(), 3);
+        assert_eq!(widest_pair_ci(&t), 0.0);
+        // A ratio that keeps changing runs to max_repeat.
+        let mut k = 0u32;
+        let t = plan
+            .run_interleaved(2, |i| -> Result<f64, ()> {
+                k += 1;
+                Ok(if i == 0 { 1.0 } else { 1.0 + (k % 7) as f64 })
+            })
+            .unwrap();
+        assert_eq!(t[0].len(), 40);
+    }
+
+    #[test]
+    fn median_confidence_intervals() {
+        // Fewer than 6 values: the whole range.
+        assert_eq!(median_ci(&[3.0, 1.0, 2.0]), (1.0, 3.0));
+        // 20 values 1..=20: ranks 10 ∓ 4.38 → the 5th and 16th.
+        let v: Vec<f64> = (1..=20).map(f64::from).collect();
+        assert_eq!(median_ci(&v), (5.0, 16.0));
+        assert!(relative_ci(&[10.0; 8]) == 0.0);
+    }
+
+    #[test]
+    fn repeats_until_the_median_is_known_or_the_cap() {
+        let plan = TimingPlan {
+            warmup: 1,
+            repeat: 3,
+            max_repeat: 12,
+            target_ci: 0.05,
+            max_row_seconds: 60.0,
+        };
+        // Steady times: stop at the minimum.
+        let mut calls = 0;
+        let t = plan
+            .run(|| -> Result<f64, ()> {
+                calls += 1;
+                Ok(10.0)
+            })
+            .unwrap();
+        assert_eq!((t.len(), calls), (3, 4));
+        // Alternating 10 and 20: the interval never narrows, so the cap ends it.
+        let mut k = 0;
+        let t = plan
+            .run(|| -> Result<f64, ()> {
+                k += 1;
+                Ok(if k % 2 == 0 { 10.0 } else { 20.0 })
+            })
+            .unwrap();
+        assert_eq!(t.len(), 12);
+        // Without max_repeat above repeat: exactly `repeat` runs, as before.
+        let fixed = TimingPlan {
+            max_repeat: 3,
+            ..plan
+        };
+        assert_eq!(
+            fixed.run(|| -> Result<f64, ()> { Ok(1.0) }).unwrap().len(),
+            3
+        );
+    }
+}

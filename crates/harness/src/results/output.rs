@@ -1,0 +1,495 @@
+//! Result rows and their exporters: `results.csv` (one flat row per combination, flushed as
+//! each finishes) and `results.json` (the same rows plus run metadata, rewritten atomically
+//! after each row so an interrupted run leaves a valid file).
+//!
+//! Column names are stable and carry units; README.md documents each ("Results columns").
+
+use crate::error::HarnessError;
+use serde::{Deserialize, Serialize};
+use std::fs::{File, OpenOptions};
+use std::path::{Path, PathBuf};
+use tb_core::{CounterSet, StatsSummary};
+
+macro_rules! define_row {
+    ($($name:ident, $per:ident, $max:ident, $doc:literal;)*) => {
+        /// One result row: one scene x structure x params x traversal x device x threads x
+        /// triangle test x ray kind. Empty cells (`None`) mean "not measured", never zero. The
+        /// counter columns (`<counter>_per_ray`, `<counter>_max`) come from
+        /// [`tb_core::for_each_counter!`].
+        #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+        #[serde(default)]
+        pub struct Row {
+            pub scene: String,
+            pub source: String,
+            pub triangles: u64,
+            pub structure: String,
+            pub params: String,
+            pub traversal: String,
+            pub device: String,
+            /// GPU rows: adapter name, backend and driver; empty on the CPU.
+            pub adapter: String,
+            /// GPU rows: the adapter's kind, `discrete`, `integrated`, `virtual`, `other` or
+            /// `software` (a CPU rasterizer such as llvmpipe: its times are not GPU figures);
+            /// empty on the CPU.
+            #[serde(default)]
+            pub adapter_type: String,
+            /// The machine the row ran on (host name; rows of several machines can be merged).
+            #[serde(default)]
+            pub host: String,
+            pub threads: u32,
+            pub triangle_test: String,
+            pub ray_kind: String,
+            pub rays: u64,
+            pub build_ms: Option<f64>,
+            /// Every build's ms (`run.build_repeat` of them) in the order they ran,
+            /// `;`-separated.
+            #[serde(default)]
+            pub build_ms_runs: String,
+            pub trace_ms_min: Option<f64>,
+            pub trace_ms_median: Option<f64>,
+            pub trace_ms_max: Option<f64>,
+            pub mrays_per_s: Option<f64>,
+            /// Timed runs of the row (`repeat`, more with `max_repeat`).
+            pub timed_runs: Option<u32>,
+            /// Half the width of the median's 95 % confidence interval, relative to the
+            /// median.
+            pub trace_ms_ci: Option<f64>,
+            /// Every timed run's ms in the order they ran, `;`-separated (rows timed together
+            /// pair run for run: see `timing_group`).
+            #[serde(default)]
+            pub trace_ms_runs: String,
+            /// Rows timed interleaved (`run.interleave`: run 1 of each, then run 2, …) share
+            /// this id; empty for a row timed alone.
+            #[serde(default)]
+            pub timing_group: String,
+            /// `trace_ms_ci` above `run.target_ci`, or the load average above the machine's
+            /// idle level during the row.
+            pub noisy: Option<bool>,
+            /// 1-minute load average when the row finished (Linux).
+            pub load_avg: Option<f64>,
+            /// CPU cores other processes kept busy on average while the row was measured
+            /// (Linux `/proc/stat` less this process's own time).
+            #[serde(default)]
+            pub cpu_others: Option<f64>,
+            /// GPU rows: host-to-device copy of the structure and rays (median), not in
+            /// `trace_ms_*`.
+            pub upload_ms: Option<f64>,
+            /// GPU rows: device-to-host copy of the hits (median), not in `trace_ms_*`.
+            pub readback_ms: Option<f64>,
+            /// GPU rows of a program that sorts its rays by key (`tb_core::GpuArrange`): the
+            /// sort passes' time over the batch, ms, median over the timed runs; in
+            /// `trace_ms_*` when the sort is timed (multi-kd `-sorted`, "inc."), not otherwise
+            /// (`-presorted`, "n.inc."). Empty on other rows.
+            pub sort_ms: Option<f64>,
+            pub hit_rate: Option<f64>,
+            $(
+                #[doc = concat!("Mean per ray: ", $doc, ".")]
+                pub $per: Option<f64>,
+                #[doc = concat!("Maximum over the rays: ", $doc, ".")]
+                pub $max: Option<u32>,
+            )*
+            /// Rays ended by a traversal's per-ray step cap (restart-family kd-tree
+            /// traversals).
+            pub capped_rays: Option<u64>,
+            pub memory_bytes: Option<u64>,
+            pub nodes: Option<u64>,
+            pub prim_refs: Option<u64>,
+            pub node_bytes: Option<u32>,
+            pub sah_cost: Option<f64>,
+            pub build_stats: String,
+            /// The most heap the build held at once above what was live before it, bytes
+            /// (measured by the binary's counting allocator, [`crate::experiment::heap`]; empty where it
+            /// is not installed).
+            pub build_heap_peak_bytes: Option<u64>,
+            /// The heap the build still held when it returned (the structure), bytes.
+            pub build_heap_kept_bytes: Option<u64>,
+            pub validated_rays: Option<u64>,
+            pub mismatches: Option<u64>,
+            pub note: String,
+        }
+
+        impl Row {
+            /// Fill the counter columns of the counters in `set` from `s` (the others stay
+            /// empty: the structure does not report them).
+            pub fn set_counters(&mut self, s: &StatsSummary, set: CounterSet) {
+                let mut i = 0;
+                $(
+                    if set.contains(i) {
+                        self.$per = Some(s.mean[i]);
+                        self.$max = Some(s.max[i]);
+                    }
+                    i += 1;
+                )*
+                let _ = i;
+            }
+
+            /// The value of counter column `column` (`<counter>_per_ray` or `<counter>_max`).
+            pub fn counter(&self, column: &str) -> Option<f64> {
+                match column {
+                    $(
+                        stringify!($per) => self.$per,
+                        stringify!($max) => self.$max.map(f64::from),
+                    )*
+                    _ => None,
+                }
+            }
+        }
+    };
+}
+
+tb_core::for_each_counter!(define_row! {});
+
+/// The columns that identify a row (for `--resume` and `check`).
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct RowKey {
+    pub scene: String,
+    pub structure: String,
+    pub params: String,
+    pub traversal: String,
+    pub device: String,
+    pub threads: u32,
+    pub triangle_test: String,
+    pub ray_kind: String,
+}
+
+impl Row {
+    pub fn key(&self) -> RowKey {
+        RowKey {
+            scene: self.scene.clone(),
+            structure: self.structure.clone(),
+            params: self.params.clone(),
+            traversal: self.traversal.clone(),
+            device: self.device.clone(),
+            threads: self.threads,
+            triangle_test: self.triangle_test.clone(),
+            ray_kind: self.ray_kind.clone(),
+        }
+    }
+}
+
+/// Read a results CSV.
+pub fn read_csv(path: &Path) -> Result<Vec<Row>, HarnessError> {
+    let text = std::fs::read_to_string(path).map_err(|e| HarnessError::io(path, e))?;
+    parse_csv(path, &text)
+}
+
+fn parse_csv(path: &Path, text: &str) -> Result<Vec<Row>, HarnessError> {
+    let mut r = csv::Reader::from_reader(text.as_bytes());
+    let mut rows = Vec::new();
+    for (i, row) in r.deserialize().enumerate() {
+        let row: Row = row.map_err(|e| HarnessError::io(path, format!("row {}: {e}", i + 2)))?;
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+/// Read the results CSV of an interrupted run. Every row is written with its newline in one
+/// flush, so an unterminated last line is a row torn by the interruption: it is dropped (and
+/// its combination run again), and the number of dropped lines is returned.
+pub fn read_csv_resume(path: &Path) -> Result<(Vec<Row>, usize), HarnessError> {
+    let text = std::fs::read_to_string(path).map_err(|e| HarnessError::io(path, e))?;
+    match text.rfind('\n') {
+        Some(end) if end + 1 < text.len() => Ok((parse_csv(path, &text[..=end])?, 1)),
+        None if !text.is_empty() => Ok((Vec::new(), 1)),
+        _ => Ok((parse_csv(path, &text)?, 0)),
+    }
+}
+
+/// Writes rows to `results.csv` and `results.json` in an output directory.
+pub struct Sink {
+    dir: PathBuf,
+    csv: csv::Writer<File>,
+    /// `params.csv`: the rows' parameters and build figures in long form.
+    long: csv::Writer<File>,
+    rows: Vec<Row>,
+    meta: serde_json::Value,
+    /// When this session opened the sink (`meta.duration_s` adds to an earlier session's).
+    started: std::time::SystemTime,
+}
+
+impl Sink {
+    /// Open the sink. With `resume`, existing rows of `results.csv` are kept (and returned by
+    /// [`Sink::rows`]); otherwise the directory must not hold results yet.
+    /// A resumed run keeps the first session's `start` and accumulated `duration_s` and lists
+    /// the sessions' starts in `resumed`.
+    pub fn open(
+        dir: &Path,
+        mut meta: serde_json::Value,
+        resume: bool,
+    ) -> Result<Sink, HarnessError> {
+        std::fs::create_dir_all(dir).map_err(|e| HarnessError::io(dir, e))?;
+        let csv_path = dir.join("results.csv");
+        if resume {
+            carry_meta(&dir.join("results.json"), &mut meta);
+        }
+        let existing = if csv_path.exists() {
+            if !resume {
+                return Err(HarnessError::io(
+                    &csv_path,
+                    "already exists: pass --resume to continue that run, --force to replace it, or choose another --out",
+                ));
+            }
+            let (rows, torn) = read_csv_resume(&csv_path)?;
+            if torn > 0 {
+                eprintln!(
+                    "note: {}: dropped a torn last line; that row runs again",
+                    csv_path.display()
+                );
+            }
+            rows
+        } else {
+            Vec::new()
+        };
+        // Rewrite the CSV from the parsed rows (drops a torn last line of an interrupted run).
+        let file = OpenOptions::new()
+            .create(true)
+            .write(true)
+            .truncate(true)
+            .open(&csv_path)
+            .map_err(|e| HarnessError::io(&csv_path, e))?;
+        let mut csv = csv::WriterBuilder::new()
+            .has_headers(true)
+            .from_writer(file);
+        if existing.is_empty() {
+            // Header even for an empty file, so the columns are documented by the file itself.
+            csv.write_record(header())
+                .map_err(|e| HarnessError::io(&csv_path, e))?;
+            csv.flush().map_err(|e| HarnessError::io(&csv_path, e))?;
+            csv = csv::WriterBuilder::new().has_headers(false).from_writer(
+                OpenOptions::new()
+                    .append(true)
+                    .open(&csv_path)
+                    .map_err(|e| HarnessError::io(&csv_path, e))?,
+            );
+        } else {
+            for r in &existing {
+                csv.serialize(r)
+                    .map_err(|e| HarnessError::io(&csv_path, e))?;
+            }
+            csv.flush().map_err(|e| HarnessError::io(&csv_path, e))?;
+            csv = csv::WriterBuilder::new().has_headers(false).from_writer(
+                OpenOptions::new()
+                    .append(true)
+                    .open(&csv_path)
+                    .map_err(|e| HarnessError::io(&csv_path, e))?,
+            );
+        }
+        // The long-form companion, rewritten from the kept rows.
+        let long_path = dir.join("params.csv");
+        let mut long =
+            csv::Writer::from_path(&long_path).map_err(|e| HarnessError::io(&long_path, e))?;
+        long.write_record(["row", "group", "key", "value"])
+            .map_err(|e| HarnessError::io(&long_path, e))?;
+        for (i, r) in existing.iter().enumerate() {
+            for rec in long_records(i, r) {
+                long.write_record(&rec)
+                    .map_err(|e| HarnessError::io(&long_path, e))?;
+            }
+        }
+        long.flush().map_err(|e| HarnessError::io(&long_path, e))?;
+        let mut sink = Sink {
+            dir: dir.to_path_buf(),
+            csv,
+            long,
+            rows: existing,
+            meta,
+            started: std::time::SystemTime::now(),
+        };
+        sink.write_json()?;
+        Ok(sink)
+    }
+
+    /// Rows written so far (including resumed ones).
+    pub fn rows(&self) -> &[Row] {
+        &self.rows
+    }
+
+    /// Append a row to both files and flush.
+    pub fn push(&mut self, row: Row) -> Result<(), HarnessError> {
+        let p = self.dir.join("results.csv");
+        self.csv
+            .serialize(&row)
+            .map_err(|e| HarnessError::io(&p, e))?;
+        self.csv.flush().map_err(|e| HarnessError::io(&p, e))?;
+        let lp = self.dir.join("params.csv");
+        for rec in long_records(self.rows.len(), &row) {
+            self.long
+                .write_record(&rec)
+                .map_err(|e| HarnessError::io(&lp, e))?;
+        }
+        self.long.flush().map_err(|e| HarnessError::io(&lp, e))?;
+        self.rows.push(row);
+        self.write_json()
+    }
+
+    /// Record the end of the run in the JSON metadata.
+    pub fn finish(&mut self, status: &str) -> Result<(), HarnessError> {
+        crate::results::meta::finish(&mut self.meta, status, self.started);
+        self.write_json()
+    }
+
+    fn write_json(&mut self) -> Result<(), HarnessError> {
+        let path = self.dir.join("results.json");
+        let tmp = self.dir.join("results.json.tmp");
+        let rows: Vec<serde_json::Value> = self.rows.iter().map(row_json).collect();
+        let doc = serde_json::json!({ "meta": self.meta, "rows": rows });
+        let text = serde_json::to_string_pretty(&doc).map_err(|e| HarnessError::io(&path, e))?;
+        std::fs::write(&tmp, text).map_err(|e| HarnessError::io(&tmp, e))?;
+        std::fs::rename(&tmp, &path).map_err(|e| HarnessError::io(&path, e))
+    }
+}
+
+/// Write a whole results folder at once (`trace-bench merge`): `results.csv`, `params.csv` and
+/// `results.json` of `rows` with `meta`, as a run writes them.
+pub fn write_all(dir: &Path, meta: serde_json::Value, rows: &[Row]) -> Result<(), HarnessError> {
+    std::fs::create_dir_all(dir).map_err(|e| HarnessError::io(dir, e))?;
+    let p = dir.join("results.csv");
+    let mut csv = csv::WriterBuilder::new()
+        .has_headers(false)
+        .from_path(&p)
+        .map_err(|e| HarnessError::io(&p, e))?;
+    csv.write_record(header())
+        .map_err(|e| HarnessError::io(&p, e))?;
+    for r in rows {
+        csv.serialize(r).map_err(|e| HarnessError::io(&p, e))?;
+    }
+    csv.flush().map_err(|e| HarnessError::io(&p, e))?;
+    let lp = dir.join("params.csv");
+    let mut long = csv::Writer::from_path(&lp).map_err(|e| HarnessError::io(&lp, e))?;
+    long.write_record(["row", "group", "key", "value"])
+        .map_err(|e| HarnessError::io(&lp, e))?;
+    for (i, r) in rows.iter().enumerate() {
+        for rec in long_records(i, r) {
+            long.write_record(&rec)
+                .map_err(|e| HarnessError::io(&lp, e))?;
+        }
+    }
+    long.flush().map_err(|e| HarnessError::io(&lp, e))?;
+    let jp = dir.join("results.json");
+    let doc =
+        serde_json::json!({ "meta": meta, "rows": rows.iter().map(row_json).collect::<Vec<_>>() });
+    let text = serde_json::to_string_pretty(&doc).map_err(|e| HarnessError::io(&jp, e))?;
+    std::fs::write(&jp, text).map_err(|e| HarnessError::io(&jp, e))
+}
+
+/// A resumed run's metadata: the earlier session's `start` and `duration_s`, and every
+/// session's start in `resumed` (nothing when the earlier results.json is unreadable).
+fn carry_meta(path: &Path, meta: &mut serde_json::Value) {
+    let Some(old) = std::fs::read_to_string(path)
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+    else {
+        return;
+    };
+    let old = &old["meta"];
+    let now = meta["start"].clone();
+    let mut sessions = old["resumed"].as_array().cloned().unwrap_or_default();
+    sessions.push(now);
+    if old["start"].is_string() {
+        meta["start"] = old["start"].clone();
+    }
+    if old["duration_s"].is_number() {
+        meta["duration_s"] = old["duration_s"].clone();
+    }
+    meta["resumed"] = serde_json::Value::Array(sessions);
+}
+
+/// Row `i`'s `params` and `build_stats` in long form: one `[row, group, key, value]` record per
+/// pair (`group` is `param` or `build`), `row` the row's 0-based index in `results.csv` and in
+/// `results.json`'s `rows`. `pandas.read_csv("params.csv").pivot(index="row", columns="key",
+/// values="value")` gives one column per key.
+fn long_records(i: usize, r: &Row) -> Vec<[String; 4]> {
+    let pairs = |group: &str, s: &str| -> Vec<[String; 4]> {
+        s.split(';')
+            .filter(|kv| !kv.is_empty())
+            .map(|kv| {
+                let (k, v) = kv.split_once('=').unwrap_or((kv, ""));
+                [
+                    i.to_string(),
+                    group.to_string(),
+                    k.to_string(),
+                    v.to_string(),
+                ]
+            })
+            .collect()
+    };
+    let mut out = pairs("param", &r.params);
+    out.extend(pairs("build", &r.build_stats));
+    out
+}
+
+/// `k=v;k=v` as a JSON object, each value typed (integer, number, boolean, else string).
+fn pairs_json(s: &str) -> serde_json::Value {
+    let mut m = serde_json::Map::new();
+    for kv in s.split(';').filter(|kv| !kv.is_empty()) {
+        let (k, v) = kv.split_once('=').unwrap_or((kv, ""));
+        let value = if let Ok(i) = v.parse::<i64>() {
+            serde_json::Value::from(i)
+        } else if let Ok(b) = v.parse::<bool>() {
+            serde_json::Value::from(b)
+        } else if let Some(x) = v.parse::<f64>().ok().filter(|x| x.is_finite()) {
+            serde_json::Value::from(x)
+        } else {
+            serde_json::Value::from(v)
+        };
+        m.insert(k.to_string(), value);
+    }
+    serde_json::Value::Object(m)
+}
+
+/// A row of `results.json`: the CSV's columns in the same order, with `params` and
+/// `build_stats` as objects (`pandas.json_normalize(doc["rows"])` gives `params.bins`, …).
+pub fn row_json(r: &Row) -> serde_json::Value {
+    let mut v = serde_json::to_value(r).expect("a row serializes");
+    if let Some(m) = v.as_object_mut() {
+        m.insert("params".into(), pairs_json(&r.params));
+        m.insert("build_stats".into(), pairs_json(&r.build_stats));
+    }
+    v
+}
+
+/// The CSV header (the field names of [`Row`] in order).
+pub fn header() -> Vec<String> {
+    // Serialize a default row with a header to learn the field names.
+    let mut w = csv::WriterBuilder::new()
+        .has_headers(true)
+        .from_writer(Vec::new());
+    w.serialize(Row::default()).expect("serialize default row");
+    let bytes = w.into_inner().expect("flush");
+    let text = String::from_utf8(bytes).expect("utf8");
+    text.lines()
+        .next()
+        .unwrap_or("")
+        .split(',')
+        .map(str::to_string)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn json_rows_keep_the_column_order_and_type_the_params() {
+        let r = Row {
+            scene: "s".into(),
+            params: "bins=16;c_trav=1.5;layout=treelet;reinsert=true".into(),
+            build_stats: "leaves=12;depth_max=7".into(),
+            ..Default::default()
+        };
+        let v = row_json(&r);
+        let keys: Vec<&String> = v.as_object().unwrap().keys().collect();
+        let head = header();
+        assert_eq!(keys.len(), head.len());
+        assert!(keys.iter().zip(&head).all(|(k, h)| *k == h));
+        assert_eq!(v["params"]["bins"], 16);
+        assert_eq!(v["params"]["c_trav"], 1.5);
+        assert_eq!(v["params"]["layout"], "treelet");
+        assert_eq!(v["params"]["reinsert"], true);
+        assert_eq!(v["build_stats"]["depth_max"], 7);
+        let long = long_records(3, &r);
+        assert_eq!(long.len(), 6);
+        assert_eq!(long[0], ["3", "param", "bins", "16"].map(String::from));
+        assert_eq!(long[5], ["3", "build", "depth_max", "7"].map(String::from));
+    }
+}
