@@ -12,7 +12,7 @@ static FAMILIES: &[&Family] = &[
     &tb_core::oracle::FAMILY,
     &tb_bvh::FAMILY,
     &tb_kdtree::FAMILY,
-    &tb_kdtree::multi::FAMILY,
+    &tb_multikd::FAMILY,
     &tb_sparse::FAMILY,
     &tb_rtree::FAMILY,
     &tb_grid::UNIFORM_FAMILY,
@@ -163,5 +163,5 @@ pub fn generator(tris: &[Triangle]) -> Box<dyn Accel> {
 /// numerical integration: what the multi-kd family offers beside its structure (`trace-bench
 /// weights`).
 pub mod weights {
-    pub use tb_kdtree::measure::{weight_rows, weight_tables, TABLE2_BETAS};
+    pub use tb_multikd::measure::{weight_rows, weight_tables, TABLE2_BETAS};
 }

@@ -29,7 +29,7 @@
 use crate::{split_cell, BoxMeasure, KdBuilder, KdNode, KdParams};
 use tb_core::{Aabb, Triangle};
 
-pub(crate) struct Output {
+pub struct Output {
     pub nodes: Vec<KdNode>,
     pub prim_refs: Vec<u32>,
     pub bounds: Aabb,
@@ -43,7 +43,7 @@ struct Ref {
 }
 
 use tb_core::clip::clip_box;
-pub(crate) use tb_core::clip::tolerance;
+pub use tb_core::clip::tolerance;
 
 /// Sortable key of an event: the position's order-preserving bits, then the type.
 #[inline(always)]
@@ -429,7 +429,7 @@ impl<M: BoxMeasure> Builder<'_, M> {
 }
 
 /// Build the flat tree over the finite triangles of `tris`.
-pub(crate) fn build<M: BoxMeasure>(tris: &[Triangle], p: &KdParams, m: &M) -> Output {
+pub fn build<M: BoxMeasure>(tris: &[Triangle], p: &KdParams, m: &M) -> Output {
     let refs: Vec<Ref> = tris
         .iter()
         .enumerate()

@@ -96,7 +96,7 @@ impl Layout for Treelet {
 }
 
 /// An unused slot: an empty leaf (unreachable from the root).
-pub(crate) const EMPTY_SLOT: KdNode = KdNode { bits: 3, data: 0 };
+pub const EMPTY_SLOT: KdNode = KdNode { bits: 3, data: 0 };
 
 /// One cache line of nodes: the unit of allocation of [`Nodes`], so that the array (and every
 /// treelet block of at most 64 bytes) starts on a line.
@@ -114,7 +114,7 @@ pub struct Nodes {
 }
 
 impl Nodes {
-    pub(crate) fn from_slice(v: &[KdNode]) -> Nodes {
+    pub fn from_slice(v: &[KdNode]) -> Nodes {
         let mut lines = vec![Line([EMPTY_SLOT; 8]); v.len().div_ceil(8)];
         for (i, n) in v.iter().enumerate() {
             lines[i / 8].0[i % 8] = *n;
@@ -131,7 +131,7 @@ impl Nodes {
         unsafe { std::slice::from_raw_parts(self.lines.as_ptr().cast::<KdNode>(), self.len) }
     }
 
-    pub(crate) fn as_mut_slice(&mut self) -> &mut [KdNode] {
+    pub fn as_mut_slice(&mut self) -> &mut [KdNode] {
         // SAFETY: as in `as_slice`, through the unique borrow.
         unsafe {
             std::slice::from_raw_parts_mut(self.lines.as_mut_ptr().cast::<KdNode>(), self.len)
@@ -139,7 +139,7 @@ impl Nodes {
     }
 
     /// Bytes held (whole lines).
-    pub(crate) fn bytes(&self) -> usize {
+    pub fn bytes(&self) -> usize {
         std::mem::size_of_val(self.lines.as_slice())
     }
 }
@@ -167,7 +167,7 @@ impl PartialEq for Nodes {
 /// treelet blocks of `2^height` slots (see [`Treelet`]). Child subtrees are placed depth-first,
 /// so the blocks of a subtree lie together. Panics if the layout needs 2^30 slots or more (the
 /// link field's range).
-pub(crate) fn to_treelets(dfs: &[KdNode], height: u32) -> Vec<KdNode> {
+pub fn to_treelets(dfs: &[KdNode], height: u32) -> Vec<KdNode> {
     if dfs.is_empty() {
         return Vec::new();
     }

@@ -38,11 +38,10 @@
 //!   `short-stack` (§5.2), `backtrack` (§5.1.1), `sequential` (§3.1) and `ropes` (§3.3) as
 //!   programs `kdtree/NAME`, both layouts, each the CPU kernel's walk decision for decision, so
 //!   hits and counters agree ray for ray (tests `gpu.rs`; tb-harness `gpu_oracle`).
-//! - **Multi-kd-trees** (Torres et al. 2012): module `measure`, the direction-specialised cell
-//!   measures ([`measure::Heuristic`], weights by numerical integration, the per-ray tree
-//!   choice); module `multi`, [`multi::MultiKdTree`] (registry name `multi-kd`): three trees in
-//!   one node array with a header of roots over one triangle array, every traversal above run
-//!   from the root of the ray's tree, plain and `-sorted` by tree index.
+//! - **Multi-kd-trees** (Torres et al. 2012) live in their own crate, `tb-multikd`, built
+//!   on this one: its trees are this crate's builds (with another cell measure,
+//!   [`BoxMeasure`]) and its walks this crate's kernels ([`traverse`], [`stackless`]) from the
+//!   root of each ray's tree, its GPU program this crate's `shaders/kd.wgsl` walk.
 //!
 //! Robustness: triangle tests are never restricted to a leaf's interval (only to
 //! `[tmin, closest hit)`), and traversal stops only when the next node to visit starts beyond
@@ -51,12 +50,10 @@
 //! referenced in every leaf cell it touches.
 
 mod build;
-mod layout;
-pub mod measure;
-pub mod multi;
-mod stackless;
-mod traverse;
-mod view;
+pub mod layout;
+pub mod stackless;
+pub mod traverse;
+pub mod view;
 
 #[cfg(test)]
 mod start_tests;
@@ -78,7 +75,7 @@ pub use view::{BackNode, KdStart, KdView};
 
 /// Bytes per node of auxiliary array `aux` ([`BACKTRACK_AUX`]: cell and parent;
 /// [`ROPES_AUX`]: six ropes), for every structure over kd nodes.
-pub(crate) fn aux_bytes_per_node(aux: &str) -> usize {
+pub fn aux_bytes_per_node(aux: &str) -> usize {
     match aux {
         BACKTRACK_AUX => std::mem::size_of::<BackNode>(),
         ROPES_AUX => std::mem::size_of::<[u32; 6]>(),
@@ -470,7 +467,7 @@ impl KdTree {
 /// parent and distinct, every node reached once from exactly one root (the treelet layout's
 /// unused slots empty), depth within the limit, splits inside their cells, every referenced
 /// triangle's box overlapping its leaf cell, every finite triangle referenced in every tree.
-pub(crate) fn check_trees(v: &KdView, roots: &[u32], params: &KdParams) -> Result<(), String> {
+pub fn check_trees(v: &KdView, roots: &[u32], params: &KdParams) -> Result<(), String> {
     let nodes = v.nodes;
     let n_tris = v.tris.len();
     if nodes.is_empty() {
@@ -552,7 +549,7 @@ pub(crate) fn check_trees(v: &KdView, roots: &[u32], params: &KdParams) -> Resul
 }
 
 /// The two children's cells of `cell` split on `axis` at `s`.
-pub(crate) fn split_cell(cell: &Aabb, axis: usize, s: f32) -> (Aabb, Aabb) {
+pub fn split_cell(cell: &Aabb, axis: usize, s: f32) -> (Aabb, Aabb) {
     let (mut l, mut r) = (*cell, *cell);
     l.max[axis] = s;
     r.min[axis] = s;
@@ -560,7 +557,7 @@ pub(crate) fn split_cell(cell: &Aabb, axis: usize, s: f32) -> (Aabb, Aabb) {
 }
 
 /// Intersection of two boxes (empty when disjoint).
-pub(crate) fn intersect(a: &Aabb, b: &Aabb) -> Aabb {
+pub fn intersect(a: &Aabb, b: &Aabb) -> Aabb {
     Aabb {
         min: a.min.max(b.min),
         max: a.max.min(b.max),

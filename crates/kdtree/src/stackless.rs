@@ -108,12 +108,12 @@ fn below(both: u64, path: u64, at: u32) -> (u32, u64, u64) {
     (pd + 1, both & keep, path & keep | ((at & 1) as u64) << pd)
 }
 
-pub(crate) const RESTART: u8 = 0;
-pub(crate) const PUSH_DOWN: u8 = 1;
-pub(crate) const SHORT_STACK: u8 = 2;
-pub(crate) const SEQUENTIAL: u8 = 3;
-pub(crate) const BACKTRACK: u8 = 4;
-pub(crate) const ROPES: u8 = 5;
+pub const RESTART: u8 = 0;
+pub const PUSH_DOWN: u8 = 1;
+pub const SHORT_STACK: u8 = 2;
+pub const SEQUENTIAL: u8 = 3;
+pub const BACKTRACK: u8 = 4;
+pub const ROPES: u8 = 5;
 
 /// The restart-type kernels, one struct with the walk chosen by the const parameter `M`; the
 /// auxiliary arrays it reads (`backtrack`: cells and parents; `ropes`: those and the ropes)
@@ -144,7 +144,7 @@ pub(crate) const ROPES: u8 = 5;
 /// for the root plus one per cell interval or exit computed (`sequential`, `backtrack`,
 /// `ropes`); `steps`:
 /// nodes visited, `interior + leaves`.
-pub(crate) struct Stackless<'a, L, const M: u8>(pub Tree<'a, L>, pub Aux<'a>);
+pub struct Stackless<'a, L, const M: u8>(pub Tree<'a, L>, pub Aux<'a>);
 
 impl<L: Layout, const M: u8> Stackless<'_, L, M> {
     #[inline(always)]

@@ -49,15 +49,15 @@ fn pop_pending<E: Copy, const ANY: bool>(
 /// What a kernel reads: the view, its layout `L` (the kernels are compiled per layout) and the
 /// start of every walk.
 #[derive(Clone, Copy)]
-pub(crate) struct Tree<'a, L> {
-    pub(crate) v: KdView<'a>,
-    pub(crate) l: L,
-    pub(crate) from: KdStart,
+pub struct Tree<'a, L> {
+    pub v: KdView<'a>,
+    pub l: L,
+    pub from: KdStart,
 }
 
 impl<'a, L> Tree<'a, L> {
     /// Panics if `from` is no node of `v` (the kernels index nodes unchecked).
-    pub(crate) fn new(v: KdView<'a>, l: L, from: KdStart) -> Self {
+    pub fn new(v: KdView<'a>, l: L, from: KdStart) -> Self {
         assert!(
             v.nodes.is_empty() || (from.node as usize) < v.nodes.len(),
             "kd-tree: start node {} of {} nodes",
@@ -71,20 +71,20 @@ impl<'a, L> Tree<'a, L> {
 /// Per-ray data: origin, direction, reciprocal direction, and the ray's interval in the start
 /// cell.
 #[derive(Clone, Copy)]
-pub(crate) struct Setup {
-    pub(crate) org: [f32; 3],
-    pub(crate) dir: [f32; 3],
-    pub(crate) inv: [f32; 3],
+pub struct Setup {
+    pub org: [f32; 3],
+    pub dir: [f32; 3],
+    pub inv: [f32; 3],
     /// `inv[a] < 0` (a negative direction, or −0 giving −inf): the upper child is near.
-    pub(crate) neg: [bool; 3],
-    pub(crate) t0: f32,
-    pub(crate) t1: f32,
+    pub neg: [bool; 3],
+    pub t0: f32,
+    pub t1: f32,
 }
 
 /// The start of every kernel: count the start cell's test, clip the ray to it (`None`: the ray
 /// misses the tree), prepare the triangle test, and no hit yet (closest so far `ray.tmax`).
 #[inline(always)]
-pub(crate) fn start<T: TriTest, C: Counter, L>(
+pub fn start<T: TriTest, C: Counter, L>(
     w: &Tree<'_, L>,
     ray: &Ray,
     c: &mut C,
@@ -150,7 +150,7 @@ impl Best {
 /// Test the triangles of leaf `n` against `[ray.tmin, best.t)`, updating `best`; with `ANY`,
 /// returns `true` at the first hit.
 #[inline(always)]
-pub(crate) fn leaf<T: TriTest, C: Counter, const ANY: bool>(
+pub fn leaf<T: TriTest, C: Counter, const ANY: bool>(
     v: &KdView,
     n: KdNode,
     pre: &T::Pre,
@@ -208,14 +208,7 @@ pub struct Decision {
 }
 
 #[inline(always)]
-pub(crate) fn decide<L: Layout>(
-    l: L,
-    n: KdNode,
-    idx: usize,
-    s: &Setup,
-    tn: f32,
-    tf: f32,
-) -> Decision {
+pub fn decide<L: Layout>(l: L, n: KdNode, idx: usize, s: &Setup, tn: f32, tf: f32) -> Decision {
     split_decision(l, n, idx, &s.org, &s.inv, &s.neg, tn, tf)
 }
 
@@ -267,7 +260,7 @@ pub fn split_decision<L: Layout>(
 /// half-space holding the ray; an origin exactly in the plane gives `t = NaN`, which fails both
 /// comparisons, and both children are visited over the whole interval (the NaN is ignored by
 /// the interval updates).
-pub(crate) struct RecursiveDirection<'a, L>(pub Tree<'a, L>);
+pub struct RecursiveDirection<'a, L>(pub Tree<'a, L>);
 
 impl<L: Layout> RecursiveDirection<'_, L> {
     #[inline(always)]
@@ -347,7 +340,7 @@ fn point(b: &tb_core::Aabb, s: &Setup, t: f32) -> [f32; 3] {
 /// `8·2^-24·(|o_a| + max |start cell|_a)` of the split counts as possibly on either side:
 /// an entry and exit both within it is case Z, one of them within it a crossing (near child by
 /// the direction's sign); points on axes of zero direction are exactly `o_a`.
-pub(crate) struct Havran<'a, L>(pub Tree<'a, L>);
+pub struct Havran<'a, L>(pub Tree<'a, L>);
 
 impl<L: Layout> Havran<'_, L> {
     #[inline(always)]
@@ -445,7 +438,7 @@ tb_core::kernel_by_query!(walk: [L: Layout] Havran<'_, L>);
 /// only; `t < t_entry`: far only; otherwise both. An origin lying in a split plane (`o_a =
 /// split`, near = the upper child) gives `t = 0` and may send the ray to the wrong child: the
 /// algorithm is inherently not robust there (Havran et al. 1997), and kept as published.
-pub(crate) struct RecursiveOrigin<'a, L>(pub Tree<'a, L>);
+pub struct RecursiveOrigin<'a, L>(pub Tree<'a, L>);
 
 impl<L: Layout> RecursiveOrigin<'_, L> {
     #[inline(always)]
@@ -511,7 +504,7 @@ tb_core::kernel_by_query!(walk: [L: Layout] RecursiveOrigin<'_, L>);
 /// `t > t_exit·SLACK`, `d` when `t·SLACK < t_entry`; a NaN `t` gives both children over the
 /// whole interval), so it visits exactly the same nodes. Extra memory: the stack, one entry
 /// more than `recursive-direction`'s.
-pub(crate) struct Branchless<'a, L>(pub Tree<'a, L>);
+pub struct Branchless<'a, L>(pub Tree<'a, L>);
 
 impl<L: Layout> Branchless<'_, L> {
     #[inline(always)]
@@ -574,7 +567,7 @@ tb_core::kernel_by_query!(walk: [L: Layout] Branchless<'_, L>);
 /// §5.2, Figure 8, Table 3 "stack spilling"). Visits exactly the nodes of
 /// `recursive-direction`; `boxes` counts 1 plus one per entry spilled or refilled (the
 /// traffic to the memory stack). Extra memory: the short stack and a full stack per ray.
-pub(crate) struct StackSpilling<'a, L>(pub Tree<'a, L>);
+pub struct StackSpilling<'a, L>(pub Tree<'a, L>);
 
 impl<L: Layout> StackSpilling<'_, L> {
     #[inline(always)]

@@ -12,21 +12,21 @@ use tb_core::{Aabb, Triangle};
 #[derive(Clone, Copy, Debug)]
 pub struct KdView<'a> {
     /// The nodes, root first, in layout `layout` (see [`KdNode`]).
-    pub(crate) nodes: &'a [KdNode],
+    pub nodes: &'a [KdNode],
     /// Leaf references: a leaf owns `refs[offset .. offset + count]`, indices into `tris`.
-    pub(crate) refs: &'a [u32],
+    pub refs: &'a [u32],
     /// The triangles the references index.
-    pub(crate) tris: &'a [Triangle],
+    pub tris: &'a [Triangle],
     /// The root cell.
-    pub(crate) bounds: Aabb,
+    pub bounds: Aabb,
     /// Where the children of a node lie.
-    pub(crate) layout: KdLayout,
+    pub layout: KdLayout,
     /// Levels per block of the treelet layout.
-    pub(crate) treelet_height: u32,
+    pub treelet_height: u32,
     /// Entries of the circular stack of `short-stack` and `stack-spilling`.
-    pub(crate) short_stack: u32,
+    pub short_stack: u32,
     /// Per-ray step cap of the restart-type traversals.
-    pub(crate) step_cap: u32,
+    pub step_cap: u32,
 }
 
 /// Where a walk begins: a node and its cell. Every traversal treats the start node as the root:
@@ -35,8 +35,8 @@ pub struct KdView<'a> {
 /// Made by [`KdView::root`] and [`KdView::start_at`], so the cell is the node's.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KdStart {
-    pub(crate) node: u32,
-    pub(crate) cell: Aabb,
+    pub node: u32,
+    pub cell: Aabb,
 }
 
 impl KdStart {
@@ -141,7 +141,7 @@ const _: () = assert!(std::mem::size_of::<BackNode>() == 32);
 /// Per node of `v`: its cell and its parent (the `backtrack` auxiliary array), over the trees
 /// rooted at `roots` (one root for a kd-tree; several trees in one node array for
 /// multi-kd-trees), each root its own parent. Nodes of no tree keep a blank record.
-pub(crate) fn back_nodes(v: &KdView, roots: &[u32]) -> Vec<BackNode> {
+pub fn back_nodes(v: &KdView, roots: &[u32]) -> Vec<BackNode> {
     let blank = BackNode {
         min: [0.0; 3],
         parent: 0,
@@ -171,7 +171,7 @@ pub(crate) fn back_nodes(v: &KdView, roots: &[u32]) -> Vec<BackNode> {
 }
 
 /// "No neighbour": a rope leaving the root cell.
-pub(crate) const NO_ROPE: u32 = u32::MAX;
+pub const NO_ROPE: u32 = u32::MAX;
 
 /// The ropes of every node of `v` (review §3.3; Havran et al. 1998, Popov et al. 2007), from
 /// its cells `back`: for face `2·axis + side` (side 0: the min face, 1: the max face) the
@@ -180,7 +180,7 @@ pub(crate) const NO_ROPE: u32 = u32::MAX;
 /// the adjacent child, through a split missing the face to the child holding it. Meaningful for
 /// leaves; interior nodes keep their (pushed-down) ropes too. Over the trees rooted at `roots`
 /// (see [`back_nodes`]): a rope never leaves its tree.
-pub(crate) fn ropes(v: &KdView, back: &[BackNode], roots: &[u32]) -> Vec<[u32; 6]> {
+pub fn ropes(v: &KdView, back: &[BackNode], roots: &[u32]) -> Vec<[u32; 6]> {
     let nodes = v.nodes;
     let mut out = vec![[NO_ROPE; 6]; nodes.len()];
     if nodes.is_empty() {
@@ -234,9 +234,9 @@ pub(crate) fn ropes(v: &KdView, back: &[BackNode], roots: &[u32]) -> Vec<[u32; 6
 
 /// The auxiliary arrays a kernel reads: empty for the traversals that read none.
 #[derive(Clone, Copy, Default)]
-pub(crate) struct Aux<'a> {
+pub struct Aux<'a> {
     /// Cell and parent per node (`backtrack`, `ropes`).
-    pub(crate) back: &'a [BackNode],
+    pub back: &'a [BackNode],
     /// Six ropes per node (`ropes`).
-    pub(crate) ropes: &'a [[u32; 6]],
+    pub ropes: &'a [[u32; 6]],
 }

@@ -23,9 +23,9 @@
 //! (cube mapping); spherical and cosine by the spherical patch holding it: `|ω_Z| ≥ cos θ0`
 //! picks Z, otherwise the larger of `|ω_X|`, `|ω_Y|`.
 
-use crate::BoxMeasure;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 use tb_core::Aabb;
+use tb_kdtree::BoxMeasure;
 
 tb_core::choice! {
     /// A cell measure of Torres et al. 2012 (sections 3-4): which directions, which projection.

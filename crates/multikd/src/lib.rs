@@ -3,14 +3,14 @@
 //! the measure of one set of directions ([`crate::measure`]), and every ray traversing the tree
 //! of the set holding its direction.
 //!
-//! - **Build** (§5): `kd-tree_n^(i)` for `i` = X, Y, Z, each with [`crate::KdTree::try_build`]
+//! - **Build** (§5): `kd-tree_n^(i)` for `i` = X, Y, Z, each with [`tb_kdtree::KdTree::try_build`]
 //!   and the [`WeightedArea`] measure of heuristic `measure` for patch `i` (the builder, its
 //!   cost constants and termination as for the kd-tree; the paper uses `C_plane = C_tri = 1`,
 //!   §7, this structure's defaults).
 //! - **Layout** (§6): the trees' nodes in one node array, each tree contiguous (in the treelet
 //!   layout each starts on a block boundary), their leaf references in one reference array,
 //!   and a *header* of three root indices, one per patch; the triangles are shared.
-//! - **Traversal** (§5): every kd-tree traversal of the review ([`crate::KdTree`]'s table, same
+//! - **Traversal** (§5): every kd-tree traversal of the review ([`tb_kdtree::KdTree`]'s table, same
 //!   names) runs unchanged from the root the header gives for the ray's patch
 //!   ([`Heuristic::pick`]: cube mapping for the cubic heuristics, the spherical patches
 //!   otherwise): the per-ray choice wraps the traversal kernel ([`KdStart`]).
@@ -46,21 +46,16 @@
 //!   direction or from the measure?). Both still evaluate the per-ray choice, so rows differ
 //!   only in the trees.
 //!
-//! Counters: the kd-tree's (see [`crate::KdTree`]); the paper's "traversal step" (§7: a plane
+//! Counters: the kd-tree's (see [`tb_kdtree::KdTree`]); the paper's "traversal step" (§7: a plane
 //! or a triangle intersection) is `planes + prims` of the `recursive-direction` traversal,
 //! which computes one plane distance per interior node visited, as the paper's stack
 //! traversal does. Memory: the real arrays ([`Structure::own_memory`]: 8-byte nodes,
 //! 4-byte references, the triangles, the header) and, in the build report, the paper's
 //! Table 3 figure (`paper_bytes`: 16 bytes a node, 4 a reference).
 
-use crate::measure::{Heuristic, WeightedArea};
-use crate::stackless::{self, Stackless};
-use crate::traverse::{self, Tree};
-use crate::view::{self, Aux};
-use crate::{
-    layout, BackNode, DepthFirst, KdLayout, KdNode, KdParams, KdStart, KdTree, KdView, Layout,
-    Nodes, Treelet, BACKTRACK_AUX, MAX_SHORT_STACK, ROPES_AUX, STACK_SIZE, STEP_CAP,
-};
+pub mod measure;
+
+use measure::{Heuristic, WeightedArea};
 use std::borrow::Cow;
 use std::sync::{Arc, OnceLock};
 use tb_core::{
@@ -68,6 +63,13 @@ use tb_core::{
     HitRecord, Kernel, MemoryReport, MollerTrumbore, NoStats, ParamKind, Params, Query, Ray,
     Structure, Traversal, TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle,
     Watertight,
+};
+use tb_kdtree::stackless::{self, Stackless};
+use tb_kdtree::traverse::{self, Tree};
+use tb_kdtree::view::{self, Aux};
+use tb_kdtree::{
+    layout, BackNode, DepthFirst, KdLayout, KdNode, KdParams, KdStart, KdTree, KdView, Layout,
+    Nodes, Treelet, BACKTRACK_AUX, MAX_SHORT_STACK, ROPES_AUX, STACK_SIZE, STEP_CAP,
 };
 
 /// The multi-kd-tree in the registry.
@@ -113,8 +115,8 @@ tb_core::params! {
         /// for every ray (control).
         trees: Trees = Trees::Multi, ParamKind::Choice(Trees::NAMES);
         /// Split search of each tree (see the kd-tree's `builder`).
-        builder: crate::KdBuilder = crate::KdBuilder::Sweep,
-            ParamKind::Choice(crate::KdBuilder::NAMES);
+        builder: tb_kdtree::KdBuilder = tb_kdtree::KdBuilder::Sweep,
+            ParamKind::Choice(tb_kdtree::KdBuilder::NAMES);
         /// Bins per axis, `binned` builder only.
         bins: u32 = 32, ParamKind::Int { min: 2, max: 1024 };
         /// Cost of a plane test, `Cost_plane` (§3; 1 in §7).
@@ -221,7 +223,7 @@ impl MultiKdTree {
                 let m = WeightedArea([w[0] as f32, w[1] as f32, w[2] as f32]);
                 let t = if p.measure.is_isotropic() {
                     // The SAH: the kd-tree's own measure, so the control is that very tree.
-                    KdTree::try_build(tris.clone(), &kd, &crate::SurfaceArea)
+                    KdTree::try_build(tris.clone(), &kd, &tb_kdtree::SurfaceArea)
                 } else {
                     KdTree::try_build(tris.clone(), &kd, &m)
                 };
@@ -442,7 +444,7 @@ impl MultiKdTree {
                 "multi-kd/recursive-direction"
             },
             concat!(
-                include_str!("../shaders/kd.wgsl"),
+                include_str!("../../kdtree/shaders/kd.wgsl"),
                 include_str!("../shaders/multikd.wgsl")
             ),
             &self.tris[..],
@@ -835,7 +837,7 @@ impl Structure for MultiKdTree {
     }
 
     fn aux_bytes(&self, aux: &str) -> u64 {
-        (crate::aux_bytes_per_node(aux) * self.nodes.len()) as u64
+        (tb_kdtree::aux_bytes_per_node(aux) * self.nodes.len()) as u64
     }
 
     fn prepare_aux(&self, aux: &str) {
@@ -901,7 +903,7 @@ impl Structure for MultiKdTree {
                 )));
             }
         }
-        crate::check_trees(&self.view(), &roots, &self.kd).map_err(AccelError::Invalid)
+        tb_kdtree::check_trees(&self.view(), &roots, &self.kd).map_err(AccelError::Invalid)
     }
 }
 

@@ -11,9 +11,9 @@ use tb_core::{
     Accel, AccelError, BuildReport, GpuProgram, HitRecord, MemoryReport, Query, Ray, Structure,
     TraversalInfo, TraversalStats, TriTestKind,
 };
-use tb_kdtree::measure::Heuristic;
-use tb_kdtree::multi::{MultiKdParams, MultiKdTree, Trees};
 use tb_kdtree::KdLayout;
+use tb_multikd::measure::Heuristic;
+use tb_multikd::{MultiKdParams, MultiKdTree, Trees};
 
 /// A multi-kd-tree exposing only its robust traversals (all but the `recursive-origin` rows),
 /// with or without the `-sorted` and `-presorted` rows; a traced `-presorted` row walks the
