@@ -57,7 +57,8 @@ pub static FAMILY: Family = Family::new::<Bvh, BvhParams>(
             Bvh::try_build(tris, p)
         })
     },
-);
+)
+.with_rules::<BvhParams>();
 
 tb_core::params! {
     /// Build parameters of [`Bvh::build`].
@@ -877,5 +878,11 @@ mod tests {
         let mut b = good.clone();
         b.nodes.push(BvhNode::EMPTY);
         assert!(err(&b).contains("unreachable"));
+    }
+}
+
+impl tb_core::ParamRules for BvhParams {
+    fn rules(&self) -> Result<(), String> {
+        self.check().map_err(|e| e.to_string())
     }
 }

@@ -112,6 +112,26 @@ fn config_errors_name_file_line_and_key() {
         e.contains("structure.params.bins") && e.contains("out of range"),
         "{e}"
     );
+    // Rules across parameters, declared by the structure, checked with the config (not at
+    // build time): BVH width 3 (each of 2..=8 in range), R-tree m > M/2 in one combination of
+    // a sweep, kd-tree min-max bins in its own table.
+    let text = GOOD.replace("name = \"bvh\"", "name = \"bvh\"\nparams = { width = 3 }");
+    let e = parse_err(&text);
+    let line = text.lines().position(|l| l.contains("width = 3")).unwrap() + 1;
+    assert!(
+        e.contains(&format!(":{line}:"))
+            && e.contains("structure.params")
+            && e.contains("width must be 2, 4 or 8, got 3"),
+        "{e}"
+    );
+    let e = parse_err(&GOOD.replace(
+        "name = \"bvh\"",
+        "name = \"rtree\"\nparams = { big_m = [4, 8], m = 3 }",
+    ));
+    assert!(
+        e.contains("rtree: m must be in 2..=M/2 = 2, got 3") && e.contains("big_m=4"),
+        "{e}"
+    );
     // Missing scene file, naming the path.
     let e = parse_err(&GOOD.replace("builtin:stress/flat", "no/such/scene.obj"));
     assert!(

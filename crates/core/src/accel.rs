@@ -457,6 +457,8 @@ pub struct Family {
     pub traversals: fn() -> Vec<&'static TraversalInfo>,
     /// Build it.
     pub build: BuildFn,
+    /// Its rules across parameters ([`crate::params::ParamRules`]), checked with the config.
+    pub rules: fn(&ParamSet) -> Result<(), String>,
 }
 
 impl Family {
@@ -469,7 +471,14 @@ impl Family {
             defaults: defaults_of::<P>,
             traversals: infos_of::<S>,
             build,
+            rules: crate::params::no_rules,
         }
+    }
+
+    /// This family with the rules of its parameters `P` checked before any work.
+    pub const fn with_rules<P: crate::params::ParamRules>(mut self) -> Family {
+        self.rules = crate::params::rules_of::<P>;
+        self
     }
 }
 

@@ -36,7 +36,9 @@ pub use compare::{
 pub use geom::{Aabb, HitRecord, Ray, Triangle, Vec3};
 pub use gpu::{GpuArrange, GpuBuffer, GpuProgram};
 pub use oracle::BruteForce;
-pub use params::{ParamError, ParamKind, ParamSet, ParamSpec, ParamType, ParamValue, Params};
+pub use params::{
+    ParamError, ParamKind, ParamRules, ParamSet, ParamSpec, ParamType, ParamValue, Params,
+};
 pub use stats::{
     Counter, CounterDef, CounterSet, NoStats, StatsSummary, TraversalStats, COUNTERS, N_COUNTERS,
 };

@@ -196,6 +196,25 @@ pub trait Params: Sized + Default {
     fn to_set(&self) -> ParamSet;
 }
 
+/// Rules across a structure's parameters that each one's range in the table cannot express
+/// (R-tree `m ≤ M/2`, BVH `width` of 2, 4 or 8, `min_leaf ≤ max_leaf`): declared once, beside
+/// the parameters, and checked with the rest of a config before any work starts
+/// ([`crate::Family::with_rules`]); the builder checks them again.
+pub trait ParamRules: Params {
+    /// `Err(message)` when the values do not go together.
+    fn rules(&self) -> Result<(), String>;
+}
+
+/// [`ParamRules::rules`] of a checked set (a function pointer for [`crate::Family`]).
+pub fn rules_of<P: ParamRules>(set: &ParamSet) -> Result<(), String> {
+    P::from_set(set).map_err(|e| e.to_string())?.rules()
+}
+
+/// No rules beyond the ranges (the default of [`crate::Family`]).
+pub fn no_rules(_: &ParamSet) -> Result<(), String> {
+    Ok(())
+}
+
 /// The default parameter set of `P` (a function pointer for [`crate::Family`]).
 pub fn defaults_of<P: Params>() -> ParamSet {
     P::default().to_set()

@@ -99,7 +99,8 @@ pub static FAMILY: Family = Family::new::<KdTree, KdParams>(
             KdTree::try_build(tris.clone(), p, &SurfaceArea)
         })
     },
-);
+)
+.with_rules::<KdParams>();
 
 tb_core::choice! {
     /// Which split-search algorithm the builder uses.
@@ -1275,5 +1276,11 @@ mod tests {
         assert_eq!(figures(&kd), before);
         assert_eq!(kd.back_nodes().len(), kd.nodes().len());
         assert_eq!(kd.ropes().len(), kd.nodes().len());
+    }
+}
+
+impl tb_core::ParamRules for KdParams {
+    fn rules(&self) -> Result<(), String> {
+        self.check().map_err(|e| e.to_string())
     }
 }

@@ -83,7 +83,8 @@ pub static FAMILY: Family = Family::new::<MultiKdTree, MultiKdParams>(
             MultiKdTree::try_build(tris.clone(), p)
         })
     },
-);
+)
+.with_rules::<MultiKdParams>();
 
 tb_core::choice! {
     /// Which trees a [`MultiKdTree`] holds.
@@ -1176,5 +1177,11 @@ mod tests {
         let mut set = (FAMILY.defaults)();
         set.0[0].1 = tb_core::ParamValue::Str("sphere".into());
         assert!((FAMILY.build)(&tris, &set).is_err());
+    }
+}
+
+impl tb_core::ParamRules for MultiKdParams {
+    fn rules(&self) -> Result<(), String> {
+        self.kd().check().map_err(|e| e.to_string())
     }
 }

@@ -38,7 +38,8 @@ pub static FAMILY: Family = Family::new::<Rtree, RtreeParams>(
     "R-tree by insertion (min-volume, min-surface, min-overlap, R*, R*-srfc) or STR bulk loading, \
      R* split, forced reinsertion, packed level-order layout (Feldmann)",
     |tris, set| build_with(set, |p: &RtreeParams| Rtree::try_build(tris, p)),
-);
+)
+.with_rules::<RtreeParams>();
 
 /// Largest `M` supported (node capacity of the builder, size of the per-level stacks).
 pub const MAX_M: usize = 16;
@@ -812,5 +813,11 @@ mod tests {
         let mut b = good.clone();
         b.nodes.push(RtreeNode::EMPTY);
         assert!(b.validate().is_err());
+    }
+}
+
+impl tb_core::ParamRules for RtreeParams {
+    fn rules(&self) -> Result<(), String> {
+        self.check().map_err(|e| e.to_string())
     }
 }

@@ -63,7 +63,8 @@ pub static FAMILY: Family = Family::new::<SparseBoxes, SparseParams>(
             SparseBoxes::try_build(tris.clone(), p)
         })
     },
-);
+)
+.with_rules::<SparseParams>();
 
 tb_core::params! {
     /// Build parameters: `d_min` and those of the kd-tree below it (the kd-tree crate's
@@ -540,4 +541,10 @@ pub fn trace_hinted(
     let mut hits = vec![HitRecord::MISS; rays.len()];
     s.trace_hinted(ti, q, tri, rays, h.as_deref(), &mut hits, stats);
     hits
+}
+
+impl tb_core::ParamRules for SparseParams {
+    fn rules(&self) -> Result<(), String> {
+        self.kd().check().map_err(|e| e.to_string())
+    }
 }

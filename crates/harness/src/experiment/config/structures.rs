@@ -63,6 +63,21 @@ pub(super) fn check_structure(
     };
     let param_sets = expand(family.params, &(family.defaults)(), table)
         .map_err(|(key, msg)| cx.err(span.clone(), &format!("structure.params.{key}"), msg))?;
+    // The family's rules across parameters (e.g. R-tree `m ≤ M/2`), before any work.
+    for set in &param_sets {
+        (family.rules)(set).map_err(|m| {
+            let which = if param_sets.len() > 1 {
+                format!(" (in the sweep's combination {set})")
+            } else {
+                String::new()
+            };
+            cx.err(
+                span.clone(),
+                "structure.params",
+                format!("{}: {m}{which}", family.name),
+            )
+        })?;
+    }
     Ok(StructureSpec {
         family,
         infos,
