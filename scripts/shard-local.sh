@@ -8,7 +8,7 @@
 # OUT defaults to results/<config stem>/sharded; shard K writes OUT/shard-K, the merge OUT/merged.
 # At most JOBS shards run at once (default N; JOBS=1 runs them one after another). A shard
 # that fails or is interrupted is rerun alone with the same command plus --resume; set
-# RESUME=1 to pass --resume to every shard. TRACE_BENCH (default: trace-bench on PATH, else
+# RESUME=1 to pass --resume to every shard that has begun. TRACE_BENCH (default: trace-bench on PATH, else
 # target/release/trace-bench) is the binary. Each shard's log is OUT/shard-K.log and its wall
 # time is printed when it ends.
 set -euo pipefail
@@ -33,13 +33,13 @@ if [ -z "$bin" ]; then
     if command -v trace-bench >/dev/null; then bin=trace-bench; else bin=target/release/trace-bench; fi
 fi
 jobs=${JOBS:-$n}
-resume=()
-[ "${RESUME:-0}" = 1 ] && resume=(--resume)
 mkdir -p "$out"
 
 run_shard() {
-    local k=$1 t0 rc
+    local k=$1 t0 rc resume=()
     shift
+    # --resume where the shard has begun (a shard that never started runs afresh).
+    [ "${RESUME:-0}" = 1 ] && [ -f "$out/shard-$k/results.csv" ] && resume=(--resume)
     t0=$(date +%s%N)
     rc=0
     "$bin" run "$config" --shard "$k/$n" --out "$out/shard-$k" --quiet "${resume[@]}" "$@" \

@@ -531,20 +531,30 @@ fn cmd_run(
             o
         }
     };
+    if resume
+        && !["results.csv", "results.json"]
+            .iter()
+            .any(|f| out.join(f).is_file())
+    {
+        bail!(
+            "{}: nothing to resume (no results.csv or results.json there): run without --resume",
+            out.display()
+        );
+    }
+    // One writer per folder, from here until this process ends (before --force touches it).
+    let _lock = tb_harness::results::lock::FolderLock::acquire(&out)?;
     if resume {
         check_resume(&out, &exp)?;
     }
     if force {
         // Only what a run writes; anything else in the directory stays.
-        for f in ["results.csv", "results.json", "convergence.csv"] {
+        for f in tb_harness::results::output::RUN_OUTPUTS {
             let p = out.join(f);
             if p.is_file() {
                 std::fs::remove_file(&p).with_context(|| format!("{}", p.display()))?;
+            } else if p.is_dir() {
+                std::fs::remove_dir_all(&p).with_context(|| format!("{}", p.display()))?;
             }
-        }
-        let images = out.join("images");
-        if images.is_dir() {
-            std::fs::remove_dir_all(&images).with_context(|| format!("{}", images.display()))?;
         }
     }
     let opts = RunOptions {

@@ -205,6 +205,9 @@ pub struct Sink {
     meta: serde_json::Value,
     /// When this session opened the sink (`meta.duration_s` adds to an earlier session's).
     started: std::time::SystemTime,
+    /// The earlier sessions' `duration_s` (a resumed run), to which this session's time so
+    /// far is added at every write, so a killed session's time is kept too.
+    earlier_s: f64,
 }
 
 impl Sink {
@@ -287,6 +290,7 @@ impl Sink {
             }
         }
         long.flush().map_err(|e| HarnessError::io(&long_path, e))?;
+        let earlier_s = meta["duration_s"].as_f64().unwrap_or(0.0);
         let mut sink = Sink {
             dir: dir.to_path_buf(),
             csv,
@@ -294,6 +298,7 @@ impl Sink {
             rows: existing,
             meta,
             started: std::time::SystemTime::now(),
+            earlier_s,
         };
         sink.write_json()?;
         Ok(sink)
@@ -324,11 +329,22 @@ impl Sink {
 
     /// Record the end of the run in the JSON metadata.
     pub fn finish(&mut self, status: &str) -> Result<(), HarnessError> {
+        self.meta["duration_s"] = serde_json::Value::from(self.earlier_s);
         crate::results::meta::finish(&mut self.meta, status, self.started);
+        self.earlier_s = self.meta["duration_s"].as_f64().unwrap_or(self.earlier_s);
+        self.started = std::time::SystemTime::now();
         self.write_json()
     }
 
     fn write_json(&mut self) -> Result<(), HarnessError> {
+        // The run's time so far (earlier sessions and this one), kept if it is killed.
+        let now = self
+            .started
+            .elapsed()
+            .map(|d| d.as_secs_f64())
+            .unwrap_or(0.0);
+        self.meta["duration_s"] =
+            serde_json::Value::from(((self.earlier_s + now) * 1e3).round() / 1e3);
         let path = self.dir.join("results.json");
         let tmp = self.dir.join("results.json.tmp");
         let rows: Vec<serde_json::Value> = self.rows.iter().map(row_json).collect();
@@ -338,6 +354,20 @@ impl Sink {
         std::fs::rename(&tmp, &path).map_err(|e| HarnessError::io(&path, e))
     }
 }
+
+/// The files and folders a run writes into its folder (what `run --force` replaces): the rows,
+/// their long form and metadata, and the reports' outputs.
+pub const RUN_OUTPUTS: &[&str] = &[
+    "results.csv",
+    "results.json",
+    "results.json.tmp",
+    "params.csv",
+    "convergence.csv",
+    "convergence-budget.csv",
+    "dynamic.csv",
+    "dynamic-choice.csv",
+    "images",
+];
 
 /// Write a whole results folder at once (`trace-bench merge`): `results.csv`, `params.csv` and
 /// `results.json` of `rows` with `meta`, as a run writes them.
@@ -491,5 +521,33 @@ mod tests {
         assert_eq!(long.len(), 6);
         assert_eq!(long[0], ["3", "param", "bins", "16"].map(String::from));
         assert_eq!(long[5], ["3", "build", "depth_max", "7"].map(String::from));
+    }
+
+    #[test]
+    fn every_write_records_the_time_so_far_so_a_killed_session_keeps_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let meta = serde_json::json!({ "duration_s": null });
+        let mut sink = Sink::open(dir.path(), meta, false).unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(30));
+        sink.push(Row::default()).unwrap();
+        // Killed here: no finish(). The JSON has this session's time so far.
+        let read = || -> serde_json::Value {
+            let t = std::fs::read_to_string(dir.path().join("results.json")).unwrap();
+            serde_json::from_str(&t).unwrap()
+        };
+        let d1 = read()["meta"]["duration_s"].as_f64().expect("a number");
+        assert!(d1 >= 0.03, "{d1}");
+        drop(sink);
+        // Resumed: the killed session's time is carried and this one's added.
+        let meta = serde_json::json!({ "duration_s": null, "start": "t2" });
+        let mut sink = Sink::open(dir.path(), meta, true).unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(30));
+        sink.finish("complete").unwrap();
+        let d2 = read()["meta"]["duration_s"].as_f64().unwrap();
+        assert!(d2 >= d1 + 0.03, "{d1} then {d2}");
+        // finish twice counts the session once.
+        sink.finish("complete").unwrap();
+        let d3 = read()["meta"]["duration_s"].as_f64().unwrap();
+        assert!(d3 < d2 + 0.02, "{d2} then {d3}");
     }
 }
