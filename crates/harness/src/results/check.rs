@@ -1,6 +1,10 @@
-//! `trace-bench check`: compare the deterministic counters of a results file with a committed
-//! baseline. Timings are never compared. A row fails when a counter grows by more than the
-//! relative tolerance, when its mismatch count grows, or when a baseline row is missing.
+//! `trace-bench check`: compare the deterministic columns of a results file with a committed
+//! baseline. Timings are never compared. A row fails when a counter (mean or maximum per ray)
+//! grows by more than the relative tolerance, when its mismatches or capped rays grow at all,
+//! when a column that cannot change without a change of rays or answers changes at all (rays,
+//! validated rays, hit rate), when a baseline row is missing, or when the results hold the same
+//! row twice (the same scene, structure, parameters, traversal, device, threads, triangle test
+//! and ray kind: a file two runs wrote into).
 //!
 //! Rows are matched on scene, structure, params, traversal, triangle test and ray kind; device
 //! and thread count are ignored (counters do not depend on them), so a baseline taken with one
@@ -9,19 +13,49 @@
 use crate::results::output::Row;
 use std::collections::BTreeMap;
 
-/// Counters compared, by column name: the mean per ray of every counter
-/// ([`tb_core::COUNTERS`]), the largest `steps` of a ray, and the oracle mismatches.
+/// Columns compared, by name: the mean and the maximum per ray of every counter
+/// ([`tb_core::COUNTERS`]), then the columns of [`Rule::NoGrowth`] and [`Rule::Exact`].
 pub fn counter_columns() -> Vec<&'static str> {
     tb_core::COUNTERS
         .iter()
-        .map(|c| c.per_ray)
-        .chain(["steps_max", "mismatches"])
+        .flat_map(|c| [c.per_ray, c.max])
+        .chain([
+            "mismatches",
+            "capped_rays",
+            "rays",
+            "validated_rays",
+            "hit_rate",
+        ])
         .collect()
+}
+
+/// How a column may change against the baseline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Rule {
+    /// Within the relative tolerance (counters: a better structure may lower them).
+    Tolerance,
+    /// Never up (mismatches with the oracle, rays ended by a step cap).
+    NoGrowth,
+    /// Never at all (the rays, the rays validated, the share of rays that hit).
+    Exact,
+}
+
+/// The rule of column `name`.
+pub fn rule(name: &str) -> Rule {
+    match name {
+        "mismatches" | "capped_rays" => Rule::NoGrowth,
+        "rays" | "validated_rays" | "hit_rate" => Rule::Exact,
+        _ => Rule::Tolerance,
+    }
 }
 
 fn counter(r: &Row, name: &str) -> Option<f64> {
     match name {
         "mismatches" => r.mismatches.map(|m| m as f64),
+        "capped_rays" => r.capped_rays.map(|m| m as f64),
+        "rays" => Some(r.rays as f64),
+        "validated_rays" => r.validated_rays.map(|m| m as f64),
+        "hit_rate" => r.hit_rate,
         column => r.counter(column),
     }
 }
@@ -54,6 +88,7 @@ pub struct Finding {
 /// Compare `current` rows with `baseline` rows. `tolerance` is relative (0.01 = 1 %).
 /// Returns all findings (changes and failures); the check passes when none has `failed`.
 pub fn compare(baseline: &[Row], current: &[Row], tolerance: f64) -> Vec<Finding> {
+    let mut out = duplicates(current);
     let mut cur: BTreeMap<Key, &Row> = BTreeMap::new();
     for r in current {
         cur.entry(key(r)).or_insert(r);
@@ -62,7 +97,6 @@ pub fn compare(baseline: &[Row], current: &[Row], tolerance: f64) -> Vec<Finding
     for r in baseline {
         base.entry(key(r)).or_insert(r);
     }
-    let mut out = Vec::new();
     for (k, b) in &base {
         let label = format!("{} {} [{}] {} {} {}", k.0, k.1, k.2, k.3, k.4, k.5);
         let Some(c) = cur.get(k) else {
@@ -84,10 +118,10 @@ pub fn compare(baseline: &[Row], current: &[Row], tolerance: f64) -> Vec<Finding
                     if bv == cv {
                         continue;
                     }
-                    let grew = if name == "mismatches" {
-                        cv > bv
-                    } else {
-                        cv > bv * (1.0 + tolerance) + 1e-9
+                    let grew = match rule(name) {
+                        Rule::NoGrowth => cv > bv,
+                        Rule::Exact => (cv - bv).abs() > 1e-9 * bv.abs().max(1.0),
+                        Rule::Tolerance => cv > bv * (1.0 + tolerance) + 1e-9,
                     };
                     let change = if bv > 0.0 { Some(cv / bv - 1.0) } else { None };
                     out.push(Finding {
@@ -113,6 +147,32 @@ pub fn compare(baseline: &[Row], current: &[Row], tolerance: f64) -> Vec<Finding
         }
     }
     out
+}
+
+/// Rows of `rows` with the identity of an earlier row (two runs' rows in one file).
+fn duplicates(rows: &[Row]) -> Vec<Finding> {
+    let mut seen = std::collections::BTreeSet::new();
+    rows.iter()
+        .filter(|r| !seen.insert(r.key()))
+        .map(|r| Finding {
+            row: format!(
+                "{} {} [{}] {} {} {} {} threads {}",
+                r.scene,
+                r.structure,
+                r.params,
+                r.traversal,
+                r.triangle_test,
+                r.ray_kind,
+                r.device,
+                r.threads
+            ),
+            counter: "(duplicate row)".into(),
+            baseline: None,
+            current: None,
+            change: None,
+            failed: true,
+        })
+        .collect()
 }
 
 /// A table of findings for the terminal.
@@ -175,5 +235,41 @@ mod tests {
         let mut bad = row(10.0);
         bad.mismatches = Some(1);
         assert!(compare(&base, &[bad], 0.5).iter().any(|f| f.failed));
+    }
+
+    /// The corruptions a hand-edited or twice-written results file shows (issue 30): each
+    /// fails the check whatever the tolerance, and the untouched file passes.
+    #[test]
+    fn corrupted_rows_fail() {
+        let mut b = row(10.0);
+        b.rays = 1000;
+        b.validated_rays = Some(1000);
+        b.capped_rays = Some(0);
+        b.interior_max = Some(40);
+        b.hit_rate = Some(0.75);
+        let base = vec![b.clone()];
+        assert!(compare(&base, &[b.clone()], 0.5).is_empty());
+        let edits: [(&str, fn(&mut Row)); 6] = [
+            ("validated_rays", |r| r.validated_rays = Some(0)),
+            ("capped_rays", |r| r.capped_rays = Some(3)),
+            ("interior_max", |r| r.interior_max = Some(80)),
+            ("hit_rate", |r| r.hit_rate = Some(0.375)),
+            ("rays", |r| r.rays = 999),
+            ("hit_rate up", |r| r.hit_rate = Some(0.8)),
+        ];
+        for (what, edit) in edits {
+            let mut c = b.clone();
+            edit(&mut c);
+            assert!(
+                compare(&base, &[c], 0.5).iter().any(|f| f.failed),
+                "{what} passed"
+            );
+        }
+        // The same row twice (two runs into one file); another thread count is not a duplicate.
+        let f = compare(&base, &[b.clone(), b.clone()], 0.5);
+        assert!(f.iter().any(|f| f.failed && f.counter == "(duplicate row)"));
+        let mut t2 = b.clone();
+        t2.threads = 2;
+        assert!(compare(&base, &[b, t2], 0.5).is_empty());
     }
 }
