@@ -138,3 +138,20 @@ fn a_resumed_run_keeps_the_time_of_a_killed_session() {
     let d = doc["meta"]["duration_s"].as_f64().unwrap();
     assert!((100.0..200.0).contains(&d), "duration_s {d}");
 }
+
+/// Output into a pipe nobody reads (`trace-bench list | head -1` after head has exited):
+/// exit 0 and no panic message, rather than exit 101.
+#[test]
+fn a_closed_output_pipe_ends_quietly() {
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_trace-bench"))
+        .arg("list")
+        .stdout(writer)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
