@@ -428,34 +428,11 @@ fn obj_triangles(r: impl Read) -> Option<u64> {
     Some(tris.max(1))
 }
 
-/// Triangles of a built-in scene from its parameters (the formulas of
-/// [`tb_scene::builtin::PROCEDURAL`]); stress scenes are small (1000).
+/// Triangles of a built-in scene from its parameters: the scene crate's estimate
+/// ([`tb_scene::builtin::estimate_triangles`], the formulas and defaults of its listing).
 fn builtin_triangles(spec: &str) -> u64 {
-    let (name, query) = spec.split_once('?').unwrap_or((spec, ""));
-    let params: BTreeMap<&str, f64> = query
-        .split('&')
-        .filter_map(|kv| kv.split_once('='))
-        .filter_map(|(k, v)| v.parse::<f64>().ok().map(|v| (k, v)))
-        .collect();
-    let p = |k: &str, d: f64| params.get(k).copied().unwrap_or(d);
-    let teapot = |k: f64| 64.0 * k * k - 8.0 * k;
-    let t = match name {
-        "cornell" => 32.0,
-        "sphereflake" => {
-            let (size, tess) = (p("size", 3.0), p("tess", 1.0));
-            20.0 * 4f64.powf(tess) * (9f64.powf(size + 1.0) - 1.0) / 8.0 + 2.0
-        }
-        "mount" => 2.0 * 4f64.powf(p("size", 6.0)),
-        "tetra" => 4f64.powf(p("size", 5.0) + 1.0),
-        "soup" => p("count", 10000.0),
-        "teapot" => teapot(p("tess", 16.0)),
-        "teapot-stadium" => teapot(p("teapot_tess", 16.0)) + 4.0 * p("segments", 32.0) + 2.0,
-        "arena" => 14.0 * p("rows", 60.0) * p("seats", 1650.0) + 208.0 * p("roof", 64.0) + 2.0,
-        // About 0.8M at 28 blocks and 18 storeys; grows with blocks^2 x storeys.
-        "city" => 8.0e5 * (p("blocks", 28.0) / 28.0).powi(2) * p("storeys", 18.0) / 18.0,
-        _ => 1000.0,
-    };
-    t.max(1.0).round() as u64
+    tb_scene::builtin::estimate_triangles(spec)
+        .unwrap_or(tb_scene::builtin::STRESS_TRIANGLES_ESTIMATE)
 }
 
 #[cfg(test)]
@@ -557,5 +534,6 @@ mod tests {
         assert_eq!(builtin_triangles("teapot-stadium"), 16_256 + 130);
         assert_eq!(builtin_triangles("soup?count=20000&seed=7"), 20_000);
         assert_eq!(builtin_triangles("arena"), 1_399_314);
+        assert_eq!(builtin_triangles("hairball"), 2_880_000);
     }
 }
