@@ -832,6 +832,12 @@ impl Structure for Bvh {
     }
 }
 
+impl tb_core::ParamRules for BvhParams {
+    fn rules(&self) -> Result<(), String> {
+        self.check().map_err(|e| e.to_string())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -878,11 +884,5 @@ mod tests {
         let mut b = good.clone();
         b.nodes.push(BvhNode::EMPTY);
         assert!(err(&b).contains("unreachable"));
-    }
-}
-
-impl tb_core::ParamRules for BvhParams {
-    fn rules(&self) -> Result<(), String> {
-        self.check().map_err(|e| e.to_string())
     }
 }

@@ -50,7 +50,9 @@
 //! referenced in every leaf cell it touches.
 
 mod build;
+mod gpu;
 pub mod layout;
+mod params;
 pub mod stackless;
 pub mod traverse;
 pub mod view;
@@ -59,16 +61,16 @@ pub mod view;
 mod start_tests;
 
 use stackless::Stackless;
-use std::borrow::Cow;
 use std::sync::{Arc, OnceLock};
 use tb_core::{
-    build_with, dispatch, Aabb, AccelError, BuildReport, Family, GpuProgram, MemoryReport,
-    ParamKind, Params, Structure, Traversal, TraversalInfo, Triangle,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Family, MemoryReport, Structure,
+    Traversal, TraversalInfo, Triangle,
 };
 use traverse::Tree;
 use view::Aux;
 
 pub use layout::{DepthFirst, KdLayout, Layout, Nodes, Treelet};
+pub use params::{BoxMeasure, KdBuilder, KdParams, SurfaceArea};
 pub use stackless::{MAX_SHORT_STACK, STEP_CAP};
 pub use traverse::{split_decision, Best, Decision, Kind, SLACK, STACK_SIZE};
 pub use view::{BackNode, KdStart, KdView};
@@ -101,100 +103,6 @@ pub static FAMILY: Family = Family::new::<KdTree, KdParams>(
     },
 )
 .with_rules::<KdParams>();
-
-tb_core::choice! {
-    /// Which split-search algorithm the builder uses.
-    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-    pub enum KdBuilder {
-        /// Exact SAH sweep over events sorted once at the root and passed down, only the events
-        /// of re-clipped straddling triangles sorted per node: O(N log N) (Wald and Havran 2006,
-        /// §5). The same tree as `sweep-nlog2n`.
-        Sweep = "sweep",
-        /// Exact SAH sweep over the sorted events of each node, the events sorted anew at every
-        /// node: O(N log² N) (Wald and Havran 2006, §4.2).
-        SweepNlog2n = "sweep-nlog2n",
-        /// SAH evaluated only at the `bins − 1` inner boundaries of `bins` equal intervals of
-        /// the node cell on each axis, from per-bin counts of box starts and ends (min-max
-        /// binning, Shevtsov et al. 2007; Hapala and Havran 2011 §2): O(N) per node.
-        Binned = "binned",
-    }
-}
-
-tb_core::params! {
-    /// Build parameters of [`KdTree::build`]; each field's doc, default and range is its entry
-    /// in the parameter table ([`Params::SPECS`]).
-    #[derive(Clone, Copy, Debug, PartialEq)]
-    pub struct KdParams {
-        /// Split search: exact SAH event sweep, O(N log N) (`sweep`) or O(N log² N)
-        /// (`sweep-nlog2n`, the same tree) (Wald and Havran 2006), or min-max binning
-        /// (`binned`, Shevtsov et al. 2007).
-        builder: KdBuilder = KdBuilder::Sweep, ParamKind::Choice(KdBuilder::NAMES);
-        /// Bins per axis, `binned` builder only.
-        bins: u32 = 32, ParamKind::Int { min: 2, max: 1024 };
-        /// SAH traversal cost C_trav (Hapala and Havran 2011, section 2).
-        c_trav: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
-        /// SAH triangle test cost C_isect (the review uses C_trav ≈ 1, C_isect ≈ 1.5).
-        c_isect: f32 = 1.5, ParamKind::Float { min: 1e-6, max: 1e6 };
-        /// A split with an empty side costs (1 - bonus) times the SAH (Wald and Havran 2006
-        /// use the factor 0.8, i.e. bonus 0.2).
-        empty_bonus: f32 = 0.2, ParamKind::Float { min: 0.0, max: 0.999 };
-        /// Depth limit (root depth 0); 0 = round(8 + 1.3 log2 N) (Havran 2000), capped at
-        /// the traversal stack (64 entries).
-        max_depth: u32 = 0, ParamKind::Int { min: 0, max: STACK_SIZE as i64 };
-        /// Nodes with at most this many triangles become leaves.
-        min_leaf: u32 = 1, ParamKind::Int { min: 0, max: 1024 };
-        /// Entries of the short stack (`short-stack` traversal, Horn et al. 2007;
-        /// `stack-spilling`, Novák 2009).
-        short_stack: u32 = 4, ParamKind::Int { min: 1, max: MAX_SHORT_STACK as i64 };
-        /// Per-ray step cap of the restart-type traversals (`restart` … `ropes`); capped rays
-        /// are ended with their closest hit so far and counted (a guard: these walks end).
-        step_cap: u32 = STEP_CAP, ParamKind::Int { min: 1, max: 1 << 30 };
-        /// Node layout: left child next to its parent (`depth-first`), or subtrees in aligned
-        /// blocks (`treelet`) (Havran 1999; Hapala and Havran 2011, section 6); every
-        /// traversal visits the same nodes in both.
-        layout: KdLayout = KdLayout::DepthFirst, ParamKind::Choice(KdLayout::NAMES);
-        /// Levels per treelet block, 2^h 8-byte slots (3 = one 64-byte cache line).
-        treelet_height: u32 = 3, ParamKind::Int { min: 2, max: 8 };
-    }
-}
-
-impl KdParams {
-    /// Check every field against its range in the parameter table ([`Params::SPECS`]).
-    pub fn check(&self) -> Result<(), AccelError> {
-        for ((name, value), spec) in self.to_set().0.iter().zip(Self::SPECS) {
-            spec.check(value)
-                .map_err(|e| AccelError::Params(format!("kd-tree parameter `{name}`: {e}")))?;
-        }
-        Ok(())
-    }
-
-    /// The depth limit for `n` triangles: `max_depth`, or when 0, `round(8 + 1.3·log2 n)`
-    /// capped at [`STACK_SIZE`].
-    pub fn depth_limit(&self, n: usize) -> u32 {
-        if self.max_depth > 0 {
-            return self.max_depth;
-        }
-        let d = 8.0 + 1.3 * (n.max(1) as f64).log2();
-        (d.round() as u32).min(STACK_SIZE as u32)
-    }
-}
-
-/// The measure of a cell used by the SAH: the probability that a ray hitting a node's cell
-/// hits a child cell is taken as `measure(child) / measure(node)`.
-pub trait BoxMeasure: Sync {
-    fn measure(&self, b: &Aabb) -> f32;
-}
-
-/// The surface area (half of it; only ratios matter): uniformly distributed rays.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct SurfaceArea;
-
-impl BoxMeasure for SurfaceArea {
-    #[inline(always)]
-    fn measure(&self, b: &Aabb) -> f32 {
-        b.half_area()
-    }
-}
 
 /// One node of the flattened tree, 8 bytes (review §6; `#[repr(C)]`, two GPU words).
 ///
@@ -565,172 +473,6 @@ pub fn intersect(a: &Aabb, b: &Aabb) -> Aabb {
     }
 }
 
-/// The GPU kernels of `shaders/kdtree.wgsl` (its override constant `KERNEL`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum GpuKernel {
-    Recursive = 0,
-    Restart = 1,
-    PushDown = 2,
-    ShortStack = 3,
-    Ropes = 4,
-    Sequential = 5,
-    Backtrack = 6,
-}
-
-/// The names of the `short-stack` GPU programs by stack size 1 ..= [`MAX_SHORT_STACK`] (the
-/// size is the program's `STACK_SIZE`, so the compiler sizes the stack exactly).
-const SHORT_STACK_PROGRAMS: [&str; MAX_SHORT_STACK] = [
-    "kdtree/short-stack-1",
-    "kdtree/short-stack-2",
-    "kdtree/short-stack-3",
-    "kdtree/short-stack-4",
-    "kdtree/short-stack-5",
-    "kdtree/short-stack-6",
-    "kdtree/short-stack-7",
-    "kdtree/short-stack-8",
-    "kdtree/short-stack-9",
-    "kdtree/short-stack-10",
-    "kdtree/short-stack-11",
-    "kdtree/short-stack-12",
-    "kdtree/short-stack-13",
-    "kdtree/short-stack-14",
-    "kdtree/short-stack-15",
-    "kdtree/short-stack-16",
-    "kdtree/short-stack-17",
-    "kdtree/short-stack-18",
-    "kdtree/short-stack-19",
-    "kdtree/short-stack-20",
-    "kdtree/short-stack-21",
-    "kdtree/short-stack-22",
-    "kdtree/short-stack-23",
-    "kdtree/short-stack-24",
-    "kdtree/short-stack-25",
-    "kdtree/short-stack-26",
-    "kdtree/short-stack-27",
-    "kdtree/short-stack-28",
-    "kdtree/short-stack-29",
-    "kdtree/short-stack-30",
-    "kdtree/short-stack-31",
-    "kdtree/short-stack-32",
-];
-
-/// Little-endian bytes of `w` (the GPU's words).
-fn words(w: impl IntoIterator<Item = u32>) -> Cow<'static, [u8]> {
-    Cow::Owned(w.into_iter().flat_map(u32::to_le_bytes).collect())
-}
-
-/// The GPU programs (`shaders/kd.wgsl` then `shaders/kdtree.wgsl`, on tb-gpu's prelude; README
-/// "GPU"): one per traversal, each the CPU kernel's walk in the CPU's order with the same
-/// decisions (so the counters agree ray for ray), in either layout, from the tree's start.
-impl KdTree {
-    /// The program `name` running `kernel`: the triangles in scene order; buffers: the node
-    /// array (two words per [`KdNode`]), the references, a 12-word header (the start node; the
-    /// layout: 0 depth-first, else the treelet block's slot mask; the start cell; the step cap)
-    /// and the auxiliary arrays (`backtrack`: [`KdTree::back_nodes`]; `ropes`: those then
-    /// [`KdTree::ropes`]; else one unused word); meta word: the node count. The stack holds
-    /// [`STACK_SIZE`] entries for `recursive-direction`, [`KdParams::short_stack`] for
-    /// `short-stack` (the circular stack; one program per size, [`SHORT_STACK_PROGRAMS`], since
-    /// a program's stack size is fixed by its name), none for the others.
-    fn gpu(&self, name: &'static str, kernel: GpuKernel) -> GpuProgram<'_> {
-        let mask = match self.params.layout {
-            KdLayout::DepthFirst => 0,
-            KdLayout::Treelet => (1u32 << self.params.treelet_height) - 1,
-        };
-        let (b0, b1) = (self.start.cell.min, self.start.cell.max);
-        let header = [
-            self.start.node,
-            0,
-            0,
-            0,
-            mask,
-            b0.x.to_bits(),
-            b0.y.to_bits(),
-            b0.z.to_bits(),
-            b1.x.to_bits(),
-            b1.y.to_bits(),
-            b1.z.to_bits(),
-            self.params.step_cap,
-        ];
-        let back = || {
-            self.back_nodes().iter().flat_map(|b| {
-                let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));
-                [lo[0], lo[1], lo[2], b.parent, hi[0], hi[1], hi[2], 0]
-            })
-        };
-        let aux = match kernel {
-            GpuKernel::Ropes => words(back().chain(self.ropes().iter().flatten().copied())),
-            GpuKernel::Backtrack => words(back()),
-            _ => words([0]),
-        };
-        let stack_size = match kernel {
-            GpuKernel::Recursive => STACK_SIZE,
-            GpuKernel::ShortStack => self.params.short_stack as usize,
-            _ => 1,
-        };
-        GpuProgram::new(
-            name,
-            concat!(
-                include_str!("../shaders/kd.wgsl"),
-                include_str!("../shaders/kdtree.wgsl")
-            ),
-            &self.tris[..],
-        )
-        .buffer(
-            "the kd-tree node array",
-            words(self.nodes.iter().flat_map(|n| [n.bits, n.data])),
-        )
-        .buffer(
-            "the kd-tree reference array",
-            words(self.prim_refs.iter().copied()),
-        )
-        .buffer("the kd-tree header", words(header))
-        .buffer("the kd-tree cell, parent and rope arrays", aux)
-        .meta([self.nodes.len() as u32, 0, 0])
-        .stack(stack_size as u32)
-        .constant("KERNEL", kernel as u32 as f64)
-    }
-
-    /// `recursive-direction` with its full stack in the invocation's memory (review §3.2,
-    /// Alg. 2; Novák 2009's finding, review §5.2: a conventional stack in memory is viable on
-    /// GPUs).
-    fn gpu_recursive(&self) -> GpuProgram<'_> {
-        self.gpu("kdtree/recursive-direction", GpuKernel::Recursive)
-    }
-
-    /// `restart` (Foley and Sugerman 2005; review §5.1).
-    fn gpu_restart(&self) -> GpuProgram<'_> {
-        self.gpu("kdtree/restart", GpuKernel::Restart)
-    }
-
-    /// `push-down` (Horn et al. 2007; review §5.2, Alg. 4).
-    fn gpu_push_down(&self) -> GpuProgram<'_> {
-        self.gpu("kdtree/push-down", GpuKernel::PushDown)
-    }
-
-    /// `short-stack` (Horn et al. 2007; review §5.2): program `kdtree/short-stack-N` with a
-    /// circular stack of `N = short_stack` entries.
-    fn gpu_short_stack(&self) -> GpuProgram<'_> {
-        let name = SHORT_STACK_PROGRAMS[self.params.short_stack as usize - 1];
-        self.gpu(name, GpuKernel::ShortStack)
-    }
-
-    /// `sequential` (Kaplan 1985; review §3.1, Alg. 1).
-    fn gpu_sequential(&self) -> GpuProgram<'_> {
-        self.gpu("kdtree/sequential", GpuKernel::Sequential)
-    }
-
-    /// `backtrack` (Foley and Sugerman 2005; review §5.1.1, Alg. 3): reads the cells and
-    /// parents.
-    fn gpu_backtrack(&self) -> GpuProgram<'_> {
-        self.gpu("kdtree/backtrack", GpuKernel::Backtrack)
-    }
-
-    /// `ropes` (Havran et al. 1998, Popov et al. 2007; review §3.3): reads the cells and ropes.
-    fn gpu_ropes(&self) -> GpuProgram<'_> {
-        self.gpu("kdtree/ropes", GpuKernel::Ropes)
-    }
-}
-
 /// A traversal table row's trace fn: the kernel `$kernel` (an expression of the tree `$kd` and
 /// the kernels' input `$w`, a [`Tree`] from the tree's start) compiled for each layout; the
 /// layout is picked once per batch, then [`tb_core::dispatch`] picks the variant for the
@@ -1000,7 +742,7 @@ impl Structure for KdTree {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tb_core::{Accel, HitRecord, ParamValue, Query, Ray, TriTestKind, Vec3};
+    use tb_core::{Accel, HitRecord, ParamValue, Params, Query, Ray, TriTestKind, Vec3};
 
     fn grid() -> Vec<Triangle> {
         (0..64)
@@ -1276,11 +1018,5 @@ mod tests {
         assert_eq!(figures(&kd), before);
         assert_eq!(kd.back_nodes().len(), kd.nodes().len());
         assert_eq!(kd.ropes().len(), kd.nodes().len());
-    }
-}
-
-impl tb_core::ParamRules for KdParams {
-    fn rules(&self) -> Result<(), String> {
-        self.check().map_err(|e| e.to_string())
     }
 }

@@ -908,6 +908,12 @@ impl Structure for MultiKdTree {
     }
 }
 
+impl tb_core::ParamRules for MultiKdParams {
+    fn rules(&self) -> Result<(), String> {
+        self.kd().check().map_err(|e| e.to_string())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1177,11 +1183,5 @@ mod tests {
         let mut set = (FAMILY.defaults)();
         set.0[0].1 = tb_core::ParamValue::Str("sphere".into());
         assert!((FAMILY.build)(&tris, &set).is_err());
-    }
-}
-
-impl tb_core::ParamRules for MultiKdParams {
-    fn rules(&self) -> Result<(), String> {
-        self.kd().check().map_err(|e| e.to_string())
     }
 }

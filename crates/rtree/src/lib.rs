@@ -572,6 +572,12 @@ impl Structure for Rtree {
     }
 }
 
+impl tb_core::ParamRules for RtreeParams {
+    fn rules(&self) -> Result<(), String> {
+        self.check().map_err(|e| e.to_string())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -813,11 +819,5 @@ mod tests {
         let mut b = good.clone();
         b.nodes.push(RtreeNode::EMPTY);
         assert!(b.validate().is_err());
-    }
-}
-
-impl tb_core::ParamRules for RtreeParams {
-    fn rules(&self) -> Result<(), String> {
-        self.check().map_err(|e| e.to_string())
     }
 }

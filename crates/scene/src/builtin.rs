@@ -185,9 +185,12 @@ pub const PROCEDURAL: &[BuiltinInfo] = &[
 /// What the shard planner assumes of a stress scene (`builtin:stress/…`): they are small.
 pub const STRESS_TRIANGLES_ESTIMATE: u64 = 1000;
 
+/// A triangle count as a function of the parameters (`p(key)`).
+type TriangleFormula = fn(&dyn Fn(&str) -> f64) -> f64;
+
 /// The triangle count of procedural scene `name` as a formula of its parameters (`p(key)`:
 /// the value given, else the default of [`PROCEDURAL`]'s entry), as each entry's doc states it.
-fn triangle_formula(name: &str) -> Option<fn(&dyn Fn(&str) -> f64) -> f64> {
+fn triangle_formula(name: &str) -> Option<TriangleFormula> {
     fn teapot(k: f64) -> f64 {
         64.0 * k * k - 8.0 * k
     }

@@ -249,7 +249,8 @@ mod tests {
         b.hit_rate = Some(0.75);
         let base = vec![b.clone()];
         assert!(compare(&base, &[b.clone()], 0.5).is_empty());
-        let edits: [(&str, fn(&mut Row)); 6] = [
+        type Edit = (&'static str, fn(&mut Row));
+        let edits: [Edit; 6] = [
             ("validated_rays", |r| r.validated_rays = Some(0)),
             ("capped_rays", |r| r.capped_rays = Some(3)),
             ("interior_max", |r| r.interior_max = Some(80)),

@@ -1,0 +1,171 @@
+//! The kd-tree's GPU programs (review §3-5 on the GPU; README "GPU").
+
+use crate::{KdLayout, KdTree, MAX_SHORT_STACK, STACK_SIZE};
+use std::borrow::Cow;
+use tb_core::GpuProgram;
+
+/// The GPU kernels of `shaders/kdtree.wgsl` (its override constant `KERNEL`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum GpuKernel {
+    Recursive = 0,
+    Restart = 1,
+    PushDown = 2,
+    ShortStack = 3,
+    Ropes = 4,
+    Sequential = 5,
+    Backtrack = 6,
+}
+
+/// The names of the `short-stack` GPU programs by stack size 1 ..= [`MAX_SHORT_STACK`] (the
+/// size is the program's `STACK_SIZE`, so the compiler sizes the stack exactly).
+const SHORT_STACK_PROGRAMS: [&str; MAX_SHORT_STACK] = [
+    "kdtree/short-stack-1",
+    "kdtree/short-stack-2",
+    "kdtree/short-stack-3",
+    "kdtree/short-stack-4",
+    "kdtree/short-stack-5",
+    "kdtree/short-stack-6",
+    "kdtree/short-stack-7",
+    "kdtree/short-stack-8",
+    "kdtree/short-stack-9",
+    "kdtree/short-stack-10",
+    "kdtree/short-stack-11",
+    "kdtree/short-stack-12",
+    "kdtree/short-stack-13",
+    "kdtree/short-stack-14",
+    "kdtree/short-stack-15",
+    "kdtree/short-stack-16",
+    "kdtree/short-stack-17",
+    "kdtree/short-stack-18",
+    "kdtree/short-stack-19",
+    "kdtree/short-stack-20",
+    "kdtree/short-stack-21",
+    "kdtree/short-stack-22",
+    "kdtree/short-stack-23",
+    "kdtree/short-stack-24",
+    "kdtree/short-stack-25",
+    "kdtree/short-stack-26",
+    "kdtree/short-stack-27",
+    "kdtree/short-stack-28",
+    "kdtree/short-stack-29",
+    "kdtree/short-stack-30",
+    "kdtree/short-stack-31",
+    "kdtree/short-stack-32",
+];
+
+/// Little-endian bytes of `w` (the GPU's words).
+fn words(w: impl IntoIterator<Item = u32>) -> Cow<'static, [u8]> {
+    Cow::Owned(w.into_iter().flat_map(u32::to_le_bytes).collect())
+}
+
+/// The GPU programs (`shaders/kd.wgsl` then `shaders/kdtree.wgsl`, on tb-gpu's prelude; README
+/// "GPU"): one per traversal, each the CPU kernel's walk in the CPU's order with the same
+/// decisions (so the counters agree ray for ray), in either layout, from the tree's start.
+impl KdTree {
+    /// The program `name` running `kernel`: the triangles in scene order; buffers: the node
+    /// array (two words per [`KdNode`]), the references, a 12-word header (the start node; the
+    /// layout: 0 depth-first, else the treelet block's slot mask; the start cell; the step cap)
+    /// and the auxiliary arrays (`backtrack`: [`KdTree::back_nodes`]; `ropes`: those then
+    /// [`KdTree::ropes`]; else one unused word); meta word: the node count. The stack holds
+    /// [`STACK_SIZE`] entries for `recursive-direction`, [`KdParams::short_stack`] for
+    /// `short-stack` (the circular stack; one program per size, [`SHORT_STACK_PROGRAMS`], since
+    /// a program's stack size is fixed by its name), none for the others.
+    pub(crate) fn gpu(&self, name: &'static str, kernel: GpuKernel) -> GpuProgram<'_> {
+        let mask = match self.params.layout {
+            KdLayout::DepthFirst => 0,
+            KdLayout::Treelet => (1u32 << self.params.treelet_height) - 1,
+        };
+        let (b0, b1) = (self.start.cell.min, self.start.cell.max);
+        let header = [
+            self.start.node,
+            0,
+            0,
+            0,
+            mask,
+            b0.x.to_bits(),
+            b0.y.to_bits(),
+            b0.z.to_bits(),
+            b1.x.to_bits(),
+            b1.y.to_bits(),
+            b1.z.to_bits(),
+            self.params.step_cap,
+        ];
+        let back = || {
+            self.back_nodes().iter().flat_map(|b| {
+                let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));
+                [lo[0], lo[1], lo[2], b.parent, hi[0], hi[1], hi[2], 0]
+            })
+        };
+        let aux = match kernel {
+            GpuKernel::Ropes => words(back().chain(self.ropes().iter().flatten().copied())),
+            GpuKernel::Backtrack => words(back()),
+            _ => words([0]),
+        };
+        let stack_size = match kernel {
+            GpuKernel::Recursive => STACK_SIZE,
+            GpuKernel::ShortStack => self.params.short_stack as usize,
+            _ => 1,
+        };
+        GpuProgram::new(
+            name,
+            concat!(
+                include_str!("../shaders/kd.wgsl"),
+                include_str!("../shaders/kdtree.wgsl")
+            ),
+            &self.tris[..],
+        )
+        .buffer(
+            "the kd-tree node array",
+            words(self.nodes.iter().flat_map(|n| [n.bits, n.data])),
+        )
+        .buffer(
+            "the kd-tree reference array",
+            words(self.prim_refs.iter().copied()),
+        )
+        .buffer("the kd-tree header", words(header))
+        .buffer("the kd-tree cell, parent and rope arrays", aux)
+        .meta([self.nodes.len() as u32, 0, 0])
+        .stack(stack_size as u32)
+        .constant("KERNEL", kernel as u32 as f64)
+    }
+
+    /// `recursive-direction` with its full stack in the invocation's memory (review §3.2,
+    /// Alg. 2; Novák 2009's finding, review §5.2: a conventional stack in memory is viable on
+    /// GPUs).
+    pub(crate) fn gpu_recursive(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/recursive-direction", GpuKernel::Recursive)
+    }
+
+    /// `restart` (Foley and Sugerman 2005; review §5.1).
+    pub(crate) fn gpu_restart(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/restart", GpuKernel::Restart)
+    }
+
+    /// `push-down` (Horn et al. 2007; review §5.2, Alg. 4).
+    pub(crate) fn gpu_push_down(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/push-down", GpuKernel::PushDown)
+    }
+
+    /// `short-stack` (Horn et al. 2007; review §5.2): program `kdtree/short-stack-N` with a
+    /// circular stack of `N = short_stack` entries.
+    pub(crate) fn gpu_short_stack(&self) -> GpuProgram<'_> {
+        let name = SHORT_STACK_PROGRAMS[self.params.short_stack as usize - 1];
+        self.gpu(name, GpuKernel::ShortStack)
+    }
+
+    /// `sequential` (Kaplan 1985; review §3.1, Alg. 1).
+    pub(crate) fn gpu_sequential(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/sequential", GpuKernel::Sequential)
+    }
+
+    /// `backtrack` (Foley and Sugerman 2005; review §5.1.1, Alg. 3): reads the cells and
+    /// parents.
+    pub(crate) fn gpu_backtrack(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/backtrack", GpuKernel::Backtrack)
+    }
+
+    /// `ropes` (Havran et al. 1998, Popov et al. 2007; review §3.3): reads the cells and ropes.
+    pub(crate) fn gpu_ropes(&self) -> GpuProgram<'_> {
+        self.gpu("kdtree/ropes", GpuKernel::Ropes)
+    }
+}
