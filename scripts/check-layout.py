@@ -22,24 +22,7 @@ STRUCTURE_CRATES = ("tb_bvh", "tb_kdtree", "tb_sparse", "tb_rtree", "tb_grid", "
 MAX_FN_LINES = 100
 # Functions over MAX_FN_LINES when this check was written (2026-11-27), and their lengths:
 # a ceiling, not a licence.
-LONG = {
-    ("crates/cli/src/lib.rs", "dispatch"): 208,
-    ("crates/harness/src/experiment/config/scenes.rs", "check_scene"): 193,
-    ("crates/harness/src/results/merge.rs", "merge"): 175,
-    ("crates/harness/src/claims/eval.rs", "run_test"): 170,
-    ("crates/harness/src/experiment/config/mod.rs", "parse_with"): 167,
-    ("crates/harness/src/report/convergence/config.rs", "check"): 153,
-    ("crates/harness/src/experiment/config/run.rs", "check_run"): 139,
-    ("crates/harness/src/report/images/mod.rs", "write_build"): 140,
-    ("crates/harness/src/report/convergence/mod.rs", "build_done"): 132,
-    ("crates/harness/src/experiment/batches.rs", "generate_batches"): 132,
-    ("crates/harness/src/report/dynamic/config.rs", "check"): 118,
-    ("crates/harness/src/claims/eval.rs", "combine"): 110,
-    ("crates/harness/src/report/dynamic/mod.rs", "run"): 109,
-    ("crates/harness/src/experiment/config/overrides.rs", "filter"): 108,
-    ("crates/harness/src/experiment/runner/mod.rs", "measure_row"): 104,
-    ("crates/harness/src/claims/eval.rs", "evaluate_claim"): 103,
-}
+LONG = {}
 
 
 def code_of(text):

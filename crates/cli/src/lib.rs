@@ -34,6 +34,19 @@ struct Select {
     sets: Vec<String>,
 }
 
+impl Select {
+    /// The overrides of this selection and scenes root, the rest left at their defaults.
+    fn overrides(self, scenes_root: Option<PathBuf>) -> Overrides {
+        Overrides {
+            scenes_root,
+            sets: self.sets,
+            scenes: self.scenes,
+            structures: self.structures,
+            ..Default::default()
+        }
+    }
+}
+
 #[derive(Subcommand)]
 enum Cmd {
     /// Run an experiment: build, trace, count, validate; write results.csv and results.json.
@@ -265,16 +278,13 @@ fn dispatch(cli: Cli) -> Result<i32> {
             quiet,
         } => {
             let ov = Overrides {
-                scenes_root,
                 threads,
                 repeat,
                 devices: device,
                 adapter,
                 backend,
-                sets: select.sets,
-                scenes: select.scenes,
-                structures: select.structures,
                 shard,
+                ..select.overrides(scenes_root)
             };
             cmd_run(&config, out, ov, resume, force, quiet)
         }
@@ -284,16 +294,7 @@ fn dispatch(cli: Cli) -> Result<i32> {
             select,
             show,
             quiet,
-        } => {
-            let ov = Overrides {
-                scenes_root,
-                sets: select.sets,
-                scenes: select.scenes,
-                structures: select.structures,
-                ..Default::default()
-            };
-            cmd_validate(&config, ov, show, quiet)
-        }
+        } => cmd_validate(&config, select.overrides(scenes_root), show, quiet),
         Cmd::Check {
             baseline,
             results,
@@ -306,39 +307,8 @@ fn dispatch(cli: Cli) -> Result<i32> {
             max,
             out,
         } => cmd_diff(&a, &b, &channel, max, &out),
-        Cmd::Merge { dirs, out } => {
-            let r = tb_harness::results::merge::merge(&dirs, &out)?;
-            for n in &r.notes {
-                eprintln!("note: {n}");
-            }
-            for m in &r.missing {
-                println!("missing: {m}");
-            }
-            println!(
-                "merged {} shard folders: {} rows to {}",
-                dirs.len(),
-                r.rows,
-                out.join("results.csv").display()
-            );
-            if r.missing.is_empty() {
-                Ok(0)
-            } else {
-                println!(
-                    "incomplete: {} work units have missing rows (rerun their shards with --resume)",
-                    r.missing.len()
-                );
-                Ok(1)
-            }
-        }
-        Cmd::List { markdown } => {
-            let registry = tb_harness::registry::Registry::builtin();
-            if markdown {
-                print!("{}", registry.markdown().map_err(anyhow::Error::msg)?);
-            } else {
-                print!("{}", registry.listing());
-            }
-            Ok(0)
-        }
+        Cmd::Merge { dirs, out } => cmd_merge(&dirs, &out),
+        Cmd::List { markdown } => cmd_list(markdown),
         Cmd::Reproduce {
             paper,
             budget,
@@ -382,78 +352,123 @@ fn dispatch(cli: Cli) -> Result<i32> {
             beta,
             decimals,
             csv,
-        } => {
-            let betas = if beta.is_empty() {
-                tb_harness::registry::weights::TABLE2_BETAS.to_vec()
-            } else {
-                beta
-            };
-            if let Some(b) = betas.iter().find(|b| !(**b > 0.0 && b.is_finite())) {
-                bail!("--beta {b}: beta must be a positive number");
-            }
-            print!(
-                "{}",
-                tb_harness::registry::weights::weight_tables(&betas, decimals.min(12))
-            );
-            if let Some(path) = csv {
-                let mut text = String::from("table,heuristic,beta,patch,axis,weight_pct\n");
-                for (t, h, b, p, a, w) in tb_harness::registry::weights::weight_rows(&betas) {
-                    text.push_str(&format!("{t},{h},{b},{p},{a},{w}\n"));
-                }
-                if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-                    std::fs::create_dir_all(dir)
-                        .with_context(|| format!("{}: cannot create", dir.display()))?;
-                }
-                std::fs::write(&path, text)
-                    .with_context(|| format!("{}: cannot write", path.display()))?;
-                eprintln!("wrote {}", path.display());
-            }
-            Ok(0)
+        } => cmd_weights(beta, decimals, csv),
+        Cmd::Scenes => cmd_scenes(),
+        Cmd::Info { scene, scenes_root } => cmd_info(&scene, scenes_root),
+    }
+}
+
+/// `trace-bench merge`: merge the shards' folders and print what is missing.
+fn cmd_merge(dirs: &[PathBuf], out: &Path) -> Result<i32> {
+    let r = tb_harness::results::merge::merge(dirs, out)?;
+    for n in &r.notes {
+        eprintln!("note: {n}");
+    }
+    for m in &r.missing {
+        println!("missing: {m}");
+    }
+    println!(
+        "merged {} shard folders: {} rows to {}",
+        dirs.len(),
+        r.rows,
+        out.join("results.csv").display()
+    );
+    if r.missing.is_empty() {
+        Ok(0)
+    } else {
+        println!(
+            "incomplete: {} work units have missing rows (rerun their shards with --resume)",
+            r.missing.len()
+        );
+        Ok(1)
+    }
+}
+
+/// `trace-bench list`: the registry's structures, as a listing or the README's table.
+fn cmd_list(markdown: bool) -> Result<i32> {
+    let registry = tb_harness::registry::Registry::builtin();
+    if markdown {
+        print!("{}", registry.markdown().map_err(anyhow::Error::msg)?);
+    } else {
+        print!("{}", registry.listing());
+    }
+    Ok(0)
+}
+
+/// `trace-bench weights`: print (and optionally write) the multi-kd-tree weight tables.
+fn cmd_weights(beta: Vec<f64>, decimals: usize, csv: Option<PathBuf>) -> Result<i32> {
+    let betas = if beta.is_empty() {
+        tb_harness::registry::weights::TABLE2_BETAS.to_vec()
+    } else {
+        beta
+    };
+    if let Some(b) = betas.iter().find(|b| !(**b > 0.0 && b.is_finite())) {
+        bail!("--beta {b}: beta must be a positive number");
+    }
+    print!(
+        "{}",
+        tb_harness::registry::weights::weight_tables(&betas, decimals.min(12))
+    );
+    if let Some(path) = csv {
+        let mut text = String::from("table,heuristic,beta,patch,axis,weight_pct\n");
+        for (t, h, b, p, a, w) in tb_harness::registry::weights::weight_rows(&betas) {
+            text.push_str(&format!("{t},{h},{b},{p},{a},{w}\n"));
         }
-        Cmd::Scenes => {
-            for s in tb_scene::builtin::list() {
-                println!("builtin:{:<28} {}", s.name, s.doc);
-                for p in s.params {
-                    println!("    {p}");
-                }
-            }
-            Ok(0)
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("{}: cannot create", dir.display()))?;
         }
-        Cmd::Info { scene, scenes_root } => {
-            let root = scenes_root.unwrap_or_else(|| PathBuf::from("scenes"));
-            let s = tb_scene::load(&scene, &root)?;
-            let b = s.bounds;
-            println!("scene       {}", s.source);
-            println!("triangles   {}", s.triangles.len());
-            println!("zero-area   {}", s.degenerate_count());
-            println!(
-                "bounds      [{}, {}, {}] .. [{}, {}, {}]",
-                b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
-            );
-            println!("diagonal    {}", b.diagonal());
-            println!("memory      {} bytes (triangles)", s.memory_bytes());
-            if let Some(v) = &s.view {
-                let c = v.camera;
-                let light = match v.light {
-                    Some(l) => format!("{:?}", l.to_array()),
-                    None => "none".into(),
-                };
-                println!(
-                    "view        eye {:?} target {:?} fov {} {}x{}; light {light}; ao distance {}",
-                    c.eye.to_array(),
-                    c.target.to_array(),
-                    c.fov,
-                    c.width,
-                    c.height,
-                    v.ao_distance
-                );
-            }
-            if !s.own_rays.is_empty() {
-                println!("own rays    {}", s.own_rays.len());
-            }
-            Ok(0)
+        std::fs::write(&path, text).with_context(|| format!("{}: cannot write", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(0)
+}
+
+/// `trace-bench scenes`: list the built-in scenes and their parameters.
+fn cmd_scenes() -> Result<i32> {
+    for s in tb_scene::builtin::list() {
+        println!("builtin:{:<28} {}", s.name, s.doc);
+        for p in s.params {
+            println!("    {p}");
         }
     }
+    Ok(0)
+}
+
+/// `trace-bench info`: print a scene's triangles, bounds, zero-area count and memory.
+fn cmd_info(scene: &str, scenes_root: Option<PathBuf>) -> Result<i32> {
+    let root = scenes_root.unwrap_or_else(|| PathBuf::from("scenes"));
+    let s = tb_scene::load(scene, &root)?;
+    let b = s.bounds;
+    println!("scene       {}", s.source);
+    println!("triangles   {}", s.triangles.len());
+    println!("zero-area   {}", s.degenerate_count());
+    println!(
+        "bounds      [{}, {}, {}] .. [{}, {}, {}]",
+        b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
+    );
+    println!("diagonal    {}", b.diagonal());
+    println!("memory      {} bytes (triangles)", s.memory_bytes());
+    if let Some(v) = &s.view {
+        let c = v.camera;
+        let light = match v.light {
+            Some(l) => format!("{:?}", l.to_array()),
+            None => "none".into(),
+        };
+        println!(
+            "view        eye {:?} target {:?} fov {} {}x{}; light {light}; ao distance {}",
+            c.eye.to_array(),
+            c.target.to_array(),
+            c.fov,
+            c.width,
+            c.height,
+            v.ao_distance
+        );
+    }
+    if !s.own_rays.is_empty() {
+        println!("own rays    {}", s.own_rays.len());
+    }
+    Ok(0)
 }
 
 fn load(config: &Path, ov: &Overrides, quiet: bool) -> Result<config::Experiment> {

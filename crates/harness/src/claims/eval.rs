@@ -725,37 +725,27 @@ fn ratio(n: &Value, d: &Value) -> [f64; 3] {
     ]
 }
 
+/// A test's outcome on one group: verdict, the compared quantity as shown, the compared
+/// quantity with its interval (band tests), why.
+type Outcome = (Verdict, String, Option<[f64; 3]>, String);
+
+/// `d`, widened to at least the between-process floor when the comparison is timed.
+fn floored(d: [f64; 3], timed: bool, floor: f64) -> [f64; 3] {
+    if timed {
+        floor_iv(d, floor)
+    } else {
+        d
+    }
+}
+
 /// Run the test on one group's values.
-fn run_test(
-    test: &Test,
-    vals: &BTreeMap<String, Value>,
-    floor: f64,
-) -> (Verdict, String, Option<[f64; 3]>, String) {
+fn run_test(test: &Test, vals: &BTreeMap<String, Value>, floor: f64) -> Outcome {
     let v = |n: &str| &vals[n];
     let timed = vals.values().any(|x| x.timed);
     // A timed comparison's interval is at least the between-process floor.
-    let fl = |d: [f64; 3]| if timed { floor_iv(d, floor) } else { d };
+    let fl = |d: [f64; 3]| floored(d, timed, floor);
     let ratio = |a: &Value, b: &Value| fl(ratio(a, b));
-    let banded = |d: [f64; 3], min, max, pct: bool| {
-        let verdict = band_verdict(d[0], d[2], min, max);
-        let unit = if pct { " %" } else { "" };
-        let shown = if timed {
-            format!("{}{unit} [{}, {}]", fmt(d[1]), fmt(d[0]), fmt(d[2]))
-        } else {
-            format!("{}{unit}", fmt(d[1]))
-        };
-        let why = match verdict {
-            Verdict::Agree => format!("in {}", band_text(min, max)),
-            Verdict::Disagree => format!("outside {}", band_text(min, max)),
-            Verdict::Inconclusive if timed => format!(
-                "interval straddles {} (a time's is at least ±{} %: the variation between runs)",
-                band_text(min, max),
-                fmt(100.0 * floor)
-            ),
-            Verdict::Inconclusive => format!("interval straddles {}", band_text(min, max)),
-        };
-        (verdict, shown, Some(d), why)
-    };
+    let banded = |d: [f64; 3], min, max, pct: bool| banded(d, min, max, pct, timed, floor);
     match test {
         Test::Value { of, min, max } => {
             let x = v(of);
@@ -776,125 +766,187 @@ fn run_test(
             rows,
             strict,
             margin,
-        } => {
-            let verdicts: Vec<Verdict> = rows
-                .windows(2)
-                .map(|w| before(v(&w[0]), v(&w[1]), *strict, *margin, floor))
-                .collect();
-            // Each neighbour pair with the relation measured (`<`, `=`, `>`).
-            let mut shown = String::new();
-            for (i, n) in rows.iter().enumerate() {
-                if i > 0 {
-                    let (a, b) = (v(&rows[i - 1]).v, v(n).v);
-                    shown.push_str(match a.partial_cmp(&b) {
-                        Some(std::cmp::Ordering::Less) => " < ",
-                        Some(std::cmp::Ordering::Equal) => " = ",
-                        _ => " > ",
-                    });
-                }
-                shown.push_str(&format!("{n} {}", fmt_iv(v(n).v, v(n).lo, v(n).hi, timed)));
-            }
-            let broken: Vec<String> = rows
-                .windows(2)
-                .zip(&verdicts)
-                .filter(|(_, x)| **x != Verdict::Agree)
-                .map(|(w, x)| {
-                    let rel = if *x == Verdict::Disagree {
-                        "not below"
-                    } else {
-                        "overlaps"
-                    };
-                    format!("{} {rel} {}", w[0], w[1])
-                })
-                .collect();
-            let why = if broken.is_empty() {
-                format!("in order ({} rows)", rows.len())
-            } else {
-                broken.join("; ")
-            };
-            (all_of(verdicts), shown, None, why)
-        }
+        } => order_test(rows, *strict, *margin, vals, timed, floor),
         Test::Least {
             best,
             of,
             margin,
             direction,
-        } => {
-            let b = v(best);
-            let verdicts: Vec<(Verdict, &String)> = of
-                .iter()
-                .map(|o| {
-                    let x = v(o);
-                    let r = match direction {
-                        Direction::Lowest => before(b, x, true, *margin, floor),
-                        Direction::Highest => above(b, x, *margin, floor),
-                    };
-                    (r, o)
-                })
-                .collect();
-            // The nearest rival.
-            let rival = of
-                .iter()
-                .min_by(|a, c| {
-                    let key = |n: &str| match direction {
-                        Direction::Lowest => v(n).v,
-                        Direction::Highest => -v(n).v,
-                    };
-                    key(a).total_cmp(&key(c))
-                })
-                .expect("least has rivals");
-            let shown = format!(
-                "{best} {}; next {rival} {}",
-                fmt_iv(b.v, b.lo, b.hi, timed),
-                fmt_iv(v(rival).v, v(rival).lo, v(rival).hi, timed)
-            );
-            let word = match direction {
-                Direction::Lowest => "not below",
-                Direction::Highest => "not above",
-            };
-            let why = verdicts
-                .iter()
-                .filter(|(x, _)| *x != Verdict::Agree)
-                .map(|(x, o)| {
-                    if *x == Verdict::Disagree {
-                        format!("{best} {word} {o} ({})", fmt(v(o).v))
-                    } else {
-                        format!("{best} overlaps {o}")
-                    }
-                })
-                .collect::<Vec<_>>()
-                .join("; ");
-            let why = if why.is_empty() {
-                let word = match direction {
-                    Direction::Lowest => "lowest",
-                    Direction::Highest => "highest",
-                };
-                format!("{word} of {}", of.len() + 1)
-            } else {
-                why
-            };
-            (all_of(verdicts.into_iter().map(|x| x.0)), shown, None, why)
-        }
-        Test::Equal { a, b, tolerance } => {
-            let (x, y) = (v(a), v(b));
-            let r = ratio(x, y);
-            let verdict = if timed {
-                band_verdict(r[0], r[2], Some(1.0 - tolerance), Some(1.0 + tolerance))
-            } else if (x.v - y.v).abs() <= tolerance * x.v.abs().max(y.v.abs()) {
-                Verdict::Agree
-            } else {
-                Verdict::Disagree
-            };
-            let shown = format!(
-                "{a} {}, {b} {} (Δ {} %)",
-                fmt_iv(x.v, x.lo, x.hi, timed),
-                fmt_iv(y.v, y.lo, y.hi, timed),
-                fmt(100.0 * (r[1] - 1.0))
-            );
-            let why = format!("tolerance {} %", fmt(100.0 * tolerance));
-            (verdict, shown, Some(r), why)
-        }
+        } => least_test(best, of, *margin, *direction, vals, timed, floor),
+        Test::Equal { a, b, tolerance } => equal_test(a, b, *tolerance, vals, timed, floor),
     }
+}
+
+/// A band test's outcome: the compared quantity `d` (percent when `pct`) in `min..=max`.
+fn banded(
+    d: [f64; 3],
+    min: Option<f64>,
+    max: Option<f64>,
+    pct: bool,
+    timed: bool,
+    floor: f64,
+) -> Outcome {
+    let verdict = band_verdict(d[0], d[2], min, max);
+    let unit = if pct { " %" } else { "" };
+    let shown = if timed {
+        format!("{}{unit} [{}, {}]", fmt(d[1]), fmt(d[0]), fmt(d[2]))
+    } else {
+        format!("{}{unit}", fmt(d[1]))
+    };
+    let why = match verdict {
+        Verdict::Agree => format!("in {}", band_text(min, max)),
+        Verdict::Disagree => format!("outside {}", band_text(min, max)),
+        Verdict::Inconclusive if timed => format!(
+            "interval straddles {} (a time's is at least ±{} %: the variation between runs)",
+            band_text(min, max),
+            fmt(100.0 * floor)
+        ),
+        Verdict::Inconclusive => format!("interval straddles {}", band_text(min, max)),
+    };
+    (verdict, shown, Some(d), why)
+}
+
+/// The `order` test: each row before the next.
+fn order_test(
+    rows: &[String],
+    strict: bool,
+    margin: f64,
+    vals: &BTreeMap<String, Value>,
+    timed: bool,
+    floor: f64,
+) -> Outcome {
+    let v = |n: &str| &vals[n];
+    let verdicts: Vec<Verdict> = rows
+        .windows(2)
+        .map(|w| before(v(&w[0]), v(&w[1]), strict, margin, floor))
+        .collect();
+    // Each neighbour pair with the relation measured (`<`, `=`, `>`).
+    let mut shown = String::new();
+    for (i, n) in rows.iter().enumerate() {
+        if i > 0 {
+            let (a, b) = (v(&rows[i - 1]).v, v(n).v);
+            shown.push_str(match a.partial_cmp(&b) {
+                Some(std::cmp::Ordering::Less) => " < ",
+                Some(std::cmp::Ordering::Equal) => " = ",
+                _ => " > ",
+            });
+        }
+        shown.push_str(&format!("{n} {}", fmt_iv(v(n).v, v(n).lo, v(n).hi, timed)));
+    }
+    let broken: Vec<String> = rows
+        .windows(2)
+        .zip(&verdicts)
+        .filter(|(_, x)| **x != Verdict::Agree)
+        .map(|(w, x)| {
+            let rel = if *x == Verdict::Disagree {
+                "not below"
+            } else {
+                "overlaps"
+            };
+            format!("{} {rel} {}", w[0], w[1])
+        })
+        .collect();
+    let why = if broken.is_empty() {
+        format!("in order ({} rows)", rows.len())
+    } else {
+        broken.join("; ")
+    };
+    (all_of(verdicts), shown, None, why)
+}
+
+/// The `least` test: `best` below (above) every row of `of` by the margin.
+fn least_test(
+    best: &str,
+    of: &[String],
+    margin: f64,
+    direction: Direction,
+    vals: &BTreeMap<String, Value>,
+    timed: bool,
+    floor: f64,
+) -> Outcome {
+    let v = |n: &str| &vals[n];
+    let b = v(best);
+    let verdicts: Vec<(Verdict, &String)> = of
+        .iter()
+        .map(|o| {
+            let x = v(o);
+            let r = match direction {
+                Direction::Lowest => before(b, x, true, margin, floor),
+                Direction::Highest => above(b, x, margin, floor),
+            };
+            (r, o)
+        })
+        .collect();
+    // The nearest rival.
+    let rival = of
+        .iter()
+        .min_by(|a, c| {
+            let key = |n: &str| match direction {
+                Direction::Lowest => v(n).v,
+                Direction::Highest => -v(n).v,
+            };
+            key(a).total_cmp(&key(c))
+        })
+        .expect("least has rivals");
+    let shown = format!(
+        "{best} {}; next {rival} {}",
+        fmt_iv(b.v, b.lo, b.hi, timed),
+        fmt_iv(v(rival).v, v(rival).lo, v(rival).hi, timed)
+    );
+    let word = match direction {
+        Direction::Lowest => "not below",
+        Direction::Highest => "not above",
+    };
+    let why = verdicts
+        .iter()
+        .filter(|(x, _)| *x != Verdict::Agree)
+        .map(|(x, o)| {
+            if *x == Verdict::Disagree {
+                format!("{best} {word} {o} ({})", fmt(v(o).v))
+            } else {
+                format!("{best} overlaps {o}")
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("; ");
+    let why = if why.is_empty() {
+        let word = match direction {
+            Direction::Lowest => "lowest",
+            Direction::Highest => "highest",
+        };
+        format!("{word} of {}", of.len() + 1)
+    } else {
+        why
+    };
+    (all_of(verdicts.into_iter().map(|x| x.0)), shown, None, why)
+}
+
+/// The `equal` test: `a` and `b` within the tolerance of each other.
+fn equal_test(
+    a: &str,
+    b: &str,
+    tolerance: f64,
+    vals: &BTreeMap<String, Value>,
+    timed: bool,
+    floor: f64,
+) -> Outcome {
+    let (x, y) = (&vals[a], &vals[b]);
+    let r = floored(ratio(x, y), timed, floor);
+    let verdict = if timed {
+        band_verdict(r[0], r[2], Some(1.0 - tolerance), Some(1.0 + tolerance))
+    } else if (x.v - y.v).abs() <= tolerance * x.v.abs().max(y.v.abs()) {
+        Verdict::Agree
+    } else {
+        Verdict::Disagree
+    };
+    let shown = format!(
+        "{a} {}, {b} {} (Δ {} %)",
+        fmt_iv(x.v, x.lo, x.hi, timed),
+        fmt_iv(y.v, y.lo, y.hi, timed),
+        fmt(100.0 * (r[1] - 1.0))
+    );
+    let why = format!("tolerance {} %", fmt(100.0 * tolerance));
+    (verdict, shown, Some(r), why)
 }
 
 // ---------------------------------------------------------------------------------------
@@ -916,6 +968,12 @@ pub fn evaluate_with(file: &ClaimsFile, rows: &RowSet, opts: &Options) -> Vec<Cl
     out
 }
 
+/// The rows of each selector by group (selector → group → rows), and every group.
+type Grouped<'a> = (
+    BTreeMap<&'a str, BTreeMap<String, Vec<&'a Row>>>,
+    BTreeSet<String>,
+);
+
 fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> ClaimResult {
     let m = Measure::parse(&c.measure).expect("checked when the file was loaded");
     let names: Vec<&str> = {
@@ -931,78 +989,11 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
         .iter()
         .filter(|r| filter_matches(c, device, r))
         .collect();
-    // Selector → group → rows.
-    let mut by: BTreeMap<&str, BTreeMap<String, Vec<&Row>>> = BTreeMap::new();
-    let mut groups: BTreeSet<String> = BTreeSet::new();
-    for n in &names {
-        let s = &c.rows[*n];
-        let e = by.entry(n).or_default();
-        for r in base.iter().filter(|r| selector_matches(s, r)) {
-            let g = group_key(&c.per, r);
-            groups.insert(g.clone());
-            e.entry(g).or_default().push(r);
-        }
-    }
-    let mut results = Vec::new();
-    for g in &groups {
-        let mut vals = BTreeMap::new();
-        let mut problems = Vec::new();
-        for n in &names {
-            match by[n].get(g) {
-                None => problems.push(format!("no rows for `{n}`")),
-                Some(rs) => match pool(n, rs, &m, c.pool) {
-                    Ok(v) => {
-                        vals.insert(n.to_string(), v);
-                    }
-                    Err(e) => problems.push(e),
-                },
-            }
-        }
-        results.push(if problems.is_empty() {
-            let (mut verdict, shown, derived, mut why) = run_test(&c.test, &vals, opts.time_floor);
-            let noisy: usize = vals.values().map(|v| v.noisy).sum();
-            let software: usize = vals.values().map(|v| v.software).sum();
-            let few: usize = vals.values().map(|v| v.few_runs).sum();
-            let timed: Vec<&Value> = vals.values().filter(|v| v.timed).collect();
-            let paired = timed.len() >= 2 && timed.windows(2).all(|w| w[0].paired(w[1]));
-            if few > 0 {
-                why = format!(
-                    "{few} timed rows have fewer than {MIN_TIMED_RUNS} timed runs (no interval); {why}"
-                );
-                verdict = Verdict::Inconclusive;
-            } else if software > 0 {
-                why = format!(
-                    "timed on a software GPU adapter ({software} rows), not GPU figures; {why}"
-                );
-                verdict = Verdict::Inconclusive;
-            } else if noisy > 0 && paired {
-                // Load fell on every row alike: the round-by-round ratio is what is judged.
-                why = format!(
-                    "{noisy} timed rows noisy, compared round by round (timed interleaved); {why}"
-                );
-            } else if noisy > 0 {
-                why = format!("{noisy} of the timed rows are noisy; {why}");
-                verdict = Verdict::Inconclusive;
-            }
-            GroupResult {
-                group: g.clone(),
-                verdict,
-                shown,
-                derived,
-                why,
-                values: vals,
-            }
-        } else {
-            GroupResult {
-                group: g.clone(),
-                verdict: Verdict::Inconclusive,
-                shown: "—".into(),
-                derived: None,
-                why: problems.join("; "),
-                values: vals,
-            }
-        });
-    }
+    let (by, groups) = group_rows(c, &names, &base);
+    let results: Vec<GroupResult> = groups
+        .iter()
+        .map(|g| evaluate_group(c, g, &names, &by, &m, opts))
+        .collect();
     let (verdict, ours, why) = combine(c, device, &results, &base, set);
     ClaimResult {
         id: c.id.clone(),
@@ -1020,6 +1011,99 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
     }
 }
 
+/// The rows each selector of `names` matches among `base`, by group.
+fn group_rows<'a>(c: &Claim, names: &[&'a str], base: &[&'a Row]) -> Grouped<'a> {
+    let mut by: BTreeMap<&str, BTreeMap<String, Vec<&Row>>> = BTreeMap::new();
+    let mut groups: BTreeSet<String> = BTreeSet::new();
+    for n in names {
+        let s = &c.rows[*n];
+        let e = by.entry(n).or_default();
+        for r in base.iter().filter(|r| selector_matches(s, r)) {
+            let g = group_key(&c.per, r);
+            groups.insert(g.clone());
+            e.entry(g).or_default().push(r);
+        }
+    }
+    (by, groups)
+}
+
+/// One group's result: its selectors' values pooled and the test run on them.
+fn evaluate_group(
+    c: &Claim,
+    g: &str,
+    names: &[&str],
+    by: &BTreeMap<&str, BTreeMap<String, Vec<&Row>>>,
+    m: &Measure,
+    opts: &Options,
+) -> GroupResult {
+    let mut vals = BTreeMap::new();
+    let mut problems = Vec::new();
+    for n in names {
+        match by[n].get(g) {
+            None => problems.push(format!("no rows for `{n}`")),
+            Some(rs) => match pool(n, rs, m, c.pool) {
+                Ok(v) => {
+                    vals.insert(n.to_string(), v);
+                }
+                Err(e) => problems.push(e),
+            },
+        }
+    }
+    if problems.is_empty() {
+        let (verdict, shown, derived, why) = run_test(&c.test, &vals, opts.time_floor);
+        let (verdict, why) = timing_caveats(&vals, verdict, why);
+        GroupResult {
+            group: g.to_owned(),
+            verdict,
+            shown,
+            derived,
+            why,
+            values: vals,
+        }
+    } else {
+        GroupResult {
+            group: g.to_owned(),
+            verdict: Verdict::Inconclusive,
+            shown: "—".into(),
+            derived: None,
+            why: problems.join("; "),
+            values: vals,
+        }
+    }
+}
+
+/// The test's verdict and why, with the caveats of the timed values: too few runs, a
+/// software GPU adapter or noisy rows make it inconclusive (noisy rows timed interleaved
+/// only a note).
+fn timing_caveats(
+    vals: &BTreeMap<String, Value>,
+    mut verdict: Verdict,
+    mut why: String,
+) -> (Verdict, String) {
+    let noisy: usize = vals.values().map(|v| v.noisy).sum();
+    let software: usize = vals.values().map(|v| v.software).sum();
+    let few: usize = vals.values().map(|v| v.few_runs).sum();
+    let timed: Vec<&Value> = vals.values().filter(|v| v.timed).collect();
+    let paired = timed.len() >= 2 && timed.windows(2).all(|w| w[0].paired(w[1]));
+    if few > 0 {
+        why = format!(
+            "{few} timed rows have fewer than {MIN_TIMED_RUNS} timed runs (no interval); {why}"
+        );
+        verdict = Verdict::Inconclusive;
+    } else if software > 0 {
+        why = format!("timed on a software GPU adapter ({software} rows), not GPU figures; {why}");
+        verdict = Verdict::Inconclusive;
+    } else if noisy > 0 && paired {
+        // Load fell on every row alike: the round-by-round ratio is what is judged.
+        why =
+            format!("{noisy} timed rows noisy, compared round by round (timed interleaved); {why}");
+    } else if noisy > 0 {
+        why = format!("{noisy} of the timed rows are noisy; {why}");
+        verdict = Verdict::Inconclusive;
+    }
+    (verdict, why)
+}
+
 /// The claim's verdict, `ours` and `why` from its groups' results.
 fn combine(
     c: &Claim,
@@ -1029,15 +1113,11 @@ fn combine(
     set: &RowSet,
 ) -> (Verdict, String, String) {
     if gs.is_empty() {
-        let why = if set.rows.is_empty() {
-            "no rows read".to_owned()
-        } else if base.is_empty() {
-            format!("rows missing: no {device} row matches the claim's filter")
-        } else {
-            let names: Vec<String> = c.test.names().iter().map(|n| format!("`{n}`")).collect();
-            format!("rows missing: no row matches {}", names.join(", "))
-        };
-        return (Verdict::Inconclusive, "—".into(), why);
+        return (
+            Verdict::Inconclusive,
+            "—".into(),
+            no_groups_why(c, device, base, set),
+        );
     }
     let count = |v: Verdict| gs.iter().filter(|g| g.verdict == v).count();
     let (agree, disagree, n) = (count(Verdict::Agree), count(Verdict::Disagree), gs.len());
@@ -1050,57 +1130,8 @@ fn combine(
         Need::Most if 2 * disagree >= n => Verdict::Disagree,
         _ => Verdict::Inconclusive,
     };
-    let ours = if n == 1 {
-        gs[0].shown.clone()
-    } else {
-        let ds: Vec<f64> = gs.iter().filter_map(|g| g.derived.map(|d| d[1])).collect();
-        let pct = if matches!(c.test, Test::Gain { .. }) {
-            " %"
-        } else {
-            ""
-        };
-        if ds.len() == n {
-            let lo = ds.iter().copied().fold(f64::INFINITY, f64::min);
-            let hi = ds.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            format!("{}..{}{pct} ({n} groups)", fmt(lo), fmt(hi))
-        } else {
-            format!("{agree} of {n} groups hold")
-        }
-    };
-    let label = |g: &GroupResult| {
-        if g.group.is_empty() {
-            g.why.clone()
-        } else if n > 1 && g.derived.is_some() {
-            format!("{}: {}, {}", g.group, g.shown, g.why)
-        } else {
-            format!("{}: {}", g.group, g.why)
-        }
-    };
-    let list = |v: Verdict| {
-        // Reasons shared by several groups (an ambiguous selector) are said once.
-        let mut sel: Vec<String> = Vec::new();
-        let mut said: BTreeSet<&str> = BTreeSet::new();
-        for g in gs.iter().filter(|g| g.verdict == v) {
-            if g.derived.is_none() && v == Verdict::Inconclusive {
-                if said.insert(g.why.as_str()) {
-                    let k = gs.iter().filter(|h| h.why == g.why).count();
-                    sel.push(if k > 1 {
-                        format!("{} groups: {}", k, g.why)
-                    } else {
-                        label(g)
-                    });
-                }
-            } else {
-                sel.push(label(g));
-            }
-        }
-        let more = sel.len().saturating_sub(4);
-        let mut s = sel.into_iter().take(4).collect::<Vec<_>>().join("; ");
-        if more > 0 {
-            s.push_str(&format!("; +{more} more"));
-        }
-        s
-    };
+    let ours = combined_ours(c, gs, agree);
+    let list = |v: Verdict| reasons(gs, v);
     let why = match verdict {
         Verdict::Agree if n == 1 => gs[0].why.clone(),
         Verdict::Agree if agree == n => format!("all {n} groups"),
@@ -1130,6 +1161,79 @@ fn combine(
         }
     };
     (verdict, ours, why)
+}
+
+/// Why a claim has no group: no rows, none of the device matching the filter, or none
+/// matching the selectors.
+fn no_groups_why(c: &Claim, device: &str, base: &[&Row], set: &RowSet) -> String {
+    if set.rows.is_empty() {
+        "no rows read".to_owned()
+    } else if base.is_empty() {
+        format!("rows missing: no {device} row matches the claim's filter")
+    } else {
+        let names: Vec<String> = c.test.names().iter().map(|n| format!("`{n}`")).collect();
+        format!("rows missing: no row matches {}", names.join(", "))
+    }
+}
+
+/// A claim's `ours` from its groups (`agree` of them agreeing): the one group's, the range
+/// of the compared quantities, or how many groups hold.
+fn combined_ours(c: &Claim, gs: &[GroupResult], agree: usize) -> String {
+    let n = gs.len();
+    if n == 1 {
+        gs[0].shown.clone()
+    } else {
+        let ds: Vec<f64> = gs.iter().filter_map(|g| g.derived.map(|d| d[1])).collect();
+        let pct = if matches!(c.test, Test::Gain { .. }) {
+            " %"
+        } else {
+            ""
+        };
+        if ds.len() == n {
+            let lo = ds.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = ds.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            format!("{}..{}{pct} ({n} groups)", fmt(lo), fmt(hi))
+        } else {
+            format!("{agree} of {n} groups hold")
+        }
+    }
+}
+
+/// The reasons of the groups with verdict `v`, at most four (and how many more).
+fn reasons(gs: &[GroupResult], v: Verdict) -> String {
+    let n = gs.len();
+    let label = |g: &GroupResult| {
+        if g.group.is_empty() {
+            g.why.clone()
+        } else if n > 1 && g.derived.is_some() {
+            format!("{}: {}, {}", g.group, g.shown, g.why)
+        } else {
+            format!("{}: {}", g.group, g.why)
+        }
+    };
+    // Reasons shared by several groups (an ambiguous selector) are said once.
+    let mut sel: Vec<String> = Vec::new();
+    let mut said: BTreeSet<&str> = BTreeSet::new();
+    for g in gs.iter().filter(|g| g.verdict == v) {
+        if g.derived.is_none() && v == Verdict::Inconclusive {
+            if said.insert(g.why.as_str()) {
+                let k = gs.iter().filter(|h| h.why == g.why).count();
+                sel.push(if k > 1 {
+                    format!("{} groups: {}", k, g.why)
+                } else {
+                    label(g)
+                });
+            }
+        } else {
+            sel.push(label(g));
+        }
+    }
+    let more = sel.len().saturating_sub(4);
+    let mut s = sel.into_iter().take(4).collect::<Vec<_>>().join("; ");
+    if more > 0 {
+        s.push_str(&format!("; +{more} more"));
+    }
+    s
 }
 
 #[cfg(test)]

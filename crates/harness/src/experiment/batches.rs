@@ -2,7 +2,7 @@
 //! random, stress.
 
 use crate::experiment::config::{RayKindSpec, SceneSpec};
-use tb_core::{Query, Ray, TriTestKind};
+use tb_core::{HitRecord, Query, Ray, TriTestKind};
 use tb_scene::rays::{self, RayKind};
 
 /// One ray batch of a scene: a kind and its rays (or why there are none).
@@ -62,31 +62,8 @@ pub fn generate_batches(
             &primary,
         );
         let nhit = hits.iter().filter(|h| h.is_hit()).count();
-        let none = |what: &str| Some(format!("no {what} rays: no primary ray hits the scene"));
         if wants(RayKindSpec::Shadow) {
-            match spec.light {
-                Some(light) => {
-                    let r = rays::shadow(tris, &primary, &hits, light);
-                    let skipped = if r.is_empty() { none("shadow") } else { None };
-                    out.push(Batch {
-                        name: RayKind::Shadow.name(),
-                        query: Query::Any,
-                        rays: r,
-                        skipped,
-                    });
-                }
-                None => {
-                    let why = "skipped: the scene has no light (set `light` in the scene table)"
-                        .to_string();
-                    notes.push(format!("{}: shadow rays {why}", spec.label));
-                    out.push(Batch {
-                        name: RayKind::Shadow.name(),
-                        query: Query::Any,
-                        rays: Vec::new(),
-                        skipped: Some(why),
-                    });
-                }
-            }
+            out.push(shadow_batch(spec, &primary, &hits, notes));
         }
         if wants(RayKindSpec::Ao) {
             let r = rays::ao(
@@ -97,7 +74,7 @@ pub fn generate_batches(
                 spec.ao_distance,
                 seed,
             );
-            let skipped = if nhit == 0 { none("ao") } else { None };
+            let skipped = if nhit == 0 { no_hits("ao") } else { None };
             out.push(Batch {
                 name: RayKind::Ao.name(),
                 query: Query::Any,
@@ -106,30 +83,7 @@ pub fn generate_batches(
             });
         }
         if wants(RayKindSpec::Path) {
-            let (mut prev_rays, mut prev_hits) = (primary.clone(), hits);
-            for b in 1..=spec.bounces {
-                let r = rays::bounce(tris, &prev_rays, &prev_hits, seed.wrapping_add(b as u64));
-                let skipped = if r.is_empty() {
-                    Some(format!("no rays: no ray of bounce {} hit the scene", b - 1))
-                } else {
-                    None
-                };
-                let h = tb_core::par::trace(
-                    gen.as_ref(),
-                    0,
-                    Query::Closest,
-                    TriTestKind::Watertight,
-                    &r,
-                );
-                out.push(Batch {
-                    name: RayKind::Path(b).name(),
-                    query: Query::Closest,
-                    rays: r.clone(),
-                    skipped,
-                });
-                prev_rays = r;
-                prev_hits = h;
-            }
+            out.extend(path_batches(spec, gen.as_ref(), &primary, hits, seed));
         }
     }
     if wants(RayKindSpec::Random) {
@@ -148,6 +102,79 @@ pub fn generate_batches(
             rays: spec.scene.own_rays.clone(),
             skipped: None,
         });
+    }
+    out
+}
+
+/// The note of a secondary batch without rays: no primary ray hit the scene.
+fn no_hits(what: &str) -> Option<String> {
+    Some(format!("no {what} rays: no primary ray hits the scene"))
+}
+
+/// The shadow rays from the primary hits to the scene's light (skipped, with a note, when it
+/// has none).
+fn shadow_batch(
+    spec: &SceneSpec,
+    primary: &[Ray],
+    hits: &[HitRecord],
+    notes: &mut Vec<String>,
+) -> Batch {
+    match spec.light {
+        Some(light) => {
+            let r = rays::shadow(&spec.scene.triangles, primary, hits, light);
+            let skipped = if r.is_empty() {
+                no_hits("shadow")
+            } else {
+                None
+            };
+            Batch {
+                name: RayKind::Shadow.name(),
+                query: Query::Any,
+                rays: r,
+                skipped,
+            }
+        }
+        None => {
+            let why =
+                "skipped: the scene has no light (set `light` in the scene table)".to_string();
+            notes.push(format!("{}: shadow rays {why}", spec.label));
+            Batch {
+                name: RayKind::Shadow.name(),
+                query: Query::Any,
+                rays: Vec::new(),
+                skipped: Some(why),
+            }
+        }
+    }
+}
+
+/// The path batches path1..k: each bounce from the hits of the one before, found by `gen`.
+fn path_batches(
+    spec: &SceneSpec,
+    gen: &dyn tb_core::Accel,
+    primary: &[Ray],
+    hits: Vec<HitRecord>,
+    seed: u64,
+) -> Vec<Batch> {
+    let tris = &spec.scene.triangles;
+    let mut out = Vec::new();
+    let (mut prev_rays, mut prev_hits) = (primary.to_vec(), hits);
+    for b in 1..=spec.bounces {
+        let r = rays::bounce(tris, &prev_rays, &prev_hits, seed.wrapping_add(b as u64));
+        let skipped = if r.is_empty() {
+            Some(format!("no rays: no ray of bounce {} hit the scene", b - 1))
+        } else {
+            None
+        };
+        let h = tb_core::par::trace(gen, 0, Query::Closest, TriTestKind::Watertight, &r);
+        out.push(Batch {
+            name: RayKind::Path(b).name(),
+            query: Query::Closest,
+            rays: r.clone(),
+            skipped,
+        });
+        prev_rays = r;
+        prev_hits = h;
     }
     out
 }

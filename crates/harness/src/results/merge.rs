@@ -72,6 +72,16 @@ fn shown(v: &Value) -> String {
     }
 }
 
+/// A work unit of the shard plan: scene, structure, params, rows expected, shard.
+type PlanUnit = (String, String, String, u64, u64);
+
+/// Where a plan's units and scenes first appear: (scene, structure, params) -> unit, scene ->
+/// its first unit.
+struct PlanIndex<'a> {
+    unit_of: HashMap<(&'a str, &'a str, &'a str), usize>,
+    scene_first: HashMap<&'a str, usize>,
+}
+
 /// Merge the shard folders `dirs` into `out` (which must not hold results yet).
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> {
     if dirs.is_empty() {
@@ -87,6 +97,33 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
         .iter()
         .map(|d| read_shard(d))
         .collect::<Result<Vec<_>, _>>()?;
+    let first = &shards[0];
+    let by_k = check_same_run(&shards)?;
+    let n = first.meta["shard"]["n"].as_u64().unwrap_or(0);
+    let plan = plan_of(&first.meta);
+    let index = index_plan(&plan);
+    let mut report = MergeReport::default();
+    for s in shards.iter().filter(|s| s.torn) {
+        report.notes.push(format!(
+            "{}: left out a torn last line of results.csv (an interrupted shard: rerun it with \
+             --resume)",
+            s.dir.display()
+        ));
+    }
+    let rows = ordered_rows(&shards, &index, &mut report);
+    report.missing = missing_units(&plan, &rows, &by_k, n);
+    let rows: Vec<Row> = rows.into_iter().map(|(_, _, r)| r).collect();
+    report.rows = rows.len();
+    note_hosts(&rows, &mut report);
+    let meta = merged_meta(&shards, &report, n);
+    crate::results::output::write_all(out, meta, &rows)?;
+    merge_companions(&shards, out, &index)?;
+    Ok(report)
+}
+
+/// Check that the shards are of the same run (config, binary, partition) and of different
+/// shards; their folders by shard number.
+fn check_same_run(shards: &[ShardDir]) -> Result<BTreeMap<u64, &Path>, HarnessError> {
     let first = &shards[0];
     // Same run: config, binary, partition.
     type Field = fn(&Value) -> Value;
@@ -118,7 +155,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
         }
     }
     let mut by_k: BTreeMap<u64, &Path> = BTreeMap::new();
-    for s in &shards {
+    for s in shards {
         if let Some(other) = by_k.insert(s.k, &s.dir) {
             return Err(refuse(format!(
                 "{} and {} are both shard {}/{}",
@@ -129,9 +166,12 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
             )));
         }
     }
-    let n = first.meta["shard"]["n"].as_u64().unwrap_or(0);
-    // The plan: units in run order.
-    let plan: Vec<(String, String, String, u64, u64)> = first.meta["shard"]["plan"]
+    Ok(by_k)
+}
+
+/// The plan of a shard's metadata: units in run order.
+fn plan_of(meta: &Value) -> Vec<PlanUnit> {
+    meta["shard"]["plan"]
         .as_array()
         .map(|a| {
             a.iter()
@@ -146,26 +186,34 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
                 })
                 .collect()
         })
-        .unwrap_or_default();
+        .unwrap_or_default()
+}
+
+/// The first unit of each (scene, structure, params) and of each scene of the plan.
+fn index_plan(plan: &[PlanUnit]) -> PlanIndex<'_> {
     let mut unit_of: HashMap<(&str, &str, &str), usize> = HashMap::new();
     let mut scene_first: HashMap<&str, usize> = HashMap::new();
     for (i, (sc, st, p, _, _)) in plan.iter().enumerate() {
         unit_of.entry((sc, st, p)).or_insert(i);
         scene_first.entry(sc).or_insert(i);
     }
-    let mut report = MergeReport::default();
-    for s in shards.iter().filter(|s| s.torn) {
-        report.notes.push(format!(
-            "{}: left out a torn last line of results.csv (an interrupted shard: rerun it with \
-             --resume)",
-            s.dir.display()
-        ));
+    PlanIndex {
+        unit_of,
+        scene_first,
     }
-    // Rows in plan order; rows outside the plan (none, from a shard of this plan) last.
+}
+
+/// The shards' rows without duplicates, as (unit, arrival, row) in plan order; rows outside
+/// the plan (none, from a shard of this plan) last.
+fn ordered_rows(
+    shards: &[ShardDir],
+    index: &PlanIndex,
+    report: &mut MergeReport,
+) -> Vec<(usize, usize, Row)> {
     let mut seen: HashSet<RowKey> = HashSet::new();
     let mut rows: Vec<(usize, usize, Row)> = Vec::new();
     let mut dropped = 0;
-    for s in &shards {
+    for s in shards {
         for r in &s.rows {
             if !seen.insert(r.key()) {
                 dropped += 1;
@@ -173,10 +221,11 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
             }
             // A view's row (`TABLE@VIEW`) belongs to its table's unit.
             let table = match r.scene.rsplit_once('@') {
-                Some((t, _)) if !scene_first.contains_key(r.scene.as_str()) => t,
+                Some((t, _)) if !index.scene_first.contains_key(r.scene.as_str()) => t,
                 _ => r.scene.as_str(),
             };
-            let u = unit_of
+            let u = index
+                .unit_of
                 .get(&(table, r.structure.as_str(), r.params.as_str()))
                 .copied()
                 .unwrap_or(usize::MAX);
@@ -189,8 +238,19 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
             .push(format!("{dropped} duplicate rows dropped (kept the first)"));
     }
     rows.sort_by_key(|(u, i, _)| (*u, *i));
+    rows
+}
+
+/// The plan's units with fewer rows than expected, one line each.
+fn missing_units(
+    plan: &[PlanUnit],
+    rows: &[(usize, usize, Row)],
+    by_k: &BTreeMap<u64, &Path>,
+    n: u64,
+) -> Vec<String> {
+    let mut missing = Vec::new();
     let mut count = vec![0u64; plan.len()];
-    for (u, _, _) in &rows {
+    for (u, _, _) in rows {
         if let Some(c) = count.get_mut(*u) {
             *c += 1;
         }
@@ -202,17 +262,19 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
             } else {
                 " (shard folder not given)"
             };
-            report.missing.push(format!(
+            missing.push(format!(
                 "shard {k}/{n}: {sc} {st} [{p}]: {} of {want} rows{given}",
                 count[i]
             ));
         }
     }
-    let rows: Vec<Row> = rows.into_iter().map(|(_, _, r)| r).collect();
-    report.rows = rows.len();
-    // Hosts of the rows.
+    missing
+}
+
+/// Note the hosts of the rows when there are several.
+fn note_hosts(rows: &[Row], report: &mut MergeReport) {
     let mut hosts: Vec<String> = Vec::new();
-    for r in &rows {
+    for r in rows {
         if !hosts.contains(&r.host) {
             hosts.push(r.host.clone());
         }
@@ -224,9 +286,14 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
             hosts.join(", ")
         ));
     }
-    let meta = merged_meta(&shards, &report, n);
-    crate::results::output::write_all(out, meta, &rows)?;
-    // Companions: convergence.csv and images/ (with index.csv).
+}
+
+/// Merge the companions: convergence.csv and images/ (with index.csv).
+fn merge_companions(
+    shards: &[ShardDir],
+    out: &Path,
+    index: &PlanIndex,
+) -> Result<(), HarnessError> {
     let order = |r: &csv::StringRecord, head: &csv::StringRecord| -> (usize, u8) {
         let col = |name: &str| {
             head.iter()
@@ -235,9 +302,9 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
                 .unwrap_or("")
         };
         let (sc, st, p) = (col("scene"), col("structure"), col("params"));
-        match unit_of.get(&(sc, st, p)) {
+        match index.unit_of.get(&(sc, st, p)) {
             Some(&u) => (u, 1),
-            None => (scene_first.get(sc).copied().unwrap_or(usize::MAX), 0),
+            None => (index.scene_first.get(sc).copied().unwrap_or(usize::MAX), 0),
         }
     };
     let dirs: Vec<&Path> = shards.iter().map(|s| s.dir.as_path()).collect();
@@ -246,7 +313,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
         copy_images(&d.join("images"), &out.join("images"))?;
     }
     merge_csv(&dirs, Path::new("images/index.csv"), out, &order)?;
-    Ok(report)
+    Ok(())
 }
 
 /// The merged folder's metadata: the first shard's, without `shard`, with `merged` (each

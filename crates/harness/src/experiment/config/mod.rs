@@ -276,53 +276,17 @@ pub fn parse_with(
     let file_arg = file;
     let file = shown.as_path();
     let cx = Ctx { file, text };
-    let mut raw: RawConfig = toml::from_str(text).map_err(|e| {
-        let line = e.span().map(|s| line_of(text, s.start));
-        let msg = match e.message().trim().replace('\n', " ") {
-            m if m.is_empty() => "invalid TOML (a value is missing or malformed here)".into(),
-            m => m,
-        };
-        match line {
-            Some(l) => HarnessError::ConfigSyntax {
-                file: file.into(),
-                message: format!("line {l}: {msg}"),
-            },
-            None => HarnessError::ConfigSyntax {
-                file: file.into(),
-                message: msg,
-            },
-        }
-    })?;
+    let mut raw: RawConfig = toml::from_str(text).map_err(|e| syntax_error(file, text, &e))?;
 
     overrides::filter(&cx, &mut raw, &ov.scenes, &ov.structures)?;
-    let name = raw.name.clone().unwrap_or_else(|| {
-        file_arg
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "experiment".into())
-    });
-    if name.is_empty() || name.contains(['/', '\\']) || name.starts_with('.') {
-        return Err(cx.err(0..0, "name", "must be a plain, non-empty file name"));
-    }
-    let scenes_root = ov
-        .scenes_root
-        .clone()
-        .or_else(|| std::env::var_os("TRACE_BENCH_SCENES").map(PathBuf::from))
-        .or_else(|| raw.scenes_root.as_ref().map(PathBuf::from))
-        .unwrap_or_else(|| PathBuf::from("scenes"));
+    let name = experiment_name(&cx, &raw, file_arg)?;
+    let scenes_root = scenes_root_of(ov, &raw);
 
     let run = &raw.run;
     let run_settings = run::check_run(&cx, run, ov)?;
     let validate = run_settings.validate;
 
-    if raw.structures.is_empty() {
-        return Err(cx.err(0..0, "structure", "the config names no [[structure]]"));
-    }
-    let structures = raw
-        .structures
-        .iter()
-        .map(|s| structures::check_structure(&cx, s, registry))
-        .collect::<Result<Vec<_>, _>>()?;
+    let structures = check_structures(&cx, &raw, registry)?;
 
     if raw.scenes.is_empty() {
         return Err(cx.err(0..0, "scene", "the config names no [[scene]]"));
@@ -337,52 +301,10 @@ pub fn parse_with(
     let shard = ov
         .shard
         .map(|sel| plan_shard(sel, &raw, &structures, &run_settings, &scenes_root));
-    let mut scenes: Vec<SceneSpec> = Vec::new();
-    let mut skipped_scenes = Vec::new();
-    for s in &raw.scenes {
-        if shard.as_ref().is_some_and(|p| {
-            let label = scenes::label_of(s);
-            // Scenes the plan does not know (absent files) go on to the check, which
-            // reports them.
-            p.scene_cost.contains_key(&label) && !p.needs_scene(&label)
-        }) {
-            continue;
-        }
-        match scenes::check_scene(&cx, s, &scenes_root, validate, progress)? {
-            Ok(specs) => {
-                for spec in specs {
-                    if scenes.iter().any(|o| o.label == spec.label) {
-                        return Err(cx.err(
-                            s.source.span(),
-                            "scene.name",
-                            format!(
-                                "two scenes are labelled `{}`; give one a `name`",
-                                spec.label
-                            ),
-                        ));
-                    }
-                    scenes.push(spec)
-                }
-            }
-            Err(note) => skipped_scenes.push(note),
-        }
-    }
-
+    let (scenes, mut skipped_scenes) =
+        check_scenes(&cx, &raw, shard.as_ref(), &scenes_root, validate, progress)?;
     if let Some(p) = &shard {
-        let out = p.left_out();
-        skipped_scenes.push(format!(
-            "shard {}: {} of {} work units (scene x build), {} rows, estimated {:.1} s; {}",
-            p.shard,
-            p.units.iter().filter(|u| u.shard == p.shard.k).count(),
-            p.units.len(),
-            p.rows(),
-            p.cost_of(p.shard.k) as f64 / 1e9,
-            if out.is_empty() {
-                "no scene left out".to_string()
-            } else {
-                format!("left out, not loaded: {}", out.join(", "))
-            }
-        ));
+        skipped_scenes.push(shard_note(p));
     }
     if scenes.is_empty() && shard.is_none() {
         return Err(HarnessError::ConfigSyntax {
@@ -420,6 +342,125 @@ pub fn parse_with(
         config_hash: config_hash(text, ov),
         dynamic,
     })
+}
+
+/// The experiment's name: the config's `name`, else the file's stem; a plain file name.
+fn experiment_name(cx: &Ctx, raw: &RawConfig, file_arg: &Path) -> Result<String, HarnessError> {
+    let name = raw.name.clone().unwrap_or_else(|| {
+        file_arg
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "experiment".into())
+    });
+    if name.is_empty() || name.contains(['/', '\\']) || name.starts_with('.') {
+        return Err(cx.err(0..0, "name", "must be a plain, non-empty file name"));
+    }
+    Ok(name)
+}
+
+/// Check the structure tables against `registry` (at least one).
+fn check_structures(
+    cx: &Ctx,
+    raw: &RawConfig,
+    registry: &Registry,
+) -> Result<Vec<StructureSpec>, HarnessError> {
+    if raw.structures.is_empty() {
+        return Err(cx.err(0..0, "structure", "the config names no [[structure]]"));
+    }
+    raw.structures
+        .iter()
+        .map(|s| structures::check_structure(cx, s, registry))
+        .collect()
+}
+
+/// A TOML syntax error of `file` (its `text`), with its line where known.
+fn syntax_error(file: &Path, text: &str, e: &toml::de::Error) -> HarnessError {
+    let line = e.span().map(|s| line_of(text, s.start));
+    let msg = match e.message().trim().replace('\n', " ") {
+        m if m.is_empty() => "invalid TOML (a value is missing or malformed here)".into(),
+        m => m,
+    };
+    match line {
+        Some(l) => HarnessError::ConfigSyntax {
+            file: file.into(),
+            message: format!("line {l}: {msg}"),
+        },
+        None => HarnessError::ConfigSyntax {
+            file: file.into(),
+            message: msg,
+        },
+    }
+}
+
+/// The scenes root: `--scenes-root`, else TRACE_BENCH_SCENES, else the config's, else
+/// `scenes`.
+fn scenes_root_of(ov: &Overrides, raw: &RawConfig) -> PathBuf {
+    ov.scenes_root
+        .clone()
+        .or_else(|| std::env::var_os("TRACE_BENCH_SCENES").map(PathBuf::from))
+        .or_else(|| raw.scenes_root.as_ref().map(PathBuf::from))
+        .unwrap_or_else(|| PathBuf::from("scenes"))
+}
+
+/// Check and load the scene tables (but those the shard leaves out): the scene specs, and
+/// the notes of the optional scenes skipped.
+fn check_scenes(
+    cx: &Ctx,
+    raw: &RawConfig,
+    shard: Option<&crate::cluster::shard::ShardPlan>,
+    scenes_root: &Path,
+    validate: Validate,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(Vec<SceneSpec>, Vec<String>), HarnessError> {
+    let mut scenes: Vec<SceneSpec> = Vec::new();
+    let mut skipped_scenes = Vec::new();
+    for s in &raw.scenes {
+        if shard.is_some_and(|p| {
+            let label = scenes::label_of(s);
+            // Scenes the plan does not know (absent files) go on to the check, which
+            // reports them.
+            p.scene_cost.contains_key(&label) && !p.needs_scene(&label)
+        }) {
+            continue;
+        }
+        match scenes::check_scene(cx, s, scenes_root, validate, progress)? {
+            Ok(specs) => {
+                for spec in specs {
+                    if scenes.iter().any(|o| o.label == spec.label) {
+                        return Err(cx.err(
+                            s.source.span(),
+                            "scene.name",
+                            format!(
+                                "two scenes are labelled `{}`; give one a `name`",
+                                spec.label
+                            ),
+                        ));
+                    }
+                    scenes.push(spec)
+                }
+            }
+            Err(note) => skipped_scenes.push(note),
+        }
+    }
+    Ok((scenes, skipped_scenes))
+}
+
+/// The note of a shard: its work units, rows, estimated time and the scenes left out.
+fn shard_note(p: &crate::cluster::shard::ShardPlan) -> String {
+    let out = p.left_out();
+    format!(
+        "shard {}: {} of {} work units (scene x build), {} rows, estimated {:.1} s; {}",
+        p.shard,
+        p.units.iter().filter(|u| u.shard == p.shard.k).count(),
+        p.units.len(),
+        p.rows(),
+        p.cost_of(p.shard.k) as f64 / 1e9,
+        if out.is_empty() {
+            "no scene left out".to_string()
+        } else {
+            format!("left out, not loaded: {}", out.join(", "))
+        }
+    )
 }
 
 /// The partition of the run for `--shard` ([`crate::cluster::shard::plan`]), from the scene tables

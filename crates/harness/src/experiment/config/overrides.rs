@@ -68,105 +68,121 @@ pub(super) fn filter(
     structures: &[String],
 ) -> Result<(), HarnessError> {
     if !scenes.is_empty() {
-        let label = |s: &super::RawScene| {
-            s.name
-                .clone()
-                .unwrap_or_else(|| scene_label(s.source.get_ref()))
-        };
-        for n in scenes {
-            if !raw
-                .scenes
-                .iter()
-                .any(|s| &label(s) == n || s.source.get_ref() == n)
-            {
-                let known: Vec<String> = raw.scenes.iter().map(label).collect();
-                return Err(cx.err(
-                    0..0,
-                    "scene",
-                    format!("--scene {n}: no such scene (labels: {})", known.join(", ")),
-                ));
-            }
-        }
-        raw.scenes.retain(|s| {
-            scenes
-                .iter()
-                .any(|n| *n == label(s) || n == s.source.get_ref())
-        });
+        filter_scenes(cx, raw, scenes)?;
     }
     if !structures.is_empty() {
-        // Per block of the config: `None` = not asked for; `Some(None)` = asked for whole;
-        // `Some(Some(list))` = only these traversals. A block is kept once, so its builds run
-        // once, however many of its traversals are asked for; `NAME:traversal` picks the
-        // blocks of that name that run the traversal (those that list it, or list none).
-        let mut want: Vec<Option<Option<Vec<String>>>> = vec![None; raw.structures.len()];
-        for spec in structures {
-            let (name, traversal) = match spec.split_once(':') {
-                Some((n, t)) => (n, Some(t)),
-                None => (spec.as_str(), None),
-            };
-            let named: Vec<usize> = (0..raw.structures.len())
-                .filter(|&i| raw.structures[i].name.get_ref() == name)
-                .collect();
-            if named.is_empty() {
-                let known: Vec<&str> = raw
-                    .structures
-                    .iter()
-                    .map(|s| s.name.get_ref().as_str())
-                    .collect();
-                return Err(cx.err(
-                    0..0,
-                    "structure",
-                    format!(
-                        "--structure {spec}: the config has no structure `{name}` (has: {})",
-                        known.join(", ")
-                    ),
-                ));
-            }
-            let Some(t) = traversal else {
-                for i in named {
-                    want[i] = Some(None);
-                }
-                continue;
-            };
-            let runs = |i: &usize| {
-                raw.structures[*i]
-                    .traversals
-                    .as_ref()
-                    .is_none_or(|l| l.get_ref().iter().any(|x| x == t))
-            };
-            let running: Vec<usize> = named.iter().copied().filter(runs).collect();
-            if running.is_empty() {
-                return Err(cx.err(
-                    0..0,
-                    "structure",
-                    format!(
-                        "--structure {spec}: no `{name}` table of the config runs traversal `{t}` (its `traversals` lists leave it out)"
-                    ),
-                ));
-            }
-            for i in running {
-                match &mut want[i] {
-                    Some(None) => {}
-                    Some(Some(list)) => {
-                        if !list.iter().any(|x| x == t) {
-                            list.push(t.to_string());
-                        }
-                    }
-                    w @ None => *w = Some(Some(vec![t.to_string()])),
-                }
-            }
-        }
-        let mut kept = Vec::new();
-        for (s, w) in raw.structures.iter().zip(want) {
-            let Some(only) = w else { continue };
-            let mut s = s.clone();
-            if let Some(list) = only {
-                s.traversals = Some(toml::Spanned::new(s.name.span(), list));
-            }
-            kept.push(s);
-        }
-        raw.structures = kept;
+        filter_structures(cx, raw, structures)?;
     }
+    Ok(())
+}
+
+/// Keep only the scenes labelled (or sourced) as one of `scenes`.
+fn filter_scenes(cx: &Ctx, raw: &mut RawConfig, scenes: &[String]) -> Result<(), HarnessError> {
+    let label = |s: &super::RawScene| {
+        s.name
+            .clone()
+            .unwrap_or_else(|| scene_label(s.source.get_ref()))
+    };
+    for n in scenes {
+        if !raw
+            .scenes
+            .iter()
+            .any(|s| &label(s) == n || s.source.get_ref() == n)
+        {
+            let known: Vec<String> = raw.scenes.iter().map(label).collect();
+            return Err(cx.err(
+                0..0,
+                "scene",
+                format!("--scene {n}: no such scene (labels: {})", known.join(", ")),
+            ));
+        }
+    }
+    raw.scenes.retain(|s| {
+        scenes
+            .iter()
+            .any(|n| *n == label(s) || n == s.source.get_ref())
+    });
+    Ok(())
+}
+
+/// Keep only the structures named in `structures` (`NAME` or `NAME:traversal`).
+fn filter_structures(
+    cx: &Ctx,
+    raw: &mut RawConfig,
+    structures: &[String],
+) -> Result<(), HarnessError> {
+    // Per block of the config: `None` = not asked for; `Some(None)` = asked for whole;
+    // `Some(Some(list))` = only these traversals. A block is kept once, so its builds run
+    // once, however many of its traversals are asked for; `NAME:traversal` picks the
+    // blocks of that name that run the traversal (those that list it, or list none).
+    let mut want: Vec<Option<Option<Vec<String>>>> = vec![None; raw.structures.len()];
+    for spec in structures {
+        let (name, traversal) = match spec.split_once(':') {
+            Some((n, t)) => (n, Some(t)),
+            None => (spec.as_str(), None),
+        };
+        let named: Vec<usize> = (0..raw.structures.len())
+            .filter(|&i| raw.structures[i].name.get_ref() == name)
+            .collect();
+        if named.is_empty() {
+            let known: Vec<&str> = raw
+                .structures
+                .iter()
+                .map(|s| s.name.get_ref().as_str())
+                .collect();
+            return Err(cx.err(
+                0..0,
+                "structure",
+                format!(
+                    "--structure {spec}: the config has no structure `{name}` (has: {})",
+                    known.join(", ")
+                ),
+            ));
+        }
+        let Some(t) = traversal else {
+            for i in named {
+                want[i] = Some(None);
+            }
+            continue;
+        };
+        let runs = |i: &usize| {
+            raw.structures[*i]
+                .traversals
+                .as_ref()
+                .is_none_or(|l| l.get_ref().iter().any(|x| x == t))
+        };
+        let running: Vec<usize> = named.iter().copied().filter(runs).collect();
+        if running.is_empty() {
+            return Err(cx.err(
+                0..0,
+                "structure",
+                format!(
+                    "--structure {spec}: no `{name}` table of the config runs traversal `{t}` (its `traversals` lists leave it out)"
+                ),
+            ));
+        }
+        for i in running {
+            match &mut want[i] {
+                Some(None) => {}
+                Some(Some(list)) => {
+                    if !list.iter().any(|x| x == t) {
+                        list.push(t.to_string());
+                    }
+                }
+                w @ None => *w = Some(Some(vec![t.to_string()])),
+            }
+        }
+    }
+    let mut kept = Vec::new();
+    for (s, w) in raw.structures.iter().zip(want) {
+        let Some(only) = w else { continue };
+        let mut s = s.clone();
+        if let Some(list) = only {
+            s.traversals = Some(toml::Spanned::new(s.name.span(), list));
+        }
+        kept.push(s);
+    }
+    raw.structures = kept;
     Ok(())
 }
 

@@ -28,10 +28,39 @@ pub(super) fn check_run(
     run: &RawRun,
     ov: &Overrides,
 ) -> Result<RunSettings, HarnessError> {
+    let threads = check_threads(cx, run, ov)?;
+    let repeat = ov.repeat.unwrap_or(run.repeat.unwrap_or(5) as usize).max(1);
+    let warmup = run.warmup.unwrap_or(1) as usize;
+    let timing = timing_plan(cx, run, repeat, warmup)?;
+    let build_repeat = run.build_repeat.unwrap_or(1).max(1) as usize;
+    let triangle_tests = check_triangle_tests(cx, run)?;
+    let devices = check_devices(cx, run)?;
+    let devices = ov.devices.clone().unwrap_or(devices);
+    let gpu = check_gpu(cx, run, ov)?;
+    let validate = match &run.validate {
+        None => Validate::All,
+        Some(v) => parse_validate(cx, v, "run.validate")?,
+    };
+    let seed = run.seed.unwrap_or(1);
+    Ok(RunSettings {
+        threads,
+        timing,
+        build_repeat,
+        triangle_tests,
+        devices,
+        gpu,
+        validate,
+        seed,
+        interleave: run.interleave.unwrap_or(false),
+    })
+}
+
+/// The thread counts: `--threads` (0 = all cores), else `run.threads`, else all cores.
+fn check_threads(cx: &Ctx, run: &RawRun, ov: &Overrides) -> Result<Vec<usize>, HarnessError> {
     let all = std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1);
-    let threads: Vec<usize> = match (&ov.threads, &run.threads) {
+    Ok(match (&ov.threads, &run.threads) {
         (Some(t), _) => t.iter().map(|&n| if n == 0 { all } else { n }).collect(),
         (None, Some(t)) => {
             let span = t.span();
@@ -59,12 +88,12 @@ pub(super) fn check_run(
             out
         }
         (None, None) => vec![all],
-    };
-    let repeat = ov.repeat.unwrap_or(run.repeat.unwrap_or(5) as usize).max(1);
-    let warmup = run.warmup.unwrap_or(1) as usize;
-    let timing = timing_plan(cx, run, repeat, warmup)?;
-    let build_repeat = run.build_repeat.unwrap_or(1).max(1) as usize;
-    let triangle_tests = match &run.triangle_test {
+    })
+}
+
+/// `run.triangle_test`: one or more triangle tests (watertight when absent).
+fn check_triangle_tests(cx: &Ctx, run: &RawRun) -> Result<Vec<TriTestKind>, HarnessError> {
+    Ok(match &run.triangle_test {
         None => vec![TriTestKind::Watertight],
         Some(t) => {
             let span = t.span();
@@ -90,8 +119,12 @@ pub(super) fn check_run(
             }
             out
         }
-    };
-    let devices = match &run.devices {
+    })
+}
+
+/// `run.devices`: one or more devices (the CPU when absent).
+fn check_devices(cx: &Ctx, run: &RawRun) -> Result<Vec<Device>, HarnessError> {
+    Ok(match &run.devices {
         None => vec![Device::Cpu],
         Some(d) => {
             let span = d.span();
@@ -118,8 +151,12 @@ pub(super) fn check_run(
             }
             out
         }
-    };
-    let devices = ov.devices.clone().unwrap_or(devices);
+    })
+}
+
+/// The GPU adapter choice (`--adapter`, `--backend` over `run.gpu_adapter`,
+/// `run.gpu_backend`) and whether a GPU failure fails the run.
+fn check_gpu(cx: &Ctx, run: &RawRun, ov: &Overrides) -> Result<GpuSpec, HarnessError> {
     let backend = match (&ov.backend, &run.gpu_backend) {
         (Some(b), _) => Some(*b),
         (None, None) => None,
@@ -134,7 +171,7 @@ pub(super) fn check_run(
             )
         })?),
     };
-    let gpu = GpuSpec {
+    Ok(GpuSpec {
         choice: tb_gpu::AdapterChoice {
             name: ov.adapter.clone().or_else(|| run.gpu_adapter.clone()),
             backend,
@@ -144,22 +181,6 @@ pub(super) fn check_run(
                 .devices
                 .as_ref()
                 .is_some_and(|d| d.contains(&Device::Gpu)),
-    };
-    let validate = match &run.validate {
-        None => Validate::All,
-        Some(v) => parse_validate(cx, v, "run.validate")?,
-    };
-    let seed = run.seed.unwrap_or(1);
-    Ok(RunSettings {
-        threads,
-        timing,
-        build_repeat,
-        triangle_tests,
-        devices,
-        gpu,
-        validate,
-        seed,
-        interleave: run.interleave.unwrap_or(false),
     })
 }
 

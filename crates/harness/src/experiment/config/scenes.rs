@@ -8,7 +8,10 @@ use crate::error::HarnessError;
 use std::path::Path;
 use std::sync::Arc;
 use tb_core::Vec3;
-use tb_scene::{Camera, View};
+use tb_scene::{Camera, Scene, View};
+
+/// A viewpoint of a scene table: its label, camera and light.
+type Viewpoint = (String, Option<Camera>, Option<Vec3>);
 
 /// Check one scene table and load the scene: one spec, or one per entry of `views` (sharing
 /// the loaded scene); `Ok(Err(note))` when an optional file scene is absent and skipped.
@@ -21,71 +24,14 @@ pub(super) fn check_scene(
 ) -> Result<Result<Vec<SceneSpec>, String>, HarnessError> {
     let src = s.source.get_ref();
     let span = s.source.span();
-    let mut kinds = Vec::new();
-    match &s.rays {
-        None => kinds.push(RayKindSpec::Primary),
-        Some(r) => {
-            for k in r.get_ref() {
-                let kind = RayKindSpec::parse(k).ok_or_else(|| {
-                    cx.err(
-                        r.span(),
-                        "scene.rays",
-                        format!(
-                            "unknown ray kind `{k}` (known: {})",
-                            RayKindSpec::NAMES.join(", ")
-                        ),
-                    )
-                })?;
-                if !kinds.contains(&kind) {
-                    kinds.push(kind);
-                }
-            }
-            if kinds.is_empty() {
-                return Err(cx.err(r.span(), "scene.rays", "needs at least one ray kind"));
-            }
-        }
-    }
+    let kinds = check_rays(cx, s)?;
     // Check the file exists before loading anything (cheap, reports every config error
     // before the first expensive load).
-    if !src.starts_with("builtin:") {
-        let p = Path::new(src);
-        let full = if p.is_absolute() {
-            p.to_path_buf()
-        } else {
-            scenes_root.join(p)
-        };
-        if !full.is_file() && s.optional == Some(true) {
-            return Ok(Err(format!(
-                "{}: skipped, not found under the scenes root {} (optional = true)",
-                s.name.clone().unwrap_or_else(|| scene_label(src)),
-                scenes_root.display()
-            )));
-        }
-        if !full.is_file() {
-            return Err(cx.err(
-                span,
-                "scene.source",
-                format!(
-                    "{} not found (scenes root {}; set --scenes-root or TRACE_BENCH_SCENES)",
-                    full.display(),
-                    scenes_root.display()
-                ),
-            ));
-        }
+    if let Err(note) = check_file(cx, s, scenes_root)? {
+        return Ok(Err(note));
     }
     progress(src);
-    let mut scene = tb_scene::load(src, scenes_root)
-        .map_err(|e| cx.err(span.clone(), "scene.source", e.to_string()))?;
-    if scene.triangles.is_empty() {
-        return Err(cx.err(span, "scene.source", "the scene has no triangles"));
-    }
-    if let Some(inset) = &s.inset {
-        // Pérard-Gayot et al. 2017 §6.2, Figure 8: the scene scaled down inside itself.
-        let i = inset.get_ref();
-        scene
-            .inset(i.scale, i.at.map(Vec3::from))
-            .map_err(|m| cx.err(inset.span(), "scene.inset", m))?;
-    }
+    let mut scene = load_scene(cx, s, scenes_root)?;
     let view = scene.view.clone();
     let needs_camera = kinds.iter().any(|k| {
         matches!(
@@ -98,41 +44,7 @@ pub(super) fn check_scene(
         .light
         .map(Vec3::from)
         .or(view.as_ref().and_then(|v| v.light));
-    // The viewpoints: the table's own camera and light, or each entry of `views` over them.
-    let views: Vec<(String, Option<Camera>, Option<Vec3>)> = match &s.views {
-        None => vec![(
-            table.clone(),
-            check_camera(cx, s, view.as_ref(), None)?,
-            table_light,
-        )],
-        Some(vs) => {
-            if vs.get_ref().is_empty() {
-                return Err(cx.err(vs.span(), "scene.views", "needs at least one view"));
-            }
-            let mut out: Vec<(String, Option<Camera>, Option<Vec3>)> = Vec::new();
-            for (i, v) in vs.get_ref().iter().enumerate() {
-                let name = v.name.clone().unwrap_or_else(|| (i + 1).to_string());
-                if name.is_empty() || name.contains(['@', '/', '\\']) || name.trim() != name {
-                    return Err(cx.err(
-                        vs.span(),
-                        "scene.views.name",
-                        format!("view name `{name}`: give a non-empty name without `@`, `/`, `\\` or surrounding spaces"),
-                    ));
-                }
-                let label = format!("{table}@{name}");
-                if out.iter().any(|(l, _, _)| *l == label) {
-                    return Err(cx.err(
-                        vs.span(),
-                        "scene.views.name",
-                        format!("two views are named `{name}`"),
-                    ));
-                }
-                let cam = check_camera(cx, s, view.as_ref(), Some((v, &name)))?;
-                out.push((label, cam, v.light.map(Vec3::from).or(table_light)));
-            }
-            out
-        }
-    };
+    let views = check_views(cx, s, view.as_ref(), &table, table_light)?;
     if needs_camera {
         if let Some((label, _, _)) = views.iter().find(|(_, c, _)| c.is_none()) {
             return Err(cx.err(
@@ -162,11 +74,179 @@ pub(super) fn check_scene(
         }
         scene.enclose(&points, 0.05);
     }
-    let diag = scene.bounds.diagonal();
+    let settings = check_settings(cx, s, view.as_ref(), scene.bounds.diagonal())?;
+    let scene_validate = match &s.validate {
+        None => validate,
+        Some(v) => parse_validate(cx, v, "scene.validate")?,
+    };
+    let scene = Arc::new(scene);
+    Ok(Ok(views
+        .into_iter()
+        .map(|(label, camera, light)| SceneSpec {
+            label,
+            table: table.clone(),
+            scene: scene.clone(),
+            rays: kinds.clone(),
+            camera,
+            light,
+            ao_samples: settings.ao_samples,
+            ao_distance: settings.ao_distance,
+            bounces: settings.bounces,
+            random_count: settings.random_count,
+            validate: scene_validate,
+        })
+        .collect()))
+}
+
+/// The table's ray kinds (`rays`, primary when absent), without repeats.
+fn check_rays(cx: &Ctx, s: &RawScene) -> Result<Vec<RayKindSpec>, HarnessError> {
+    let mut kinds = Vec::new();
+    match &s.rays {
+        None => kinds.push(RayKindSpec::Primary),
+        Some(r) => {
+            for k in r.get_ref() {
+                let kind = RayKindSpec::parse(k).ok_or_else(|| {
+                    cx.err(
+                        r.span(),
+                        "scene.rays",
+                        format!(
+                            "unknown ray kind `{k}` (known: {})",
+                            RayKindSpec::NAMES.join(", ")
+                        ),
+                    )
+                })?;
+                if !kinds.contains(&kind) {
+                    kinds.push(kind);
+                }
+            }
+            if kinds.is_empty() {
+                return Err(cx.err(r.span(), "scene.rays", "needs at least one ray kind"));
+            }
+        }
+    }
+    Ok(kinds)
+}
+
+/// Check that a file scene exists under the scenes root; `Ok(Err(note))` when it is absent
+/// and optional.
+fn check_file(
+    cx: &Ctx,
+    s: &RawScene,
+    scenes_root: &Path,
+) -> Result<Result<(), String>, HarnessError> {
+    let src = s.source.get_ref();
+    if !src.starts_with("builtin:") {
+        let p = Path::new(src);
+        let full = if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            scenes_root.join(p)
+        };
+        if !full.is_file() && s.optional == Some(true) {
+            return Ok(Err(format!(
+                "{}: skipped, not found under the scenes root {} (optional = true)",
+                s.name.clone().unwrap_or_else(|| scene_label(src)),
+                scenes_root.display()
+            )));
+        }
+        if !full.is_file() {
+            return Err(cx.err(
+                s.source.span(),
+                "scene.source",
+                format!(
+                    "{} not found (scenes root {}; set --scenes-root or TRACE_BENCH_SCENES)",
+                    full.display(),
+                    scenes_root.display()
+                ),
+            ));
+        }
+    }
+    Ok(Ok(()))
+}
+
+/// Load the table's scene, check it has triangles and apply its `inset`.
+fn load_scene(cx: &Ctx, s: &RawScene, scenes_root: &Path) -> Result<Scene, HarnessError> {
+    let span = s.source.span();
+    let mut scene = tb_scene::load(s.source.get_ref(), scenes_root)
+        .map_err(|e| cx.err(span.clone(), "scene.source", e.to_string()))?;
+    if scene.triangles.is_empty() {
+        return Err(cx.err(span, "scene.source", "the scene has no triangles"));
+    }
+    if let Some(inset) = &s.inset {
+        // Pérard-Gayot et al. 2017 §6.2, Figure 8: the scene scaled down inside itself.
+        let i = inset.get_ref();
+        scene
+            .inset(i.scale, i.at.map(Vec3::from))
+            .map_err(|m| cx.err(inset.span(), "scene.inset", m))?;
+    }
+    Ok(scene)
+}
+
+/// The viewpoints: the table's own camera and light, or each entry of `views` over them.
+fn check_views(
+    cx: &Ctx,
+    s: &RawScene,
+    view: Option<&View>,
+    table: &str,
+    table_light: Option<Vec3>,
+) -> Result<Vec<Viewpoint>, HarnessError> {
+    Ok(match &s.views {
+        None => vec![(
+            table.to_owned(),
+            check_camera(cx, s, view, None)?,
+            table_light,
+        )],
+        Some(vs) => {
+            if vs.get_ref().is_empty() {
+                return Err(cx.err(vs.span(), "scene.views", "needs at least one view"));
+            }
+            let mut out: Vec<Viewpoint> = Vec::new();
+            for (i, v) in vs.get_ref().iter().enumerate() {
+                let name = v.name.clone().unwrap_or_else(|| (i + 1).to_string());
+                if name.is_empty() || name.contains(['@', '/', '\\']) || name.trim() != name {
+                    return Err(cx.err(
+                        vs.span(),
+                        "scene.views.name",
+                        format!("view name `{name}`: give a non-empty name without `@`, `/`, `\\` or surrounding spaces"),
+                    ));
+                }
+                let label = format!("{table}@{name}");
+                if out.iter().any(|(l, _, _)| *l == label) {
+                    return Err(cx.err(
+                        vs.span(),
+                        "scene.views.name",
+                        format!("two views are named `{name}`"),
+                    ));
+                }
+                let cam = check_camera(cx, s, view, Some((v, &name)))?;
+                out.push((label, cam, v.light.map(Vec3::from).or(table_light)));
+            }
+            out
+        }
+    })
+}
+
+/// The AO, path and random settings of a scene table, checked.
+struct RaySettings {
+    ao_samples: u32,
+    ao_distance: f32,
+    bounces: u32,
+    random_count: usize,
+}
+
+/// Check the table's `ao`, `path` and `random` settings (defaults from the scene's view and
+/// its diagonal `diag`).
+fn check_settings(
+    cx: &Ctx,
+    s: &RawScene,
+    view: Option<&View>,
+    diag: f32,
+) -> Result<RaySettings, HarnessError> {
+    let span = s.source.span();
     let ao_distance =
         s.ao.as_ref()
             .and_then(|a| a.distance)
-            .or(view.as_ref().map(|v| v.ao_distance))
+            .or(view.map(|v| v.ao_distance))
             .unwrap_or(0.04 * diag);
     if !(ao_distance > 0.0 && ao_distance.is_finite()) {
         return Err(cx.err(span, "scene.ao.distance", "must be positive and finite"));
@@ -183,27 +263,12 @@ pub(super) fn check_scene(
     if random_count == 0 || random_count > 1 << 28 {
         return Err(cx.err(span, "scene.random.count", "must be in 1..=2^28"));
     }
-    let scene_validate = match &s.validate {
-        None => validate,
-        Some(v) => parse_validate(cx, v, "scene.validate")?,
-    };
-    let scene = Arc::new(scene);
-    Ok(Ok(views
-        .into_iter()
-        .map(|(label, camera, light)| SceneSpec {
-            label,
-            table: table.clone(),
-            scene: scene.clone(),
-            rays: kinds.clone(),
-            camera,
-            light,
-            ao_samples,
-            ao_distance,
-            bounces,
-            random_count,
-            validate: scene_validate,
-        })
-        .collect()))
+    Ok(RaySettings {
+        ao_samples,
+        ao_distance,
+        bounces,
+        random_count,
+    })
 }
 
 /// The label of a scene table: its `name`, else derived from the source (`-boxed` when

@@ -602,32 +602,13 @@ impl<'a> Run<'a> {
                 row.validated_rays = Some(checked.validated);
                 row.mismatches = Some(checked.mismatches);
                 if !checked.first.is_empty() {
-                    let on = if c.dev == DeviceKind::Gpu { " gpu" } else { "" };
-                    let head = format!(
-                        "{} {} [{}] {} {} {}{on}: {} of {} rays mismatch",
-                        spec.label,
-                        st.family.name,
-                        base.params,
-                        info.name,
-                        c.tri.name(),
-                        b.name,
-                        checked.mismatches,
-                        checked.validated
-                    );
-                    self.summary
-                        .mismatch_reports
-                        .push(validation::report(head, &checked.first));
+                    self.report_mismatches(spec, st, base, &c, b, &checked);
                 }
             }
             Ok(Outcome::Measured(None)) => {}
             Ok(Outcome::Unsupported(note)) => row.note = note,
             Err(e) => {
-                let first = self.summary.failures.iter().all(|f| !f.contains(&e))
-                    && self.summary.notes.iter().all(|n| !n.contains(&e));
-                if first {
-                    self.progress.line(&format!("error: gpu: {e}"));
-                    gpu_failed(&mut self.summary, self.gpu.as_ref(), &e);
-                }
+                self.gpu_failure(&e);
                 row = row_of(base, st, &c, b);
                 row.note = format!("gpu failed: {e}");
             }
@@ -636,6 +617,44 @@ impl<'a> Run<'a> {
             self.note_load(&mut row);
         }
         Ok(row)
+    }
+
+    /// Keep a report of the first rays of a row that mismatch the oracle.
+    fn report_mismatches(
+        &mut self,
+        spec: &SceneSpec,
+        st: &StructureSpec,
+        base: &Row,
+        c: &Combo,
+        b: &Batch,
+        checked: &validation::Checked,
+    ) {
+        let info = st.infos[c.ti];
+        let on = if c.dev == DeviceKind::Gpu { " gpu" } else { "" };
+        let head = format!(
+            "{} {} [{}] {} {} {}{on}: {} of {} rays mismatch",
+            spec.label,
+            st.family.name,
+            base.params,
+            info.name,
+            c.tri.name(),
+            b.name,
+            checked.mismatches,
+            checked.validated
+        );
+        self.summary
+            .mismatch_reports
+            .push(validation::report(head, &checked.first));
+    }
+
+    /// A GPU failure `e`: said once (a line, and the summary's failure or note).
+    fn gpu_failure(&mut self, e: &str) {
+        let first = self.summary.failures.iter().all(|f| !f.contains(e))
+            && self.summary.notes.iter().all(|n| !n.contains(e));
+        if first {
+            self.progress.line(&format!("error: gpu: {e}"));
+            gpu_failed(&mut self.summary, self.gpu.as_ref(), e);
+        }
     }
 
     /// Record the load of a timed row; flag it noisy when other work was running: other

@@ -74,6 +74,80 @@ pub(crate) fn check(
 ) -> Result<ConvergenceSpec, HarnessError> {
     let r = raw.get_ref();
     let span = raw.span();
+    let integrators = check_integrators(cx, r)?;
+    let passes = check_int(cx, &r.passes, "passes", 8, 64)?;
+    let spp_per_pass = check_int(cx, &r.spp_per_pass, "spp_per_pass", 1, 1 << 16)?;
+    let reference_spp = check_int(cx, &r.reference_spp, "reference_spp", 1024, 1 << 20)?;
+    let doubling = check_schedule(cx, r)?;
+    let spec_tmp = ConvergenceSpec {
+        integrators: Vec::new(),
+        passes,
+        spp_per_pass,
+        doubling,
+        reference_spp,
+        frame_budget_ms: Vec::new(),
+        max_seconds: 0.0,
+        albedo: 0.0,
+        resolution: None,
+        cache: PathBuf::new(),
+    };
+    let total: u64 = (0..passes).map(|k| spec_tmp.pass_spp(k) as u64).sum();
+    if total > 1 << 20 {
+        return Err(cx.err(
+            span,
+            "convergence.passes",
+            format!("{passes} passes reach {total} samples per pixel (at most 2^20)"),
+        ));
+    }
+    let frame_budget_ms = check_frame_budgets(cx, r)?;
+    let max_seconds = match &r.max_seconds {
+        None => 60.0,
+        Some(s) if *s.get_ref() > 0.0 && s.get_ref().is_finite() => *s.get_ref(),
+        Some(s) => {
+            return Err(cx.err(
+                s.span(),
+                "convergence.max_seconds",
+                "must be positive and finite",
+            ))
+        }
+    };
+    let albedo = match &r.albedo {
+        None => 0.7,
+        Some(a) if (0.0..1.0).contains(a.get_ref()) => *a.get_ref(),
+        Some(a) => {
+            return Err(cx.err(
+                a.span(),
+                "convergence.albedo",
+                format!("{} is outside [0, 1)", a.get_ref()),
+            ))
+        }
+    };
+    let resolution = check_resolution(cx, r)?;
+    for s in scenes {
+        if s.camera.is_none() {
+            return Err(cx.err(
+                span.clone(),
+                "convergence",
+                format!(
+                    "scene `{}` has no camera (convergence renders need one)",
+                    s.label
+                ),
+            ));
+        }
+    }
+    Ok(ConvergenceSpec {
+        integrators,
+        frame_budget_ms,
+        max_seconds,
+        albedo,
+        resolution,
+        cache: PathBuf::from(r.cache.as_deref().unwrap_or("results/.cache")),
+        ..spec_tmp
+    })
+}
+
+/// The section's `integrators` (both when absent), without repeats.
+fn check_integrators(cx: &Ctx, r: &RawConvergence) -> Result<Vec<IntegratorKind>, HarnessError> {
     let mut integrators = Vec::new();
     match &r.integrators {
         None => integrators = vec![IntegratorKind::Ao, IntegratorKind::Path],
@@ -103,7 +177,18 @@ pub(crate) fn check(
             }
         }
     }
-    let int = |v: &Option<Spanned<u32>>, key: &str, default: u32, max: u32| match v {
+    Ok(integrators)
+}
+
+/// A count of the section (`convergence.KEY`) in 1..=`max`, `default` when absent.
+fn check_int(
+    cx: &Ctx,
+    v: &Option<Spanned<u32>>,
+    key: &str,
+    default: u32,
+    max: u32,
+) -> Result<u32, HarnessError> {
+    match v {
         None => Ok(default),
         Some(s) if (1..=max).contains(s.get_ref()) => Ok(*s.get_ref()),
         Some(s) => Err(cx.err(
@@ -111,11 +196,12 @@ pub(crate) fn check(
             &format!("convergence.{key}"),
             format!("{} is out of range 1..={max}", s.get_ref()),
         )),
-    };
-    let passes = int(&r.passes, "passes", 8, 64)?;
-    let spp_per_pass = int(&r.spp_per_pass, "spp_per_pass", 1, 1 << 16)?;
-    let reference_spp = int(&r.reference_spp, "reference_spp", 1024, 1 << 20)?;
-    let doubling = match &r.schedule {
+    }
+}
+
+/// Whether the `schedule` doubles the samples each pass (the default) or is linear.
+fn check_schedule(cx: &Ctx, r: &RawConvergence) -> Result<bool, HarnessError> {
+    Ok(match &r.schedule {
         None => true,
         Some(s) => match s.get_ref().as_str() {
             "doubling" => true,
@@ -128,27 +214,11 @@ pub(crate) fn check(
                 ))
             }
         },
-    };
-    let spec_tmp = ConvergenceSpec {
-        integrators: Vec::new(),
-        passes,
-        spp_per_pass,
-        doubling,
-        reference_spp,
-        frame_budget_ms: Vec::new(),
-        max_seconds: 0.0,
-        albedo: 0.0,
-        resolution: None,
-        cache: PathBuf::new(),
-    };
-    let total: u64 = (0..passes).map(|k| spec_tmp.pass_spp(k) as u64).sum();
-    if total > 1 << 20 {
-        return Err(cx.err(
-            span,
-            "convergence.passes",
-            format!("{passes} passes reach {total} samples per pixel (at most 2^20)"),
-        ));
-    }
+    })
+}
+
+/// The `frame_budget_ms` list, each a positive time.
+fn check_frame_budgets(cx: &Ctx, r: &RawConvergence) -> Result<Vec<f64>, HarnessError> {
     let mut frame_budget_ms = Vec::new();
     if let Some(b) = &r.frame_budget_ms {
         for &ms in b.get_ref() {
@@ -162,29 +232,12 @@ pub(crate) fn check(
             frame_budget_ms.push(ms);
         }
     }
-    let max_seconds = match &r.max_seconds {
-        None => 60.0,
-        Some(s) if *s.get_ref() > 0.0 && s.get_ref().is_finite() => *s.get_ref(),
-        Some(s) => {
-            return Err(cx.err(
-                s.span(),
-                "convergence.max_seconds",
-                "must be positive and finite",
-            ))
-        }
-    };
-    let albedo = match &r.albedo {
-        None => 0.7,
-        Some(a) if (0.0..1.0).contains(a.get_ref()) => *a.get_ref(),
-        Some(a) => {
-            return Err(cx.err(
-                a.span(),
-                "convergence.albedo",
-                format!("{} is outside [0, 1)", a.get_ref()),
-            ))
-        }
-    };
-    let resolution = match &r.resolution {
+    Ok(frame_budget_ms)
+}
+
+/// The `resolution` overriding the cameras', at most 16M pixels.
+fn check_resolution(cx: &Ctx, r: &RawConvergence) -> Result<Option<(u32, u32)>, HarnessError> {
+    Ok(match &r.resolution {
         None => None,
         Some(s) => {
             let [w, h] = *s.get_ref();
@@ -197,27 +250,6 @@ pub(crate) fn check(
             }
             Some((w, h))
         }
-    };
-    for s in scenes {
-        if s.camera.is_none() {
-            return Err(cx.err(
-                span.clone(),
-                "convergence",
-                format!(
-                    "scene `{}` has no camera (convergence renders need one)",
-                    s.label
-                ),
-            ));
-        }
-    }
-    Ok(ConvergenceSpec {
-        integrators,
-        frame_budget_ms,
-        max_seconds,
-        albedo,
-        resolution,
-        cache: PathBuf::from(r.cache.as_deref().unwrap_or("results/.cache")),
-        ..spec_tmp
     })
 }
 

@@ -223,41 +223,8 @@ impl Runner {
         let tris = &scene.scene.triangles;
         for kind in self.spec.integrators.clone() {
             let integrator = self.integrator(kind, scene);
-            let ref_key = (scene.label.clone(), integrator.key());
-            if !self.refs.contains_key(&ref_key) {
-                let spp = self.spec.reference_spp;
-                let key = reference_key(tris, &camera, &integrator, spp, self.seed);
-                let file = reference_path(&self.spec.cache, &integrator, &key);
-                let seed = self.seed ^ 0x5245_4645_5245_4e43; // "REFERENC": independent samples
-                progress.step(&format!(
-                    "{}: reference {} ({spp} spp)",
-                    scene.label,
-                    integrator.name()
-                ));
-                let (img, origin) = load_or_render(&file, camera.width, camera.height, || {
-                    let gen = crate::registry::generator(tris);
-                    let t = AccelTracer {
-                        accel: gen.as_ref(),
-                        traversal: 0,
-                        tri: TriTestKind::Watertight,
-                    };
-                    self.pool
-                        .install(|| render(tris, camera, integrator, seed, spp, &t, 1 << 21))
-                })
-                .map_err(|e| HarnessError::Other(e.to_string()))?;
-                notes.push(format!(
-                    "{}: {} reference {} {}",
-                    scene.label,
-                    integrator.name(),
-                    file.display(),
-                    match origin {
-                        Origin::Cached => "reused from the cache",
-                        Origin::Rendered => "rendered and cached",
-                    }
-                ));
-                self.refs.insert(ref_key.clone(), (img, key));
-            }
-            let (reference, rkey) = self.refs[&ref_key].clone();
+            let (reference, rkey) =
+                self.reference(scene, camera, integrator, progress, &mut notes)?;
             for &ti in traversals {
                 let tname = accel.traversals()[ti].name;
                 for &tri in tests {
@@ -289,28 +256,16 @@ impl Runner {
                             tname,
                             tri.name()
                         ));
-                        let tracer: Box<dyn Tracer + '_> = match dev {
-                            Device::Cpu => Box::new(AccelTracer {
-                                accel,
-                                traversal: ti,
-                                tri,
-                            }),
-                            Device::Gpu => {
-                                let t = gpu
-                                    .ok_or_else(|| "the GPU was not opened".to_string())
-                                    .and_then(|g| g.tracer(accel, ti, tri));
-                                match t {
-                                    Ok(t) => Box::new(t),
-                                    Err(e) => {
-                                        notes.push(format!(
-                                            "{}: convergence of {} {} on the gpu skipped: {e}",
-                                            scene.label,
-                                            accel.name(),
-                                            tname
-                                        ));
-                                        continue;
-                                    }
-                                }
+                        let tracer = match tracer_on(dev, accel, ti, tri, gpu) {
+                            Ok(t) => t,
+                            Err(e) => {
+                                notes.push(format!(
+                                    "{}: convergence of {} {} on the gpu skipped: {e}",
+                                    scene.label,
+                                    accel.name(),
+                                    tname
+                                ));
+                                continue;
                             }
                         };
                         let rows = self.measure(
@@ -333,6 +288,54 @@ impl Runner {
             }
         }
         Ok(notes)
+    }
+
+    /// The reference image of `integrator` for `scene` and its content hash: kept from an
+    /// earlier build of the run, else loaded from the cache or rendered (and noted).
+    fn reference(
+        &mut self,
+        scene: &SceneSpec,
+        camera: tb_scene::Camera,
+        integrator: Integrator,
+        progress: &Progress,
+        notes: &mut Vec<String>,
+    ) -> Result<(Vec<f32>, String), HarnessError> {
+        let tris = &scene.scene.triangles;
+        let ref_key = (scene.label.clone(), integrator.key());
+        if !self.refs.contains_key(&ref_key) {
+            let spp = self.spec.reference_spp;
+            let key = reference_key(tris, &camera, &integrator, spp, self.seed);
+            let file = reference_path(&self.spec.cache, &integrator, &key);
+            let seed = self.seed ^ 0x5245_4645_5245_4e43; // "REFERENC": independent samples
+            progress.step(&format!(
+                "{}: reference {} ({spp} spp)",
+                scene.label,
+                integrator.name()
+            ));
+            let (img, origin) = load_or_render(&file, camera.width, camera.height, || {
+                let gen = crate::registry::generator(tris);
+                let t = AccelTracer {
+                    accel: gen.as_ref(),
+                    traversal: 0,
+                    tri: TriTestKind::Watertight,
+                };
+                self.pool
+                    .install(|| render(tris, camera, integrator, seed, spp, &t, 1 << 21))
+            })
+            .map_err(|e| HarnessError::Other(e.to_string()))?;
+            notes.push(format!(
+                "{}: {} reference {} {}",
+                scene.label,
+                integrator.name(),
+                file.display(),
+                match origin {
+                    Origin::Cached => "reused from the cache",
+                    Origin::Rendered => "rendered and cached",
+                }
+            ));
+            self.refs.insert(ref_key.clone(), (img, key));
+        }
+        Ok(self.refs[&ref_key].clone())
     }
 
     /// The progressive render and the budget renders of one combination.
@@ -418,4 +421,26 @@ impl Runner {
         }
         rows
     }
+}
+
+/// The tracer of traversal `ti` with triangle test `tri` on `dev`; why not when the GPU
+/// cannot trace it.
+fn tracer_on<'a>(
+    dev: Device,
+    accel: &'a dyn Accel,
+    ti: usize,
+    tri: TriTestKind,
+    gpu: Option<&'a crate::experiment::device::gpu::GpuDevice>,
+) -> Result<Box<dyn Tracer + 'a>, String> {
+    Ok(match dev {
+        Device::Cpu => Box::new(AccelTracer {
+            accel,
+            traversal: ti,
+            tri,
+        }),
+        Device::Gpu => Box::new(
+            gpu.ok_or_else(|| "the GPU was not opened".to_string())
+                .and_then(|g| g.tracer(accel, ti, tri))?,
+        ),
+    })
 }

@@ -102,10 +102,28 @@ pub(crate) fn check(
             (w, h)
         }
     };
+    check_scenes(cx, raw.span(), scenes)?;
+    check_structures(cx, raw.span(), structures)?;
+    Ok(DynamicSpec {
+        frames,
+        budget_ms,
+        lambda_1,
+        ratio,
+        resolution,
+    })
+}
+
+/// Every scene traces one view, is a built-in animated scene without `frame` and has a
+/// camera.
+fn check_scenes(
+    cx: &Ctx,
+    span: std::ops::Range<usize>,
+    scenes: &[SceneSpec],
+) -> Result<(), HarnessError> {
     for s in scenes {
         if s.label != s.table {
             return Err(cx.err(
-                raw.span(),
+                span.clone(),
                 "dynamic",
                 format!(
                     "scene `{}`: a dynamic experiment traces one view per scene: drop `views`",
@@ -116,7 +134,7 @@ pub(crate) fn check(
         let src = &s.scene.source;
         if !src.starts_with("builtin:") || src.contains("frame=") {
             return Err(cx.err(
-                raw.span(),
+                span.clone(),
                 "dynamic",
                 format!(
                     "scene `{}`: a dynamic experiment needs built-in animated scenes (e.g. \
@@ -128,17 +146,26 @@ pub(crate) fn check(
         }
         if s.camera.is_none() {
             return Err(cx.err(
-                raw.span(),
+                span.clone(),
                 "dynamic",
                 format!("scene `{}` has no camera", s.label),
             ));
         }
     }
+    Ok(())
+}
+
+/// Every structure takes `lambda_1` and `lambda_2` (the automatic density choice).
+fn check_structures(
+    cx: &Ctx,
+    span: std::ops::Range<usize>,
+    structures: &[StructureSpec],
+) -> Result<(), HarnessError> {
     for st in structures {
         let has = |n: &str| st.family.params.iter().any(|p| p.name == n);
         if !has("lambda_1") || !has("lambda_2") {
             return Err(cx.err(
-                raw.span(),
+                span.clone(),
                 "dynamic",
                 format!(
                     "structure `{}` has no lambda_1 and lambda_2 (the automatic density choice \
@@ -148,11 +175,5 @@ pub(crate) fn check(
             ));
         }
     }
-    Ok(DynamicSpec {
-        frames,
-        budget_ms,
-        lambda_1,
-        ratio,
-        resolution,
-    })
+    Ok(())
 }

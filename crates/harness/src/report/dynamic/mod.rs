@@ -117,7 +117,7 @@ pub fn run(
     let mut notes = Vec::new();
     // Per scene x structure x budget: frames, samples per pixel over them, frames with none
     // and the mean build + primary time that left none (the summary says what was measured).
-    let mut tally: Vec<(String, &str, f64, u32, u64, u32, f64)> = Vec::new();
+    let mut tally: Tally = Vec::new();
     for scene in &exp.scenes {
         for st in &exp.structures {
             for base in &st.param_sets {
@@ -165,29 +165,45 @@ pub fn run(
                         };
                         w.serialize(&row).map_err(|e| HarnessError::io(&path, e))?;
                         w.flush().map_err(|e| HarnessError::io(&path, e))?;
-                        let key = (scene.label.clone(), st.family.name, budget);
-                        let i = match tally
-                            .iter()
-                            .position(|t| (t.0.as_str(), t.1, t.2) == (&key.0, key.1, key.2))
-                        {
-                            Some(i) => i,
-                            None => {
-                                tally.push((key.0, key.1, key.2, 0, 0, 0, 0.0));
-                                tally.len() - 1
-                            }
-                        };
-                        let t = &mut tally[i];
-                        t.3 += 1;
-                        t.4 += u64::from(row.spp);
-                        if row.spp == 0 {
-                            t.5 += 1;
-                            t.6 += row.build_ms + row.primary_ms;
-                        }
+                        count(&mut tally, &scene.label, st.family.name, &row);
                     }
                 }
             }
         }
     }
+    notes.extend(tally_notes(tally));
+    Ok(notes)
+}
+
+/// Per scene x structure x budget: frames, samples per pixel over them, frames with none
+/// and the total build + primary time of those.
+type Tally<'a> = Vec<(String, &'a str, f64, u32, u64, u32, f64)>;
+
+/// Count `row` of `scene` and `structure` in its budget's tally.
+fn count<'a>(tally: &mut Tally<'a>, scene: &str, structure: &'a str, row: &DynamicRow) {
+    let key = (scene.to_owned(), structure, row.budget_ms);
+    let i = match tally
+        .iter()
+        .position(|t| (t.0.as_str(), t.1, t.2) == (&key.0, key.1, key.2))
+    {
+        Some(i) => i,
+        None => {
+            tally.push((key.0, key.1, key.2, 0, 0, 0, 0.0));
+            tally.len() - 1
+        }
+    };
+    let t = &mut tally[i];
+    t.3 += 1;
+    t.4 += u64::from(row.spp);
+    if row.spp == 0 {
+        t.5 += 1;
+        t.6 += row.build_ms + row.primary_ms;
+    }
+}
+
+/// The summary notes of the tallies: mean samples per pixel, and the frames that fit none.
+fn tally_notes(tally: Tally) -> Vec<String> {
+    let mut out = Vec::new();
     for (scene, structure, budget, frames, spp, zero, over) in tally {
         let why = if zero > 0 {
             format!(
@@ -197,12 +213,12 @@ pub fn run(
         } else {
             String::new()
         };
-        notes.push(format!(
+        out.push(format!(
             "dynamic: {scene} {structure} within {budget} ms: {:.2} AO samples per pixel on average over {frames} frames{why}",
             spp as f64 / frames.max(1) as f64
         ));
     }
-    Ok(notes)
+    out
 }
 
 /// `source` with `frame=F` added to its parameters.

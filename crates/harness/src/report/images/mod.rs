@@ -21,13 +21,13 @@ use crate::experiment::config::SceneSpec;
 use crate::report::images::config::{HeatMax, ImageSpec};
 use std::fs::OpenOptions;
 use std::path::{Path, PathBuf};
-use tb_core::{Accel, Query, TriTestKind};
+use tb_core::{Accel, Query, Ray, TriTestKind};
 use tb_render::colormap::srgb;
 use tb_render::heatmap::{
     counter_channels, heatmap, heatmaps_side_by_side, percentile99, to_row_major,
 };
 use tb_render::{Channels, Rgb8};
-use tb_scene::rays;
+use tb_scene::{rays, Camera};
 
 /// Counters drawn as PNG heat maps (every counter is in the EXR).
 pub const PNG_COUNTERS: [&str; 4] = ["interior", "leaves", "prims", "steps"];
@@ -168,6 +168,24 @@ pub fn varying_tag(sweep: &[String], set: &str) -> String {
 /// Each traversal's name and per-pixel values of one counter.
 type Panels<'a> = Vec<(&'a str, Vec<f32>)>;
 
+/// Per triangle test and counter, each traversal's values: drawn side by side after.
+type PanelSets = Vec<(TriTestKind, &'static str, Panels<'static>)>;
+
+/// What the heat maps of one build share: the scene, the image settings, the structure and
+/// where its files go.
+struct BuildMaps<'a> {
+    spec: &'a SceneSpec,
+    images: &'a ImageSpec,
+    out: &'a Path,
+    accel: &'a dyn Accel,
+    params: &'a str,
+    cam: Camera,
+    /// The scene's image directory.
+    dir: PathBuf,
+    /// The structure's name, with its tag.
+    name: String,
+}
+
 /// One built structure's heat maps: for each traversal and triangle test, count over the
 /// primary rays and write the EXR and the PNGs. `tag` is [`varying_tag`] of its parameters.
 /// Returns a note when nothing is written (no camera, or a structure without counters).
@@ -203,74 +221,118 @@ pub fn write_build(
     } else {
         format!("{}-{tag}", accel.name())
     };
-    // Per triangle test and counter, each traversal's values: drawn side by side after.
-    let mut panels: Vec<(TriTestKind, &str, Panels)> = Vec::new();
+    let maps = BuildMaps {
+        spec,
+        images,
+        out,
+        accel,
+        params,
+        cam,
+        dir,
+        name,
+    };
+    let mut panels: PanelSets = Vec::new();
     for &ti in traversals {
-        let info = accel.traversals()[ti];
-        let tname = info.name;
         for &tri in tests {
-            let (_, stats) = tb_core::par::count(accel, ti, Query::Closest, tri, &prim);
-            let c = counter_channels(&pixels, &stats, cam.width, cam.height);
-            let stem = safe_name(&format!("{name}-{tname}-{}", tri.name()));
-            let exr = dir.join(format!("{stem}.exr"));
-            c.write_exr(&exr).map_err(err)?;
-            let row = |file: &Path, counter: &str, max: String| {
-                index(
-                    out,
-                    [
-                        &rel(out, file),
-                        &spec.label,
-                        accel.name(),
-                        params,
-                        tname,
-                        tri.name(),
-                        counter,
-                        &max,
-                    ],
-                )
-            };
-            row(&exr, "all", String::new())?;
-            let reported = |n: &str| {
-                (tb_core::COUNTERS.iter())
-                    .position(|d| d.name == n)
-                    .is_some_and(|i| info.counters.contains(i))
-            };
-            for counter in PNG_COUNTERS.into_iter().filter(|n| reported(n)) {
-                let v = c.get(counter).expect("every counter is a channel");
-                let max = match images.max {
-                    HeatMax::Fixed(m) => m,
-                    HeatMax::Auto => percentile99(v),
-                };
-                let png = dir.join(format!("{stem}-{counter}.png"));
-                let what = tb_core::COUNTERS
-                    .iter()
-                    .find(|d| d.name == counter)
-                    .map_or(counter, |d| d.doc);
-                let mut title = format!("{} · {name}", spec.label);
-                title += &format!(" · {tname} · {}\n{counter}: {what}", tri.name());
-                heatmap(v, cam.width, cam.height, max, images.colormap, &title)
-                    .write_png(&png)
-                    .map_err(err)?;
-                row(&png, counter, max.to_string())?;
-                if traversals.len() > 1 {
-                    let at = match panels
-                        .iter()
-                        .position(|(t, n, _)| *t == tri && *n == counter)
-                    {
-                        Some(i) => i,
-                        None => {
-                            panels.push((tri, counter, Vec::new()));
-                            panels.len() - 1
-                        }
-                    };
-                    panels[at].2.push((tname, v.to_vec()));
-                }
-            }
+            let keep = traversals.len() > 1;
+            maps.write_traversal(ti, tri, &pixels, &prim, keep.then_some(&mut panels))?;
         }
     }
     // The traversals side by side on one scale (Figure 5 of Havran and Bittner 2007): the
     // fixed `heatmap_max`, else the largest of the panels' 99th percentiles.
     for (tri, counter, p) in panels.iter().filter(|(_, _, p)| p.len() > 1) {
+        maps.write_side_by_side(*tri, counter, p)?;
+    }
+    Ok(None)
+}
+
+impl BuildMaps<'_> {
+    /// Count traversal `ti` with triangle test `tri` over the primary rays and write its EXR
+    /// and PNGs; keep each PNG counter's values in `panels` when given.
+    fn write_traversal(
+        &self,
+        ti: usize,
+        tri: TriTestKind,
+        pixels: &[(u32, u32)],
+        prim: &[Ray],
+        mut panels: Option<&mut PanelSets>,
+    ) -> Result<(), HarnessError> {
+        let (spec, images, out, accel, params) =
+            (self.spec, self.images, self.out, self.accel, self.params);
+        let (cam, dir, name) = (&self.cam, &self.dir, &self.name);
+        let info = accel.traversals()[ti];
+        let tname = info.name;
+        let (_, stats) = tb_core::par::count(accel, ti, Query::Closest, tri, prim);
+        let c = counter_channels(pixels, &stats, cam.width, cam.height);
+        let stem = safe_name(&format!("{name}-{tname}-{}", tri.name()));
+        let exr = dir.join(format!("{stem}.exr"));
+        c.write_exr(&exr).map_err(err)?;
+        let row = |file: &Path, counter: &str, max: String| {
+            index(
+                out,
+                [
+                    &rel(out, file),
+                    &spec.label,
+                    accel.name(),
+                    params,
+                    tname,
+                    tri.name(),
+                    counter,
+                    &max,
+                ],
+            )
+        };
+        row(&exr, "all", String::new())?;
+        let reported = |n: &str| {
+            (tb_core::COUNTERS.iter())
+                .position(|d| d.name == n)
+                .is_some_and(|i| info.counters.contains(i))
+        };
+        for counter in PNG_COUNTERS.into_iter().filter(|n| reported(n)) {
+            let v = c.get(counter).expect("every counter is a channel");
+            let max = match images.max {
+                HeatMax::Fixed(m) => m,
+                HeatMax::Auto => percentile99(v),
+            };
+            let png = dir.join(format!("{stem}-{counter}.png"));
+            let what = tb_core::COUNTERS
+                .iter()
+                .find(|d| d.name == counter)
+                .map_or(counter, |d| d.doc);
+            let mut title = format!("{} · {name}", spec.label);
+            title += &format!(" · {tname} · {}\n{counter}: {what}", tri.name());
+            heatmap(v, cam.width, cam.height, max, images.colormap, &title)
+                .write_png(&png)
+                .map_err(err)?;
+            row(&png, counter, max.to_string())?;
+            if let Some(panels) = panels.as_deref_mut() {
+                let at = match panels
+                    .iter()
+                    .position(|(t, n, _)| *t == tri && *n == counter)
+                {
+                    Some(i) => i,
+                    None => {
+                        panels.push((tri, counter, Vec::new()));
+                        panels.len() - 1
+                    }
+                };
+                panels[at].2.push((tname, v.to_vec()));
+            }
+        }
+        Ok(())
+    }
+
+    /// Draw the traversals' values `p` of one triangle test and counter side by side on one
+    /// scale.
+    fn write_side_by_side(
+        &self,
+        tri: TriTestKind,
+        counter: &str,
+        p: &Panels,
+    ) -> Result<(), HarnessError> {
+        let (spec, images, out, accel, params) =
+            (self.spec, self.images, self.out, self.accel, self.params);
+        let (cam, dir, name) = (&self.cam, &self.dir, &self.name);
         let max = match images.max {
             HeatMax::Fixed(m) => m,
             HeatMax::Auto => p.iter().map(|(_, v)| percentile99(v)).fold(0.0, f32::max),
@@ -280,8 +342,8 @@ pub fn write_build(
         let png = dir.join(format!("{stem}.png"));
         let what = tb_core::COUNTERS
             .iter()
-            .find(|d| d.name == *counter)
-            .map_or(*counter, |d| d.doc);
+            .find(|d| d.name == counter)
+            .map_or(counter, |d| d.doc);
         let title = format!(
             "{} · {name} · {} · {}\n{counter}: {what}",
             spec.label,
@@ -304,9 +366,8 @@ pub fn write_build(
                 counter,
                 &max.to_string(),
             ],
-        )?;
+        )
     }
-    Ok(None)
 }
 
 #[cfg(test)]
