@@ -449,6 +449,9 @@ fn cmd_info(scene: &str, scenes_root: Option<PathBuf>) -> Result<i32> {
     );
     println!("diagonal    {}", b.diagonal());
     println!("memory      {} bytes (triangles)", s.memory_bytes());
+    for n in &s.notes {
+        eprintln!("note: {n}");
+    }
     if let Some(v) = &s.view {
         let c = v.camera;
         let light = match v.light {

@@ -72,15 +72,29 @@ fn config_errors_name_file_line_and_key() {
     // Unknown key (line 3).
     let e = parse_err("[run]\nthreads = 1\nthreds = 2\n");
     assert!(
-        e.contains("configs/test.toml") && e.contains("line 3") && e.contains("threds"),
+        e.contains("configs/test.toml:3: run.threds:") && e.contains("unknown field"),
         "{e}"
     );
-    // Wrong type.
+    // Wrong type, or a wrong value of a one-or-many key: the line and the key, and what was
+    // expected.
     let e = parse_err("[run]\nrepeat = \"five\"\n");
     assert!(
-        e.contains("line 2") && e.contains("repeat") || e.contains("line 2"),
+        e.contains("configs/test.toml:2: run.repeat:") && e.contains("expected u32"),
         "{e}"
     );
+    let e = parse_err("[run]\nthreads = -1\n");
+    assert!(
+        e.contains("configs/test.toml:2: run.threads:") && e.contains("expected u32"),
+        "{e}"
+    );
+    let e = parse_err("[run]\nthreads = 1\ntriangle_test = [\"watertight\", 3]\n");
+    assert!(
+        e.contains(":3: run.triangle_test:") && e.contains("expected a string"),
+        "{e}"
+    );
+    // Zero timed runs is an error, not one run.
+    let e = parse_err("[run]\nrepeat = 0\n");
+    assert!(e.contains(":2: run.repeat: must be at least 1"), "{e}");
     // Unknown structure, on its line.
     let text = GOOD.replace("name = \"bvh\"", "name = \"octree\"");
     let e = parse_err(&text);
@@ -136,6 +150,18 @@ fn config_errors_name_file_line_and_key() {
     let e = parse_err(&GOOD.replace("builtin:stress/flat", "no/such/scene.obj"));
     assert!(
         e.contains("scene.source") && e.contains("no/such/scene.obj") && e.contains("not found"),
+        "{e}"
+    );
+    // A directory where a scene file should be.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("meshes")).unwrap();
+    let text = GOOD.replace(
+        "builtin:stress/flat",
+        dir.path().join("meshes").to_str().unwrap(),
+    );
+    let e = parse_err(&text);
+    assert!(
+        e.contains("scene.source") && e.contains("is a directory, not a scene file"),
         "{e}"
     );
     // Unknown ray kind.

@@ -195,7 +195,7 @@ fn bad_views_are_refused_with_one_line() {
         ),
         ("[{ name = \"a@b\" }]", "scene.views.name"),
         ("[{ fov = 0 }]", "scene.views"),
-        ("[{ eye = [0, 0] }]", "line 4"),
+        ("[{ eye = [0, 0] }]", ":4: scene.views:"),
         ("[{ colour = 1 }]", "colour"),
     ] {
         let e = parse_err(&base(views));

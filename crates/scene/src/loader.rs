@@ -117,9 +117,9 @@ pub fn load_file(path: &Path) -> Result<Scene, SceneError> {
             drop(bytes);
             obj_triangles(path, text)
         }
-        Format::Gltf => gltf_triangles(path, &bytes),
+        Format::Gltf => gltf_triangles(path, &bytes).map(|t| (t, Vec::new())),
     });
-    let triangles = match parsed {
+    let (triangles, notes) = match parsed {
         Ok(result) => result?,
         Err(panic) => {
             let what = match format {
@@ -135,7 +135,9 @@ pub fn load_file(path: &Path) -> Result<Scene, SceneError> {
     if triangles.is_empty() {
         return Err(file_err(path, "contains no triangles"));
     }
-    Ok(Scene::from_triangles(path.display().to_string(), triangles))
+    let mut scene = Scene::from_triangles(path.display().to_string(), triangles);
+    scene.notes = notes;
+    Ok(scene)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -346,9 +348,36 @@ fn obj_error(path: &Path, data: &[u8], pos: usize, e: tobj::LoadError) -> SceneE
     file_err(path, message)
 }
 
-/// Parse OBJ text (already in memory) into triangles.
-fn obj_triangles(path: &Path, mut data: Vec<u8>) -> Result<Vec<Triangle>, SceneError> {
+/// Faces (`f`) of fewer than three vertices, which tobj drops: how many, and the first's
+/// line, as a note (`None` when there are none).
+fn short_faces(data: &[u8]) -> Option<String> {
+    let mut count = 0usize;
+    let mut first = 0usize;
+    for (no, line) in numbered_lines(data) {
+        let mut w = words(line);
+        if w.next() == Some("f") && w.count() < 3 {
+            count += 1;
+            if first == 0 {
+                first = no;
+            }
+        }
+    }
+    (count > 0).then(|| {
+        format!(
+            "{count} face{} of fewer than three vertices left out (not a surface; the first at \
+             line {first})",
+            if count == 1 { "" } else { "s" }
+        )
+    })
+}
+
+/// Parse OBJ text (already in memory) into triangles, and the notes of what was left out.
+fn obj_triangles(
+    path: &Path,
+    mut data: Vec<u8>,
+) -> Result<(Vec<Triangle>, Vec<String>), SceneError> {
     neutralize_polylines(&mut data);
+    let notes: Vec<String> = short_faces(&data).into_iter().collect();
     // `..Default::default()` covers the fields of optional tobj features.
     #[allow(clippy::needless_update)]
     let options = tobj::LoadOptions {
@@ -397,7 +426,7 @@ fn obj_triangles(path: &Path, mut data: Vec<u8>) -> Result<Vec<Triangle>, SceneE
             }
         }
     }
-    Ok(tris)
+    Ok((tris, notes))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -950,6 +979,28 @@ mod tests {
             e.contains("TRACE_BENCH_MAX_GUNZIP") && !e.contains('\n'),
             "{e}"
         );
+    }
+
+    /// A face of two vertices beside good faces is left out and said so, with its line.
+    #[test]
+    fn short_faces_are_noted_with_their_line() {
+        let dir = std::env::temp_dir().join(format!("tb-short-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("two.obj");
+        std::fs::write(
+            &p,
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\nf 2 3 1\nf 3\n",
+        )
+        .unwrap();
+        let scene = load_file(&p).unwrap();
+        assert_eq!(scene.triangles.len(), 2);
+        assert_eq!(
+            scene.notes,
+            ["2 faces of fewer than three vertices left out (not a surface; the first at line 5)"]
+        );
+        std::fs::write(&p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        assert!(load_file(&p).unwrap().notes.is_empty());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

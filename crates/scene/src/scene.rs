@@ -28,6 +28,9 @@ pub struct Scene {
     /// Stress scenes come with their own rays, built to hit the case they test (closest-hit
     /// queries, traced as ray kind `stress`).
     pub own_rays: Vec<Ray>,
+    /// What the loader left out of the file, one line each naming where (e.g. faces of fewer
+    /// than three vertices); the run prints them as notes.
+    pub notes: Vec<String>,
 }
 
 impl Scene {
@@ -42,6 +45,7 @@ impl Scene {
             bounds,
             view: None,
             own_rays: Vec::new(),
+            notes: Vec::new(),
         }
     }
 

@@ -29,11 +29,30 @@ use std::path::{Path, PathBuf};
 use tb_scene::PixelOrder;
 use toml::Spanned;
 
-#[derive(Deserialize)]
-#[serde(untagged)]
+/// One value or a list of them (`threads = 1` or `threads = [1, 2]`): read through a
+/// `toml::Value`, so a wrong value says what was expected (`invalid value: integer -1,
+/// expected u32`) rather than that no variant matched.
 enum OneOrMany<T> {
     One(T),
     Many(Vec<T>),
+}
+
+impl<'de, T: serde::de::DeserializeOwned> Deserialize<'de> for OneOrMany<T> {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let one = |v: toml::Value| {
+            v.try_into::<T>()
+                .map_err(|e| D::Error::custom(e.message().trim().to_owned()))
+        };
+        match toml::Value::deserialize(d)? {
+            toml::Value::Array(items) => items
+                .into_iter()
+                .map(one)
+                .collect::<Result<Vec<T>, _>>()
+                .map(OneOrMany::Many),
+            v => one(v).map(OneOrMany::One),
+        }
+    }
 }
 
 #[derive(Deserialize)]
@@ -55,13 +74,13 @@ struct RawConfig {
 #[serde(deny_unknown_fields)]
 struct RawRun {
     threads: Option<Spanned<OneOrMany<u32>>>,
-    repeat: Option<u32>,
+    repeat: Option<Spanned<u32>>,
     max_repeat: Option<u32>,
     target_ci: Option<Spanned<f64>>,
     max_row_seconds: Option<Spanned<f64>>,
     interleave: Option<bool>,
     warmup: Option<u32>,
-    build_repeat: Option<u32>,
+    build_repeat: Option<Spanned<u32>>,
     triangle_test: Option<Spanned<OneOrMany<String>>>,
     devices: Option<Spanned<OneOrMany<String>>>,
     gpu_adapter: Option<String>,
@@ -165,6 +184,7 @@ pub struct Experiment {
     pub scenes: Vec<SceneSpec>,
     pub structures: Vec<StructureSpec>,
     /// Why scenes marked `optional = true` were left out (file not under the scenes root).
+    /// (Also the loaders' notes on what they left out of a file, and the shard's part.)
     pub skipped_scenes: Vec<String>,
     /// `[run] images = true`: heat maps of primary rays ([`crate::report::images`]).
     pub images: Option<images::ImageSpec>,
@@ -380,6 +400,15 @@ fn syntax_error(file: &Path, text: &str, e: &toml::de::Error) -> HarnessError {
         m if m.is_empty() => "invalid TOML (a value is missing or malformed here)".into(),
         m => m,
     };
+    // The key of the value at fault, when the error points at a `key = value` line.
+    if let (Some(l), Some(key)) = (line, e.span().and_then(|s| key_at(text, s.start))) {
+        return HarnessError::Config {
+            file: file.into(),
+            line: l,
+            key,
+            message: msg,
+        };
+    }
     match line {
         Some(l) => HarnessError::ConfigSyntax {
             file: file.into(),
@@ -390,6 +419,28 @@ fn syntax_error(file: &Path, text: &str, e: &toml::de::Error) -> HarnessError {
             message: msg,
         },
     }
+}
+
+/// The dotted key of the `key = value` line holding byte `pos` of `text`, prefixed by the table
+/// above it (`run.threads`, `scene.camera`), or `None` off such a line.
+fn key_at(text: &str, pos: usize) -> Option<String> {
+    let start = text[..pos.min(text.len())].rfind('\n').map_or(0, |i| i + 1);
+    let line = text[start..].lines().next()?;
+    let (key, _) = line.split_once('=')?;
+    let key = key.trim();
+    if key.is_empty() || key.starts_with('#') || key.starts_with('[') {
+        return None;
+    }
+    let table = text[..start]
+        .lines()
+        .rev()
+        .map(str::trim)
+        .find(|l| l.starts_with('['))
+        .map(|l| l.trim_matches(|c| c == '[' || c == ']').trim().to_owned());
+    Some(match table {
+        Some(t) if !t.is_empty() => format!("{t}.{key}"),
+        _ => key.to_owned(),
+    })
 }
 
 /// The scenes root: `--scenes-root`, else TRACE_BENCH_SCENES, else the config's, else
@@ -403,7 +454,7 @@ fn scenes_root_of(ov: &Overrides, raw: &RawConfig) -> PathBuf {
 }
 
 /// Check and load the scene tables (but those the shard leaves out): the scene specs, and
-/// the notes of the optional scenes skipped.
+/// the notes on the scenes (optional ones skipped, what a loader left out of a file).
 fn check_scenes(
     cx: &Ctx,
     raw: &RawConfig,
@@ -425,6 +476,11 @@ fn check_scenes(
         }
         match scenes::check_scene(cx, s, scenes_root, validate, progress)? {
             Ok(specs) => {
+                if let Some(first) = specs.first() {
+                    for n in &first.scene.notes {
+                        skipped_scenes.push(format!("{}: {n}", first.table));
+                    }
+                }
                 for spec in specs {
                     if scenes.iter().any(|o| o.label == spec.label) {
                         return Err(cx.err(
@@ -501,20 +557,29 @@ fn plan_shard(
     crate::cluster::shard::plan(sel, &scenes, &builds, &est)
 }
 
-fn parse_validate(cx: &Ctx, v: &Spanned<toml::Value>, key: &str) -> Result<Validate, HarnessError> {
-    Ok(match v.get_ref() {
+/// A `validate` value: `"all"` or `true`, `"off"` or `false`, or a positive ray count (`None`
+/// for anything else). The one reading of the key, for the config check and the shard plan.
+pub(crate) fn validate_of(v: &toml::Value) -> Option<Validate> {
+    Some(match v {
         toml::Value::String(s) if s == "all" => Validate::All,
         toml::Value::String(s) if s == "off" => Validate::Off,
         toml::Value::Boolean(true) => Validate::All,
         toml::Value::Boolean(false) => Validate::Off,
         toml::Value::Integer(n) if *n > 0 => Validate::Sample(*n as usize),
-        other => {
-            return Err(cx.err(
-                v.span(),
-                key,
-                format!("expected \"all\", \"off\" or a positive ray count, found {other}"),
-            ))
-        }
+        _ => return None,
+    })
+}
+
+fn parse_validate(cx: &Ctx, v: &Spanned<toml::Value>, key: &str) -> Result<Validate, HarnessError> {
+    validate_of(v.get_ref()).ok_or_else(|| {
+        cx.err(
+            v.span(),
+            key,
+            format!(
+                "expected \"all\", \"off\" or a positive ray count, found {}",
+                v.get_ref()
+            ),
+        )
     })
 }
 

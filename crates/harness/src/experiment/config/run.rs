@@ -29,10 +29,27 @@ pub(super) fn check_run(
     ov: &Overrides,
 ) -> Result<RunSettings, HarnessError> {
     let threads = check_threads(cx, run, ov)?;
-    let repeat = ov.repeat.unwrap_or(run.repeat.unwrap_or(5) as usize).max(1);
+    let at_least_one = |v: &Option<Spanned<u32>>, key: &str, default: u32| match v {
+        Some(x) if *x.get_ref() == 0 => Err(cx.err(
+            x.span(),
+            key,
+            "must be at least 1 (a row needs one timed run)",
+        )),
+        Some(x) => Ok(*x.get_ref() as usize),
+        None => Ok(default as usize),
+    };
+    let repeat = match ov.repeat {
+        Some(0) => {
+            return Err(HarnessError::Other(
+                "--repeat 0: must be at least 1 (a row needs one timed run)".into(),
+            ))
+        }
+        Some(r) => r,
+        None => at_least_one(&run.repeat, "run.repeat", 5)?,
+    };
     let warmup = run.warmup.unwrap_or(1) as usize;
     let timing = timing_plan(cx, run, repeat, warmup)?;
-    let build_repeat = run.build_repeat.unwrap_or(1).max(1) as usize;
+    let build_repeat = at_least_one(&run.build_repeat, "run.build_repeat", 1)?;
     let triangle_tests = check_triangle_tests(cx, run)?;
     let devices = check_devices(cx, run)?;
     let devices = ov.devices.clone().unwrap_or(devices);

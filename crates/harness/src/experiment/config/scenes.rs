@@ -142,6 +142,16 @@ fn check_file(
         } else {
             scenes_root.join(p)
         };
+        if full.is_dir() {
+            return Err(cx.err(
+                s.source.span(),
+                "scene.source",
+                format!(
+                    "{} is a directory, not a scene file (.obj, .obj.gz, .gltf, .glb)",
+                    full.display()
+                ),
+            ));
+        }
         if !full.is_file() && s.optional == Some(true) {
             return Ok(Err(format!(
                 "{}: skipped, not found under the scenes root {} (optional = true)",
@@ -351,15 +361,12 @@ pub(super) fn estimate(
             batch_rays.extend(&one);
         }
     }
-    let validate = match &s.validate {
-        Some(v) => match v.get_ref() {
-            toml::Value::String(x) if x == "off" => Validate::Off,
-            toml::Value::Boolean(false) => Validate::Off,
-            toml::Value::Integer(n) if *n > 0 => Validate::Sample(*n as usize),
-            _ => Validate::All,
-        },
-        None => validate,
-    };
+    // A value the check will refuse prices as the run's (the run never starts).
+    let validate = s
+        .validate
+        .as_ref()
+        .and_then(|v| super::validate_of(v.get_ref()))
+        .unwrap_or(validate);
     let validated_rays = batch_rays
         .iter()
         .map(|&n| match validate {
