@@ -33,6 +33,8 @@ pub struct Output {
     pub nodes: Vec<KdNode>,
     pub prim_refs: Vec<u32>,
     pub bounds: Aabb,
+    /// Leaves made because the reference budget was reached ([`MAX_REFS_PER_TRIANGLE`]).
+    pub budget_leaves: u64,
 }
 
 /// A triangle reference of a node: its conservative clipped box and its scene index.
@@ -80,11 +82,26 @@ struct Split {
     planar_left: bool,
 }
 
+/// The most references a tree may hold per (finite) triangle. Splits duplicate the references
+/// of the triangles they cut; on the paper scenes a tree holds 1.3 to 5.5 per triangle, but
+/// overlapping coplanar triangles can make every split cut nearly all of them (2,000 such
+/// triangles made 190M references and gigabytes before this bound). Beyond it the builder
+/// makes leaves instead of splits, in its fixed depth-first order, so the tree stays
+/// deterministic; `build_stats` then counts those leaves (`ref_budget_leaves`). A bound that
+/// holds for any input: references ≤ 16·N, and the build's memory with them.
+pub const MAX_REFS_PER_TRIANGLE: u64 = 16;
+
 struct Builder<'a, M: BoxMeasure> {
     tris: &'a [Triangle],
     p: &'a KdParams,
     m: &'a M,
     depth_limit: u32,
+    /// References splits may add beyond the triangles' own ([`MAX_REFS_PER_TRIANGLE`]).
+    extra_budget: u64,
+    /// References splits have added so far.
+    extra: u64,
+    /// Leaves made because a split would have gone over the budget.
+    budget_leaves: u64,
     nodes: Vec<KdNode>,
     refs: Vec<u32>,
     events: Vec<u64>,
@@ -93,6 +110,19 @@ struct Builder<'a, M: BoxMeasure> {
 }
 
 impl<M: BoxMeasure> Builder<'_, M> {
+    /// Whether splitting `refs` at `s` stays within the reference budget (counting every
+    /// triangle the plane cuts as duplicated, an upper bound).
+    fn within_budget(&mut self, refs: &[Ref], s: &Split) -> bool {
+        let a = s.axis;
+        let cut = refs
+            .iter()
+            .filter(|r| r.b.min[a] < s.pos && r.b.max[a] > s.pos)
+            .count() as u64;
+        let ok = self.extra + cut <= self.extra_budget;
+        self.budget_leaves += u64::from(!ok);
+        ok
+    }
+
     fn find_split(
         &mut self,
         refs: &[Ref],
@@ -230,6 +260,8 @@ impl<M: BoxMeasure> Builder<'_, M> {
         } else {
             self.find_split(&refs, &cell, None)
         };
+        let split = split.filter(|s| self.within_budget(&refs, s));
+        let n = refs.len() as u64;
         let Some(s) = split else {
             let offset = self.refs.len() as u32;
             self.refs.extend(refs.iter().map(|r| r.id));
@@ -264,6 +296,7 @@ impl<M: BoxMeasure> Builder<'_, M> {
                 }
             }
         }
+        self.extra += (left.len() + right.len()) as u64 - n.min((left.len() + right.len()) as u64);
         let idx = self.nodes.len();
         self.nodes.push(KdNode::leaf(0, 0));
         self.node(left, lc, depth + 1);
@@ -348,6 +381,8 @@ impl<M: BoxMeasure> Builder<'_, M> {
         } else {
             self.find_split(&refs, &cell, Some(&ev))
         };
+        let split = split.filter(|s| self.within_budget(&refs, s));
+        let n = refs.len() as u64;
         let Some(s) = split else {
             let offset = self.refs.len() as u32;
             self.refs.extend(refs.iter().map(|r| r.id));
@@ -418,6 +453,7 @@ impl<M: BoxMeasure> Builder<'_, M> {
             ev_r[axis] = Events::merge(kr, Events::of(&right, new_r.iter().copied(), axis));
         }
         drop((map_l, map_r));
+        self.extra += (left.len() + right.len()) as u64 - n.min((left.len() + right.len()) as u64);
         let idx = self.nodes.len();
         self.nodes.push(KdNode::leaf(0, 0));
         self.node_sweep(left, ev_l, lc, depth + 1);
@@ -445,6 +481,9 @@ pub fn build<M: BoxMeasure>(tris: &[Triangle], p: &KdParams, m: &M) -> Output {
         p,
         m,
         depth_limit: p.depth_limit(tris.len()),
+        extra_budget: (MAX_REFS_PER_TRIANGLE - 1) * refs.len() as u64,
+        extra: 0,
+        budget_leaves: 0,
         nodes: Vec::new(),
         refs: Vec::new(),
         events: Vec::new(),
@@ -462,6 +501,7 @@ pub fn build<M: BoxMeasure>(tris: &[Triangle], p: &KdParams, m: &M) -> Output {
         nodes: b.nodes,
         prim_refs: b.refs,
         bounds,
+        budget_leaves: b.budget_leaves,
     }
 }
 

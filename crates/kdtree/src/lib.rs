@@ -204,6 +204,9 @@ pub struct KdTree {
     /// Where every traversal's walks begin.
     start: KdStart,
     aux: Arc<AuxArrays>,
+    /// Leaves the builder made because the reference budget was reached
+    /// ([`build::MAX_REFS_PER_TRIANGLE`]; 0 on every paper scene).
+    budget_leaves: u64,
 }
 
 /// The auxiliary arrays, each built on first use.
@@ -263,6 +266,7 @@ impl KdTree {
                 cell: out.bounds,
             },
             aux: Arc::default(),
+            budget_leaves: out.budget_leaves,
         })
     }
 
@@ -725,7 +729,14 @@ impl Structure for KdTree {
                     self.aux_bytes(BACKTRACK_AUX) as f64,
                 ),
                 ("ropes_aux_bytes".into(), self.aux_bytes(ROPES_AUX) as f64),
-            ],
+            ]
+            .into_iter()
+            // Only where the bound acted, so a row says when it did.
+            .chain(
+                (self.budget_leaves > 0)
+                    .then(|| ("ref_budget_leaves".into(), self.budget_leaves as f64)),
+            )
+            .collect(),
         }
     }
 
