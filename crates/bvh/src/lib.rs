@@ -295,6 +295,9 @@ pub struct Bvh {
     /// Triangles in the scene (`prim_ids` holds each once, or at least once for the SBVH).
     n_scene: usize,
     params: BvhParams,
+    /// SBVH spatial splits refused by the reference allowance
+    /// ([`sbvh::MAX_REFS_PER_TRIANGLE`]; 0 on every paper scene).
+    refused_splits: u64,
 }
 
 /// The wide nodes of a build with `width` 4 or 8 (collapsed from [`Bvh::nodes`]).
@@ -341,8 +344,11 @@ impl Bvh {
                 limit: u32::MAX as u64 - 1,
             });
         }
-        let (nodes, order) = match params.builder {
-            Builder::Binned => build::build(tris, params),
+        let (nodes, order, refused) = match params.builder {
+            Builder::Binned => {
+                let (n, o) = build::build(tris, params);
+                (n, o, 0)
+            }
             Builder::Sbvh => sbvh::build(tris, params),
         };
         if order.len() >= u32::MAX as usize {
@@ -376,6 +382,7 @@ impl Bvh {
             prim_ids: order,
             n_scene: tris.len(),
             params: *params,
+            refused_splits: refused,
         })
     }
 
@@ -818,6 +825,11 @@ impl Structure for Bvh {
             ]
             .into_iter()
             .chain(self.wide_figures())
+            // Only where the bound acted, so a row says when it did.
+            .chain(
+                (self.refused_splits > 0)
+                    .then(|| ("ref_budget_splits".into(), self.refused_splits as f64)),
+            )
             .collect(),
         }
     }
