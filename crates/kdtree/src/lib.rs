@@ -290,6 +290,12 @@ impl KdTree {
         self.start
     }
 
+    /// Leaves the builder made because the reference budget was reached
+    /// ([`build::MAX_REFS_PER_TRIANGLE`]; 0 where it never acted).
+    pub fn budget_leaves(&self) -> u64 {
+        self.budget_leaves
+    }
+
     /// This tree (its arrays shared, not copied) traced from node `node`: every traversal
     /// clips rays to the node's cell and treats the node as the root (see [`KdStart`]).
     /// Figures, memory and `validate` stay the whole tree's. `None` when `node` is no node

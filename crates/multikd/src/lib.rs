@@ -193,6 +193,8 @@ pub struct MultiKdTree {
     header: [u32; 3],
     trees: Vec<TreeEntry>,
     aux: Arc<AuxArrays>,
+    /// Leaves the trees' builds made at the reference budget (tb-kdtree's bound).
+    budget_leaves: u64,
 }
 
 #[derive(Debug, Default)]
@@ -232,6 +234,7 @@ impl MultiKdTree {
             })
             .collect::<Result<_, _>>()?;
         let bounds = built[0].2.bounds();
+        let budget_leaves = built.iter().map(|b| b.2.budget_leaves()).sum();
         let block = match kd.layout {
             KdLayout::DepthFirst => 1,
             KdLayout::Treelet => 1usize << kd.treelet_height,
@@ -297,6 +300,7 @@ impl MultiKdTree {
             header,
             trees,
             aux: Arc::default(),
+            budget_leaves,
         })
     }
 
@@ -885,6 +889,9 @@ impl Structure for MultiKdTree {
             for (i, w) in t.weights.iter().enumerate() {
                 extra.push((format!("w{}_{a}", crate::measure::AXES[i]), *w));
             }
+        }
+        if self.budget_leaves > 0 {
+            extra.push(("ref_budget_leaves".into(), self.budget_leaves as f64));
         }
         let cost = self.trees.iter().map(|t| t.cost).sum::<f64>() / self.trees.len() as f64;
         BuildReport {
