@@ -580,3 +580,32 @@ fn readme_structure_table_is_the_registry_listing() {
          `list --markdown` markers with the output of `cargo run --release -- list --markdown`"
     );
 }
+
+/// A scene scaled to 1e30 that asks for no AO rays is not refused for its AO distance (the
+/// default, 4 % of an infinite diagonal, matters only to AO rays); one that asks for them is.
+#[test]
+fn ao_distance_is_checked_only_for_ao_rays() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(
+        dir.path().join("huge.obj"),
+        "v 0 0 0\nv 1e30 0 0\nv 0 1e30 0\nf 1 2 3\nv 0 0 1e30\nf 1 2 4\n",
+    )
+    .unwrap();
+    let text = |rays: &str| {
+        format!(
+            "[[scene]]\nsource = {:?}\nrays = {rays}\nrandom = {{ count = 100 }}\n\
+             camera = {{ eye = [0.5, 0.5, 2], target = [0.5, 0.5, 0], fov = 40 }}\n\
+             [[structure]]\nname = \"bvh\"\n",
+            dir.path().join("huge.obj").to_str().unwrap()
+        )
+    };
+    let ok = config::parse(
+        Path::new("t.toml"),
+        &text("[\"random\"]"),
+        &Overrides::default(),
+        &mut |_| {},
+    );
+    assert!(ok.is_ok(), "{:?}", ok.err().map(|e| e.to_string()));
+    let e = parse_err(&text("[\"random\", \"ao\"]"));
+    assert!(e.contains("scene.ao.distance"), "{e}");
+}

@@ -74,7 +74,7 @@ pub(super) fn check_scene(
         }
         scene.enclose(&points, 0.05);
     }
-    let settings = check_settings(cx, s, view.as_ref(), scene.bounds.diagonal())?;
+    let settings = check_settings(cx, s, &kinds, view.as_ref(), scene.bounds.diagonal())?;
     let scene_validate = match &s.validate {
         None => validate,
         Some(v) => parse_validate(cx, v, "scene.validate")?,
@@ -249,6 +249,7 @@ struct RaySettings {
 fn check_settings(
     cx: &Ctx,
     s: &RawScene,
+    kinds: &[RayKindSpec],
     view: Option<&View>,
     diag: f32,
 ) -> Result<RaySettings, HarnessError> {
@@ -258,7 +259,12 @@ fn check_settings(
             .and_then(|a| a.distance)
             .or(view.map(|v| v.ao_distance))
             .unwrap_or(0.04 * diag);
-    if !(ao_distance > 0.0 && ao_distance.is_finite()) {
+    // Checked where AO rays are asked for (a scene scaled to 1e30 has an infinite default
+    // distance, which matters only to AO rays).
+    let ao_given = s.ao.as_ref().and_then(|a| a.distance).is_some();
+    if (ao_given || kinds.contains(&RayKindSpec::Ao))
+        && !(ao_distance > 0.0 && ao_distance.is_finite())
+    {
         return Err(cx.err(span, "scene.ao.distance", "must be positive and finite"));
     }
     let ao_samples = s.ao.as_ref().and_then(|a| a.samples).unwrap_or(4);
