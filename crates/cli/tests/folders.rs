@@ -155,3 +155,37 @@ fn a_closed_output_pipe_ends_quietly() {
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+/// Rays aimed at the scene that all miss (a camera looking away) get a note: their 0
+/// mismatches prove nothing.
+#[test]
+fn rows_whose_aimed_rays_all_miss_say_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("c.toml");
+    fs::write(
+        &cfg,
+        r#"
+[run]
+threads = 1
+repeat = 1
+warmup = 0
+
+[[scene]]
+source = "builtin:cornell"
+rays = ["primary"]
+camera = { eye = [278, 273, -800], target = [278, 273, -2000], fov = 40, width = 8, height = 8 }
+
+[[structure]]
+name = "bvh"
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    assert_eq!(run_in(&cfg, &out, &[]), 0);
+    let rows = tb_harness::results::output::read_csv(&out.join("results.csv")).unwrap();
+    assert!(!rows.is_empty());
+    for r in &rows {
+        assert_eq!(r.hit_rate, Some(0.0));
+        assert!(r.note.contains("no ray hit anything"), "{}", r.note);
+    }
+}
