@@ -28,16 +28,16 @@
 //!   slab test made robust as in Ize 2013, "Robust BVH ray traversal" (see [`Aabb::intersect`]).
 
 mod build;
+mod gpu;
 mod sbvh;
 mod traverse;
 mod wide;
 
 use serde::{Deserialize, Serialize};
-use std::borrow::Cow;
 use tb_core::params::ParamKind;
 use tb_core::{
-    build_with, dispatch, Aabb, AccelError, BuildReport, Family, GpuProgram, MemoryReport,
-    Structure, Traversal, TraversalInfo, Triangle, Vec3,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Family, MemoryReport, Structure,
+    Traversal, TraversalInfo, Triangle, Vec3,
 };
 
 pub use traverse::STACK_SIZE;
@@ -417,72 +417,6 @@ impl Bvh {
     /// The parameters it was built with.
     pub fn params(&self) -> &BvhParams {
         &self.params
-    }
-
-    /// The wide program of [`Bvh::gpu_ordered`].
-    fn gpu_wide(&self, name: &'static str, bytes: Vec<u8>, n: usize, width: u32) -> GpuProgram<'_> {
-        GpuProgram::new(
-            name,
-            concat!(
-                include_str!("../shaders/common.wgsl"),
-                include_str!("../shaders/wide.wgsl")
-            ),
-            &self.triangles[..],
-        )
-        .buffer("the wide BVH node array", Cow::Owned(bytes))
-        .buffer(
-            "the primitive-id array",
-            Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
-        )
-        .buffer(
-            "the binary root node",
-            Cow::Borrowed(bytemuck::cast_slice(&self.nodes[..1])),
-        )
-        .meta([n as u32, 0, 0])
-        .stack(WIDE_STACK_SIZE as u32)
-        .constant("WIDTH", width as f64)
-    }
-
-    /// The GPU program of `ordered` (`shaders/bvh.wgsl`, the same walk in the same order):
-    /// the leaf-ordered triangles, the nodes and primitive ids as they are, the node count in
-    /// `meta[0]`.
-    ///
-    /// Wide builds get `shaders/wide.wgsl` (programs `bvh/ordered-w4`, `bvh/ordered-w8`, the
-    /// wide walk in the CPU's order): the wide nodes (leaves naming their first triangle in
-    /// the leaf-ordered triangles, not their first block), the primitive ids and the binary
-    /// root node (its box is tested first), the wide node count in `meta[0]`.
-    fn gpu_ordered(&self) -> GpuProgram<'_> {
-        fn bytes<const N: usize>(w: &[WideNode<N>], first: &[u32]) -> Vec<u8> {
-            bytemuck::cast_slice(&wide::unpack_leaves(w, first)).to_vec()
-        }
-        let first = &self.block_first;
-        match &self.wide {
-            WideNodes::W4(w) if !w.is_empty() => {
-                return self.gpu_wide("bvh/ordered-w4", bytes(w, first), w.len(), 4)
-            }
-            WideNodes::W8(w) if !w.is_empty() => {
-                return self.gpu_wide("bvh/ordered-w8", bytes(w, first), w.len(), 8)
-            }
-            _ => {}
-        }
-        GpuProgram::new(
-            "bvh/ordered",
-            concat!(
-                include_str!("../shaders/common.wgsl"),
-                include_str!("../shaders/bvh.wgsl")
-            ),
-            &self.triangles[..],
-        )
-        .buffer(
-            "the BVH node array",
-            Cow::Borrowed(bytemuck::cast_slice(&self.nodes)),
-        )
-        .buffer(
-            "the primitive-id array",
-            Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
-        )
-        .meta([self.nodes.len() as u32, 0, 0])
-        .stack(STACK_SIZE as u32)
     }
 
     /// Walk the tree: call `f(node_index, depth)` for every node reachable from the root,

@@ -1,0 +1,87 @@
+//! The multi-kd-tree's GPU programs (Torres et al. 2012 §6 on the GPU; README "GPU").
+
+use crate::measure::Heuristic;
+use crate::MultiKdTree;
+use std::borrow::Cow;
+use tb_core::{GpuArrange, GpuProgram};
+use tb_kdtree::{KdLayout, STACK_SIZE};
+
+impl MultiKdTree {
+    /// The GPU program of `recursive-direction` (`shaders/kd.wgsl`'s `recursive` from the ray's
+    /// root, picked in `shaders/multikd.wgsl`: the CPU kernel's walk
+    /// in the CPU's order, so the counters agree ray for ray): the triangles in scene order,
+    /// the node array, the references and a 12-word header (roots X, Y, Z; the pick rule; the
+    /// layout; the root cell), the node count in `meta[0]`.
+    pub(crate) fn gpu_recursive_direction(&self) -> GpuProgram<'_> {
+        self.gpu_program(None)
+    }
+
+    /// The GPU program of `recursive-direction-sorted`: [`Self::gpu_recursive_direction`]'s
+    /// walk of the rays of each dispatch stably sorted by tree index (tb-gpu's sort pass on
+    /// `shaders/multikd.wgsl`'s `ray_key`, the header's pick rule: 3 keys), the sort timed
+    /// with the trace (the paper's "inc.").
+    pub(crate) fn gpu_sorted(&self) -> GpuProgram<'_> {
+        self.gpu_program(Some(true))
+    }
+
+    /// The GPU program of `recursive-direction-presorted`: as [`Self::gpu_sorted`], the sort
+    /// run but not counted in the trace time (the paper's "n.inc.").
+    pub(crate) fn gpu_presorted(&self) -> GpuProgram<'_> {
+        self.gpu_program(Some(false))
+    }
+
+    /// The `recursive-direction` program, its rays sorted by tree index first when `sort` is
+    /// `Some(timed)`.
+    pub(crate) fn gpu_program(&self, sort: Option<bool>) -> GpuProgram<'_> {
+        let words = |w: &[u32]| -> Cow<'_, [u8]> {
+            Cow::Owned(w.iter().flat_map(|x| x.to_le_bytes()).collect())
+        };
+        let nodes: Vec<u32> = self.nodes.iter().flat_map(|n| [n.bits, n.data]).collect();
+        let rule = match self.pick {
+            Heuristic::Sah => 0,
+            Heuristic::CubeOrth | Heuristic::CubeObli => 1,
+            _ => 2,
+        };
+        let mask = match self.kd.layout {
+            KdLayout::DepthFirst => 0,
+            KdLayout::Treelet => (1u32 << self.kd.treelet_height) - 1,
+        };
+        let (b0, b1) = (self.bounds.min, self.bounds.max);
+        let h = self.header;
+        let header = [
+            h[0],
+            h[1],
+            h[2],
+            rule,
+            mask,
+            b0.x.to_bits(),
+            b0.y.to_bits(),
+            b0.z.to_bits(),
+            b1.x.to_bits(),
+            b1.y.to_bits(),
+            b1.z.to_bits(),
+            0,
+        ];
+        GpuProgram::new(
+            if sort.is_some() {
+                "multi-kd/recursive-direction-sorted"
+            } else {
+                "multi-kd/recursive-direction"
+            },
+            concat!(
+                include_str!("../../kdtree/shaders/kd.wgsl"),
+                include_str!("../shaders/multikd.wgsl")
+            ),
+            &self.tris[..],
+        )
+        .buffer("the multi-kd-tree node array", words(&nodes))
+        .buffer("the multi-kd-tree reference array", words(&self.refs))
+        .buffer("the multi-kd-tree header", words(&header))
+        .meta([self.nodes.len() as u32, 0, 0])
+        .stack(STACK_SIZE as u32)
+        .arranged(sort.map(|timed| GpuArrange {
+            keys: self.header.len() as u32,
+            timed,
+        }))
+    }
+}

@@ -1,0 +1,68 @@
+//! The GPU program of SLTR (Havran and Bittner 2007 §5.3 on the GPU; README "GPU").
+
+use crate::SparseBoxes;
+use std::borrow::Cow;
+use tb_core::GpuProgram;
+
+/// Little-endian-as-native bytes of `words` (GPU buffers).
+fn bytes(words: impl Iterator<Item = u32>) -> Cow<'static, [u8]> {
+    Cow::Owned(words.flat_map(|w| w.to_ne_bytes()).collect())
+}
+
+impl SparseBoxes {
+    /// The GPU program of SLTR (`crates/sparse/shaders/sltr.wgsl`): from the start node
+    /// located per ray in the kernel (`start`, program `sparse-boxes/sltr`) or from the root
+    /// (`sparse-boxes/sltr-root`). Buffers: the kd-tree's nodes and references, the augmented
+    /// records, their depths followed by the step cap; meta: node count, record count,
+    /// `d_min + 1`.
+    pub(crate) fn gpu_sltr(&self, start: bool) -> GpuProgram<'_> {
+        let v = self.kd.view();
+        GpuProgram::new(
+            if start {
+                "sparse-boxes/sltr"
+            } else {
+                "sparse-boxes/sltr-root"
+            },
+            include_str!("../shaders/sltr.wgsl"),
+            Cow::Borrowed(v.triangles()),
+        )
+        .buffer(
+            "the kd-tree node array",
+            bytes(v.nodes().iter().flat_map(|n| [n.bits, n.data])),
+        )
+        .buffer(
+            "the kd-tree reference array",
+            bytes(v.refs().iter().copied()),
+        )
+        .buffer(
+            "the augmented nodes",
+            bytes(self.aug.iter().flat_map(|a| {
+                [
+                    a.min[0].to_bits(),
+                    a.min[1].to_bits(),
+                    a.min[2].to_bits(),
+                    a.parent,
+                    a.max[0].to_bits(),
+                    a.max[1].to_bits(),
+                    a.max[2].to_bits(),
+                    a.node,
+                ]
+            })),
+        )
+        .buffer(
+            "the augmented nodes' depths and the step cap",
+            bytes(
+                self.depth
+                    .iter()
+                    .map(|&d| d as u32)
+                    .chain([self.params.step_cap]),
+            ),
+        )
+        .meta([
+            v.nodes().len() as u32,
+            self.aug.len() as u32,
+            self.params.period(),
+        ])
+        .constant("START", start as u32 as f64)
+    }
+}
