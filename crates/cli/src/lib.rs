@@ -447,7 +447,7 @@ fn cmd_info(scene: &str, scenes_root: Option<PathBuf>) -> Result<i32> {
         "bounds      [{}, {}, {}] .. [{}, {}, {}]",
         b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
     );
-    println!("diagonal    {}", b.diagonal());
+    println!("diagonal    {}", s.diagonal());
     println!("memory      {} bytes (triangles)", s.memory_bytes());
     for n in &s.notes {
         eprintln!("note: {n}");

@@ -49,9 +49,25 @@ impl Scene {
         }
     }
 
-    /// Number of triangles with zero area.
+    /// Number of triangles with zero area, computed in f64 so that a scene scaled to 1e-30
+    /// (whose f32 cross products underflow) or to 1e30 (overflow) counts as its unscaled self.
     pub fn degenerate_count(&self) -> usize {
-        self.triangles.iter().filter(|t| t.is_degenerate()).count()
+        self.triangles
+            .iter()
+            .filter(|t| {
+                let (a, b, c) = (t.v0.as_dvec3(), t.v1.as_dvec3(), t.v2.as_dvec3());
+                (b - a).cross(c - a) == glam::DVec3::ZERO
+            })
+            .count()
+    }
+
+    /// The length of the bounds' diagonal, in f64 (finite for a scene at 1e30, not zero at
+    /// 1e-30, where the f32 length overflows or underflows).
+    pub fn diagonal(&self) -> f64 {
+        if self.bounds.is_empty() {
+            return 0.0;
+        }
+        (self.bounds.max.as_dvec3() - self.bounds.min.as_dvec3()).length()
     }
 
     /// Bytes of the triangle array.
@@ -190,5 +206,25 @@ mod tests {
             .inset(0.5, Some(Vec3::new(f32::INFINITY, 0.0, 0.0)))
             .is_err());
         assert_eq!(bad.triangles.len(), 2);
+    }
+}
+
+#[cfg(test)]
+mod scale_tests {
+    use super::*;
+    use tb_core::Vec3;
+
+    /// One triangle at 1e-30 and one at 1e30: neither is zero-area and the diagonals are the
+    /// unscaled one's times the scale (in f32 the 1e-30 one has zero area and both
+    /// diagonals are 0 or infinite).
+    #[test]
+    fn figures_are_scale_free() {
+        for k in [1e-30f32, 1.0, 1e30] {
+            let t = Triangle::new(Vec3::ZERO, Vec3::new(k, 0.0, 0.0), Vec3::new(0.0, k, 0.0));
+            let s = Scene::from_triangles("t", vec![t]);
+            assert_eq!(s.degenerate_count(), 0, "{k}");
+            let d = s.diagonal() / k as f64;
+            assert!((d - 2f64.sqrt()).abs() < 1e-6, "{k}: {d}");
+        }
     }
 }
