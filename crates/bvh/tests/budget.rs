@@ -4,24 +4,11 @@
 //! second, says that the bound acted, and answers every ray as brute force does.
 
 use tb_bvh::{Builder, Bvh, BvhParams};
-use tb_core::{Aabb, Accel, BruteForce, Query, TriTestKind, Triangle, Vec3};
+use tb_core::{Aabb, Accel, BruteForce, Query, TriTestKind, Vec3};
 
 #[test]
 fn sbvh_of_coplanar_overlaps_stays_within_the_reference_allowance() {
-    let mut s = 12345u64;
-    let mut next = || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 40) as f32 / (1u64 << 24) as f32
-    };
-    let tris: Vec<Triangle> = (0..2000)
-        .map(|_| {
-            let (x, y) = (next(), next());
-            let p = |dx: f32, dy: f32| Vec3::new(x + dx, y + dy, 0.0);
-            Triangle::new(p(0.0, 0.0), p(0.5 * next(), 0.0), p(0.0, 0.5 * next()))
-        })
-        .collect();
+    let tris = tb_scene::conformance::coplanar_overlaps(2000);
     for width in [2, 8] {
         let params = BvhParams {
             builder: Builder::Sbvh,

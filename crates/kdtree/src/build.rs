@@ -80,6 +80,9 @@ struct Split {
     pos: f32,
     cost: f32,
     planar_left: bool,
+    /// References of the two children together, as the SAH counted them (the straddling
+    /// triangles twice): what the split adds is `refs − n` (the reference budget's charge).
+    refs: u32,
 }
 
 /// The most references a tree may hold per (finite) triangle. Splits duplicate the references
@@ -110,15 +113,11 @@ struct Builder<'a, M: BoxMeasure> {
 }
 
 impl<M: BoxMeasure> Builder<'_, M> {
-    /// Whether splitting `refs` at `s` stays within the reference budget (counting every
-    /// triangle the plane cuts as duplicated, an upper bound).
-    fn within_budget(&mut self, refs: &[Ref], s: &Split) -> bool {
-        let a = s.axis;
-        let cut = refs
-            .iter()
-            .filter(|r| r.b.min[a] < s.pos && r.b.max[a] > s.pos)
-            .count() as u64;
-        let ok = self.extra + cut <= self.extra_budget;
+    /// Whether splitting `n` references at `s` stays within the reference budget (charged
+    /// with the children's references the SAH counted, so no further pass over them).
+    fn within_budget(&mut self, n: usize, s: &Split) -> bool {
+        let added = (s.refs as u64).saturating_sub(n as u64);
+        let ok = self.extra + added <= self.extra_budget;
         self.budget_leaves += u64::from(!ok);
         ok
     }
@@ -176,6 +175,7 @@ impl<M: BoxMeasure> Builder<'_, M> {
                             pos,
                             cost: c,
                             planar_left: true,
+                            refs: nl + nr,
                         });
                     }
                 }
@@ -244,6 +244,7 @@ impl<M: BoxMeasure> Builder<'_, M> {
                             pos,
                             cost: c,
                             planar_left,
+                            refs: nl + nr + pp,
                         });
                     }
                 }
@@ -260,7 +261,7 @@ impl<M: BoxMeasure> Builder<'_, M> {
         } else {
             self.find_split(&refs, &cell, None)
         };
-        let split = split.filter(|s| self.within_budget(&refs, s));
+        let split = split.filter(|s| self.within_budget(refs.len(), s));
         let n = refs.len() as u64;
         let Some(s) = split else {
             let offset = self.refs.len() as u32;
@@ -381,7 +382,7 @@ impl<M: BoxMeasure> Builder<'_, M> {
         } else {
             self.find_split(&refs, &cell, Some(&ev))
         };
-        let split = split.filter(|s| self.within_budget(&refs, s));
+        let split = split.filter(|s| self.within_budget(refs.len(), s));
         let n = refs.len() as u64;
         let Some(s) = split else {
             let offset = self.refs.len() as u32;

@@ -47,21 +47,8 @@ fn traversal_memory_counts_only_the_auxiliary_arrays_read() {
 /// answers every ray as brute force does.
 #[test]
 fn coplanar_overlaps_stay_within_the_reference_budget() {
-    use tb_core::{BruteForce, Query, TriTestKind, Triangle, Vec3};
-    let mut s = 12345u64;
-    let mut next = || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 40) as f32 / (1u64 << 24) as f32
-    };
-    let tris: Vec<Triangle> = (0..2000)
-        .map(|_| {
-            let (x, y) = (next(), next());
-            let p = |dx: f32, dy: f32| Vec3::new(x + dx, y + dy, 0.0);
-            Triangle::new(p(0.0, 0.0), p(0.5 * next(), 0.0), p(0.0, 0.5 * next()))
-        })
-        .collect();
+    use tb_core::{BruteForce, Query, TriTestKind, Vec3};
+    let tris = tb_scene::conformance::coplanar_overlaps(2000);
     let t0 = std::time::Instant::now();
     let kd = KdTree::build(&tris, &KdParams::default());
     let secs = t0.elapsed().as_secs_f64();
