@@ -742,10 +742,13 @@ fn judge(code: Option<i32>, stderr: &str, kind: Kind) -> Result<Verdict, String>
     if stderr.contains("panicked") || stderr.contains("RUST_BACKTRACE") {
         return Err(format!("a panic message on stderr:\n{stderr}"));
     }
-    // Config loading reports the scenes it loads; everything else on stderr is the error.
+    // Config loading reports the scenes it loads, and a loader notes what it left out of a
+    // scene it accepts (`note: `, e.g. a face of two vertices); everything else on stderr is
+    // the error.
     let lines: Vec<&str> = stderr
         .lines()
         .filter(|l| !(kind == Kind::Config && l.starts_with("loading ")))
+        .filter(|l| !l.starts_with("note: "))
         .collect();
     match code {
         Some(0) if lines.is_empty() => Ok(Verdict::Accepted),

@@ -349,8 +349,8 @@ fn obj_error(path: &Path, data: &[u8], pos: usize, e: tobj::LoadError) -> SceneE
 }
 
 /// Faces (`f`) of fewer than three vertices, which tobj drops: how many, and the first's
-/// line, as a note (`None` when there are none).
-fn short_faces(data: &[u8]) -> Option<String> {
+/// line, as a note naming the file (`None` when there are none).
+fn short_faces(path: &Path, data: &[u8]) -> Option<String> {
     let mut count = 0usize;
     let mut first = 0usize;
     for (no, line) in numbered_lines(data) {
@@ -364,8 +364,9 @@ fn short_faces(data: &[u8]) -> Option<String> {
     }
     (count > 0).then(|| {
         format!(
-            "{count} face{} of fewer than three vertices left out (not a surface; the first at \
-             line {first})",
+            "{}: {count} face{} of fewer than three vertices left out (not a surface; the \
+             first at line {first})",
+            path.display(),
             if count == 1 { "" } else { "s" }
         )
     })
@@ -377,7 +378,7 @@ fn obj_triangles(
     mut data: Vec<u8>,
 ) -> Result<(Vec<Triangle>, Vec<String>), SceneError> {
     neutralize_polylines(&mut data);
-    let notes: Vec<String> = short_faces(&data).into_iter().collect();
+    let notes: Vec<String> = short_faces(path, &data).into_iter().collect();
     // `..Default::default()` covers the fields of optional tobj features.
     #[allow(clippy::needless_update)]
     let options = tobj::LoadOptions {
@@ -996,7 +997,11 @@ mod tests {
         assert_eq!(scene.triangles.len(), 2);
         assert_eq!(
             scene.notes,
-            ["2 faces of fewer than three vertices left out (not a surface; the first at line 5)"]
+            [format!(
+                "{}: 2 faces of fewer than three vertices left out (not a surface; the first at \
+                 line 5)",
+                p.display()
+            )]
         );
         std::fs::write(&p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
         assert!(load_file(&p).unwrap().notes.is_empty());
