@@ -8,6 +8,38 @@ use serde::{Deserialize, Serialize};
 /// Three-component `f32` vector (glam's scalar `Vec3`, 12 bytes, `#[repr(C)]`).
 pub type Vec3 = glam::Vec3;
 
+/// `v.length()`, also where the sum of squares leaves f32's range (a vector of 1e30 or 1e-30):
+/// there `v` is first divided by its largest component. Where the squares are in range the
+/// result is `v.length()` bit for bit.
+pub fn length(v: Vec3) -> f32 {
+    let l2 = v.length_squared();
+    if l2.is_normal() && l2.is_finite() {
+        return l2.sqrt();
+    }
+    let m = v.abs().max_element();
+    if m == 0.0 || !m.is_finite() {
+        return if m.is_nan() { f32::NAN } else { m };
+    }
+    m * (v / m).length()
+}
+
+/// `v.normalize_or_zero()`, also where the sum of squares leaves f32's range (the direction
+/// between two points at 1e30 or 1e-30 apart): there `v` is first divided by its largest
+/// component. Zero for a zero or non-finite `v`. Where the squares are in range the result is
+/// `v.normalize_or_zero()` bit for bit (issue 30 item 4: cameras, aimed rays and normals at
+/// extreme scales).
+pub fn unit(v: Vec3) -> Vec3 {
+    let l2 = v.length_squared();
+    if l2.is_normal() && l2.is_finite() {
+        return v.normalize_or_zero();
+    }
+    let m = v.abs().max_element();
+    if m == 0.0 || !m.is_finite() {
+        return Vec3::ZERO;
+    }
+    (v / m).normalize_or_zero()
+}
+
 /// A ray `origin + t * dir` for `t` in the half-open interval `[tmin, tmax)`.
 ///
 /// `dir` need not be normalised, but every generator in trace-bench normalises it so that `t`
@@ -126,12 +158,13 @@ impl Aabb {
         0.5 * (self.min + self.max)
     }
 
-    /// Length of the diagonal (0 for the empty box).
+    /// Length of the diagonal (0 for the empty box), without overflow or underflow of the
+    /// squares at extreme scales ([`length`]).
     pub fn diagonal(&self) -> f32 {
         if self.is_empty() {
             0.0
         } else {
-            self.extent().length()
+            length(self.extent())
         }
     }
 
@@ -259,6 +292,23 @@ impl Triangle {
     /// Unnormalised geometric normal `(v1 − v0) × (v2 − v0)`.
     pub fn normal(&self) -> Vec3 {
         (self.v1 - self.v0).cross(self.v2 - self.v0)
+    }
+
+    /// The unit normal (zero for a degenerate triangle), also where [`Triangle::normal`]'s
+    /// products leave f32's range (a triangle at 1e30 or 1e-30): there the edges are first
+    /// divided by their largest component. Elsewhere `normal().normalize_or_zero()` bit for bit.
+    pub fn unit_normal(&self) -> Vec3 {
+        let n = self.normal();
+        let l2 = n.length_squared();
+        if l2.is_normal() && l2.is_finite() {
+            return n.normalize_or_zero();
+        }
+        let (e1, e2) = (self.v1 - self.v0, self.v2 - self.v0);
+        let m = e1.abs().max(e2.abs()).max_element();
+        if m == 0.0 || !m.is_finite() {
+            return Vec3::ZERO;
+        }
+        unit((e1 / m).cross(e2 / m))
     }
 
     pub fn area(&self) -> f32 {

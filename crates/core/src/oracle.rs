@@ -3,7 +3,7 @@
 use crate::accel::{
     build_with, dispatch, Family, Kernel, MemoryReport, Structure, Traversal, TraversalInfo,
 };
-use crate::geom::{Aabb, HitRecord, Ray, Triangle};
+use crate::geom::{HitRecord, Ray, Triangle};
 use crate::gpu::GpuProgram;
 use crate::stats::Counter;
 use crate::tri::TriTest;
@@ -13,18 +13,15 @@ use std::sync::Arc;
 const GPU_UNROLL: u32 = 8;
 
 /// The oracle: tests every triangle in index order, keeping the smallest `t` (the first index
-/// wins ties). `steps` counts one per triangle tested.
+/// wins ties). `steps` and `prims` count one per triangle tested; no box is tested.
 ///
-/// Each triangle test is gated by the robust slab test of the triangle's own bounding box
-/// ([`Aabb::intersect`]) over the ray's current interval. The exact hit point of a true hit lies
-/// in the triangle and so in its box; a test's rounding, though, can report a hit for a ray
-/// passing near an elongated sliver (on Conference: a 2560 x 3.8 unit triangle in the plane
-/// y = 205.7, a bounce ray starting 0.004 below that plane and moving down got `t = 0.0049`
-/// from the watertight test). Such a hit is a numerical false positive that every structure
-/// culling by boxes rejects, so the oracle rejects it too. `boxes` counts one per triangle.
+/// Every triangle is given to the very test the structures call, with nothing in front of it:
+/// a box test culling triangles first would hide a false hit of the triangle test from the
+/// comparison (issue 30 item 1: a hit 1.6e-8 behind a shadow ray's origin that every kd, grid
+/// and R-tree traversal reported and the oracle's box culling rejected). Hits behind the
+/// origin are the triangle test's to reject ([`crate::tri::Watertight`]'s conservative `t`).
 pub struct BruteForce {
     tris: Arc<[Triangle]>,
-    boxes: Vec<Aabb>,
 }
 
 crate::params! {
@@ -47,8 +44,7 @@ impl BruteForce {
 
     /// Brute force over shared triangles.
     pub fn shared(tris: Arc<[Triangle]>) -> Self {
-        let boxes = tris.iter().map(Triangle::bounds).collect();
-        Self { tris, boxes }
+        Self { tris }
     }
 
     /// The triangles, in the scene's order.
@@ -56,8 +52,8 @@ impl BruteForce {
         &self.tris
     }
 
-    /// The GPU program of `linear` (`shaders/brute.wgsl`): the same loop, boxes computed per
-    /// triangle from its vertices (no buffers of its own), the loop unrolled [`GPU_UNROLL`]
+    /// The GPU program of `linear` (`shaders/brute.wgsl`): the same loop (no buffers of its
+    /// own), unrolled [`GPU_UNROLL`]
     /// times for llvmpipe's limit on loop iterations.
     fn gpu_linear(&self) -> GpuProgram<'_> {
         GpuProgram::new(
@@ -73,17 +69,13 @@ impl Kernel for BruteForce {
     #[inline]
     fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let pre = T::prepare(ray);
-        let inv = ray.inv_dir();
         let mut best = HitRecord::MISS;
         let mut tmax = ray.tmax;
+        let n = self.tris.len() as u32;
         c.leaf();
-        c.boxes(self.tris.len() as u32);
-        c.steps(self.tris.len() as u32);
-        for (i, (tri, b)) in self.tris.iter().zip(&self.boxes).enumerate() {
-            if b.intersect(ray.origin, inv, ray.tmin, tmax).is_none() {
-                continue;
-            }
-            c.prims(1);
+        c.steps(n);
+        c.prims(n);
+        for (i, tri) in self.tris.iter().enumerate() {
             if let Some((t, u, v)) = T::intersect(&pre, ray, tri, tmax) {
                 tmax = t;
                 best = HitRecord {
@@ -100,14 +92,9 @@ impl Kernel for BruteForce {
     #[inline]
     fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let pre = T::prepare(ray);
-        let inv = ray.inv_dir();
         c.leaf();
-        for (i, (tri, b)) in self.tris.iter().zip(&self.boxes).enumerate() {
-            c.boxes(1);
+        for (i, tri) in self.tris.iter().enumerate() {
             c.steps(1);
-            if b.intersect(ray.origin, inv, ray.tmin, ray.tmax).is_none() {
-                continue;
-            }
             c.prims(1);
             if let Some((t, u, v)) = T::intersect(&pre, ray, tri, ray.tmax) {
                 return HitRecord {
@@ -136,8 +123,7 @@ impl Structure for BruteForce {
 
     fn own_memory(&self) -> MemoryReport {
         MemoryReport {
-            bytes: (std::mem::size_of_val(&*self.tris)
-                + std::mem::size_of_val(self.boxes.as_slice())) as u64,
+            bytes: std::mem::size_of_val(&*self.tris) as u64,
             nodes: 1,
             prim_refs: self.tris.len() as u64,
             node_bytes: 0,

@@ -159,7 +159,7 @@ impl TriTest for MollerTrumbore {
             return None;
         }
         let t = e2.dot(q) * inv;
-        if t >= ray.tmin && t < tmax {
+        if t >= ray.tmin && t < tmax && t > mt_error_bound(e2, s, e1, inv) {
             Some((t, u, v))
         } else {
             None
@@ -183,6 +183,26 @@ impl TriTest for MollerTrumbore {
     }
 }
 
+/// The rounding-error bound of Möller–Trumbore's `t = (e2 · (s × e1)) / det`: a `t` at or
+/// below it may belong to a plane behind the origin, so it is no hit (as [`t_error_bound`]
+/// for the watertight test). Each component of `q = s × e1` is off by at most
+/// `γ(3)·(|s_j·e1_k| + |s_k·e1_j|)` (the inputs rounded once, two products, a difference),
+/// and the dot product with `e2` (itself rounded once) adds `γ(4)` of `Σ|e2_i·q_i|`: in all
+/// at most `γ(8)·Σ|e2_i|·a_i` with `a` the absolute cross product of `|s|` and `|e1|`; `γ(9)`
+/// covers the division and the comparison. Unlike the watertight test there is no f64 path:
+/// the numerator is a product of three coordinates and leaves f32's range beyond about 1e12,
+/// where the test misses (documented in the README's numerical notes).
+#[inline(always)]
+fn mt_error_bound(e2: Vec3, s: Vec3, e1: Vec3, inv: f32) -> f32 {
+    let (s, e1, e2) = (s.abs(), e1.abs(), e2.abs());
+    let a = Vec3::new(
+        s.y * e1.z + s.z * e1.y,
+        s.z * e1.x + s.x * e1.z,
+        s.x * e1.y + s.y * e1.x,
+    );
+    gamma(9.0) * ((e2.x * a.x + e2.y * a.y) + e2.z * a.z) * inv.abs()
+}
+
 /// Watertight ray–triangle intersection (Woop, Benthin and Wald 2013, JCGT 2(1), Listing 1),
 /// two-sided, with the double-precision fallback for edge functions that are exactly zero.
 pub struct Watertight;
@@ -197,6 +217,134 @@ pub struct WatertightPre {
     sx: f32,
     sy: f32,
     sz: f32,
+}
+
+/// `γ(n) = n·ε / (1 − n·ε)` with `ε = 2⁻²⁴` (f32's unit roundoff): the bound on the relative
+/// error of `n` rounded f32 operations (Pharr, Jakob and Humphreys, PBR 4th ed., §6.8.1).
+pub const fn gamma(n: f32) -> f32 {
+    let e = f32::EPSILON * 0.5;
+    n * e / (1.0 - n * e)
+}
+
+/// Whether `|det|` lies where the f32 path of [`Watertight`] keeps its precision: the edge
+/// functions are products of two sheared coordinates and the distance `tt` of three, so a
+/// determinant outside `[2⁻⁶⁴, 2⁶⁴]` (a scene at 1e-20 or 1e20, say) means products near f32's
+/// underflow or overflow, and the test is redone in f64 ([`Sheared::in_f64`]).
+#[inline(always)]
+fn in_f32_range(det: f32) -> bool {
+    let a = det.abs();
+    (F32_DET_MIN..=F32_DET_MAX).contains(&a)
+}
+const F32_DET_MIN: f32 = 5.421_011e-20; // 2^-64
+const F32_DET_MAX: f32 = 1.844_674_4e19; // 2^64
+
+/// The vertices relative to the ray's origin, permuted (`kz` last) and sheared (Woop et al.
+/// 2013, Listing 1): `x`, `y` sheared, `z` not yet scaled by `sz`.
+#[derive(Clone, Copy)]
+struct Sheared {
+    ax: f32,
+    ay: f32,
+    az: f32,
+    bx: f32,
+    by: f32,
+    bz: f32,
+    cx: f32,
+    cy: f32,
+    cz: f32,
+}
+
+impl Sheared {
+    #[inline(always)]
+    fn new(p: &WatertightPre, ray: &Ray, tri: &Triangle) -> Sheared {
+        // Arrays, not glam's `Index` (a match per access), so the permutation is a plain load.
+        let a = (tri.v0 - ray.origin).to_array();
+        let b = (tri.v1 - ray.origin).to_array();
+        let c = (tri.v2 - ray.origin).to_array();
+        let (az, bz, cz) = (a[p.kz], b[p.kz], c[p.kz]);
+        Sheared {
+            ax: a[p.kx] - p.sx * az,
+            ay: a[p.ky] - p.sy * az,
+            az,
+            bx: b[p.kx] - p.sx * bz,
+            by: b[p.ky] - p.sy * bz,
+            bz,
+            cx: c[p.kx] - p.sx * cz,
+            cy: c[p.ky] - p.sy * cz,
+            cz,
+        }
+    }
+
+    /// The rest of the test in f64 from the f32 sheared vertices: edge functions, determinant,
+    /// distance and the error bound of `t` cannot leave f64's range for any f32 input, so a
+    /// scene at 1e-30 or 1e30 is hit where the f32 products would underflow to zero or
+    /// overflow (issue 30, item 4). The bound keeps f32's `γ` (it bounds the f32 shear's
+    /// error, the larger one).
+    #[cold]
+    #[inline(never)]
+    fn in_f64(&self, p: &WatertightPre, ray: &Ray, tmax: f32) -> Option<(f32, f32, f32)> {
+        let d = |x: f32| x as f64;
+        let (ax, ay, bx, by, cx, cy) = (
+            d(self.ax),
+            d(self.ay),
+            d(self.bx),
+            d(self.by),
+            d(self.cx),
+            d(self.cy),
+        );
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let sz = d(p.sz);
+        let (az, bz, cz) = (sz * d(self.az), sz * d(self.bz), sz * d(self.cz));
+        let inv = 1.0 / det;
+        let t = (u * az + v * bz + w * cz) * inv;
+        let (max_x, max_y, max_z) = (
+            ax.abs().max(bx.abs()).max(cx.abs()),
+            ay.abs().max(by.abs()).max(cy.abs()),
+            az.abs().max(bz.abs()).max(cz.abs()),
+        );
+        let g = |n: f32| gamma(n) as f64;
+        let delta_z = g(3.0) * max_z;
+        let delta_x = g(5.0) * (max_x + max_z);
+        let delta_y = g(5.0) * (max_y + max_z);
+        let delta_e = 2.0 * (g(2.0) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+        let max_e = u.abs().max(v.abs()).max(w.abs());
+        let bound = 3.0 * (g(3.0) * max_e * max_z + delta_e * max_z + delta_z * max_e) * inv.abs();
+        let t32 = t as f32;
+        if t <= bound || !(t32 >= ray.tmin && t32 < tmax) {
+            return None;
+        }
+        Some((t32, (v * inv) as f32, (w * inv) as f32))
+    }
+}
+
+/// The rounding-error bound of the watertight test's `t` (Pharr, Jakob and Humphreys, PBR
+/// 4th ed., §6.8.7, "Conservative Ray–Triangle t Values"): a computed `t` at or below it may
+/// belong to a plane behind the ray's origin, so it is no hit. Issue 30 item 1: a shadow ray
+/// starting one ulp in front of a box face got `t = 3.6e-8` from that face, whose plane is
+/// 1.6e-8 behind the origin. `az`, `bz`, `cz` are scaled by `sz`; `inv = 1 / det`. The
+/// products are grouped so that a determinant in [`in_f32_range`] cannot overflow them
+/// (`max_e · |inv| ≤ 1`); a non-finite bound sends the test to f64.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn t_error_bound(s: &Sheared, az: f32, bz: f32, cz: f32, u: f32, v: f32, w: f32, inv: f32) -> f32 {
+    let max_x = s.ax.abs().max(s.bx.abs()).max(s.cx.abs());
+    let max_y = s.ay.abs().max(s.by.abs()).max(s.cy.abs());
+    let max_z = az.abs().max(bz.abs()).max(cz.abs());
+    let delta_z = gamma(3.0) * max_z;
+    let delta_x = gamma(5.0) * (max_x + max_z);
+    let delta_y = gamma(5.0) * (max_y + max_z);
+    let ainv = inv.abs();
+    let delta_e = 2.0 * (gamma(2.0) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+    let e = u.abs().max(v.abs()).max(w.abs()) * ainv;
+    3.0 * (gamma(3.0) * max_z * e + (delta_e * ainv) * max_z + delta_z * e)
 }
 
 impl TriTest for Watertight {
@@ -235,17 +383,8 @@ impl TriTest for Watertight {
         tri: &Triangle,
         tmax: f32,
     ) -> Option<(f32, f32, f32)> {
-        // Arrays, not glam's `Index` (a match per access), so the permutation is a plain load.
-        let a = (tri.v0 - ray.origin).to_array();
-        let b = (tri.v1 - ray.origin).to_array();
-        let c = (tri.v2 - ray.origin).to_array();
-        let (az, bz, cz) = (a[p.kz], b[p.kz], c[p.kz]);
-        let ax = a[p.kx] - p.sx * az;
-        let ay = a[p.ky] - p.sy * az;
-        let bx = b[p.kx] - p.sx * bz;
-        let by = b[p.ky] - p.sy * bz;
-        let cx = c[p.kx] - p.sx * cz;
-        let cy = c[p.ky] - p.sy * cz;
+        let s = Sheared::new(p, ray, tri);
+        let (ax, ay, bx, by, cx, cy) = (s.ax, s.ay, s.bx, s.by, s.cx, s.cy);
         let mut u = cx * by - cy * bx;
         let mut v = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
@@ -261,11 +400,16 @@ impl TriTest for Watertight {
             return None;
         }
         let det = u + v + w;
-        if det == 0.0 || !det.is_finite() {
-            return None;
+        if !in_f32_range(det) {
+            // Zero (the ray in the triangle's plane, or products under f32's range), or out of
+            // the range where f32 holds the products: the same test in f64.
+            return s.in_f64(p, ray, tmax);
         }
-        let (az, bz, cz) = (p.sz * az, p.sz * bz, p.sz * cz);
+        let (az, bz, cz) = (p.sz * s.az, p.sz * s.bz, p.sz * s.cz);
         let tt = u * az + v * bz + w * cz;
+        if !tt.is_finite() {
+            return s.in_f64(p, ray, tmax);
+        }
         // Compare tt/det against [tmin, tmax) without dividing: flip signs so det > 0.
         let (tt_s, det_s) = if det < 0.0 { (-tt, -det) } else { (tt, det) };
         if tt_s < ray.tmin * det_s || tt_s >= tmax * det_s {
@@ -275,6 +419,13 @@ impl TriTest for Watertight {
         let t = tt * inv;
         // Guard the rounding of the final division against the interval.
         if t < ray.tmin || t >= tmax {
+            return None;
+        }
+        let bound = t_error_bound(&s, az, bz, cz, u, v, w, inv);
+        if !bound.is_finite() {
+            return s.in_f64(p, ray, tmax);
+        }
+        if t <= bound {
             return None;
         }
         // u weighs v0 (edge opposite), v weighs v1, w weighs v2 in Woop et al.'s convention.
@@ -330,6 +481,17 @@ mod sse {
         }
     }
 
+    #[inline(always)]
+    unsafe fn abs(x: __m128) -> __m128 {
+        unsafe { _mm_andnot_ps(_mm_set1_ps(-0.0), x) }
+    }
+
+    /// `!(|x| < inf)`: infinite or NaN.
+    #[inline(always)]
+    unsafe fn not_finite(x: __m128) -> __m128 {
+        unsafe { _mm_cmpnlt_ps(abs(x), _mm_set1_ps(f32::INFINITY)) }
+    }
+
     /// [`super::Watertight::intersect`] on four lanes.
     #[inline(always)]
     pub(super) unsafe fn watertight4(p: &WatertightPre, ray: &Ray, b: &Tri4, tmax: f32) -> Lanes4 {
@@ -351,7 +513,7 @@ mod sse {
             let w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
             let zero = _mm_setzero_ps();
             // An exactly zero edge function: the scalar test recomputes in f64.
-            let redo = _mm_or_ps(
+            let zero_edge = _mm_or_ps(
                 _mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)),
                 _mm_cmpeq_ps(w, zero),
             );
@@ -380,8 +542,54 @@ mod sse {
             let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
             let t = _mm_mul_ps(tt, inv);
             let out2 = _mm_or_ps(_mm_cmplt_ps(t, tmin_v), _mm_cmpge_ps(t, tmax_v));
-            let reject = _mm_or_ps(_mm_or_ps(redo, _mm_and_ps(neg, pos)), _mm_or_ps(out1, out2));
-            let hit = _mm_andnot_ps(reject, nonzero_finite(det));
+            // The error bound of `t` (`super::t_error_bound`, operation by operation).
+            let max3 =
+                |a: __m128, b: __m128, c: __m128| _mm_max_ps(_mm_max_ps(abs(a), abs(b)), abs(c));
+            let (max_x, max_y, max_z) = (max3(ax, bx, cx), max3(ay, by, cy), max3(azs, bzs, czs));
+            let g = |n: f32| _mm_set1_ps(super::gamma(n));
+            let delta_z = _mm_mul_ps(g(3.0), max_z);
+            let delta_x = _mm_mul_ps(g(5.0), _mm_add_ps(max_x, max_z));
+            let delta_y = _mm_mul_ps(g(5.0), _mm_add_ps(max_y, max_z));
+            let ainv = abs(inv);
+            let delta_e = _mm_mul_ps(
+                _mm_set1_ps(2.0),
+                _mm_add_ps(
+                    _mm_add_ps(
+                        _mm_mul_ps(_mm_mul_ps(g(2.0), max_x), max_y),
+                        _mm_mul_ps(delta_y, max_x),
+                    ),
+                    _mm_mul_ps(delta_x, max_y),
+                ),
+            );
+            let e = _mm_mul_ps(max3(u, v, w), ainv);
+            let bound = _mm_mul_ps(
+                _mm_set1_ps(3.0),
+                _mm_add_ps(
+                    _mm_add_ps(
+                        _mm_mul_ps(_mm_mul_ps(g(3.0), max_z), e),
+                        _mm_mul_ps(_mm_mul_ps(delta_e, ainv), max_z),
+                    ),
+                    _mm_mul_ps(delta_z, e),
+                ),
+            );
+            let behind = _mm_cmple_ps(t, bound);
+            // Lanes the scalar test finishes in f64 (`Sheared::in_f64`): a determinant out of
+            // the f32 range, a non-finite distance or bound (among lanes with consistent signs).
+            let abs_det = abs(det);
+            let in_range = _mm_and_ps(
+                _mm_cmpge_ps(abs_det, _mm_set1_ps(super::F32_DET_MIN)),
+                _mm_cmple_ps(abs_det, _mm_set1_ps(super::F32_DET_MAX)),
+            );
+            let unfinished = _mm_or_ps(
+                _mm_andnot_ps(in_range, _mm_set1_ps(f32::from_bits(!0))),
+                _mm_or_ps(not_finite(tt), not_finite(bound)),
+            );
+            let redo = _mm_or_ps(zero_edge, _mm_andnot_ps(_mm_and_ps(neg, pos), unfinished));
+            let reject = _mm_or_ps(
+                _mm_or_ps(redo, _mm_and_ps(neg, pos)),
+                _mm_or_ps(_mm_or_ps(out1, out2), behind),
+            );
+            let hit = _mm_andnot_ps(reject, _mm_set1_ps(f32::from_bits(!0)));
             Lanes4 {
                 hit: _mm_movemask_ps(hit) as u32,
                 redo: _mm_movemask_ps(redo) as u32,
@@ -432,9 +640,23 @@ mod sse {
             let v = _mm_mul_ps(dot(&d, &q), inv);
             let v_out = _mm_or_ps(_mm_cmplt_ps(v, zero), _mm_cmpgt_ps(_mm_add_ps(u, v), one));
             let t = _mm_mul_ps(dot(&e2, &q), inv);
+            // `super::mt_error_bound`, operation by operation.
+            let (sa, e1a, e2a) = (s.map(|x| abs(x)), e1.map(|x| abs(x)), e2.map(|x| abs(x)));
+            let acr = [
+                _mm_add_ps(_mm_mul_ps(sa[1], e1a[2]), _mm_mul_ps(sa[2], e1a[1])),
+                _mm_add_ps(_mm_mul_ps(sa[2], e1a[0]), _mm_mul_ps(sa[0], e1a[2])),
+                _mm_add_ps(_mm_mul_ps(sa[0], e1a[1]), _mm_mul_ps(sa[1], e1a[0])),
+            ];
+            let bound = _mm_mul_ps(
+                _mm_mul_ps(_mm_set1_ps(super::gamma(9.0)), dot(&e2a, &acr)),
+                abs(inv),
+            );
             let t_in = _mm_and_ps(
-                _mm_cmpge_ps(t, _mm_set1_ps(ray.tmin)),
-                _mm_cmplt_ps(t, _mm_set1_ps(tmax)),
+                _mm_and_ps(
+                    _mm_cmpge_ps(t, _mm_set1_ps(ray.tmin)),
+                    _mm_cmplt_ps(t, _mm_set1_ps(tmax)),
+                ),
+                _mm_cmpgt_ps(t, bound),
             );
             let hit = _mm_andnot_ps(
                 v_out,
@@ -455,7 +677,7 @@ mod sse {
 
 /// The geometric normal of `tri` facing against `dir` (for offsetting secondary rays).
 pub fn facing_normal(tri: &Triangle, dir: Vec3) -> Vec3 {
-    let n = tri.normal().normalize_or_zero();
+    let n = tri.unit_normal();
     if n.dot(dir) > 0.0 {
         -n
     } else {
@@ -632,6 +854,89 @@ mod tests {
             hits += four_equals_scalar::<MollerTrumbore>(&tris, &ray);
         }
         assert!(hits > 1000, "too few hits ({hits}) to mean anything");
+    }
+
+    /// The plane distance of `r`'s origin to `tri` along `r.dir` in f64 (exact enough to tell
+    /// the sign of an f32 test's `t`).
+    fn plane_t(tri: &Triangle, r: &Ray) -> f64 {
+        let d = |v: Vec3| v.as_dvec3();
+        let n = (d(tri.v1) - d(tri.v0)).cross(d(tri.v2) - d(tri.v0));
+        n.dot(d(tri.v0) - d(r.origin)) / n.dot(d(r.dir))
+    }
+
+    /// Issue 30 item 1 and item 4 at the triangle test: rays starting on a triangle's plane,
+    /// a few ulps in front of or behind it, in every direction, at scales 1e-30 to 1e30. The
+    /// watertight test reports no hit whose plane lies behind the origin (conservative `t`;
+    /// Möller–Trumbore neither, with its own bound), hits at every scale (f64 where f32's products would leave its range), and its four-wide
+    /// form equals the scalar one bit for bit.
+    #[test]
+    fn no_hit_behind_the_origin_at_any_scale() {
+        let mut s = 0x2545f4914f6cdd1du64;
+        let mut rnd = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        for scale in [1e-30f32, 1e-12, 1.0, 1e12, 1e30] {
+            let mut tris = Vec::new();
+            for _ in 0..64 {
+                let c = Vec3::new(rnd(), rnd(), rnd());
+                let e = |r: &mut dyn FnMut() -> f32| Vec3::new(r(), r(), r()) * 0.5;
+                let (a, b) = (c + e(&mut rnd), c + e(&mut rnd));
+                tris.push(Triangle::new(c * scale, a * scale, b * scale));
+            }
+            let (mut hits, mut from_outside) = (0, 0);
+            for k in 0..2000 {
+                let tri = tris[k % tris.len()];
+                let (u, v) = (rnd().abs() * 0.5, rnd().abs() * 0.5);
+                let on = tri.v0 + (tri.v1 - tri.v0) * u + (tri.v2 - tri.v0) * v;
+                let d = Vec3::new(rnd(), rnd(), rnd()).normalize_or_zero();
+                if d == Vec3::ZERO {
+                    continue;
+                }
+                // On the plane (rounded), a few ulps off it along an axis, or from outside.
+                let mut o = on;
+                let axis = k % 3;
+                let ulps = (k / 3 % 9) as i32 - 4;
+                o[axis] = f32::from_bits((o[axis].to_bits() as i32 + ulps) as u32);
+                let outside = k % 10 == 0;
+                let ray = if outside {
+                    Ray::new(on - d * (2.0 * scale), d)
+                } else {
+                    Ray::new(o, d)
+                };
+                let pre = Watertight::prepare(&ray);
+                for t in &tris {
+                    if let Some(h) = Watertight::intersect(&pre, &ray, t, ray.tmax) {
+                        let exact = plane_t(t, &ray);
+                        assert!(
+                            exact > 0.0,
+                            "scale {scale}: hit at t {} whose plane is at {exact}: {ray:?} {t:?}",
+                            h.0
+                        );
+                        hits += 1;
+                        from_outside += outside as usize;
+                    }
+                    if let Some(h) = MollerTrumbore::intersect(&(), &ray, t, ray.tmax) {
+                        let exact = plane_t(t, &ray);
+                        assert!(
+                            exact > 0.0,
+                            "scale {scale}: Möller–Trumbore hit at t {} whose plane is at \
+                             {exact}: {ray:?} {t:?}",
+                            h.0
+                        );
+                    }
+                }
+                four_equals_scalar::<Watertight>(&tris, &ray);
+                four_equals_scalar::<MollerTrumbore>(&tris, &ray);
+            }
+            assert!(
+                from_outside > 50,
+                "scale {scale}: {from_outside} hits from outside"
+            );
+            assert!(hits > 200, "scale {scale}: {hits} hits");
+        }
     }
 
     #[test]

@@ -96,6 +96,12 @@ fn prepare(r: Ray) -> Pre {
 }
 
 // Result of a triangle test: x = t, y = u, z = v, w = 1 for a hit, 0 for none.
+// γ(n) = n·ε/(1 − n·ε), ε = 2^-24 (tb_core::tri::gamma).
+const GAMMA2: f32 = 1.192093e-7;
+const GAMMA3: f32 = 1.7881396e-7;
+const GAMMA5: f32 = 2.980233e-7;
+const GAMMA9: f32 = 5.364421e-7;
+
 fn watertight(p: Pre, r: Ray, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmax: f32) -> vec4<f32> {
     let none = vec4<f32>(0.0);
     let a = v0 - r.origin;
@@ -141,6 +147,22 @@ fn watertight(p: Pre, r: Ray, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmax:
     if t < r.tmin || t >= tmax {
         return none;
     }
+    // tb_core::tri::t_error_bound: a t within the rounding-error bound may belong to a plane
+    // behind the origin (PBR 4th ed. §6.8.7). The CPU finishes out-of-range determinants in
+    // f64; here they are misses (no f64 on most adapters), as they were.
+    let max_x = max(max(abs(ax), abs(bx)), abs(cx));
+    let max_y = max(max(abs(ay), abs(by)), abs(cy));
+    let max_z = max(max(abs(p.s.z * az), abs(p.s.z * bz)), abs(p.s.z * cz));
+    let delta_z = GAMMA3 * max_z;
+    let delta_x = GAMMA5 * (max_x + max_z);
+    let delta_y = GAMMA5 * (max_y + max_z);
+    let ainv = abs(inv);
+    let delta_e = 2.0 * ((GAMMA2 * max_x * max_y + delta_y * max_x) + delta_x * max_y);
+    let e = max(max(abs(u), abs(v)), abs(w)) * ainv;
+    let bound = 3.0 * ((GAMMA3 * max_z * e + (delta_e * ainv) * max_z) + delta_z * e);
+    if !(t > bound) {
+        return none;
+    }
     return vec4<f32>(t, v * inv, w * inv, 1.0);
 }
 
@@ -165,7 +187,16 @@ fn moller_trumbore(r: Ray, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmax: f3
         return none;
     }
     let t = dot3(e2, q) * inv;
-    if t >= r.tmin && t < tmax {
+    // tb_core::tri::mt_error_bound: no hit within the rounding-error bound of t.
+    let sa = abs(s);
+    let e1a = abs(e1);
+    let acr = vec3<f32>(
+        sa.y * e1a.z + sa.z * e1a.y,
+        sa.z * e1a.x + sa.x * e1a.z,
+        sa.x * e1a.y + sa.y * e1a.x,
+    );
+    let bound = GAMMA9 * dot3(abs(e2), acr) * abs(inv);
+    if t >= r.tmin && t < tmax && t > bound {
         return vec4<f32>(t, u, v, 1.0);
     }
     return none;

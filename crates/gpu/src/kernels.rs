@@ -300,3 +300,19 @@ impl Kernels {
             .clone()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    /// The prelude's `γ(n)` constants are tb-core's, bit for bit (the triangle tests' error
+    /// bounds on the GPU equal the CPU's).
+    #[test]
+    fn prelude_gammas_are_the_cpus() {
+        for n in [2u8, 3, 5, 9] {
+            let decl = format!("const GAMMA{n}: f32 = {:e};", tb_core::tri::gamma(n as f32));
+            assert!(
+                super::COMMON.contains(&decl),
+                "common.wgsl must declare `{decl}`"
+            );
+        }
+    }
+}

@@ -98,6 +98,10 @@ struct Builder<'a, M: BoxMeasure> {
     tris: &'a [Triangle],
     p: &'a KdParams,
     m: &'a M,
+    /// A power of two the cells are scaled by before they are measured (1 but for scenes
+    /// whose areas leave f32's range, [`measure_scale`]): the SAH's ratios are unchanged, bit
+    /// for bit, and a scene at 1e30 or 1e-30 is split as the same scene at 1.
+    scale: f32,
     depth_limit: u32,
     /// References splits may add beyond the triangles' own ([`MAX_REFS_PER_TRIANGLE`]).
     extra_budget: u64,
@@ -110,6 +114,29 @@ struct Builder<'a, M: BoxMeasure> {
     events: Vec<u64>,
     /// Per-bin start and end counts of the binned builder.
     bins: Vec<u32>,
+}
+
+/// The power of two [`scaled_measure`] scales cells by: 1 where the scene's extent lies in
+/// `[2⁻³², 2³²]` (every cell's area then stays in f32's range and the scaling would change
+/// nothing), else the power of two that brings the largest extent to about 1 (issue 30
+/// item 4: at 1e30 every area overflowed, at 1e-30 every area was 0, and the builds stopped
+/// at the root).
+fn measure_scale(bounds: &Aabb) -> f32 {
+    let e = bounds.extent().max_element();
+    if !(e.is_finite() && e > 0.0) || (2f32.powi(-32)..=2f32.powi(32)).contains(&e) {
+        return 1.0;
+    }
+    2f32.powi(-e.log2().round() as i32)
+}
+
+/// The measure `m` of `cell` scaled by `scale` (exact: a power of two).
+#[inline(always)]
+fn scaled_measure<M: BoxMeasure>(m: &M, scale: f32, cell: &Aabb) -> f32 {
+    if scale == 1.0 {
+        m.measure(cell)
+    } else {
+        m.measure(&Aabb::new(cell.min * scale, cell.max * scale))
+    }
 }
 
 impl<M: BoxMeasure> Builder<'_, M> {
@@ -128,7 +155,9 @@ impl<M: BoxMeasure> Builder<'_, M> {
         cell: &Aabb,
         sorted: Option<&[Events; 3]>,
     ) -> Option<Split> {
-        let area = self.m.measure(cell);
+        let (m, scale) = (self.m, self.scale);
+        let measure = |c: &Aabb| scaled_measure(m, scale, c);
+        let area = measure(cell);
         if !(area > 0.0 && area.is_finite()) {
             return None;
         }
@@ -163,8 +192,8 @@ impl<M: BoxMeasure> Builder<'_, M> {
                         continue;
                     }
                     let (lc, rc) = split_cell(cell, axis, pos);
-                    let pl = self.m.measure(&lc) * inv_area;
-                    let pr = self.m.measure(&rc) * inv_area;
+                    let pl = measure(&lc) * inv_area;
+                    let pr = measure(&rc) * inv_area;
                     let mut c = ct + ci * (pl * nl as f32 + pr * nr as f32);
                     if nl == 0 || nr == 0 {
                         c *= lambda;
@@ -222,8 +251,8 @@ impl<M: BoxMeasure> Builder<'_, M> {
                 nr -= pp + pe;
                 if lo < pos && pos < hi {
                     let (lc, rc) = split_cell(cell, axis, pos);
-                    let pl = self.m.measure(&lc) * inv_area;
-                    let pr = self.m.measure(&rc) * inv_area;
+                    let pl = measure(&lc) * inv_area;
+                    let pr = measure(&rc) * inv_area;
                     let cost = |l: u32, r: u32| {
                         let c = ct + ci * (pl * l as f32 + pr * r as f32);
                         if l == 0 || r == 0 {
@@ -481,6 +510,7 @@ pub fn build<M: BoxMeasure>(tris: &[Triangle], p: &KdParams, m: &M) -> Output {
         tris,
         p,
         m,
+        scale: measure_scale(&bounds),
         depth_limit: p.depth_limit(tris.len()),
         extra_budget: (MAX_REFS_PER_TRIANGLE - 1) * refs.len() as u64,
         extra: 0,
@@ -509,6 +539,41 @@ pub fn build<M: BoxMeasure>(tris: &[Triangle], p: &KdParams, m: &M) -> Output {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::SurfaceArea;
+    use tb_core::Vec3;
+
+    /// Issue 30 item 4: the same triangles at 1e-30 and 1e30 are split as at 1 (every area
+    /// once overflowed or vanished and the build stopped at the root), and at 1 the scaling
+    /// does not act.
+    #[test]
+    fn extreme_scales_split_as_at_one() {
+        let mut tris = Vec::new();
+        for i in 0..200 {
+            let c = Vec3::new(
+                (i % 7) as f32,
+                (i % 11) as f32 * 0.5,
+                (i % 13) as f32 * 0.25,
+            );
+            tris.push(Triangle::new(c, c + Vec3::X * 0.3, c + Vec3::Y * 0.2));
+        }
+        let nodes = |s: f32| {
+            let t: Vec<Triangle> = tris
+                .iter()
+                .map(|t| Triangle::new(t.v0 * s, t.v1 * s, t.v2 * s))
+                .collect();
+            build(&t, &KdParams::default(), &SurfaceArea).nodes.len()
+        };
+        let one = nodes(1.0);
+        assert!(one > 50, "{one}");
+        assert_eq!(measure_scale(&Aabb::new(Vec3::ZERO, Vec3::ONE)), 1.0);
+        for s in [1e-30f32, 1e30] {
+            let n = nodes(s);
+            assert!(
+                n * 10 >= one * 9 && n * 10 <= one * 11,
+                "scale {s}: {n} nodes, {one} at 1"
+            );
+        }
+    }
 
     #[test]
     fn keys_sort_as_floats() {

@@ -430,9 +430,10 @@ const _: () = assert!(ARRANGE_BLOCK <= RAY_MASK as usize + 1);
 /// The SAH-type cost of `t` under the measure with weights `w`:
 /// `(C_trav·Σ_interior μ(n) + C_isect·Σ_leaves μ(l)·|l|) / μ(root)`.
 fn measured_cost(t: &KdTree, w: [f64; 3]) -> f64 {
+    // Products in f64: at 1e30 the f32 ones overflow, at 1e-30 they vanish.
     let mu = |b: &Aabb| {
-        let e = b.max - b.min;
-        w[0] * (e.y * e.z) as f64 + w[1] * (e.x * e.z) as f64 + w[2] * (e.x * e.y) as f64
+        let e = (b.max - b.min).as_dvec3();
+        w[0] * (e.y * e.z) + w[1] * (e.x * e.z) + w[2] * (e.x * e.y)
     };
     let (mut ia, mut la) = (0.0, 0.0);
     let v = t.view();

@@ -1,6 +1,7 @@
 //! The pinhole camera of the configs.
 
 use serde::{Deserialize, Serialize};
+use tb_core::geom::unit;
 use tb_core::{Ray, Vec3};
 
 /// Order in which primary rays are generated (and stored).
@@ -52,8 +53,9 @@ impl Camera {
     /// the top-left corner of the image, `(x + 0.5, y + 0.5)` the centre of pixel `(x, y)`);
     /// progressive renderers jitter within the pixel with it.
     pub fn ray_at(&self, fx: f32, fy: f32) -> Ray {
-        let forward = (self.target - self.eye).normalize();
-        let right = forward.cross(self.up).normalize();
+        // Scale-free (`unit`): a camera at 1e30 or 1e-30 makes the same rays as one at 1.
+        let forward = unit(self.target - self.eye);
+        let right = unit(forward.cross(self.up));
         let up = right.cross(forward);
         let half_h = (self.fov.to_radians() * 0.5).tan();
         let half_w = half_h * self.width as f32 / self.height as f32;
@@ -67,14 +69,11 @@ impl Camera {
     /// view direction, positive resolution and 0 < fov < 180.
     pub fn check(&self) -> Result<(), String> {
         let f = self.target - self.eye;
-        if f.length_squared() == 0.0 || !f.is_finite() {
+        if f == Vec3::ZERO || !f.is_finite() {
             return Err("eye and target must differ and be finite".into());
         }
-        if f.normalize()
-            .cross(self.up.normalize_or_zero())
-            .length_squared()
-            < 1e-12
-        {
+        // Scale-free: eye and target 1e-30 apart differ, and 1e30 apart do not overflow.
+        if unit(f).cross(unit(self.up)).length_squared() < 1e-12 {
             return Err("up must not be parallel to target - eye".into());
         }
         if self.width == 0 || self.height == 0 {
@@ -104,6 +103,40 @@ pub fn morton2(x: u32, y: u32) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 30 item 4: a camera at 1e30 or 1e-30 passes the check (no false "parallel" or
+    /// "must differ") and makes the directions of the same camera at 1, and where the squares
+    /// are in range its directions are `normalize()`'s bit for bit.
+    #[test]
+    fn scale_free_at_extremes() {
+        let at = |s: f32| Camera {
+            eye: Vec3::new(0.3, 0.3, 2.0) * s,
+            target: Vec3::new(0.3, 0.3, 0.0) * s,
+            up: Vec3::Y,
+            fov: 45.0,
+            width: 8,
+            height: 8,
+            order: PixelOrder::Row,
+        };
+        let one = at(1.0);
+        for s in [1e-30f32, 1e30] {
+            let c = at(s);
+            c.check().unwrap_or_else(|e| panic!("scale {s}: {e}"));
+            for (x, y) in [(0, 0), (3, 5), (7, 7)] {
+                let (a, b) = (c.ray(x, y).dir, one.ray(x, y).dir);
+                assert!((a - b).length() < 1e-6, "scale {s}: {a} vs {b}");
+            }
+        }
+        let f = one.target - one.eye;
+        assert_eq!(
+            unit(f).to_array().map(f32::to_bits),
+            f.normalize().to_array().map(f32::to_bits)
+        );
+        assert!(at(1.0).check().is_ok());
+        let mut same = at(1e-30);
+        same.target = same.eye;
+        assert!(same.check().is_err());
+    }
 
     #[test]
     fn centre_ray_looks_at_target() {

@@ -48,6 +48,12 @@ pub struct CaseResult {
     pub first: Vec<Mismatch>,
 }
 
+/// Stress scenes the suite runs again at extreme scales.
+const EXTREME: &[&str] = &[
+    "stress/near-surfaces?scale=1e-30",
+    "stress/near-surfaces?scale=1e30",
+];
+
 /// Small procedural scenes of the suite (parameters chosen for about 1000 triangles).
 const PROCEDURAL: &[&str] = &[
     "cornell",
@@ -59,13 +65,22 @@ const PROCEDURAL: &[&str] = &[
     "teapot-stadium?teapot_tess=3&segments=8",
 ];
 
-/// The suite's scenes: every stress scene with default parameters, then small procedural
+/// The suite's scenes: every stress scene with default parameters, `near-surfaces` at scales
+/// 1e-30 and 1e30, then small procedural
 /// scenes (cameras scaled down to about [`MAX_SUITE_PIXELS`] pixels); those failing to load or
 /// larger than [`MAX_SUITE_TRIANGLES`] are skipped, with a note on stderr.
 pub fn suite_scenes() -> Vec<Scene> {
     let mut out = Vec::new();
     for info in crate::stress::LIST {
         let src = format!("builtin:{}", info.name);
+        match crate::source::load(&src, Path::new(".")) {
+            Ok(s) => out.push(s),
+            Err(e) => panic!("stress scene {src} does not load: {e}"),
+        }
+    }
+    // The property test of issue 30 at the extremes of scale (scale 1 is in the list).
+    for spec in EXTREME {
+        let src = format!("builtin:{spec}");
         match crate::source::load(&src, Path::new(".")) {
             Ok(s) => out.push(s),
             Err(e) => panic!("stress scene {src} does not load: {e}"),

@@ -160,7 +160,7 @@ pub fn shadow(tris: &[Triangle], rays: &[Ray], hits: &[HitRecord], light: Vec3) 
             continue;
         };
         let to = light - o;
-        let dist = to.length();
+        let dist = tb_core::geom::length(to);
         if !(dist > 0.0 && dist.is_finite()) {
             continue;
         }

@@ -8,6 +8,7 @@ use crate::rays::ray_rng;
 use crate::scene::View;
 use rand::Rng;
 use rand_pcg::Pcg64;
+use tb_core::geom::unit as unit_vec;
 use tb_core::{Aabb, Ray, Triangle, Vec3};
 
 /// What a stress generator returns: triangles, own rays (before [`super::valid_ray`]
@@ -36,7 +37,7 @@ pub(super) fn view_from(from: Vec3) -> ViewFn {
 /// A 32x32 camera (row order, 50° field of view) from `eye` to `target`, with a point light at
 /// `light`; up is `Y` unless the view is within ~18° of vertical, then `Z`.
 pub(super) fn camera_view(eye: Vec3, target: Vec3, light: Vec3, ao_distance: f32) -> View {
-    let f = (target - eye).normalize();
+    let f = unit_vec(target - eye);
     let up = if f.dot(Vec3::Y).abs() > 0.95 {
         Vec3::Z
     } else {
@@ -87,7 +88,7 @@ pub(super) fn in_box(r: &mut Pcg64, lo: Vec3, hi: Vec3) -> Vec3 {
 
 /// A ray from `origin` through `target` (normalised direction), or `None` if they coincide.
 pub(super) fn aim(origin: Vec3, target: Vec3) -> Option<Ray> {
-    let d = (target - origin).normalize_or_zero();
+    let d = unit_vec(target - origin);
     (d != Vec3::ZERO && d.is_finite()).then(|| Ray::new(origin, d))
 }
 

@@ -22,6 +22,7 @@
 //! | `ray-limits` | origins on surfaces with `tmin = 0`, `tmax` exactly at a hit, huge and empty intervals, denormal, signed-zero and scaled directions |
 //! | `duplicates` | identical, permuted, coplanar-overlapping and co-centred triangles (ties, unsplittable clusters) |
 //! | `plane-origins` | a lattice of boxes whose faces are split planes; origins exactly in those planes, on their edges and corners, directions with and without a normal component |
+//! | `near-surfaces` | rays starting on, a few ulps off and inside triangles, on box faces and in the axis planes through vertices, in all directions, at `scale` 1e-30 to 1e30 (issue 30's property test) |
 //! | `thin-layers` | coplanar layers one ulp apart at coordinates ~1e6; rays crossing many one-ulp cells, grazing them and lying in them |
 //!
 //! Each scene has its own file (its [`BuiltinInfo`], parameter checks and generator); what they
@@ -33,6 +34,7 @@ mod common;
 mod duplicates;
 mod flat;
 mod mesh;
+mod near_surfaces;
 mod nested;
 mod plane_origins;
 mod ray_limits;
@@ -60,6 +62,7 @@ pub const LIST: &[BuiltinInfo] = &[
     duplicates::INFO,
     plane_origins::INFO,
     thin_layers::INFO,
+    near_surfaces::INFO,
 ];
 
 /// Load stress scene `name` (the part after `stress/`).
@@ -78,6 +81,7 @@ pub fn load(name: &str, params: &Params) -> Result<Scene, SceneError> {
         "duplicates" => duplicates::generate(seed),
         "plane-origins" => plane_origins::generate(seed),
         "thin-layers" => thin_layers::load(seed, params)?,
+        "near-surfaces" => near_surfaces::load(seed, params)?,
         _ => {
             return Err(SceneError::Builtin {
                 spec: format!("stress/{name}"),

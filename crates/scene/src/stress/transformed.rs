@@ -54,7 +54,7 @@ pub(super) fn scaled(seed: u64, params: &Params, default: f32) -> Result<Generat
 
 /// The mesh of `translated`/`scaled-*` in its own frame: an icosphere, three boxes and a
 /// ground grid, about 600 triangles in `[-2, 2]³`.
-fn small_mesh() -> Mesh {
+pub(super) fn small_mesh() -> Mesh {
     let mut m = icosphere(2).map(|p| p * 0.8 + Vec3::new(0.3, 0.0, -0.2));
     m.append(&grid_box(
         Vec3::new(-1.8, -1.0, -1.5),
