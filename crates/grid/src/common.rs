@@ -56,6 +56,60 @@ pub fn resolution(
     }
 }
 
+/// References a grid may hold per triangle (counted as the voxels each triangle's box covers,
+/// an upper bound of the exact references) before its resolution is lowered: the bound of
+/// every grid's memory for any input (issue 30 item 2). The paper scenes hold at most 9
+/// exact references per triangle at the papers' densities and never reach it; 2,000
+/// overlapping coplanar triangles held 60,000 each in the two-level grid (1.5 GB) before.
+pub const MAX_REFS_PER_TRIANGLE: u64 = 64;
+
+/// The voxels of `lat` that the boxes of `tris[ids]` cover (as [`Lattice::range`] finds them,
+/// the most references binning them can make).
+pub fn box_refs(lat: &Lattice, tris: &[Triangle], ids: &[u32]) -> u64 {
+    ids.iter()
+        .map(|&i| {
+            let (lo, hi) = lat.range(&tris[i as usize].bounds());
+            (0..3).map(|a| (hi[a] - lo[a] + 1) as u64).product::<u64>()
+        })
+        .sum()
+}
+
+/// The largest of the factors `1, 0.8, 0.8², …` by which `res` (every axis, at least 1)
+/// can be scaled so that `refs(scaled)` is at most `budget`; `1` when `res` is within it, and
+/// the factor at which every axis reached 1 otherwise.
+pub fn within_budget(res: &[[u32; 3]], budget: u64, refs: impl Fn(&[[u32; 3]]) -> u64) -> f64 {
+    let mut f = 1.0f64;
+    loop {
+        let scaled = scale_res(res, f);
+        if refs(&scaled) <= budget || scaled.iter().all(|r| *r == [1, 1, 1]) {
+            return f;
+        }
+        f *= 0.8;
+    }
+}
+
+/// `res`, the resolution of a lattice over `bounds` holding all of `tris`, lowered by
+/// [`within_budget`] to at most [`MAX_REFS_PER_TRIANGLE`] covered voxels per triangle, with
+/// the factor (1: unchanged).
+pub fn bounded_res(bounds: &Aabb, res: [u32; 3], tris: &[Triangle]) -> ([u32; 3], f64) {
+    let all: Vec<u32> = (0..tris.len() as u32).collect();
+    let budget = MAX_REFS_PER_TRIANGLE * tris.len() as u64;
+    let f = within_budget(&[res], budget, |r| {
+        box_refs(&Lattice::new(bounds, r[0]), tris, &all)
+    });
+    (scale_res(&[res], f)[0], f)
+}
+
+/// Every resolution of `res` scaled by `f` (rounded, at least 1 on each axis).
+pub fn scale_res(res: &[[u32; 3]], f: f64) -> Vec<[u32; 3]> {
+    if f == 1.0 {
+        return res.to_vec();
+    }
+    res.iter()
+        .map(|r| r.map(|x| ((x as f64 * f).round() as u32).max(1)))
+        .collect()
+}
+
 /// A regular lattice of `res` voxels over a box: voxel `i` of axis `a` spans
 /// `[min[a] + i·size[a], min[a] + (i+1)·size[a]]` (computed in `f64` the same way by the build
 /// and the walks).

@@ -3,8 +3,8 @@
 //! expansion) and the traversal of §5.
 
 use crate::common::{
-    bin_uniform, brute_force, grid_bounds, is_subset, resolution, test_refs, union_into, union_len,
-    walk, Lattice, Visit, WalkRay, MAX_AXIS_RES,
+    bin_uniform, bounded_res, brute_force, grid_bounds, is_subset, resolution, test_refs,
+    union_into, union_len, walk, Lattice, Visit, WalkRay, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
 };
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -125,6 +125,11 @@ impl IrregularGrid {
             max_top,
             p.max_cells as u64,
         );
+        // The reference bound on the top level first (its references are the cells' least).
+        let (res, top_scale) = bounded_res(&bounds, res, tris);
+        if top_scale < 1.0 {
+            fig.push(("ref_budget_top_scale".into(), top_scale));
+        }
         let top = Lattice::new(&bounds, res);
         let (tstart, trefs) = bin_uniform(&top, tris)?;
         let n_top = top.count();
@@ -149,15 +154,30 @@ impl IrregularGrid {
         };
         let max_res = res.into_iter().max().unwrap_or(1);
         let mut dcap = MAX_DEPTH.min((MAX_BASE_RES / max_res).max(1).ilog2());
+        // The reference bound: lower the depth cap while the triangles' boxes cover too many
+        // cells of the initial grid.
+        let budget = MAX_REFS_PER_TRIANGLE * tris.len() as u64;
+        let mut budget_acted = false;
         loop {
             for d in depth.iter_mut() {
                 *d = (*d).min(dcap);
             }
             let cells: u64 = depth.iter().map(|&d| 1u64 << (3 * d)).sum();
-            if cells + n_top as u64 <= (p.max_cells as u64).min(1 << 28) || dcap == 0 {
+            let fits = cells + n_top as u64 <= (p.max_cells as u64).min(1 << 28);
+            if dcap == 0 {
                 break;
             }
+            if fits {
+                if initial_box_refs(&top, &depth, &tstart, &trefs, tris) <= budget {
+                    break;
+                }
+                budget_acted = true;
+            }
             dcap -= 1;
+        }
+        if budget_acted {
+            // Only where the reference bound acted, so that other rows' figures are unchanged.
+            fig.push(("ref_budget_depth".into(), dcap as f64));
         }
         let dmax = depth.iter().copied().max().unwrap_or(0);
         let base = top.refined(1 << dmax);
@@ -401,6 +421,38 @@ fn initial(
         map,
         n_top,
     }
+}
+
+/// The most references the initial grid can hold at per-top-cell depths `depth`: the cells of
+/// each top cell refined by `2^depth` that its triangles' boxes cover (as
+/// [`crate::common::box_refs`] counts them).
+fn initial_box_refs(
+    top: &Lattice,
+    depth: &[u32],
+    tstart: &[u32],
+    trefs: &[u32],
+    tris: &[Triangle],
+) -> u64 {
+    (0..depth.len())
+        .into_par_iter()
+        .map(|c| {
+            let k = 1u32 << depth[c];
+            let fine = top.refined(k);
+            let v = voxel_of(top, c);
+            trefs[tstart[c] as usize..tstart[c + 1] as usize]
+                .iter()
+                .map(|&i| {
+                    let (lo, hi) = fine.range(&tris[i as usize].bounds());
+                    (0..3)
+                        .map(|a| {
+                            let (l, h) = (lo[a].max(v[a] * k), hi[a].min(v[a] * k + k - 1));
+                            (h.saturating_sub(l) + 1) as u64
+                        })
+                        .product::<u64>()
+                })
+                .sum::<u64>()
+        })
+        .sum()
 }
 
 fn voxel_of(lat: &Lattice, i: usize) -> [u32; 3] {

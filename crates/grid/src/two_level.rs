@@ -3,8 +3,8 @@
 //! 2017.
 
 use crate::common::{
-    bin_uniform, brute_force, grid_bounds, resolution, test_refs, walk, Lattice, Visit, WalkRay,
-    MAX_AXIS_RES,
+    bin_uniform, bounded_res, box_refs, brute_force, grid_bounds, resolution, scale_res, test_refs,
+    walk, within_budget, Lattice, Visit, WalkRay, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
 };
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -89,6 +89,8 @@ impl TwoLevelGrid {
             MAX_AXIS_RES,
             p.max_cells as u64,
         );
+        // The reference bound on the top level first (its references are the leaves' least).
+        let (res, top_scale) = bounded_res(&bounds, res, tris);
         let top = Lattice::new(&bounds, res);
         let (tstart, trefs) = bin_uniform(&top, tris)?;
         let n_top = top.count();
@@ -101,6 +103,23 @@ impl TwoLevelGrid {
                 resolution(top.size, n, p.lambda_2 as f64, MAX_SUB, u64::MAX)
             })
             .collect();
+        // The reference bound: every top cell's resolution lowered by one factor while the
+        // triangles' boxes cover too many leaf cells.
+        let budget = MAX_REFS_PER_TRIANGLE * tris.len() as u64;
+        let budget_scale = within_budget(&sub_res, budget, |r| {
+            (0..n_top)
+                .into_par_iter()
+                .map(|c| {
+                    let sub = sub_lattice(&top, voxel_of(&top, c), r[c]);
+                    box_refs(
+                        &sub,
+                        tris,
+                        &trefs[tstart[c] as usize..tstart[c + 1] as usize],
+                    )
+                })
+                .sum()
+        });
+        let sub_res = scale_res(&sub_res, budget_scale);
         let mut tops = Vec::with_capacity(n_top);
         let mut n_leaves = 0u64;
         for r in &sub_res {
@@ -144,7 +163,7 @@ impl TwoLevelGrid {
             .collect();
         pairs.par_sort_unstable();
         let (start, refs) = crate::common::flatten(pairs, n_leaves as usize);
-        let figures = vec![
+        let mut figures = vec![
             ("build_top_ms".into(), t_top),
             ("build_leaves_ms".into(), t.elapsed().as_secs_f64() * 1e3),
             ("top_res_x".into(), res[0] as f64),
@@ -157,6 +176,13 @@ impl TwoLevelGrid {
             ("cells_bytes".into(), (start.len() * 4) as f64),
             ("refs_bytes".into(), (refs.len() * 4) as f64),
         ];
+        // Only where the reference bound acted, so that other rows' figures are unchanged.
+        if top_scale < 1.0 {
+            figures.push(("ref_budget_top_scale".into(), top_scale));
+        }
+        if budget_scale < 1.0 {
+            figures.push(("ref_budget_scale".into(), budget_scale));
+        }
         Ok(TwoLevelGrid {
             top,
             tops,

@@ -3,8 +3,8 @@
 //! Pérard-Gayot et al. 2017.
 
 use crate::common::{
-    bin_uniform, brute_force, grid_bounds, resolution, test_refs, walk, Lattice, Visit, WalkRay,
-    MAX_AXIS_RES,
+    bin_uniform, bounded_res, brute_force, grid_bounds, resolution, test_refs, walk, Lattice,
+    Visit, WalkRay, MAX_AXIS_RES,
 };
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -45,6 +45,8 @@ pub struct UniformGrid {
     pub(crate) macros: Vec<[u32; 6]>,
     pub(crate) tris: Arc<[Triangle]>,
     times_ms: [f64; 2],
+    /// The factor [`within_budget`] scaled the resolution by (1: the bound did not act).
+    budget_scale: f64,
 }
 
 impl UniformGrid {
@@ -60,6 +62,8 @@ impl UniformGrid {
             MAX_AXIS_RES,
             p.max_cells as u64,
         );
+        // The reference bound: lower the resolution while the boxes cover too many voxels.
+        let (res, budget_scale) = bounded_res(&bounds, res, tris);
         let lat = Lattice::new(&bounds, res);
         let (start, refs) = bin_uniform(&lat, tris)?;
         let t_bin = t.elapsed().as_secs_f64() * 1e3;
@@ -76,6 +80,7 @@ impl UniformGrid {
             macros,
             tris: tris.clone(),
             times_ms: [t_bin, t.elapsed().as_secs_f64() * 1e3],
+            budget_scale,
         })
     }
 
@@ -293,21 +298,26 @@ impl Structure for UniformGrid {
     fn report(&self) -> BuildReport {
         let empty = self.start.windows(2).filter(|w| w[0] == w[1]).count();
         let r = self.lat.res;
+        let mut extra = vec![
+            ("res_x".into(), r[0] as f64),
+            ("res_y".into(), r[1] as f64),
+            ("res_z".into(), r[2] as f64),
+            ("cells".into(), self.lat.count() as f64),
+            ("empty_cells".into(), empty as f64),
+            ("refs".into(), self.refs.len() as f64),
+            ("cells_bytes".into(), (self.start.len() * 4) as f64),
+            ("refs_bytes".into(), (self.refs.len() * 4) as f64),
+            ("macro_bytes".into(), (self.macros.len() * 24) as f64),
+            ("build_bin_ms".into(), self.times_ms[0]),
+            ("build_macro_ms".into(), self.times_ms[1]),
+        ];
+        if self.budget_scale < 1.0 {
+            // Only where the reference bound acted, so that other rows' figures are unchanged.
+            extra.push(("ref_budget_scale".into(), self.budget_scale));
+        }
         BuildReport {
             sah_cost: None,
-            extra: vec![
-                ("res_x".into(), r[0] as f64),
-                ("res_y".into(), r[1] as f64),
-                ("res_z".into(), r[2] as f64),
-                ("cells".into(), self.lat.count() as f64),
-                ("empty_cells".into(), empty as f64),
-                ("refs".into(), self.refs.len() as f64),
-                ("cells_bytes".into(), (self.start.len() * 4) as f64),
-                ("refs_bytes".into(), (self.refs.len() * 4) as f64),
-                ("macro_bytes".into(), (self.macros.len() * 24) as f64),
-                ("build_bin_ms".into(), self.times_ms[0]),
-                ("build_macro_ms".into(), self.times_ms[1]),
-            ],
+            extra,
         }
     }
 
