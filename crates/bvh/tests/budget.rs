@@ -4,7 +4,7 @@
 //! second, says that the bound acted, and answers every ray as brute force does.
 
 use tb_bvh::{Builder, Bvh, BvhParams};
-use tb_core::{Aabb, Accel, BruteForce, Query, TriTestKind, Vec3};
+use tb_core::{Accel, Query};
 
 #[test]
 fn sbvh_of_coplanar_overlaps_stays_within_the_reference_allowance() {
@@ -30,21 +30,9 @@ fn sbvh_of_coplanar_overlaps_stays_within_the_reference_allowance() {
             "{:?}",
             report.extra
         );
-        let oracle = BruteForce::new(&tris);
-        let b = Aabb::from_points(tris.iter().flat_map(|t| [t.v0, t.v1, t.v2]));
-        let bounds = Aabb {
-            min: b.min - Vec3::splat(0.5),
-            max: b.max + Vec3::splat(0.5),
-        };
-        let rays = tb_scene::rays::random(&bounds, 3000, 9);
+        let rays = tb_scene::conformance::rays_around(&tris, 3000, 9);
         for query in [Query::Closest, Query::Any] {
-            let got = tb_core::par::count(&bvh, 0, query, TriTestKind::Watertight, &rays).0;
-            let want = tb_core::par::count(&oracle, 0, query, TriTestKind::Watertight, &rays).0;
-            let differ = rays
-                .iter()
-                .zip(got.iter().zip(&want))
-                .filter(|(r, (g, w))| tb_core::compare::compare(query, r, w, g).is_some())
-                .count();
+            let differ = tb_scene::conformance::differences(&bvh, 0, &tris, &rays, query);
             assert_eq!(differ, 0, "width {width} {query:?}");
         }
     }

@@ -699,6 +699,16 @@ mod tests {
 
     type Tuv = Option<(f32, f32, f32)>;
 
+    /// A deterministic generator (no dependency): xorshift from `seed`, uniform in `[-1, 1)`.
+    fn uniform(mut s: u64) -> impl FnMut() -> f32 {
+        move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        }
+    }
+
     fn both(ray: &Ray, t: &Triangle) -> (Tuv, Tuv) {
         (
             Watertight::intersect(&Watertight::prepare(ray), ray, t, ray.tmax),
@@ -805,13 +815,7 @@ mod tests {
         // A deterministic generator (no dependency): triangles around the origin, some sharing
         // edges and vertices, some degenerate; rays from outside, some through vertices and
         // edges, axis-parallel, and finite segments.
-        let mut s = 0x9e3779b97f4a7c15u64;
-        let mut rnd = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
-        };
+        let mut rnd = uniform(0x9e3779b97f4a7c15);
         let mut tris = Vec::new();
         for i in 0..400 {
             let c = Vec3::new(rnd(), rnd(), rnd());
@@ -871,13 +875,7 @@ mod tests {
     /// form equals the scalar one bit for bit.
     #[test]
     fn no_hit_behind_the_origin_at_any_scale() {
-        let mut s = 0x2545f4914f6cdd1du64;
-        let mut rnd = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
-        };
+        let mut rnd = uniform(0x2545f4914f6cdd1d);
         for scale in [1e-30f32, 1e-12, 1.0, 1e12, 1e30] {
             let mut tris = Vec::new();
             for _ in 0..64 {

@@ -6,7 +6,7 @@
 
 use std::path::Path;
 use std::sync::Arc;
-use tb_core::{Aabb, Accel, BruteForce, Query, TriTestKind, Triangle, Vec3};
+use tb_core::{Accel, Query, Triangle};
 use tb_grid::{
     IrregularGrid, IrregularParams, TwoLevelGrid, TwoLevelParams, UniformGrid, UniformParams,
 };
@@ -41,13 +41,7 @@ fn acted(a: &dyn Accel) -> bool {
 #[test]
 fn coplanar_overlaps_stay_within_the_reference_bound() {
     let tris: Arc<[Triangle]> = tb_scene::conformance::coplanar_overlaps(2000).into();
-    let oracle = BruteForce::new(&tris);
-    let b = Aabb::from_points(tris.iter().flat_map(|t| [t.v0, t.v1, t.v2]));
-    let bounds = Aabb {
-        min: b.min - Vec3::splat(0.5),
-        max: b.max + Vec3::splat(0.5),
-    };
-    let rays = tb_scene::rays::random(&bounds, 3000, 9);
+    let rays = tb_scene::conformance::rays_around(&tris, 3000, 9);
     let t0 = std::time::Instant::now();
     let built = grids(&tris);
     println!("three grids built in {:.2} s", t0.elapsed().as_secs_f64());
@@ -70,13 +64,7 @@ fn coplanar_overlaps_stay_within_the_reference_bound() {
             g.build_report().extra
         );
         for query in [Query::Closest, Query::Any] {
-            let got = tb_core::par::count(&*g, 0, query, TriTestKind::Watertight, &rays).0;
-            let want = tb_core::par::count(&oracle, 0, query, TriTestKind::Watertight, &rays).0;
-            let differ = rays
-                .iter()
-                .zip(got.iter().zip(&want))
-                .filter(|(r, (g, w))| tb_core::compare::compare(query, r, w, g).is_some())
-                .count();
+            let differ = tb_scene::conformance::differences(&*g, 0, &tris, &rays, query);
             assert_eq!(differ, 0, "{} {query:?}", g.name());
         }
     }

@@ -409,3 +409,32 @@ pub fn coplanar_overlaps(n: usize) -> Vec<Triangle> {
         })
         .collect()
 }
+
+/// `n` random rays (seed `seed`) in the bounds of `tris` grown by 0.5 on every side: across
+/// the plane of [`coplanar_overlaps`] from both sides and grazing it, for the bound tests.
+pub fn rays_around(tris: &[Triangle], n: usize, seed: u64) -> Vec<Ray> {
+    let b = tb_core::Aabb::from_points(tris.iter().flat_map(|t| [t.v0, t.v1, t.v2]));
+    let grown = tb_core::Aabb {
+        min: b.min - tb_core::Vec3::splat(0.5),
+        max: b.max + tb_core::Vec3::splat(0.5),
+    };
+    rays::random(&grown, n, seed)
+}
+
+/// How many of `rays` traversal `traversal` of `accel` answers (with `query`, watertight test)
+/// differently from brute force over `tris` ([`tb_core::compare`]).
+pub fn differences(
+    accel: &dyn Accel,
+    traversal: usize,
+    tris: &[Triangle],
+    rays: &[Ray],
+    query: tb_core::Query,
+) -> usize {
+    let oracle = BruteForce::new(tris);
+    let got = tb_core::par::count(accel, traversal, query, TriTestKind::Watertight, rays).0;
+    let want = tb_core::par::count(&oracle, 0, query, TriTestKind::Watertight, rays).0;
+    rays.iter()
+        .zip(got.iter().zip(&want))
+        .filter(|(r, (g, w))| tb_core::compare::compare(query, r, w, g).is_some())
+        .count()
+}
