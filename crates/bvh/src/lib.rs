@@ -182,41 +182,10 @@ tb_core::choice! {
 }
 
 impl BvhParams {
-    /// Check the parameters: `bins` in 2..=256, `max_leaf ≥ 1`, `min_leaf ≤ max_leaf`, both
-    /// costs finite and positive.
+    /// Check the parameters: the ranges of the table, then the rules
+    /// ([`tb_core::ParamRules`]).
     pub fn check(&self) -> Result<(), AccelError> {
-        let err = |m: String| Err(AccelError::Params(m));
-        if !(2..=256).contains(&self.bins) {
-            return err(format!("bins must be in 2..=256, got {}", self.bins));
-        }
-        if self.max_leaf < 1 {
-            return err("max_leaf must be at least 1".into());
-        }
-        if self.min_leaf > self.max_leaf {
-            return err(format!(
-                "min_leaf ({}) must not exceed max_leaf ({})",
-                self.min_leaf, self.max_leaf
-            ));
-        }
-        if !(self.c_trav > 0.0 && self.c_trav.is_finite()) {
-            return err(format!(
-                "c_trav must be positive and finite, got {}",
-                self.c_trav
-            ));
-        }
-        if ![2, 4, 8].contains(&self.width) {
-            return err(format!("width must be 2, 4 or 8, got {}", self.width));
-        }
-        if !(self.alpha >= 0.0 && self.alpha.is_finite()) {
-            return err(format!("alpha must be finite and ≥ 0, got {}", self.alpha));
-        }
-        if !(self.c_isect > 0.0 && self.c_isect.is_finite()) {
-            return err(format!(
-                "c_isect must be positive and finite, got {}",
-                self.c_isect
-            ));
-        }
-        Ok(())
+        tb_core::ParamRules::check_all(self, "bvh")
     }
 }
 
@@ -778,9 +747,19 @@ impl Structure for Bvh {
     }
 }
 
+/// The rules across the BVH's parameters: `min_leaf ≤ max_leaf`; `width` 2, 4 or 8.
 impl tb_core::ParamRules for BvhParams {
     fn rules(&self) -> Result<(), String> {
-        self.check().map_err(|e| e.to_string())
+        if self.min_leaf > self.max_leaf {
+            return Err(format!(
+                "min_leaf ({}) must not exceed max_leaf ({})",
+                self.min_leaf, self.max_leaf
+            ));
+        }
+        if ![2, 4, 8].contains(&self.width) {
+            return Err(format!("width must be 2, 4 or 8, got {}", self.width));
+        }
+        Ok(())
     }
 }
 

@@ -459,6 +459,10 @@ pub struct Family {
     pub build: BuildFn,
     /// Its rules across parameters ([`crate::params::ParamRules`]), checked with the config.
     pub rules: fn(&ParamSet) -> Result<(), String>,
+    /// The names of its two densities of a two-level subdivision (λ_1, λ_2 of equation 1,
+    /// Pérard-Gayot et al. 2017 §4.1), where it has them: the capability the dynamic
+    /// experiment's automatic density choice needs (§6.1).
+    pub densities: Option<[&'static str; 2]>,
 }
 
 impl Family {
@@ -472,7 +476,14 @@ impl Family {
             traversals: infos_of::<S>,
             build,
             rules: crate::params::no_rules,
+            densities: None,
         }
+    }
+
+    /// This family offering its two densities `names` (λ_1, λ_2) to the dynamic experiment.
+    pub const fn with_densities(mut self, names: [&'static str; 2]) -> Family {
+        self.densities = Some(names);
+        self
     }
 
     /// This family with the rules of its parameters `P` checked before any work.

@@ -194,6 +194,16 @@ pub trait Params: Sized + Default {
     fn from_set(set: &ParamSet) -> Result<Self, ParamError>;
     /// This value as a set (the defaults: `Self::default().to_set()`).
     fn to_set(&self) -> ParamSet;
+
+    /// Every value against its range or list in the table ([`Params::SPECS`]): the ranges are
+    /// declared once, with the fields, and checked here, never written out again.
+    fn check_ranges(&self) -> Result<(), ParamError> {
+        for ((name, value), spec) in self.to_set().0.iter().zip(Self::SPECS) {
+            spec.check(value)
+                .map_err(|message| ParamError::Invalid { name, message })?;
+        }
+        Ok(())
+    }
 }
 
 /// Rules across a structure's parameters that each one's range in the table cannot express
@@ -201,8 +211,20 @@ pub trait Params: Sized + Default {
 /// the parameters, and checked with the rest of a config before any work starts
 /// ([`crate::Family::with_rules`]); the builder checks them again.
 pub trait ParamRules: Params {
-    /// `Err(message)` when the values do not go together.
-    fn rules(&self) -> Result<(), String>;
+    /// `Err(message)` when the values do not go together (the ranges are checked already);
+    /// none by default.
+    fn rules(&self) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// What a builder checks before it builds: the ranges of the table, then the rules; the
+    /// error names the structure `what`.
+    fn check_all(&self, what: &str) -> Result<(), crate::AccelError> {
+        self.check_ranges()
+            .map_err(|e| e.to_string())
+            .and_then(|()| self.rules())
+            .map_err(|e| crate::AccelError::Params(format!("{what}: {e}")))
+    }
 }
 
 /// [`ParamRules::rules`] of a checked set (a function pointer for [`crate::Family`]).
@@ -223,19 +245,33 @@ pub fn defaults_of<P: Params>() -> ParamSet {
 /// Declare a params struct: fields with their doc, type, default and [`ParamKind`], from which
 /// the struct, `Default` and [`Params`] are derived.
 ///
+/// A field marked `@flatten` (type, default, no kind) is a params struct of its own, a group
+/// declared once and composed by several structures (the kd-tree's SAH parameters in the
+/// kd-tree, sparse boxes and multi-kd-tree): its entries stand in this table at the field's
+/// place, under their own names, so a config and the `params` column see one flat table.
+///
 /// ```
 /// use tb_core::params::{ParamKind, Params};
+/// tb_core::params! {
+///     /// Costs shared by several structures.
+///     #[derive(Clone, Copy, Debug, PartialEq)]
+///     pub struct Costs {
+///         /// Traversal cost C_trav.
+///         c_trav: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
+///     }
+/// }
 /// tb_core::params! {
 ///     /// Example parameters.
 ///     #[derive(Clone, Copy, Debug, PartialEq)]
 ///     pub struct Example {
 ///         /// Bins per axis (Wald 2007).
 ///         bins: u32 = 16, ParamKind::Int { min: 2, max: 256 };
-///         /// Traversal cost C_trav.
-///         c_trav: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
+///         @flatten
+///         costs: Costs = Costs { c_trav: 2.0 };
 ///     }
 /// }
-/// assert_eq!(Example::SPECS[0].name, "bins");
+/// assert_eq!(Example::SPECS[1].name, "c_trav");
+/// assert_eq!(Example::default().to_set().to_string(), "bins=16;c_trav=2");
 /// assert_eq!(Example::from_set(&Example::default().to_set()), Ok(Example::default()));
 /// ```
 #[macro_export]
@@ -245,7 +281,8 @@ macro_rules! params {
         $vis:vis struct $name:ident {
             $(
                 $(#[doc = $doc:literal])*
-                $field:ident : $ty:ty = $default:expr, $kind:expr;
+                $(@$flatten:ident)?
+                $field:ident : $ty:ty = $default:expr $(, $kind:expr)?;
             )*
         }
     ) => {
@@ -261,28 +298,92 @@ macro_rules! params {
         }
 
         impl $crate::params::Params for $name {
-            const SPECS: &'static [$crate::params::ParamSpec] = &[$(
-                $crate::params::ParamSpec {
-                    name: stringify!($field),
-                    kind: $kind,
-                    doc: concat!($($doc),*),
-                },
-            )*];
+            const SPECS: &'static [$crate::params::ParamSpec] = {
+                const PARTS: &[&[$crate::params::ParamSpec]] = &[$(
+                    $crate::__param_part!(specs $($flatten)? ; $field; $ty; $($kind)?; $($doc),*),
+                )*];
+                const N: usize = $crate::params::specs_len(PARTS);
+                const ALL: [$crate::params::ParamSpec; N] = $crate::params::concat_specs(PARTS);
+                &ALL
+            };
 
             fn from_set(
                 set: &$crate::params::ParamSet,
             ) -> ::core::result::Result<Self, $crate::params::ParamError> {
                 let _ = set;
-                Ok(Self { $( $field: set.take(stringify!($field))?, )* })
+                Ok(Self { $( $field: $crate::__param_part!(take $($flatten)? ; set; $field; $ty), )* })
             }
 
             fn to_set(&self) -> $crate::params::ParamSet {
-                $crate::params::ParamSet(vec![$(
-                    (stringify!($field), $crate::params::ParamType::to_value(&self.$field)),
-                )*])
+                #[allow(unused_mut)]
+                let mut out = ::std::vec::Vec::new();
+                $( $crate::__param_part!(put $($flatten)? ; out; self.$field; $field); )*
+                $crate::params::ParamSet(out)
             }
         }
     };
+}
+
+/// The parts [`params!`](crate::params!) writes per field, plain or `@flatten`.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __param_part {
+    (specs ; $field:ident; $ty:ty; $kind:expr; $($doc:literal),*) => {
+        &[$crate::params::ParamSpec {
+            name: stringify!($field),
+            kind: $kind,
+            doc: concat!($($doc),*),
+        }]
+    };
+    (specs flatten ; $field:ident; $ty:ty; ; $($doc:literal),*) => {
+        <$ty as $crate::params::Params>::SPECS
+    };
+    (take ; $set:ident; $field:ident; $ty:ty) => {
+        $set.take(stringify!($field))?
+    };
+    (take flatten ; $set:ident; $field:ident; $ty:ty) => {
+        <$ty as $crate::params::Params>::from_set($set)?
+    };
+    (put ; $out:ident; $value:expr; $field:ident) => {
+        $out.push((stringify!($field), $crate::params::ParamType::to_value(&$value)))
+    };
+    (put flatten ; $out:ident; $value:expr; $field:ident) => {
+        $out.extend($crate::params::Params::to_set(&$value).0)
+    };
+}
+
+/// The number of entries of the parts of a table (for [`params!`](crate::params!)).
+#[doc(hidden)]
+pub const fn specs_len(parts: &[&[ParamSpec]]) -> usize {
+    let (mut n, mut i) = (0, 0);
+    while i < parts.len() {
+        n += parts[i].len();
+        i += 1;
+    }
+    n
+}
+
+/// The parts of a table, one after the other (for [`params!`](crate::params!)).
+#[doc(hidden)]
+pub const fn concat_specs<const N: usize>(parts: &[&[ParamSpec]]) -> [ParamSpec; N] {
+    const EMPTY: ParamSpec = ParamSpec {
+        name: "",
+        kind: ParamKind::Bool,
+        doc: "",
+    };
+    let mut out = [EMPTY; N];
+    let (mut k, mut i) = (0, 0);
+    while i < parts.len() {
+        let mut j = 0;
+        while j < parts[i].len() {
+            out[k] = parts[i][j];
+            k += 1;
+            j += 1;
+        }
+        i += 1;
+    }
+    assert!(k == N, "the parts do not fill the table");
+    out
 }
 
 /// Declare an enumerated parameter: a fieldless enum whose variants each have a config name,
@@ -376,6 +477,38 @@ mod tests {
         let mut s = d.clone();
         s.0[2].1 = ParamValue::Str("median".into());
         assert_eq!(P::from_set(&s).unwrap().split, Split::Median);
+    }
+
+    crate::params! {
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        struct Outer {
+            first: u32 = 1, ParamKind::Int { min: 0, max: 9 };
+            @flatten
+            inner: P = P { bins: 8, ..P::default() };
+            last: bool = false, ParamKind::Bool;
+        }
+    }
+
+    #[test]
+    fn a_flattened_group_stands_in_the_table_at_its_place() {
+        let names: Vec<&str> = Outer::SPECS.iter().map(|s| s.name).collect();
+        assert_eq!(names, ["first", "bins", "share", "split", "on", "last"]);
+        assert_eq!(Outer::SPECS[1].doc_line(), "Bins per axis.");
+        let d = Outer::default().to_set();
+        assert_eq!(
+            d.to_string(),
+            "first=1;bins=8;share=0.3;split=sah;on=true;last=false"
+        );
+        assert_eq!(Outer::from_set(&d), Ok(Outer::default()));
+        let mut s = d.clone();
+        s.0[1].1 = ParamValue::Int(1);
+        let bad = Outer::from_set(&s).unwrap();
+        assert_eq!(bad.inner.bins, 1);
+        assert!(matches!(
+            bad.check_ranges(),
+            Err(ParamError::Invalid { name: "bins", .. })
+        ));
+        assert_eq!(Outer::default().check_ranges(), Ok(()));
     }
 
     #[test]

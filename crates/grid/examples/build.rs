@@ -10,8 +10,8 @@ fn main() {
         tb_scene::source::load(&args[1], std::path::Path::new("/work/shared/scenes")).unwrap();
     let mut p = tb_grid::IrregularParams::default();
     if args.len() > 3 {
-        p.lambda_1 = args[2].parse().unwrap();
-        p.lambda_2 = args[3].parse().unwrap();
+        p.densities.lambda_1 = args[2].parse().unwrap();
+        p.densities.lambda_2 = args[3].parse().unwrap();
     }
     let tris: Arc<[tb_core::Triangle]> = scene.triangles.clone().into();
     let n: usize = std::env::var("N")

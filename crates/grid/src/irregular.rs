@@ -4,7 +4,8 @@
 
 use crate::common::{
     bin_uniform, bounded_res, brute_force, grid_bounds, is_subset, resolution, test_refs,
-    union_into, union_len, walk, Lattice, Visit, WalkRay, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
+    union_into, union_len, walk, Densities, Lattice, Visit, WalkRay, MAX_AXIS_RES,
+    MAX_REFS_PER_TRIANGLE,
 };
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -30,12 +31,8 @@ tb_core::params! {
     /// Build parameters of [`IrregularGrid`] (Pérard-Gayot et al. 2017 §4).
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct IrregularParams {
-        /// top-level density λ_1 of equation 1 (§4.1); the density of the uniform grid with
-        /// `initial = "uniform"`
-        lambda_1: f32 = 0.12, ParamKind::Float { min: 1e-4, max: 1e3 };
-        /// second-level density λ_2: each top cell's octree depth is
-        /// D = ⌈log2 max(R_x, R_y, R_z)⌉ of equation 1 over the cell (§4.1)
-        lambda_2: f32 = 2.4, ParamKind::Float { min: 1e-4, max: 1e3 };
+        @flatten
+        densities: Densities = Densities::default();
         /// initial subdivision: `two-level` (octree per top cell, §4.1) or `uniform`
         initial: Initial = Initial::TwoLevel, ParamKind::Choice(Initial::NAMES);
         /// SAH cell merging along alternating axes (§4.2)
@@ -121,7 +118,7 @@ impl IrregularGrid {
         let res = resolution(
             ext,
             tris.len(),
-            p.lambda_1 as f64,
+            p.densities.lambda_1 as f64,
             max_top,
             p.max_cells as u64,
         );
@@ -144,8 +141,13 @@ impl IrregularGrid {
                         if n == 0 {
                             return 0;
                         }
-                        let r =
-                            resolution(cell_ext, n, p.lambda_2 as f64, 1 << MAX_DEPTH, u64::MAX);
+                        let r = resolution(
+                            cell_ext,
+                            n,
+                            p.densities.lambda_2 as f64,
+                            1 << MAX_DEPTH,
+                            u64::MAX,
+                        );
                         let m = r.into_iter().max().unwrap_or(1);
                         32 - (m - 1).leading_zeros()
                     })

@@ -63,7 +63,7 @@ mod irregular;
 mod two_level;
 mod uniform;
 
-pub use common::{resolution, tri_box_overlap, Lattice};
+pub use common::{resolution, tri_box_overlap, Densities, Lattice, DENSITIES};
 pub use irregular::{Cell, Initial, IrregularGrid, IrregularParams};
 pub use two_level::{TopCell, TwoLevelGrid, TwoLevelParams};
 pub use uniform::{UniformGrid, UniformParams};
@@ -82,7 +82,8 @@ pub static TWO_LEVEL_FAMILY: Family = Family::new::<TwoLevelGrid, TwoLevelParams
     "top-level grid of density `lambda_1`, a uniform `lambda_2` grid in each top cell (Kalojanov \
      et al. 2011)",
     |tris, set| build_with(set, |p: &TwoLevelParams| TwoLevelGrid::build(tris, p)),
-);
+)
+.with_densities(DENSITIES);
 
 /// The irregular grid in the registry.
 pub static IRREGULAR_FAMILY: Family = Family::new::<IrregularGrid, IrregularParams>(
@@ -90,4 +91,5 @@ pub static IRREGULAR_FAMILY: Family = Family::new::<IrregularGrid, IrregularPara
      (`merge`, `alpha`), cell expansion passes (`expansion`), two-level voxel map (Pérard-Gayot \
      et al. 2017)",
     |tris, set| build_with(set, |p: &IrregularParams| IrregularGrid::build(tris, p)),
-);
+)
+.with_densities(DENSITIES);

@@ -4,7 +4,7 @@
 
 use crate::common::{
     bin_uniform, bounded_res, box_refs, brute_force, grid_bounds, resolution, scale_res, test_refs,
-    walk, within_budget, Lattice, Visit, WalkRay, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
+    walk, within_budget, Densities, Lattice, Visit, WalkRay, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
 };
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -19,11 +19,8 @@ tb_core::params! {
     /// Build parameters of [`TwoLevelGrid`] (Kalojanov et al. 2011 §3).
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct TwoLevelParams {
-        /// top-level density λ_1 of equation 1
-        lambda_1: f32 = 0.12, ParamKind::Float { min: 1e-4, max: 1e3 };
-        /// second-level density λ_2: each top cell is a uniform grid of equation 1 over the
-        /// cell and its primitives (at most 255 cells per axis)
-        lambda_2: f32 = 2.4, ParamKind::Float { min: 1e-4, max: 1e3 };
+        @flatten
+        densities: Densities = Densities::default();
         /// largest number of top-level cells
         max_cells: u32 = 1 << 24, ParamKind::Int { min: 1, max: 1 << 28 };
     }
@@ -85,7 +82,7 @@ impl TwoLevelGrid {
         let res = resolution(
             ext,
             tris.len(),
-            p.lambda_1 as f64,
+            p.densities.lambda_1 as f64,
             MAX_AXIS_RES,
             p.max_cells as u64,
         );
@@ -100,7 +97,7 @@ impl TwoLevelGrid {
             .into_par_iter()
             .map(|c| {
                 let n = (tstart[c + 1] - tstart[c]) as usize;
-                resolution(top.size, n, p.lambda_2 as f64, MAX_SUB, u64::MAX)
+                resolution(top.size, n, p.densities.lambda_2 as f64, MAX_SUB, u64::MAX)
             })
             .collect();
         // The reference bound: every top cell's resolution lowered by one factor while the

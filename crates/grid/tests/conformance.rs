@@ -8,8 +8,8 @@ use tb_core::{
     Query, Ray, TraversalInfo, TraversalStats, TriTestKind, Triangle, Vec3,
 };
 use tb_grid::{
-    Initial, IrregularGrid, IrregularParams, Lattice, TwoLevelGrid, TwoLevelParams, UniformGrid,
-    UniformParams,
+    Densities, Initial, IrregularGrid, IrregularParams, Lattice, TwoLevelGrid, TwoLevelParams,
+    UniformGrid, UniformParams,
 };
 
 /// Every configuration under test, by label.
@@ -32,8 +32,10 @@ fn configs() -> Vec<(String, Config)> {
         Config::TwoLevel(TwoLevelParams::default()),
     ));
     let dense = TwoLevelParams {
-        lambda_1: 1.0,
-        lambda_2: 8.0,
+        densities: Densities {
+            lambda_1: 1.0,
+            lambda_2: 8.0,
+        },
         ..Default::default()
     };
     out.push(("two-level-dense".to_string(), Config::TwoLevel(dense)));
@@ -43,10 +45,13 @@ fn configs() -> Vec<(String, Config)> {
                 initial,
                 merge,
                 expansion,
-                lambda_1: if initial == Initial::Uniform {
-                    5.0
-                } else {
-                    0.12
+                densities: Densities {
+                    lambda_1: if initial == Initial::Uniform {
+                        5.0
+                    } else {
+                        0.12
+                    },
+                    ..Default::default()
                 },
                 ..Default::default()
             };
@@ -58,8 +63,10 @@ fn configs() -> Vec<(String, Config)> {
     }
     // Dense second level and a tiny α: deep octrees, many merge passes.
     let p = IrregularParams {
-        lambda_1: 0.5,
-        lambda_2: 16.0,
+        densities: Densities {
+            lambda_1: 0.5,
+            lambda_2: 16.0,
+        },
         alpha: 1.0,
         ..Default::default()
     };

@@ -14,7 +14,7 @@ use std::collections::BTreeSet;
 use std::sync::Arc;
 use tb_core::{compare, Accel, BruteForce, Query, Ray, TriTestKind, Triangle};
 use tb_grid::{
-    Initial, IrregularGrid, IrregularParams, TwoLevelGrid, TwoLevelParams, UniformGrid,
+    Densities, Initial, IrregularGrid, IrregularParams, TwoLevelGrid, TwoLevelParams, UniformGrid,
     UniformParams,
 };
 use tb_scene::conformance;
@@ -38,7 +38,10 @@ fn cases() -> Vec<(&'static str, Builder)> {
     let ir = IrregularParams::default();
     let uni = IrregularParams {
         initial: Initial::Uniform,
-        lambda_1: 5.0,
+        densities: Densities {
+            lambda_1: 5.0,
+            ..ir.densities
+        },
         ..ir
     };
     vec![
@@ -54,8 +57,10 @@ fn cases() -> Vec<(&'static str, Builder)> {
         (
             "two-level, lambda_1=1 lambda_2=8",
             two_level(TwoLevelParams {
-                lambda_1: 1.0,
-                lambda_2: 8.0,
+                densities: Densities {
+                    lambda_1: 1.0,
+                    lambda_2: 8.0,
+                },
                 ..Default::default()
             }),
         ),

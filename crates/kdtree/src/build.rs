@@ -162,12 +162,12 @@ impl<M: BoxMeasure> Builder<'_, M> {
             return None;
         }
         let inv_area = 1.0 / area;
-        let (ct, ci) = (self.p.c_trav, self.p.c_isect);
-        let lambda = 1.0 - self.p.empty_bonus;
+        let (ct, ci) = (self.p.sah.c_trav, self.p.sah.c_isect);
+        let lambda = 1.0 - self.p.sah.empty_bonus;
         let n = refs.len() as u32;
         let mut best: Option<Split> = None;
-        if self.p.builder == KdBuilder::Binned {
-            let bins = self.p.bins as usize;
+        if self.p.sah.builder == KdBuilder::Binned {
+            let bins = self.p.sah.bins as usize;
             for axis in 0..3 {
                 let (lo, hi) = (cell.min[axis], cell.max[axis]);
                 if lo >= hi {
@@ -285,7 +285,7 @@ impl<M: BoxMeasure> Builder<'_, M> {
     }
 
     fn node(&mut self, refs: Vec<Ref>, cell: Aabb, depth: u32) {
-        let split = if refs.len() as u32 <= self.p.min_leaf || depth >= self.depth_limit {
+        let split = if refs.len() as u32 <= self.p.sah.min_leaf || depth >= self.depth_limit {
             None
         } else {
             self.find_split(&refs, &cell, None)
@@ -406,7 +406,7 @@ impl<M: BoxMeasure> Builder<'_, M> {
             drop(ev);
             return self.node(refs, cell, depth);
         }
-        let split = if refs.len() as u32 <= self.p.min_leaf || depth >= self.depth_limit {
+        let split = if refs.len() as u32 <= self.p.sah.min_leaf || depth >= self.depth_limit {
             None
         } else {
             self.find_split(&refs, &cell, Some(&ev))
@@ -518,10 +518,10 @@ pub fn build<M: BoxMeasure>(tris: &[Triangle], p: &KdParams, m: &M) -> Output {
         nodes: Vec::new(),
         refs: Vec::new(),
         events: Vec::new(),
-        bins: vec![0; 2 * p.bins as usize],
+        bins: vec![0; 2 * p.sah.bins as usize],
     };
     if !refs.is_empty() {
-        if p.builder == KdBuilder::Sweep {
+        if p.sah.builder == KdBuilder::Sweep {
             let ev = std::array::from_fn(|a| Events::of(&refs, 0..refs.len() as u32, a));
             b.node_sweep(refs, ev, bounds, 0);
         } else {

@@ -70,7 +70,7 @@ use traverse::Tree;
 use view::Aux;
 
 pub use layout::{DepthFirst, KdLayout, Layout, Nodes, Treelet};
-pub use params::{BoxMeasure, KdBuilder, KdParams, SurfaceArea};
+pub use params::{BoxMeasure, KdBuilder, KdParams, SahParams, SurfaceArea};
 pub use stackless::{MAX_SHORT_STACK, STEP_CAP};
 pub use traverse::{split_decision, Best, Decision, Kind, SLACK, STACK_SIZE};
 pub use view::{BackNode, KdStart, KdView};
@@ -711,7 +711,7 @@ impl Structure for KdTree {
             }
         });
         let root = self.bounds.area() as f64;
-        let sah = (self.params.c_trav as f64 * ia + self.params.c_isect as f64 * la) / root;
+        let sah = (self.params.sah.c_trav as f64 * ia + self.params.sah.c_isect as f64 * la) / root;
         BuildReport {
             sah_cost: (!self.nodes.is_empty() && root > 0.0 && sah.is_finite()).then_some(sah),
             extra: vec![
@@ -803,11 +803,11 @@ mod tests {
             p
         };
         let bad = [
-            with(|p| p.c_trav = 0.0),
-            with(|p| p.c_isect = f32::NAN),
-            with(|p| p.empty_bonus = 1.0),
-            with(|p| p.max_depth = STACK_SIZE as u32 + 1),
-            with(|p| p.bins = 1),
+            with(|p| p.sah.c_trav = 0.0),
+            with(|p| p.sah.c_isect = f32::NAN),
+            with(|p| p.sah.empty_bonus = 1.0),
+            with(|p| p.sah.max_depth = STACK_SIZE as u32 + 1),
+            with(|p| p.sah.bins = 1),
             with(|p| p.short_stack = 0),
             with(|p| p.short_stack = MAX_SHORT_STACK as u32 + 1),
             with(|p| p.step_cap = 0),

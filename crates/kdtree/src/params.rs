@@ -4,7 +4,7 @@
 use crate::stackless::{MAX_SHORT_STACK, STEP_CAP};
 use crate::traverse::STACK_SIZE;
 use crate::KdLayout;
-use tb_core::{Aabb, AccelError, ParamKind, Params};
+use tb_core::{Aabb, AccelError, ParamKind};
 
 tb_core::choice! {
     /// Which split-search algorithm the builder uses.
@@ -25,19 +25,23 @@ tb_core::choice! {
 }
 
 tb_core::params! {
-    /// Build parameters of [`KdTree::build`]; each field's doc, default and range is its entry
-    /// in the parameter table ([`Params::SPECS`]).
+    /// The SAH split search of a kd-tree build: one group, declared here once and composed by
+    /// every structure built on this crate's builders ([`KdParams`], tb-sparse's and
+    /// tb-multikd's parameters, each with `@flatten`); its entries keep their own names in
+    /// those tables.
     #[derive(Clone, Copy, Debug, PartialEq)]
-    pub struct KdParams {
+    pub struct SahParams {
         /// Split search: exact SAH event sweep, O(N log N) (`sweep`) or O(N log² N)
         /// (`sweep-nlog2n`, the same tree) (Wald and Havran 2006), or min-max binning
         /// (`binned`, Shevtsov et al. 2007).
         builder: KdBuilder = KdBuilder::Sweep, ParamKind::Choice(KdBuilder::NAMES);
         /// Bins per axis, `binned` builder only.
         bins: u32 = 32, ParamKind::Int { min: 2, max: 1024 };
-        /// SAH traversal cost C_trav (Hapala and Havran 2011, section 2).
+        /// SAH traversal cost C_trav (Hapala and Havran 2011, section 2; `Cost_plane` of
+        /// Torres et al. 2012 §3).
         c_trav: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
-        /// SAH triangle test cost C_isect (the review uses C_trav ≈ 1, C_isect ≈ 1.5).
+        /// SAH triangle test cost C_isect (the review uses C_trav ≈ 1, C_isect ≈ 1.5;
+        /// `Cost_tri` of Torres et al. 2012 §3, 1 in their §7).
         c_isect: f32 = 1.5, ParamKind::Float { min: 1e-6, max: 1e6 };
         /// A split with an empty side costs (1 - bonus) times the SAH (Wald and Havran 2006
         /// use the factor 0.8, i.e. bonus 0.2).
@@ -47,11 +51,23 @@ tb_core::params! {
         max_depth: u32 = 0, ParamKind::Int { min: 0, max: STACK_SIZE as i64 };
         /// Nodes with at most this many triangles become leaves.
         min_leaf: u32 = 1, ParamKind::Int { min: 0, max: 1024 };
+    }
+}
+
+tb_core::params! {
+    /// Build parameters of [`KdTree::build`]: the SAH split search ([`SahParams`]), then the
+    /// walks' and the layout's; each field's doc, default and range is its entry in the
+    /// parameter table ([`Params::SPECS`](tb_core::Params::SPECS)).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct KdParams {
+        @flatten
+        sah: SahParams = SahParams::default();
         /// Entries of the short stack (`short-stack` traversal, Horn et al. 2007;
         /// `stack-spilling`, Novák 2009).
         short_stack: u32 = 4, ParamKind::Int { min: 1, max: MAX_SHORT_STACK as i64 };
-        /// Per-ray step cap of the restart-type traversals (`restart` … `ropes`); capped rays
-        /// are ended with their closest hit so far and counted (a guard: these walks end).
+        /// Per-ray step cap of the restart-type traversals (`restart` … `ropes`, sparse boxes'
+        /// SLTR and SEQ); capped rays are ended with their closest hit so far and counted (a
+        /// guard: these walks end).
         step_cap: u32 = STEP_CAP, ParamKind::Int { min: 1, max: 1 << 30 };
         /// Node layout: left child next to its parent (`depth-first`), or subtrees in aligned
         /// blocks (`treelet`) (Havran 1999; Hapala and Havran 2011, section 6); every
@@ -63,15 +79,19 @@ tb_core::params! {
 }
 
 impl KdParams {
-    /// Check every field against its range in the parameter table ([`Params::SPECS`]).
+    /// The ranges of the table: what [`KdTree::build`] checks (the kd-tree has no rules
+    /// across its parameters beyond them).
     pub fn check(&self) -> Result<(), AccelError> {
-        for ((name, value), spec) in self.to_set().0.iter().zip(Self::SPECS) {
-            spec.check(value)
-                .map_err(|e| AccelError::Params(format!("kd-tree parameter `{name}`: {e}")))?;
-        }
-        Ok(())
+        tb_core::ParamRules::check_all(self, "kd-tree")
     }
 
+    /// The depth limit for `n` triangles ([`SahParams::depth_limit`]).
+    pub fn depth_limit(&self, n: usize) -> u32 {
+        self.sah.depth_limit(n)
+    }
+}
+
+impl SahParams {
     /// The depth limit for `n` triangles: `max_depth`, or when 0, `round(8 + 1.3·log2 n)`
     /// capped at [`STACK_SIZE`].
     pub fn depth_limit(&self, n: usize) -> u32 {
@@ -100,8 +120,5 @@ impl BoxMeasure for SurfaceArea {
     }
 }
 
-impl tb_core::ParamRules for KdParams {
-    fn rules(&self) -> Result<(), String> {
-        self.check().map_err(|e| e.to_string())
-    }
-}
+/// No rules beyond the ranges.
+impl tb_core::ParamRules for KdParams {}

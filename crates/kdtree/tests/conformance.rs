@@ -6,7 +6,7 @@ use tb_core::{
     Accel, AccelError, BuildReport, GpuProgram, HitRecord, MemoryReport, Query, Ray, Structure,
     Traversal, TraversalInfo, TraversalStats, TriTestKind,
 };
-use tb_kdtree::{KdParams, KdTree};
+use tb_kdtree::{KdParams, KdTree, SahParams};
 
 /// The kd-tree's traversal table.
 const TRAVERSALS: &[Traversal<KdTree>] = KdTree::TRAVERSALS;
@@ -114,8 +114,11 @@ fn conforms_default() {
 #[test]
 fn conforms_binned() {
     run(KdParams {
-        builder: tb_kdtree::KdBuilder::Binned,
-        bins: 8,
+        sah: SahParams {
+            builder: tb_kdtree::KdBuilder::Binned,
+            bins: 8,
+            ..Default::default()
+        },
         ..Default::default()
     });
 }
@@ -123,8 +126,11 @@ fn conforms_binned() {
 #[test]
 fn conforms_shallow_big_leaves() {
     run(KdParams {
-        max_depth: 6,
-        min_leaf: 8,
+        sah: SahParams {
+            max_depth: 6,
+            min_leaf: 8,
+            ..Default::default()
+        },
         ..Default::default()
     });
 }
@@ -163,11 +169,14 @@ fn sweep_builders_agree() {
         let b = KdTree::build(
             &scene.triangles,
             &KdParams {
-                builder: KdBuilder::SweepNlog2n,
+                sah: SahParams {
+                    builder: KdBuilder::SweepNlog2n,
+                    ..Default::default()
+                },
                 ..Default::default()
             },
         );
-        assert_eq!(KdParams::default().builder, KdBuilder::Sweep);
+        assert_eq!(KdParams::default().sah.builder, KdBuilder::Sweep);
         assert!(a.nodes() == b.nodes(), "{}: nodes differ", scene.source);
         assert!(
             a.prim_refs() == b.prim_refs(),

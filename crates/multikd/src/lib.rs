@@ -60,7 +60,7 @@ use measure::{Heuristic, WeightedArea};
 use std::sync::{Arc, OnceLock};
 use tb_core::{
     build_with, dispatch, Aabb, AccelError, BuildReport, Counter, Family, HitRecord, Kernel,
-    MemoryReport, MollerTrumbore, NoStats, ParamKind, Params, Query, Ray, Structure, Traversal,
+    MemoryReport, MollerTrumbore, NoStats, ParamKind, Query, Ray, Structure, Traversal,
     TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle, Watertight,
 };
 use tb_kdtree::stackless::{self, Stackless};
@@ -68,7 +68,7 @@ use tb_kdtree::traverse::{self, Tree};
 use tb_kdtree::view::{self, Aux};
 use tb_kdtree::{
     layout, BackNode, DepthFirst, KdLayout, KdNode, KdParams, KdStart, KdTree, KdView, Layout,
-    Nodes, Treelet, BACKTRACK_AUX, MAX_SHORT_STACK, ROPES_AUX, STACK_SIZE, STEP_CAP,
+    Nodes, SahParams, Treelet, BACKTRACK_AUX, ROPES_AUX,
 };
 
 /// The multi-kd-tree in the registry.
@@ -114,48 +114,13 @@ tb_core::params! {
         /// `multi`: a tree per patch, chosen per ray; `x`, `y`, `z`: that patch's tree alone,
         /// for every ray (control).
         trees: Trees = Trees::Multi, ParamKind::Choice(Trees::NAMES);
-        /// Split search of each tree (see the kd-tree's `builder`).
-        builder: tb_kdtree::KdBuilder = tb_kdtree::KdBuilder::Sweep,
-            ParamKind::Choice(tb_kdtree::KdBuilder::NAMES);
-        /// Bins per axis, `binned` builder only.
-        bins: u32 = 32, ParamKind::Int { min: 2, max: 1024 };
-        /// Cost of a plane test, `Cost_plane` (§3; 1 in §7).
-        c_trav: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
-        /// Cost of a triangle test, `Cost_tri` (§3; 1 in §7).
-        c_isect: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
-        /// A split with an empty side costs (1 - bonus) times the SAH (Wald and Havran 2006).
-        empty_bonus: f32 = 0.2, ParamKind::Float { min: 0.0, max: 0.999 };
-        /// Depth limit (0 = round(8 + 1.3 log2 N), Havran 2000).
-        max_depth: u32 = 0, ParamKind::Int { min: 0, max: STACK_SIZE as i64 };
-        /// Nodes with at most this many triangles become leaves.
-        min_leaf: u32 = 1, ParamKind::Int { min: 0, max: 1024 };
-        /// Entries of the short stack (`short-stack`, `stack-spilling`).
-        short_stack: u32 = 4, ParamKind::Int { min: 1, max: MAX_SHORT_STACK as i64 };
-        /// Per-ray step cap of the restart-type traversals.
-        step_cap: u32 = STEP_CAP, ParamKind::Int { min: 1, max: 1 << 30 };
-        /// Node layout of every tree: `depth-first` or `treelet`.
-        layout: KdLayout = KdLayout::DepthFirst, ParamKind::Choice(KdLayout::NAMES);
-        /// Levels per treelet block.
-        treelet_height: u32 = 3, ParamKind::Int { min: 2, max: 8 };
-    }
-}
-
-impl MultiKdParams {
-    /// The kd-tree parameters of each tree.
-    pub fn kd(&self) -> KdParams {
-        KdParams {
-            builder: self.builder,
-            bins: self.bins,
-            c_trav: self.c_trav,
-            c_isect: self.c_isect,
-            empty_bonus: self.empty_bonus,
-            max_depth: self.max_depth,
-            min_leaf: self.min_leaf,
-            short_stack: self.short_stack,
-            step_cap: self.step_cap,
-            layout: self.layout,
-            treelet_height: self.treelet_height,
-        }
+        /// The kd-tree's parameters, each tree's (tb-kdtree's [`KdParams`], composed, not
+        /// copied), with the paper's triangle cost: `c_isect` = `Cost_tri` = 1 (§7).
+        @flatten
+        kd: KdParams = KdParams {
+            sah: SahParams { c_isect: 1.0, ..SahParams::default() },
+            ..KdParams::default()
+        };
     }
 }
 
@@ -206,11 +171,8 @@ impl MultiKdTree {
     /// Build the trees over shared triangles; `Err` for parameters out of range or 2^30 or
     /// more triangles (or references).
     pub fn try_build(tris: Arc<[Triangle]>, p: &MultiKdParams) -> Result<MultiKdTree, AccelError> {
-        for ((name, value), spec) in p.to_set().0.iter().zip(MultiKdParams::SPECS) {
-            spec.check(value)
-                .map_err(|e| AccelError::Params(format!("multi-kd parameter `{name}`: {e}")))?;
-        }
-        let kd = p.kd();
+        tb_core::ParamRules::check_all(p, "multi-kd")?;
+        let kd = p.kd;
         let patches: Vec<usize> = match (p.measure.is_isotropic(), p.trees) {
             (true, _) => vec![0],
             (false, Trees::Multi) => vec![0, 1, 2],
@@ -445,7 +407,7 @@ fn measured_cost(t: &KdTree, w: [f64; 3]) -> f64 {
             ia += mu(cell);
         }
     });
-    let p = t.params();
+    let p = &t.params().sah;
     (p.c_trav as f64 * ia + p.c_isect as f64 * la) / mu(&t.bounds())
 }
 
@@ -837,11 +799,8 @@ impl Structure for MultiKdTree {
     }
 }
 
-impl tb_core::ParamRules for MultiKdParams {
-    fn rules(&self) -> Result<(), String> {
-        self.kd().check().map_err(|e| e.to_string())
-    }
-}
+/// No rules beyond the ranges.
+impl tb_core::ParamRules for MultiKdParams {}
 
 #[cfg(test)]
 mod tests {
@@ -885,10 +844,8 @@ mod tests {
     fn layout_header_and_controls() {
         let tris = grid();
         for layout in [KdLayout::DepthFirst, KdLayout::Treelet] {
-            let p = MultiKdParams {
-                layout,
-                ..Default::default()
-            };
+            let mut p = MultiKdParams::default();
+            p.kd.layout = layout;
             let m = MultiKdTree::build(&tris, &p);
             assert_eq!(Accel::validate(&m), Ok(()));
             assert_eq!(m.trees().len(), 3);
@@ -898,7 +855,7 @@ mod tests {
                 let w = Heuristic::SphereOrth.weights(i, 2.0);
                 let alone = KdTree::try_build(
                     m.tris.clone(),
-                    &p.kd(),
+                    &p.kd,
                     &WeightedArea([w[0] as f32, w[1] as f32, w[2] as f32]),
                 )
                 .unwrap();
@@ -929,7 +886,7 @@ mod tests {
         };
         let m = MultiKdTree::build(&tris, &p);
         assert_eq!(m.trees().len(), 1);
-        let kd = KdTree::build(&tris, &p.kd());
+        let kd = KdTree::build(&tris, &p.kd);
         assert_eq!(&m.nodes[..], kd.nodes());
         assert_eq!(&m.refs[..], kd.prim_refs());
     }
@@ -957,11 +914,12 @@ mod tests {
     #[test]
     fn rays_traverse_their_patch_tree_and_arranging_changes_nothing() {
         for layout in [KdLayout::DepthFirst, KdLayout::Treelet] {
-            per_ray_in(MultiKdParams {
+            let mut p = MultiKdParams {
                 measure: Heuristic::CubeObli,
-                layout,
                 ..Default::default()
-            });
+            };
+            p.kd.layout = layout;
+            per_ray_in(p);
         }
     }
 
@@ -998,12 +956,8 @@ mod tests {
         let m = MultiKdTree::build(&tris, &p);
         let alone: Vec<KdTree> = (0..3)
             .map(|i| {
-                KdTree::try_build(
-                    m.tris.clone(),
-                    &p.kd(),
-                    &WeightedArea::of(p.measure, i, 2.0),
-                )
-                .unwrap()
+                KdTree::try_build(m.tris.clone(), &p.kd, &WeightedArea::of(p.measure, i, 2.0))
+                    .unwrap()
             })
             .collect();
         let rays = random_rays(2 * ARRANGE_BLOCK + 300);

@@ -130,12 +130,10 @@ fn controls_and_treelets_conform() {
         },
         false,
     );
-    run(
-        MultiKdParams {
-            measure: Heuristic::SphereObli,
-            layout: KdLayout::Treelet,
-            ..Default::default()
-        },
-        false,
-    );
+    let mut treelets = MultiKdParams {
+        measure: Heuristic::SphereObli,
+        ..Default::default()
+    };
+    treelets.kd.layout = KdLayout::Treelet;
+    run(treelets, false);
 }

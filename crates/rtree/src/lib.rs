@@ -132,26 +132,10 @@ tb_core::params! {
 }
 
 impl RtreeParams {
-    /// Check the parameters: `4 ≤ M ≤ 16`, `2 ≤ m ≤ M/2`, `0 < reinsert_share ≤ 0.5`.
+    /// Check the parameters: the ranges of the table (`4 ≤ M ≤ 16`, …), then the rule
+    /// `m ≤ M/2` ([`tb_core::ParamRules`]).
     pub fn check(&self) -> Result<(), AccelError> {
-        let err = |m: String| Err(AccelError::Params(m));
-        if !(4..=MAX_M as u32).contains(&self.big_m) {
-            return err(format!("big_m (M) must be in 4..=16, got {}", self.big_m));
-        }
-        if self.m < 2 || self.m > self.big_m / 2 {
-            return err(format!(
-                "m must be in 2..=M/2 = {}, got {}",
-                self.big_m / 2,
-                self.m
-            ));
-        }
-        if !(self.reinsert_share > 0.0 && self.reinsert_share <= 0.5) {
-            return err(format!(
-                "reinsert_share must be in (0, 0.5], got {}",
-                self.reinsert_share
-            ));
-        }
-        Ok(())
+        tb_core::ParamRules::check_all(self, "r-tree")
     }
 
     /// `p`, the number of entries a forced reinsertion ejects.
@@ -572,9 +556,17 @@ impl Structure for Rtree {
     }
 }
 
+/// The rule across the R-tree's parameters: `m ≤ M/2` (Feldmann §2.2).
 impl tb_core::ParamRules for RtreeParams {
     fn rules(&self) -> Result<(), String> {
-        self.check().map_err(|e| e.to_string())
+        if self.m > self.big_m / 2 {
+            return Err(format!(
+                "m must be in 2..=M/2 = {}, got {}",
+                self.big_m / 2,
+                self.m
+            ));
+        }
+        Ok(())
     }
 }
 

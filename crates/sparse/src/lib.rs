@@ -44,10 +44,9 @@ mod walk;
 use std::sync::Arc;
 use tb_core::{
     build_with, Aabb, Accel, AccelError, BuildReport, Family, HitRecord, MemoryReport, ParamKind,
-    Params, Query, Ray, Structure, Traversal, TraversalInfo, TraversalStats, TriTestKind, Triangle,
-    Vec3,
+    Query, Ray, Structure, Traversal, TraversalInfo, TraversalStats, TriTestKind, Triangle, Vec3,
 };
-use tb_kdtree::{KdBuilder, KdLayout, KdParams, KdTree, SurfaceArea, STACK_SIZE};
+use tb_kdtree::{KdLayout, KdParams, KdTree, SahParams, SurfaceArea, STACK_SIZE};
 
 /// The auxiliary array of augmented nodes (boxes and parent links), read by BTR and SLTR.
 pub const BOXES_AUX: &str = "sparse-boxes";
@@ -67,27 +66,15 @@ pub static FAMILY: Family = Family::new::<SparseBoxes, SparseParams>(
 .with_rules::<SparseParams>();
 
 tb_core::params! {
-    /// Build parameters: `d_min` and those of the kd-tree below it (the kd-tree crate's
-    /// [`KdParams`], depth-first layout).
+    /// Build parameters: `d_min`, the kd-tree's SAH split search (tb-kdtree's [`SahParams`],
+    /// composed, not copied) and the step cap; the tree is laid out depth-first.
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct SparseParams {
         /// d_min: an interior node is augmented when its depth distance to the nearest
         /// augmented ancestor exceeds d_min (Havran and Bittner 2007 §4; the root always is).
         d_min: u32 = 2, ParamKind::Int { min: 1, max: 16 };
-        /// kd-tree split search, as the kd-tree's `builder`.
-        builder: KdBuilder = KdBuilder::Sweep, ParamKind::Choice(KdBuilder::NAMES);
-        /// Bins per axis, `binned` builder only.
-        bins: u32 = 32, ParamKind::Int { min: 2, max: 1024 };
-        /// SAH traversal cost C_trav.
-        c_trav: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
-        /// SAH triangle test cost C_isect.
-        c_isect: f32 = 1.5, ParamKind::Float { min: 1e-6, max: 1e6 };
-        /// Empty-space bonus of the SAH.
-        empty_bonus: f32 = 0.2, ParamKind::Float { min: 0.0, max: 0.999 };
-        /// Depth limit (0: round(8 + 1.3 log2 N), at most 64).
-        max_depth: u32 = 0, ParamKind::Int { min: 0, max: STACK_SIZE as i64 };
-        /// Nodes with at most this many triangles become leaves.
-        min_leaf: u32 = 1, ParamKind::Int { min: 0, max: 1024 };
+        @flatten
+        sah: SahParams = SahParams::default();
         /// Per-ray step cap of SLTR and SEQ (a guard; capped rays are counted).
         step_cap: u32 = tb_kdtree::STEP_CAP, ParamKind::Int { min: 1, max: 1 << 30 };
     }
@@ -97,13 +84,7 @@ impl SparseParams {
     /// The kd-tree's parameters (depth-first layout).
     pub fn kd(&self) -> KdParams {
         KdParams {
-            builder: self.builder,
-            bins: self.bins,
-            c_trav: self.c_trav,
-            c_isect: self.c_isect,
-            empty_bonus: self.empty_bonus,
-            max_depth: self.max_depth,
-            min_leaf: self.min_leaf,
+            sah: self.sah,
             step_cap: self.step_cap,
             layout: KdLayout::DepthFirst,
             ..KdParams::default()
@@ -149,10 +130,7 @@ pub struct SparseBoxes {
 impl SparseBoxes {
     /// Build over shared triangles; `Err` for parameters out of range or too many triangles.
     pub fn try_build(tris: Arc<[Triangle]>, p: &SparseParams) -> Result<SparseBoxes, AccelError> {
-        for ((name, value), spec) in p.to_set().0.iter().zip(SparseParams::SPECS) {
-            spec.check(value)
-                .map_err(|e| AccelError::Params(format!("sparse-boxes parameter `{name}`: {e}")))?;
-        }
+        tb_core::ParamRules::check_all(p, "sparse-boxes")?;
         let kd = KdTree::try_build(tris, &p.kd(), &SurfaceArea)?;
         Ok(Self::augment(kd, p))
     }
@@ -480,8 +458,6 @@ pub fn trace_hinted(
     hits
 }
 
-impl tb_core::ParamRules for SparseParams {
-    fn rules(&self) -> Result<(), String> {
-        self.kd().check().map_err(|e| e.to_string())
-    }
-}
+/// No rules beyond the ranges: the kd-tree parameters it composes are in range when its own
+/// entries are.
+impl tb_core::ParamRules for SparseParams {}

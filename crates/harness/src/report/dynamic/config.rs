@@ -155,25 +155,29 @@ fn check_scenes(
     Ok(())
 }
 
-/// Every structure takes `lambda_1` and `lambda_2` (the automatic density choice).
+/// Every structure offers its two densities ([`tb_core::Family::densities`]: the automatic
+/// density choice sets them).
 fn check_structures(
     cx: &Ctx,
     span: std::ops::Range<usize>,
     structures: &[StructureSpec],
 ) -> Result<(), HarnessError> {
-    for st in structures {
-        let has = |n: &str| st.family.params.iter().any(|p| p.name == n);
-        if !has("lambda_1") || !has("lambda_2") {
-            return Err(cx.err(
-                span.clone(),
-                "dynamic",
-                format!(
-                    "structure `{}` has no lambda_1 and lambda_2 (the automatic density choice \
-                     needs them: two-level-grid, irregular-grid)",
-                    st.family.name
-                ),
-            ));
-        }
+    if let Some(st) = structures.iter().find(|st| st.family.densities.is_none()) {
+        let offering: Vec<&str> = crate::registry::families()
+            .iter()
+            .filter(|f| f.densities.is_some())
+            .map(|f| f.name)
+            .collect();
+        return Err(cx.err(
+            span,
+            "dynamic",
+            format!(
+                "structure `{}` has no lambda_1 and lambda_2 (the automatic density choice \
+                 needs them: {})",
+                st.family.name,
+                offering.join(", ")
+            ),
+        ));
     }
     Ok(())
 }

@@ -30,7 +30,7 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
-use tb_core::{Accel, ParamSet, ParamValue, Query, TriTestKind, Triangle};
+use tb_core::{Accel, Family, ParamSet, ParamValue, Query, TriTestKind, Triangle};
 
 /// One row of `dynamic.csv`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -140,7 +140,7 @@ pub fn run(
                     let mut done: Vec<(f64, Frame, String)> = Vec::new();
                     for (&budget, &(l1, _)) in spec.budget_ms.iter().zip(&chosen) {
                         if !done.iter().any(|(l, _, _)| *l == l1) {
-                            let params = with_densities(base, l1, l1 * spec.ratio);
+                            let params = with_densities(st.family, base, l1, l1 * spec.ratio);
                             let f = cx.frame(scene, st, &params, &tris)?;
                             done.push((l1, f, params.to_string()));
                         }
@@ -227,14 +227,18 @@ fn frame_source(source: &str, frame: u32) -> String {
     format!("{source}{sep}frame={frame}")
 }
 
-/// `base` with λ_1 and λ_2 replaced.
-fn with_densities(base: &ParamSet, l1: f64, l2: f64) -> ParamSet {
+/// `base` with the family's two densities (λ_1, λ_2: [`tb_core::Family::densities`], checked
+/// with the config) replaced.
+fn with_densities(family: &Family, base: &ParamSet, l1: f64, l2: f64) -> ParamSet {
+    let [n1, n2] = family
+        .densities
+        .expect("the config check admits only families with densities");
     let mut p = base.clone();
     for (n, v) in p.0.iter_mut() {
-        match *n {
-            "lambda_1" => *v = ParamValue::Float(l1),
-            "lambda_2" => *v = ParamValue::Float(l2),
-            _ => {}
+        if *n == n1 {
+            *v = ParamValue::Float(l1);
+        } else if *n == n2 {
+            *v = ParamValue::Float(l2);
         }
     }
     p
@@ -268,7 +272,7 @@ impl Ctx<'_> {
                 "{}: dynamic density choice {} lambda_1 = {l1}",
                 scene.label, st.family.name
             ));
-            let params = with_densities(base, l1, l1 * self.spec.ratio);
+            let params = with_densities(st.family, base, l1, l1 * self.spec.ratio);
             let f = self.frame(scene, st, &params, &tris)?;
             let row = ChoiceRow {
                 scene: scene.label.clone(),
