@@ -314,8 +314,8 @@ macro_rules! params {
                 Ok(Self { $( $field: $crate::__param_part!(take $($flatten)? ; set; $field; $ty), )* })
             }
 
+            #[allow(unused_mut, clippy::vec_init_then_push)]
             fn to_set(&self) -> $crate::params::ParamSet {
-                #[allow(unused_mut)]
                 let mut out = ::std::vec::Vec::new();
                 $( $crate::__param_part!(put $($flatten)? ; out; self.$field; $field); )*
                 $crate::params::ParamSet(out)
