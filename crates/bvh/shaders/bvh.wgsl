@@ -21,7 +21,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     }
     let rb = ray_box(r);
     let tmin = r.tmin;
-    var best = Best(r.tmax, MISS_PRIM, 0.0, 0.0);
+    var best = no_best(r);
     (*st).boxes += 1u;
     let root = nodes[0];
     let rs = slab(rb, root.bmin, root.bmax, tmin, best.t);
@@ -64,27 +64,17 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                 continue;
             }
         } else {
-            if leaf(node.index, node.count, p, r, &best, st) {
+            (*st).steps += 1u;
+            if leaf_range(node.index, node.count, p, r, &best, st) {
                 return record(best);
             }
         }
         // Pop the next pending subtree, skipping those entered beyond the closest hit.
-        var popped = false;
-        loop {
-            if sp == 0u {
-                break;
-            }
-            sp -= 1u;
-            let e = stack[sp];
-            if ANY || bitcast<f32>(e.y) <= best.t * EXIT_SCALE {
-                node = nodes[e.x];
-                popped = true;
-                break;
-            }
-        }
-        if !popped {
+        let next = pop_entered(&stack, &sp, best.t);
+        if next == NO_ENTRY {
             break;
         }
+        node = nodes[next];
     }
     return record(best);
 }

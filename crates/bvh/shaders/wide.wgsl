@@ -1,6 +1,7 @@
 // The wide BVH `ordered` traversal (tb_bvh::wide, Wald, Benthin and Boulos 2008), programs
-// `bvh/ordered-w4` and `bvh/ordered-w8` on tb-gpu's prelude (tb_core::gpu): depth-first with a
-// fixed stack (STACK_SIZE = tb_bvh::WIDE_STACK_SIZE); at a node every child box is tested
+// `bvh/ordered-w4` and `bvh/ordered-w8` on tb-gpu's prelude (tb_core::gpu) and the leaf ranges
+// (tb_core::gpu::LEAF_RANGES): depth-first with a fixed stack (STACK_SIZE =
+// tb_bvh::WIDE_STACK_SIZE); at a node every child box is tested
 // with the prelude's slab test (the CPU's SIMD lanes compute the same operations), the hit
 // children sorted by entry distance (insertion sort, ties in slot order), the nearest visited
 // next and the others pushed farthest first; any-hit queries push in slot order without
@@ -37,7 +38,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     }
     let rb = ray_box(r);
     let tmin = r.tmin;
-    var best = Best(r.tmax, MISS_PRIM, 0.0, 0.0);
+    var best = no_best(r);
     (*st).boxes += 1u;
     let rmin = vec3<f32>(root_node[0], root_node[1], root_node[2]);
     let rmax = vec3<f32>(root_node[4], root_node[5], root_node[6]);
@@ -115,7 +116,8 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                 continue;
             }
         } else {
-            if leaf(cur.x, cur.y, p, r, &best, st) {
+            (*st).steps += 1u;
+            if leaf_range(cur.x, cur.y, p, r, &best, st) {
                 return record(best);
             }
         }

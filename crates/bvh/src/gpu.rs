@@ -16,10 +16,7 @@ impl Bvh {
     ) -> GpuProgram<'_> {
         GpuProgram::new(
             name,
-            concat!(
-                include_str!("../shaders/common.wgsl"),
-                include_str!("../shaders/wide.wgsl")
-            ),
+            include_str!("../shaders/wide.wgsl"),
             &self.triangles[..],
         )
         .buffer("the wide BVH node array", Cow::Owned(bytes))
@@ -34,6 +31,7 @@ impl Bvh {
         .meta([n as u32, 0, 0])
         .stack(WIDE_STACK_SIZE as u32)
         .constant("WIDTH", width as f64)
+        .include(tb_core::gpu::LEAF_RANGES)
     }
 
     /// The GPU program of `ordered` (`shaders/bvh.wgsl`, the same walk in the same order):
@@ -60,10 +58,7 @@ impl Bvh {
         }
         GpuProgram::new(
             "bvh/ordered",
-            concat!(
-                include_str!("../shaders/common.wgsl"),
-                include_str!("../shaders/bvh.wgsl")
-            ),
+            include_str!("../shaders/bvh.wgsl"),
             &self.triangles[..],
         )
         .buffer(
@@ -76,5 +71,7 @@ impl Bvh {
         )
         .meta([self.nodes.len() as u32, 0, 0])
         .stack(STACK_SIZE as u32)
+        .include(tb_core::gpu::LEAF_RANGES)
+        .include(tb_core::gpu::STACK_POP)
     }
 }

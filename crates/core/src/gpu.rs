@@ -99,7 +99,21 @@ pub struct GpuProgram<'a> {
     /// Sort the rays by `ray_key` before tracing them (see the module doc); `None`: traced in
     /// the order given.
     pub arrange: Option<GpuArrange>,
+    /// WGSL shared by several structures' programs (e.g. [`LEAF_RANGES`]), placed after the
+    /// prelude and before [`GpuProgram::source`], in this order.
+    pub includes: Vec<&'static str>,
 }
+
+/// WGSL shared by the programs whose leaves are ranges of a leaf-ordered triangle array with
+/// a map back to scene indices (the BVH's and the R-tree's, each declaring `prim_ids`): the
+/// closest-hit record `Best` (`no_best`, `record`) and the leaf loop `leaf_range`, counting as
+/// their CPU leaves do.
+pub const LEAF_RANGES: &str = include_str!("../shaders/leaf_ranges.wgsl");
+
+/// WGSL shared by the programs with a depth-first stack of `(index, entry distance)` entries
+/// (`array<vec2<u32>, STACK_SIZE>`): `pop_entered`, the next entry not entered beyond the
+/// closest hit, or `NO_ENTRY`.
+pub const STACK_POP: &str = include_str!("../shaders/stack_pop.wgsl");
 
 impl<'a> GpuProgram<'a> {
     /// The program `name` (`structure/traversal`) of WGSL `source` over `triangles`, with no
@@ -121,7 +135,15 @@ impl<'a> GpuProgram<'a> {
             unrolled_triangle_loop: None,
             needs_f64: false,
             arrange: None,
+            includes: Vec::new(),
         }
+    }
+
+    /// Place shared WGSL `part` (e.g. [`LEAF_RANGES`]) before the source, after those
+    /// included before.
+    pub fn include(mut self, part: &'static str) -> Self {
+        self.includes.push(part);
+        self
     }
 
     /// The next read-only buffer (bound at 5, 6, … in the order added).

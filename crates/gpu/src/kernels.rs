@@ -9,7 +9,7 @@ use std::sync::Mutex;
 use tb_core::stats::wgsl_stats_struct;
 use tb_core::{GpuProgram, Query, TriTestKind};
 
-const COMMON: &str = include_str!("../shaders/common.wgsl");
+const COMMON: &str = include_str!("../shaders/prelude.wgsl");
 const EDGE_F64: &str = include_str!("../shaders/edge_f64.wgsl");
 const EDGE_F32: &str = include_str!("../shaders/edge_f32.wgsl");
 const UNSORTED: &str = include_str!("../shaders/unsorted.wgsl");
@@ -28,6 +28,7 @@ pub(crate) const COMMON_BINDINGS: u32 = 5;
 struct Module {
     module: wgpu::ShaderModule,
     source: &'static str,
+    includes: Vec<&'static str>,
     stack_size: u32,
     constants: Vec<(&'static str, f64)>,
     /// Keys of its ray arrangement (0: none).
@@ -138,7 +139,7 @@ impl Kernels {
 
     /// The full WGSL of `p`: `STACK_SIZE`, `WORKGROUP_SIZE`, the `Stats` record, the common
     /// prelude, the edge fallback, `ray_index` (with `KEYS` and the sort passes for a program
-    /// that sorts its rays), the program's source.
+    /// that sorts its rays), the shared parts it includes, the program's source.
     fn source(&self, p: &GpuProgram<'_>) -> String {
         let edge = if self.f64 { EDGE_F64 } else { EDGE_F32 };
         let order = match p.arrange {
@@ -146,9 +147,10 @@ impl Kernels {
             None => UNSORTED.to_string(),
         };
         format!(
-            "const STACK_SIZE: u32 = {}u;\nconst WORKGROUP_SIZE: u32 = {WORKGROUP}u;\n{}{COMMON}\n{edge}\n{order}\n{}",
+            "const STACK_SIZE: u32 = {}u;\nconst WORKGROUP_SIZE: u32 = {WORKGROUP}u;\n{}{COMMON}\n{edge}\n{order}\n{}\n{}",
             p.stack_size,
             wgsl_stats_struct(),
+            p.includes.join("\n"),
             p.source
         )
     }
@@ -175,6 +177,7 @@ impl Kernels {
             .or_insert_with(|| layout(device, p.buffers.len(), keys > 0));
         if let Some(m) = cache.modules.get(p.name) {
             if m.source != p.source
+                || m.includes != p.includes
                 || m.stack_size != p.stack_size
                 || m.constants != p.constants
                 || m.keys != keys
@@ -199,6 +202,7 @@ impl Kernels {
             Module {
                 module,
                 source: p.source,
+                includes: p.includes.clone(),
                 stack_size: p.stack_size,
                 constants: p.constants.clone(),
                 keys,
@@ -311,7 +315,7 @@ mod tests {
             let decl = format!("const GAMMA{n}: f32 = {:e};", tb_core::tri::gamma(n as f32));
             assert!(
                 super::COMMON.contains(&decl),
-                "common.wgsl must declare `{decl}`"
+                "prelude.wgsl must declare `{decl}`"
             );
         }
     }

@@ -16,7 +16,7 @@
 //! Programs (one thread per ray, workgroups of [`WORKGROUP`]): the shader module of a program
 //! is `const STACK_SIZE` ([`GpuProgram::stack_size`]), `const WORKGROUP_SIZE`, the `Stats`
 //! record generated from tb-core's counter list ([`tb_core::stats::wgsl_stats_struct`]), the
-//! common prelude (`shaders/common.wgsl`: the bindings 0–4, `Ray`, `Hit`, the slab test, both
+//! common prelude (`shaders/prelude.wgsl`: the bindings 0–4, `Ray`, `Hit`, the slab test, both
 //! triangle tests, the entry point `main` calling the program's `walk`), the watertight
 //! test's edge fallback (`shaders/edge_f64.wgsl` on adapters with `SHADER_F64`, else
 //! `edge_f32.wgsl`), then the program's source; the contract is stated in `tb_core::gpu`.

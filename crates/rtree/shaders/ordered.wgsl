@@ -18,7 +18,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
         return miss();
     }
     let top = meta_.counts.w;
-    var best = no_hit(r);
+    var best = no_best(r);
     let p = prepare(r);
     // Entries (slot, bits of the entry distance).
     var stack: array<vec2<u32>, STACK_SIZE>;
@@ -55,7 +55,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                 }
             }
             sp[l] = k;
-        } else if leaf(node, p, r, &best, st) {
+        } else if leaf_range(node.index, node.count, p, r, &best, st) {
             return record(best);
         }
         // The next node: top of the lowest non-empty stack (Listing 2, lines 27-34).

@@ -14,7 +14,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
         return miss();
     }
     let first_leaf = meta_.counts.z;
-    var best = no_hit(r);
+    var best = no_best(r);
     let p = prepare(r);
     // Pending entries: (slot, bits of the entry distance).
     var stack: array<vec2<u32>, STACK_SIZE>;
@@ -35,26 +35,15 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                     sp += 1u;
                 }
             }
-        } else if leaf(node, p, r, &best, st) {
+        } else if leaf_range(node.index, node.count, p, r, &best, st) {
             return record(best);
         }
-        var popped = false;
-        loop {
-            if sp == 0u {
-                break;
-            }
-            sp -= 1u;
-            let e = stack[sp];
-            if ANY || bitcast<f32>(e.y) <= best.t * EXIT_SCALE {
-                n = e.x;
-                (*st).steps += 1u;
-                popped = true;
-                break;
-            }
-        }
-        if !popped {
+        let next = pop_entered(&stack, &sp, best.t);
+        if next == NO_ENTRY {
             break;
         }
+        n = next;
+        (*st).steps += 1u;
     }
     return record(best);
 }

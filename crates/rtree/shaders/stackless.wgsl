@@ -16,7 +16,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     let first_leaf = meta_.counts.z;
     let rb = ray_box(r);
     let p = prepare(r);
-    var best = no_hit(r);
+    var best = no_best(r);
     var n = 0u;
     loop {
         (*st).boxes += 1u;
@@ -29,7 +29,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                 n = n * M + 1u;
                 continue;
             }
-            if leaf(node, p, r, &best, st) {
+            if leaf_range(node.index, node.count, p, r, &best, st) {
                 return record(best);
             }
         }

@@ -82,12 +82,13 @@ impl Rtree {
             .meta([self.nodes.len() as u32, self.first_leaf, self.root_level])
             .stack(stack)
             .constant("M", m as f64)
+            .include(tb_core::gpu::LEAF_RANGES)
     }
 
     /// The GPU program of `stackless` (`shaders/stackless.wgsl`, Listing 1, no stack).
     pub(crate) fn gpu_stackless(&self) -> GpuProgram<'_> {
         const SRC: &str = concat!(
-            include_str!("../shaders/common.wgsl"),
+            include_str!("../shaders/tree.wgsl"),
             include_str!("../shaders/stackless.wgsl")
         );
         self.gpu(&STACKLESS, SRC, 0)
@@ -96,7 +97,7 @@ impl Rtree {
     /// The GPU program of `ordered` (`shaders/ordered.wgsl`, Listing 2, per-level stacks).
     pub(crate) fn gpu_ordered(&self) -> GpuProgram<'_> {
         const SRC: &str = concat!(
-            include_str!("../shaders/common.wgsl"),
+            include_str!("../shaders/tree.wgsl"),
             include_str!("../shaders/ordered.wgsl")
         );
         self.gpu(&ORDERED, SRC, ordered_stack(self.params.big_m))
@@ -105,10 +106,11 @@ impl Rtree {
     /// The GPU program of `stack` (`shaders/stack.wgsl`, Table 3's stack-based reference).
     pub(crate) fn gpu_stack(&self) -> GpuProgram<'_> {
         const SRC: &str = concat!(
-            include_str!("../shaders/common.wgsl"),
+            include_str!("../shaders/tree.wgsl"),
             include_str!("../shaders/stack.wgsl")
         );
         self.gpu(&STACK, SRC, stack_stack(self.params.big_m))
+            .include(tb_core::gpu::STACK_POP)
     }
 }
 

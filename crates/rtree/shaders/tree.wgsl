@@ -1,6 +1,6 @@
 // The part shared by the R-tree's GPU programs (tb_rtree, Feldmann 2015 section 4; the
 // traversals follow in stackless.wgsl, ordered.wgsl and stack.wgsl), on tb-gpu's prelude
-// (tb_core::gpu).
+// (tb_core::gpu) and the leaf ranges it includes (tb_core::gpu::LEAF_RANGES).
 //
 // The packed level-order array of section 4 (Figure 4): a complete M-ary tree of N slots,
 // empty slots included, root first; slot n has its entries at M*n + 1 .. M*n + M (the paper's
@@ -23,13 +23,6 @@ struct Node { bmin: vec3<f32>, index: u32, bmax: vec3<f32>, count: u32 }
 
 override M: u32 = 4u;   // RtreeParams::big_m (GpuProgram::constants)
 
-// The closest hit so far: t, slot in the leaf-ordered triangles (MISS_PRIM: none), u, v.
-struct Best { t: f32, slot: u32, u: f32, v: f32 }
-
-fn no_hit(r: Ray) -> Best {
-    return Best(r.tmax, MISS_PRIM, 0.0, 0.0);
-}
-
 // The root's box test that opens the stack-based walks (ordered.wgsl, stack.wgsl), counted as
 // tb_rtree's CPU walks count it: one box, then one step when the root is entered. False for an
 // empty tree (nothing counted) or a ray that misses the root's box.
@@ -45,35 +38,4 @@ fn enter_root(r: Ray, rb: RayBox, st: ptr<function, Stats>) -> bool {
     }
     (*st).steps += 1u;
     return true;
-}
-
-fn record(b: Best) -> Hit {
-    if b.slot == MISS_PRIM {
-        return miss();
-    }
-    return Hit(b.t, prim_ids[b.slot], b.u, b.v);
-}
-
-// Test the triangles of a leaf as tb_rtree's `leaf` does (prims counted per leaf for the
-// closest hit, per test for any hit). Returns true when ANY and a triangle was hit (then
-// `*best` holds that hit).
-fn leaf(node: Node, p: Pre, r: Ray, best: ptr<function, Best>, st: ptr<function, Stats>) -> bool {
-    (*st).leaves += 1u;
-    let first = node.index;
-    if !ANY {
-        (*st).prims += node.count;
-    }
-    for (var k = 0u; k < node.count; k++) {
-        if ANY {
-            (*st).prims += 1u;
-        }
-        let h = intersect(p, r, first + k, (*best).t);
-        if h.w != 0.0 {
-            *best = Best(h.x, first + k, h.y, h.z);
-            if ANY {
-                return true;
-            }
-        }
-    }
-    return false;
 }
