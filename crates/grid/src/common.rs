@@ -16,28 +16,7 @@
 //! ([`Lattice::far`]) test every triangle instead.
 
 use rayon::prelude::*;
-use tb_core::{Aabb, AccelError, Counter, HitRecord, ParamKind, Params, Ray, TriTest, Triangle};
-
-tb_core::params! {
-    /// The two densities of a two-level subdivision (equation 1 at each level; Kalojanov et
-    /// al. 2011 §3, Pérard-Gayot et al. 2017 §4.1): one group, declared here once and composed
-    /// by the two-level and the irregular grid, whose family offers them to the dynamic
-    /// experiment's density choice ([`DENSITIES`]).
-    #[derive(Clone, Copy, Debug, PartialEq)]
-    pub struct Densities {
-        /// top-level density λ_1 of equation 1 (the irregular grid's §4.1; with its
-        /// `initial = "uniform"`, the density of that uniform grid)
-        lambda_1: f32 = 0.12, ParamKind::Float { min: 1e-4, max: 1e3 };
-        /// second-level density λ_2 of equation 1 over each top cell and its primitives: the
-        /// resolution of the cell's uniform grid (two-level grid, at most 255 cells per axis),
-        /// or the cell's octree depth D = ⌈log2 max(R_x, R_y, R_z)⌉ (irregular grid, §4.1)
-        lambda_2: f32 = 2.4, ParamKind::Float { min: 1e-4, max: 1e3 };
-    }
-}
-
-/// The names of [`Densities`]' two entries, as the families offer them
-/// ([`tb_core::Family::with_densities`]).
-pub const DENSITIES: [&str; 2] = [Densities::SPECS[0].name, Densities::SPECS[1].name];
+use tb_core::{Aabb, AccelError, Counter, HitRecord, Ray, TriTest, Triangle};
 
 /// Largest resolution of one axis of any grid (the walks keep voxel indices in `u32` and the
 /// voxel map's levels must multiply without overflow).

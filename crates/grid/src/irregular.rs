@@ -4,52 +4,16 @@
 
 use crate::common::{
     bin_uniform, bounded_res, brute_force, grid_bounds, is_subset, resolution, test_refs,
-    union_into, union_len, walk, Densities, Lattice, Visit, WalkRay, MAX_AXIS_RES,
-    MAX_REFS_PER_TRIANGLE,
+    union_into, union_len, walk, Lattice, Visit, WalkRay, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
 };
+use crate::params::{Initial, IrregularParams};
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
-use tb_core::params::ParamKind;
 use tb_core::{
     AccelError, BuildReport, Counter, HitRecord, MemoryReport, Ray, Structure, Traversal,
     TraversalInfo, TriTest, Triangle,
 };
-
-tb_core::choice! {
-    /// The initial subdivision of §4.1.
-    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-    pub enum Initial {
-        /// a top-level grid of density λ_1 with an octree of depth D (from λ_2) per top cell
-        TwoLevel = "two-level",
-        /// a uniform grid of density λ_1 (Table 5: merge and expansion on a uniform grid)
-        Uniform = "uniform",
-    }
-}
-
-tb_core::params! {
-    /// Build parameters of [`IrregularGrid`] (Pérard-Gayot et al. 2017 §4).
-    #[derive(Clone, Copy, Debug, PartialEq)]
-    pub struct IrregularParams {
-        @flatten
-        densities: Densities = Densities::default();
-        /// initial subdivision: `two-level` (octree per top cell, §4.1) or `uniform`
-        initial: Initial = Initial::TwoLevel, ParamKind::Choice(Initial::NAMES);
-        /// SAH cell merging along alternating axes (§4.2)
-        merge: bool = true, ParamKind::Bool;
-        /// merge termination: stop when a round of x, y, z passes leaves
-        /// N_after ≥ α N_before cells (§4.2)
-        alpha: f32 = 0.995, ParamKind::Float { min: 0.0, max: 1.0 };
-        /// cell expansion passes (§4.3; 3 for static scenes, 1 for dynamic ones)
-        expansion: u32 = 3, ParamKind::Int { min: 0, max: 16 };
-        /// cost of traversing a cell, C_t (§4.2)
-        c_t: f32 = 1.0, ParamKind::Float { min: 0.0, max: 1e6 };
-        /// cost of a triangle test, C_i (§4.2)
-        c_i: f32 = 1.0, ParamKind::Float { min: 0.0, max: 1e6 };
-        /// largest number of initial cells (octree depths are lowered to stay under it)
-        max_cells: u32 = 1 << 25, ParamKind::Int { min: 1, max: 1 << 27 };
-    }
-}
 
 /// One cell, 32 bytes: its box on the virtual base grid (`lo..hi`, exclusive, in base voxels;
 /// grown by expansion) and its range of [`IrregularGrid::refs`].

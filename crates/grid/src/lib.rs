@@ -60,13 +60,15 @@
 mod common;
 mod gpu;
 mod irregular;
+mod params;
 mod two_level;
 mod uniform;
 
-pub use common::{resolution, tri_box_overlap, Densities, Lattice, DENSITIES};
-pub use irregular::{Cell, Initial, IrregularGrid, IrregularParams};
-pub use two_level::{TopCell, TwoLevelGrid, TwoLevelParams};
-pub use uniform::{UniformGrid, UniformParams};
+pub use common::{resolution, tri_box_overlap, Lattice};
+pub use irregular::{Cell, IrregularGrid};
+pub use params::{Densities, Initial, IrregularParams, TwoLevelParams, UniformParams, DENSITIES};
+pub use two_level::{TopCell, TwoLevelGrid};
+pub use uniform::UniformGrid;
 
 use tb_core::{build_with, Family};
 

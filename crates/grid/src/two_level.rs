@@ -4,27 +4,16 @@
 
 use crate::common::{
     bin_uniform, bounded_res, box_refs, brute_force, grid_bounds, resolution, scale_res, test_refs,
-    walk, within_budget, Densities, Lattice, Visit, WalkRay, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
+    walk, within_budget, Lattice, Visit, WalkRay, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
 };
+use crate::params::TwoLevelParams;
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
-use tb_core::params::ParamKind;
 use tb_core::{
     AccelError, BuildReport, Counter, HitRecord, MemoryReport, Ray, Structure, Traversal,
     TraversalInfo, TriTest, Triangle,
 };
-
-tb_core::params! {
-    /// Build parameters of [`TwoLevelGrid`] (Kalojanov et al. 2011 §3).
-    #[derive(Clone, Copy, Debug, PartialEq)]
-    pub struct TwoLevelParams {
-        @flatten
-        densities: Densities = Densities::default();
-        /// largest number of top-level cells
-        max_cells: u32 = 1 << 24, ParamKind::Int { min: 1, max: 1 << 28 };
-    }
-}
 
 /// Largest second-level resolution per axis (8 bits per axis in the top cell, Kalojanov et
 /// al. 2011).

@@ -6,28 +6,14 @@ use crate::common::{
     bin_uniform, bounded_res, brute_force, grid_bounds, resolution, test_refs, walk, Lattice,
     Visit, WalkRay, MAX_AXIS_RES,
 };
+use crate::params::UniformParams;
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
-use tb_core::params::ParamKind;
 use tb_core::{
     AccelError, BuildReport, Counter, HitRecord, MemoryReport, Ray, Structure, Traversal,
     TraversalInfo, TriTest, Triangle,
 };
-
-tb_core::params! {
-    /// Build parameters of [`UniformGrid`].
-    #[derive(Clone, Copy, Debug, PartialEq)]
-    pub struct UniformParams {
-        /// grid density λ of equation 1 (cells per primitive; Pérard-Gayot et al. 2017 §4.1,
-        /// Table 5 uses λ = 5)
-        lambda: f32 = 5.0, ParamKind::Float { min: 1e-4, max: 1e3 };
-        /// store a macro region per empty cell and skip it in one step (Devillers 1989)
-        macro_regions: bool = false, ParamKind::Bool;
-        /// largest number of cells (the resolution is scaled down to stay under it)
-        max_cells: u32 = 1 << 26, ParamKind::Int { min: 1, max: 1 << 30 };
-    }
-}
 
 /// A uniform grid: cells on a regular lattice, each a range of the flat reference array.
 ///

@@ -55,20 +55,23 @@
 
 mod gpu;
 pub mod measure;
+mod params;
+
+pub use params::{MultiKdParams, Trees};
 
 use measure::{Heuristic, WeightedArea};
 use std::sync::{Arc, OnceLock};
 use tb_core::{
     build_with, dispatch, Aabb, AccelError, BuildReport, Counter, Family, HitRecord, Kernel,
-    MemoryReport, MollerTrumbore, NoStats, ParamKind, Query, Ray, Structure, Traversal,
-    TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle, Watertight,
+    MemoryReport, MollerTrumbore, NoStats, Query, Ray, Structure, Traversal, TraversalInfo,
+    TraversalStats, TriTest, TriTestKind, Triangle, Watertight,
 };
 use tb_kdtree::stackless::{self, Stackless};
 use tb_kdtree::traverse::{self, Tree};
 use tb_kdtree::view::{self, Aux};
 use tb_kdtree::{
     layout, BackNode, DepthFirst, KdLayout, KdNode, KdParams, KdStart, KdTree, KdView, Layout,
-    Nodes, SahParams, Treelet, BACKTRACK_AUX, ROPES_AUX,
+    Nodes, Treelet, BACKTRACK_AUX, ROPES_AUX,
 };
 
 /// The multi-kd-tree in the registry.
@@ -84,45 +87,6 @@ pub static FAMILY: Family = Family::new::<MultiKdTree, MultiKdParams>(
     },
 )
 .with_rules::<MultiKdParams>();
-
-tb_core::choice! {
-    /// Which trees a [`MultiKdTree`] holds.
-    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-    pub enum Trees {
-        /// One tree per patch, each ray the tree of its patch (§5).
-        Multi = "multi",
-        /// Only patch X's tree, traversed by every ray (control).
-        X = "x",
-        /// Only patch Y's tree, traversed by every ray (control).
-        Y = "y",
-        /// Only patch Z's tree, traversed by every ray (control).
-        Z = "z",
-    }
-}
-
-tb_core::params! {
-    /// Build parameters of [`MultiKdTree`]: the heuristic and the trees, then the kd-tree's
-    /// own parameters ([`KdParams`]; `c_isect` defaults to the paper's 1).
-    #[derive(Clone, Copy, Debug, PartialEq)]
-    pub struct MultiKdParams {
-        /// Cell measure of the trees (Torres et al. 2012 §3-4): `sah`, `sphere-orth`,
-        /// `sphere-obli`, `cube-orth`, `cube-obli`, `cos-orth`, `cos-obli`.
-        measure: Heuristic = Heuristic::SphereOrth, ParamKind::Choice(Heuristic::NAMES);
-        /// Exponent of the cosine heuristics' density `(ω·N)^β` (§4.3; the paper sweeps
-        /// 0.5 to 20).
-        beta: f32 = 2.0, ParamKind::Float { min: 0.01, max: 100.0 };
-        /// `multi`: a tree per patch, chosen per ray; `x`, `y`, `z`: that patch's tree alone,
-        /// for every ray (control).
-        trees: Trees = Trees::Multi, ParamKind::Choice(Trees::NAMES);
-        /// The kd-tree's parameters, each tree's (tb-kdtree's [`KdParams`], composed, not
-        /// copied), with the paper's triangle cost: `c_isect` = `Cost_tri` = 1 (§7).
-        @flatten
-        kd: KdParams = KdParams {
-            sah: SahParams { c_isect: 1.0, ..SahParams::default() },
-            ..KdParams::default()
-        };
-    }
-}
 
 /// One tree of the node array.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -798,9 +762,6 @@ impl Structure for MultiKdTree {
         tb_kdtree::check_trees(&self.view(), &roots, &self.kd).map_err(AccelError::Invalid)
     }
 }
-
-/// No rules beyond the ranges.
-impl tb_core::ParamRules for MultiKdParams {}
 
 #[cfg(test)]
 mod tests {

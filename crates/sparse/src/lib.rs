@@ -26,7 +26,7 @@
 //!   are the kd-tree's `recursive-direction` (HTR, §5.1) and `sequential` (Kaplan's SEQ) over
 //!   the same tree; `btr` / `btr-root` the bottom-up traversal (§5.2, Alg. 2) from the start
 //!   node / the root; `sltr` / `sltr-root` the stackless bottom-up traversal (§5.3, Alg. 3).
-//!   See module `walk` for the kernels and how their origin shifts are made robust without an
+//!   See module `traverse` for the kernels and how their origin shifts are made robust without an
 //!   epsilon.
 //!
 //! - **GPU**: SLTR (`sltr`, `sltr-root`) as a WGSL kernel (`shaders/sltr.wgsl`), the CPU walk
@@ -39,14 +39,17 @@
 //! `restarts`: continuations after the traversal stack ran dry (BTR) or after a leaf (SLTR).
 
 mod gpu;
-mod walk;
+mod params;
+mod traverse;
+
+pub use params::SparseParams;
 
 use std::sync::Arc;
 use tb_core::{
-    build_with, Aabb, Accel, AccelError, BuildReport, Family, HitRecord, MemoryReport, ParamKind,
-    Query, Ray, Structure, Traversal, TraversalInfo, TraversalStats, TriTestKind, Triangle, Vec3,
+    build_with, Aabb, Accel, AccelError, BuildReport, Family, HitRecord, MemoryReport, Query, Ray,
+    Structure, Traversal, TraversalInfo, TraversalStats, TriTestKind, Triangle, Vec3,
 };
-use tb_kdtree::{KdLayout, KdParams, KdTree, SahParams, SurfaceArea, STACK_SIZE};
+use tb_kdtree::{KdLayout, KdTree, SurfaceArea, STACK_SIZE};
 
 /// The auxiliary array of augmented nodes (boxes and parent links), read by BTR and SLTR.
 pub const BOXES_AUX: &str = "sparse-boxes";
@@ -64,38 +67,6 @@ pub static FAMILY: Family = Family::new::<SparseBoxes, SparseParams>(
     },
 )
 .with_rules::<SparseParams>();
-
-tb_core::params! {
-    /// Build parameters: `d_min`, the kd-tree's SAH split search (tb-kdtree's [`SahParams`],
-    /// composed, not copied) and the step cap; the tree is laid out depth-first.
-    #[derive(Clone, Copy, Debug, PartialEq)]
-    pub struct SparseParams {
-        /// d_min: an interior node is augmented when its depth distance to the nearest
-        /// augmented ancestor exceeds d_min (Havran and Bittner 2007 §4; the root always is).
-        d_min: u32 = 2, ParamKind::Int { min: 1, max: 16 };
-        @flatten
-        sah: SahParams = SahParams::default();
-        /// Per-ray step cap of SLTR and SEQ (a guard; capped rays are counted).
-        step_cap: u32 = tb_kdtree::STEP_CAP, ParamKind::Int { min: 1, max: 1 << 30 };
-    }
-}
-
-impl SparseParams {
-    /// The kd-tree's parameters (depth-first layout).
-    pub fn kd(&self) -> KdParams {
-        KdParams {
-            sah: self.sah,
-            step_cap: self.step_cap,
-            layout: KdLayout::DepthFirst,
-            ..KdParams::default()
-        }
-    }
-
-    /// Levels between augmented nodes: `d_min + 1`.
-    pub fn period(&self) -> u32 {
-        self.d_min + 1
-    }
-}
 
 /// An augmented node (§4): the node's cell and the index of its parent augmented node's record
 /// (0, the root's, for the root), and the kd-tree node it belongs to. 32 bytes, `#[repr(C)]`.
@@ -206,16 +177,16 @@ impl SparseBoxes {
 
     /// The record of kd-tree node `node`, if it is augmented.
     pub fn aug_of(&self, node: usize) -> Option<usize> {
-        walk::find_aug(&self.aug, node as u32)
+        traverse::find_aug(&self.aug, node as u32)
     }
 
     /// The start node of a ray (§3) as a record index: the deepest augmented node whose cell
     /// contains `origin` strictly inside every face that is not a face of the root cell (0,
     /// the root, for an origin outside the root cell, on a split plane of the root, or not
     /// finite). Strictness makes the ray leave the start cell only after its origin, so every
-    /// other cell it meets lies beyond the start cell's exit (module `walk`).
+    /// other cell it meets lies beyond the start cell's exit (module `traverse`).
     pub fn start_node(&self, origin: Vec3) -> u32 {
-        walk::locate(&self.kd.view(), &self.aug, self.params.period(), origin)
+        traverse::locate(&self.kd.view(), &self.aug, self.params.period(), origin)
     }
 
     /// [`Self::start_node`] for every ray (hint 0 for rays with `tmin != 0`: their segment
@@ -336,11 +307,11 @@ impl Structure for SparseBoxes {
             )
             .reads(&[BOXES_AUX]),
             |s, q, tri, rays, hits, stats| {
-                walk::trace::<{ walk::BTR }>(s, q, tri, rays, None, true, hits, stats)
+                traverse::trace::<{ traverse::BTR }>(s, q, tri, rays, None, true, hits, stats)
             },
         )
         .with_hints(hints, |s, q, tri, rays, h, hits, stats| {
-            walk::trace::<{ walk::BTR }>(s, q, tri, rays, h, true, hits, stats)
+            traverse::trace::<{ traverse::BTR }>(s, q, tri, rays, h, true, hits, stats)
         }),
         Traversal::cpu(
             TraversalInfo::new(
@@ -351,7 +322,7 @@ impl Structure for SparseBoxes {
             )
             .reads(&[BOXES_AUX]),
             |s, q, tri, rays, hits, stats| {
-                walk::trace::<{ walk::BTR }>(s, q, tri, rays, None, false, hits, stats)
+                traverse::trace::<{ traverse::BTR }>(s, q, tri, rays, None, false, hits, stats)
             },
         ),
         Traversal::with_gpu(
@@ -366,12 +337,12 @@ impl Structure for SparseBoxes {
             .capped()
             .reads(&[BOXES_AUX]),
             |s, q, tri, rays, hits, stats| {
-                walk::trace::<{ walk::SLTR }>(s, q, tri, rays, None, true, hits, stats)
+                traverse::trace::<{ traverse::SLTR }>(s, q, tri, rays, None, true, hits, stats)
             },
             |s| s.gpu_sltr(true),
         )
         .with_hints(hints, |s, q, tri, rays, h, hits, stats| {
-            walk::trace::<{ walk::SLTR }>(s, q, tri, rays, h, true, hits, stats)
+            traverse::trace::<{ traverse::SLTR }>(s, q, tri, rays, h, true, hits, stats)
         }),
         Traversal::with_gpu(
             TraversalInfo::new(
@@ -382,7 +353,7 @@ impl Structure for SparseBoxes {
             .capped()
             .reads(&[BOXES_AUX]),
             |s, q, tri, rays, hits, stats| {
-                walk::trace::<{ walk::SLTR }>(s, q, tri, rays, None, false, hits, stats)
+                traverse::trace::<{ traverse::SLTR }>(s, q, tri, rays, None, false, hits, stats)
             },
             |s| s.gpu_sltr(false),
         ),
@@ -457,7 +428,3 @@ pub fn trace_hinted(
     s.trace_hinted(ti, q, tri, rays, h.as_deref(), &mut hits, stats);
     hits
 }
-
-/// No rules beyond the ranges: the kd-tree parameters it composes are in range when its own
-/// entries are.
-impl tb_core::ParamRules for SparseParams {}

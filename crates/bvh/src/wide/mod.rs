@@ -140,8 +140,8 @@ pub struct LeafBlock {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use collapse::Dp;
     use crate::{Builder, Bvh, WideNodes};
+    use collapse::Dp;
     use tb_core::Accel;
 
     fn scenes() -> Vec<(&'static str, Vec<Triangle>)> {
