@@ -177,6 +177,38 @@ impl Lattice {
         self.res.iter().map(|&r| r as usize).product()
     }
 
+    /// The voxel of flat index `i` (x fastest; the inverse of [`Lattice::index`]).
+    pub fn voxel_of(&self, i: usize) -> [u32; 3] {
+        let [rx, ry, _] = self.res.map(|r| r as usize);
+        [i % rx, (i / rx) % ry, i / (rx * ry)].map(|x| x as u32)
+    }
+
+    /// The check every grid's `validate` makes of a cell's references: sorted, each naming a
+    /// triangle of `tris` that overlaps the cell's box, voxels `lo..hi` of this lattice (grown
+    /// by the margin, as the build assigns them); `Err` names the cell as `what`.
+    pub(crate) fn check_refs(
+        &self,
+        refs: &[u32],
+        tris: &[Triangle],
+        lo: [u32; 3],
+        hi: [u32; 3],
+        what: &str,
+    ) -> Result<(), AccelError> {
+        let bad = |m: String| Err(AccelError::Invalid(format!("{what}: {m}")));
+        if refs.windows(2).any(|w| w[0] >= w[1]) {
+            return bad("references not sorted".into());
+        }
+        for &t in refs {
+            let Some(tri) = tris.get(t as usize) else {
+                return bad(format!("reference {t} out of range"));
+            };
+            if !self.overlaps(tri, lo, hi) {
+                return bad(format!("triangle {t} does not overlap it"));
+            }
+        }
+        Ok(())
+    }
+
     /// Position of plane `i` of axis `a`.
     #[inline(always)]
     pub fn plane(&self, a: usize, i: u32) -> f64 {
@@ -519,6 +551,25 @@ pub fn test_refs<T: TriTest, C: Counter, const ANY: bool>(
         }
     }
     false
+}
+
+/// The start every grid walk shares: the ray clipped to `lat` (`Err(MISS)` when it misses the
+/// grid), or, for an origin so far away that the triangle test's own rounding can exceed the
+/// reference margin ([`Lattice::far`]), `Err` with brute force's answer.
+#[inline(always)]
+pub(crate) fn enter<T: TriTest, C: Counter, const ANY: bool>(
+    ray: &Ray,
+    lat: &Lattice,
+    tris: &[Triangle],
+    c: &mut C,
+) -> Result<WalkRay, HitRecord> {
+    let Some(w) = WalkRay::clip(ray, lat) else {
+        return Err(HitRecord::MISS);
+    };
+    if lat.far(ray) {
+        return Err(brute_force::<T, C, ANY>(ray, tris, c));
+    }
+    Ok(w)
 }
 
 /// The answer for a [`Lattice::far`] ray: every triangle tested (counted in `prims`).

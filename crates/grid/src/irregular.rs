@@ -3,8 +3,8 @@
 //! expansion) and the traversal of §5.
 
 use crate::common::{
-    bin_uniform, bounded_res, brute_force, grid_bounds, is_subset, resolution, test_refs,
-    union_into, union_len, walk, Lattice, Visit, WalkRay, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
+    bin_uniform, bounded_res, enter, grid_bounds, is_subset, resolution, test_refs, union_into,
+    union_len, walk, Lattice, Visit, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
 };
 use crate::params::{Initial, IrregularParams};
 use rayon::prelude::*;
@@ -230,12 +230,10 @@ impl IrregularGrid {
 
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        let Some(w) = WalkRay::clip(ray, &self.base) else {
-            return HitRecord::MISS;
+        let w = match enter::<T, C, ANY>(ray, &self.base, &self.tris, c) {
+            Ok(w) => w,
+            Err(h) => return h,
         };
-        if self.base.far(ray) {
-            return brute_force::<T, C, ANY>(ray, &self.tris, c);
-        }
         let pre = T::prepare(ray);
         let mut hit = HitRecord::MISS;
         let mut best = ray.tmax;
@@ -304,7 +302,7 @@ fn initial(
         .into_par_iter()
         .map(|t| {
             let d = depth[t];
-            let tv = voxel_of(top, t);
+            let tv = top.voxel_of(t);
             let tri_ids = &trefs[tstart[t] as usize..tstart[t + 1] as usize];
             let side = 1u32 << d;
             let n_sub = 1usize << (3 * d);
@@ -362,7 +360,7 @@ fn initial(
     let mut map = vec![0u32; n_top + off[n_top]];
     for (t, (start, r)) in per_top.into_iter().enumerate() {
         let d = depth[t];
-        let tv = voxel_of(top, t);
+        let tv = top.voxel_of(t);
         let side = 1u32 << d;
         let size = 1u32 << (dmax - d);
         map[t] = d << 28 | (n_top + off[t]) as u32;
@@ -404,7 +402,7 @@ fn initial_box_refs(
         .map(|c| {
             let k = 1u32 << depth[c];
             let fine = top.refined(k);
-            let v = voxel_of(top, c);
+            let v = top.voxel_of(c);
             trefs[tstart[c] as usize..tstart[c + 1] as usize]
                 .iter()
                 .map(|&i| {
@@ -419,11 +417,6 @@ fn initial_box_refs(
                 .sum::<u64>()
         })
         .sum()
-}
-
-fn voxel_of(lat: &Lattice, i: usize) -> [u32; 3] {
-    let [rx, ry, _] = lat.res.map(|r| r as usize);
-    [i % rx, (i / rx) % ry, i / (rx * ry)].map(|x| x as u32)
 }
 
 /// SAH cost of a cell with `n` references and box `lo..hi` (§4.2, without the division by the
@@ -736,7 +729,7 @@ impl Structure for IrregularGrid {
             if d > self.dmax || first < n_top || first + (1usize << (3 * d)) > self.map.len() {
                 return bad(format!("top cell {t}: bad voxel-map word {e:#x}"));
             }
-            let tv = voxel_of(&self.top, t);
+            let tv = self.top.voxel_of(t);
             let side = 1u32 << d;
             let size = 1u32 << (self.dmax - d);
             for l in 0..(1u32 << (3 * d)) {
@@ -763,18 +756,13 @@ impl Structure for IrregularGrid {
             if c.begin > c.end || c.end as usize > self.refs.len() {
                 return bad(format!("cell {i}: reference range out of bounds"));
             }
-            let r = &self.refs[c.range()];
-            if r.windows(2).any(|w| w[0] >= w[1]) {
-                return bad(format!("cell {i}: references not sorted"));
-            }
-            for &t in r {
-                let Some(tri) = self.tris.get(t as usize) else {
-                    return bad(format!("cell {i}: reference {t} out of range"));
-                };
-                if !self.base.overlaps(tri, c.lo, c.hi) {
-                    return bad(format!("cell {i}: triangle {t} outside its box"));
-                }
-            }
+            self.base.check_refs(
+                &self.refs[c.range()],
+                &self.tris,
+                c.lo,
+                c.hi,
+                &format!("cell {i}"),
+            )?;
         }
         Ok(())
     }

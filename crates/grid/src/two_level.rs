@@ -3,8 +3,8 @@
 //! 2017.
 
 use crate::common::{
-    bin_uniform, bounded_res, box_refs, brute_force, grid_bounds, resolution, scale_res, test_refs,
-    walk, within_budget, Lattice, Visit, WalkRay, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
+    bin_uniform, bounded_res, box_refs, enter, grid_bounds, resolution, scale_res, test_refs, walk,
+    within_budget, Lattice, Visit, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
 };
 use crate::params::TwoLevelParams;
 use rayon::prelude::*;
@@ -96,7 +96,7 @@ impl TwoLevelGrid {
             (0..n_top)
                 .into_par_iter()
                 .map(|c| {
-                    let sub = sub_lattice(&top, voxel_of(&top, c), r[c]);
+                    let sub = sub_lattice(&top, top.voxel_of(c), r[c]);
                     box_refs(
                         &sub,
                         tris,
@@ -125,7 +125,7 @@ impl TwoLevelGrid {
         let mut pairs: Vec<u64> = (0..n_top)
             .into_par_iter()
             .flat_map_iter(|c| {
-                let v = voxel_of(&top, c);
+                let v = top.voxel_of(c);
                 let sub = sub_lattice(&top, v, sub_res[c]);
                 let first = tops[c].first_leaf as u64;
                 let mut out = Vec::new();
@@ -186,12 +186,10 @@ impl TwoLevelGrid {
 
     #[inline(always)]
     fn dda<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        let Some(w) = WalkRay::clip(ray, &self.top) else {
-            return HitRecord::MISS;
+        let w = match enter::<T, C, ANY>(ray, &self.top, &self.tris, c) {
+            Ok(w) => w,
+            Err(h) => return h,
         };
-        if self.top.far(ray) {
-            return brute_force::<T, C, ANY>(ray, &self.tris, c);
-        }
         let pre = T::prepare(ray);
         let mut hit = HitRecord::MISS;
         let mut best = ray.tmax;
@@ -241,11 +239,6 @@ impl TwoLevelGrid {
         });
         hit
     }
-}
-
-fn voxel_of(lat: &Lattice, i: usize) -> [u32; 3] {
-    let [rx, ry, _] = lat.res.map(|r| r as usize);
-    [i % rx, (i / rx) % ry, i / (rx * ry)].map(|x| x as u32)
 }
 
 tb_core::kernel_by_query!(dda: [] Dda<'_>);
@@ -307,25 +300,21 @@ impl Structure for TwoLevelGrid {
                     tc.first_leaf
                 ));
             }
-            let sub = sub_lattice(&self.top, voxel_of(&self.top, c), r);
+            let sub = sub_lattice(&self.top, self.top.voxel_of(c), r);
             for l in 0..sub.count() {
                 let li = tc.first_leaf as usize + l;
                 let (a, b) = (self.start[li] as usize, self.start[li + 1] as usize);
                 if a > b || b > self.refs.len() {
                     return bad(format!("leaf {li}: range {a}..{b} invalid"));
                 }
-                let u = voxel_of(&sub, l);
-                for (k, &t) in self.refs[a..b].iter().enumerate() {
-                    if k > 0 && self.refs[a + k - 1] >= t {
-                        return bad(format!("leaf {li}: references not sorted"));
-                    }
-                    let Some(tri) = self.tris.get(t as usize) else {
-                        return bad(format!("leaf {li}: reference {t} out of range"));
-                    };
-                    if !sub.overlaps(tri, u, u.map(|x| x + 1)) {
-                        return bad(format!("leaf {li}: triangle {t} does not overlap it"));
-                    }
-                }
+                let u = sub.voxel_of(l);
+                sub.check_refs(
+                    &self.refs[a..b],
+                    &self.tris,
+                    u,
+                    u.map(|x| x + 1),
+                    &format!("leaf {li}"),
+                )?;
             }
             next += sub.count() as u32;
         }

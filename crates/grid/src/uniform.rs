@@ -3,8 +3,8 @@
 //! Pérard-Gayot et al. 2017.
 
 use crate::common::{
-    bin_uniform, bounded_res, brute_force, grid_bounds, resolution, test_refs, walk, Lattice,
-    Visit, WalkRay, MAX_AXIS_RES,
+    bin_uniform, bounded_res, enter, grid_bounds, resolution, test_refs, walk, Lattice, Visit,
+    MAX_AXIS_RES,
 };
 use crate::params::UniformParams;
 use rayon::prelude::*;
@@ -77,12 +77,10 @@ impl UniformGrid {
 
     #[inline(always)]
     fn dda<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        let Some(w) = WalkRay::clip(ray, &self.lat) else {
-            return HitRecord::MISS;
+        let w = match enter::<T, C, ANY>(ray, &self.lat, &self.tris, c) {
+            Ok(w) => w,
+            Err(h) => return h,
         };
-        if self.lat.far(ray) {
-            return brute_force::<T, C, ANY>(ray, &self.tris, c);
-        }
         let pre = T::prepare(ray);
         let mut hit = HitRecord::MISS;
         let mut best = ray.tmax;
@@ -324,20 +322,14 @@ impl Structure for UniformGrid {
             if a > b {
                 return bad(format!("cell {c}: range {a}..{b} decreasing"));
             }
-            let v = self.voxel(c);
-            for w in self.refs[a..b].windows(2) {
-                if w[0] >= w[1] {
-                    return bad(format!("cell {c}: references not sorted"));
-                }
-            }
-            for &r in &self.refs[a..b] {
-                let Some(t) = self.tris.get(r as usize) else {
-                    return bad(format!("cell {c}: reference {r} out of range"));
-                };
-                if !self.lat.overlaps(t, v, v.map(|x| x + 1)) {
-                    return bad(format!("cell {c}: triangle {r} does not overlap it"));
-                }
-            }
+            let v = self.lat.voxel_of(c);
+            self.lat.check_refs(
+                &self.refs[a..b],
+                &self.tris,
+                v,
+                v.map(|x| x + 1),
+                &format!("cell {c}"),
+            )?;
         }
         if !self.macros.is_empty() {
             if self.macros.len() != n {
@@ -346,7 +338,7 @@ impl Structure for UniformGrid {
             let fc = FullCount::new(&self.lat, &self.start);
             for c in 0..n {
                 let m = self.macros[c];
-                let v = self.voxel(c);
+                let v = self.lat.voxel_of(c);
                 let (lo, hi) = ([m[0], m[1], m[2]], [m[3], m[4], m[5]]);
                 if (0..3).any(|a| lo[a] > v[a] || hi[a] <= v[a] || hi[a] > self.lat.res[a]) {
                     return bad(format!("cell {c}: macro region does not hold it"));
@@ -365,9 +357,4 @@ impl Structure for UniformGrid {
     }
 }
 
-impl UniformGrid {
-    fn voxel(&self, c: usize) -> [u32; 3] {
-        let [rx, ry, _] = self.lat.res.map(|r| r as usize);
-        [c % rx, (c / rx) % ry, c / (rx * ry)].map(|x| x as u32)
-    }
-}
+impl UniformGrid {}
