@@ -1,7 +1,7 @@
 // SLTR, the stackless bottom-up traversal with sparse boxes (Havran and Bittner 2007 §5.3,
 // Alg. 3), programs `sparse-boxes/sltr` (START: from the start node located per ray) and
 // `sparse-boxes/sltr-root` on tb-gpu's prelude (tb_core::gpu). The same walk as the CPU kernel
-// (crates/sparse/src/walk.rs, `Ctx::sltr`), statement for statement, so the counters agree ray
+// (crates/sparse/src/traverse.rs, `Ctx::sltr`), statement for statement, so the counters agree ray
 // for ray: down to a leaf by the first intersected child, then to the far child of the deepest
 // node that sent the ray both ways (one bit per depth, two words), restarting from the last
 // augmented node or climbing parent links to the one above it, and above the start node
@@ -25,7 +25,7 @@ const NONE: u32 = 0xffffffffu;
 
 struct Dec { kind: u32, near: u32, far: u32, near_tf: f32, far_tn: f32 }
 
-// walk.rs `decide` (kind 0: near only, 1: far only, 2: both).
+// traverse.rs `decide` (kind 0: near only, 1: far only, 2: both).
 fn decide(n: KdNode, idx: u32, rb: RayBox, tn: f32, tf: f32, slack: f32) -> Dec {
     let a = n.bits & 3u;
     let t = (bitcast<f32>(n.data) - rb.org[a]) * rb.inv[a];
@@ -50,7 +50,7 @@ fn is_leaf(n: KdNode) -> bool {
     return (n.bits & 3u) == 3u;
 }
 
-// walk.rs `find_aug`: the record of `node` (records in node order), 0 if none.
+// traverse.rs `find_aug`: the record of `node` (records in node order), 0 if none.
 fn find_aug(node: u32) -> u32 {
     var lo = 0u;
     var hi = meta_.counts.z;
@@ -68,7 +68,7 @@ fn find_aug(node: u32) -> u32 {
     return 0u;
 }
 
-// walk.rs `locate`, then `Ctx::start`: the start record of `r`.
+// traverse.rs `locate`, then `Ctx::start`: the start record of `r`.
 fn start_record(r: Ray) -> u32 {
     if r.tmin != 0.0 {
         return 0u;
@@ -118,7 +118,7 @@ fn start_record(r: Ray) -> u32 {
     return h;
 }
 
-// walk.rs `Ctx::interval`: the slab interval of record `k`'s cell, root faces standing for
+// traverse.rs `Ctx::interval`: the slab interval of record `k`'s cell, root faces standing for
 // the root interval [r0, r1].
 fn interval(rb: RayBox, r0: f32, r1: f32, k: u32) -> vec2<f32> {
     let b = aug[k];
@@ -186,7 +186,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     if meta_.counts.y == 0u {
         return miss();
     }
-    let slack = bitcast<f32>(0x3f800008u);   // 1 + 8·2^-23, walk.rs SLACK
+    let slack = bitcast<f32>(0x3f800008u);   // 1 + 8·2^-23, traverse.rs SLACK
     let p = meta_.counts.w;
     let cap = depths[meta_.counts.z];
     let rb = ray_box(r);
