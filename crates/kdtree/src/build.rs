@@ -166,7 +166,10 @@ impl<M: BoxMeasure> Builder<'_, M> {
         let lambda = 1.0 - self.p.sah.empty_bonus;
         let n = refs.len() as u32;
         let mut best: Option<Split> = None;
-        if self.p.sah.builder == KdBuilder::Binned {
+        // Min-max binning for nodes of more references than bins; at most that many, the
+        // exact sweep, as Shevtsov et al. 2007 switch (binning there would evaluate more
+        // candidates than the sweep's 2n, and worse ones).
+        if self.p.sah.builder == KdBuilder::Binned && refs.len() > self.p.sah.bins as usize {
             let bins = self.p.sah.bins as usize;
             for axis in 0..3 {
                 let (lo, hi) = (cell.min[axis], cell.max[axis]);
@@ -573,6 +576,35 @@ mod tests {
                 "scale {s}: {n} nodes, {one} at 1"
             );
         }
+    }
+
+    /// Min-max binning splits only nodes of more references than bins; smaller ones get the
+    /// exact sweep (Shevtsov et al. 2007), so a scene of at most `bins` triangles is built
+    /// exactly as by the sweep, and a larger one is not.
+    #[test]
+    fn binning_leaves_small_nodes_to_the_sweep() {
+        let tris: Vec<Triangle> = (0..60)
+            .map(|i| {
+                let c = Vec3::new((i * 7 % 13) as f32, (i * 5 % 11) as f32, (i % 3) as f32);
+                Triangle::new(
+                    c,
+                    c + Vec3::new(0.7, 0.1, 0.0),
+                    c + Vec3::new(0.2, 0.9, 0.3),
+                )
+            })
+            .collect();
+        let with = |builder, bins, n: usize| {
+            let mut p = KdParams::default();
+            p.sah.builder = builder;
+            p.sah.bins = bins;
+            let o = build(&tris[..n], &p, &SurfaceArea);
+            (o.nodes, o.prim_refs)
+        };
+        let sweep = |n| with(KdBuilder::Sweep, 32, n);
+        for n in [5, 20, 32] {
+            assert!(with(KdBuilder::Binned, 32, n) == sweep(n), "{n} triangles");
+        }
+        assert!(with(KdBuilder::Binned, 4, 60) != sweep(60));
     }
 
     #[test]

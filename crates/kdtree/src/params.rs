@@ -19,7 +19,8 @@ tb_core::choice! {
         SweepNlog2n = "sweep-nlog2n",
         /// SAH evaluated only at the `bins − 1` inner boundaries of `bins` equal intervals of
         /// the node cell on each axis, from per-bin counts of box starts and ends (min-max
-        /// binning, Shevtsov et al. 2007; Hapala and Havran 2011 §2): O(N) per node.
+        /// binning, Shevtsov et al. 2007; Hapala and Havran 2011 §2): O(N) per node; nodes of
+        /// at most `bins` references are split by the exact sweep, as Shevtsov et al. switch.
         Binned = "binned",
     }
 }
@@ -33,9 +34,10 @@ tb_core::params! {
     pub struct SahParams {
         /// Split search: exact SAH event sweep, O(N log N) (`sweep`) or O(N log² N)
         /// (`sweep-nlog2n`, the same tree) (Wald and Havran 2006), or min-max binning
-        /// (`binned`, Shevtsov et al. 2007).
+        /// (`binned`, Shevtsov et al. 2007; the exact sweep below `bins` references).
         builder: KdBuilder = KdBuilder::Sweep, ParamKind::Choice(KdBuilder::NAMES);
-        /// Bins per axis, `binned` builder only.
+        /// Bins per axis, `binned` builder only (nodes of at most `bins` references are split
+        /// by the exact sweep).
         bins: u32 = 32, ParamKind::Int { min: 2, max: 1024 };
         /// SAH traversal cost C_trav (Hapala and Havran 2011, section 2; `Cost_plane` of
         /// Torres et al. 2012 §3).
