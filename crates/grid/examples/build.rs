@@ -6,8 +6,8 @@ use tb_core::Structure;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let scene =
-        tb_scene::source::load(&args[1], std::path::Path::new("/work/shared/scenes")).unwrap();
+    let root = std::env::var("TRACE_BENCH_SCENES").unwrap_or_else(|_| "../shared/scenes".into());
+    let scene = tb_scene::source::load(&args[1], std::path::Path::new(&root)).unwrap();
     let mut p = tb_grid::IrregularParams::default();
     if args.len() > 3 {
         p.densities.lambda_1 = args[2].parse().unwrap();

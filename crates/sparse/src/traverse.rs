@@ -53,8 +53,9 @@ use crate::{AugNode, SparseBoxes};
 use tb_core::slab::{max_num, min_num};
 use tb_core::{
     Aabb, Counter, HitRecord, MollerTrumbore, NoStats, Query, Ray, TraversalStats, TriTest,
-    TriTestKind, Triangle, Vec3, Watertight,
+    TriTestKind, Vec3, Watertight,
 };
+use tb_kdtree::traverse::leaf;
 use tb_kdtree::{
     split_decision, Best, Decision, DepthFirst, KdNode, KdView, Kind, SLACK, STACK_SIZE,
 };
@@ -103,9 +104,9 @@ pub(crate) fn locate(v: &KdView, aug: &[AugNode], period: u32, o: Vec3) -> u32 {
 
 /// What a kernel reads.
 struct Ctx<'a> {
+    /// The kd-tree's view: its leaves are tested by the kd-tree's own leaf loop.
+    kd: KdView<'a>,
     nodes: &'a [KdNode],
-    refs: &'a [u32],
-    tris: &'a [Triangle],
     aug: &'a [AugNode],
     depth: &'a [u8],
     period: u32,
@@ -131,45 +132,14 @@ impl<'a> Ctx<'a> {
     fn new(s: &'a SparseBoxes) -> Self {
         let v = s.kd.view();
         Ctx {
+            kd: v,
             nodes: v.nodes(),
-            refs: v.refs(),
-            tris: v.triangles(),
             aug: &s.aug,
             depth: &s.depth,
             period: s.params.period(),
             root: v.bounds(),
             cap: s.params.step_cap,
         }
-    }
-
-    /// Test the triangles of leaf `n` over `[tmin, best.t)`; with `ANY`, `true` at a hit.
-    #[inline(always)]
-    fn leaf<T: TriTest, C: Counter, const ANY: bool>(
-        &self,
-        n: KdNode,
-        pre: &T::Pre,
-        ray: &Ray,
-        best: &mut Best,
-        c: &mut C,
-    ) -> bool {
-        c.leaf();
-        c.steps(1);
-        let (o, k) = (n.offset(), n.count() as usize);
-        if !ANY {
-            c.prims(k as u32);
-        }
-        for &id in &self.refs[o..o + k] {
-            if ANY {
-                c.prims(1);
-            }
-            if let Some((t, u, v)) = T::intersect(pre, ray, &self.tris[id as usize], best.t) {
-                *best = Best { t, prim: id, u, v };
-                if ANY {
-                    return true;
-                }
-            }
-        }
-        false
     }
 
     /// The start record to use for `ray` with hint `h` (see the module doc): `h` when the
@@ -303,7 +273,7 @@ impl<'a> Ctx<'a> {
                             }
                             continue;
                         }
-                        if self.leaf::<T, C, ANY>(n, &pre, ray, &mut best, c) {
+                        if leaf::<T, C, ANY>(&self.kd, n, &pre, ray, &mut best, c) {
                             return best.record();
                         }
                     }
@@ -416,7 +386,7 @@ impl<'a> Ctx<'a> {
                 depth += 1;
             }
             steps += 1;
-            if self.leaf::<T, C, ANY>(nodes[idx], &pre, ray, &mut best, c) {
+            if leaf::<T, C, ANY>(&self.kd, nodes[idx], &pre, ray, &mut best, c) {
                 return best.record();
             }
             // A hit before the leaf's exit: every cell still to visit starts at or beyond it
