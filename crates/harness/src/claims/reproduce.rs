@@ -59,6 +59,9 @@ pub struct PlannedRun {
     pub wall_s: Option<f64>,
     pub exit: Option<i32>,
     pub reused: bool,
+    /// Where the reused rows were made by another build: `commit` (`+dirty`) of their
+    /// results.json, said beside the run in REPORT.md.
+    pub reused_from: Option<String>,
 }
 
 /// One paper's outcome.
@@ -247,6 +250,30 @@ fn status(folder: &Path) -> Option<String> {
     v["meta"]["status"].as_str().map(str::to_owned)
 }
 
+/// The build a run folder's rows were made by (`commit`, `+dirty` when it had uncommitted
+/// changes), from its results.json; `None` without one.
+fn made_by(folder: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(folder.join("results.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    let b = &v["meta"]["build"];
+    let dirty = if b["dirty"].as_bool() == Some(true) {
+        "+dirty"
+    } else {
+        ""
+    };
+    Some(format!("{}{dirty}", b["commit"].as_str()?))
+}
+
+/// This binary's build as [`made_by`] writes it.
+fn this_build() -> String {
+    let dirty = if crate::results::meta::dirty() == Some(true) {
+        "+dirty"
+    } else {
+        ""
+    };
+    format!("{}{dirty}", crate::results::meta::commit())
+}
+
 /// Plan every paper's runs within the budget.
 pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)>, HarnessError> {
     let mut files = Vec::new();
@@ -294,6 +321,7 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
                 wall_s: None,
                 exit: None,
                 reused: false,
+                reused_from: None,
             });
         }
         out.push((path, file, runs));
@@ -314,6 +342,17 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
                 || (r.args.first().is_some_and(|a| a != "run") && r.folder.is_dir())
             {
                 r.reused = true;
+                r.reused_from = made_by(&r.folder).filter(|by| *by != this_build());
+                if let Some(by) = &r.reused_from {
+                    eprintln!(
+                        "note: reproduce: {} {}: reusing {}, made by {by}; this binary is {} \
+                         (a fresh --out measures this build)",
+                        r.paper,
+                        r.label,
+                        r.folder.display(),
+                        this_build()
+                    );
+                }
                 if !opts.quiet {
                     eprintln!(
                         "reproduce: {} {}: reused {}",
@@ -466,7 +505,9 @@ fn write_report(
                 p.args.join(" ").replace('|', "\\|"),
                 p.cost_s,
                 p.scaled.clone().unwrap_or_else(|| "as declared".into()),
-                if p.reused {
+                if let Some(by) = &p.reused_from {
+                    format!("reused, made by {by}")
+                } else if p.reused {
                     "reused".into()
                 } else {
                     p.wall_s.map(|w| format!("{w:.0}")).unwrap_or_default()
@@ -604,5 +645,22 @@ mod tests {
         let (sets, note) = scaled_sets(&spec(1.0, 0.0, false), 0.25);
         assert_eq!(sets[0], "scene.camera.width=256");
         assert!(note.is_none());
+    }
+
+    /// A reused folder names the build its rows were made by, so a stale `--out` is said.
+    #[test]
+    fn reused_rows_name_their_build() {
+        let dir = tempfile::tempdir().unwrap();
+        assert_eq!(made_by(dir.path()), None);
+        let json = |commit: &str, dirty: bool| {
+            format!(
+                r#"{{"meta": {{"status": "complete", "build": {{"commit": "{commit}", "dirty": {dirty}}}}}, "rows": []}}"#
+            )
+        };
+        std::fs::write(dir.path().join("results.json"), json("db74e0906af1", false)).unwrap();
+        assert_eq!(made_by(dir.path()).as_deref(), Some("db74e0906af1"));
+        std::fs::write(dir.path().join("results.json"), json("5c35e1b19c11", true)).unwrap();
+        assert_eq!(made_by(dir.path()).as_deref(), Some("5c35e1b19c11+dirty"));
+        assert!(this_build().starts_with(&crate::results::meta::commit()));
     }
 }
