@@ -92,7 +92,6 @@ impl MultiKdTree {
             tris,
             bounds,
             params: *p,
-            kd,
             pick: p.measure,
             header,
             trees,

@@ -42,9 +42,9 @@ impl MultiKdTree {
             Heuristic::CubeOrth | Heuristic::CubeObli => 1,
             _ => 2,
         };
-        let mask = match self.kd.layout {
+        let mask = match self.params.kd.layout {
             KdLayout::DepthFirst => 0,
-            KdLayout::Treelet => (1u32 << self.kd.treelet_height) - 1,
+            KdLayout::Treelet => (1u32 << self.params.kd.treelet_height) - 1,
         };
         let (b0, b1) = (self.bounds.min, self.bounds.max);
         let h = self.header;

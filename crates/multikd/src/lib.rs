@@ -74,8 +74,8 @@ use tb_core::{
 use tb_kdtree::stackless::{self, Stackless};
 use tb_kdtree::view::{self, Aux};
 use tb_kdtree::{
-    layout, BackNode, DepthFirst, KdLayout, KdNode, KdParams, KdStart, KdTree, KdView, Layout,
-    Nodes, Treelet, BACKTRACK_AUX, ROPES_AUX,
+    layout, BackNode, DepthFirst, KdLayout, KdNode, KdStart, KdTree, KdView, Layout, Nodes,
+    Treelet, BACKTRACK_AUX, ROPES_AUX,
 };
 
 /// The multi-kd-tree in the registry.
@@ -118,7 +118,6 @@ pub struct MultiKdTree {
     tris: Arc<[Triangle]>,
     bounds: Aabb,
     params: MultiKdParams,
-    kd: KdParams,
     /// The rule choosing a ray's patch.
     pick: Heuristic,
     /// Root node per patch (the header array of §6).
@@ -143,10 +142,10 @@ impl MultiKdTree {
             refs: &self.refs,
             tris: &self.tris,
             bounds: self.bounds,
-            layout: self.kd.layout,
-            treelet_height: self.kd.treelet_height,
-            short_stack: self.kd.short_stack,
-            step_cap: self.kd.step_cap,
+            layout: self.params.kd.layout,
+            treelet_height: self.params.kd.treelet_height,
+            short_stack: self.params.kd.short_stack,
+            step_cap: self.params.kd.step_cap,
         }
     }
 
@@ -340,7 +339,7 @@ impl Structure for MultiKdTree {
                 )));
             }
         }
-        tb_kdtree::check_trees(&self.view(), &roots, &self.kd).map_err(AccelError::Invalid)
+        tb_kdtree::check_trees(&self.view(), &roots, &self.params.kd).map_err(AccelError::Invalid)
     }
 }
 

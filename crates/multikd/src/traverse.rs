@@ -92,9 +92,9 @@ pub(crate) struct Batch<'a> {
 
 /// Trace batch `b` with plain row `row`'s kernel.
 pub(crate) fn trace_row(m: &MultiKdTree, row: usize, b: Batch<'_>) {
-    match m.kd.layout {
+    match m.params.kd.layout {
         KdLayout::DepthFirst => trace_in(m, DepthFirst, row, b),
-        KdLayout::Treelet => trace_in(m, Treelet::new(m.kd.treelet_height), row, b),
+        KdLayout::Treelet => trace_in(m, Treelet::new(m.params.kd.treelet_height), row, b),
     }
 }
 
