@@ -2,30 +2,36 @@
 // contract in tb_core::gpu): the lattice, the ray clipped to it, the cell walk's steps (voxel
 // of a point, exits through the far planes, the monotone advance of Pérard-Gayot et al. 2017
 // §5), the reference tests and the brute-force answer of rays from far away. Positions and
-// plane distances are computed in f64 from the f32 ray, operation for operation as the CPU
-// walk does (so the programs need SHADER_F64: GpuProgram::needs_f64), which makes the cells
-// visited, and so the counters, equal to the CPU's ray for ray.
+// plane distances are computed in `real`, the grid's precision (tb_grid::Precision): the
+// program source starts with `alias real = f32;` (the default, as the paper's walk; any
+// adapter) or `alias real = f64;` (GpuProgram::needs_f64), operation for operation as the
+// CPU walk does. In f64 the cells visited, and so the counters, equal the CPU's ray for ray;
+// in f32 a driver that contracts into FMAs may place a boundary crossing an ulp away, which
+// the reference margin covers (the hits stay exact; a counter may differ on a grazing ray).
 //
-// Every program declares `hdr: array<f64>` (binding 5), whose lattices are read by `lattice`:
-// 16 words each, min (3), size (3), 1/size (3), resolution (3), delta (3), mag.
+// Every program declares `hdr: array<real>` (binding 5), whose lattices are read by
+// `lattice`: 15 words, min (3), size (3), 1/size (3), resolution (3), the least margin
+// delta, mag and the far-origin factor (tb_grid::Lattice); word 15 is the program's own
+// (uniform: macro regions; irregular: the deepest octree level).
 
 struct Lat {
-    lo: vec3<f64>,
-    size: vec3<f64>,
-    inv: vec3<f64>,
+    lo: vec3<real>,
+    size: vec3<real>,
+    inv: vec3<real>,
     res: vec3<u32>,
-    delta: vec3<f64>,
-    mag: f64,
+    dmin: real,
+    mag: real,
+    far_scale: real,
 }
 
-// tb_grid::common::WalkRay: origin, direction, 1/direction in f64 and the interval inside
+// tb_grid::common::WalkRay: origin, direction, 1/direction in `real` and the interval inside
 // the lattice's box.
 struct WalkRay {
-    o: vec3<f64>,
-    d: vec3<f64>,
-    inv: vec3<f64>,
-    t0: f64,
-    t1: f64,
+    o: vec3<real>,
+    d: vec3<real>,
+    inv: vec3<real>,
+    t0: real,
+    t1: real,
     ok: bool,
 }
 
@@ -39,49 +45,50 @@ struct Next {
 fn lattice(k: u32) -> Lat {
     let h = k;
     return Lat(
-        vec3<f64>(hdr[h], hdr[h + 1u], hdr[h + 2u]),
-        vec3<f64>(hdr[h + 3u], hdr[h + 4u], hdr[h + 5u]),
-        vec3<f64>(hdr[h + 6u], hdr[h + 7u], hdr[h + 8u]),
+        vec3<real>(hdr[h], hdr[h + 1u], hdr[h + 2u]),
+        vec3<real>(hdr[h + 3u], hdr[h + 4u], hdr[h + 5u]),
+        vec3<real>(hdr[h + 6u], hdr[h + 7u], hdr[h + 8u]),
         vec3<u32>(u32(hdr[h + 9u]), u32(hdr[h + 10u]), u32(hdr[h + 11u])),
-        vec3<f64>(hdr[h + 12u], hdr[h + 13u], hdr[h + 14u]),
-        hdr[h + 15u],
+        hdr[h + 12u],
+        hdr[h + 13u],
+        hdr[h + 14u],
     );
 }
 
-// +inf in f64, made at run time (a constant would be folded, and infinite constants are
+// +inf in `real`, made at run time (a constant would be folded, and infinite constants are
 // rejected): the f32 infinity of the `meta_` uniform's first word's unused high bits.
-fn inf64() -> f64 {
-    return f64(bitcast<f32>(0x7f800000u | (meta_.counts.x & 0u)));
+fn inf_real() -> real {
+    return real(bitcast<f32>(0x7f800000u | (meta_.counts.x & 0u)));
 }
 
 // NaN test through f32 (NaN converts to NaN; no bitcast of f64 in WGSL).
-fn is_nan64(x: f64) -> bool {
+fn is_nan_real(x: real) -> bool {
     return (bitcast<u32>(f32(x)) & 0x7fffffffu) > 0x7f800000u;
 }
 
-// Rust's f64::max / f64::min: a NaN operand yields the other.
-fn max64(a: f64, b: f64) -> f64 {
-    if is_nan64(a) {
+// Rust's max / min of floats: a NaN operand yields the other.
+fn max_real(a: real, b: real) -> real {
+    if is_nan_real(a) {
         return b;
     }
-    if is_nan64(b) {
+    if is_nan_real(b) {
         return a;
     }
     return select(a, b, b > a);
 }
-fn min64(a: f64, b: f64) -> f64 {
-    if is_nan64(a) {
+fn min_real(a: real, b: real) -> real {
+    if is_nan_real(a) {
         return b;
     }
-    if is_nan64(b) {
+    if is_nan_real(b) {
         return a;
     }
     return select(a, b, b < a);
 }
 
 // Lattice::plane: position of plane `i` of axis `a`.
-fn plane(l: Lat, a: u32, i: u32) -> f64 {
-    return l.lo[a] + f64(i) * l.size[a];
+fn plane(l: Lat, a: u32, i: u32) -> real {
+    return l.lo[a] + real(i) * l.size[a];
 }
 
 // Lattice::index: linear index of voxel `v` (x fastest).
@@ -91,11 +98,11 @@ fn index(l: Lat, v: vec3<u32>) -> u32 {
 
 // Lattice::voxel: voxel along `a` of coordinate `p`, clamped to the lattice (a NaN gives 0,
 // as Rust's `f as u32` then `min`).
-fn voxel(l: Lat, a: u32, p: f64) -> u32 {
+fn voxel(l: Lat, a: u32, p: real) -> u32 {
     let f = floor((p - l.lo[a]) * l.inv[a]);
-    if f >= 0.0lf {
+    if f >= real(0.0) {
         let top = l.res[a] - 1u;
-        if f >= f64(top) {
+        if f >= real(top) {
             return top;
         }
         return u32(f);
@@ -115,38 +122,38 @@ fn max32(a: f32, b: f32) -> f32 {
 // margin; such rays test every triangle.
 fn far(l: Lat, r: Ray) -> bool {
     let a = abs(r.origin);
-    let o = f64(max32(a.x, max32(a.y, a.z)));
-    let e = (o + l.mag) * (1.0lf / 2097152.0lf);
-    return e > min64(min64(l.delta.x, l.delta.y), l.delta.z);
+    let o = real(max32(a.x, max32(a.y, a.z)));
+    let e = (o + l.mag) * l.far_scale;
+    return e > l.dmin;
 }
 
-// WalkRay::clip_to: `w` clipped to the lattice's box inside its current interval.
-fn clip_to(w: WalkRay, l: Lat) -> WalkRay {
+// WalkRay::clip_box: `w` clipped to the box lo..hi inside its current interval.
+fn clip_box(w: WalkRay, box_lo: vec3<real>, box_hi: vec3<real>) -> WalkRay {
     var t0 = w.t0;
     var t1 = w.t1;
     var out = w;
     out.ok = false;
     for (var a = 0u; a < 3u; a++) {
-        let lo = l.lo[a];
-        let hi = plane(l, a, l.res[a]);
+        let lo = box_lo[a];
+        let hi = box_hi[a];
         let o = w.o[a];
         let d = w.d[a];
-        if d == 0.0lf {
+        if d == real(0.0) {
             if o < lo || o > hi {
                 return out;
             }
         } else {
             var n = hi;
             var f = lo;
-            if d > 0.0lf {
+            if d > real(0.0) {
                 n = lo;
                 f = hi;
             }
-            t0 = max64(t0, (n - o) / d);
-            t1 = min64(t1, (f - o) / d);
+            t0 = max_real(t0, (n - o) / d);
+            t1 = min_real(t1, (f - o) / d);
         }
     }
-    if t0 > t1 || is_nan64(t0) || is_nan64(t1) {
+    if t0 > t1 || is_nan_real(t0) || is_nan_real(t1) {
         return out;
     }
     out.t0 = t0;
@@ -155,26 +162,40 @@ fn clip_to(w: WalkRay, l: Lat) -> WalkRay {
     return out;
 }
 
-// WalkRay::clip: the ray in f64, clipped to the lattice's box.
+// WalkRay::clip_to: `w` clipped to the lattice's box inside its current interval.
+fn clip_to(w: WalkRay, l: Lat) -> WalkRay {
+    let hi = vec3<real>(plane(l, 0u, l.res.x), plane(l, 1u, l.res.y), plane(l, 2u, l.res.z));
+    return clip_box(w, l.lo, hi);
+}
+
+// WalkRay::clip_near: `w` clipped to the lattice's box grown by its least margin (a top
+// cell's grid in the two-level walk).
+fn clip_near(w: WalkRay, l: Lat) -> WalkRay {
+    let g = vec3<real>(l.dmin);
+    let hi = vec3<real>(plane(l, 0u, l.res.x), plane(l, 1u, l.res.y), plane(l, 2u, l.res.z));
+    return clip_box(w, l.lo - g, hi + g);
+}
+
+// WalkRay::clip: the ray in `real`, clipped to the lattice's box.
 fn clip(r: Ray, l: Lat) -> WalkRay {
-    let d = vec3<f64>(r.dir);
-    let one = 1.0lf;
+    let d = vec3<real>(r.dir);
+    let one = real(1.0);
     let w = WalkRay(
-        vec3<f64>(r.origin),
+        vec3<real>(r.origin),
         d,
-        vec3<f64>(one / d.x, one / d.y, one / d.z),
-        f64(r.tmin),
-        f64(r.tmax),
+        vec3<real>(one / d.x, one / d.y, one / d.z),
+        real(r.tmin),
+        real(r.tmax),
         true,
     );
     return clip_to(w, l);
 }
 
 // WalkRay::voxel_at: the voxel holding the ray's point at `t`.
-fn voxel_at(w: WalkRay, l: Lat, t: f64) -> vec3<u32> {
+fn voxel_at(w: WalkRay, l: Lat, t: real) -> vec3<u32> {
     var v = vec3<u32>(0u);
     for (var a = 0u; a < 3u; a++) {
-        if w.d[a] == 0.0lf {
+        if w.d[a] == real(0.0) {
             v[a] = voxel(l, a, w.o[a]);
         } else {
             v[a] = voxel(l, a, w.o[a] + t * w.d[a]);
@@ -187,18 +208,18 @@ fn voxel_at(w: WalkRay, l: Lat, t: f64) -> vec3<u32> {
 // voxels lo..hi (ties to the lower axis; +inf on axes the ray is parallel to).
 struct Exit {
     axis: u32,
-    t: f64,
+    t: real,
 }
 
 fn exit(w: WalkRay, l: Lat, lo: vec3<u32>, hi: vec3<u32>) -> Exit {
-    var t = vec3<f64>(0.0lf);
+    var t = vec3<real>(real(0.0));
     for (var a = 0u; a < 3u; a++) {
-        if w.d[a] > 0.0lf {
+        if w.d[a] > real(0.0) {
             t[a] = (plane(l, a, hi[a]) - w.o[a]) * w.inv[a];
-        } else if w.d[a] < 0.0lf {
+        } else if w.d[a] < real(0.0) {
             t[a] = (plane(l, a, lo[a]) - w.o[a]) * w.inv[a];
         } else {
-            t[a] = inf64();
+            t[a] = inf_real();
         }
     }
     var k = 0u;
@@ -212,11 +233,11 @@ fn exit(w: WalkRay, l: Lat, lo: vec3<u32>, hi: vec3<u32>) -> Exit {
 
 // WalkRay::advance: the monotone advance of §5 from voxel `v` leaving the box lo..hi at `t`
 // through the far plane of `axis`.
-fn advance(w: WalkRay, l: Lat, t: f64, axis: u32, v: vec3<u32>, lo: vec3<u32>, hi: vec3<u32>) -> Next {
+fn advance(w: WalkRay, l: Lat, t: real, axis: u32, v: vec3<u32>, lo: vec3<u32>, hi: vec3<u32>) -> Next {
     var n = v;
     for (var a = 0u; a < 3u; a++) {
         if a == axis {
-            if w.d[a] > 0.0lf {
+            if w.d[a] > real(0.0) {
                 if hi[a] >= l.res[a] {
                     return Next(n, false);
                 }
@@ -227,9 +248,9 @@ fn advance(w: WalkRay, l: Lat, t: f64, axis: u32, v: vec3<u32>, lo: vec3<u32>, h
                 }
                 n[a] = lo[a] - 1u;
             }
-        } else if w.d[a] != 0.0lf {
+        } else if w.d[a] != real(0.0) {
             let p = clamp(voxel(l, a, w.o[a] + t * w.d[a]), lo[a], hi[a] - 1u);
-            if w.d[a] > 0.0lf {
+            if w.d[a] > real(0.0) {
                 n[a] = max(p, v[a]);
             } else {
                 n[a] = min(p, v[a]);
@@ -242,7 +263,7 @@ fn advance(w: WalkRay, l: Lat, t: f64, axis: u32, v: vec3<u32>, lo: vec3<u32>, h
 // Whether the walk goes on after a cell whose box exits at `e`: the closest hit so far lies
 // beyond the exit and the ray's interval does too (the test of tb_grid::common::walk).
 fn goes_on(best: f32, e: Exit, w: WalkRay) -> bool {
-    return !(f64(best) <= e.t || e.t >= w.t1);
+    return !(real(best) <= e.t || e.t >= w.t1);
 }
 
 // The closest hit so far (`best.t` is the ray's tmax until one is found).

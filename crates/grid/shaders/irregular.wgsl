@@ -2,12 +2,12 @@
 // grid.wgsl: tb_grid's IrregularGrid::walk cell for cell: on the virtual base grid, the cell
 // of the current voxel from the two-level voxel map, its references, then the exit through
 // the far planes of the cell's box and the monotone advance. Buffers: the base lattice
-// (`hdr`, then word 16: the deepest octree level D_max), the voxel map (`vmap`: per top cell
+// (`hdr`, then word 15: the deepest octree level D_max), the voxel map (`vmap`: per top cell
 // `D << 28 | index` of its second level, then the second levels), the cells (`cells`, 8
 // words each: lo, begin, hi, end) and the references (`refs`). Counters: cells and steps per
 // cell visited, prims per test.
 
-@group(0) @binding(5) var<storage, read> hdr: array<f64>;
+@group(0) @binding(5) var<storage, read> hdr: array<real>;
 @group(0) @binding(6) var<storage, read> vmap: array<u32>;
 @group(0) @binding(7) var<storage, read> cells: array<u32>;
 @group(0) @binding(8) var<storage, read> refs: array<u32>;
@@ -32,7 +32,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     if far(base, r) {
         return brute_force(r, st);
     }
-    let dmax = u32(hdr[16]);
+    let dmax = u32(hdr[15]);
     let top_res = base.res >> vec3<u32>(dmax);
     let p = prepare(r);
     var best = no_hit(r);

@@ -6,7 +6,7 @@
 // (`refs`). Counters: cells and steps per top and leaf cell, interior per top cell, leaves per
 // leaf cell, prims per test.
 
-@group(0) @binding(5) var<storage, read> hdr: array<f64>;
+@group(0) @binding(5) var<storage, read> hdr: array<real>;
 @group(0) @binding(6) var<storage, read> tops: array<u32>;
 @group(0) @binding(7) var<storage, read> start: array<u32>;
 @group(0) @binding(8) var<storage, read> refs: array<u32>;
@@ -14,9 +14,9 @@
 // two_level::sub_lattice: the grid of top cell `v` at resolution `res`.
 fn sub_lattice(top: Lat, v: vec3<u32>, res: vec3<u32>) -> Lat {
     var l = top;
-    let one = 1.0lf;
+    let one = real(1.0);
     for (var a = 0u; a < 3u; a++) {
-        l.size[a] = top.size[a] / f64(res[a]);
+        l.size[a] = top.size[a] / real(res[a]);
         l.lo[a] = plane(top, a, v[a]);
         l.inv[a] = one / l.size[a];
     }
@@ -72,7 +72,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
         let single_empty = all(res == vec3<u32>(1u)) && start[first] == start[first + 1u];
         if !single_empty {
             let sub = sub_lattice(top, v, res);
-            let ws = clip_to(w, sub);
+            let ws = clip_near(w, sub);
             if ws.ok && walk_leaves(ws, sub, first, p, r, &best, st) {
                 break;
             }

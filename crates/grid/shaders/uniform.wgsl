@@ -1,10 +1,10 @@
 // The uniform grid's `dda` (Amanatides and Woo 1987; with macro regions, Devillers 1989),
 // program `uniform-grid/dda` on grid.wgsl: tb_grid's UniformGrid::dda cell for cell.
-// Buffers: the lattice (`hdr`, then word 16: 1 when macro regions are built), the cell ranges
+// Buffers: the lattice (`hdr`, then word 15: 1 when macro regions are built), the cell ranges
 // (`start`), the references (`refs`) and the macro regions (6 words per cell: lo, hi; one
 // unused word without them). Counters: cells and steps per cell visited, prims per test.
 
-@group(0) @binding(5) var<storage, read> hdr: array<f64>;
+@group(0) @binding(5) var<storage, read> hdr: array<real>;
 @group(0) @binding(6) var<storage, read> start: array<u32>;
 @group(0) @binding(7) var<storage, read> refs: array<u32>;
 @group(0) @binding(8) var<storage, read> macros: array<u32>;
@@ -18,7 +18,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     if far(l, r) {
         return brute_force(r, st);
     }
-    let with_macros = hdr[16] != 0.0lf;
+    let with_macros = hdr[15] != real(0.0);
     let p = prepare(r);
     var best = no_hit(r);
     var v = voxel_at(w, l, w.t0);

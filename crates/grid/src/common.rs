@@ -5,18 +5,113 @@
 //!
 //! # Robustness of the walks
 //!
-//! The walks compute positions and plane distances in `f64` from the `f32` ray, so a cell
-//! boundary crossing is located to about `1e-16` of the ray's length; the triangle tests are
-//! the `f32` tests every structure uses. References are assigned with the separating-axis test
-//! against the cell's box grown by [`Lattice::delta`] on every side (a 2048th of a voxel of the
-//! uniform or top-level grid plus 8 `f32` ulps of the scene's coordinates), so a triangle the `f32` test may report as hit
-//! just outside its exact extent is still referenced by the cell the walk is in. The test is
-//! thus conservative (never drops a triangle, may add one touching a cell within `delta`).
-//! Rays whose origin is so far away that the triangle test's own rounding exceeds `delta`
-//! ([`Lattice::far`]) test every triangle instead.
+//! The walks compute positions and plane distances in the grid's [`Precision`]: `f32` as the
+//! paper's walk (hagrid) by default, or `f64` for comparison, from the `f32` ray; the triangle
+//! tests are the `f32` tests every structure uses. References are assigned with the
+//! separating-axis test (in `f64`) against the cell's box grown by [`Lattice::delta`] on every
+//! side, so a triangle the `f32` test may report as hit just outside its exact extent, or at a
+//! point the walk places a little outside the cell it is in, is still referenced by that cell.
+//! The test is thus conservative (never drops a triangle, may add one touching a cell within
+//! `delta`). The margin is sized for the walk's arithmetic:
+//!
+//! - `f64` walks locate a cell boundary crossing to about `1e-16` of the ray's length; the
+//!   margin is a 2048th of a voxel of the uniform or top-level grid plus 8 `f32` ulps of the
+//!   scene's coordinates, which covers the triangle test's rounding (2^-21 of `|o| + mag`).
+//! - `f32` walks compute every plane position, plane distance and exit point with a few
+//!   roundings each: each coordinate of a point the walk places in a cell lies within about
+//!   12 roundings (2^-24 each) of `|o| + mag` of that cell's box, whatever the ray's direction
+//!   (a distance's error along a nearly parallel axis moves the point along the ray, not off
+//!   the plane). The margin is a 2048th of a voxel plus 32 ulps of the coordinates, and rays
+//!   are sent to brute force at 2^-19 of `|o| + mag` instead of 2^-21: the triangle test's
+//!   rounding plus 24 roundings for the walk, twice the estimate. Origins inside the grid's
+//!   box are never far in either precision; the far threshold lies about 256 voxels of the
+//!   uniform or top-level grid beyond the box in `f32` (1024 in `f64`). A larger voxel share
+//!   would keep 1024, but a 512th of a voxel added up to 53 % triangle tests on
+//!   `teapot-stadium` (the teapot's triangles near every cell face), 32 ulps add at most 4.5 %
+//!   there and 0.01 % at the median of `configs/ci.toml`'s grid rows.
+//!
+//! Rays whose origin is so far away that the rounding exceeds `delta` ([`Lattice::far`]) test
+//! every triangle instead. Every step of either walk is monotone in voxel indices, so walks
+//! end whatever the rounding.
 
+use crate::Precision;
 use rayon::prelude::*;
+use std::fmt::Debug;
+use std::ops::{Add, Div, Mul, Sub};
 use tb_core::{Aabb, AccelError, Counter, HitRecord, Ray, TriTest, Triangle};
+
+/// The arithmetic of a walk ([`Precision`]): `f32` (the paper's) or `f64`.
+pub trait Real:
+    Copy
+    + PartialOrd
+    + Debug
+    + Send
+    + Sync
+    + 'static
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+{
+    const ZERO: Self;
+    const ONE: Self;
+    const INFINITY: Self;
+    /// `x` rounded to this type (the lattice's constants).
+    fn of(x: f64) -> Self;
+    /// `x`, exactly (the ray's components).
+    fn of32(x: f32) -> Self;
+    fn of_u32(i: u32) -> Self;
+    fn floor(self) -> Self;
+    /// `self as u32` (saturating; NaN gives 0).
+    fn to_u32(self) -> u32;
+    fn max(self, o: Self) -> Self;
+    fn min(self, o: Self) -> Self;
+    fn is_nan(self) -> bool;
+}
+
+macro_rules! real {
+    ($t:ty) => {
+        impl Real for $t {
+            const ZERO: Self = 0.0;
+            const ONE: Self = 1.0;
+            const INFINITY: Self = <$t>::INFINITY;
+            #[inline(always)]
+            fn of(x: f64) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn of32(x: f32) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn of_u32(i: u32) -> Self {
+                i as $t
+            }
+            #[inline(always)]
+            fn floor(self) -> Self {
+                <$t>::floor(self)
+            }
+            #[inline(always)]
+            fn to_u32(self) -> u32 {
+                self as u32
+            }
+            #[inline(always)]
+            fn max(self, o: Self) -> Self {
+                <$t>::max(self, o)
+            }
+            #[inline(always)]
+            fn min(self, o: Self) -> Self {
+                <$t>::min(self, o)
+            }
+            #[inline(always)]
+            fn is_nan(self) -> bool {
+                <$t>::is_nan(self)
+            }
+        }
+    };
+}
+real!(f32);
+real!(f64);
 
 /// Largest resolution of one axis of any grid (the walks keep voxel indices in `u32` and the
 /// voxel map's levels must multiply without overflow).
@@ -91,11 +186,16 @@ pub fn within_budget(res: &[[u32; 3]], budget: u64, refs: impl Fn(&[[u32; 3]]) -
 /// `res`, the resolution of a lattice over `bounds` holding all of `tris`, lowered by
 /// [`within_budget`] to at most [`MAX_REFS_PER_TRIANGLE`] covered voxels per triangle, with
 /// the factor (1: unchanged).
-pub fn bounded_res(bounds: &Aabb, res: [u32; 3], tris: &[Triangle]) -> ([u32; 3], f64) {
+pub fn bounded_res(
+    bounds: &Aabb,
+    res: [u32; 3],
+    tris: &[Triangle],
+    precision: Precision,
+) -> ([u32; 3], f64) {
     let all: Vec<u32> = (0..tris.len() as u32).collect();
     let budget = MAX_REFS_PER_TRIANGLE * tris.len() as u64;
     let f = within_budget(&[res], budget, |r| {
-        box_refs(&Lattice::new(bounds, r[0]), tris, &all)
+        box_refs(&Lattice::new(bounds, r[0], precision), tris, &all)
     });
     (scale_res(&[res], f)[0], f)
 }
@@ -111,24 +211,28 @@ pub fn scale_res(res: &[[u32; 3]], f: f64) -> Vec<[u32; 3]> {
 }
 
 /// A regular lattice of `res` voxels over a box: voxel `i` of axis `a` spans
-/// `[min[a] + i·size[a], min[a] + (i+1)·size[a]]` (computed in `f64` the same way by the build
-/// and the walks).
+/// `[min[a] + i·size[a], min[a] + (i+1)·size[a]]`, computed in `F` the same way by the build
+/// (`f64`) and the walks (`F` of the grid's [`Precision`], [`Lattice::cast`]).
 #[derive(Clone, Copy, Debug)]
-pub struct Lattice {
-    pub min: [f64; 3],
-    pub size: [f64; 3],
+pub struct Lattice<F: Real = f64> {
+    pub min: [F; 3],
+    pub size: [F; 3],
     /// `1 / size`.
-    pub inv_size: [f64; 3],
+    pub inv_size: [F; 3],
     pub res: [u32; 3],
     /// Growth of cell boxes for reference assignment, per axis (see the module doc).
     pub delta: [f64; 3],
     /// Largest absolute coordinate of the lattice's box.
     pub mag: f64,
+    /// The share of `|o| + mag` that the triangle test's and the walk's rounding may reach
+    /// (2^-21 in `f64`, 2^-19 in `f32`; the module doc): [`Lattice::far`]'s factor.
+    pub far_scale: f64,
 }
 
 impl Lattice {
-    /// The lattice of `res` voxels over `bounds` (already padded, see [`grid_bounds`]).
-    pub fn new(bounds: &Aabb, res: [u32; 3]) -> Self {
+    /// The lattice of `res` voxels over `bounds` (already padded, see [`grid_bounds`]), with
+    /// the reference margin of walks in `precision` (the module doc).
+    pub fn new(bounds: &Aabb, res: [u32; 3], precision: Precision) -> Self {
         let lo = bounds.min.to_array().map(f64::from);
         let hi = bounds.max.to_array().map(f64::from);
         let mag = lo
@@ -137,13 +241,18 @@ impl Lattice {
             .fold(0.0f64, |m, x| m.max(x.abs()));
         let ulp = mag * f64::from(f32::EPSILON);
         let size = std::array::from_fn(|a| (hi[a] - lo[a]) / res[a] as f64);
+        let (share, ulps, far_scale) = match precision {
+            Precision::F64 => (2048.0, 8.0, 1.0 / (1u64 << 21) as f64),
+            Precision::F32 => (2048.0, 32.0, 1.0 / (1u64 << 19) as f64),
+        };
         Lattice {
             min: lo,
             size,
             inv_size: size.map(|s| 1.0 / s),
             res,
-            delta: std::array::from_fn(|a| size[a] / 2048.0 + 8.0 * ulp),
+            delta: std::array::from_fn(|a| size[a] / share + ulps * ulp),
             mag,
+            far_scale,
         }
     }
 
@@ -154,33 +263,21 @@ impl Lattice {
             size: self.size.map(|s| s / k as f64),
             inv_size: self.size.map(|s| k as f64 / s),
             res: self.res.map(|r| r * k),
-            delta: self.delta,
-            mag: self.mag,
+            ..*self
         }
     }
 
-    /// Whether the `f32` triangle tests of `ray` may place a hit farther from the triangle
-    /// than the reference margin `delta`: they start from `v − o`, rounded to the ulp of
-    /// `|o| + |v|`, and their effective geometry moves by a few such ulps (2^-21 relative is
-    /// taken; the margin's `8 ulp(mag)` term covers every origin inside the grid's box). True only for origins far outside the grid compared with its size (the far
-    /// origins of `stress/ray-limits`); such rays are answered by testing every triangle
-    /// (see [`brute_force`]), which is what the margin could not guarantee for them.
-    #[inline(always)]
-    pub fn far(&self, ray: &Ray) -> bool {
-        let o = ray.origin.abs().max_element() as f64;
-        let e = (o + self.mag) * (1.0 / (1u64 << 21) as f64);
-        e > self.delta[0].min(self.delta[1]).min(self.delta[2])
-    }
-
-    /// Number of voxels.
-    pub fn count(&self) -> usize {
-        self.res.iter().map(|&r| r as usize).product()
-    }
-
-    /// The voxel of flat index `i` (x fastest; the inverse of [`Lattice::index`]).
-    pub fn voxel_of(&self, i: usize) -> [u32; 3] {
-        let [rx, ry, _] = self.res.map(|r| r as usize);
-        [i % rx, (i / rx) % ry, i / (rx * ry)].map(|x| x as u32)
+    /// The lattice in a walk's arithmetic: `min`, `size` and `1 / size` rounded to `G`.
+    pub fn cast<G: Real>(&self) -> Lattice<G> {
+        Lattice {
+            min: self.min.map(G::of),
+            size: self.size.map(G::of),
+            inv_size: self.inv_size.map(G::of),
+            res: self.res,
+            delta: self.delta,
+            mag: self.mag,
+            far_scale: self.far_scale,
+        }
     }
 
     /// The check every grid's `validate` makes of a cell's references: sorted, each naming a
@@ -209,30 +306,6 @@ impl Lattice {
         Ok(())
     }
 
-    /// Position of plane `i` of axis `a`.
-    #[inline(always)]
-    pub fn plane(&self, a: usize, i: u32) -> f64 {
-        self.min[a] + i as f64 * self.size[a]
-    }
-
-    /// Linear index of voxel `v` (x fastest).
-    #[inline(always)]
-    pub fn index(&self, v: [u32; 3]) -> usize {
-        v[0] as usize
-            + self.res[0] as usize * (v[1] as usize + self.res[1] as usize * v[2] as usize)
-    }
-
-    /// Voxel index along `a` of coordinate `p`, clamped to the lattice.
-    #[inline(always)]
-    pub fn voxel(&self, a: usize, p: f64) -> u32 {
-        let f = ((p - self.min[a]) * self.inv_size[a]).floor();
-        if f >= 0.0 {
-            (f as u32).min(self.res[a] - 1)
-        } else {
-            0
-        }
-    }
-
     /// Voxel range `lo..=hi` per axis covering `b` grown by `delta`.
     pub fn range(&self, b: &Aabb) -> ([u32; 3], [u32; 3]) {
         let lo = std::array::from_fn(|a| self.voxel(a, b.min[a] as f64 - self.delta[a]));
@@ -245,6 +318,64 @@ impl Lattice {
         let bmin: [f64; 3] = std::array::from_fn(|a| self.plane(a, lo[a]) - self.delta[a]);
         let bmax: [f64; 3] = std::array::from_fn(|a| self.plane(a, hi[a]) + self.delta[a]);
         tri_box_overlap(t, bmin, bmax)
+    }
+}
+
+impl<F: Real> Lattice<F> {
+    /// Whether the `f32` triangle tests of `ray`, with the walk's own rounding, may place a
+    /// hit farther from the triangle than the reference margin `delta`: they start from
+    /// `v − o`, rounded to the ulp of `|o| + |v|`, and the effective geometry moves by a few
+    /// such ulps ([`Lattice::far_scale`] of `|o| + mag` is taken; the margin covers every
+    /// origin inside the grid's box). True only for origins far outside the grid compared
+    /// with its size (the far origins of `stress/ray-limits`); such rays are answered by
+    /// testing every triangle (see [`brute_force`]), which is what the margin could not
+    /// guarantee for them.
+    #[inline(always)]
+    pub fn far(&self, ray: &Ray) -> bool {
+        let o = ray.origin.abs().max_element() as f64;
+        let e = (o + self.mag) * self.far_scale;
+        e > self.delta_min()
+    }
+
+    /// The least of the three margins.
+    #[inline(always)]
+    pub fn delta_min(&self) -> f64 {
+        self.delta[0].min(self.delta[1]).min(self.delta[2])
+    }
+
+    /// Number of voxels.
+    pub fn count(&self) -> usize {
+        self.res.iter().map(|&r| r as usize).product()
+    }
+
+    /// The voxel of flat index `i` (x fastest; the inverse of [`Lattice::index`]).
+    pub fn voxel_of(&self, i: usize) -> [u32; 3] {
+        let [rx, ry, _] = self.res.map(|r| r as usize);
+        [i % rx, (i / rx) % ry, i / (rx * ry)].map(|x| x as u32)
+    }
+
+    /// Position of plane `i` of axis `a`.
+    #[inline(always)]
+    pub fn plane(&self, a: usize, i: u32) -> F {
+        self.min[a] + F::of_u32(i) * self.size[a]
+    }
+
+    /// Linear index of voxel `v` (x fastest).
+    #[inline(always)]
+    pub fn index(&self, v: [u32; 3]) -> usize {
+        v[0] as usize
+            + self.res[0] as usize * (v[1] as usize + self.res[1] as usize * v[2] as usize)
+    }
+
+    /// Voxel index along `a` of coordinate `p`, clamped to the lattice.
+    #[inline(always)]
+    pub fn voxel(&self, a: usize, p: F) -> u32 {
+        let f = ((p - self.min[a]) * self.inv_size[a]).floor();
+        if f >= F::ZERO {
+            f.to_u32().min(self.res[a] - 1)
+        } else {
+            0
+        }
     }
 }
 
@@ -362,50 +493,68 @@ pub fn flatten(pairs: Vec<u64>, n_cells: usize) -> (Vec<u32>, Vec<u32>) {
     (start, refs)
 }
 
-/// The ray of a walk in `f64`: origin, direction, and the interval `[t0, t1]` in which it is
+/// The ray of a walk in `F`: origin, direction, and the interval `[t0, t1]` in which it is
 /// inside the grid's box (clipped to its own `[tmin, tmax]`).
 #[derive(Clone, Copy, Debug)]
-pub struct WalkRay {
-    pub o: [f64; 3],
-    pub d: [f64; 3],
+pub struct WalkRay<F: Real> {
+    pub o: [F; 3],
+    pub d: [F; 3],
     /// `1 / d` (`±inf` for a zero component, never used then).
-    pub inv: [f64; 3],
-    pub t0: f64,
-    pub t1: f64,
+    pub inv: [F; 3],
+    pub t0: F,
+    pub t1: F,
 }
 
-impl WalkRay {
+impl<F: Real> WalkRay<F> {
     /// The ray clipped to the lattice's box (closed), or `None` when it misses it.
     #[inline(always)]
-    pub fn clip(ray: &Ray, lat: &Lattice) -> Option<WalkRay> {
-        let d = ray.dir.to_array().map(f64::from);
+    pub fn clip(ray: &Ray, lat: &Lattice<F>) -> Option<WalkRay<F>> {
+        let d = ray.dir.to_array().map(F::of32);
         WalkRay {
-            o: ray.origin.to_array().map(f64::from),
+            o: ray.origin.to_array().map(F::of32),
             d,
-            inv: d.map(|x| 1.0 / x),
-            t0: ray.tmin as f64,
-            t1: ray.tmax as f64,
+            inv: d.map(|x| F::ONE / x),
+            t0: F::of32(ray.tmin),
+            t1: F::of32(ray.tmax),
         }
         .clip_to(lat)
     }
 
     /// The same ray clipped to another lattice's box inside its current interval.
     #[inline(always)]
-    pub fn clip_to(&self, lat: &Lattice) -> Option<WalkRay> {
+    pub fn clip_to(&self, lat: &Lattice<F>) -> Option<WalkRay<F>> {
+        self.clip_box(lat.min, std::array::from_fn(|a| lat.plane(a, lat.res[a])))
+    }
+
+    /// The same ray clipped to another lattice's box grown by its least reference margin
+    /// (the cells at its border hold every triangle within `delta`, and the walk's voxels
+    /// are clamped to the lattice): a top cell's grid in the two-level walk, which a ray the
+    /// top walk placed in that cell must not miss by a rounding of the cell's planes.
+    #[inline(always)]
+    pub fn clip_near(&self, lat: &Lattice<F>) -> Option<WalkRay<F>> {
+        let g = F::of(lat.delta_min());
+        self.clip_box(
+            std::array::from_fn(|a| lat.min[a] - g),
+            std::array::from_fn(|a| lat.plane(a, lat.res[a]) + g),
+        )
+    }
+
+    /// The same ray clipped to the box `lo..hi` inside its current interval.
+    #[inline(always)]
+    fn clip_box(&self, lo: [F; 3], hi: [F; 3]) -> Option<WalkRay<F>> {
         let (mut t0, mut t1) = (self.t0, self.t1);
         for a in 0..3 {
-            let lo = lat.min[a];
-            let hi = lat.plane(a, lat.res[a]);
+            let (lo, hi) = (lo[a], hi[a]);
             let (o, d) = (self.o[a], self.d[a]);
-            if d == 0.0 {
+            if d == F::ZERO {
                 if o < lo || o > hi {
                     return None;
                 }
             } else {
-                let (n, f) = if d > 0.0 { (lo, hi) } else { (hi, lo) };
+                let (n, f) = if d > F::ZERO { (lo, hi) } else { (hi, lo) };
                 t0 = t0.max((n - o) / d);
                 t1 = t1.min((f - o) / d);
-                // (Divisions here: entry and exit of the box are exact to the f64 rounding.)
+                // (Divisions here: entry and exit of the box are exact to F's rounding.)
             }
         }
         // Also false for a NaN interval.
@@ -417,9 +566,9 @@ impl WalkRay {
 
     /// The voxel of the lattice holding the ray's point at `t` (clamped to the lattice).
     #[inline(always)]
-    pub fn voxel_at(&self, lat: &Lattice, t: f64) -> [u32; 3] {
+    pub fn voxel_at(&self, lat: &Lattice<F>, t: F) -> [u32; 3] {
         std::array::from_fn(|a| {
-            if self.d[a] == 0.0 {
+            if self.d[a] == F::ZERO {
                 lat.voxel(a, self.o[a])
             } else {
                 lat.voxel(a, self.o[a] + t * self.d[a])
@@ -430,14 +579,14 @@ impl WalkRay {
     /// Distance to the far plane of the box of voxels `lo..hi` on each axis (`+inf` where the
     /// ray is parallel to the axis).
     #[inline(always)]
-    pub fn exits(&self, lat: &Lattice, lo: [u32; 3], hi: [u32; 3]) -> [f64; 3] {
+    pub fn exits(&self, lat: &Lattice<F>, lo: [u32; 3], hi: [u32; 3]) -> [F; 3] {
         std::array::from_fn(|a| {
-            if self.d[a] > 0.0 {
+            if self.d[a] > F::ZERO {
                 (lat.plane(a, hi[a]) - self.o[a]) * self.inv[a]
-            } else if self.d[a] < 0.0 {
+            } else if self.d[a] < F::ZERO {
                 (lat.plane(a, lo[a]) - self.o[a]) * self.inv[a]
             } else {
-                f64::INFINITY
+                F::INFINITY
             }
         })
     }
@@ -455,8 +604,8 @@ impl WalkRay {
     #[inline(always)]
     pub fn advance(
         &self,
-        lat: &Lattice,
-        t: f64,
+        lat: &Lattice<F>,
+        t: F,
         axis: usize,
         v: [u32; 3],
         lo: [u32; 3],
@@ -465,7 +614,7 @@ impl WalkRay {
         let mut n = v;
         for a in 0..3 {
             if a == axis {
-                if self.d[a] > 0.0 {
+                if self.d[a] > F::ZERO {
                     if hi[a] >= lat.res[a] {
                         return None;
                     }
@@ -476,11 +625,11 @@ impl WalkRay {
                     }
                     n[a] = lo[a] - 1;
                 }
-            } else if self.d[a] != 0.0 {
+            } else if self.d[a] != F::ZERO {
                 let p = lat
                     .voxel(a, self.o[a] + t * self.d[a])
                     .clamp(lo[a], hi[a] - 1);
-                n[a] = if self.d[a] > 0.0 {
+                n[a] = if self.d[a] > F::ZERO {
                     p.max(v[a])
                 } else {
                     p.min(v[a])
@@ -511,14 +660,14 @@ pub enum Visit {
 /// closer one), when the ray's interval ends inside the cell, or when it leaves the lattice.
 /// Terminates by the monotonicity of `advance`.
 #[inline(always)]
-pub fn walk(w: &WalkRay, lat: &Lattice, mut visit: impl FnMut([u32; 3]) -> Visit) {
+pub fn walk<F: Real>(w: &WalkRay<F>, lat: &Lattice<F>, mut visit: impl FnMut([u32; 3]) -> Visit) {
     let mut v = w.voxel_at(lat, w.t0);
     loop {
         let Visit::Continue { lo, hi, best } = visit(v) else {
             return;
         };
         let (axis, t_exit) = argmin3(w.exits(lat, lo, hi));
-        if best as f64 <= t_exit || t_exit >= w.t1 {
+        if F::of32(best) <= t_exit || t_exit >= w.t1 {
             return;
         }
         match w.advance(lat, t_exit, axis, v, lo, hi) {
@@ -557,12 +706,12 @@ pub fn test_refs<T: TriTest, C: Counter, const ANY: bool>(
 /// grid), or, for an origin so far away that the triangle test's own rounding can exceed the
 /// reference margin ([`Lattice::far`]), `Err` with brute force's answer.
 #[inline(always)]
-pub(crate) fn enter<T: TriTest, C: Counter, const ANY: bool>(
+pub(crate) fn enter<T: TriTest, C: Counter, const ANY: bool, F: Real>(
     ray: &Ray,
-    lat: &Lattice,
+    lat: &Lattice<F>,
     tris: &[Triangle],
     c: &mut C,
-) -> Result<WalkRay, HitRecord> {
+) -> Result<WalkRay<F>, HitRecord> {
     let Some(w) = WalkRay::clip(ray, lat) else {
         return Err(HitRecord::MISS);
     };
@@ -603,7 +752,7 @@ pub fn brute_force<T: TriTest, C: Counter, const ANY: bool>(
 /// Index and value of the smallest of three distances (the exit axis; ties go to the lower
 /// axis).
 #[inline(always)]
-pub fn argmin3(t: [f64; 3]) -> (usize, f64) {
+pub fn argmin3<F: Real>(t: [F; 3]) -> (usize, F) {
     let mut k = 0;
     for a in 1..3 {
         if t[a] < t[k] {

@@ -2,17 +2,18 @@
 //! `two_level.wgsl` or `irregular.wgsl`, on tb-gpu's prelude; contract in `tb_core::gpu`):
 //! `uniform-grid/dda`, `two-level-grid/dda` and `irregular-grid/walk`. Construction stays on
 //! the CPU (the paper builds on the GPU, §4; here the built arrays are uploaded unchanged); the
-//! kernels repeat the CPU walks step for step, with positions and plane distances in `f64` as
-//! the CPU computes them ([`crate::common`]), so hits and per-ray counters equal the CPU's ray
-//! for ray. That needs `SHADER_F64`: the programs set [`GpuProgram::needs_f64`], and tb-gpu
-//! refuses them on adapters without it (one line, the row's note).
+//! kernels repeat the CPU walks step for step, with positions and plane distances in the
+//! grid's [`Precision`] (the source begins with `alias real = f32;` or `f64`). In `f32` (the
+//! default, the paper's) the programs run on every adapter; in `f64` they set
+//! [`GpuProgram::needs_f64`] (named `…-f64`), and tb-gpu refuses them on adapters without
+//! `SHADER_F64` (one line, the row's note).
 //!
-//! Buffers (bindings 5 to 8): the lattice as 16 `f64` words (min, size, 1/size, resolution,
-//! delta, mag) and one word more (uniform: 1 with macro regions; irregular: the deepest octree
-//! level), then each grid's arrays exactly as built.
+//! Buffers (bindings 5 to 8): the lattice as 15 words in the precision (min, size, 1/size,
+//! resolution, least margin, mag, far-origin factor) and one word more (uniform: 1 with macro
+//! regions; irregular: the deepest octree level), then each grid's arrays exactly as built.
 
 use crate::common::Lattice;
-use crate::{IrregularGrid, TwoLevelGrid, UniformGrid};
+use crate::{IrregularGrid, Precision, TwoLevelGrid, UniformGrid};
 use std::borrow::Cow;
 use tb_core::{GpuBuffer, GpuProgram};
 
@@ -21,8 +22,14 @@ fn words(w: impl IntoIterator<Item = u32>) -> Cow<'static, [u8]> {
     Cow::Owned(w.into_iter().flat_map(u32::to_le_bytes).collect())
 }
 
-/// The header buffer: `lat` as 16 `f64` words, then `extra`.
-fn header(what: &'static str, lat: &Lattice, extra: f64) -> GpuBuffer<'static> {
+/// The header buffer: `lat` as 15 words in `precision` (as the CPU walk rounds it,
+/// [`Lattice::cast`]), then `extra`.
+fn header(
+    what: &'static str,
+    lat: &Lattice,
+    precision: Precision,
+    extra: f64,
+) -> GpuBuffer<'static> {
     let w: Vec<f64> = lat
         .min
         .iter()
@@ -30,28 +37,58 @@ fn header(what: &'static str, lat: &Lattice, extra: f64) -> GpuBuffer<'static> {
         .chain(&lat.inv_size)
         .copied()
         .chain(lat.res.map(f64::from))
-        .chain(lat.delta)
-        .chain([lat.mag, extra])
+        .chain([lat.delta_min(), lat.mag, lat.far_scale, extra])
         .collect();
+    let bytes = match precision {
+        Precision::F32 => w
+            .into_iter()
+            .flat_map(|x| (x as f32).to_le_bytes())
+            .collect(),
+        Precision::F64 => w.into_iter().flat_map(f64::to_le_bytes).collect(),
+    };
     GpuBuffer {
         what,
-        bytes: Cow::Owned(w.into_iter().flat_map(f64::to_le_bytes).collect()),
+        bytes: Cow::Owned(bytes),
     }
 }
 
+/// The program of `kind` (one source per precision: `alias real = …;` then grid.wgsl and
+/// the kind's walk), `names[0]` in `f32`, `names[1]` in `f64`.
 fn program<'a>(
-    name: &'static str,
-    source: &'static str,
+    names: [&'static str; 2],
+    sources: [&'static str; 2],
+    precision: Precision,
     triangles: &'a [tb_core::Triangle],
     buffers: Vec<GpuBuffer<'a>>,
 ) -> GpuProgram<'a> {
-    buffers
-        .into_iter()
-        .fold(
-            GpuProgram::new(name, source, Cow::Borrowed(triangles)),
-            |p, b| p.buffer(b.what, b.bytes),
-        )
-        .in_f64()
+    let k = (precision == Precision::F64) as usize;
+    let p = buffers.into_iter().fold(
+        GpuProgram::new(names[k], sources[k], Cow::Borrowed(triangles)),
+        |p, b| p.buffer(b.what, b.bytes),
+    );
+    if precision == Precision::F64 {
+        p.in_f64()
+    } else {
+        p
+    }
+}
+
+/// The two sources of a grid kind: `alias real = f32;` or `f64;`, grid.wgsl, then `$walk`.
+macro_rules! sources {
+    ($walk:literal) => {
+        [
+            concat!(
+                "alias real = f32;\n",
+                include_str!("../shaders/grid.wgsl"),
+                include_str!($walk)
+            ),
+            concat!(
+                "alias real = f64;\n",
+                include_str!("../shaders/grid.wgsl"),
+                include_str!($walk)
+            ),
+        ]
+    };
 }
 
 impl UniformGrid {
@@ -65,16 +102,15 @@ impl UniformGrid {
             words(macros.iter().flatten().copied())
         };
         program(
-            "uniform-grid/dda",
-            concat!(
-                include_str!("../shaders/grid.wgsl"),
-                include_str!("../shaders/uniform.wgsl")
-            ),
+            ["uniform-grid/dda", "uniform-grid/dda-f64"],
+            sources!("../shaders/uniform.wgsl"),
+            self.precision,
             &self.tris,
             vec![
                 header(
                     "the uniform grid's lattice",
                     lat,
+                    self.precision,
                     (!macros.is_empty()) as u8 as f64,
                 ),
                 GpuBuffer {
@@ -99,14 +135,17 @@ impl TwoLevelGrid {
     /// leaf ranges, the references.
     pub(crate) fn gpu_dda(&self) -> GpuProgram<'_> {
         program(
-            "two-level-grid/dda",
-            concat!(
-                include_str!("../shaders/grid.wgsl"),
-                include_str!("../shaders/two_level.wgsl")
-            ),
+            ["two-level-grid/dda", "two-level-grid/dda-f64"],
+            sources!("../shaders/two_level.wgsl"),
+            self.precision,
             &self.tris,
             vec![
-                header("the two-level grid's top lattice", &self.top, 0.0),
+                header(
+                    "the two-level grid's top lattice",
+                    &self.top,
+                    self.precision,
+                    0.0,
+                ),
                 GpuBuffer {
                     what: "the two-level grid's top cells",
                     bytes: words(self.tops.iter().flat_map(|t| [t.first_leaf, t.res])),
@@ -129,16 +168,15 @@ impl IrregularGrid {
     /// the cells (lo, begin, hi, end), the references.
     pub(crate) fn gpu_walk(&self) -> GpuProgram<'_> {
         program(
-            "irregular-grid/walk",
-            concat!(
-                include_str!("../shaders/grid.wgsl"),
-                include_str!("../shaders/irregular.wgsl")
-            ),
+            ["irregular-grid/walk", "irregular-grid/walk-f64"],
+            sources!("../shaders/irregular.wgsl"),
+            self.precision,
             &self.tris,
             vec![
                 header(
                     "the irregular grid's base lattice",
                     &self.base,
+                    self.precision,
                     self.dmax as f64,
                 ),
                 GpuBuffer {

@@ -4,9 +4,9 @@
 
 use crate::common::{
     bin_uniform, bounded_res, enter, grid_bounds, is_subset, resolution, test_refs, union_into,
-    union_len, walk, Lattice, Visit, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
+    union_len, walk, Lattice, Real, Visit, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
 };
-use crate::params::{Initial, IrregularParams};
+use crate::params::{Initial, IrregularParams, Precision};
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
@@ -49,6 +49,9 @@ pub struct IrregularGrid {
     top: Lattice,
     /// The virtual base grid: the top level refined by 2^dmax.
     pub(crate) base: Lattice,
+    /// `base` in `f32`, the walk's lattice at [`Precision::F32`].
+    pub(crate) base32: Lattice<f32>,
+    pub(crate) precision: Precision,
     pub(crate) dmax: u32,
     /// Voxel map (§4.1): one word per top cell, `D << 28 | index` of its second level in this
     /// same array, then the second levels (`2^D` per axis each, x fastest): cell indices.
@@ -87,11 +90,12 @@ impl IrregularGrid {
             p.max_cells as u64,
         );
         // The reference bound on the top level first (its references are the cells' least).
-        let (res, top_scale) = bounded_res(&bounds, res, tris);
+        let precision = p.walk.precision;
+        let (res, top_scale) = bounded_res(&bounds, res, tris, precision);
         if top_scale < 1.0 {
             fig.push(("ref_budget_top_scale".into(), top_scale));
         }
-        let top = Lattice::new(&bounds, res);
+        let top = Lattice::new(&bounds, res, precision);
         let (tstart, trefs) = bin_uniform(&top, tris)?;
         let n_top = top.count();
         // Octree depth per top cell.
@@ -193,6 +197,8 @@ impl IrregularGrid {
         Ok(IrregularGrid {
             top,
             base,
+            base32: base.cast(),
+            precision,
             dmax,
             map,
             cells,
@@ -230,14 +236,28 @@ impl IrregularGrid {
 
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        let w = match enter::<T, C, ANY>(ray, &self.base, &self.tris, c) {
+        match self.precision {
+            Precision::F32 => self.walk_in::<T, C, ANY, f32>(&self.base32, ray, c),
+            Precision::F64 => self.walk_in::<T, C, ANY, f64>(&self.base, ray, c),
+        }
+    }
+
+    /// The §5 walk over `base`, the base lattice in the walk's arithmetic `F`.
+    #[inline(always)]
+    fn walk_in<T: TriTest, C: Counter, const ANY: bool, F: Real>(
+        &self,
+        base: &Lattice<F>,
+        ray: &Ray,
+        c: &mut C,
+    ) -> HitRecord {
+        let w = match enter::<T, C, ANY, F>(ray, base, &self.tris, c) {
             Ok(w) => w,
             Err(h) => return h,
         };
         let pre = T::prepare(ray);
         let mut hit = HitRecord::MISS;
         let mut best = ray.tmax;
-        walk(&w, &self.base, |v| {
+        walk(&w, base, |v| {
             c.cell();
             c.steps(1);
             let cell = &self.cells[self.lookup(v) as usize];
@@ -585,8 +605,7 @@ fn top_lattice(base: &Lattice, dmax: u32) -> Lattice {
         size: base.size.map(|s| s * (1u64 << dmax) as f64),
         inv_size: base.inv_size.map(|s| s / (1u64 << dmax) as f64),
         res: base.res.map(|r| r >> dmax),
-        delta: base.delta,
-        mag: base.mag,
+        ..*base
     }
 }
 

@@ -66,7 +66,9 @@ mod uniform;
 
 pub use common::{resolution, tri_box_overlap, Lattice};
 pub use irregular::{Cell, IrregularGrid};
-pub use params::{Densities, Initial, IrregularParams, TwoLevelParams, UniformParams, DENSITIES};
+pub use params::{
+    Densities, Initial, IrregularParams, Precision, TwoLevelParams, UniformParams, Walk, DENSITIES,
+};
 pub use two_level::{TopCell, TwoLevelGrid};
 pub use uniform::UniformGrid;
 

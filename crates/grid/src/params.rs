@@ -23,6 +23,30 @@ tb_core::params! {
     }
 }
 
+tb_core::choice! {
+    /// The arithmetic of the cell walks (the module doc of `tb_grid`'s walks: the reference
+    /// margin and the far-origin threshold follow it).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Precision {
+        /// positions and plane distances in `f32`, as the paper's walk (hagrid); the GPU
+        /// programs run on every adapter
+        F32 = "f32",
+        /// in `f64` (for comparison; the GPU programs need `SHADER_F64`)
+        F64 = "f64",
+    }
+}
+
+tb_core::params! {
+    /// How every grid walks its cells: one group, declared here once and composed by the
+    /// three grids.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct Walk {
+        /// arithmetic of the cell walk, `f32` (the paper's) or `f64`; the reference margin
+        /// and the far-origin threshold are sized for it, so both are exact against the oracle
+        precision: Precision = Precision::F32, ParamKind::Choice(Precision::NAMES);
+    }
+}
+
 /// The names of [`Densities`]' two entries, as the families offer them
 /// ([`tb_core::Family::with_densities`]).
 pub const DENSITIES: [&str; 2] = [Densities::SPECS[0].name, Densities::SPECS[1].name];
@@ -38,6 +62,8 @@ tb_core::params! {
         macro_regions: bool = false, ParamKind::Bool;
         /// largest number of cells (the resolution is scaled down to stay under it)
         max_cells: u32 = 1 << 26, ParamKind::Int { min: 1, max: 1 << 30 };
+        @flatten
+        walk: Walk = Walk::default();
     }
 }
 
@@ -49,6 +75,8 @@ tb_core::params! {
         densities: Densities = Densities::default();
         /// largest number of top-level cells
         max_cells: u32 = 1 << 24, ParamKind::Int { min: 1, max: 1 << 28 };
+        @flatten
+        walk: Walk = Walk::default();
     }
 }
 
@@ -84,5 +112,7 @@ tb_core::params! {
         c_i: f32 = 1.0, ParamKind::Float { min: 0.0, max: 1e6 };
         /// largest number of initial cells (octree depths are lowered to stay under it)
         max_cells: u32 = 1 << 25, ParamKind::Int { min: 1, max: 1 << 27 };
+        @flatten
+        walk: Walk = Walk::default();
     }
 }

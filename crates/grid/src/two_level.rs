@@ -4,9 +4,9 @@
 
 use crate::common::{
     bin_uniform, bounded_res, box_refs, enter, grid_bounds, resolution, scale_res, test_refs, walk,
-    within_budget, Lattice, Visit, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
+    within_budget, Lattice, Real, Visit, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
 };
-use crate::params::TwoLevelParams;
+use crate::params::{Precision, TwoLevelParams};
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
@@ -41,6 +41,9 @@ impl TopCell {
 /// `interior`: top cells visited; `leaves`: leaf cells visited; `prims`: triangle tests (N_I).
 pub struct TwoLevelGrid {
     pub(crate) top: Lattice,
+    /// `top` in `f32`, the walk's top lattice at [`Precision::F32`].
+    pub(crate) top32: Lattice<f32>,
+    pub(crate) precision: Precision,
     pub(crate) tops: Vec<TopCell>,
     /// `start[l]..start[l+1]` indexes `refs` for leaf cell `l`.
     pub(crate) start: Vec<u32>,
@@ -50,15 +53,14 @@ pub struct TwoLevelGrid {
 }
 
 /// The lattice of top cell `v` at resolution `res` (the same in build and traversal).
-fn sub_lattice(top: &Lattice, v: [u32; 3], res: [u32; 3]) -> Lattice {
-    let size: [f64; 3] = std::array::from_fn(|a| top.size[a] / res[a] as f64);
+fn sub_lattice<F: Real>(top: &Lattice<F>, v: [u32; 3], res: [u32; 3]) -> Lattice<F> {
+    let size: [F; 3] = std::array::from_fn(|a| top.size[a] / F::of_u32(res[a]));
     Lattice {
         min: std::array::from_fn(|a| top.plane(a, v[a])),
         size,
-        inv_size: size.map(|s| 1.0 / s),
+        inv_size: size.map(|s| F::ONE / s),
         res,
-        delta: top.delta,
-        mag: top.mag,
+        ..*top
     }
 }
 
@@ -76,8 +78,9 @@ impl TwoLevelGrid {
             p.max_cells as u64,
         );
         // The reference bound on the top level first (its references are the leaves' least).
-        let (res, top_scale) = bounded_res(&bounds, res, tris);
-        let top = Lattice::new(&bounds, res);
+        let precision = p.walk.precision;
+        let (res, top_scale) = bounded_res(&bounds, res, tris, precision);
+        let top = Lattice::new(&bounds, res, precision);
         let (tstart, trefs) = bin_uniform(&top, tris)?;
         let n_top = top.count();
         let t_top = t.elapsed().as_secs_f64() * 1e3;
@@ -171,6 +174,8 @@ impl TwoLevelGrid {
         }
         Ok(TwoLevelGrid {
             top,
+            top32: top.cast(),
+            precision,
             tops,
             start,
             refs,
@@ -186,7 +191,22 @@ impl TwoLevelGrid {
 
     #[inline(always)]
     fn dda<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        let w = match enter::<T, C, ANY>(ray, &self.top, &self.tris, c) {
+        match self.precision {
+            Precision::F32 => self.dda_in::<T, C, ANY, f32>(&self.top32, ray, c),
+            Precision::F64 => self.dda_in::<T, C, ANY, f64>(&self.top, ray, c),
+        }
+    }
+
+    /// The two levels' 3D-DDA over `top`, the top lattice in the walk's arithmetic `F` (each
+    /// top cell's lattice derived from it in `F`).
+    #[inline(always)]
+    fn dda_in<T: TriTest, C: Counter, const ANY: bool, F: Real>(
+        &self,
+        top: &Lattice<F>,
+        ray: &Ray,
+        c: &mut C,
+    ) -> HitRecord {
+        let w = match enter::<T, C, ANY, F>(ray, top, &self.tris, c) {
             Ok(w) => w,
             Err(h) => return h,
         };
@@ -194,11 +214,11 @@ impl TwoLevelGrid {
         let mut hit = HitRecord::MISS;
         let mut best = ray.tmax;
         let mut found = false;
-        walk(&w, &self.top, |v| {
+        walk(&w, top, |v| {
             c.cell();
             c.interior();
             c.steps(1);
-            let tc = self.tops[self.top.index(v)];
+            let tc = self.tops[top.index(v)];
             let r = tc.res();
             let own = (v, v.map(|x| x + 1));
             let first = tc.first_leaf as usize;
@@ -209,8 +229,8 @@ impl TwoLevelGrid {
                     best,
                 };
             }
-            let sub = sub_lattice(&self.top, v, r);
-            if let Some(ws) = w.clip_to(&sub) {
+            let sub = sub_lattice(top, v, r);
+            if let Some(ws) = w.clip_near(&sub) {
                 walk(&ws, &sub, |u| {
                     c.cell();
                     c.leaf();

@@ -3,10 +3,10 @@
 //! Pérard-Gayot et al. 2017.
 
 use crate::common::{
-    bin_uniform, bounded_res, enter, grid_bounds, resolution, test_refs, walk, Lattice, Visit,
-    MAX_AXIS_RES,
+    bin_uniform, bounded_res, enter, grid_bounds, resolution, test_refs, walk, Lattice, Real,
+    Visit, MAX_AXIS_RES,
 };
-use crate::params::UniformParams;
+use crate::params::{Precision, UniformParams};
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
@@ -22,6 +22,9 @@ use tb_core::{
 /// is tested in each, there is no mailbox); the others stay 0.
 pub struct UniformGrid {
     pub(crate) lat: Lattice,
+    /// `lat` in `f32`, the walk's lattice at [`Precision::F32`].
+    pub(crate) lat32: Lattice<f32>,
+    pub(crate) precision: Precision,
     /// `start[c]..start[c+1]` indexes `refs` for cell `c` (x fastest).
     pub(crate) start: Vec<u32>,
     /// Scene indices of the triangles, sorted by cell then index.
@@ -49,8 +52,9 @@ impl UniformGrid {
             p.max_cells as u64,
         );
         // The reference bound: lower the resolution while the boxes cover too many voxels.
-        let (res, budget_scale) = bounded_res(&bounds, res, tris);
-        let lat = Lattice::new(&bounds, res);
+        let precision = p.walk.precision;
+        let (res, budget_scale) = bounded_res(&bounds, res, tris, precision);
+        let lat = Lattice::new(&bounds, res, precision);
         let (start, refs) = bin_uniform(&lat, tris)?;
         let t_bin = t.elapsed().as_secs_f64() * 1e3;
         let t = Instant::now();
@@ -61,6 +65,8 @@ impl UniformGrid {
         };
         Ok(UniformGrid {
             lat,
+            lat32: lat.cast(),
+            precision,
             start,
             refs,
             macros,
@@ -77,17 +83,31 @@ impl UniformGrid {
 
     #[inline(always)]
     fn dda<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        let w = match enter::<T, C, ANY>(ray, &self.lat, &self.tris, c) {
+        match self.precision {
+            Precision::F32 => self.dda_in::<T, C, ANY, f32>(&self.lat32, ray, c),
+            Precision::F64 => self.dda_in::<T, C, ANY, f64>(&self.lat, ray, c),
+        }
+    }
+
+    /// 3D-DDA over `lat`, the lattice in the walk's arithmetic `F`.
+    #[inline(always)]
+    fn dda_in<T: TriTest, C: Counter, const ANY: bool, F: Real>(
+        &self,
+        lat: &Lattice<F>,
+        ray: &Ray,
+        c: &mut C,
+    ) -> HitRecord {
+        let w = match enter::<T, C, ANY, F>(ray, lat, &self.tris, c) {
             Ok(w) => w,
             Err(h) => return h,
         };
         let pre = T::prepare(ray);
         let mut hit = HitRecord::MISS;
         let mut best = ray.tmax;
-        walk(&w, &self.lat, |v| {
+        walk(&w, lat, |v| {
             c.cell();
             c.steps(1);
-            let i = self.lat.index(v);
+            let i = lat.index(v);
             let r = self.start[i] as usize..self.start[i + 1] as usize;
             if test_refs::<T, C, ANY>(
                 &pre,

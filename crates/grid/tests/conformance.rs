@@ -8,8 +8,8 @@ use tb_core::{
     Query, Ray, TraversalInfo, TraversalStats, TriTestKind, Triangle, Vec3,
 };
 use tb_grid::{
-    Densities, Initial, IrregularGrid, IrregularParams, Lattice, TwoLevelGrid, TwoLevelParams,
-    UniformGrid, UniformParams,
+    Densities, Initial, IrregularGrid, IrregularParams, Lattice, Precision, TwoLevelGrid,
+    TwoLevelParams, UniformGrid, UniformParams, Walk,
 };
 
 /// Every configuration under test, by label.
@@ -71,6 +71,40 @@ fn configs() -> Vec<(String, Config)> {
         ..Default::default()
     };
     out.push(("irregular-dense".to_string(), Config::Irregular(p)));
+    // The f64 walks (kept for comparison; f32 is the default), one of each kind.
+    let f64_walk = Walk {
+        precision: Precision::F64,
+    };
+    let f64s: Vec<_> = out
+        .iter()
+        .filter(|(l, _)| {
+            [
+                "uniform+macro",
+                "two-level-dense",
+                "irregular-two-level-m1-e3",
+            ]
+            .contains(&l.as_str())
+        })
+        .map(|(l, c)| {
+            let c = match *c {
+                Config::Uniform(p) => Config::Uniform(UniformParams {
+                    walk: f64_walk,
+                    ..p
+                }),
+                Config::TwoLevel(p) => Config::TwoLevel(TwoLevelParams {
+                    walk: f64_walk,
+                    ..p
+                }),
+                Config::Irregular(p) => Config::Irregular(IrregularParams {
+                    walk: f64_walk,
+                    ..p
+                }),
+            };
+            (format!("{l}-f64"), c)
+        })
+        .collect();
+    assert_eq!(f64s.len(), 3);
+    out.extend(f64s);
     out
 }
 

@@ -17,8 +17,8 @@
 //! f64; a ray grazing an edge may then hit or miss a triangle the CPU missed or hit. Those
 //! rays are counted and printed, and may be at most [`DIFF_SHARE`] of a batch, with no more
 //! oracle mismatches than the CPU's own plus that share. Programs that compute in f64
-//! ([`tb_core::GpuProgram::needs_f64`], the grids') are refused on such an adapter and
-//! printed as not checked.
+//! ([`tb_core::GpuProgram::needs_f64`], the grids' with `precision = "f64"`; the default
+//! grid walks are f32) are refused on such an adapter and printed as not checked.
 
 use std::collections::BTreeSet;
 use std::path::PathBuf;
