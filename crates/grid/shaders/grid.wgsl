@@ -99,7 +99,7 @@ fn index(l: Lat, v: vec3<u32>) -> u32 {
 // Lattice::voxel: voxel along `a` of coordinate `p`, clamped to the lattice (a NaN gives 0,
 // as Rust's `f as u32` then `min`).
 fn voxel(l: Lat, a: u32, p: real) -> u32 {
-    let f = floor((p - l.lo[a]) * l.inv[a]);
+    let f = (p - l.lo[a]) * l.inv[a];
     if f >= real(0.0) {
         let top = l.res[a] - 1u;
         if f >= real(top) {

@@ -61,7 +61,6 @@ pub trait Real:
     /// `x`, exactly (the ray's components).
     fn of32(x: f32) -> Self;
     fn of_u32(i: u32) -> Self;
-    fn floor(self) -> Self;
     /// `self as u32` (saturating; NaN gives 0).
     fn to_u32(self) -> u32;
     fn max(self, o: Self) -> Self;
@@ -86,10 +85,6 @@ macro_rules! real {
             #[inline(always)]
             fn of_u32(i: u32) -> Self {
                 i as $t
-            }
-            #[inline(always)]
-            fn floor(self) -> Self {
-                <$t>::floor(self)
             }
             #[inline(always)]
             fn to_u32(self) -> u32 {
@@ -367,10 +362,13 @@ impl<F: Real> Lattice<F> {
             + self.res[0] as usize * (v[1] as usize + self.res[1] as usize * v[2] as usize)
     }
 
-    /// Voxel index along `a` of coordinate `p`, clamped to the lattice.
+    /// Voxel index along `a` of coordinate `p`, clamped to the lattice: `⌊(p − min)/size⌋`,
+    /// where the truncation of `as u32` is the floor (it is reached only for `f ≥ 0`; below,
+    /// and for NaN, voxel 0). No `floor` call: without SSE4.1 (the portable x86-64 target)
+    /// it is a libm function, 11 % of the irregular grid's walk instructions (callgrind).
     #[inline(always)]
     pub fn voxel(&self, a: usize, p: F) -> u32 {
-        let f = ((p - self.min[a]) * self.inv_size[a]).floor();
+        let f = (p - self.min[a]) * self.inv_size[a];
         if f >= F::ZERO {
             f.to_u32().min(self.res[a] - 1)
         } else {
