@@ -44,6 +44,7 @@ impl SparseBoxes {
             depth.push(d as u8);
         });
         SparseBoxes {
+            rank: traverse::AugRank::new(&aug, kd.nodes().len()).into(),
             kd,
             params: *p,
             aug: aug.into(),

@@ -96,6 +96,8 @@ pub struct SparseBoxes {
     kd: KdTree,
     params: SparseParams,
     aug: Arc<[AugNode]>,
+    /// The record of an augmented node by rank ([`traverse::AugRank`]).
+    rank: Arc<traverse::AugRank>,
     depth: Arc<[u8]>,
 }
 
@@ -119,6 +121,7 @@ impl SparseBoxes {
     #[doc(hidden)]
     pub fn with_records(&self, aug: Vec<AugNode>) -> SparseBoxes {
         SparseBoxes {
+            rank: traverse::AugRank::new(&aug, self.kd.nodes().len()).into(),
             aug: aug.into(),
             ..self.clone()
         }
@@ -165,10 +168,10 @@ impl SparseBoxes {
             .collect()
     }
 
-    /// Bytes of the augmented records and their depths (what BTR and SLTR read beyond the
-    /// kd-tree).
+    /// Bytes of the augmented records, their depths and their rank (what BTR and SLTR read
+    /// beyond the kd-tree).
     fn boxes_bytes(&self) -> u64 {
-        (std::mem::size_of_val(&*self.aug) + self.depth.len()) as u64
+        (std::mem::size_of_val(&*self.aug) + self.depth.len()) as u64 + self.rank.bytes()
     }
 
     fn check_invariants(&self) -> Result<(), String> {
