@@ -16,7 +16,7 @@ struct Aug { bmin: vec3<f32>, parent: u32, bmax: vec3<f32>, node: u32 }
 @group(0) @binding(5) var<storage, read> nodes: array<KdNode>;   // buffers[0]
 @group(0) @binding(6) var<storage, read> refs: array<u32>;       // buffers[1]: triangle indices
 @group(0) @binding(7) var<storage, read> aug: array<Aug>;        // buffers[2]: record 0 = root
-@group(0) @binding(8) var<storage, read> depths: array<u32>;     // buffers[3]: per record, then the step cap
+@group(0) @binding(8) var<storage, read> depths: array<u32>;     // buffers[3]: per record, then the step cap, then the rank
 
 // Start at the start node (the deepest augmented node strictly holding the origin).
 override START: bool = false;
@@ -50,22 +50,27 @@ fn is_leaf(n: KdNode) -> bool {
     return (n.bits & 3u) == 3u;
 }
 
-// traverse.rs `find_aug`: the record of `node` (records in node order), 0 if none.
+// traverse.rs `AugRank::find`: the record of `node` (records in node order: the number of
+// augmented nodes before it), 0 if none. The rank follows the step cap in `depths`: per 64
+// nodes, the bits' low and high words and the count of the blocks before.
 fn find_aug(node: u32) -> u32 {
-    var lo = 0u;
-    var hi = meta_.counts.z;
-    while lo < hi {
-        let mid = (lo + hi) / 2u;
-        let m = aug[mid].node;
-        if m < node {
-            lo = mid + 1u;
-        } else if m > node {
-            hi = mid;
-        } else {
-            return mid;
-        }
+    let k = meta_.counts.z + 1u + 3u * (node / 64u);
+    let b = node % 64u;
+    let lo = depths[k];
+    let hi = depths[k + 1u];
+    var n = depths[k + 2u];
+    var bit = 0u;
+    if b < 32u {
+        bit = (lo >> b) & 1u;
+        n += countOneBits(lo & ((1u << b) - 1u));
+    } else {
+        bit = (hi >> (b - 32u)) & 1u;
+        n += countOneBits(lo) + countOneBits(hi & ((1u << (b - 32u)) - 1u));
     }
-    return 0u;
+    if bit == 0u {
+        return 0u;
+    }
+    return n;
 }
 
 // traverse.rs `locate`, then `Ctx::start`: the start record of `r`.

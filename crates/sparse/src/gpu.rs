@@ -13,8 +13,9 @@ impl SparseBoxes {
     /// The GPU program of SLTR (`crates/sparse/shaders/sltr.wgsl`): from the start node
     /// located per ray in the kernel (`start`, program `sparse-boxes/sltr`) or from the root
     /// (`sparse-boxes/sltr-root`). Buffers: the kd-tree's nodes and references, the augmented
-    /// records, their depths followed by the step cap; meta: node count, record count,
-    /// `d_min + 1`.
+    /// records, their depths followed by the step cap and the records' rank
+    /// ([`crate::traverse::AugRank`], three words per 64 nodes: the bits' low and high words,
+    /// the count before); meta: node count, record count, `d_min + 1`.
     pub(crate) fn gpu_sltr(&self, start: bool) -> GpuProgram<'_> {
         let v = self.kd.view();
         GpuProgram::new(
@@ -50,12 +51,13 @@ impl SparseBoxes {
             })),
         )
         .buffer(
-            "the augmented nodes' depths and the step cap",
+            "the augmented nodes' depths, the step cap and the rank",
             bytes(
                 self.depth
                     .iter()
                     .map(|&d| d as u32)
-                    .chain([self.params.step_cap]),
+                    .chain([self.params.step_cap])
+                    .chain(self.rank.words()),
             ),
         )
         .meta([

@@ -114,6 +114,14 @@ impl AugRank {
             .then(|| (self.base[w] + (word & ((1u64 << b) - 1)).count_ones()) as usize)
     }
 
+    /// The GPU's words: per 64 nodes the bits' low and high words and the count before.
+    pub(crate) fn words(&self) -> impl Iterator<Item = u32> + '_ {
+        self.bits
+            .iter()
+            .zip(self.base.iter())
+            .flat_map(|(&w, &n)| [w as u32, (w >> 32) as u32, n])
+    }
+
     /// Bytes it occupies.
     pub(crate) fn bytes(&self) -> u64 {
         (self.bits.len() * 8 + self.base.len() * 4) as u64
