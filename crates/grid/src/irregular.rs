@@ -34,8 +34,9 @@ impl Cell {
 
 /// Largest depth the voxel map's 4 bits hold (§4.1: 2^15 = 32768 per axis).
 const MAX_DEPTH: u32 = 15;
-/// Largest resolution of the virtual base grid per axis (voxel indices stay exact in `f64`
-/// arithmetic and within `u32` with room).
+/// Largest resolution of the virtual base grid per axis (voxel indices stay exact in `f32`
+/// and `f64` arithmetic, below 2^24, and within `u32` with room; where a base voxel is
+/// smaller than the f32 walk's rounding, the margin, sized in world units, still holds).
 const MAX_BASE_RES: u32 = 1 << 22;
 const NONE: u32 = u32::MAX;
 

@@ -35,8 +35,9 @@
 //! against the ray (the paper's `max`/`min` with the previous position, §5). So one
 //! coordinate strictly advances and none retreats: a ray crosses at most
 //! `res_x + res_y + res_z` cells and no step cap is needed. Plane distances and exit points are
-//! computed in `f64` from the `f32` ray, so a crossing is placed within about `1e-16` of the
-//! ray's length, and a misplaced corner or edge crossing lands in a cell whose grown box
+//! computed in the grid's `precision` (`f32`, the paper's, or `f64`) from the `f32` ray, so a
+//! crossing is placed within a few roundings of the coordinates (module `common` sizes the
+//! margin for each), and a misplaced corner or edge crossing lands in a cell whose grown box
 //! (references are assigned with the `delta` margin) still holds every triangle of the cell
 //! passed by; the walk stops only when the closest hit lies before the current cell's exit.
 //! Rays whose origin is so far from the grid that the `f32` triangle test's own rounding can
@@ -47,9 +48,11 @@
 //! # GPU (module `gpu`)
 //!
 //! Each traversal has a WGSL kernel of its own (`shaders/`): `uniform-grid/dda`,
-//! `two-level-grid/dda` and `irregular-grid/walk`, the CPU walks step for step in `f64`, so
-//! hits and counters equal the CPU's ray for ray (on adapters with `SHADER_F64`; refused
-//! elsewhere). Construction stays on the CPU.
+//! `two-level-grid/dda` and `irregular-grid/walk`, the CPU walks step for step in the same
+//! precision: in `f32` on every adapter (a driver contracting into FMAs may move a crossing by
+//! an ulp, which the margin covers), in `f64` as `…-f64` programs on adapters with
+//! `SHADER_F64` (refused elsewhere), hits and counters equal to the CPU's ray for ray.
+//! Construction stays on the CPU.
 //!
 //! # Not done yet (issue 16)
 //!
