@@ -134,7 +134,7 @@ impl SparseBoxes {
 
     /// The record of kd-tree node `node`, if it is augmented.
     pub fn aug_of(&self, node: usize) -> Option<usize> {
-        traverse::find_aug(&self.aug, node as u32)
+        self.rank.find(node as u32)
     }
 
     /// The start node of a ray (§3) as a record index: the deepest augmented node whose cell
@@ -143,7 +143,7 @@ impl SparseBoxes {
     /// finite). Strictness makes the ray leave the start cell only after its origin, so every
     /// other cell it meets lies beyond the start cell's exit (module `traverse`).
     pub fn start_node(&self, origin: Vec3) -> u32 {
-        traverse::locate(&self.kd.view(), &self.aug, self.params.period(), origin)
+        traverse::locate(&self.kd.view(), &self.rank, self.params.period(), origin)
     }
 
     /// [`Self::start_node`] for every ray (hint 0 for rays with `tmin != 0`: their segment

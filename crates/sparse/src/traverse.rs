@@ -66,16 +66,12 @@ pub(crate) const SLTR: u8 = 1;
 /// "Not looked up yet" for a record index.
 const NONE: u32 = u32::MAX;
 
-/// The record of node `node` (records are in node order).
-pub(crate) fn find_aug(aug: &[AugNode], node: u32) -> Option<usize> {
-    aug.binary_search_by_key(&node, |a| a.node).ok()
-}
-
-/// The record of an augmented node in constant time, for SLTR's climb from the last
-/// augmented node it passed: records are in node order, so a node's record is the number of
-/// augmented nodes before it, a rank over one bit per kd-tree node with a count per 64 nodes
-/// (0.19 bytes per node). The binary search it replaces ([`find_aug`]) missed the cache at
-/// every level, a fifth of SLTR's time (perf, Sponza primary rays).
+/// The record of an augmented node in constant time (SLTR's climb from the last augmented
+/// node it passed, the start node's point location, [`SparseBoxes::aug_of`]): records are
+/// in node order, so a node's record is the number of augmented nodes before it, a rank over
+/// one bit per kd-tree node with a count per 64 nodes (0.19 bytes per node). The binary
+/// search over the records it replaces missed the cache at every level, a fifth of SLTR's
+/// time (perf, Sponza primary rays).
 #[derive(Debug)]
 pub(crate) struct AugRank {
     bits: Box<[u64]>,
@@ -130,11 +126,10 @@ impl AugRank {
 
 /// Point location of `o` (see [`SparseBoxes::start_node`]): down from the root while `o` is
 /// strictly on one side of the split, remembering the last augmented node.
-pub(crate) fn locate(v: &KdView, aug: &[AugNode], period: u32, o: Vec3) -> u32 {
+pub(crate) fn locate(v: &KdView, rank: &AugRank, period: u32, o: Vec3) -> u32 {
     let nodes = v.nodes();
     let b = v.bounds();
-    if nodes.is_empty() || aug.is_empty() || (0..3).any(|a| !(o[a] >= b.min[a] && o[a] <= b.max[a]))
-    {
+    if nodes.is_empty() || (0..3).any(|a| !(o[a] >= b.min[a] && o[a] <= b.max[a])) {
         return 0;
     }
     let (mut idx, mut d, mut last) = (0usize, 0u32, 0usize);
@@ -156,7 +151,7 @@ pub(crate) fn locate(v: &KdView, aug: &[AugNode], period: u32, o: Vec3) -> u32 {
         }
         d += 1;
     }
-    find_aug(aug, last as u32).unwrap_or(0) as u32
+    rank.find(last as u32).unwrap_or(0) as u32
 }
 
 /// What a kernel reads.
