@@ -475,19 +475,23 @@ pub fn bin_uniform(lat: &Lattice, tris: &[Triangle]) -> Result<(Vec<u32>, Vec<u3
         })
         .collect();
     pairs.par_sort_unstable();
-    Ok(flatten(pairs, n_cells))
+    Ok(flatten(vec![pairs], n_cells))
 }
 
-/// `(cell << 32 | triangle)` keys, sorted, to the flat `start` / `refs` layout.
-pub fn flatten(pairs: Vec<u64>, n_cells: usize) -> (Vec<u32>, Vec<u32>) {
+/// `(cell << 32 | triangle)` keys, sorted (runs of them, each sorted and after the one
+/// before), to the flat `start` / `refs` layout; each run is freed once read.
+pub fn flatten(runs: Vec<Vec<u64>>, n_cells: usize) -> (Vec<u32>, Vec<u32>) {
     let mut start = vec![0u32; n_cells + 1];
-    for &p in &pairs {
-        start[(p >> 32) as usize + 1] += 1;
+    let mut refs = Vec::with_capacity(runs.iter().map(Vec::len).sum());
+    for run in runs {
+        for p in run {
+            start[(p >> 32) as usize + 1] += 1;
+            refs.push(p as u32);
+        }
     }
     for c in 0..n_cells {
         start[c + 1] += start[c];
     }
-    let refs = pairs.into_iter().map(|p| p as u32).collect();
     (start, refs)
 }
 

@@ -39,6 +39,9 @@ const MAX_DEPTH: u32 = 15;
 /// smaller than the f32 walk's rounding, the margin, sized in world units, still holds).
 const MAX_BASE_RES: u32 = 1 << 22;
 const NONE: u32 = u32::MAX;
+/// A merge pass's mark of a cell absorbed by the cell in its low bits (cell counts stay
+/// below 2^28).
+const ABSORBED: u32 = 1 << 31;
 
 /// An irregular grid: cells aligned on a virtual base grid, the two-level voxel map from base
 /// voxels to cells, and the flat references (Pérard-Gayot et al. 2017 §3, Figure 1).
@@ -164,7 +167,7 @@ impl IrregularGrid {
             loop {
                 let before = w.cells.len();
                 for a in 0..3 {
-                    w = merge_pass(&base, dmax, w, a, p);
+                    merge_pass(&base, dmax, &mut w, a, p);
                     passes += 1;
                 }
                 let after = w.cells.len();
@@ -173,6 +176,8 @@ impl IrregularGrid {
                 }
             }
         }
+        // The merge passes compact the cells in place; give back the initial capacity.
+        w.cells.shrink_to_fit();
         fig.push(("build_merge_ms".into(), ms(t)));
         fig.push(("merge_passes".into(), passes as f64));
         fig.push(("cells_merged".into(), w.cells.len() as f64));
@@ -298,13 +303,26 @@ fn lookup(map: &[u32], top: &Lattice, dmax: u32, v: [u32; 3]) -> u32 {
     map[first + (s[0] | s[1] << d | s[2] << (2 * d))]
 }
 
+/// One leaf of a top cell's octree (§4.1): its lower corner in the top cell's finest voxels
+/// (`2^D` per axis), its level (0: the top cell itself; `D`: the finest) and how many
+/// references it holds (its own, in order, in the top cell's reference list).
+#[derive(Clone, Copy)]
+struct Leaf {
+    lo: [u16; 3],
+    level: u8,
+    n: u32,
+}
+
 /// §4.1: the cells of the two-level subdivision. Each top cell of depth `D` is split as an
-/// octree, one level per pass, each reference tested (separating axes) against the 8 children
-/// of its octree cell and kept in those it overlaps, down to depth `D`; every leaf of depth `D`
-/// becomes a cell (empty ones included), so top cell `t` owns `8^D` cells and its voxel-map
-/// entry is `D << 28 | first`. The references of each cell stay sorted by triangle. The
-/// paper runs each pass over all references at once on the GPU; here each top cell is one
-/// rayon task (the same references and cells).
+/// octree, one level per pass: each reference of a node is tested (separating axes) against
+/// the node's 8 children and emitted to those it overlaps, down to depth `D`. As in the
+/// paper (a reference is split, a node without references is not) and in its authors' code
+/// (hagrid), the octree is adaptive: a child that receives no reference is an empty leaf at
+/// its level, and only the nodes with references are split on. Every leaf becomes a cell;
+/// the voxel map's entries (`8^D` per top cell, word `D << 28 | first`) name the leaf that
+/// covers them. The references of each cell stay sorted by triangle. The paper runs each
+/// pass over all references at once on the GPU; here each top cell is one rayon task (the
+/// same references and cells).
 fn initial(
     top: &Lattice,
     base: &Lattice,
@@ -319,92 +337,194 @@ fn initial(
     for t in 0..n_top {
         off[t + 1] = off[t] + (1usize << (3 * depth[t]));
     }
-    let per_top: Vec<(Vec<u32>, Vec<u32>)> = (0..n_top)
+    // One rayon task per run of top cells (a grid of many small top cells, as the uniform
+    // initial grid, would otherwise hold a vector per top cell): their leaves, references, and
+    // leaf count per top cell.
+    const TOPS: usize = 256;
+    let per_run: Vec<(Vec<Leaf>, Vec<u32>, Vec<u32>)> = (0..n_top.div_ceil(TOPS))
         .into_par_iter()
-        .map(|t| {
-            let d = depth[t];
-            let tv = top.voxel_of(t);
-            let tri_ids = &trefs[tstart[t] as usize..tstart[t + 1] as usize];
-            let side = 1u32 << d;
-            let n_sub = 1usize << (3 * d);
-            if d == 0 {
-                return (vec![0, tri_ids.len() as u32], tri_ids.to_vec());
+        .map(|run| {
+            let (mut leaves, mut refs, mut counts) = (Vec::new(), Vec::new(), Vec::new());
+            for t in run * TOPS..n_top.min((run + 1) * TOPS) {
+                let tri_ids = &trefs[tstart[t] as usize..tstart[t + 1] as usize];
+                let before = leaves.len();
+                octree(
+                    top.voxel_of(t),
+                    depth[t],
+                    base,
+                    dmax,
+                    tri_ids,
+                    tris,
+                    &mut leaves,
+                    &mut refs,
+                );
+                counts.push((leaves.len() - before) as u32);
             }
-            // (octree cell at the current level, triangle).
-            let mut cur: Vec<([u32; 3], u32)> = tri_ids.iter().map(|&i| ([0; 3], i)).collect();
-            for k in 0..d {
-                let size = 1u32 << (dmax - k - 1);
-                let mut next = Vec::with_capacity(cur.len() * 2);
-                for &(s, i) in &cur {
-                    let tri = &tris[i as usize];
-                    let b = tri.bounds();
-                    // Which halves the grown bounds reach on each axis: a triangle in one
-                    // child only needs no test (it overlaps the parent); the others get the
-                    // separating-axis test.
-                    let mut halves = [[false; 2]; 3];
-                    for a in 0..3 {
-                        let mid = base.plane(a, (tv[a] << dmax) + (2 * s[a] + 1) * size);
-                        halves[a] = [
-                            b.min[a] as f64 - base.delta[a] <= mid,
-                            b.max[a] as f64 + base.delta[a] >= mid,
-                        ];
-                    }
-                    let single = halves.iter().all(|h| !(h[0] && h[1]));
-                    for ch in 0..8u32 {
-                        let bit = [ch & 1, ch >> 1 & 1, ch >> 2];
-                        if (0..3).any(|a| !halves[a][bit[a] as usize]) {
-                            continue;
-                        }
-                        let c: [u32; 3] = std::array::from_fn(|a| s[a] * 2 + bit[a]);
-                        let lo: [u32; 3] = std::array::from_fn(|a| (tv[a] << dmax) + c[a] * size);
-                        if single || base.overlaps(tri, lo, lo.map(|x| x + size)) {
-                            next.push((c, i));
-                        }
-                    }
-                }
-                cur = next;
-            }
-            let mut keys: Vec<u64> = cur
-                .into_iter()
-                .map(|(s, i)| {
-                    let local =
-                        s[0] as u64 + side as u64 * (s[1] as u64 + side as u64 * s[2] as u64);
-                    local << 32 | i as u64
-                })
-                .collect();
-            keys.sort_unstable();
-            crate::common::flatten(keys, n_sub)
+            leaves.shrink_to_fit();
+            refs.shrink_to_fit();
+            (leaves, refs, counts)
         })
         .collect();
-    let mut cells = Vec::with_capacity(off[n_top]);
-    let mut refs = Vec::new();
-    let mut map = vec![0u32; n_top + off[n_top]];
-    for (t, (start, r)) in per_top.into_iter().enumerate() {
-        let d = depth[t];
-        let tv = top.voxel_of(t);
-        let side = 1u32 << d;
-        let size = 1u32 << (dmax - d);
-        map[t] = d << 28 | (n_top + off[t]) as u32;
-        let base_ref = refs.len() as u32;
-        for local in 0..(1usize << (3 * d)) {
-            let l = local as u32;
-            let s = [l % side, (l / side) % side, l / (side * side)];
-            let lo: [u32; 3] = std::array::from_fn(|a| (tv[a] << dmax) + s[a] * size);
-            map[n_top + off[t] + local] = cells.len() as u32;
-            cells.push(Cell {
-                lo,
-                begin: base_ref + start[local],
-                hi: lo.map(|x| x + size),
-                end: base_ref + start[local + 1],
-            });
+    let n_cells: usize = per_run.iter().map(|(l, _, _)| l.len()).sum();
+    let n_refs: usize = per_run.iter().map(|(_, r, _)| r.len()).sum();
+    let mut cells = Vec::with_capacity(n_cells);
+    let mut refs = Vec::with_capacity(n_refs);
+    let mut first_cell = Vec::with_capacity(n_top + 1);
+    let mut t = 0;
+    for (leaves, r, counts) in per_run {
+        let mut leaves = leaves.into_iter();
+        let mut begin = refs.len() as u32;
+        for count in counts {
+            first_cell.push(cells.len() as u32);
+            let d = depth[t];
+            let unit = 1u32 << (dmax - d);
+            let origin = top.voxel_of(t).map(|x| x << dmax);
+            for l in leaves.by_ref().take(count as usize) {
+                let size = unit << (d - l.level as u32);
+                let lo: [u32; 3] = std::array::from_fn(|a| origin[a] + l.lo[a] as u32 * unit);
+                cells.push(Cell {
+                    lo,
+                    begin,
+                    hi: lo.map(|x| x + size),
+                    end: begin + l.n,
+                });
+                begin += l.n;
+            }
+            t += 1;
         }
         refs.extend_from_slice(&r);
     }
+    first_cell.push(cells.len() as u32);
+    // The voxel map: each top cell's word, then its second level filled from its leaves
+    // (one rayon task per top cell, each writing its own slice).
+    let mut map = vec![0u32; n_top + off[n_top]];
+    let (words, second) = map.split_at_mut(n_top);
+    for (t, w) in words.iter_mut().enumerate() {
+        *w = depth[t] << 28 | (n_top + off[t]) as u32;
+    }
+    let mut slices: Vec<&mut [u32]> = Vec::with_capacity(n_top);
+    let mut rest = second;
+    for t in 0..n_top {
+        let (a, b) = rest.split_at_mut(off[t + 1] - off[t]);
+        slices.push(a);
+        rest = b;
+    }
+    slices.into_par_iter().enumerate().for_each(|(t, out)| {
+        let d = depth[t];
+        let side = 1usize << d;
+        let unit = 1u32 << (dmax - d);
+        let origin = top.voxel_of(t).map(|x| x << dmax);
+        for ci in first_cell[t]..first_cell[t + 1] {
+            let c = &cells[ci as usize];
+            let lo =
+                std::array::from_fn::<usize, 3, _>(|a| ((c.lo[a] - origin[a]) / unit) as usize);
+            let hi =
+                std::array::from_fn::<usize, 3, _>(|a| ((c.hi[a] - origin[a]) / unit) as usize);
+            for z in lo[2]..hi[2] {
+                for y in lo[1]..hi[1] {
+                    let row = side * (y + side * z);
+                    out[row + lo[0]..row + hi[0]].fill(ci);
+                }
+            }
+        }
+    });
     Work {
         cells,
         refs,
         map,
         n_top,
+    }
+}
+
+/// The adaptive octree of one top cell (voxel `tv` of the top level) of depth `d` over its
+/// triangles `tri_ids` (sorted): its leaves and their references appended to `leaves` and
+/// `refs`, each leaf's references sorted by triangle.
+#[allow(clippy::too_many_arguments)]
+fn octree(
+    tv: [u32; 3],
+    d: u32,
+    base: &Lattice,
+    dmax: u32,
+    tri_ids: &[u32],
+    tris: &[Triangle],
+    leaves: &mut Vec<Leaf>,
+    refs: &mut Vec<u32>,
+) {
+    if d == 0 || tri_ids.is_empty() {
+        leaves.push(Leaf {
+            lo: [0; 3],
+            level: 0,
+            n: tri_ids.len() as u32,
+        });
+        refs.extend_from_slice(tri_ids);
+        return;
+    }
+    // (node at the current level, in units of that level; triangle), grouped by node, each
+    // group's triangles in increasing order.
+    let mut cur: Vec<([u16; 3], u32)> = tri_ids.iter().map(|&i| ([0; 3], i)).collect();
+    let mut masks: Vec<u8> = Vec::new();
+    for k in 0..d {
+        let size = 1u32 << (dmax - k - 1);
+        let mut next = Vec::with_capacity(cur.len() * 2);
+        for group in cur.chunk_by(|a, b| a.0 == b.0) {
+            let s = group[0].0.map(u32::from);
+            masks.clear();
+            for &(_, i) in group {
+                let tri = &tris[i as usize];
+                let b = tri.bounds();
+                // Which halves the grown bounds reach on each axis: a triangle in one child
+                // only needs no test (it overlaps the parent); the others get the
+                // separating-axis test.
+                let mut halves = [[false; 2]; 3];
+                for a in 0..3 {
+                    let mid = base.plane(a, (tv[a] << dmax) + (2 * s[a] + 1) * size);
+                    halves[a] = [
+                        b.min[a] as f64 - base.delta[a] <= mid,
+                        b.max[a] as f64 + base.delta[a] >= mid,
+                    ];
+                }
+                let single = halves.iter().all(|h| !(h[0] && h[1]));
+                let mut m = 0u8;
+                for ch in 0..8u32 {
+                    let bit = [ch & 1, ch >> 1 & 1, ch >> 2];
+                    if (0..3).any(|a| !halves[a][bit[a] as usize]) {
+                        continue;
+                    }
+                    let lo: [u32; 3] =
+                        std::array::from_fn(|a| (tv[a] << dmax) + (s[a] * 2 + bit[a]) * size);
+                    if single || base.overlaps(tri, lo, lo.map(|x| x + size)) {
+                        m |= 1 << ch;
+                    }
+                }
+                masks.push(m);
+            }
+            for ch in 0..8u32 {
+                let c: [u16; 3] = std::array::from_fn(|a| (s[a] * 2 + (ch >> a & 1)) as u16);
+                let before = next.len();
+                for (&(_, i), &m) in group.iter().zip(&masks) {
+                    if m >> ch & 1 != 0 {
+                        next.push((c, i));
+                    }
+                }
+                if next.len() == before {
+                    // An empty child: a leaf at level k + 1.
+                    leaves.push(Leaf {
+                        lo: c.map(|x| x << (d - k - 1)),
+                        level: (k + 1) as u8,
+                        n: 0,
+                    });
+                }
+            }
+        }
+        cur = next;
+    }
+    for group in cur.chunk_by(|a, b| a.0 == b.0) {
+        leaves.push(Leaf {
+            lo: group[0].0,
+            level: d as u8,
+            n: group.len() as u32,
+        });
+        refs.extend(group.iter().map(|&(_, i)| i));
     }
 }
 
@@ -447,56 +567,57 @@ fn cost(base: &Lattice, n: usize, lo: [u32; 3], hi: [u32; 3], p: &IrregularParam
     (p.c_i as f64 * n as f64 + p.c_t as f64) * 2.0 * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0])
 }
 
-/// One merge pass along `axis` (§4.2): (1) every cell whose neighbour across its upper face
-/// has the same extent on the other two axes, and whose merge lowers the SAH cost, becomes a
-/// merge candidate; (2) along each merge chain, candidates at even positions merge with their
-/// successor, those at odd positions are residue (pairwise merges only); (3) merged cells
-/// replace their pairs (references united, sorted), the others stay; (4) the voxel map's
-/// entries of removed cells point to their new cells. Returns the new state.
-fn merge_pass(base: &Lattice, dmax: u32, w: Work, axis: usize, p: &IrregularParams) -> Work {
-    let Work {
-        cells,
-        refs,
-        mut map,
-        n_top,
-    } = w;
-    let n = cells.len();
+/// One merge pass along `axis` (§4.2), in place: (1) every cell whose neighbour across its
+/// upper face has the same extent on the other two axes, and whose merge lowers the SAH
+/// cost, becomes a merge candidate; (2) along each merge chain, candidates at even positions
+/// merge with their successor, those at odd positions are residue (pairwise merges only);
+/// (3) merged cells replace their pairs (references united, sorted), the others stay, in
+/// order; (4) the voxel map's entries point to the new cells. The scratch is one word per
+/// cell and per kept cell (the paper's merge is not in place, §6.1; the cells here are
+/// compacted in place so that the build's peak stays near the final size).
+fn merge_pass(base: &Lattice, dmax: u32, w: &mut Work, axis: usize, p: &IrregularParams) {
+    let n = w.cells.len();
     let top = top_lattice(base, dmax);
-    // (1) Candidates: the neighbour across the upper face and the size of the union.
-    let target: Vec<(u32, u32)> = cells
-        .par_iter()
-        .map(|c| {
-            if c.hi[axis] >= base.res[axis] {
-                return (NONE, 0);
-            }
-            let mut v = c.lo;
-            v[axis] = c.hi[axis];
-            let j = lookup(&map, &top, dmax, v);
-            let nb = &cells[j as usize];
-            let same = (0..3).all(|a| a == axis || (nb.lo[a] == c.lo[a] && nb.hi[a] == c.hi[a]));
-            if !same || nb.lo[axis] != c.hi[axis] {
-                return (NONE, 0);
-            }
-            let (ra, rb) = (&refs[c.range()], &refs[nb.range()]);
-            let mut hi = c.hi;
-            hi[axis] = nb.hi[axis];
-            let u = union_len(ra, rb);
-            let merged = cost(base, u, c.lo, hi, p);
-            let apart = cost(base, ra.len(), c.lo, c.hi, p) + cost(base, rb.len(), nb.lo, nb.hi, p);
-            if apart > merged {
-                (j, u as u32)
-            } else {
-                (NONE, 0)
-            }
-        })
-        .collect();
-    // (2) Chains, walked from their heads in parallel: a head is a candidate that its lower
-    // neighbour does not target. Even positions merge with their successor.
-    let heads: Vec<u32> = (0..n as u32)
-        .into_par_iter()
-        .filter(|&i| {
-            let c = &cells[i as usize];
-            if target[i as usize].0 == NONE {
+    // (1) Candidates: `link[c]` is the neighbour across the upper face or NONE.
+    let mut link: Vec<u32> = {
+        let (cells, refs, map) = (&w.cells, &w.refs, &w.map);
+        cells
+            .par_iter()
+            .map(|c| {
+                if c.hi[axis] >= base.res[axis] {
+                    return NONE;
+                }
+                let mut v = c.lo;
+                v[axis] = c.hi[axis];
+                let j = lookup(map, &top, dmax, v);
+                let nb = &cells[j as usize];
+                let same =
+                    (0..3).all(|a| a == axis || (nb.lo[a] == c.lo[a] && nb.hi[a] == c.hi[a]));
+                if !same || nb.lo[axis] != c.hi[axis] {
+                    return NONE;
+                }
+                let (ra, rb) = (&refs[c.range()], &refs[nb.range()]);
+                let mut hi = c.hi;
+                hi[axis] = nb.hi[axis];
+                let merged = cost(base, union_len(ra, rb), c.lo, hi, p);
+                let apart =
+                    cost(base, ra.len(), c.lo, c.hi, p) + cost(base, rb.len(), nb.lo, nb.hi, p);
+                if apart > merged {
+                    j
+                } else {
+                    NONE
+                }
+            })
+            .collect()
+    };
+    // (2) Chains, walked from their heads (one bit per cell): a head is a candidate that its
+    // lower neighbour does not target. Even positions merge with their successor: `link[c]` stays the
+    // partner `t`, and `link[t]` becomes `ABSORBED | c`.
+    let heads: Vec<u64> = {
+        let (cells, map, link) = (&w.cells, &w.map, &link);
+        let head = |i: usize| {
+            let c = &cells[i];
+            if link[i] == NONE {
                 return false;
             }
             if c.lo[axis] == 0 {
@@ -504,100 +625,113 @@ fn merge_pass(base: &Lattice, dmax: u32, w: Work, axis: usize, p: &IrregularPara
             }
             let mut v = c.lo;
             v[axis] -= 1;
-            target[lookup(&map, &top, dmax, v) as usize].0 != i
-        })
-        .collect();
-    let pairs: Vec<(u32, u32)> = heads
-        .par_iter()
-        .flat_map_iter(|&h| {
-            let mut out = Vec::new();
-            let (mut c, mut pos) = (h, 0u32);
-            while target[c as usize].0 != NONE {
-                let t = target[c as usize].0;
-                if pos % 2 == 0 {
-                    out.push((c, t));
+            link[lookup(map, &top, dmax, v) as usize] != i as u32
+        };
+        (0..n.div_ceil(64))
+            .into_par_iter()
+            .map(|b| (0..64.min(n - 64 * b)).fold(0u64, |m, k| m | (head(64 * b + k) as u64) << k))
+            .collect()
+    };
+    for (b, &bits) in heads.iter().enumerate() {
+        let mut bits = bits;
+        while bits != 0 {
+            let mut c = (64 * b + bits.trailing_zeros() as usize) as u32;
+            bits &= bits - 1;
+            loop {
+                let t = link[c as usize];
+                if t == NONE {
+                    break;
                 }
-                c = t;
-                pos += 1;
+                let next = link[t as usize];
+                link[t as usize] = ABSORBED | c;
+                if next == NONE {
+                    break;
+                }
+                c = next;
             }
-            out
-        })
-        .collect();
-    let mut partner = vec![NONE; n];
-    let mut absorbed = vec![false; n];
-    for &(c, t) in &pairs {
-        partner[c as usize] = t;
-        absorbed[t as usize] = true;
-    }
-    // (3) New cells: kept cells in order, each merged with its partner.
-    let mut new_id = vec![NONE; n];
-    let mut kept = Vec::with_capacity(n - pairs.len());
-    for i in 0..n {
-        if !absorbed[i] {
-            new_id[i] = kept.len() as u32;
-            kept.push(i as u32);
         }
     }
-    for &(c, t) in &pairs {
-        new_id[t as usize] = new_id[c as usize];
-    }
-    let mut begin = Vec::with_capacity(kept.len() + 1);
-    begin.push(0usize);
-    for &i in &kept {
-        let i = i as usize;
-        let s = match partner[i] {
-            NONE => cells[i].range().len(),
-            _ => target[i].1 as usize,
+    let partner = |l: u32| (l != NONE && l & ABSORBED == 0).then_some(l as usize);
+    // (3) The references of the kept cells in order, written block by block in parallel.
+    const BLOCK: usize = 1 << 14;
+    let new_refs = {
+        let (cells, refs, link) = (&w.cells, &w.refs, &link);
+        let size = |i: usize| match partner(link[i]) {
+            Some(t) => union_len(&refs[cells[i].range()], &refs[cells[t].range()]),
+            None if link[i] == NONE => cells[i].range().len(),
+            None => 0,
         };
-        begin.push(begin.last().copied().unwrap_or(0) + s);
-    }
-    let total = *begin.last().unwrap_or(&0);
-    let mut new_refs = vec![0u32; total];
-    {
-        let mut slices = Vec::with_capacity(kept.len());
+        let totals: Vec<usize> = (0..n.div_ceil(BLOCK))
+            .into_par_iter()
+            .map(|b| (b * BLOCK..n.min((b + 1) * BLOCK)).map(size).sum())
+            .collect();
+        let mut new_refs = vec![0u32; totals.iter().sum()];
+        let mut slices = Vec::with_capacity(totals.len());
         let mut rest: &mut [u32] = &mut new_refs;
-        for k in 0..kept.len() {
-            let (a, b) = rest.split_at_mut(begin[k + 1] - begin[k]);
+        for &s in &totals {
+            let (a, b) = rest.split_at_mut(s);
             slices.push(a);
             rest = b;
         }
-        slices
-            .into_par_iter()
-            .zip(kept.par_iter())
-            .for_each(|(out, &i)| {
-                let c = &cells[i as usize];
-                match partner[i as usize] {
-                    NONE => out.copy_from_slice(&refs[c.range()]),
-                    j => union_into(&refs[c.range()], &refs[cells[j as usize].range()], out),
+        slices.into_par_iter().enumerate().for_each(|(b, out)| {
+            let mut at = 0;
+            for i in b * BLOCK..n.min((b + 1) * BLOCK) {
+                let own = &refs[cells[i].range()];
+                match partner(link[i]) {
+                    Some(t) => {
+                        let u = union_len(own, &refs[cells[t].range()]);
+                        union_into(own, &refs[cells[t].range()], &mut out[at..at + u]);
+                        at += u;
+                    }
+                    None if link[i] == NONE => {
+                        out[at..at + own.len()].copy_from_slice(own);
+                        at += own.len();
+                    }
+                    None => {}
                 }
-            });
-    }
-    let new_cells: Vec<Cell> = kept
-        .par_iter()
-        .enumerate()
-        .map(|(k, &i)| {
-            let c = cells[i as usize];
-            let hi = match partner[i as usize] {
-                NONE => c.hi,
-                j => cells[j as usize].hi,
-            };
-            Cell {
-                lo: c.lo,
-                begin: begin[k] as u32,
-                hi,
-                end: begin[k + 1] as u32,
             }
-        })
-        .collect();
-    map[n_top..]
-        .par_iter_mut()
-        .for_each(|e| *e = new_id[*e as usize]);
-    Work {
-        cells: new_cells,
-        refs: new_refs,
-        map,
-        n_top,
+        });
+        new_refs
+    };
+    // Merged boxes and reference counts first (a partner may lie before its cell and be
+    // overwritten by the compaction; partners are never written here), then the kept cells
+    // moved down in order; `link` becomes the new index of every old cell.
+    for i in 0..n {
+        if let Some(t) = partner(link[i]) {
+            let u = union_len(&w.refs[w.cells[i].range()], &w.refs[w.cells[t].range()]);
+            let hi = w.cells[t].hi[axis];
+            let c = &mut w.cells[i];
+            c.hi[axis] = hi;
+            c.end = c.begin + u as u32;
+        }
     }
+    let mut k = 0usize;
+    let mut begin = 0u32;
+    for i in 0..n {
+        if link[i] != NONE && link[i] & ABSORBED != 0 {
+            continue;
+        }
+        let len = w.cells[i].range().len() as u32;
+        let mut c = w.cells[i];
+        c.begin = begin;
+        c.end = begin + len;
+        begin += len;
+        w.cells[k] = c;
+        link[i] = k as u32;
+        k += 1;
+    }
+    for i in 0..n {
+        if link[i] != NONE && link[i] & ABSORBED != 0 {
+            let c = (link[i] & !ABSORBED) as usize;
+            link[i] = link[c];
+        }
+    }
+    w.cells.truncate(k);
+    w.refs = new_refs;
+    let n_top = w.n_top;
+    w.map[n_top..]
+        .par_iter_mut()
+        .for_each(|e| *e = link[*e as usize]);
 }
 
 fn top_lattice(base: &Lattice, dmax: u32) -> Lattice {

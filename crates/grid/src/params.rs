@@ -110,7 +110,8 @@ tb_core::params! {
         c_t: f32 = 1.0, ParamKind::Float { min: 0.0, max: 1e6 };
         /// cost of a triangle test, C_i (§4.2)
         c_i: f32 = 1.0, ParamKind::Float { min: 0.0, max: 1e6 };
-        /// largest number of initial cells (octree depths are lowered to stay under it)
+        /// largest number of voxel-map entries, the finest voxels of every top cell's octree
+        /// (octree depths are lowered to stay under it; the initial cells are at most as many)
         max_cells: u32 = 1 << 25, ParamKind::Int { min: 1, max: 1 << 27 };
         @flatten
         walk: Walk = Walk::default();

@@ -125,33 +125,41 @@ impl TwoLevelGrid {
                 });
             }
         }
-        let mut pairs: Vec<u64> = (0..n_top)
+        // The (leaf, triangle) pairs sorted (the sort of Kalojanov et al. 2011), per run of top
+        // cells: a run's leaves are consecutive, so the runs in order are the global order,
+        // without one array of every pair beside its sorted copy.
+        const TOPS: usize = 64;
+        let runs: Vec<Vec<u64>> = (0..n_top.div_ceil(TOPS))
             .into_par_iter()
-            .flat_map_iter(|c| {
-                let v = top.voxel_of(c);
-                let sub = sub_lattice(&top, v, sub_res[c]);
-                let first = tops[c].first_leaf as u64;
+            .map(|run| {
                 let mut out = Vec::new();
-                for &i in &trefs[tstart[c] as usize..tstart[c + 1] as usize] {
-                    let tri = &tris[i as usize];
-                    let (lo, hi) = sub.range(&tri.bounds());
-                    let single = lo == hi;
-                    for z in lo[2]..=hi[2] {
-                        for y in lo[1]..=hi[1] {
-                            for x in lo[0]..=hi[0] {
-                                let w = [x, y, z];
-                                if single || sub.overlaps(tri, w, w.map(|k| k + 1)) {
-                                    out.push((first + sub.index(w) as u64) << 32 | i as u64);
+                for c in run * TOPS..n_top.min((run + 1) * TOPS) {
+                    let v = top.voxel_of(c);
+                    let sub = sub_lattice(&top, v, sub_res[c]);
+                    let first = tops[c].first_leaf as u64;
+                    for &i in &trefs[tstart[c] as usize..tstart[c + 1] as usize] {
+                        let tri = &tris[i as usize];
+                        let (lo, hi) = sub.range(&tri.bounds());
+                        let single = lo == hi;
+                        for z in lo[2]..=hi[2] {
+                            for y in lo[1]..=hi[1] {
+                                for x in lo[0]..=hi[0] {
+                                    let w = [x, y, z];
+                                    if single || sub.overlaps(tri, w, w.map(|k| k + 1)) {
+                                        out.push((first + sub.index(w) as u64) << 32 | i as u64);
+                                    }
                                 }
                             }
                         }
                     }
                 }
+                out.sort_unstable();
+                out.shrink_to_fit();
                 out
             })
             .collect();
-        pairs.par_sort_unstable();
-        let (start, refs) = crate::common::flatten(pairs, n_leaves as usize);
+        drop((tstart, trefs));
+        let (start, refs) = crate::common::flatten(runs, n_leaves as usize);
         let mut figures = vec![
             ("build_top_ms".into(), t_top),
             ("build_leaves_ms".into(), t.elapsed().as_secs_f64() * 1e3),
