@@ -114,6 +114,8 @@ struct Builder<'a, M: BoxMeasure> {
     events: Vec<u64>,
     /// Per-bin start and end counts of the binned builder.
     bins: Vec<u32>,
+    /// Per-bin least start and greatest end of the binned builder.
+    bin_bounds: Vec<f32>,
 }
 
 /// The power of two [`scaled_measure`] scales cells by: 1 where the scene's extent lies in
@@ -170,7 +172,7 @@ impl<M: BoxMeasure> Builder<'_, M> {
         // exact sweep, as Shevtsov et al. 2007 switch (binning there would evaluate more
         // candidates than the sweep's 2n, and worse ones).
         if self.p.sah.builder == KdBuilder::Binned && refs.len() > self.p.sah.bins as usize {
-            let bins = self.p.sah.bins as usize;
+            let (bins, snap) = (self.p.sah.bins as usize, self.p.sah.snap);
             for axis in 0..3 {
                 let (lo, hi) = (cell.min[axis], cell.max[axis]);
                 if lo >= hi {
@@ -181,34 +183,55 @@ impl<M: BoxMeasure> Builder<'_, M> {
                 let (starts, ends) = self.bins.split_at_mut(bins);
                 starts.fill(0);
                 ends.fill(0);
+                // Per bin the least start and the greatest end in it (the snapped candidates).
+                let (first, last) = self.bin_bounds.split_at_mut(bins);
+                first.fill(f32::INFINITY);
+                last.fill(f32::NEG_INFINITY);
                 for r in refs {
-                    starts[bin(r.b.min[axis])] += 1;
-                    ends[bin(r.b.max[axis])] += 1;
+                    let (a, z) = (r.b.min[axis], r.b.max[axis]);
+                    let (ba, bz) = (bin(a), bin(z));
+                    starts[ba] += 1;
+                    ends[bz] += 1;
+                    first[ba] = first[ba].min(a);
+                    last[bz] = last[bz].max(z);
                 }
-                // Boundary b: N_L = starts in bins < b, N_R = ends in bins >= b.
+                // Boundary b: N_L = starts in bins < b, N_R = ends in bins >= b. With `snap`,
+                // the same counts also price the greatest end below the boundary (planar
+                // triangles there go left) and the least start above it (they go right): both
+                // counts hold there or over-count, and a plane on a triangle's bound cuts no
+                // triangle that ends there, as the sweep's planes.
                 let (mut nl, mut nr) = (0u32, n);
                 for b in 1..bins {
                     nl += starts[b - 1];
                     nr -= ends[b - 1];
-                    let pos = lo + (hi - lo) * (b as f32 / bins as f32);
-                    if !(lo < pos && pos < hi) {
-                        continue;
-                    }
-                    let (lc, rc) = split_cell(cell, axis, pos);
-                    let pl = measure(&lc) * inv_area;
-                    let pr = measure(&rc) * inv_area;
-                    let mut c = ct + ci * (pl * nl as f32 + pr * nr as f32);
-                    if nl == 0 || nr == 0 {
-                        c *= lambda;
-                    }
-                    if c < best.map_or(f32::INFINITY, |b| b.cost) {
-                        best = Some(Split {
-                            axis,
-                            pos,
-                            cost: c,
-                            planar_left: true,
-                            refs: nl + nr,
-                        });
+                    let boundary = lo + (hi - lo) * (b as f32 / bins as f32);
+                    let candidates = [
+                        (boundary, true),
+                        (if snap { last[b - 1] } else { f32::NAN }, true),
+                        (if snap { first[b] } else { f32::NAN }, false),
+                    ];
+                    for (pos, planar_left) in candidates {
+                        // (Also false for the NaN of a candidate left out or an empty bin's
+                        // infinity.)
+                        if !(lo < pos && pos < hi) {
+                            continue;
+                        }
+                        let (lc, rc) = split_cell(cell, axis, pos);
+                        let pl = measure(&lc) * inv_area;
+                        let pr = measure(&rc) * inv_area;
+                        let mut c = ct + ci * (pl * nl as f32 + pr * nr as f32);
+                        if nl == 0 || nr == 0 {
+                            c *= lambda;
+                        }
+                        if c < best.map_or(f32::INFINITY, |b| b.cost) {
+                            best = Some(Split {
+                                axis,
+                                pos,
+                                cost: c,
+                                planar_left,
+                                refs: nl + nr,
+                            });
+                        }
                     }
                 }
             }
@@ -522,6 +545,7 @@ pub fn build<M: BoxMeasure>(tris: &[Triangle], p: &KdParams, m: &M) -> Output {
         refs: Vec::new(),
         events: Vec::new(),
         bins: vec![0; 2 * p.sah.bins as usize],
+        bin_bounds: vec![0.0; 2 * p.sah.bins as usize],
     };
     if !refs.is_empty() {
         if p.sah.builder == KdBuilder::Sweep {
@@ -605,6 +629,40 @@ mod tests {
             assert!(with(KdBuilder::Binned, 32, n) == sweep(n), "{n} triangles");
         }
         assert!(with(KdBuilder::Binned, 4, 60) != sweep(60));
+    }
+
+    /// Snapped binning: 100 triangles in a row along x, each spanning 0.9 of its unit with a
+    /// gap of 0.1 to the next; 8 bins over a cell of 99.9 put no boundary in a gap, so the
+    /// boundaries alone cut triangles and duplicate their references. The snapped candidates
+    /// (the bounds next to each boundary) lie in gaps, and the exact sweep's planes all do
+    /// (no triangle cut). The snapped candidates are priced with the boundary's counts (the
+    /// triangle across the boundary on both sides), so they win only where their areas are
+    /// better: fewer cuts, not none.
+    #[test]
+    fn snapped_binning_splits_on_triangle_bounds() {
+        let tris: Vec<Triangle> = (0..100)
+            .map(|i| {
+                let x = i as f32;
+                Triangle::new(
+                    Vec3::new(x, 0.0, 0.0),
+                    Vec3::new(x + 0.9, 0.0, 0.0),
+                    Vec3::new(x + 0.45, 1.0, 0.3),
+                )
+            })
+            .collect();
+        let refs = |builder, snap: bool| {
+            let mut p = KdParams::default();
+            p.sah.builder = builder;
+            p.sah.bins = 8;
+            p.sah.snap = snap;
+            build(&tris, &p, &SurfaceArea).prim_refs.len()
+        };
+        assert_eq!(refs(KdBuilder::Sweep, true), tris.len());
+        let (snapped, boundaries) = (
+            refs(KdBuilder::Binned, true),
+            refs(KdBuilder::Binned, false),
+        );
+        assert!(snapped < boundaries, "{snapped} {boundaries}");
     }
 
     #[test]

@@ -833,6 +833,7 @@ mod tests {
             [
                 "builder",
                 "bins",
+                "snap",
                 "c_trav",
                 "c_isect",
                 "empty_bonus",
@@ -847,7 +848,7 @@ mod tests {
         let defaults = (FAMILY.defaults)();
         assert_eq!(
             defaults.to_string(),
-            "builder=sweep;bins=32;c_trav=1;c_isect=1.5;empty_bonus=0.2;max_depth=0;\
+            "builder=sweep;bins=32;snap=true;c_trav=1;c_isect=1.5;empty_bonus=0.2;max_depth=0;\
              min_leaf=1;short_stack=4;step_cap=100000;layout=depth-first;treelet_height=3"
         );
         assert_eq!(KdParams::from_set(&defaults), Ok(KdParams::default()));
@@ -859,7 +860,7 @@ mod tests {
 
         let tris: Arc<[Triangle]> = grid().into();
         let mut set = defaults.clone();
-        set.0[9].1 = ParamValue::Str("treelet".into());
+        set.0[10].1 = ParamValue::Str("treelet".into());
         let kd = (FAMILY.build)(&tris, &set).unwrap();
         assert_eq!(kd.validate(), Ok(()));
         set.0[1].1 = ParamValue::Int(1);

@@ -19,8 +19,9 @@ tb_core::choice! {
         SweepNlog2n = "sweep-nlog2n",
         /// SAH evaluated only at the `bins − 1` inner boundaries of `bins` equal intervals of
         /// the node cell on each axis, from per-bin counts of box starts and ends (min-max
-        /// binning, Shevtsov et al. 2007; Hapala and Havran 2011 §2): O(N) per node; nodes of
-        /// at most `bins` references are split by the exact sweep, as Shevtsov et al. switch.
+        /// binning, Shevtsov et al. 2007; Hapala and Havran 2011 §2), and with `snap` also at
+        /// the box bounds nearest each boundary: O(N) per node; nodes of at most `bins`
+        /// references are split by the exact sweep, as Shevtsov et al. switch.
         Binned = "binned",
     }
 }
@@ -39,6 +40,11 @@ tb_core::params! {
         /// Bins per axis, `binned` builder only (nodes of at most `bins` references are split
         /// by the exact sweep).
         bins: u32 = 32, ParamKind::Int { min: 2, max: 1024 };
+        /// `binned` builder only: also price, at each bin boundary, the greatest box end in
+        /// the bin below and the least box start in the bin above with the boundary's counts,
+        /// so that splits can lie on triangle bounds as the sweep's do (`false`: the
+        /// boundaries only, as Shevtsov et al. 2007).
+        snap: bool = true, ParamKind::Bool;
         /// SAH traversal cost C_trav (Hapala and Havran 2011, section 2; `Cost_plane` of
         /// Torres et al. 2012 §3).
         c_trav: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
