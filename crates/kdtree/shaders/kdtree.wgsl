@@ -52,10 +52,11 @@ fn highest(v: vec2<u32>) -> u32 {
 
 // ---- restart, push-down, short-stack, backtrack (stackless.rs `Stackless::stackless`) ----
 
-// buffers[3]: per node its cell and parent (8 words: min xyz, parent, max xyz, 0; the
-// BACKTRACK_AUX array), then per node its six ropes (6 words from word 8·nodes; ROPES_AUX), as
-// far as the program reads them (`backtrack`: the cells, `ropes`: both); one word for the
-// programs that read neither.
+// buffers[3]: `backtrack`: per node its cell and parent (8 words: min xyz, parent, max xyz, 0;
+// the BACKTRACK_AUX array); `ropes`: the leaves' rank (per 64 nodes the bits' low and high
+// words and the count of leaves before them), then per leaf, in node order, its cell and six
+// ropes (12 words: min xyz, max xyz, ropes; the ROPES_AUX array, view.rs `Ropes::words`); one
+// word for the programs that read neither.
 @group(0) @binding(8) var<storage, read> aux: array<u32>;
 
 fn aux_min(i: u32) -> vec3<f32> {
@@ -370,6 +371,26 @@ struct Walk {
 // A located leaf and its cell.
 struct Loc { idx: u32, lo: vec3<f32>, hi: vec3<f32> }
 
+// view.rs `Ropes::leaf`: the first word of leaf `node`'s record (the leaves before it, by the
+// rank at the start of `aux`).
+fn leaf_record(node: u32, n_nodes: u32) -> u32 {
+    let k = 3u * (node / 64u);
+    let b = node % 64u;
+    let lo = aux[k];
+    let hi = aux[k + 1u];
+    var n = aux[k + 2u];
+    if b < 32u {
+        n += countOneBits(lo & ((1u << b) - 1u));
+    } else {
+        n += countOneBits(lo) + countOneBits(hi & ((1u << (b - 32u)) - 1u));
+    }
+    return 3u * ((n_nodes + 63u) / 64u) + 12u * n;
+}
+
+fn rec_vec(k: u32) -> vec3<f32> {
+    return vec3<f32>(bitcast<f32>(aux[k]), bitcast<f32>(aux[k + 1u]), bitcast<f32>(aux[k + 2u]));
+}
+
 // Kaplan's point location (review §3.1; `Walk::locate`) below node `idx0` with cell
 // `lo0..hi0` of the ray point at distance `tn`, exact on the axes of crossed exit faces.
 fn locate(w: ptr<function, Walk>, rb: RayBox, idx0: u32, lo0: vec3<f32>, hi0: vec3<f32>, tn: f32,
@@ -441,6 +462,13 @@ fn crawl(w: ptr<function, Walk>, rope_walk: bool, r: Ray, rb: RayBox, p: Pre, t0
         if (*w).ambiguous {
             return 2u;
         }
+        // `ropes`: the leaf's record, its cell (the one located) and its ropes.
+        var rec = 0u;
+        if rope_walk {
+            rec = leaf_record(loc.idx, n_nodes);
+            loc.lo = rec_vec(rec);
+            loc.hi = rec_vec(rec + 3u);
+        }
         (*w).steps += 1u;
         if leaf(nodes[loc.idx], p, r, best, st) {
             return 1u;
@@ -481,11 +509,12 @@ fn crawl(w: ptr<function, Walk>, rope_walk: bool, r: Ray, rb: RayBox, p: Pre, t0
         tn = max_num(tn, tf);
         if rope_walk {
             let side = select(1u, 0u, rb.neg[face]);
-            let rope = aux[8u * n_nodes + 6u * loc.idx + 2u * face + side];
+            let rope = aux[rec + 6u + 2u * face + side];
             if rope == NO_ROPE {
                 return 0u;
             }
-            loc = locate(w, rb, rope, aux_min(rope), aux_max(rope), tn, st);
+            // The cell tracked below the rope is not needed: the next leaf's record has it.
+            loc = locate(w, rb, rope, loc.lo, loc.hi, tn, st);
         } else {
             (*st).restarts += 1u;
             loc = locate(w, rb, header[0], lo_c, hi_c, tn, st);

@@ -65,8 +65,9 @@ impl KdTree {
     /// The program `name` running `kernel`: the triangles in scene order; buffers: the node
     /// array (two words per [`KdNode`]), the references, a 12-word header (the start node; the
     /// layout: 0 depth-first, else the treelet block's slot mask; the start cell; the step cap)
-    /// and the auxiliary arrays (`backtrack`: [`KdTree::back_nodes`]; `ropes`: those then
-    /// [`KdTree::ropes`]; else one unused word); meta word: the node count. The stack holds
+    /// and the auxiliary arrays (`backtrack`: [`KdTree::back_nodes`]; `ropes`: [`Ropes::words`],
+    /// the leaves' rank then their records, [`KdTree::ropes`]; else one unused word); meta
+    /// word: the node count. The stack holds
     /// [`STACK_SIZE`] entries for `recursive-direction`, [`KdParams::short_stack`] for
     /// `short-stack` (the circular stack; one program per size, [`SHORT_STACK_PROGRAMS`], since
     /// a program's stack size is fixed by its name), none for the others.
@@ -97,7 +98,7 @@ impl KdTree {
             })
         };
         let aux = match kernel {
-            GpuKernel::Ropes => words(back().chain(self.ropes().iter().flatten().copied())),
+            GpuKernel::Ropes => words(self.ropes().words()),
             GpuKernel::Backtrack => words(back()),
             _ => words([0]),
         };
@@ -164,7 +165,8 @@ impl KdTree {
         self.gpu("kdtree/backtrack", GpuKernel::Backtrack)
     }
 
-    /// `ropes` (Havran et al. 1998, Popov et al. 2007; review §3.3): reads the cells and ropes.
+    /// `ropes` (Havran et al. 1998, Popov et al. 2007; review §3.3): reads the leaves' cells and
+    /// ropes.
     pub(crate) fn gpu_ropes(&self) -> GpuProgram<'_> {
         self.gpu("kdtree/ropes", GpuKernel::Ropes)
     }

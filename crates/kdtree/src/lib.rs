@@ -28,7 +28,8 @@
 //!   at a [`KdStart`] (a node and its cell): the root, or a node below it that then plays the
 //!   root's part for every traversal ([`KdTree::subtree`]). Trees may share one triangle array
 //!   ([`KdTree::build_shared`]). The auxiliary arrays of `backtrack` ([`BackNode`]: cell and
-//!   parent per node) and `ropes` (six ropes per node) are built only when one of those
+//!   parent per node) and `ropes` ([`LeafRopes`]: cell and six ropes per leaf, as the review
+//!   stores them) are built only when one of those
 //!   traversals is traced or prepared; each traversal's memory figure counts the arrays it
 //!   reads, built or not (review Table 3, "additional memory").
 //!
@@ -73,22 +74,23 @@ pub use layout::{DepthFirst, KdLayout, Layout, Nodes, Treelet};
 pub use params::{BoxMeasure, KdBuilder, KdParams, SahParams, SurfaceArea};
 pub use stackless::{MAX_SHORT_STACK, STEP_CAP};
 pub use traverse::{split_decision, Best, Decision, Kind, SLACK, STACK_SIZE};
-pub use view::{BackNode, KdStart, KdView};
+pub use view::{BackNode, KdStart, KdView, LeafRopes, NodeRank, Ropes};
 
-/// Bytes per node of auxiliary array `aux` ([`BACKTRACK_AUX`]: cell and parent;
-/// [`ROPES_AUX`]: six ropes), for every structure over kd nodes.
-pub fn aux_bytes_per_node(aux: &str) -> usize {
+/// Bytes of auxiliary array `aux` over `nodes` (the node array, unused treelet slots
+/// included) of which `leaves` are leaves ([`BACKTRACK_AUX`]: cell and parent per node;
+/// [`ROPES_AUX`]: cell and six ropes per leaf and the leaves' rank), built or not, for every
+/// structure over kd nodes.
+pub fn aux_bytes(aux: &str, nodes: usize, leaves: usize) -> u64 {
     match aux {
-        BACKTRACK_AUX => std::mem::size_of::<BackNode>(),
-        ROPES_AUX => std::mem::size_of::<[u32; 6]>(),
+        BACKTRACK_AUX => (std::mem::size_of::<BackNode>() * nodes) as u64,
+        ROPES_AUX => Ropes::bytes_for(leaves, nodes),
         _ => 0,
     }
 }
 
-/// The auxiliary array of cells and parents ([`KdTree::back_nodes`]), read by `backtrack` and
-/// `ropes`.
+/// The auxiliary array of cells and parents ([`KdTree::back_nodes`]), read by `backtrack`.
 pub const BACKTRACK_AUX: &str = "backtrack";
-/// The auxiliary array of six ropes per node ([`KdTree::ropes`]), read by `ropes`.
+/// The auxiliary array of the leaves' cells and six ropes ([`KdTree::ropes`]), read by `ropes`.
 pub const ROPES_AUX: &str = "ropes";
 
 /// The kd-tree in the registry.
@@ -214,8 +216,8 @@ pub struct KdTree {
 struct AuxArrays {
     /// Per node: its cell and its parent ([`BACKTRACK_AUX`]).
     back: OnceLock<Vec<BackNode>>,
-    /// Per node: its six ropes ([`ROPES_AUX`]).
-    ropes: OnceLock<Vec<[u32; 6]>>,
+    /// Per leaf: its cell and six ropes ([`ROPES_AUX`]).
+    ropes: OnceLock<Ropes>,
 }
 
 impl KdTree {
@@ -313,20 +315,25 @@ impl KdTree {
         Tree::new(self.view(), l, self.start)
     }
 
-    /// The [`BACKTRACK_AUX`] array (cell and parent per node, read by `backtrack` and
-    /// `ropes`), built on first use.
+    /// The [`BACKTRACK_AUX`] array (cell and parent per node, read by `backtrack`), built on
+    /// first use.
     pub fn back_nodes(&self) -> &[BackNode] {
         self.aux
             .back
             .get_or_init(|| view::back_nodes(&self.view(), &[0]))
     }
 
-    /// The [`ROPES_AUX`] array (six ropes per node, read by `ropes`; `u32::MAX`: the face is
-    /// on the root cell), built on first use.
-    pub fn ropes(&self) -> &[[u32; 6]] {
+    /// The [`ROPES_AUX`] array (cell and six ropes per leaf, read by `ropes`; `u32::MAX`: the
+    /// face is on the root cell), built on first use.
+    pub fn ropes(&self) -> &Ropes {
         self.aux
             .ropes
-            .get_or_init(|| view::ropes(&self.view(), self.back_nodes(), &[0]))
+            .get_or_init(|| view::ropes(&self.view(), &[0]))
+    }
+
+    /// The tree's leaves.
+    fn leaf_count(&self) -> usize {
+        view::leaf_count(&self.view(), &[0])
     }
 
     /// Whether auxiliary array `aux` ([`BACKTRACK_AUX`], [`ROPES_AUX`]) has been built.
@@ -603,7 +610,7 @@ impl Structure for KdTree {
                 w,
                 Aux {
                     back: kd.back_nodes(),
-                    ropes: &[],
+                    ropes: None,
                 }
             )),
             KdTree::gpu_backtrack,
@@ -613,17 +620,17 @@ impl Structure for KdTree {
                 "ropes",
                 "Hapala & Havran 2011 §3.3",
                 "neighbour links: from a leaf follow the pushed-down rope of its exit face \
-                 (leaf cells and six ropes per node in auxiliary arrays) and locate the next \
+                 (cell and six ropes per leaf in an auxiliary array) and locate the next \
                  leaf below it (MacDonald & Booth 1990, Havran et al. 1998, Popov et al. 2007; \
                  Hapala & Havran 2011 §3.3)",
             )
             .capped()
-            .reads(&[BACKTRACK_AUX, ROPES_AUX]),
+            .reads(&[ROPES_AUX]),
             per_layout!(|kd, w| Stackless::<_, { stackless::ROPES }>(
                 w,
                 Aux {
-                    back: kd.back_nodes(),
-                    ropes: kd.ropes(),
+                    back: &[],
+                    ropes: Some(kd.ropes()),
                 }
             )),
             KdTree::gpu_ropes,
@@ -651,7 +658,7 @@ impl Structure for KdTree {
     ];
 
     /// Nodes, references and triangles: what every traversal reads. `backtrack` adds the
-    /// [`BACKTRACK_AUX`] array, `ropes` that and the [`ROPES_AUX`] array
+    /// [`BACKTRACK_AUX`] array, `ropes` the [`ROPES_AUX`] array
     /// ([`Structure::aux_bytes`]; review Table 3, "additional memory").
     fn own_memory(&self) -> MemoryReport {
         MemoryReport {
@@ -664,10 +671,10 @@ impl Structure for KdTree {
         }
     }
 
-    /// [`BACKTRACK_AUX`]: 32 bytes per node (cell and parent); [`ROPES_AUX`]: 24 bytes per
-    /// node (six ropes); built or not.
+    /// [`BACKTRACK_AUX`]: 32 bytes per node (cell and parent); [`ROPES_AUX`]: 48 bytes per
+    /// leaf (cell and six ropes) and 12 per 64 nodes (the leaves' rank); built or not.
     fn aux_bytes(&self, aux: &str) -> u64 {
-        (aux_bytes_per_node(aux) * self.nodes.len()) as u64
+        aux_bytes(aux, self.nodes.len(), self.leaf_count())
     }
 
     fn prepare_aux(&self, aux: &str) {
@@ -688,8 +695,8 @@ impl Structure for KdTree {
     /// treelet layout, whose unused slots count in the memory), `leaves`, `empty_leaves`,
     /// `references`, `depth_max` (root 0), `leaf_depth_mean`, `refs_per_leaf_mean` (over
     /// non-empty leaves), `leaf_size_max`, and the bytes of the auxiliary arrays, built or not:
-    /// `backtrack_aux_bytes` (cell and parent per node, read by `backtrack` and `ropes`) and
-    /// `ropes_aux_bytes` (six ropes per node, read by `ropes`).
+    /// `backtrack_aux_bytes` (cell and parent per node, read by `backtrack`) and
+    /// `ropes_aux_bytes` (cell and six ropes per leaf and the leaves' rank, read by `ropes`).
     fn report(&self) -> BuildReport {
         let (mut interior, mut leaves, mut empty) = (0u64, 0u64, 0u64);
         let (mut depth_max, mut depth_sum, mut leaf_max) = (0u32, 0u64, 0u32);
@@ -965,7 +972,8 @@ mod tests {
         let m = Accel::memory(&kd);
         assert_eq!(m.node_bytes, 8);
         assert!(m.bytes as usize > kd.nodes().len() * 8);
-        assert!(kd.memory_for(index("ropes")).bytes as usize > kd.nodes().len() * (8 + 32 + 24));
+        let leaves = kd.nodes().iter().filter(|n| n.is_leaf()).count();
+        assert!(kd.memory_for(index("ropes")).bytes as usize > kd.nodes().len() * 8 + leaves * 48);
         // Empty scenes build and miss.
         let e = KdTree::build(&[], &KdParams::default());
         assert_eq!(Accel::validate(&e), Ok(()));
@@ -1035,6 +1043,7 @@ mod tests {
         assert_eq!(built(&sub), (true, true));
         assert_eq!(figures(&kd), before);
         assert_eq!(kd.back_nodes().len(), kd.nodes().len());
-        assert_eq!(kd.ropes().len(), kd.nodes().len());
+        let leaves = kd.nodes().iter().filter(|n| n.is_leaf()).count();
+        assert_eq!(kd.ropes().leaves.len(), leaves);
     }
 }

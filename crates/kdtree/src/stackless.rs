@@ -432,6 +432,15 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
             if w.ambiguous {
                 return None;
             }
+            // `ropes`: the leaf's record, its cell (the one located) and its ropes.
+            let rec = ROPE.then(|| {
+                aux.ropes
+                    .expect("the ropes kernel is given the ropes array")
+                    .leaf(idx)
+            });
+            if let Some(rec) = rec {
+                (min, max) = (rec.min, rec.max);
+            }
             w.steps += 1;
             if leaf::<T, C, ANY>(v, v.nodes[idx], pre, ray, best, c) {
                 return Some(true);
@@ -470,14 +479,15 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
             w.floor[face] = if s.neg[face] { min[face] } else { max[face] };
             w.exact = face;
             tn = max_num(tn, tf);
-            if ROPE {
+            if let Some(rec) = rec {
                 let side = if s.neg[face] { 0 } else { 1 };
-                let rope = aux.ropes[idx][2 * face + side];
+                let rope = rec.ropes[2 * face + side];
                 if rope == NO_ROPE {
                     return Some(false);
                 }
-                let b = &aux.back[rope as usize];
-                (idx, min, max) = w.locate(rope as usize, b.min, b.max, tn, w.floor, c);
+                // The cell the location tracks below the rope is not needed: the next leaf's
+                // record has its cell.
+                (idx, min, max) = w.locate(rope as usize, min, max, tn, w.floor, c);
             } else {
                 c.restart();
                 (idx, min, max) = w.locate_start(tn, w.floor, c);

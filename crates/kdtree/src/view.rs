@@ -170,22 +170,151 @@ pub fn back_nodes(v: &KdView, roots: &[u32]) -> Vec<BackNode> {
     back
 }
 
+/// The leaves of the trees of `v` rooted at `roots` (unused treelet slots are none).
+pub fn leaf_count(v: &KdView, roots: &[u32]) -> usize {
+    let mut n = 0;
+    if v.nodes.is_empty() {
+        return 0;
+    }
+    for &root in roots {
+        let from = KdStart {
+            node: root,
+            cell: v.bounds,
+        };
+        v.walk(from, |i, _, _| n += usize::from(v.nodes[i].is_leaf()));
+    }
+    n
+}
+
 /// "No neighbour": a rope leaving the root cell.
 pub const NO_ROPE: u32 = u32::MAX;
 
-/// The ropes of every node of `v` (review §3.3; Havran et al. 1998, Popov et al. 2007), from
-/// its cells `back`: for face `2·axis + side` (side 0: the min face, 1: the max face) the
-/// deepest node whose cell holds the whole face on the other side, pushed down from the
-/// parent's ropes (Popov et al.'s rope optimisation): through a split parallel to the face to
-/// the adjacent child, through a split missing the face to the child holding it. Meaningful for
-/// leaves; interior nodes keep their (pushed-down) ropes too. Over the trees rooted at `roots`
-/// (see [`back_nodes`]): a rope never leaves its tree.
-pub fn ropes(v: &KdView, back: &[BackNode], roots: &[u32]) -> Vec<[u32; 6]> {
-    let nodes = v.nodes;
-    let mut out = vec![[NO_ROPE; 6]; nodes.len()];
-    if nodes.is_empty() {
-        return out;
+/// A leaf's record of the `ropes` traversal: its cell and its six ropes, 48 bytes (review
+/// §3.3: ropes and boxes are stored in the leaves, Havran et al. 1998). Rope `2·axis + side`
+/// (side 0: the min face, 1: the max face) is the deepest node whose cell holds the whole face
+/// on the other side, or [`NO_ROPE`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeafRopes {
+    pub min: [f32; 3],
+    pub max: [f32; 3],
+    pub ropes: [u32; 6],
+}
+
+const _: () = assert!(std::mem::size_of::<LeafRopes>() == 48);
+
+/// The rank of a set of nodes among the indices of a node array: one bit per node and, per 64
+/// nodes, the count of members before them. Records kept per member in node order are found
+/// by the rank of their node (a popcount), with no per-node index.
+#[derive(Clone, Debug, Default)]
+pub struct NodeRank {
+    bits: Box<[u64]>,
+    base: Box<[u32]>,
+}
+
+impl NodeRank {
+    /// The rank of `members` among `nodes` nodes (members out of range are left out).
+    pub fn new(nodes: usize, members: impl IntoIterator<Item = u32>) -> NodeRank {
+        let words = nodes.div_ceil(64);
+        let mut bits = vec![0u64; words];
+        for m in members {
+            if let Some(w) = bits.get_mut(m as usize / 64) {
+                *w |= 1 << (m % 64);
+            }
+        }
+        let mut base = Vec::with_capacity(words);
+        let mut n = 0u32;
+        for w in &bits {
+            base.push(n);
+            n += w.count_ones();
+        }
+        NodeRank {
+            bits: bits.into(),
+            base: base.into(),
+        }
     }
+
+    /// The number of members before `node` (its record, if it is a member).
+    #[inline(always)]
+    pub fn rank(&self, node: usize) -> usize {
+        let (w, b) = (node / 64, node % 64);
+        (self.base[w] + (self.bits[w] & ((1u64 << b) - 1)).count_ones()) as usize
+    }
+
+    /// The record of `node`, if it is a member.
+    #[inline(always)]
+    pub fn find(&self, node: u32) -> Option<usize> {
+        let word = *self.bits.get(node as usize / 64)?;
+        (word >> (node % 64) & 1 == 1).then(|| self.rank(node as usize))
+    }
+
+    /// The GPU's words: per 64 nodes the bits' low and high words and the count before.
+    pub fn words(&self) -> impl Iterator<Item = u32> + '_ {
+        self.bits
+            .iter()
+            .zip(self.base.iter())
+            .flat_map(|(&w, &n)| [w as u32, (w >> 32) as u32, n])
+    }
+
+    /// Bytes it occupies.
+    pub fn bytes(&self) -> u64 {
+        Self::bytes_for(self.bits.len() * 64)
+    }
+
+    /// Bytes it occupies over `nodes` nodes.
+    pub fn bytes_for(nodes: usize) -> u64 {
+        (nodes.div_ceil(64) * 12) as u64
+    }
+}
+
+/// The `ropes` auxiliary array ([`crate::ROPES_AUX`]): per leaf, in node order, its
+/// [`LeafRopes`], found by the leaf's [`NodeRank`].
+#[derive(Clone, Debug, Default)]
+pub struct Ropes {
+    pub leaves: Vec<LeafRopes>,
+    pub rank: NodeRank,
+}
+
+impl Ropes {
+    /// The record of leaf `node` (a leaf of the trees the ropes were built over).
+    #[inline(always)]
+    pub fn leaf(&self, node: usize) -> &LeafRopes {
+        &self.leaves[self.rank.rank(node)]
+    }
+
+    /// Bytes it occupies.
+    pub fn bytes(&self) -> u64 {
+        Self::bytes_for(self.leaves.len(), self.rank.bits.len() * 64)
+    }
+
+    /// Bytes of the records of `leaves` leaves and the rank over `nodes` nodes.
+    pub fn bytes_for(leaves: usize, nodes: usize) -> u64 {
+        (leaves * std::mem::size_of::<LeafRopes>()) as u64 + NodeRank::bytes_for(nodes)
+    }
+
+    /// The GPU's words: the rank's ([`NodeRank::words`]), then 12 per leaf record.
+    pub fn words(&self) -> impl Iterator<Item = u32> + '_ {
+        self.rank.words().chain(self.leaves.iter().flat_map(|l| {
+            let (lo, hi) = (l.min.map(f32::to_bits), l.max.map(f32::to_bits));
+            [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]]
+                .into_iter()
+                .chain(l.ropes)
+        }))
+    }
+}
+
+/// The ropes of the leaves of `v` (review §3.3; Havran et al. 1998, Popov et al. 2007), over
+/// the trees rooted at `roots` (see [`back_nodes`]; a rope never leaves its tree): for face
+/// `2·axis + side` the deepest node whose cell holds the whole face on the other side, pushed
+/// down from the parent's ropes (Popov et al.'s rope optimisation): through a split parallel
+/// to the face to the adjacent child, through a split missing the face to the child holding
+/// it. Only the leaves keep theirs, with their cells, as the review stores them.
+pub fn ropes(v: &KdView, roots: &[u32]) -> Ropes {
+    let nodes = v.nodes;
+    if nodes.is_empty() {
+        return Ropes::default();
+    }
+    let back = back_nodes(v, roots);
     let push = |mut t: u32, f: usize, min: &[f32; 3], max: &[f32; 3]| -> u32 {
         while t != NO_ROPE {
             let n = nodes[t as usize];
@@ -211,15 +340,24 @@ pub fn ropes(v: &KdView, back: &[BackNode], roots: &[u32]) -> Vec<[u32; 6]> {
         }
         t
     };
+    let mut leaves = Vec::new();
     let mut stack: Vec<_> = roots.iter().map(|&r| (r as usize, [NO_ROPE; 6])).collect();
     while let Some((i, mut r)) = stack.pop() {
         let b = &back[i];
         for (f, rope) in r.iter_mut().enumerate() {
             *rope = push(*rope, f, &b.min, &b.max);
         }
-        out[i] = r;
         let n = nodes[i];
-        if !n.is_leaf() {
+        if n.is_leaf() {
+            leaves.push((
+                i as u32,
+                LeafRopes {
+                    min: b.min,
+                    max: b.max,
+                    ropes: r,
+                },
+            ));
+        } else {
             let a = n.axis();
             let (left, right) = v.children(i);
             let (mut rl, mut rr) = (r, r);
@@ -229,14 +367,18 @@ pub fn ropes(v: &KdView, back: &[BackNode], roots: &[u32]) -> Vec<[u32; 6]> {
             stack.push((left, rl));
         }
     }
-    out
+    leaves.sort_unstable_by_key(|l| l.0);
+    Ropes {
+        rank: NodeRank::new(nodes.len(), leaves.iter().map(|l| l.0)),
+        leaves: leaves.into_iter().map(|l| l.1).collect(),
+    }
 }
 
 /// The auxiliary arrays a kernel reads: empty for the traversals that read none.
 #[derive(Clone, Copy, Default)]
 pub struct Aux<'a> {
-    /// Cell and parent per node (`backtrack`, `ropes`).
+    /// Cell and parent per node (`backtrack`).
     pub back: &'a [BackNode],
-    /// Six ropes per node (`ropes`).
-    pub ropes: &'a [[u32; 6]],
+    /// Cell and six ropes per leaf (`ropes`).
+    pub ropes: Option<&'a Ropes>,
 }

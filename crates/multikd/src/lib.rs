@@ -74,7 +74,7 @@ use tb_core::{
 use tb_kdtree::stackless::{self, Stackless};
 use tb_kdtree::view::{self, Aux};
 use tb_kdtree::{
-    layout, BackNode, DepthFirst, KdLayout, KdNode, KdStart, KdTree, KdView, Layout, Nodes,
+    layout, BackNode, DepthFirst, KdLayout, KdNode, KdStart, KdTree, KdView, Layout, Nodes, Ropes,
     Treelet, BACKTRACK_AUX, ROPES_AUX,
 };
 
@@ -131,7 +131,7 @@ pub struct MultiKdTree {
 #[derive(Debug, Default)]
 struct AuxArrays {
     back: OnceLock<Vec<BackNode>>,
-    ropes: OnceLock<Vec<[u32; 6]>>,
+    ropes: OnceLock<Ropes>,
 }
 
 impl MultiKdTree {
@@ -198,10 +198,10 @@ impl MultiKdTree {
     }
 
     /// [`ROPES_AUX`] over every tree, built on first use.
-    pub fn ropes(&self) -> &[[u32; 6]] {
+    pub fn ropes(&self) -> &Ropes {
         self.aux
             .ropes
-            .get_or_init(|| view::ropes(&self.view(), self.back_nodes(), &self.roots()))
+            .get_or_init(|| view::ropes(&self.view(), &self.roots()))
     }
 }
 
@@ -270,7 +270,11 @@ impl Structure for MultiKdTree {
     }
 
     fn aux_bytes(&self, aux: &str) -> u64 {
-        (tb_kdtree::aux_bytes_per_node(aux) * self.nodes.len()) as u64
+        tb_kdtree::aux_bytes(
+            aux,
+            self.nodes.len(),
+            view::leaf_count(&self.view(), &self.roots()),
+        )
     }
 
     fn prepare_aux(&self, aux: &str) {

@@ -107,8 +107,8 @@ pub(crate) fn trace_in<L: Layout>(m: &MultiKdTree, l: L, row: usize, b: Batch<'_
         };
     }
     let ropes = || Aux {
-        back: m.back_nodes(),
-        ropes: m.ropes(),
+        back: &[],
+        ropes: Some(m.ropes()),
     };
     match row {
         0 => go!(|w| kd_traverse::RecursiveDirection(w)),
@@ -122,7 +122,7 @@ pub(crate) fn trace_in<L: Layout>(m: &MultiKdTree, l: L, row: usize, b: Batch<'_
             w,
             Aux {
                 back: m.back_nodes(),
-                ropes: &[],
+                ropes: None,
             }
         )),
         8 => go!(|w| Stackless::<_, { stackless::ROPES }>(w, ropes())),

@@ -44,7 +44,7 @@ impl SparseBoxes {
             depth.push(d as u8);
         });
         SparseBoxes {
-            rank: traverse::AugRank::new(&aug, kd.nodes().len()).into(),
+            rank: NodeRank::new(kd.nodes().len(), aug.iter().map(|a| a.node)).into(),
             kd,
             params: *p,
             aug: aug.into(),

@@ -14,7 +14,7 @@ impl SparseBoxes {
     /// located per ray in the kernel (`start`, program `sparse-boxes/sltr`) or from the root
     /// (`sparse-boxes/sltr-root`). Buffers: the kd-tree's nodes and references, the augmented
     /// records, their depths followed by the step cap and the records' rank
-    /// ([`crate::traverse::AugRank`], three words per 64 nodes: the bits' low and high words,
+    /// ([`tb_kdtree::NodeRank`], three words per 64 nodes: the bits' low and high words,
     /// the count before); meta: node count, record count, `d_min + 1`.
     pub(crate) fn gpu_sltr(&self, start: bool) -> GpuProgram<'_> {
         let v = self.kd.view();

@@ -56,6 +56,7 @@ use tb_core::{
     TriTestKind, Vec3, Watertight,
 };
 use tb_kdtree::traverse::leaf;
+use tb_kdtree::NodeRank;
 use tb_kdtree::{
     split_decision, Best, Decision, DepthFirst, KdNode, KdView, Kind, SLACK, STACK_SIZE,
 };
@@ -66,67 +67,9 @@ pub(crate) const SLTR: u8 = 1;
 /// "Not looked up yet" for a record index.
 const NONE: u32 = u32::MAX;
 
-/// The record of an augmented node in constant time (SLTR's climb from the last augmented
-/// node it passed, the start node's point location, [`SparseBoxes::aug_of`]): records are
-/// in node order, so a node's record is the number of augmented nodes before it, a rank over
-/// one bit per kd-tree node with a count per 64 nodes (0.19 bytes per node). The binary
-/// search over the records it replaces missed the cache at every level, a fifth of SLTR's
-/// time (perf, Sponza primary rays).
-#[derive(Debug)]
-pub(crate) struct AugRank {
-    bits: Box<[u64]>,
-    base: Box<[u32]>,
-}
-
-impl AugRank {
-    /// The rank of `aug`'s nodes among `nodes` kd-tree nodes (records naming a node out of
-    /// range are left out; `validate` reports them).
-    pub(crate) fn new(aug: &[AugNode], nodes: usize) -> AugRank {
-        let words = nodes.div_ceil(64);
-        let mut bits = vec![0u64; words];
-        for a in aug {
-            if let Some(w) = bits.get_mut(a.node as usize / 64) {
-                *w |= 1 << (a.node % 64);
-            }
-        }
-        let mut base = Vec::with_capacity(words);
-        let mut n = 0u32;
-        for w in &bits {
-            base.push(n);
-            n += w.count_ones();
-        }
-        AugRank {
-            bits: bits.into(),
-            base: base.into(),
-        }
-    }
-
-    /// The record of `node`, if it is augmented.
-    #[inline(always)]
-    pub(crate) fn find(&self, node: u32) -> Option<usize> {
-        let (w, b) = (node as usize / 64, node % 64);
-        let word = *self.bits.get(w)?;
-        (word >> b & 1 == 1)
-            .then(|| (self.base[w] + (word & ((1u64 << b) - 1)).count_ones()) as usize)
-    }
-
-    /// The GPU's words: per 64 nodes the bits' low and high words and the count before.
-    pub(crate) fn words(&self) -> impl Iterator<Item = u32> + '_ {
-        self.bits
-            .iter()
-            .zip(self.base.iter())
-            .flat_map(|(&w, &n)| [w as u32, (w >> 32) as u32, n])
-    }
-
-    /// Bytes it occupies.
-    pub(crate) fn bytes(&self) -> u64 {
-        (self.bits.len() * 8 + self.base.len() * 4) as u64
-    }
-}
-
 /// Point location of `o` (see [`SparseBoxes::start_node`]): down from the root while `o` is
 /// strictly on one side of the split, remembering the last augmented node.
-pub(crate) fn locate(v: &KdView, rank: &AugRank, period: u32, o: Vec3) -> u32 {
+pub(crate) fn locate(v: &KdView, rank: &NodeRank, period: u32, o: Vec3) -> u32 {
     let nodes = v.nodes();
     let b = v.bounds();
     if nodes.is_empty() || (0..3).any(|a| !(o[a] >= b.min[a] && o[a] <= b.max[a])) {
@@ -160,7 +103,7 @@ struct Ctx<'a> {
     kd: KdView<'a>,
     nodes: &'a [KdNode],
     aug: &'a [AugNode],
-    rank: &'a AugRank,
+    rank: &'a NodeRank,
     depth: &'a [u8],
     period: u32,
     root: Aabb,
