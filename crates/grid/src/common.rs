@@ -61,8 +61,9 @@ pub trait Real:
     /// `x`, exactly (the ray's components).
     fn of32(x: f32) -> Self;
     fn of_u32(i: u32) -> Self;
-    /// `self as u32` (saturating; NaN gives 0).
-    fn to_u32(self) -> u32;
+    /// `min(⌊self⌋, hi)` for `self ≥ 0` (not NaN) and `hi < 2^24`: clamped in floating point,
+    /// then truncated with no saturation code (`as u32` adds its range checks).
+    fn floor_to(self, hi: u32) -> u32;
     fn max(self, o: Self) -> Self;
     fn min(self, o: Self) -> Self;
     fn is_nan(self) -> bool;
@@ -87,8 +88,12 @@ macro_rules! real {
                 i as $t
             }
             #[inline(always)]
-            fn to_u32(self) -> u32 {
-                self as u32
+            fn floor_to(self, hi: u32) -> u32 {
+                debug_assert!(self >= 0.0 && hi < 1 << 24);
+                let c = <$t>::min(self, hi as $t);
+                // SAFETY: `c` is finite and in `[0, hi]` (`self ≥ 0` is not NaN, `hi` is
+                // exact in both types), so it fits an `i32`.
+                unsafe { c.to_int_unchecked::<i32>() as u32 }
             }
             #[inline(always)]
             fn max(self, o: Self) -> Self {
@@ -370,7 +375,7 @@ impl<F: Real> Lattice<F> {
     pub fn voxel(&self, a: usize, p: F) -> u32 {
         let f = (p - self.min[a]) * self.inv_size[a];
         if f >= F::ZERO {
-            f.to_u32().min(self.res[a] - 1)
+            f.floor_to(self.res[a] - 1)
         } else {
             0
         }
