@@ -85,6 +85,15 @@ struct Split {
     refs: u32,
 }
 
+/// Keep `s` as the best split if it costs less than the best so far (the first of equal
+/// costs stays).
+#[inline(always)]
+fn keep_cheaper(best: &mut Option<Split>, s: Split) {
+    if s.cost < best.map_or(f32::INFINITY, |b| b.cost) {
+        *best = Some(s);
+    }
+}
+
 /// The most references a tree may hold per (finite) triangle. Splits duplicate the references
 /// of the triangles they cut; on the paper scenes a tree holds 1.3 to 5.5 per triangle, but
 /// overlapping coplanar triangles can make every split cut nearly all of them (2,000 such
@@ -223,15 +232,16 @@ impl<M: BoxMeasure> Builder<'_, M> {
                         if nl == 0 || nr == 0 {
                             c *= lambda;
                         }
-                        if c < best.map_or(f32::INFINITY, |b| b.cost) {
-                            best = Some(Split {
+                        keep_cheaper(
+                            &mut best,
+                            Split {
                                 axis,
                                 pos,
                                 cost: c,
                                 planar_left,
                                 refs: nl + nr,
-                            });
-                        }
+                            },
+                        );
                     }
                 }
             }
@@ -293,15 +303,16 @@ impl<M: BoxMeasure> Builder<'_, M> {
                     } else {
                         (c_right, false)
                     };
-                    if c < best.map_or(f32::INFINITY, |b| b.cost) {
-                        best = Some(Split {
+                    keep_cheaper(
+                        &mut best,
+                        Split {
                             axis,
                             pos,
                             cost: c,
                             planar_left,
                             refs: nl + nr + pp,
-                        });
-                    }
+                        },
+                    );
                 }
                 nl += ps + pp;
             }
