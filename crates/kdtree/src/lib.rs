@@ -95,7 +95,8 @@ pub const ROPES_AUX: &str = "ropes";
 
 /// The kd-tree in the registry.
 pub static FAMILY: Family = Family::new::<KdTree, KdParams>(
-    "SAH kd-tree with perfect splits (exact sweep O(N log N) / O(N log² N), min-max binning), \
+    "SAH kd-tree with perfect splits (exact sweep O(N log N) / O(N log² N), min-max binning, \
+     its candidates also at the box bounds beside each boundary unless `snap = false`), \
      8-byte nodes in depth-first or treelet layout (`layout`, `treelet_height`; Hapala and Havran \
      2011 §6); `step_cap` ends restart-type walks (counted in `capped_rays`)",
     |tris, set| {
