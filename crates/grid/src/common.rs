@@ -787,9 +787,9 @@ pub fn union_len(a: &[u32], b: &[u32]) -> usize {
     n + (a.len() - i) + (b.len() - j)
 }
 
-/// The sorted union of two sorted reference lists into `out`, whose length must be
-/// [`union_len`].
-pub fn union_into(a: &[u32], b: &[u32], out: &mut [u32]) {
+/// The sorted union of two sorted reference lists into the start of `out` (at least
+/// [`union_len`] long); returns its length.
+pub fn union_into(a: &[u32], b: &[u32], out: &mut [u32]) -> usize {
     let (mut i, mut j, mut k) = (0, 0, 0);
     while i < a.len() && j < b.len() {
         let x = match a[i].cmp(&b[j]) {
@@ -814,6 +814,7 @@ pub fn union_into(a: &[u32], b: &[u32], out: &mut [u32]) {
     out[k..k + ra.len()].copy_from_slice(ra);
     k += ra.len();
     out[k..k + rb.len()].copy_from_slice(rb);
+    k + rb.len()
 }
 
 /// Whether sorted `sub` is a subset of sorted `sup`.
@@ -874,7 +875,7 @@ mod tests {
     fn set_helpers() {
         assert_eq!(union_len(&[1, 3, 5], &[2, 3, 6]), 5);
         let mut v = [0; 5];
-        union_into(&[1, 3, 5], &[2, 3, 6], &mut v);
+        assert_eq!(union_into(&[1, 3, 5], &[2, 3, 6], &mut v), 5);
         assert_eq!(v, [1, 2, 3, 5, 6]);
         assert!(is_subset(&[3, 5], &[1, 3, 5]));
         assert!(!is_subset(&[2], &[1, 3]));

@@ -678,11 +678,7 @@ fn merge_pass(base: &Lattice, dmax: u32, w: &mut Work, axis: usize, p: &Irregula
             for i in b * BLOCK..n.min((b + 1) * BLOCK) {
                 let own = &refs[cells[i].range()];
                 match partner(link[i]) {
-                    Some(t) => {
-                        let u = union_len(own, &refs[cells[t].range()]);
-                        union_into(own, &refs[cells[t].range()], &mut out[at..at + u]);
-                        at += u;
-                    }
+                    Some(t) => at += union_into(own, &refs[cells[t].range()], &mut out[at..]),
                     None if link[i] == NONE => {
                         out[at..at + own.len()].copy_from_slice(own);
                         at += own.len();

@@ -85,12 +85,25 @@ struct Split {
     refs: u32,
 }
 
-/// Keep `s` as the best split if it costs less than the best so far (the first of equal
-/// costs stays).
+/// Keep the split at `pos` on `axis` of SAH `cost` as the best if it costs less than the best
+/// so far (the first of equal costs stays); `refs`: the children's references together.
 #[inline(always)]
-fn keep_cheaper(best: &mut Option<Split>, s: Split) {
-    if s.cost < best.map_or(f32::INFINITY, |b| b.cost) {
-        *best = Some(s);
+fn keep_cheaper(
+    best: &mut Option<Split>,
+    axis: usize,
+    pos: f32,
+    cost: f32,
+    planar_left: bool,
+    refs: u32,
+) {
+    if cost < best.map_or(f32::INFINITY, |b| b.cost) {
+        *best = Some(Split {
+            axis,
+            pos,
+            cost,
+            planar_left,
+            refs,
+        });
     }
 }
 
@@ -176,6 +189,20 @@ impl<M: BoxMeasure> Builder<'_, M> {
         let (ct, ci) = (self.p.sah.c_trav, self.p.sah.c_isect);
         let lambda = 1.0 - self.p.sah.empty_bonus;
         let n = refs.len() as u32;
+        // The children's shares of the cell's measure at plane `pos` on `axis`, and the SAH of
+        // `l` and `r` references on the two sides (the empty bonus where a side is empty).
+        let shares = |axis: usize, pos: f32| {
+            let (lc, rc) = split_cell(cell, axis, pos);
+            (measure(&lc) * inv_area, measure(&rc) * inv_area)
+        };
+        let sah = |(pl, pr): (f32, f32), l: u32, r: u32| {
+            let c = ct + ci * (pl * l as f32 + pr * r as f32);
+            if l == 0 || r == 0 {
+                c * lambda
+            } else {
+                c
+            }
+        };
         let mut best: Option<Split> = None;
         // Min-max binning for nodes of more references than bins; at most that many, the
         // exact sweep, as Shevtsov et al. 2007 switch (binning there would evaluate more
@@ -225,23 +252,8 @@ impl<M: BoxMeasure> Builder<'_, M> {
                         if !(lo < pos && pos < hi) {
                             continue;
                         }
-                        let (lc, rc) = split_cell(cell, axis, pos);
-                        let pl = measure(&lc) * inv_area;
-                        let pr = measure(&rc) * inv_area;
-                        let mut c = ct + ci * (pl * nl as f32 + pr * nr as f32);
-                        if nl == 0 || nr == 0 {
-                            c *= lambda;
-                        }
-                        keep_cheaper(
-                            &mut best,
-                            Split {
-                                axis,
-                                pos,
-                                cost: c,
-                                planar_left,
-                                refs: nl + nr,
-                            },
-                        );
+                        let cost = sah(shares(axis, pos), nl, nr);
+                        keep_cheaper(&mut best, axis, pos, cost, planar_left, nl + nr);
                     }
                 }
             }
@@ -286,33 +298,14 @@ impl<M: BoxMeasure> Builder<'_, M> {
                 let pos = key_pos(ev[i - 1]);
                 nr -= pp + pe;
                 if lo < pos && pos < hi {
-                    let (lc, rc) = split_cell(cell, axis, pos);
-                    let pl = measure(&lc) * inv_area;
-                    let pr = measure(&rc) * inv_area;
-                    let cost = |l: u32, r: u32| {
-                        let c = ct + ci * (pl * l as f32 + pr * r as f32);
-                        if l == 0 || r == 0 {
-                            c * lambda
-                        } else {
-                            c
-                        }
-                    };
-                    let (c_left, c_right) = (cost(nl + pp, nr), cost(nl, nr + pp));
+                    let p = shares(axis, pos);
+                    let (c_left, c_right) = (sah(p, nl + pp, nr), sah(p, nl, nr + pp));
                     let (c, planar_left) = if c_left <= c_right {
                         (c_left, true)
                     } else {
                         (c_right, false)
                     };
-                    keep_cheaper(
-                        &mut best,
-                        Split {
-                            axis,
-                            pos,
-                            cost: c,
-                            planar_left,
-                            refs: nl + nr + pp,
-                        },
-                    );
+                    keep_cheaper(&mut best, axis, pos, c, planar_left, nl + nr + pp);
                 }
                 nl += ps + pp;
             }
