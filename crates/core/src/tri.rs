@@ -58,7 +58,8 @@ pub trait TriTest: Send + Sync + 'static {
 
 /// Four triangles in structure-of-arrays layout for [`TriTest::intersect4`] (as Embree's
 /// `triangle4` blocks): `v[k][a][l]` is coordinate `a` of vertex `k` of lane `l`'s triangle.
-/// Unused lanes hold a degenerate triangle at the origin.
+/// Unused lanes repeat lane 0's triangle: they answer as lane 0 does (and are masked off by the
+/// caller), so a block whose triangles all miss ends early in every lane.
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Tri4 {
@@ -66,11 +67,13 @@ pub struct Tri4 {
 }
 
 impl Tri4 {
-    /// The block of `tris` (at most four; lanes past them hold zeros).
+    /// The block of `tris` (at most four; lanes past them repeat the first, or hold zeros
+    /// where there is none).
     pub fn new(tris: &[Triangle]) -> Tri4 {
         assert!(tris.len() <= 4, "a Tri4 holds at most 4 triangles");
         let mut b = Tri4::default();
-        for (l, t) in tris.iter().enumerate() {
+        let pad = tris.first().into_iter().cycle().take(4 - tris.len());
+        for (l, t) in tris.iter().chain(pad).enumerate() {
             for (k, v) in [t.v0, t.v1, t.v2].into_iter().enumerate() {
                 for a in 0..3 {
                     b.v[k][a][l] = v[a];
@@ -107,6 +110,17 @@ pub struct Lanes4 {
 }
 
 impl Lanes4 {
+    /// No lane hit, none to redo.
+    pub const NONE: Lanes4 = Lanes4 {
+        hit: 0,
+        redo: 0,
+        t: [0.0; 4],
+        u: [0.0; 4],
+        v: [0.0; 4],
+        tt: [0.0; 4],
+        det: [0.0; 4],
+    };
+
     /// Lane by lane with the scalar test (the portable fallback): every lane it hits is put in
     /// `redo`, so the caller's scalar re-test gives the answer.
     #[allow(dead_code)]
@@ -525,6 +539,13 @@ mod sse {
                 _mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)),
                 _mm_cmpgt_ps(w, zero),
             );
+            // Lanes whose edge functions disagree in sign miss (the scalar test's first
+            // rejection); most triangles a ray reaches are such misses, so a block without any
+            // other lane ends here (as Embree's tests end when no lane is left).
+            let miss = _mm_andnot_ps(zero_edge, _mm_and_ps(neg, pos));
+            if _mm_movemask_ps(miss) == 0b1111 {
+                return Lanes4::NONE;
+            }
             let det = _mm_add_ps(_mm_add_ps(u, v), w);
             let (azs, bzs, czs) = (_mm_mul_ps(sz, az), _mm_mul_ps(sz, bz), _mm_mul_ps(sz, cz));
             let tt = _mm_add_ps(
@@ -539,6 +560,21 @@ mod sse {
                 _mm_cmplt_ps(tt_s, _mm_mul_ps(tmin_v, det_s)),
                 _mm_cmpge_ps(tt_s, _mm_mul_ps(tmax_v, det_s)),
             );
+            // The scalar test's second rejection: a determinant in range, a finite distance
+            // outside `[tmin, tmax)` (farther than the closest hit so far, mostly). When every
+            // lane is out by one rejection or the other, the division and the bound are spared.
+            let abs_det = abs(det);
+            let in_range = _mm_and_ps(
+                _mm_cmpge_ps(abs_det, _mm_set1_ps(super::F32_DET_MIN)),
+                _mm_cmple_ps(abs_det, _mm_set1_ps(super::F32_DET_MAX)),
+            );
+            let far = _mm_andnot_ps(
+                zero_edge,
+                _mm_and_ps(_mm_andnot_ps(not_finite(tt), in_range), out1),
+            );
+            if _mm_movemask_ps(_mm_or_ps(miss, far)) == 0b1111 {
+                return Lanes4::NONE;
+            }
             let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
             let t = _mm_mul_ps(tt, inv);
             let out2 = _mm_or_ps(_mm_cmplt_ps(t, tmin_v), _mm_cmpge_ps(t, tmax_v));
@@ -575,11 +611,6 @@ mod sse {
             let behind = _mm_cmple_ps(t, bound);
             // Lanes the scalar test finishes in f64 (`Sheared::in_f64`): a determinant out of
             // the f32 range, a non-finite distance or bound (among lanes with consistent signs).
-            let abs_det = abs(det);
-            let in_range = _mm_and_ps(
-                _mm_cmpge_ps(abs_det, _mm_set1_ps(super::F32_DET_MIN)),
-                _mm_cmple_ps(abs_det, _mm_set1_ps(super::F32_DET_MAX)),
-            );
             let unfinished = _mm_or_ps(
                 _mm_andnot_ps(in_range, _mm_set1_ps(f32::from_bits(!0))),
                 _mm_or_ps(not_finite(tt), not_finite(bound)),
@@ -797,14 +828,19 @@ mod tests {
                 x.map(|(i, h)| (i, h.0.to_bits(), h.1.to_bits(), h.2.to_bits()))
             };
             assert_eq!(bits(four.1), bits(best.1), "{ray:?} {chunk:?}");
-            // Every lane on its own: hit lanes carry the scalar answer, other lanes miss.
-            for (l, t) in chunk.iter().enumerate() {
-                let s = T::intersect(&pre, ray, t, ray.tmax);
-                if l4.redo & (1 << l) == 0 {
-                    let got = (l4.hit & (1 << l) != 0).then_some((l4.t[l], l4.u[l], l4.v[l]));
-                    assert_eq!(bits(got.map(|h| (l, h))), bits(s.map(|h| (l, h))));
+            // Every lane on its own: hit lanes carry the scalar answer, other lanes miss; also
+            // with `tmax` at the closest hit and below it (the lanes beyond it are rejected
+            // before the division, and a block of such lanes ends early).
+            for tmax in [ray.tmax, best.0, best.0 * 0.5] {
+                let l4 = T::intersect4(&pre, ray, &block, tmax);
+                for (l, t) in chunk.iter().enumerate() {
+                    let s = T::intersect(&pre, ray, t, tmax);
+                    if l4.redo & (1 << l) == 0 {
+                        let got = (l4.hit & (1 << l) != 0).then_some((l4.t[l], l4.u[l], l4.v[l]));
+                        assert_eq!(bits(got.map(|h| (l, h))), bits(s.map(|h| (l, h))), "{tmax}");
+                    }
+                    hits += (tmax == ray.tmax && s.is_some()) as usize;
                 }
-                hits += s.is_some() as usize;
             }
         }
         hits

@@ -127,8 +127,8 @@ impl<const N: usize> WideNode<N> {
     }
 }
 
-/// Four triangles of a wide leaf (lanes past the leaf's end: a degenerate triangle at the
-/// origin, primitive id `u32::MAX`), 160 bytes.
+/// Four triangles of a wide leaf (lanes past the leaf's end repeat its block's first triangle,
+/// as [`Tri4::new`] pads, with primitive id `u32::MAX`), 160 bytes.
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LeafBlock {
