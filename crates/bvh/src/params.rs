@@ -21,14 +21,16 @@ tb_core::params! {
         /// SAH cost of a triangle test, C_isect
         c_isect: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
         /// the builder: `binned` (binned SAH, object splits only) or `sbvh` (object and
-        /// spatial splits, Stich et al. 2009)
+        /// spatial splits, Stich et al. 2009); the defaults (`binned`, `width = 8`,
+        /// `leaf_cost = "blocks"`) trace as fast as the SBVH's BVH8 and build 3-9x faster
+        /// (ARCHITECTURE.md, "The default BVH")
         builder: Builder = Builder::Binned, ParamKind::Choice(Builder::NAMES);
         /// SBVH overlap threshold: spatial splits are tried where the object split's children
         /// overlap by more than `alpha` times the root's surface area (Stich et al. 2009 §4.4)
         alpha: f32 = 1e-5, ParamKind::Float { min: 0.0, max: 1.0 };
         /// children per node: 2 (binary), or 4 or 8 (collapsed from the binary tree, child
         /// boxes tested with SIMD; Wald, Benthin and Boulos 2008)
-        width: u32 = 2, ParamKind::Int { min: 2, max: 8 };
+        width: u32 = 8, ParamKind::Int { min: 2, max: 8 };
         /// child-box test of wide nodes: `auto` (SSE for 4, AVX for 8 where the CPU has it),
         /// or `scalar` (a lane loop)
         simd: Simd = Simd::Auto, ParamKind::Choice(Simd::NAMES);
@@ -39,7 +41,7 @@ tb_core::params! {
         /// 1990), or `blocks`, `C_isect·⌈n/4⌉` (the wide trees test a leaf's triangles four at
         /// once in SoA blocks, `LeafBlock`, so a leaf of 3 costs what a leaf of 1 costs);
         /// used by both builders (leaf or split, the reported SAH cost) and the collapse
-        leaf_cost: LeafCost = LeafCost::Linear, ParamKind::Choice(LeafCost::NAMES);
+        leaf_cost: LeafCost = LeafCost::Blocks, ParamKind::Choice(LeafCost::NAMES);
         /// how a wide tree (`width` 4 or 8) is collapsed from the binary one: `sah`, the
         /// SAH-optimal collapse by dynamic programming (Ylitie, Karras and Laine 2017 §3.1),
         /// or `greedy`, opening the child of largest area until the node is full (Wald et
@@ -127,6 +129,18 @@ tb_core::choice! {
 }
 
 impl BvhParams {
+    /// The binary binned BVH with leaves priced per triangle (`builder = "binned", width = 2,
+    /// leaf_cost = "linear"`, the rest at the defaults): the classic baseline, the secondary-ray
+    /// generator's tree, and the defaults before the BVH8 SBVH became the default.
+    pub fn binary() -> Self {
+        BvhParams {
+            builder: Builder::Binned,
+            width: 2,
+            leaf_cost: LeafCost::Linear,
+            ..Default::default()
+        }
+    }
+
     /// Check the parameters: the ranges of the table, then the rules
     /// ([`tb_core::ParamRules`]).
     pub fn check(&self) -> Result<(), AccelError> {

@@ -13,7 +13,7 @@ fn sbvh_of_coplanar_overlaps_stays_within_the_reference_allowance() {
         let params = BvhParams {
             builder: Builder::Sbvh,
             width,
-            ..Default::default()
+            ..BvhParams::binary()
         };
         let t0 = std::time::Instant::now();
         let bvh = Bvh::try_build(&tris, &params).unwrap();

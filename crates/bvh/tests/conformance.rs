@@ -1,5 +1,5 @@
 //! The shared conformance suite (`tb_scene::conformance`): stress scenes and rays, against the
-//! oracle, for the default BVH and two extreme parameter sets.
+//! oracle, for the default BVH (binned BVH8), the binary binned BVH and extreme parameter sets.
 
 use tb_bvh::{Bvh, BvhParams};
 use tb_core::Accel;
@@ -18,11 +18,16 @@ fn conforms_default() {
 }
 
 #[test]
+fn conforms_binary() {
+    run(BvhParams::binary());
+}
+
+#[test]
 fn conforms_bins4_leaf1() {
     run(BvhParams {
         bins: 4,
         max_leaf: 1,
-        ..Default::default()
+        ..BvhParams::binary()
     });
 }
 
@@ -31,7 +36,7 @@ fn conforms_bins32_leaf8() {
     run(BvhParams {
         bins: 32,
         max_leaf: 8,
-        ..Default::default()
+        ..BvhParams::binary()
     });
 }
 
@@ -39,7 +44,7 @@ fn conforms_bins32_leaf8() {
 fn conforms_bvh4() {
     run(BvhParams {
         width: 4,
-        ..Default::default()
+        ..BvhParams::binary()
     });
 }
 
@@ -47,7 +52,7 @@ fn conforms_bvh4() {
 fn conforms_bvh8() {
     run(BvhParams {
         width: 8,
-        ..Default::default()
+        ..BvhParams::binary()
     });
 }
 
@@ -57,7 +62,7 @@ fn conforms_bvh4_scalar_leaf1() {
         width: 4,
         max_leaf: 1,
         simd: tb_bvh::Simd::Scalar,
-        ..Default::default()
+        ..BvhParams::binary()
     });
 }
 
@@ -67,7 +72,7 @@ fn conforms_bvh8_scalar_leaf8() {
         width: 8,
         max_leaf: 8,
         simd: tb_bvh::Simd::Scalar,
-        ..Default::default()
+        ..BvhParams::binary()
     });
 }
 
@@ -75,7 +80,7 @@ fn conforms_bvh8_scalar_leaf8() {
 fn conforms_sbvh() {
     run(BvhParams {
         builder: tb_bvh::Builder::Sbvh,
-        ..Default::default()
+        ..BvhParams::binary()
     });
 }
 
@@ -87,7 +92,7 @@ fn conforms_sbvh_alpha0_bvh4_leaf1() {
         alpha: 0.0,
         width: 4,
         max_leaf: 1,
-        ..Default::default()
+        ..BvhParams::binary()
     });
 }
 
@@ -97,7 +102,7 @@ fn conforms_sbvh_alpha0_bvh8() {
         builder: tb_bvh::Builder::Sbvh,
         alpha: 0.0,
         width: 8,
-        ..Default::default()
+        ..BvhParams::binary()
     });
 }
 
@@ -107,7 +112,7 @@ fn conforms_bvh8_greedy_collapse() {
     run(BvhParams {
         width: 8,
         collapse: tb_bvh::Collapse::Greedy,
-        ..Default::default()
+        ..BvhParams::binary()
     });
 }
 
@@ -119,7 +124,7 @@ fn conforms_blocks_bvh4_leaf8() {
         width: 4,
         max_leaf: 8,
         leaf_cost: tb_bvh::LeafCost::Blocks,
-        ..Default::default()
+        ..BvhParams::binary()
     });
 }
 
@@ -132,6 +137,6 @@ fn conforms_sbvh_binned_objects_blocks_bvh8() {
         leaf_cost: tb_bvh::LeafCost::Blocks,
         width: 8,
         max_leaf: 8,
-        ..Default::default()
+        ..BvhParams::binary()
     });
 }

@@ -27,7 +27,7 @@ fn wide_programs_match_the_cpu() {
             let p = BvhParams {
                 builder,
                 width,
-                ..Default::default()
+                ..BvhParams::binary()
             };
             let bvh = Bvh::build(&scene.triangles, &p);
             let Some(program) = bvh.gpu_program(0) else {

@@ -8,8 +8,9 @@ use tb_bvh::BvhParams;
 use tb_core::Vec3;
 
 fn param_sets() -> Vec<BvhParams> {
-    let d = BvhParams::default();
+    let d = BvhParams::binary();
     vec![
+        BvhParams::default(),
         d,
         BvhParams {
             bins: 4,
@@ -66,15 +67,21 @@ fn far_from_the_origin_and_tiny_scale() {
     // 1e6 translation: coordinates with few bits of fraction left.
     let tris = soup(500, 1.0, 0.1, Vec3::splat(1.0e6), 5);
     let rays = common::rays(&tris, 2000, 6);
-    check_against_oracle(&tris, &rays, &BvhParams::default());
+    for p in [BvhParams::default(), BvhParams::binary()] {
+        check_against_oracle(&tris, &rays, &p);
+    }
     // Tiny scale.
     let tris = soup(500, 1e-5, 1e-6, Vec3::ZERO, 7);
     let rays = common::rays(&tris, 2000, 8);
-    assert!(check_against_oracle(&tris, &rays, &BvhParams::default()) > 100);
+    for p in [BvhParams::default(), BvhParams::binary()] {
+        assert!(check_against_oracle(&tris, &rays, &p) > 100);
+    }
     // Huge scale.
     let tris = soup(500, 1e7, 1e6, Vec3::splat(-5e6), 9);
     let rays = common::rays(&tris, 2000, 10);
-    assert!(check_against_oracle(&tris, &rays, &BvhParams::default()) > 100);
+    for p in [BvhParams::default(), BvhParams::binary()] {
+        assert!(check_against_oracle(&tris, &rays, &p) > 100);
+    }
 }
 
 /// The parallel builds (binned, SBVH) make the same tree as one thread, and the wide trees
@@ -87,7 +94,7 @@ fn parallel_builds_equal_sequential() {
             builder,
             build_threads: threads,
             width: 8,
-            ..Default::default()
+            ..BvhParams::binary()
         };
         let one = tb_bvh::Bvh::build(&tris, &p(1));
         let two = tb_bvh::Bvh::build(&tris, &p(2));

@@ -10,7 +10,7 @@ use tb_core::{
 };
 
 fn all_params() -> Vec<BvhParams> {
-    let d = BvhParams::default();
+    let d = BvhParams::binary();
     vec![
         d,
         BvhParams {
@@ -107,7 +107,7 @@ fn flat_scene_with_rays_in_its_plane_and_on_grid_lines() {
         assert!(hits > 1000, "{hits} hits");
     }
     // Rays in z = 0 along x must hit the walls standing on the plane (at their bottom edge).
-    let bvh = build(&tris, &BvhParams::default());
+    let bvh = build(&tris, &BvhParams::binary());
     let r = Ray::new(Vec3::new(-1.0, 3.0, 0.0), Vec3::X);
     let h = trace(&bvh, Query::Closest, TriTestKind::Watertight, &[r])[0];
     assert!(
@@ -116,7 +116,7 @@ fn flat_scene_with_rays_in_its_plane_and_on_grid_lines() {
     );
     // A flat-only scene: rays in its plane never hit, rays across it do.
     let flat = flat_grid(8);
-    let bvh = build(&flat, &BvhParams::default());
+    let bvh = build(&flat, &BvhParams::binary());
     let inplane = [
         Ray::new(Vec3::new(-1.0, 2.0, 0.0), Vec3::X),
         Ray::new(Vec3::new(-1.0, 2.5, 0.0), Vec3::X),
@@ -162,7 +162,7 @@ fn rays_along_axes_in_box_face_planes() {
     }
     assert!(n_hits > 500, "{n_hits} hits");
     // A ray along the edge line y = 0, z = 0 of the first cube hits it at x = 0.
-    let bvh = build(&tris, &BvhParams::default());
+    let bvh = build(&tris, &BvhParams::binary());
     let h = trace(
         &bvh,
         Query::Closest,
@@ -199,7 +199,7 @@ fn empty_scene_misses_everything() {
 #[test]
 fn one_triangle() {
     let t = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
-    let bvh = build(&[t], &BvhParams::default());
+    let bvh = build(&[t], &BvhParams::binary());
     assert_eq!(bvh.nodes().len(), 1);
     assert!(bvh.nodes()[0].is_leaf() && bvh.nodes()[0].count == 1);
     let rays = [
@@ -314,7 +314,7 @@ fn depth_is_bounded_for_pathological_scenes() {
 fn counters_do_not_change_results() {
     let tris = soup(2000, 1.0, 0.05, Vec3::ZERO, 11);
     let rays = common::rays(&tris, 3000, 12);
-    let bvh = build(&tris, &BvhParams::default());
+    let bvh = build(&tris, &BvhParams::binary());
     for tri in TriTestKind::ALL {
         for q in [Query::Closest, Query::Any] {
             let plain = trace(&bvh, q, tri, &rays);
@@ -392,7 +392,7 @@ fn flat_arrays_and_reports() {
         &BvhParams {
             max_leaf: 16,
             c_trav: 4.0,
-            ..Default::default()
+            ..BvhParams::binary()
         },
     );
     assert!(figure(&lazy, "prims_per_leaf_mean") > 2.0);
@@ -438,7 +438,7 @@ fn hits_name_scene_indices() {
             )
         })
         .collect();
-    let bvh = build(&tris, &BvhParams::default());
+    let bvh = build(&tris, &BvhParams::binary());
     let oracle = BruteForce::new(&tris);
     let r = [Ray::new(Vec3::new(0.0, 0.0, -20.5), Vec3::Z)];
     let a = trace(&bvh, Query::Closest, TriTestKind::Watertight, &r)[0];

@@ -45,7 +45,7 @@ fn simd_equals_scalar_bit_for_bit() {
                 leaf_cost,
                 c_isect: 0.5,
                 simd,
-                ..Default::default()
+                ..BvhParams::binary()
             };
             let auto = common::build(tris, &p(Simd::Auto));
             let scalar = common::build(tris, &p(Simd::Scalar));

@@ -154,9 +154,11 @@ pub fn families() -> &'static [&'static Family] {
 pub const GENERATOR_LABEL: &str = "bvh";
 
 /// The accelerator used to generate secondary rays (shadow, AO, path bounces) from primary
-/// hits: the default BVH. It is built only when a scene asks for secondary rays.
+/// hits: the binary binned BVH ([`tb_bvh::BvhParams::binary`]), fixed so that every batch of
+/// secondary rays stays the same whatever `bvh`'s defaults are. It is built only when a scene
+/// asks for secondary rays.
 pub fn generator(tris: &[Triangle]) -> Box<dyn Accel> {
-    Box::new(tb_bvh::Bvh::build(tris, &tb_bvh::BvhParams::default()))
+    Box::new(tb_bvh::Bvh::build(tris, &tb_bvh::BvhParams::binary()))
 }
 
 /// Tables 1 and 2 of Torres et al. 2012, the multi-kd-trees' normalised weights computed by

@@ -164,7 +164,7 @@ fn main() {
         let p = tb_bvh::BvhParams {
             builder,
             width,
-            ..Default::default()
+            ..tb_bvh::BvhParams::binary()
         };
         Box::new(tb_bvh::Bvh::build(tris, &p))
     };

@@ -199,7 +199,7 @@ mod tests {
                             leaf_cost,
                             width,
                             collapse,
-                            ..Default::default()
+                            ..BvhParams::binary()
                         };
                         let greedy = Bvh::build(&tris, &p(Collapse::Greedy));
                         let dp = Bvh::build(&tris, &p(Collapse::Sah));
@@ -232,7 +232,7 @@ mod tests {
                 let p = BvhParams {
                     leaf_cost,
                     max_leaf: 8,
-                    ..Default::default()
+                    ..BvhParams::binary()
                 };
                 let bin = crate::build::build(&tris, &p).0;
                 let cm = CostModel::of(&p);

@@ -49,7 +49,7 @@ pub fn generate_batches(
     if secondary {
         if first_view {
             notes.push(format!(
-                "{}: secondary rays start at primary hits found by bvh (default params, watertight test)",
+                "{}: secondary rays start at primary hits found by the binary binned bvh (builder=binned, width=2, leaf_cost=linear; watertight test)",
                 spec.table
             ));
         }
