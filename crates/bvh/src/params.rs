@@ -31,8 +31,8 @@ tb_core::params! {
         /// children per node: 2 (binary), or 4 or 8 (collapsed from the binary tree, child
         /// boxes tested with SIMD; Wald, Benthin and Boulos 2008)
         width: u32 = 8, ParamKind::Int { min: 2, max: 8 };
-        /// child-box test of wide nodes: `auto` (SSE for 4, AVX for 8 where the CPU has it),
-        /// or `scalar` (a lane loop)
+        /// child-box test of wide nodes: `auto` (SSE for 4, AVX for 8 where the CPU has it,
+        /// the same walk compiled for AVX-512 where it has that), or `scalar` (a lane loop)
         simd: Simd = Simd::Auto, ParamKind::Choice(Simd::NAMES);
         /// build threads: 0 = the current rayon pool (all threads in the harness), n = a pool
         /// of n threads (1: sequential); the tree is the same for every count

@@ -10,6 +10,10 @@ pub(crate) enum Isa {
     Sse,
     #[cfg(target_arch = "x86_64")]
     Avx,
+    /// The AVX test compiled for AVX-512 (VL) CPUs: the same instructions' results, with the
+    /// 32 vector registers and mask registers at the compiler's disposal.
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
 }
 
 impl Isa {
@@ -22,6 +26,12 @@ impl Isa {
         {
             if n == 4 {
                 return Isa::Sse;
+            }
+            if n == 8
+                && std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx512vl")
+            {
+                return Isa::Avx512;
             }
             if n == 8 && std::arch::is_x86_feature_detected!("avx") {
                 return Isa::Avx;
@@ -227,6 +237,9 @@ impl<const N: usize> Wide<'_, N> {
             // SAFETY: `Isa::detect` chose AVX for N = 8 on a CPU that has it.
             #[cfg(target_arch = "x86_64")]
             Isa::Avx => unsafe { self.walk_avx::<T, C, ANY>(ray, c) },
+            // SAFETY: `Isa::detect` chose AVX-512 for N = 8 on a CPU that has it.
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => unsafe { self.walk_avx512::<T, C, ANY>(ray, c) },
             // SAFETY: the scalar test needs nothing.
             Isa::Scalar => unsafe { self.walk::<Scalar, T, C, ANY>(ray, c) },
         }
@@ -250,6 +263,21 @@ impl<const N: usize> Wide<'_, N> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
     unsafe fn walk_avx<T: TriTest, C: Counter, const ANY: bool>(
+        &self,
+        ray: &Ray,
+        c: &mut C,
+    ) -> HitRecord {
+        assert!(N == 8);
+        // SAFETY: N = 8, so the cast is the identity.
+        unsafe {
+            let me: &Wide<'_, 8> = &*(self as *const Self as *const Wide<'_, 8>);
+            me.walk::<x86::Avx, T, C, ANY>(ray, c)
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2,avx512f,avx512vl")]
+    unsafe fn walk_avx512<T: TriTest, C: Counter, const ANY: bool>(
         &self,
         ray: &Ray,
         c: &mut C,
