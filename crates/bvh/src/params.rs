@@ -22,7 +22,7 @@ tb_core::params! {
         c_isect: f32 = 1.0, ParamKind::Float { min: 1e-6, max: 1e6 };
         /// the builder: `binned` (binned SAH, object splits only) or `sbvh` (object and
         /// spatial splits, Stich et al. 2009); the defaults (`binned`, `width = 8`,
-        /// `leaf_cost = "blocks"`) trace as fast as the SBVH's BVH8 and build 3-9x faster
+        /// `leaf_cost = "blocks"`) trace as fast as the SBVH's BVH8 and build 4-7x faster
         /// (ARCHITECTURE.md, "The default BVH")
         builder: Builder = Builder::Binned, ParamKind::Choice(Builder::NAMES);
         /// SBVH overlap threshold: spatial splits are tried where the object split's children
