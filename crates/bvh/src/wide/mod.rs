@@ -147,19 +147,23 @@ mod tests {
     use collapse::Dp;
     use tb_core::Accel;
 
+    /// A deterministic generator of floats in `[0, 1)` (xorshift; no dependency).
+    fn uniform(mut x: u64) -> impl FnMut() -> f32 {
+        move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
     fn scenes() -> Vec<(&'static str, Vec<Triangle>)> {
         let load = |s: &str| {
             tb_scene::load(s, std::path::Path::new("."))
                 .unwrap()
                 .triangles
         };
-        let mut x = 0x9e3779b97f4a7c15u64;
-        let mut rnd = move || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = uniform(0x9e3779b97f4a7c15);
         let mut v = || Vec3::new(rnd(), rnd(), rnd());
         let soup = (0..3000)
             .map(|_| {
@@ -269,13 +273,7 @@ mod tests {
     #[test]
     fn every_isa_equals_the_lane_loop() {
         use tb_core::{dispatch, HitRecord, Query, Ray, TraversalStats, TriTestKind};
-        let mut x = 0x2545f4914f6cdd1du64;
-        let mut rnd = move || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = uniform(0x2545f4914f6cdd1d);
         let mut isas = vec![walk::Isa::Scalar];
         #[cfg(target_arch = "x86_64")]
         {

@@ -209,6 +209,32 @@ mod x86 {
     }
 }
 
+/// The entry points of the SIMD walks: each is `walk` with box test `$test` on a node width of
+/// `$n`, compiled with the instruction sets `$features` enabled (so that `walk` and the box
+/// and triangle tests it inlines use them).
+macro_rules! simd_entries {
+    ($($(#[doc = $doc:literal])* $name:ident, $features:literal, $n:literal, $test:ident;)*) => {$(
+        $(#[doc = $doc])*
+        /// # Safety
+        /// The CPU must have the instruction sets, and `N` must be the width named.
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $features)]
+        unsafe fn $name<T: TriTest, C: Counter, const ANY: bool>(
+            &self,
+            ray: &Ray,
+            c: &mut C,
+        ) -> HitRecord {
+            assert!(N == $n);
+            // SAFETY: N = $n, so the cast is the identity; the caller guarantees the
+            // instruction sets.
+            unsafe {
+                let me: &Wide<'_, $n> = &*(self as *const Self as *const Wide<'_, $n>);
+                me.walk::<x86::$test, T, C, ANY>(ray, c)
+            }
+        }
+    )*};
+}
+
 /// The `ordered` traversal of a wide [`Bvh`] of width `N`.
 pub(crate) struct Wide<'a, const N: usize> {
     pub nodes: &'a [WideNode<N>],
@@ -245,49 +271,14 @@ impl<const N: usize> Wide<'_, N> {
         }
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "sse2")]
-    unsafe fn walk_sse<T: TriTest, C: Counter, const ANY: bool>(
-        &self,
-        ray: &Ray,
-        c: &mut C,
-    ) -> HitRecord {
-        assert!(N == 4);
-        // SAFETY: N = 4, so the cast is the identity.
-        unsafe {
-            let me: &Wide<'_, 4> = &*(self as *const Self as *const Wide<'_, 4>);
-            me.walk::<x86::Sse, T, C, ANY>(ray, c)
-        }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
-    unsafe fn walk_avx<T: TriTest, C: Counter, const ANY: bool>(
-        &self,
-        ray: &Ray,
-        c: &mut C,
-    ) -> HitRecord {
-        assert!(N == 8);
-        // SAFETY: N = 8, so the cast is the identity.
-        unsafe {
-            let me: &Wide<'_, 8> = &*(self as *const Self as *const Wide<'_, 8>);
-            me.walk::<x86::Avx, T, C, ANY>(ray, c)
-        }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx,avx2,avx512f,avx512vl")]
-    unsafe fn walk_avx512<T: TriTest, C: Counter, const ANY: bool>(
-        &self,
-        ray: &Ray,
-        c: &mut C,
-    ) -> HitRecord {
-        assert!(N == 8);
-        // SAFETY: N = 8, so the cast is the identity.
-        unsafe {
-            let me: &Wide<'_, 8> = &*(self as *const Self as *const Wide<'_, 8>);
-            me.walk::<x86::Avx, T, C, ANY>(ray, c)
-        }
+    simd_entries! {
+        /// SSE (x86-64's baseline) for N = 4.
+        walk_sse, "sse2", 4, Sse;
+        /// AVX for N = 8.
+        walk_avx, "avx", 8, Avx;
+        /// The same AVX walk compiled with AVX-512 enabled (more registers, mask registers;
+        /// the same operations and results).
+        walk_avx512, "avx,avx2,avx512f,avx512vl", 8, Avx;
     }
 
     /// # Safety
