@@ -760,13 +760,15 @@ pub fn brute_force<T: TriTest, C: Counter, const ANY: bool>(
 /// axis).
 #[inline(always)]
 pub fn argmin3<F: Real>(t: [F; 3]) -> (usize, F) {
-    let mut k = 0;
-    for a in 1..3 {
-        if t[a] < t[k] {
-            k = a;
+    // The index and the value are carried together, in registers: reading `t[k]` back by
+    // index went through memory on the walk's critical path.
+    let (mut k, mut m) = (0, t[0]);
+    for (a, &x) in t.iter().enumerate().skip(1) {
+        if x < m {
+            (k, m) = (a, x);
         }
     }
-    (k, t[k])
+    (k, m)
 }
 
 /// Size of the references of one cell with those of another, counting each triangle once
