@@ -270,20 +270,22 @@ struct Sheared {
 impl Sheared {
     #[inline(always)]
     fn new(p: &WatertightPre, ray: &Ray, tri: &Triangle) -> Sheared {
-        // Arrays, not glam's `Index` (a match per access), so the permutation is a plain load.
-        let a = (tri.v0 - ray.origin).to_array();
-        let b = (tri.v1 - ray.origin).to_array();
-        let c = (tri.v2 - ray.origin).to_array();
-        let (az, bz, cz) = (a[p.kz], b[p.kz], c[p.kz]);
+        // The permuted coordinates are loaded by index from the triangle and the origin in
+        // place (`AsRef<[f32; 3]>`, not glam's `Index`, a match per access): subtracting first
+        // and indexing the difference went through a stack copy (a store and a load per
+        // coordinate). The values are the same: `v[k] - o[k]` either way.
+        let o: &[f32; 3] = ray.origin.as_ref();
+        let rel = |v: &Vec3, k: usize| v.as_ref()[k] - o[k];
+        let (az, bz, cz) = (rel(&tri.v0, p.kz), rel(&tri.v1, p.kz), rel(&tri.v2, p.kz));
         Sheared {
-            ax: a[p.kx] - p.sx * az,
-            ay: a[p.ky] - p.sy * az,
+            ax: rel(&tri.v0, p.kx) - p.sx * az,
+            ay: rel(&tri.v0, p.ky) - p.sy * az,
             az,
-            bx: b[p.kx] - p.sx * bz,
-            by: b[p.ky] - p.sy * bz,
+            bx: rel(&tri.v1, p.kx) - p.sx * bz,
+            by: rel(&tri.v1, p.ky) - p.sy * bz,
             bz,
-            cx: c[p.kx] - p.sx * cz,
-            cy: c[p.ky] - p.sy * cz,
+            cx: rel(&tri.v2, p.kx) - p.sx * cz,
+            cy: rel(&tri.v2, p.ky) - p.sy * cz,
             cz,
         }
     }
