@@ -26,8 +26,9 @@
 //! - **Wide BVHs** (`width = 4` or `8`, module `wide`): collapsed from the binary tree,
 //!   SAH-optimally by dynamic programming (Ylitie, Karras and Laine 2017 §3.1; `collapse`),
 //!   child boxes in SoA layout tested at once with SSE or AVX (runtime detection, the AVX walk
-//!   compiled for AVX-512 where the CPU has it, scalar fallback), nearest child first, leaves in SoA blocks of four triangles (their SAH price
-//!   per block with `leaf_cost = "blocks"`); GPU program `shaders/wide.wgsl`.
+//!   compiled for AVX-512 where the CPU has it, scalar fallback), nearest child first, leaves
+//!   in SoA blocks of four triangles (their SAH price per block with `leaf_cost = "blocks"`);
+//!   GPU program `shaders/wide.wgsl`.
 //! - **Traversal** `ordered` (module `traverse`): depth-first with a fixed-size stack, both
 //!   children's boxes tested at their parent and the nearer visited first (pbrt-v3 §4.3.5), the
 //!   slab test made robust as in Ize 2013, "Robust BVH ray traversal" (see [`Aabb::intersect`]).

@@ -131,7 +131,7 @@ tb_core::choice! {
 impl BvhParams {
     /// The binary binned BVH with leaves priced per triangle (`builder = "binned", width = 2,
     /// leaf_cost = "linear"`, the rest at the defaults): the classic baseline, the secondary-ray
-    /// generator's tree, and the defaults before the BVH8 SBVH became the default.
+    /// generator's tree, and the defaults before the binned BVH8 became the default.
     pub fn binary() -> Self {
         BvhParams {
             builder: Builder::Binned,

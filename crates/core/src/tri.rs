@@ -132,13 +132,8 @@ impl Lanes4 {
             }
         }
         Lanes4 {
-            hit: 0,
             redo,
-            t: [0.0; 4],
-            u: [0.0; 4],
-            v: [0.0; 4],
-            tt: [0.0; 4],
-            det: [0.0; 4],
+            ..Lanes4::NONE
         }
     }
 }
@@ -544,7 +539,8 @@ mod sse {
             // Lanes whose edge functions disagree in sign miss (the scalar test's first
             // rejection); most triangles a ray reaches are such misses, so a block without any
             // other lane ends here (as Embree's tests end when no lane is left).
-            let miss = _mm_andnot_ps(zero_edge, _mm_and_ps(neg, pos));
+            let mixed = _mm_and_ps(neg, pos);
+            let miss = _mm_andnot_ps(zero_edge, mixed);
             if _mm_movemask_ps(miss) == 0b1111 {
                 return Lanes4::NONE;
             }
@@ -617,9 +613,9 @@ mod sse {
                 _mm_andnot_ps(in_range, _mm_set1_ps(f32::from_bits(!0))),
                 _mm_or_ps(not_finite(tt), not_finite(bound)),
             );
-            let redo = _mm_or_ps(zero_edge, _mm_andnot_ps(_mm_and_ps(neg, pos), unfinished));
+            let redo = _mm_or_ps(zero_edge, _mm_andnot_ps(mixed, unfinished));
             let reject = _mm_or_ps(
-                _mm_or_ps(redo, _mm_and_ps(neg, pos)),
+                _mm_or_ps(redo, mixed),
                 _mm_or_ps(_mm_or_ps(out1, out2), behind),
             );
             let hit = _mm_andnot_ps(reject, _mm_set1_ps(f32::from_bits(!0)));
