@@ -500,6 +500,52 @@ pub fn flatten(runs: Vec<Vec<u64>>, n_cells: usize) -> (Vec<u32>, Vec<u32>) {
     (start, refs)
 }
 
+/// The planes of a lattice in the walk's arithmetic, `res[a] + 1` per axis, each the value
+/// [`Lattice::plane`] computes: the walk reads a cell's exit plane from here instead of
+/// converting its index and scaling it, a shorter chain of dependent operations per cell
+/// (the walk is latency-bound: each cell's exit decides the next look-up). Equal values, so
+/// the same walk and counters.
+#[derive(Clone, Debug, Default)]
+pub struct Planes<F> {
+    values: Vec<F>,
+    at: [usize; 3],
+}
+
+impl<F: Real> Planes<F> {
+    /// The planes of `lat`.
+    pub fn of(lat: &Lattice<F>) -> Self {
+        let at = [
+            0,
+            lat.res[0] as usize + 1,
+            lat.res[0] as usize + lat.res[1] as usize + 2,
+        ];
+        let values = (0..3)
+            .flat_map(|a| (0..=lat.res[a]).map(move |i| lat.plane(a, i)))
+            .collect();
+        Planes { values, at }
+    }
+
+    /// Plane `i ≤ res[a]` of axis `a`.
+    #[inline(always)]
+    pub fn get(&self, a: usize, i: u32) -> F {
+        self.values[self.at[a] + i as usize]
+    }
+
+    /// Bytes of the table.
+    pub fn bytes(&self) -> usize {
+        std::mem::size_of_val(&self.values[..])
+    }
+}
+
+/// The plane tables of `lat` for a walk in `precision`: the `f32` one or the `f64` one, the
+/// other empty.
+pub fn planes_for(lat: &Lattice, precision: Precision) -> (Planes<f32>, Planes<f64>) {
+    match precision {
+        Precision::F32 => (Planes::of(&lat.cast()), Planes::default()),
+        Precision::F64 => (Planes::default(), Planes::of(lat)),
+    }
+}
+
 /// The ray of a walk in `F`: origin, direction, and the interval `[t0, t1]` in which it is
 /// inside the grid's box (clipped to its own `[tmin, tmax]`).
 #[derive(Clone, Copy, Debug)]
@@ -584,14 +630,14 @@ impl<F: Real> WalkRay<F> {
     }
 
     /// Distance to the far plane of the box of voxels `lo..hi` on each axis (`+inf` where the
-    /// ray is parallel to the axis).
+    /// ray is parallel to the axis), plane `i` of axis `a` at `plane(a, i)`.
     #[inline(always)]
-    pub fn exits(&self, lat: &Lattice<F>, lo: [u32; 3], hi: [u32; 3]) -> [F; 3] {
+    pub fn exits(&self, plane: impl Fn(usize, u32) -> F, lo: [u32; 3], hi: [u32; 3]) -> [F; 3] {
         std::array::from_fn(|a| {
             if self.d[a] > F::ZERO {
-                (lat.plane(a, hi[a]) - self.o[a]) * self.inv[a]
+                (plane(a, hi[a]) - self.o[a]) * self.inv[a]
             } else if self.d[a] < F::ZERO {
-                (lat.plane(a, lo[a]) - self.o[a]) * self.inv[a]
+                (plane(a, lo[a]) - self.o[a]) * self.inv[a]
             } else {
                 F::INFINITY
             }
@@ -667,13 +713,25 @@ pub enum Visit {
 /// closer one), when the ray's interval ends inside the cell, or when it leaves the lattice.
 /// Terminates by the monotonicity of `advance`.
 #[inline(always)]
-pub fn walk<F: Real>(w: &WalkRay<F>, lat: &Lattice<F>, mut visit: impl FnMut([u32; 3]) -> Visit) {
+pub fn walk<F: Real>(w: &WalkRay<F>, lat: &Lattice<F>, visit: impl FnMut([u32; 3]) -> Visit) {
+    walk_by(w, lat, |a, i| lat.plane(a, i), visit)
+}
+
+/// [`walk`] with the planes' positions given by `plane(axis, index)`, equal to
+/// [`Lattice::plane`]'s (a [`Planes`] table).
+#[inline(always)]
+pub fn walk_by<F: Real>(
+    w: &WalkRay<F>,
+    lat: &Lattice<F>,
+    plane: impl Fn(usize, u32) -> F,
+    mut visit: impl FnMut([u32; 3]) -> Visit,
+) {
     let mut v = w.voxel_at(lat, w.t0);
     loop {
         let Visit::Continue { lo, hi, best } = visit(v) else {
             return;
         };
-        let (axis, t_exit) = argmin3(w.exits(lat, lo, hi));
+        let (axis, t_exit) = argmin3(w.exits(&plane, lo, hi));
         if F::of32(best) <= t_exit || t_exit >= w.t1 {
             return;
         }

@@ -3,8 +3,9 @@
 //! expansion) and the traversal of §5.
 
 use crate::common::{
-    bin_uniform, bounded_res, enter, grid_bounds, is_subset, resolution, test_refs, union_into,
-    union_len, walk, Lattice, Real, Visit, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
+    bin_uniform, bounded_res, enter, grid_bounds, is_subset, planes_for, resolution, test_refs,
+    union_into, union_len, walk_by, Lattice, Planes, Real, Visit, MAX_AXIS_RES,
+    MAX_REFS_PER_TRIANGLE,
 };
 use crate::params::{Initial, IrregularParams, Precision};
 use rayon::prelude::*;
@@ -55,6 +56,10 @@ pub struct IrregularGrid {
     pub(crate) base: Lattice,
     /// `base` in `f32`, the walk's lattice at [`Precision::F32`].
     pub(crate) base32: Lattice<f32>,
+    /// The planes of the walk's lattice (`base32` or `base`, by `precision`; the other is
+    /// empty).
+    planes32: Planes<f32>,
+    planes64: Planes<f64>,
     pub(crate) precision: Precision,
     pub(crate) dmax: u32,
     /// Voxel map (§4.1): one word per top cell, `D << 28 | index` of its second level in this
@@ -200,10 +205,17 @@ impl IrregularGrid {
         fig.push(("top_res_y".into(), res[1] as f64));
         fig.push(("top_res_z".into(), res[2] as f64));
         fig.push(("depth_max".into(), dmax as f64));
+        let (planes32, planes64) = planes_for(&base, precision);
+        fig.push((
+            "planes_bytes".into(),
+            (planes32.bytes() + planes64.bytes()) as f64,
+        ));
         Ok(IrregularGrid {
             top,
             base,
             base32: base.cast(),
+            planes32,
+            planes64,
             precision,
             dmax,
             map,
@@ -243,16 +255,18 @@ impl IrregularGrid {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         match self.precision {
-            Precision::F32 => self.walk_in::<T, C, ANY, f32>(&self.base32, ray, c),
-            Precision::F64 => self.walk_in::<T, C, ANY, f64>(&self.base, ray, c),
+            Precision::F32 => self.walk_in::<T, C, ANY, f32>(&self.base32, &self.planes32, ray, c),
+            Precision::F64 => self.walk_in::<T, C, ANY, f64>(&self.base, &self.planes64, ray, c),
         }
     }
 
-    /// The §5 walk over `base`, the base lattice in the walk's arithmetic `F`.
+    /// The §5 walk over `base`, the base lattice in the walk's arithmetic `F`, with its
+    /// `planes`.
     #[inline(always)]
     fn walk_in<T: TriTest, C: Counter, const ANY: bool, F: Real>(
         &self,
         base: &Lattice<F>,
+        planes: &Planes<F>,
         ray: &Ray,
         c: &mut C,
     ) -> HitRecord {
@@ -263,27 +277,32 @@ impl IrregularGrid {
         let pre = T::prepare(ray);
         let mut hit = HitRecord::MISS;
         let mut best = ray.tmax;
-        walk(&w, base, |v| {
-            c.cell();
-            c.steps(1);
-            let cell = &self.cells[self.lookup(v) as usize];
-            if test_refs::<T, C, ANY>(
-                &pre,
-                ray,
-                &self.tris,
-                &self.refs[cell.range()],
-                &mut hit,
-                &mut best,
-                c,
-            ) {
-                return Visit::Stop;
-            }
-            Visit::Continue {
-                lo: cell.lo,
-                hi: cell.hi,
-                best,
-            }
-        });
+        walk_by(
+            &w,
+            base,
+            |a, i| planes.get(a, i),
+            |v| {
+                c.cell();
+                c.steps(1);
+                let cell = &self.cells[self.lookup(v) as usize];
+                if test_refs::<T, C, ANY>(
+                    &pre,
+                    ray,
+                    &self.tris,
+                    &self.refs[cell.range()],
+                    &mut hit,
+                    &mut best,
+                    c,
+                ) {
+                    return Visit::Stop;
+                }
+                Visit::Continue {
+                    lo: cell.lo,
+                    hi: cell.hi,
+                    best,
+                }
+            },
+        );
         hit
     }
 }
@@ -843,6 +862,8 @@ impl Structure for IrregularGrid {
             bytes: (self.map.len() * 4
                 + self.cells.len() * 32
                 + self.refs.len() * 4
+                + self.planes32.bytes()
+                + self.planes64.bytes()
                 + self.tris.len() * std::mem::size_of::<Triangle>()) as u64,
             nodes: self.cells.len() as u64,
             prim_refs: self.refs.len() as u64,
@@ -852,7 +873,7 @@ impl Structure for IrregularGrid {
 
     /// Extra figures: time per build phase (`build_init_ms`, `build_merge_ms`,
     /// `build_expand_ms`), cells after each phase, merge passes, memory per part
-    /// (`voxel_map_bytes`, `cells_bytes`, `refs_bytes`), top-level resolution, deepest octree.
+    /// (`voxel_map_bytes`, `cells_bytes`, `refs_bytes`, `planes_bytes`), top-level resolution, deepest octree.
     /// The peak heap of the build is measured for every structure by the harness
     /// (`build_heap_peak_bytes`).
     fn report(&self) -> BuildReport {

@@ -3,8 +3,8 @@
 //! Pérard-Gayot et al. 2017.
 
 use crate::common::{
-    bin_uniform, bounded_res, enter, grid_bounds, resolution, test_refs, walk, Lattice, Real,
-    Visit, MAX_AXIS_RES,
+    bin_uniform, bounded_res, enter, grid_bounds, planes_for, resolution, test_refs, walk_by,
+    Lattice, Planes, Real, Visit, MAX_AXIS_RES,
 };
 use crate::params::{Precision, UniformParams};
 use rayon::prelude::*;
@@ -24,6 +24,10 @@ pub struct UniformGrid {
     pub(crate) lat: Lattice,
     /// `lat` in `f32`, the walk's lattice at [`Precision::F32`].
     pub(crate) lat32: Lattice<f32>,
+    /// The planes of the walk's lattice (`lat32` or `lat`, by `precision`; the other is
+    /// empty).
+    planes32: Planes<f32>,
+    planes64: Planes<f64>,
     pub(crate) precision: Precision,
     /// `start[c]..start[c+1]` indexes `refs` for cell `c` (x fastest).
     pub(crate) start: Vec<u32>,
@@ -63,9 +67,12 @@ impl UniformGrid {
         } else {
             Vec::new()
         };
+        let (planes32, planes64) = planes_for(&lat, precision);
         Ok(UniformGrid {
             lat,
             lat32: lat.cast(),
+            planes32,
+            planes64,
             precision,
             start,
             refs,
@@ -84,16 +91,17 @@ impl UniformGrid {
     #[inline(always)]
     fn dda<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         match self.precision {
-            Precision::F32 => self.dda_in::<T, C, ANY, f32>(&self.lat32, ray, c),
-            Precision::F64 => self.dda_in::<T, C, ANY, f64>(&self.lat, ray, c),
+            Precision::F32 => self.dda_in::<T, C, ANY, f32>(&self.lat32, &self.planes32, ray, c),
+            Precision::F64 => self.dda_in::<T, C, ANY, f64>(&self.lat, &self.planes64, ray, c),
         }
     }
 
-    /// 3D-DDA over `lat`, the lattice in the walk's arithmetic `F`.
+    /// 3D-DDA over `lat`, the lattice in the walk's arithmetic `F`, with its `planes`.
     #[inline(always)]
     fn dda_in<T: TriTest, C: Counter, const ANY: bool, F: Real>(
         &self,
         lat: &Lattice<F>,
+        planes: &Planes<F>,
         ray: &Ray,
         c: &mut C,
     ) -> HitRecord {
@@ -104,30 +112,35 @@ impl UniformGrid {
         let pre = T::prepare(ray);
         let mut hit = HitRecord::MISS;
         let mut best = ray.tmax;
-        walk(&w, lat, |v| {
-            c.cell();
-            c.steps(1);
-            let i = lat.index(v);
-            let r = self.start[i] as usize..self.start[i + 1] as usize;
-            if test_refs::<T, C, ANY>(
-                &pre,
-                ray,
-                &self.tris,
-                &self.refs[r.clone()],
-                &mut hit,
-                &mut best,
-                c,
-            ) {
-                return Visit::Stop;
-            }
-            let (lo, hi) = if r.is_empty() && !self.macros.is_empty() {
-                let m = self.macros[i];
-                ([m[0], m[1], m[2]], [m[3], m[4], m[5]])
-            } else {
-                (v, v.map(|x| x + 1))
-            };
-            Visit::Continue { lo, hi, best }
-        });
+        walk_by(
+            &w,
+            lat,
+            |a, i| planes.get(a, i),
+            |v| {
+                c.cell();
+                c.steps(1);
+                let i = lat.index(v);
+                let r = self.start[i] as usize..self.start[i + 1] as usize;
+                if test_refs::<T, C, ANY>(
+                    &pre,
+                    ray,
+                    &self.tris,
+                    &self.refs[r.clone()],
+                    &mut hit,
+                    &mut best,
+                    c,
+                ) {
+                    return Visit::Stop;
+                }
+                let (lo, hi) = if r.is_empty() && !self.macros.is_empty() {
+                    let m = self.macros[i];
+                    ([m[0], m[1], m[2]], [m[3], m[4], m[5]])
+                } else {
+                    (v, v.map(|x| x + 1))
+                };
+                Visit::Continue { lo, hi, best }
+            },
+        );
         hit
     }
 }
@@ -290,6 +303,8 @@ impl Structure for UniformGrid {
             bytes: (self.start.len() * 4
                 + self.refs.len() * 4
                 + self.macros.len() * 24
+                + self.planes32.bytes()
+                + self.planes64.bytes()
                 + self.tris.len() * std::mem::size_of::<Triangle>()) as u64,
             nodes: cells,
             prim_refs: self.refs.len() as u64,
@@ -298,7 +313,8 @@ impl Structure for UniformGrid {
     }
 
     /// Extra figures: resolution, cells, empty cells, references, memory of the cell array,
-    /// references and macro regions, build time of the binning and the macro regions.
+    /// references, macro regions and plane table, build time of the binning and the macro
+    /// regions.
     fn report(&self) -> BuildReport {
         let empty = self.start.windows(2).filter(|w| w[0] == w[1]).count();
         let r = self.lat.res;
@@ -312,6 +328,10 @@ impl Structure for UniformGrid {
             ("cells_bytes".into(), (self.start.len() * 4) as f64),
             ("refs_bytes".into(), (self.refs.len() * 4) as f64),
             ("macro_bytes".into(), (self.macros.len() * 24) as f64),
+            (
+                "planes_bytes".into(),
+                (self.planes32.bytes() + self.planes64.bytes()) as f64,
+            ),
             ("build_bin_ms".into(), self.times_ms[0]),
             ("build_macro_ms".into(), self.times_ms[1]),
         ];
