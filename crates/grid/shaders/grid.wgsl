@@ -99,7 +99,11 @@ fn index(l: Lat, v: vec3<u32>) -> u32 {
 // Lattice::voxel: voxel along `a` of coordinate `p`, clamped to the lattice (a NaN gives 0,
 // as Rust's `f as u32` then `min`).
 fn voxel(l: Lat, a: u32, p: real) -> u32 {
-    let f = (p - l.lo[a]) * l.inv[a];
+    return voxel_scaled(l, a, (p - l.lo[a]) * l.inv[a]);
+}
+
+// Lattice::voxel_scaled: the same for a coordinate already in voxel units.
+fn voxel_scaled(l: Lat, a: u32, f: real) -> u32 {
     if f >= real(0.0) {
         let top = l.res[a] - 1u;
         if f >= real(top) {
@@ -249,7 +253,11 @@ fn advance(w: WalkRay, l: Lat, t: real, axis: u32, v: vec3<u32>, lo: vec3<u32>, 
                 n[a] = lo[a] - 1u;
             }
         } else if w.d[a] != real(0.0) {
-            let p = clamp(voxel(l, a, w.o[a] + t * w.d[a]), lo[a], hi[a] - 1u);
+            // VoxelLine: base + t·slope, the CPU's per-walk constants (recomputed here; the
+            // same operations give the same values).
+            let base = (w.o[a] - l.lo[a]) * l.inv[a];
+            let slope = w.d[a] * l.inv[a];
+            let p = clamp(voxel_scaled(l, a, base + t * slope), lo[a], hi[a] - 1u);
             if w.d[a] > real(0.0) {
                 n[a] = max(p, v[a]);
             } else {

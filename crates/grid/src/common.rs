@@ -373,7 +373,13 @@ impl<F: Real> Lattice<F> {
     /// it is a libm function, 11 % of the irregular grid's walk instructions (callgrind).
     #[inline(always)]
     pub fn voxel(&self, a: usize, p: F) -> u32 {
-        let f = (p - self.min[a]) * self.inv_size[a];
+        self.voxel_scaled(a, (p - self.min[a]) * self.inv_size[a])
+    }
+
+    /// Voxel index along `a` of a coordinate already in voxel units, `f = (p − min)/size`
+    /// (clamped as [`Lattice::voxel`]).
+    #[inline(always)]
+    pub fn voxel_scaled(&self, a: usize, f: F) -> u32 {
         if f >= F::ZERO {
             f.floor_to(self.res[a] - 1)
         } else {
@@ -546,6 +552,20 @@ pub fn planes_for(lat: &Lattice, precision: Precision) -> (Planes<f32>, Planes<f
     }
 }
 
+/// The walk ray's coordinates in voxel units of one lattice as linear functions of `t`:
+/// `base + t·slope` per axis, `base = (o − min)·(1/size)` and `slope = d·(1/size)` computed
+/// once per walk. [`WalkRay::advance`] places the exit point's voxel with one multiply and
+/// one add instead of four operations (`((o + t·d) − min)·(1/size)`), on the walk's chain from
+/// one cell to the next. The roundings are as many, of the same magnitudes (`|o|`, the
+/// lattice's coordinates and `|t·d|`, all within `|o| + mag` for a point in the grid), so the
+/// margin's estimate in the module doc holds. The GPU walk (`grid.wgsl`'s `advance`) computes
+/// the same expressions.
+#[derive(Clone, Copy, Debug)]
+pub struct VoxelLine<F: Real> {
+    pub base: [F; 3],
+    pub slope: [F; 3],
+}
+
 /// The ray of a walk in `F`: origin, direction, and the interval `[t0, t1]` in which it is
 /// inside the grid's box (clipped to its own `[tmin, tmax]`).
 #[derive(Clone, Copy, Debug)]
@@ -617,6 +637,15 @@ impl<F: Real> WalkRay<F> {
         Some(WalkRay { t0, t1, ..*self })
     }
 
+    /// The ray in voxel units of `lat` ([`VoxelLine`]).
+    #[inline(always)]
+    pub fn voxel_line(&self, lat: &Lattice<F>) -> VoxelLine<F> {
+        VoxelLine {
+            base: std::array::from_fn(|a| (self.o[a] - lat.min[a]) * lat.inv_size[a]),
+            slope: std::array::from_fn(|a| self.d[a] * lat.inv_size[a]),
+        }
+    }
+
     /// The voxel of the lattice holding the ray's point at `t` (clamped to the lattice).
     #[inline(always)]
     pub fn voxel_at(&self, lat: &Lattice<F>, t: F) -> [u32; 3] {
@@ -647,7 +676,8 @@ impl<F: Real> WalkRay<F> {
     /// The monotone advance of the section-5 walk (Pérard-Gayot et al. 2017 §5): leaving the
     /// box of voxels `lo..hi` (exclusive) at `t` through the far plane of axis `axis`, from
     /// voxel `v` (inside the box), the next voxel: on `axis` the first layer past the box; on
-    /// the other axes the voxel of the exit point, clamped into the box's range and never
+    /// the other axes the voxel of the exit point (from `line`, this walk's
+    /// [`WalkRay::voxel_line`] of `lat`), clamped into the box's range and never
     /// behind `v` along the ray's direction (the paper's `max`/`min` with the previous
     /// position). `None` when the next layer is outside the lattice.
     ///
@@ -658,6 +688,7 @@ impl<F: Real> WalkRay<F> {
     pub fn advance(
         &self,
         lat: &Lattice<F>,
+        line: &VoxelLine<F>,
         t: F,
         axis: usize,
         v: [u32; 3],
@@ -680,7 +711,7 @@ impl<F: Real> WalkRay<F> {
                 }
             } else if self.d[a] != F::ZERO {
                 let p = lat
-                    .voxel(a, self.o[a] + t * self.d[a])
+                    .voxel_scaled(a, line.base[a] + t * line.slope[a])
                     .clamp(lo[a], hi[a] - 1);
                 n[a] = if self.d[a] > F::ZERO {
                     p.max(v[a])
@@ -727,6 +758,7 @@ pub fn walk_by<F: Real>(
     mut visit: impl FnMut([u32; 3]) -> Visit,
 ) {
     let mut v = w.voxel_at(lat, w.t0);
+    let line = w.voxel_line(lat);
     loop {
         let Visit::Continue { lo, hi, best } = visit(v) else {
             return;
@@ -735,7 +767,7 @@ pub fn walk_by<F: Real>(
         if F::of32(best) <= t_exit || t_exit >= w.t1 {
             return;
         }
-        match w.advance(lat, t_exit, axis, v, lo, hi) {
+        match w.advance(lat, &line, t_exit, axis, v, lo, hi) {
             Some(n) => v = n,
             None => return,
         }
