@@ -873,7 +873,8 @@ impl Structure for IrregularGrid {
 
     /// Extra figures: time per build phase (`build_init_ms`, `build_merge_ms`,
     /// `build_expand_ms`), cells after each phase, merge passes, memory per part
-    /// (`voxel_map_bytes`, `cells_bytes`, `refs_bytes`, `planes_bytes`), top-level resolution, deepest octree.
+    /// (`voxel_map_bytes`, `cells_bytes`, `refs_bytes`, `planes_bytes`), top-level resolution,
+    /// deepest octree.
     /// The peak heap of the build is measured for every structure by the harness
     /// (`build_heap_peak_bytes`).
     fn report(&self) -> BuildReport {
