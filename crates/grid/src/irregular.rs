@@ -277,7 +277,7 @@ impl IrregularGrid {
         let pre = T::prepare(ray);
         let mut hit = HitRecord::MISS;
         let mut best = ray.tmax;
-        walk_by(
+        walk_by::<F, true>(
             &w,
             base,
             |a, i| planes.get(a, i),

@@ -112,7 +112,7 @@ impl UniformGrid {
         let pre = T::prepare(ray);
         let mut hit = HitRecord::MISS;
         let mut best = ray.tmax;
-        walk_by(
+        walk_by::<F, true>(
             &w,
             lat,
             |a, i| planes.get(a, i),
