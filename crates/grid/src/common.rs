@@ -685,54 +685,16 @@ impl<F: Real> WalkRay<F> {
     /// Every step moves the coordinate of `axis` strictly forward along the ray and no other
     /// coordinate backwards, so `Σ_a sign(d_a)·v_a` strictly increases: a walk ends after at
     /// most `res_x + res_y + res_z` steps, whatever the rounding, with no step cap.
-    #[inline(always)]
-    pub fn advance(
-        &self,
-        lat: &Lattice<F>,
-        line: &VoxelLine<F>,
-        t: F,
-        axis: usize,
-        v: [u32; 3],
-        lo: [u32; 3],
-        hi: [u32; 3],
-    ) -> Option<[u32; 3]> {
-        let mut n = v;
-        for a in 0..3 {
-            if a == axis {
-                if self.d[a] > F::ZERO {
-                    if hi[a] >= lat.res[a] {
-                        return None;
-                    }
-                    n[a] = hi[a];
-                } else {
-                    if lo[a] == 0 {
-                        return None;
-                    }
-                    n[a] = lo[a] - 1;
-                }
-            } else if self.d[a] != F::ZERO {
-                let p = lat
-                    .voxel_scaled(a, line.base[a] + t * line.slope[a])
-                    .clamp(lo[a], hi[a] - 1);
-                n[a] = if self.d[a] > F::ZERO {
-                    p.max(v[a])
-                } else {
-                    p.min(v[a])
-                };
-            }
-        }
-        Some(n)
-    }
-
-    /// [`WalkRay::advance`] without branches on the exit axis: every axis computes both its
-    /// candidates (the first layer past the box, the exit point's clamped voxel) and the axis
-    /// picks one by selection; the result is the same voxel. Which of three planes a ray leaves
-    /// a cell through is unpredictable for incoherent rays, and each mispredicted branch
-    /// discarded the next cell's look-up begun behind it. The branches left depend on the ray's
-    /// direction only.
+    ///
+    /// With `SELECT` the exit axis is not branched on: every axis computes both its candidates
+    /// (the first layer past the box, the exit point's clamped voxel) and the axis picks one by
+    /// selection, the same voxel. Which of three planes a ray leaves a cell through is
+    /// unpredictable for incoherent rays, and each mispredicted branch discarded the next
+    /// cell's look-up begun behind it; the branches left then depend on the ray's direction
+    /// only ([`walk_by`] says where each pays).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub fn advance_select(
+    pub fn advance<const SELECT: bool>(
         &self,
         lat: &Lattice<F>,
         line: &VoxelLine<F>,
@@ -746,12 +708,19 @@ impl<F: Real> WalkRay<F> {
         let mut out = false;
         for a in 0..3 {
             let forward = self.d[a] > F::ZERO;
-            let (layer, outside) = if forward {
-                (hi[a], hi[a] >= lat.res[a])
-            } else {
-                (lo[a].wrapping_sub(1), lo[a] == 0)
+            // The first layer past the box on `a`, and whether it lies outside the lattice.
+            let layer = || {
+                if forward {
+                    (hi[a], hi[a] >= lat.res[a])
+                } else {
+                    (lo[a].wrapping_sub(1), lo[a] == 0)
+                }
             };
-            let along = if self.d[a] != F::ZERO {
+            // The exit point's voxel on `a`, in the box and not behind `v`.
+            let along = || {
+                if self.d[a] == F::ZERO {
+                    return v[a];
+                }
                 let p = lat
                     .voxel_scaled(a, line.base[a] + t * line.slope[a])
                     .clamp(lo[a], hi[a] - 1);
@@ -760,12 +729,20 @@ impl<F: Real> WalkRay<F> {
                 } else {
                     p.min(v[a])
                 }
-            } else {
-                v[a]
             };
-            let on_axis = a == axis;
-            n[a] = select_unpredictable(on_axis, layer, along);
-            out |= on_axis & outside;
+            if SELECT {
+                let ((l, outside), on_axis) = (layer(), a == axis);
+                n[a] = select_unpredictable(on_axis, l, along());
+                out |= on_axis & outside;
+            } else if a == axis {
+                let (l, outside) = layer();
+                if outside {
+                    return None;
+                }
+                n[a] = l;
+            } else {
+                n[a] = along();
+            }
         }
         if out {
             None
@@ -801,7 +778,7 @@ pub fn walk<F: Real>(w: &WalkRay<F>, lat: &Lattice<F>, visit: impl FnMut([u32; 3
 
 /// [`walk`] with the planes' positions given by `plane(axis, index)`, equal to
 /// [`Lattice::plane`]'s (a [`Planes`] table), and the exit axis chosen by selection when
-/// `SELECT` ([`argmin3_select`], [`WalkRay::advance_select`]; the same cells either way).
+/// `SELECT` ([`argmin3_select`], [`WalkRay::advance`]; the same cells either way).
 ///
 /// Selection pays where the exit axis is unpredictable: the irregular and uniform grids'
 /// shadow, AO and random rays trace 2-18 % faster with it, their primary rays -2..+2 %
@@ -829,12 +806,7 @@ pub fn walk_by<F: Real, const SELECT: bool>(
         if F::of32(best) <= t_exit || t_exit >= w.t1 {
             return;
         }
-        let next = if SELECT {
-            w.advance_select(lat, &line, t_exit, axis, v, lo, hi)
-        } else {
-            w.advance(lat, &line, t_exit, axis, v, lo, hi)
-        };
-        match next {
+        match w.advance::<SELECT>(lat, &line, t_exit, axis, v, lo, hi) {
             Some(n) => v = n,
             None => return,
         }
