@@ -778,10 +778,10 @@ pub fn walk<F: Real>(w: &WalkRay<F>, lat: &Lattice<F>, visit: impl FnMut([u32; 3
 
 /// [`walk`] with the planes' positions given by `plane(axis, index)`, equal to
 /// [`Lattice::plane`]'s (a [`Planes`] table), and the exit axis chosen by selection when
-/// `SELECT` ([`argmin3_select`], [`WalkRay::advance`]; the same cells either way).
+/// `SELECT` ([`argmin3`], [`WalkRay::advance`]; the same cells either way).
 ///
 /// Selection pays where the exit axis is unpredictable: the irregular and uniform grids'
-/// shadow, AO and random rays trace 2-18 % faster with it, their primary rays -2..+2 %
+/// shadow, AO and random rays trace 0-18 % faster with it, their primary rays -2..+2 %
 /// (Conference, Sibenik, Sponza, one thread, two interleaved runs; ARCHITECTURE.md). The
 /// two-level grid's nested walks lost about a fifth with it and keep the branches.
 #[inline(always)]
@@ -797,12 +797,7 @@ pub fn walk_by<F: Real, const SELECT: bool>(
         let Visit::Continue { lo, hi, best } = visit(v) else {
             return;
         };
-        let exits = w.exits(&plane, lo, hi);
-        let (axis, t_exit) = if SELECT {
-            argmin3_select(exits)
-        } else {
-            argmin3(exits)
-        };
+        let (axis, t_exit) = argmin3::<F, SELECT>(w.exits(&plane, lo, hi));
         if F::of32(best) <= t_exit || t_exit >= w.t1 {
             return;
         }
@@ -886,28 +881,21 @@ pub fn brute_force<T: TriTest, C: Counter, const ANY: bool>(
 }
 
 /// Index and value of the smallest of three distances (the exit axis; ties go to the lower
-/// axis).
+/// axis); with `SELECT` by selections (conditional moves) instead of branches, the same index
+/// and value.
 #[inline(always)]
-pub fn argmin3<F: Real>(t: [F; 3]) -> (usize, F) {
+pub fn argmin3<F: Real, const SELECT: bool>(t: [F; 3]) -> (usize, F) {
     // The index and the value are carried together, in registers: reading `t[k]` back by
     // index went through memory on the walk's critical path.
     let (mut k, mut m) = (0, t[0]);
     for (a, &x) in t.iter().enumerate().skip(1) {
-        if x < m {
+        let less = x < m;
+        if SELECT {
+            k = select_unpredictable(less, a, k);
+            m = select_unpredictable(less, x, m);
+        } else if less {
             (k, m) = (a, x);
         }
-    }
-    (k, m)
-}
-
-/// [`argmin3`] by selections (conditional moves): the same index and value.
-#[inline(always)]
-pub fn argmin3_select<F: Real>(t: [F; 3]) -> (usize, F) {
-    let (mut k, mut m) = (0, t[0]);
-    for (a, &x) in t.iter().enumerate().skip(1) {
-        let less = x < m;
-        k = select_unpredictable(less, a, k);
-        m = select_unpredictable(less, x, m);
     }
     (k, m)
 }
