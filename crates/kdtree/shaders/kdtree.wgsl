@@ -532,8 +532,9 @@ fn crawl_passes(rope_walk: bool, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, b
                 st: ptr<function, Stats>) -> Hit {
     var best = best0;
     let floor0 = select(cell_min(), cell_max(), rb.neg);
-    let zero = select(0u, 1u, r.dir.x == 0.0) | select(0u, 2u, r.dir.y == 0.0)
-        | select(0u, 4u, r.dir.z == 0.0);
+    // Zero-direction axes: 1/d infinite (a zero or a subnormal component; stackless.rs).
+    let zero = select(0u, 1u, not_finite(rb.inv.x)) | select(0u, 2u, not_finite(rb.inv.y))
+        | select(0u, 4u, not_finite(rb.inv.z));
     var steps = 0u;
     var ambiguous = false;
     for (var m = 0u; m < 8u; m++) {

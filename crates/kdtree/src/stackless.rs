@@ -40,7 +40,9 @@
 //! handed to `restart` from the root, keeping its closest hit (counted as one restart): the
 //! answer is then exactly the robust one. Rays lying in a split plane (`t = NaN`) take the
 //! left child and record the axis, and the walk is repeated for each combination of sides on
-//! the zero-direction axes where that happened (at most 4 walks).
+//! the zero-direction axes where that happened (at most 4 walks); an axis whose component is
+//! below `1/f32::MAX` (subnormal: `1/d` overflows to `±inf`, and a plane through the origin
+//! gives NaN) counts as zero-direction.
 //!
 //! "The root" above is the start of the walk ([`crate::KdStart`]): the tree's root, or a node
 //! below it whose cell the ray was clipped to. Restarts begin again there, `backtrack` climbs
@@ -68,8 +70,13 @@ fn passes(s: &Setup, mut pass: impl FnMut(u8) -> (bool, u8)) {
     if stop || seen == 0 {
         return;
     }
-    let zero =
-        (s.dir[0] == 0.0) as u8 | ((s.dir[1] == 0.0) as u8) << 1 | ((s.dir[2] == 0.0) as u8) << 2;
+    // Axes whose reciprocal is infinite: a zero component, or one below `1/f32::MAX` (a
+    // subnormal: `1/d` overflows, so a plane through the origin gives `0 · inf = NaN` as for
+    // a zero component; issue 46). The ray's offset from that plane, `|d|·t`, stays below what
+    // the triangle test resolves, so both sides are walked, as for a ray lying in the plane.
+    let zero = (!s.inv[0].is_finite()) as u8
+        | ((!s.inv[1].is_finite()) as u8) << 1
+        | ((!s.inv[2].is_finite()) as u8) << 2;
     for m in 1..8u8 {
         if m & !zero == 0 && pass(m).0 {
             return;

@@ -11,7 +11,7 @@ use tb_core::{Ray, Vec3};
 /// The listing entry of `builtin:stress/plane-origins`.
 pub(super) const INFO: BuiltinInfo = BuiltinInfo {
     name: "stress/plane-origins",
-    doc: "a 3x3x3 lattice of unit boxes whose faces become split planes; ray origins exactly in those planes (on faces and in the gaps, on edges and corners) with tmin = 0, directions with a non-zero, a signed-zero and an axis-parallel normal component",
+    doc: "a 3x3x3 lattice of unit boxes whose faces become split planes; ray origins exactly in those planes (on faces and in the gaps, on edges and corners) with tmin = 0, directions with a non-zero (also at every binary scale down to the smallest subnormal), a signed-zero and an axis-parallel normal component",
     params: &["seed=1: random seed"],
 };
 
@@ -22,7 +22,11 @@ pub(super) const INFO: BuiltinInfo = BuiltinInfo {
 /// `t = 0`), in the gap between boxes, on a cell edge or corner (two or three planes), with a
 /// random direction whose normal component is non-zero (either sign, also tiny), exactly `±0`
 /// (the ray lies in the plane: review §3.1's zero-extent case), or axis-parallel along the
-/// normal or along the plane (along cell faces and edges).
+/// normal or along the plane (along cell faces and edges). Then, for issue 46's finding (a
+/// direction component below the normal range: `1/d` overflows to `±inf` and `0 · inf` is
+/// NaN at the plane), rays from the same kinds of origins whose normal component is `±2^-e`
+/// for every `e` from 0 to 149 (the smallest subnormal) and the issue's `1e-38` and `1e-40`,
+/// the rest of the direction in the plane: unnormalised, so the tiny component is exact.
 pub(super) fn generate(seed: u64) -> Generated {
     let mut r = rng(seed, 9);
     let mut m = Mesh::default();
@@ -76,5 +80,44 @@ pub(super) fn generate(seed: u64) -> Generated {
             }
         }
     }
+    rays.extend(tiny_normal_components(&mut r, lo, hi));
     (tris, rays, view_from(Vec3::new(-0.7, 0.5, 1.0)))
+}
+
+/// Issue 46: origins in a lattice plane (on a face, in a gap, on an edge or a corner) and a
+/// direction whose normal component is tiny, at every binary scale down to the smallest
+/// subnormal (`2^-149`), of both signs: the ray leaves the plane to the side of its sign, so
+/// a traversal must treat the plane's distance as `0`, not as "the ray lies in the plane".
+fn tiny_normal_components(r: &mut rand_pcg::Pcg64, lo: Vec3, hi: Vec3) -> Vec<Ray> {
+    // 2^-e exactly: a normal number's exponent field, then a subnormal's single bit.
+    let pow2 = |e: u32| {
+        f32::from_bits(if e <= 126 {
+            (127 - e) << 23
+        } else {
+            1 << (149 - e)
+        })
+    };
+    let mut scales: Vec<f32> = (0..=149).map(pow2).collect();
+    scales.extend([1e-38, 1e-40]);
+    let mut rays = Vec::new();
+    for (i, &m) in scales.iter().enumerate() {
+        for s in [1.0f32, -1.0] {
+            let a = i % 3;
+            let mut o = in_box(r, lo, hi);
+            o[a] = r.gen_range(0..=5) as f32;
+            let (u, v) = ((a + 1) % 3, (a + 2) % 3);
+            // Face or gap (one plane), edge (two), corner (three), by turns.
+            if i % 4 >= 2 {
+                o[u] = r.gen_range(0..=5) as f32;
+            }
+            if i % 4 == 3 {
+                o[v] = r.gen_range(0..=5) as f32;
+            }
+            let mut d = in_plane_dir(r, a);
+            d[a] = s * m;
+            assert!(d[a] != 0.0, "2^-e is representable down to e = 149");
+            rays.push(Ray::new(o, d));
+        }
+    }
+    rays
 }
