@@ -34,7 +34,7 @@
 //! every triangle instead. Every step of either walk is monotone in voxel indices, so walks
 //! end whatever the rounding.
 
-use crate::Precision;
+use crate::{Precision, Rounding};
 use rayon::prelude::*;
 use std::fmt::Debug;
 use std::hint::select_unpredictable;
@@ -121,13 +121,17 @@ pub const MAX_AXIS_RES: u32 = 1 << 16;
 /// Resolution rule, equation 1 (Pérard-Gayot et al. 2017 §4.1; Cleary et al. 1983):
 /// `R_a = d_a · ∛(λ N / V)` for a box of extents `d` holding `n` primitives at density
 /// `lambda`. Axes much thinner than the box's largest (flat scenes) get one cell and are left
-/// out of `V`, whose root is then taken over the remaining axes; each axis is rounded to the
-/// nearest integer, at least 1, at most `max_axis`, and the product is kept under `max_cells`
-/// by scaling all axes down together.
+/// out of `V`, whose root is then taken over the remaining axes; each axis is made an
+/// integer by `rounding` (truncated as the authors' code does, or rounded to the nearest;
+/// the paper does not say), at least 1, at most `max_axis`, and the product is kept under
+/// `max_cells` by scaling all axes down together. Truncation takes the root exactly (`cbrt`,
+/// `sqrt`), so that a whole resolution (1000 primitives at density 1 in a unit cube: 10) is
+/// not truncated one below by `powf(1/3)`'s rounding.
 pub fn resolution(
     extent: [f64; 3],
     n: usize,
     lambda: f64,
+    rounding: Rounding,
     max_axis: u32,
     max_cells: u64,
 ) -> [u32; 3] {
@@ -137,12 +141,22 @@ pub fn resolution(
     }
     let active: Vec<usize> = (0..3).filter(|&a| extent[a] > dmax * 1e-4).collect();
     let vol: f64 = active.iter().map(|&a| extent[a]).product();
-    let s = (lambda * n as f64 / vol).powf(1.0 / active.len() as f64);
+    let density = lambda * n as f64 / vol;
+    let s = match (rounding, active.len()) {
+        (Rounding::Nearest, k) => density.powf(1.0 / k as f64),
+        (Rounding::Truncate, 3) => density.cbrt(),
+        (Rounding::Truncate, 2) => density.sqrt(),
+        (Rounding::Truncate, _) => density,
+    };
+    let whole = |x: f64| match rounding {
+        Rounding::Nearest => x.round(),
+        Rounding::Truncate => x.trunc(),
+    };
     let mut r = [1u32; 3];
     let mut scale = 1.0f64;
     loop {
         for &a in &active {
-            r[a] = ((extent[a] * s * scale).round() as u64).clamp(1, max_axis as u64) as u32;
+            r[a] = (whole(extent[a] * s * scale) as u64).clamp(1, max_axis as u64) as u32;
         }
         let cells = r.iter().map(|&x| x as u64).product::<u64>();
         if cells <= max_cells {
@@ -990,16 +1004,38 @@ mod tests {
 
     #[test]
     fn resolution_follows_equation_1() {
-        // 1000 primitives in a unit cube at density 1: 10 per axis.
-        assert_eq!(resolution([1.0; 3], 1000, 1.0, 1024, 1 << 30), [10, 10, 10]);
-        // Flat along z: the root is taken over x and y.
+        for k in [Rounding::Truncate, Rounding::Nearest] {
+            // 1000 primitives in a unit cube at density 1: 10 per axis.
+            assert_eq!(
+                resolution([1.0; 3], 1000, 1.0, k, 1024, 1 << 30),
+                [10, 10, 10]
+            );
+            // Flat along z: the root is taken over x and y.
+            assert_eq!(
+                resolution([1.0, 1.0, 0.0], 100, 1.0, k, 1024, 1 << 30),
+                [10, 10, 1]
+            );
+            // The cell cap scales every axis down.
+            let r = resolution([1.0; 3], 1_000_000, 8.0, k, 1024, 1000);
+            assert!(r.iter().map(|&x| x as u64).product::<u64>() <= 1000);
+        }
+    }
+
+    /// The two readings of equation 1 differ where `d_a ∛(λN/V)` has a fraction of at least
+    /// one half: 2 x 1 x 1 box, 100 primitives, λ = 1: `∛50 = 3.68`, so x is 7.37 and y, z
+    /// 3.68: truncated 7 x 3 x 3 (the authors' code), rounded 7 x 4 x 4.
+    #[test]
+    fn equation_1_truncates_as_the_authors_code() {
+        let ext = [2.0, 1.0, 1.0];
+        let t = resolution(ext, 100, 1.0, Rounding::Truncate, 1024, 1 << 30);
+        let n = resolution(ext, 100, 1.0, Rounding::Nearest, 1024, 1 << 30);
+        assert_eq!(t, [7, 3, 3]);
+        assert_eq!(n, [7, 4, 4]);
+        // Below one cell an axis keeps one.
         assert_eq!(
-            resolution([1.0, 1.0, 0.0], 100, 1.0, 1024, 1 << 30),
-            [10, 10, 1]
+            resolution([1.0; 3], 1, 0.1, Rounding::Truncate, 1024, 1 << 30),
+            [1, 1, 1]
         );
-        // The cell cap scales every axis down.
-        let r = resolution([1.0; 3], 1_000_000, 8.0, 1024, 1000);
-        assert!(r.iter().map(|&x| x as u64).product::<u64>() <= 1000);
     }
 
     #[test]

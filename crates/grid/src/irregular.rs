@@ -98,6 +98,7 @@ impl IrregularGrid {
             ext,
             tris.len(),
             p.densities.lambda_1 as f64,
+            p.densities.rounding,
             max_top,
             p.max_cells as u64,
         );
@@ -125,6 +126,7 @@ impl IrregularGrid {
                             cell_ext,
                             n,
                             p.densities.lambda_2 as f64,
+                            p.densities.rounding,
                             1 << MAX_DEPTH,
                             u64::MAX,
                         );
@@ -134,6 +136,8 @@ impl IrregularGrid {
                     .collect()
             }
         };
+        // Equation 1's depths, to report the cells a cap lowered.
+        let eq1_depth = depth.clone();
         let max_res = res.into_iter().max().unwrap_or(1);
         let mut dcap = MAX_DEPTH.min((MAX_BASE_RES / max_res).max(1).ilog2());
         // The reference bound: lower the depth cap while the triangles' boxes cover too many
@@ -161,6 +165,15 @@ impl IrregularGrid {
             // Only where the reference bound acted, so that other rows' figures are unchanged.
             fig.push(("ref_budget_depth".into(), dcap as f64));
         }
+        // Any cap (the voxel map's 4 bits, the base resolution, `max_cells`, the reference
+        // bound) that lowered an octree below equation 1's depth says so: the cap and the top
+        // cells it lowered (only where it acted).
+        let capped = eq1_depth.iter().zip(&depth).filter(|(e, d)| e > d).count();
+        if capped > 0 {
+            fig.push(("depth_cap".into(), dcap as f64));
+            fig.push(("depth_capped_cells".into(), capped as f64));
+        }
+        drop(eq1_depth);
         let dmax = depth.iter().copied().max().unwrap_or(0);
         let base = top.refined(1 << dmax);
         // A grid whose top cells are its voxels (`dmax = 0`) has the binned references as its
@@ -1113,7 +1126,14 @@ mod tests {
             let tris = &scene.triangles;
             let bounds = grid_bounds(tris);
             let ext = bounds.extent().to_array().map(f64::from);
-            let res = resolution(ext, tris.len(), 5.0, MAX_AXIS_RES, p.max_cells as u64);
+            let res = resolution(
+                ext,
+                tris.len(),
+                5.0,
+                p.densities.rounding,
+                MAX_AXIS_RES,
+                p.max_cells as u64,
+            );
             let top = Lattice::new(&bounds, res, Precision::F32);
             let base = top.refined(1);
             let (start, refs) = bin_uniform(&top, tris).unwrap();
@@ -1128,5 +1148,36 @@ mod tests {
             assert_eq!(made.map, unflatten(implicit.map), "{name}: voxel map");
         }
         assert!(merged_somewhere, "no scene of the suite merged a cell");
+    }
+
+    /// Issue 42: a cap that lowers an octree below equation 1's depth says so in the build
+    /// figures (`depth_cap`, `depth_capped_cells`); a build it does not touch has neither.
+    #[test]
+    fn depth_caps_are_reported_where_they_act() {
+        let scene = tb_scene::source::load("builtin:soup?count=2000", std::path::Path::new("."))
+            .expect("the soup loads");
+        let tris: Arc<[Triangle]> = scene.triangles.into();
+        let figure = |p: &IrregularParams, key: &str| {
+            let g = IrregularGrid::build(&tris, p).expect("builds");
+            g.figures.iter().find(|(k, _)| k == key).map(|&(_, v)| v)
+        };
+        let free = IrregularParams {
+            merge: false,
+            expansion: 0,
+            ..Default::default()
+        };
+        assert_eq!(figure(&free, "depth_cap"), None);
+        // Voxel-map entries for about one level below the top: deeper octrees are capped.
+        let capped = IrregularParams {
+            densities: Densities {
+                lambda_2: 64.0,
+                ..Default::default()
+            },
+            max_cells: 4096,
+            ..free
+        };
+        let cap = figure(&capped, "depth_cap").expect("the cap acted");
+        assert!(cap < MAX_DEPTH as f64);
+        assert!(figure(&capped, "depth_capped_cells").is_some_and(|n| n >= 1.0));
     }
 }

@@ -70,7 +70,8 @@ mod uniform;
 pub use common::{resolution, tri_box_overlap, Lattice};
 pub use irregular::{Cell, IrregularGrid};
 pub use params::{
-    Densities, Initial, IrregularParams, Precision, TwoLevelParams, UniformParams, Walk, DENSITIES,
+    Densities, Initial, IrregularParams, Precision, Rounding, TwoLevelParams, UniformParams, Walk,
+    DENSITIES,
 };
 pub use two_level::{TopCell, TwoLevelGrid};
 pub use uniform::UniformGrid;

@@ -20,6 +20,22 @@ tb_core::params! {
         /// resolution of the cell's uniform grid (two-level grid, at most 255 cells per axis),
         /// or the cell's octree depth D = ⌈log2 max(R_x, R_y, R_z)⌉ (irregular grid, §4.1)
         lambda_2: f32 = 2.4, ParamKind::Float { min: 1e-4, max: 1e3 };
+        /// how equation 1's `R_a = d_a ∛(λN/V)` becomes an integer at both levels: the
+        /// paper does not say; `truncate` is the authors' code's (hagrid: the conversion to
+        /// int), `nearest` our earlier reading
+        rounding: Rounding = Rounding::Truncate, ParamKind::Choice(Rounding::NAMES);
+    }
+}
+
+tb_core::choice! {
+    /// Equation 1's resolution as an integer (Pérard-Gayot et al. 2017 §4.1 leave it open:
+    /// two readings, each a variant).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Rounding {
+        /// toward zero, as the authors' code converts it (the default: the paper's method)
+        Truncate = "truncate",
+        /// to the nearest integer (our earlier reading)
+        Nearest = "nearest",
     }
 }
 
@@ -58,6 +74,8 @@ tb_core::params! {
         /// grid density λ of equation 1 (cells per primitive; Pérard-Gayot et al. 2017 §4.1,
         /// Table 5 uses λ = 5)
         lambda: f32 = 5.0, ParamKind::Float { min: 1e-4, max: 1e3 };
+        /// equation 1's resolution as an integer, as [`Densities`]' `rounding`
+        rounding: Rounding = Rounding::Truncate, ParamKind::Choice(Rounding::NAMES);
         /// store a macro region per empty cell and skip it in one step (Devillers 1989)
         macro_regions: bool = false, ParamKind::Bool;
         /// largest number of cells (the resolution is scaled down to stay under it)

@@ -74,6 +74,7 @@ impl TwoLevelGrid {
             ext,
             tris.len(),
             p.densities.lambda_1 as f64,
+            p.densities.rounding,
             MAX_AXIS_RES,
             p.max_cells as u64,
         );
@@ -89,7 +90,15 @@ impl TwoLevelGrid {
             .into_par_iter()
             .map(|c| {
                 let n = (tstart[c + 1] - tstart[c]) as usize;
-                resolution(top.size, n, p.densities.lambda_2 as f64, MAX_SUB, u64::MAX)
+                let d = &p.densities;
+                resolution(
+                    top.size,
+                    n,
+                    d.lambda_2 as f64,
+                    d.rounding,
+                    MAX_SUB,
+                    u64::MAX,
+                )
             })
             .collect();
         // The reference bound: every top cell's resolution lowered by one factor while the

@@ -52,6 +52,7 @@ impl UniformGrid {
             ext,
             tris.len(),
             p.lambda as f64,
+            p.rounding,
             MAX_AXIS_RES,
             p.max_cells as u64,
         );
