@@ -246,15 +246,16 @@ impl Kernels {
     }
 
     /// The pipeline of variant `v` (made on first use) and the layouts of a program with `n`
-    /// buffers (sorting its rays when `arranged`). The program must have been prepared
-    /// ([`Gpu::upload`]).
+    /// buffers (sorting its rays when `arranged`), and whether the pipeline was made by this
+    /// call (its first dispatch may include the driver's compilation). The program must have
+    /// been prepared ([`Gpu::upload`]).
     pub(crate) fn pipeline(
         &self,
         device: &wgpu::Device,
         v: Variant,
         n: usize,
         arranged: bool,
-    ) -> (wgpu::ComputePipeline, Layouts) {
+    ) -> (wgpu::ComputePipeline, Layouts, bool) {
         let mut cache = self.cache();
         let Cache {
             modules,
@@ -263,6 +264,7 @@ impl Kernels {
             ..
         } = &mut *cache;
         let l = &layouts[&(n, arranged)];
+        let fresh = !pipelines.contains_key(&v);
         let pipeline = pipelines
             .entry(v)
             .or_insert_with(|| {
@@ -272,7 +274,7 @@ impl Kernels {
                 Self::make_pipeline(device, m, l, "main", &constants)
             })
             .clone();
-        (pipeline, l.clone())
+        (pipeline, l.clone(), fresh)
     }
 
     /// The pipelines of the sort passes ([`SORT_PASSES`]) of program `name`, which sorts its

@@ -113,6 +113,9 @@ pub struct Timing {
     pub timestamps: bool,
     /// Dispatches the batch was split into.
     pub dispatches: u32,
+    /// Untimed passes run before the timed one: 1 for a pipeline variant's first trace (the
+    /// driver may compile at the first dispatch), else 0.
+    pub warm_up_passes: u32,
 }
 
 #[repr(C)]
@@ -367,6 +370,11 @@ impl Gpu {
     /// key ([`GpuProgram::arrange`]) first sorts each dispatch's rays by key in its own compute
     /// pass, timed on its own ([`Timing::sort_ms`]), then traces them in that order, each
     /// ray's hit and counters written at its own index.
+    ///
+    /// The first pass of a pipeline variant (program, query, triangle test, counting) runs
+    /// twice and returns the second's times: a driver may compile the shader at its first
+    /// dispatch (issue 46: 567 ms for the first batch against 0.8 ms for the next), which is
+    /// no part of a trace's time, whatever warm-up the caller asked for.
     pub fn trace(
         &self,
         s: &GpuStructure,
@@ -375,20 +383,38 @@ impl Gpu {
         tri: TriTestKind,
         count: bool,
     ) -> Result<Timing, GpuError> {
-        let (pipeline, layouts) = self.kernels.pipeline(
+        let (pipeline, layouts, fresh) = self.kernels.pipeline(
             &self.device,
             (s.program, query, tri, count),
             s.buffers.len(),
             s.arrange.is_some(),
         );
+        if fresh {
+            self.trace_pass(s, rays, &pipeline, &layouts)?;
+        }
+        let t = self.trace_pass(s, rays, &pipeline, &layouts)?;
+        Ok(Timing {
+            warm_up_passes: fresh as u32,
+            ..t
+        })
+    }
+
+    /// One pass of [`Gpu::trace`] with its pipeline made.
+    fn trace_pass(
+        &self,
+        s: &GpuStructure,
+        rays: &GpuRays,
+        pipeline: &wgpu::ComputePipeline,
+        layouts: &Layouts,
+    ) -> Result<Timing, GpuError> {
         let chunks = self.chunks(rays.n);
         let groups: Vec<wgpu::BindGroup> = chunks
             .iter()
-            .map(|&(first, len)| self.bind_group(s, rays, &layouts, first, len))
+            .map(|&(first, len)| self.bind_group(s, rays, layouts, first, len))
             .collect();
         let sort = match s.arrange {
             Some(a) => {
-                let g1 = self.arrangement(a, rays, &layouts, &chunks)?;
+                let g1 = self.arrangement(a, rays, layouts, &chunks)?;
                 let passes = self
                     .kernels
                     .sort_pipelines(&self.device, s.program, s.buffers.len());
@@ -409,7 +435,7 @@ impl Gpu {
             None => None,
         };
         let (kernel_ms, timestamps) = self.timed_pass(|pass| {
-            pass.set_pipeline(&pipeline);
+            pass.set_pipeline(pipeline);
             for (c, ((_, len), g0)) in chunks.iter().zip(&groups).enumerate() {
                 pass.set_bind_group(0, g0, &[]);
                 if let Some((g1, _)) = &sort {
@@ -423,6 +449,7 @@ impl Gpu {
             sort_ms: sort.map(|(_, ms)| ms),
             timestamps,
             dispatches: chunks.len() as u32,
+            warm_up_passes: 0,
         })
     }
 
