@@ -196,11 +196,13 @@ impl Structure for SlabList {
         },
     )];
 
+    /// Slabs, triangles and ids; `structure_bytes`: the slabs and the ids, not the triangles.
     fn own_memory(&self) -> MemoryReport {
+        let structure = std::mem::size_of_val(self.slabs.as_slice())
+            + std::mem::size_of_val(self.ids.as_slice());
         MemoryReport {
-            bytes: (std::mem::size_of_val(self.slabs.as_slice())
-                + std::mem::size_of_val(self.tris.as_slice())
-                + std::mem::size_of_val(self.ids.as_slice())) as u64,
+            bytes: (structure + std::mem::size_of_val(self.tris.as_slice())) as u64,
+            structure_bytes: structure as u64,
             nodes: self.slabs.len() as u64,
             prim_refs: self.ids.len() as u64,
             node_bytes: std::mem::size_of::<Slab>() as u32,
