@@ -331,6 +331,12 @@ fn a_structure_defined_here_runs_on_the_cpu_and_the_gpu() {
         }
         assert!(r.prims_per_ray.unwrap() > 0.0, "{r:?}");
         assert_eq!(r.nodes, Some(slabs as u64), "{r:?}");
+        // The structure alone (slabs and ids) and the triangle copy, as own_memory splits them.
+        let (nodes, node_bytes) = (r.nodes.unwrap(), r.node_bytes.unwrap() as u64);
+        let structure = nodes * node_bytes + 4 * r.prim_refs.unwrap();
+        assert_eq!(r.structure_bytes, Some(structure), "{r:?}");
+        let tri_bytes = r.triangles * std::mem::size_of::<Triangle>() as u64;
+        assert_eq!(r.memory_bytes, Some(structure + tri_bytes), "{r:?}");
     }
     // GPU rows: the same counters and hit rates as the CPU's, row for row.
     if gpu {
