@@ -126,6 +126,14 @@ def number(s):
         return None
 
 
+def memory_column(rows):
+    """The memory column the papers' tables read: `structure_bytes` (the structure alone, as
+    the papers count memory; issue 42) where any row has it, else `memory_bytes` (results
+    written before that column existed)."""
+    has = any(number(r.get("structure_bytes")) is not None for r in rows)
+    return "structure_bytes" if has else "memory_bytes"
+
+
 def amount(row, name):
     """A numeric value: a column (or `stat:KEY`), or the sum of several joined by `+` (None
     when one is empty), e.g. `planes_per_ray+prims_per_ray`."""

@@ -32,7 +32,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import (add_noisy_option, drop_noisy, is_noisy, mark,  # noqa: E402
-                    noisy_footnote, number, params_of, read_csvs)
+                    memory_column, noisy_footnote, number, params_of, read_csvs)
 
 # Table 1 of the paper (primary rays, Titan X): N_T, N_I, MRays/s.
 PAPER_T1 = {
@@ -178,6 +178,8 @@ def table3(rows):
 def table5(rows):
     print("Table 5 (ours): uniform grid at λ = 5, primary rays: MRays/s (against macro regions), MB")
     names = ["Macro regions", "Ours (M)", "Ours (E)", "Ours (M + E)"]
+    col = memory_column(rows)
+    print(f"  memory: {col}" + (" (the structure alone)" if col == "structure_bytes" else ""))
     out = {}
     for scene in sorted({r["scene"].split("@")[0] for r in rows}):
         rs = {variant(r): r for r in rows if r["scene"] == scene and r["ray_kind"] == "primary"}
@@ -187,10 +189,10 @@ def table5(rows):
         print(f"  {scene}")
         for n in names:
             if n in rs:
-                (m, mn), mem = mrays(rs[n]), number(rs[n]["memory_bytes"])
+                (m, mn), mem = mrays(rs[n]), number(rs[n].get(col))
                 print(f"    {n:<14} {f(m, '8.2f')}{mark(mn) or ' '}MRays/s "
                       f"{pct(m, base, mn or bn):>8}  {mem / 1e6:8.1f} MB")
-        out[scene] = {n: (*mrays(rs[n]), number(rs[n]["memory_bytes"]))
+        out[scene] = {n: (*mrays(rs[n]), number(rs[n].get(col)))
                       for n in names if n in rs}
     print("  The paper's Table 5 (Titan X; memory MB):")
     for scene, t in PAPER_T5.items():

@@ -511,6 +511,18 @@ class Irregular(unittest.TestCase):
         self.assertIn("sponza N_T -76 %, N_I +75 % -> agree", out)
         # M + E against macro regions: 9.9 / 8.0 MRays/s, less memory than E.
         self.assertIn("sponza +24 %, memory M + E 2.5 MB vs E 9.0 MB -> agree", out)
+        self.assertIn("memory: memory_bytes", out)
+        # With the structure alone (issue 42), Table 5's memory reads it.
+        rows = irregular_rows()
+        for r in rows:
+            r["structure_bytes"] = 0.4 * r["memory_bytes"]
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "results.csv")
+            write(path, rows, HEADER + ["memory_bytes", "structure_bytes", "build_heap_peak_bytes",
+                                        "build_heap_kept_bytes"])
+            out = run("irregular-tables.py", path)
+        self.assertIn("memory: structure_bytes (the structure alone)", out)
+        self.assertIn("sponza +24 %, memory M + E 1.0 MB vs E 3.6 MB -> agree", out)
         self.assertIn("sponza 3.00x -> agree", out)
         # Table 3 reads the views: 14 / 10 MRays/s at view b.
         self.assertIn("sponza@b", out)
@@ -669,6 +681,15 @@ class SeveralRuns(unittest.TestCase):
         out, err = run2("irregular-figure6.py", d1, d2, "--no-plot")
         self.assertIn("note: 1 row(s) of", err)
         self.assertIn("1e+03]", out)  # the newer row's 1000 MRays/s is the max
+        self.assertIn("Memory: memory_bytes", out)  # rows without structure_bytes
+        # With the structure alone (issue 42) the memory column reads it.
+        for r in rows:
+            r["structure_bytes"] = 4e5
+        p = os.path.join(self.tmp.name, "f6s.csv")
+        write(p, rows, HEADER + ["memory_bytes", "structure_bytes"])
+        out = run("irregular-figure6.py", p, "--no-plot")
+        self.assertIn("Memory: structure_bytes (the structure alone)", out)
+        self.assertIn("[0.4, 0.4]", out)
 
     def test_irregular_table4(self):
         first = dynamic_rows(spp_irregular=4, lam=0.3)

@@ -544,6 +544,12 @@ impl Structure for Bvh {
     /// The arrays the CPU traversal reads: the binary nodes, the triangles and the primitive
     /// ids (`width = 2`), or the wide nodes and the leaf blocks (triangles and primitive ids
     /// in blocks of four) and the triangles and primitive ids (kept for the GPU program).
+    ///
+    /// `structure_bytes`, the tree alone (as Pérard-Gayot et al.'s Table 2 compares the
+    /// SBVH's memory with a grid's cells and references): the traversed nodes (binary or
+    /// wide) and 4 bytes a reference (`prim_ids`, one per leaf entry, SBVH duplicates
+    /// included); not the triangles copied in leaf order nor the leaf blocks (those copies
+    /// in SoA form, with the references' ids beside them).
     fn own_memory(&self) -> MemoryReport {
         let (node_bytes, nodes, node_size) = match &self.wide {
             WideNodes::None => (
@@ -562,11 +568,12 @@ impl Structure for Bvh {
                 std::mem::size_of::<WideNode<8>>(),
             ),
         };
+        let structure = node_bytes + std::mem::size_of_val(self.prim_ids.as_slice());
         MemoryReport {
-            bytes: (node_bytes
+            bytes: (structure
                 + std::mem::size_of_val(self.blocks.as_slice())
-                + std::mem::size_of_val(self.triangles.as_slice())
-                + std::mem::size_of_val(self.prim_ids.as_slice())) as u64,
+                + std::mem::size_of_val(self.triangles.as_slice())) as u64,
+            structure_bytes: structure as u64,
             nodes: nodes as u64,
             prim_refs: self.prim_ids.len() as u64,
             node_bytes: node_size as u32,
@@ -639,6 +646,37 @@ mod tests {
                 Triangle::new(p, p + Vec3::X * 0.9, p + Vec3::Y * 0.9)
             })
             .collect()
+    }
+
+    /// `structure_bytes` is the traversed nodes and 4 bytes a reference; `bytes` adds
+    /// exactly the triangles in leaf order and the leaf blocks, for every width and builder.
+    #[test]
+    fn structure_bytes_are_the_tree_alone() {
+        let tris = grid();
+        for builder in [Builder::Binned, Builder::Sbvh] {
+            for width in [2, 4, 8] {
+                let p = BvhParams {
+                    builder,
+                    width,
+                    ..BvhParams::default()
+                };
+                let b = Bvh::build(&tris, &p);
+                let m = b.memory();
+                let refs = b.prim_ids.len() as u64;
+                let nodes = m.nodes * m.node_bytes as u64;
+                assert_eq!(m.structure_bytes, nodes + 4 * refs, "{builder:?} {width}");
+                let copies = std::mem::size_of_val(b.triangles.as_slice())
+                    + std::mem::size_of_val(b.blocks.as_slice());
+                assert_eq!(
+                    m.bytes - m.structure_bytes,
+                    copies as u64,
+                    "{builder:?} {width}"
+                );
+                assert_eq!(b.triangles.len() as u64, refs);
+                assert_eq!(b.blocks.is_empty(), width == 2);
+                assert_eq!(b.memory_for(0), m);
+            }
+        }
     }
 
     #[test]

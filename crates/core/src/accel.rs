@@ -183,6 +183,13 @@ impl<S> Traversal<S> {
 pub struct MemoryReport {
     /// Total bytes of all arrays the traversals read (nodes, references, triangles).
     pub bytes: u64,
+    /// The structure alone, as the papers' memory figures count it: nodes, references
+    /// (indices), cells, voxel maps, boxes, ropes and the other auxiliary traversal arrays, but
+    /// not the triangle array nor copies of scene geometry derived from it (reordered or
+    /// precomputed triangles, the grids' plane-coordinate tables). `bytes - structure_bytes` is
+    /// that geometry; each structure's `own_memory` says what it counts.
+    #[serde(default)]
+    pub structure_bytes: u64,
     /// Number of nodes (interior and leaves, including empty slots of implicit layouts).
     pub nodes: u64,
     /// Number of primitive references stored in leaves.
@@ -240,8 +247,9 @@ pub trait Structure: Send + Sync + Sized + 'static {
     /// The traversal table; the index into it selects a traversal.
     const TRAVERSALS: &'static [Traversal<Self>];
 
-    /// Memory of the arrays every traversal reads (nodes, references, triangles); the names
-    /// of this trait's methods differ from [`Accel`]'s so that both traits can be in scope.
+    /// Memory of the arrays every traversal reads (nodes, references, triangles), with
+    /// [`MemoryReport::structure_bytes`] the structure's own part of it; the names of this
+    /// trait's methods differ from [`Accel`]'s so that both traits can be in scope.
     fn own_memory(&self) -> MemoryReport;
 
     /// Bytes of auxiliary array `aux` (one named in a [`TraversalInfo::aux`]), built or not.
@@ -362,12 +370,15 @@ impl<S: Structure> Accel for S {
 
     fn memory_for(&self, traversal: usize) -> MemoryReport {
         let mut m = self.own_memory();
-        m.bytes += row::<S>(traversal)
+        let aux = row::<S>(traversal)
             .info
             .aux
             .iter()
             .map(|a| self.aux_bytes(a))
             .sum::<u64>();
+        // Auxiliary arrays are traversal data (boxes, ropes, parent links): the structure's.
+        m.bytes += aux;
+        m.structure_bytes += aux;
         m
     }
 

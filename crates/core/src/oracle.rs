@@ -121,9 +121,11 @@ impl Structure for BruteForce {
         BruteForce::gpu_linear,
     )];
 
+    /// The triangle array alone; no structure (`structure_bytes` 0).
     fn own_memory(&self) -> MemoryReport {
         MemoryReport {
             bytes: std::mem::size_of_val(&*self.tris) as u64,
+            structure_bytes: 0,
             nodes: 1,
             prim_refs: self.tris.len() as u64,
             node_bytes: 0,

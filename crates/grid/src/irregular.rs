@@ -1020,14 +1020,21 @@ impl Structure for IrregularGrid {
         IrregularGrid::gpu_walk,
     )];
 
+    /// The voxel map, the cells (32 bytes: box and reference range), the references, the
+    /// base grid's plane-coordinate tables and the triangles: what the walk reads.
+    ///
+    /// `structure_bytes`, the structure as Pérard-Gayot et al.'s Tables 2 and 5 and Figure 8
+    /// count its storage: the voxel map, the cells and the references (`voxel_map_bytes +
+    /// cells_bytes + refs_bytes`); not the plane tables (the lattice's coordinates, derived
+    /// from the scene's bounds and the resolution) nor the scene's triangle array.
     fn own_memory(&self) -> MemoryReport {
+        let structure = self.map.len() * 4 + self.cells.len() * 32 + self.refs.len() * 4;
         MemoryReport {
-            bytes: (self.map.len() * 4
-                + self.cells.len() * 32
-                + self.refs.len() * 4
+            bytes: (structure
                 + self.planes32.bytes()
                 + self.planes64.bytes()
                 + self.tris.len() * std::mem::size_of::<Triangle>()) as u64,
+            structure_bytes: structure as u64,
             nodes: self.cells.len() as u64,
             prim_refs: self.refs.len() as u64,
             node_bytes: 32,

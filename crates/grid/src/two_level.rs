@@ -304,12 +304,17 @@ impl Structure for TwoLevelGrid {
         TwoLevelGrid::gpu_dda,
     )];
 
+    /// The top cells (8 bytes: first cell and resolution), the second-level cells' reference
+    /// starts, the references and the triangles: what the walk reads.
+    ///
+    /// `structure_bytes`, the grid alone as Pérard-Gayot et al.'s Table 2 counts the two-level
+    /// grid's memory: top cells, cells and references (`top_bytes + cells_bytes +
+    /// refs_bytes`); not the scene's triangle array.
     fn own_memory(&self) -> MemoryReport {
+        let structure = self.tops.len() * 8 + self.start.len() * 4 + self.refs.len() * 4;
         MemoryReport {
-            bytes: (self.tops.len() * 8
-                + self.start.len() * 4
-                + self.refs.len() * 4
-                + self.tris.len() * std::mem::size_of::<Triangle>()) as u64,
+            bytes: (structure + self.tris.len() * std::mem::size_of::<Triangle>()) as u64,
+            structure_bytes: structure as u64,
             nodes: (self.tops.len() + self.start.len() - 1) as u64,
             prim_refs: self.refs.len() as u64,
             node_bytes: 4,

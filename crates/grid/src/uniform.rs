@@ -298,15 +298,22 @@ impl Structure for UniformGrid {
         UniformGrid::gpu_dda,
     )];
 
+    /// The cells' reference starts, the references, the macro regions (24 bytes each, where
+    /// built), the plane-coordinate tables and the triangles: what the walk reads.
+    ///
+    /// `structure_bytes`, the grid alone as Pérard-Gayot et al.'s Table 5 counts the macro-
+    /// region grid's memory: cells, references and macro regions (`cells_bytes + refs_bytes +
+    /// macro_bytes`); not the plane tables (the lattice's coordinates, derived from the
+    /// scene's bounds and the resolution) nor the scene's triangle array.
     fn own_memory(&self) -> MemoryReport {
         let cells = self.lat.count() as u64;
+        let structure = self.start.len() * 4 + self.refs.len() * 4 + self.macros.len() * 24;
         MemoryReport {
-            bytes: (self.start.len() * 4
-                + self.refs.len() * 4
-                + self.macros.len() * 24
+            bytes: (structure
                 + self.planes32.bytes()
                 + self.planes64.bytes()
                 + self.tris.len() * std::mem::size_of::<Triangle>()) as u64,
+            structure_bytes: structure as u64,
             nodes: cells,
             prim_refs: self.refs.len() as u64,
             node_bytes: 4 + if self.macros.is_empty() { 0 } else { 24 },

@@ -196,11 +196,13 @@ impl Structure for SlabList {
         },
     )];
 
+    /// Slabs, triangles and ids; `structure_bytes`: the slabs and the ids, not the triangles.
     fn own_memory(&self) -> MemoryReport {
+        let structure = std::mem::size_of_val(self.slabs.as_slice())
+            + std::mem::size_of_val(self.ids.as_slice());
         MemoryReport {
-            bytes: (std::mem::size_of_val(self.slabs.as_slice())
-                + std::mem::size_of_val(self.tris.as_slice())
-                + std::mem::size_of_val(self.ids.as_slice())) as u64,
+            bytes: (structure + std::mem::size_of_val(self.tris.as_slice())) as u64,
+            structure_bytes: structure as u64,
             nodes: self.slabs.len() as u64,
             prim_refs: self.ids.len() as u64,
             node_bytes: std::mem::size_of::<Slab>() as u32,
@@ -329,6 +331,12 @@ fn a_structure_defined_here_runs_on_the_cpu_and_the_gpu() {
         }
         assert!(r.prims_per_ray.unwrap() > 0.0, "{r:?}");
         assert_eq!(r.nodes, Some(slabs as u64), "{r:?}");
+        // The structure alone (slabs and ids) and the triangle copy, as own_memory splits them.
+        let (nodes, node_bytes) = (r.nodes.unwrap(), r.node_bytes.unwrap() as u64);
+        let structure = nodes * node_bytes + 4 * r.prim_refs.unwrap();
+        assert_eq!(r.structure_bytes, Some(structure), "{r:?}");
+        let tri_bytes = r.triangles * std::mem::size_of::<Triangle>() as u64;
+        assert_eq!(r.memory_bytes, Some(structure + tri_bytes), "{r:?}");
     }
     // GPU rows: the same counters and hit rates as the CPU's, row for row.
     if gpu {

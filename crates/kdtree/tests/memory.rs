@@ -82,3 +82,37 @@ fn coplanar_overlaps_stay_within_the_reference_budget() {
         assert_eq!(differ, 0, "{}", KdTree::TRAVERSALS[i].info.name);
     }
 }
+
+/// `structure_bytes` is the tree alone (review Table 3): whole 64-byte lines of 8-byte nodes
+/// (unused treelet slots included), 4 bytes a reference and the auxiliary arrays the traversal
+/// reads; `bytes` adds exactly the scene's triangle array. Fails if either figure drifts.
+#[test]
+fn structure_bytes_are_the_tree_alone() {
+    use tb_kdtree::KdLayout;
+    let scene = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new(".")).unwrap();
+    let tri_bytes = std::mem::size_of_val(&scene.triangles[..]) as u64;
+    for layout in [KdLayout::DepthFirst, KdLayout::Treelet] {
+        let p = KdParams {
+            layout,
+            ..KdParams::default()
+        };
+        let kd = KdTree::build(&scene.triangles, &p);
+        let lines = kd.nodes().len().div_ceil(8) as u64;
+        let tree = 64 * lines + 4 * kd.prim_refs().len() as u64;
+        let m = Accel::memory(&kd);
+        assert_eq!(m.structure_bytes, tree, "{layout:?}");
+        assert_eq!(m.bytes - m.structure_bytes, tri_bytes, "{layout:?}");
+        let report = Accel::build_report(&kd);
+        let extra = |k: &str| report.extra.iter().find(|e| e.0 == k).unwrap().1 as u64;
+        for (i, t) in KdTree::TRAVERSALS.iter().enumerate() {
+            let aux = match t.info.name {
+                "ropes" => extra("ropes_aux_bytes"),
+                "backtrack" => extra("backtrack_aux_bytes"),
+                _ => 0,
+            };
+            let m = kd.memory_for(i);
+            assert_eq!(m.structure_bytes, tree + aux, "{layout:?} {}", t.info.name);
+            assert_eq!(m.bytes - m.structure_bytes, tri_bytes, "{}", t.info.name);
+        }
+    }
+}

@@ -257,12 +257,18 @@ impl Structure for MultiKdTree {
 
     /// Nodes (8 bytes each, unused treelet slots and block padding included), references,
     /// triangles and the 12-byte header.
+    ///
+    /// `structure_bytes`, the trees alone as Torres et al.'s Table 3 counts them: the nodes,
+    /// the references and the header (the `real_bytes` build figure; the paper's own 16 bytes
+    /// a node and 4 a reference are `paper_bytes`), plus the auxiliary arrays the row's
+    /// traversal reads; not the scene's triangle array, which the trees share.
     fn own_memory(&self) -> MemoryReport {
+        let structure = self.nodes.bytes()
+            + std::mem::size_of_val(&*self.refs)
+            + std::mem::size_of_val(&self.header);
         MemoryReport {
-            bytes: (self.nodes.bytes()
-                + std::mem::size_of_val(&*self.refs)
-                + std::mem::size_of_val(&*self.tris)
-                + std::mem::size_of_val(&self.header)) as u64,
+            bytes: (structure + std::mem::size_of_val(&*self.tris)) as u64,
+            structure_bytes: structure as u64,
             nodes: self.nodes.len() as u64,
             prim_refs: self.refs.len() as u64,
             node_bytes: std::mem::size_of::<KdNode>() as u32,
@@ -380,6 +386,45 @@ mod tests {
             // Only the `-presorted` rows take hints (the arrangement).
             assert!(all[i].hints.is_none() && all[PLAIN + i].hints.is_none());
             assert!(all[2 * PLAIN + i].hints.is_some());
+        }
+    }
+
+    /// `structure_bytes` is the trees alone (Table 3): whole 64-byte lines of 8-byte nodes,
+    /// 4 bytes a reference and the 12-byte header (the `real_bytes` figure), plus the
+    /// auxiliary arrays the traversal reads; `bytes` adds exactly the triangle array.
+    #[test]
+    fn structure_bytes_are_the_trees_alone() {
+        let tris = grid();
+        let tri_bytes = std::mem::size_of_val(tris.as_slice()) as u64;
+        for layout in [KdLayout::DepthFirst, KdLayout::Treelet] {
+            let mut p = MultiKdParams::default();
+            p.kd.layout = layout;
+            let m = MultiKdTree::build(&tris, &p);
+            assert_eq!(m.trees().len(), 3);
+            let trees = 64 * m.nodes.len().div_ceil(8) as u64 + 4 * m.refs.len() as u64 + 12;
+            let mem = Accel::memory(&m);
+            assert_eq!(mem.structure_bytes, trees, "{layout:?}");
+            assert_eq!(mem.bytes - mem.structure_bytes, tri_bytes, "{layout:?}");
+            let r = Accel::build_report(&m);
+            let real = r.extra.iter().find(|(n, _)| n == "real_bytes").unwrap().1;
+            assert_eq!(real as u64, trees);
+            for (i, t) in MultiKdTree::TRAVERSALS.iter().enumerate() {
+                let aux: u64 = t.info.aux.iter().map(|a| m.aux_bytes(a)).sum();
+                assert_eq!(
+                    aux > 0,
+                    ["backtrack", "ropes"]
+                        .iter()
+                        .any(|n| t.info.name.starts_with(n))
+                );
+                let mem = m.memory_for(i);
+                assert_eq!(mem.structure_bytes, trees + aux, "{}", t.info.name);
+                assert_eq!(
+                    mem.bytes - mem.structure_bytes,
+                    tri_bytes,
+                    "{}",
+                    t.info.name
+                );
+            }
         }
     }
 

@@ -107,16 +107,51 @@ impl Structure for BvhRsPeer {
     const TRAVERSALS: &'static [Traversal<Self>] =
         &[Traversal::cpu(crate::NATIVE, crate::trace_each::<Self>)];
 
+    /// The library's nodes, its shapes (one per triangle: index, box and node, which its
+    /// traversal reads) and our copy of the triangles.
+    ///
+    /// `structure_bytes`: the nodes and the shapes (the library's reference array); not the
+    /// triangle copy.
     fn own_memory(&self) -> MemoryReport {
         let nodes = self.bvh.nodes.len();
         let node_bytes = std::mem::size_of_val(&self.bvh.nodes[0..nodes.min(1)]);
+        let structure = std::mem::size_of_val(self.bvh.nodes.as_slice())
+            + self.shapes.len() * std::mem::size_of::<Shape>();
         MemoryReport {
-            bytes: (std::mem::size_of_val(self.bvh.nodes.as_slice())
-                + self.shapes.len() * std::mem::size_of::<Shape>()
-                + std::mem::size_of_val(self.tris.as_slice())) as u64,
+            bytes: (structure + std::mem::size_of_val(self.tris.as_slice())) as u64,
+            structure_bytes: structure as u64,
             nodes: nodes as u64,
             prim_refs: self.shapes.len() as u64,
             node_bytes: node_bytes as u32,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tris() -> Vec<Triangle> {
+        (0..64)
+            .map(|i| {
+                let p = tb_core::Vec3::new((i % 8) as f32, (i / 8) as f32, (i % 3) as f32);
+                Triangle::new(p, p + tb_core::Vec3::X * 0.9, p + tb_core::Vec3::Y * 0.9)
+            })
+            .collect()
+    }
+
+    /// `structure_bytes` is the library's nodes and shapes; `bytes` adds the triangle copy.
+    #[test]
+    fn structure_bytes_are_the_nodes_and_shapes() {
+        let tris = tris();
+        let p = BvhRsPeer::build(&tris);
+        let m = p.own_memory();
+        let nodes = std::mem::size_of_val(p.bvh.nodes.as_slice());
+        let shapes = tris.len() * std::mem::size_of::<Shape>();
+        assert_eq!(m.structure_bytes, (nodes + shapes) as u64);
+        assert_eq!(
+            m.bytes - m.structure_bytes,
+            std::mem::size_of_val(&tris[..]) as u64
+        );
     }
 }

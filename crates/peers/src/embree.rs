@@ -164,10 +164,13 @@ impl Structure for EmbreePeer {
         },
     )];
 
+    /// Our vertex and index buffers only: Embree does not report its BVH's size.
+    ///
+    /// `structure_bytes` 0 (unknown, as `nodes`): the buffers are the scene's geometry.
     fn own_memory(&self) -> MemoryReport {
-        // Embree does not report its BVH size; the vertex and index buffers are ours.
         MemoryReport {
             bytes: (self.triangles * (36 + 12)) as u64,
+            structure_bytes: 0,
             nodes: 0,
             prim_refs: self.triangles as u64,
             node_bytes: 0,
@@ -218,5 +221,30 @@ impl EmbreePeer {
                 }
             };
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tris() -> Vec<Triangle> {
+        (0..64)
+            .map(|i| {
+                let p = tb_core::Vec3::new((i % 8) as f32, (i / 8) as f32, (i % 3) as f32);
+                Triangle::new(p, p + tb_core::Vec3::X * 0.9, p + tb_core::Vec3::Y * 0.9)
+            })
+            .collect()
+    }
+
+    /// Embree's BVH size is unknown: `structure_bytes` 0, `bytes` our vertex and index
+    /// buffers (three 12-byte vertices and three 4-byte indices a triangle).
+    #[test]
+    fn structure_bytes_are_unknown() {
+        let tris = tris();
+        let p = EmbreePeer::build(&tris, &EmbreeParams::default()).unwrap();
+        let m = p.own_memory();
+        assert_eq!(m.structure_bytes, 0);
+        assert_eq!(m.bytes, 48 * tris.len() as u64);
     }
 }

@@ -120,16 +120,48 @@ impl Structure for ObvhsPeer {
     const TRAVERSALS: &'static [Traversal<Self>] =
         &[Traversal::cpu(crate::NATIVE, crate::trace_each::<Self>)];
 
+    /// The compressed wide nodes, the primitive indices and our copy of the triangles.
+    ///
+    /// `structure_bytes`: the nodes and 4 bytes a primitive index; not the triangle copy.
     fn own_memory(&self) -> MemoryReport {
         let nodes = self.bvh.nodes.len();
         let node_bytes = std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>();
+        let structure = nodes * node_bytes + self.bvh.primitive_indices.len() * 4;
         MemoryReport {
-            bytes: (nodes * node_bytes
-                + self.bvh.primitive_indices.len() * 4
-                + std::mem::size_of_val(self.tris.as_slice())) as u64,
+            bytes: (structure + std::mem::size_of_val(self.tris.as_slice())) as u64,
+            structure_bytes: structure as u64,
             nodes: nodes as u64,
             prim_refs: self.bvh.primitive_indices.len() as u64,
             node_bytes: node_bytes as u32,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tris() -> Vec<Triangle> {
+        (0..64)
+            .map(|i| {
+                let p = tb_core::Vec3::new((i % 8) as f32, (i / 8) as f32, (i % 3) as f32);
+                Triangle::new(p, p + tb_core::Vec3::X * 0.9, p + tb_core::Vec3::Y * 0.9)
+            })
+            .collect()
+    }
+
+    /// `structure_bytes` is the wide nodes and 4 bytes an index; `bytes` adds the triangles.
+    #[test]
+    fn structure_bytes_are_the_nodes_and_indices() {
+        let tris = tris();
+        let p = ObvhsPeer::build(&tris, Preset::Medium);
+        let m = p.own_memory();
+        let nodes = std::mem::size_of_val(p.bvh.nodes.as_slice());
+        assert_eq!(m.structure_bytes, (nodes + 4 * m.prim_refs as usize) as u64);
+        assert!(m.prim_refs >= tris.len() as u64);
+        assert_eq!(
+            m.bytes - m.structure_bytes,
+            std::mem::size_of_val(&tris[..]) as u64
+        );
     }
 }

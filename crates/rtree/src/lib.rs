@@ -411,11 +411,16 @@ impl Structure for Rtree {
 
     /// Bytes of the slot array *including empty slots* (paper section 4), the triangles in
     /// leaf order and the index map; `nodes` counts every slot.
+    ///
+    /// `structure_bytes`, the tree alone: the slot array (empty slots included, as the
+    /// paper's implicit layout allocates them) and the index map (4 bytes a leaf entry); not
+    /// the triangles, a copy of the scene's in leaf order.
     fn own_memory(&self) -> MemoryReport {
+        let structure = std::mem::size_of_val(self.nodes.as_slice())
+            + std::mem::size_of_val(self.prim_ids.as_slice());
         MemoryReport {
-            bytes: (std::mem::size_of_val(self.nodes.as_slice())
-                + std::mem::size_of_val(self.triangles.as_slice())
-                + std::mem::size_of_val(self.prim_ids.as_slice())) as u64,
+            bytes: (structure + std::mem::size_of_val(self.triangles.as_slice())) as u64,
+            structure_bytes: structure as u64,
             nodes: self.nodes.len() as u64,
             prim_refs: self.prim_ids.len() as u64,
             node_bytes: std::mem::size_of::<RtreeNode>() as u32,
@@ -686,6 +691,24 @@ mod tests {
         let get = |k: &str| r.extra.iter().find(|e| e.0 == k).unwrap().1;
         assert!(get("empty_share") > 0.0 && get("empty_share") < 1.0);
         assert_eq!(t.memory().nodes, t.nodes().len() as u64);
+    }
+
+    /// `structure_bytes` is the slots (empty ones included) and 4 bytes an index; `bytes`
+    /// adds exactly the triangles in leaf order (one per scene triangle).
+    #[test]
+    fn structure_bytes_are_the_tree_alone() {
+        let tris = grid(300);
+        let t = Rtree::build(&tris, &RtreeParams::default());
+        let m = t.memory();
+        let slots = t.nodes().len() as u64 * m.node_bytes as u64;
+        assert_eq!(m.structure_bytes, slots + 4 * tris.len() as u64);
+        assert_eq!(
+            m.bytes - m.structure_bytes,
+            std::mem::size_of_val(tris.as_slice()) as u64
+        );
+        for i in 0..Rtree::TRAVERSALS.len() {
+            assert_eq!(t.memory_for(i), m);
+        }
     }
 
     #[test]

@@ -335,6 +335,11 @@ impl Structure for SparseBoxes {
 
     /// The kd-tree's nodes, references and triangles; BTR and SLTR add the boxes
     /// ([`BOXES_AUX`]).
+    ///
+    /// `structure_bytes`, the paper's M_KD in our sizes: the kd-tree's nodes and references
+    /// (the kd-tree's own `structure_bytes`) plus, for BTR and SLTR, the augmented nodes'
+    /// records, depths and rank (`aug_bytes`); not the scene's triangle array. The paper's own
+    /// accounting (8 a node, 4 a reference, 28 a box) is `m_kd_bytes` / `m_kd_htr_bytes`.
     fn own_memory(&self) -> MemoryReport {
         Accel::memory(&self.kd)
     }

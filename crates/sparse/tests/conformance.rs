@@ -282,6 +282,25 @@ fn validate_and_figures() {
         // and a 4-byte count per 64 nodes).
         let rank = s.kd().nodes().len().div_ceil(64) as u64 * 12;
         assert_eq!(btr - htr, 33 * a.len() as u64 + rank);
+        // The structure alone (M_KD): the kd-tree's lines of nodes and its references, plus the
+        // boxes for BTR; the rest is the triangle array, whatever the traversal.
+        let kd = 64 * s.kd().nodes().len().div_ceil(8) as u64 + 4 * s.kd().prim_refs().len() as u64;
+        let tri_bytes = std::mem::size_of_val(&tris[..]) as u64;
+        for (name, boxes) in [
+            ("htr", 0),
+            ("seq", 0),
+            ("btr", btr - htr),
+            ("sltr", btr - htr),
+        ] {
+            let m = s.memory_for(index(name));
+            assert_eq!(m.structure_bytes, kd + boxes, "{name}");
+            assert_eq!(m.bytes - m.structure_bytes, tri_bytes, "{name}");
+        }
+        assert_eq!(
+            s.memory_for(index("btr")).structure_bytes,
+            get("aug_bytes") as u64 + kd,
+            "aug_bytes"
+        );
     }
     // Denser boxes: more of them.
     let n = |d_min| {

@@ -144,6 +144,7 @@ pub struct ClaimResult {
 /// Columns that are properties of a build (one value per scene table x structure x params).
 const BUILD_COLS: &[&str] = &[
     "memory_bytes",
+    "structure_bytes",
     "nodes",
     "prim_refs",
     "node_bytes",

@@ -91,7 +91,13 @@ macro_rules! define_row {
             /// Rays ended by a traversal's per-ray step cap (restart-family kd-tree
             /// traversals).
             pub capped_rays: Option<u64>,
+            /// Bytes of everything the row's traversal reads (`tb_core::MemoryReport::bytes`).
             pub memory_bytes: Option<u64>,
+            /// The structure alone, as the papers' memory figures count it: `memory_bytes`
+            /// less the triangle array and the copies of scene geometry
+            /// (`tb_core::MemoryReport::structure_bytes`).
+            #[serde(default)]
+            pub structure_bytes: Option<u64>,
             pub nodes: Option<u64>,
             pub prim_refs: Option<u64>,
             pub node_bytes: Option<u32>,

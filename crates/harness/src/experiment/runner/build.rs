@@ -73,12 +73,14 @@ pub fn build(
 }
 
 impl Built {
-    /// Fill the build's columns of a row of traversal `ti` (its memory counts the auxiliary
-    /// arrays that traversal reads).
+    /// Fill the build's columns of a row of traversal `ti` (its memory, whole and structure
+    /// alone, counts the auxiliary arrays that traversal reads).
     pub fn fill(&self, row: &mut Row, ti: usize) {
         row.build_ms = Some(self.build_ms);
         row.build_ms_runs = crate::experiment::timing::ms_list(&self.build_runs);
-        row.memory_bytes = Some(self.accel.memory_for(ti).bytes);
+        let mem = self.accel.memory_for(ti);
+        row.memory_bytes = Some(mem.bytes);
+        row.structure_bytes = Some(mem.structure_bytes);
         row.nodes = Some(self.mem.nodes);
         row.prim_refs = Some(self.mem.prim_refs);
         row.node_bytes = Some(self.mem.node_bytes);
