@@ -35,6 +35,7 @@ fn configs() -> Vec<(String, Config)> {
         densities: Densities {
             lambda_1: 1.0,
             lambda_2: 8.0,
+            ..Default::default()
         },
         ..Default::default()
     };
@@ -66,6 +67,7 @@ fn configs() -> Vec<(String, Config)> {
         densities: Densities {
             lambda_1: 0.5,
             lambda_2: 16.0,
+            ..Default::default()
         },
         alpha: 1.0,
         ..Default::default()

@@ -71,6 +71,7 @@ fn cases() -> Vec<(&'static str, Builder)> {
                 densities: Densities {
                     lambda_1: 1.0,
                     lambda_2: 8.0,
+                    ..Default::default()
                 },
                 ..Default::default()
             }),
