@@ -37,7 +37,8 @@ use tb_core::{
 
 /// The R-tree in the registry.
 pub static FAMILY: Family = Family::new::<Rtree, RtreeParams>(
-    "R-tree by insertion (min-volume, min-surface, min-overlap, R*, R*-srfc) or STR bulk loading, \
+    "R-tree by insertion (min-volume, min-surface, min-overlap, R*, R*-srfc, and our tie and \
+     overlap-enlargement variants) or STR bulk loading, \
      R* split, forced reinsertion, packed level-order layout (Feldmann)",
     |tris, set| build_with(set, |p: &RtreeParams| Rtree::try_build(tris, p)),
 )

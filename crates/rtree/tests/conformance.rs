@@ -46,6 +46,17 @@ fn conforms_min_overlap() {
 }
 
 #[test]
+fn conforms_min_overlap_enlargement() {
+    run(strategy(Strategy::MinOverlapEnlargement));
+}
+
+#[test]
+fn conforms_surface_ties_variants() {
+    run(strategy(Strategy::MinVolumeSurfaceTies));
+    run(strategy(Strategy::RStarSurfaceTies));
+}
+
+#[test]
 fn conforms_no_reinsert_sorted_m16() {
     run(RtreeParams {
         m: 3,
