@@ -15,8 +15,10 @@
 //!   hold their triangles as a run of [`Rtree::triangles`] (copied in leaf order;
 //!   [`Rtree::prim_ids`] maps back to scene indices).
 //! - **Traversals** (module `traverse`, [`Structure::TRAVERSALS`]): `stackless` (Listing 1), `ordered`
-//!   (Listing 2) and `stack` (the conventional stack-based scheme of Table 3).
-//! - **GPU** (module `gpu`, `shaders/`): the same three walks as WGSL kernels over the same
+//!   (Listing 2) and `stack` (the conventional stack-based scheme of Table 3), and our variants
+//!   `stackless-skip-empty` (no visits to empty sibling slots) and `ordered-pop-cull` (popped
+//!   entries beyond the closest hit dropped as well).
+//! - **GPU** (module `gpu`, `shaders/`): the same five walks as WGSL kernels over the same
 //!   packed array (the paper's CUDA tracer ran `stackless` and `ordered`, Tables 1-3), with
 //!   the per-ray counters of the CPU walks.
 
@@ -101,15 +103,17 @@ impl RtreeNode {
 
 /// An R-tree over triangles in the paper's implicit level-order layout.
 ///
-/// Per-ray counters (`TraversalStats`), the same for the three traversals:
+/// Per-ray counters (`TraversalStats`):
 /// - `boxes`: ray–box slab tests; `interior`: intermediate nodes whose entries were examined
 ///   (entered); `leaves`: leaves whose triangles were tested; `prims`: ray–triangle tests;
-/// - `steps`: nodes the walk enters, the same measure in the three traversals (`stackless`:
-///   every slot whose box is hit; `ordered`, `stack`: the root when its box is hit and every
-///   entry taken from a stack and not discarded as farther than the closest hit), so
-///   `steps == interior + leaves`; `stack` and `stackless` enter the same nodes, and the
-///   slots `stackless` only reaches show in `boxes`;
-/// - `restarts`: `stackless` only, climbs to a parent (`n_p`) when no next sibling remains;
+/// - `steps`: nodes the walk visits. `stackless` and `stackless-skip-empty`: every slot the
+///   walk reaches (an iteration of Listing 1's loop), empty slots included, so `steps ==
+///   boxes + empty slots visited` (`stackless-skip-empty` visits none); `ordered`,
+///   `ordered-pop-cull`, `stack`: the root when its box is hit and every entry taken from a
+///   stack and entered (`ordered` enters every popped entry, as Listing 2; the other two skip
+///   those beyond the closest hit), so `steps == interior + leaves`;
+/// - `restarts`: the stackless walks only, climbs to a parent (`n_p`) when no next sibling
+///   remains;
 /// - `planes`: always 0.
 #[derive(Clone, Debug)]
 pub struct Rtree {
@@ -376,11 +380,18 @@ impl Structure for Rtree {
             TraversalInfo::new(
                 "stackless",
                 "Feldmann 2015 §4.1, Listing 1",
-                "stackless depth-first by implicit index arithmetic, next sibling or parent \
-                 (Feldmann 2015 §4.1, Listing 1)",
+                "stackless depth-first by implicit index arithmetic, next sibling or parent, \
+                 visiting empty sibling slots as Listing 1 does (Feldmann 2015 §4.1, Listing 1)",
             ),
             |t, query, tri, rays, hits, stats| {
-                dispatch(&traverse::Stackless(t), query, tri, rays, hits, stats)
+                dispatch(
+                    &traverse::Stackless::<false>(t),
+                    query,
+                    tri,
+                    rays,
+                    hits,
+                    stats,
+                )
             },
             Rtree::gpu_stackless,
         ),
@@ -389,10 +400,18 @@ impl Structure for Rtree {
                 "ordered",
                 "Feldmann 2015 §4.2, Listing 2",
                 "per-level stacks of at most M entries sorted by entry distance with insertion \
-                 sort, nearest first (Feldmann 2015 §4.2, Listing 2)",
+                 sort, nearest first, culled against the closest hit when pushed only \
+                 (Feldmann 2015 §4.2, Listing 2)",
             ),
             |t, query, tri, rays, hits, stats| {
-                dispatch(&traverse::Ordered(t), query, tri, rays, hits, stats)
+                dispatch(
+                    &traverse::Ordered::<false>(t),
+                    query,
+                    tri,
+                    rays,
+                    hits,
+                    stats,
+                )
             },
             Rtree::gpu_ordered,
         ),
@@ -407,6 +426,37 @@ impl Structure for Rtree {
                 dispatch(&traverse::Stack(t), query, tri, rays, hits, stats)
             },
             Rtree::gpu_stack,
+        ),
+        Traversal::with_gpu(
+            TraversalInfo::new(
+                "stackless-skip-empty",
+                "ours, after Feldmann 2015 §4.1, Listing 1",
+                "stackless (Listing 1) that ends a node's entries at its first empty slot \
+                 instead of visiting the empty slots (ours: the same result, fewer slots)",
+            ),
+            |t, query, tri, rays, hits, stats| {
+                dispatch(
+                    &traverse::Stackless::<true>(t),
+                    query,
+                    tri,
+                    rays,
+                    hits,
+                    stats,
+                )
+            },
+            Rtree::gpu_stackless_skip_empty,
+        ),
+        Traversal::with_gpu(
+            TraversalInfo::new(
+                "ordered-pop-cull",
+                "ours, after Feldmann 2015 §4.2, Listing 2",
+                "ordered (Listing 2) that also drops a popped entry beyond the closest hit, \
+                 and the rest of its stack (ours: the same result, fewer nodes)",
+            ),
+            |t, query, tri, rays, hits, stats| {
+                dispatch(&traverse::Ordered::<true>(t), query, tri, rays, hits, stats)
+            },
+            Rtree::gpu_ordered_pop_cull,
         ),
     ];
 
@@ -606,6 +656,7 @@ mod tests {
             })
             .collect();
         let mut answers = Vec::new();
+        let mut stats = Vec::new();
         for ti in 0..TRAVERSALS.len() {
             for q in [Query::Closest, Query::Any] {
                 let mut hits = vec![HitRecord::MISS; rays.len()];
@@ -619,27 +670,111 @@ mod tests {
                     Some(&mut st),
                 );
                 for s in &st {
+                    let name = TRAVERSALS[ti].info.name;
                     assert_eq!(s.planes, 0);
-                    assert_eq!(
-                        s.steps,
-                        s.interior + s.leaves,
-                        "{}",
-                        TRAVERSALS[ti].info.name
-                    );
-                    if ti == 0 {
-                        assert!(s.steps <= s.boxes, "stackless: a box per slot reached");
+                    if name.starts_with("stackless") {
+                        // A box per non-empty slot visited; `skip-empty` visits no empty one.
+                        assert!(s.steps >= s.boxes, "{name}");
+                        if name == "stackless-skip-empty" {
+                            assert_eq!(s.steps, s.boxes, "{name}");
+                        }
+                        assert!(s.boxes >= s.interior + s.leaves, "{name}");
                     } else {
+                        assert_eq!(s.steps, s.interior + s.leaves, "{name}");
                         assert_eq!(s.restarts, 0);
                     }
                 }
                 if q == Query::Closest {
                     answers.push(hits.iter().map(|h| h.t).collect::<Vec<_>>());
+                    stats.push(st);
                 }
             }
         }
         assert!(answers[0].iter().any(|t| t.is_finite()));
-        assert_eq!(answers[0], answers[1]);
-        assert_eq!(answers[0], answers[2]);
+        for a in &answers[1..] {
+            assert_eq!(&answers[0], a);
+        }
+        let by_name = |n: &str| &stats[TRAVERSALS.iter().position(|t| t.info.name == n).unwrap()];
+        // The variants walk the same nodes but for what they leave out.
+        for (a, b) in by_name("stackless")
+            .iter()
+            .zip(by_name("stackless-skip-empty"))
+        {
+            assert!(a.steps >= b.steps);
+            let same = |s: &TraversalStats| (s.boxes, s.interior, s.leaves, s.prims, s.restarts);
+            assert_eq!(same(a), same(b));
+        }
+        for (a, b) in by_name("ordered").iter().zip(by_name("ordered-pop-cull")) {
+            assert!(a.steps >= b.steps && a.prims >= b.prims && a.boxes >= b.boxes);
+        }
+    }
+
+    /// Two clusters of 4 triangles stacked along the ray (`z ∈ [−0.3, 0]` and `[−10.3, −10]`):
+    /// a root at level 1 whose entries are leaves, with `M − count` empty slots after them.
+    fn two_clusters() -> (Rtree, Ray) {
+        let tris: Vec<Triangle> = [0.0f32, -0.1, -0.2, -0.3, -10.0, -10.1, -10.2, -10.3]
+            .iter()
+            .map(|&z| {
+                let p = Vec3::new(0.0, 0.0, z);
+                Triangle::new(p, p + Vec3::X, p + Vec3::Y)
+            })
+            .collect();
+        let t = Rtree::build(&tris, &RtreeParams::default());
+        assert_eq!(t.root_level(), 1);
+        (t, Ray::new(Vec3::new(0.2, 0.2, 5.0), -Vec3::Z))
+    }
+
+    fn trace_one(t: &Rtree, name: &str, ray: Ray) -> (HitRecord, TraversalStats) {
+        let ti = TRAVERSALS.iter().position(|x| x.info.name == name).unwrap();
+        let mut hits = [HitRecord::MISS];
+        let mut st = [TraversalStats::default()];
+        t.trace(
+            ti,
+            Query::Closest,
+            TriTestKind::Watertight,
+            &[ray],
+            &mut hits,
+            Some(&mut st),
+        );
+        (hits[0], st[0])
+    }
+
+    /// Listing 2 culls against `t_min` only when pushing: `ordered` enters the far leaf
+    /// popped after the near leaf's hit (t = 5) although its entry distance (15) lies beyond;
+    /// `ordered-pop-cull` drops it.
+    #[test]
+    fn ordered_culls_at_push_time_only() {
+        let (t, ray) = two_clusters();
+        let (h, paper) = trace_one(&t, "ordered", ray);
+        let (h2, ours) = trace_one(&t, "ordered-pop-cull", ray);
+        assert!((h.t - 5.0).abs() < 1e-5, "{h:?}");
+        assert_eq!(h, h2);
+        assert_eq!(ours.leaves, 1, "{ours:?}");
+        assert_eq!(ours.prims, 4);
+        assert!(paper.leaves >= 2, "{paper:?}");
+        assert_eq!(paper.prims, 8);
+        assert_eq!(paper.steps, ours.steps + paper.leaves - 1);
+        assert_eq!(paper.boxes, ours.boxes);
+    }
+
+    /// Listing 1 visits every slot of a node, the empty ones after its entries included
+    /// (`isEmptyNode`, no box test): `stackless` visits the root and all `M` slots of its
+    /// entries, `stackless-skip-empty` the root and its non-empty entries only.
+    #[test]
+    fn stackless_visits_empty_sibling_slots() {
+        let (t, ray) = two_clusters();
+        let m = t.params().big_m;
+        let count = t.nodes()[0].count;
+        assert!(count < m, "the root has empty slots");
+        let (h, paper) = trace_one(&t, "stackless", ray);
+        let (h2, ours) = trace_one(&t, "stackless-skip-empty", ray);
+        assert!((h.t - 5.0).abs() < 1e-5, "{h:?}");
+        assert_eq!(h, h2);
+        assert_eq!(paper.steps, 1 + m, "{paper:?}");
+        assert_eq!(ours.steps, 1 + count, "{ours:?}");
+        assert_eq!(paper.boxes, 1 + count);
+        assert_eq!(ours.boxes, 1 + count);
+        assert_eq!(paper.restarts, ours.restarts);
     }
 
     #[test]
