@@ -490,13 +490,26 @@ fn str_order(es: &mut [Entry], big_m: usize) {
     }
 }
 
-/// Build the dynamic tree by successive insertion of every triangle's box, in scene order.
-pub(crate) fn insert_all<'p>(tris: &[Triangle], p: &'p RtreeParams) -> Builder<'p> {
+/// Build the dynamic tree by successive insertion of every triangle's box, in scene order,
+/// while `fits(levels)` holds for its height; otherwise stop and return the height reached
+/// and the triangles inserted (the height never shrinks, so the layout would not fit).
+pub(crate) fn insert_all<'p>(
+    tris: &[Triangle],
+    p: &'p RtreeParams,
+    fits: &dyn Fn(u32) -> bool,
+) -> Result<Builder<'p>, (u32, usize)> {
     let mut b = Builder::new(p);
+    let mut levels = b.height();
     for (i, t) in tris.iter().enumerate() {
         b.insert_data(t.bounds(), i as u32);
+        if b.height() != levels {
+            levels = b.height();
+            if !fits(levels) {
+                return Err((levels, i + 1));
+            }
+        }
     }
-    b
+    Ok(b)
 }
 
 /// The packed tree: complete level-order array with empty slots, triangles in leaf order.

@@ -58,6 +58,27 @@ pub const MAX_LEVELS: usize = 17;
 /// `M = 4`, Conference's 331K triangles already take 695 MiB, 99 % empty).
 pub const MAX_LAYOUT_BYTES: u64 = 8 << 30;
 
+/// Most layout bytes per triangle [`Rtree::try_build`] allocates (512 slots of 32 bytes),
+/// beyond a floor of [`MIN_LAYOUT_LIMIT`] and within [`MAX_LAYOUT_BYTES`]: the limit is
+/// `min(8 GiB, max(64 MiB, 16 KiB · triangles))` ([`layout_limit`]). The complete layout of
+/// section 4 grows as `M^L` while the triangles grow as `f^L` (`f`: mean entries per node, `m ≤
+/// f ≤ M`), so its bytes per triangle are bounded by no constant: a tree of poorly filled
+/// nodes, or one level more at a level boundary, multiplies them. The paper's configurations
+/// need at most 14.9 KB (Conference, `m = 2`, `M = 8`: 4.9 GB; `M = 4`: 2.2 KB), 1M identical
+/// triangles 2.9 KB (`f = 2.7`, 14 levels).
+pub const MAX_LAYOUT_BYTES_PER_TRIANGLE: u64 = 16 << 10;
+
+/// The floor of the layout limit (small scenes, whose complete layout is small anyway).
+pub const MIN_LAYOUT_LIMIT: u64 = 64 << 20;
+
+/// The layout limit [`Rtree::try_build`] applies to `n` triangles:
+/// `min(MAX_LAYOUT_BYTES, max(MIN_LAYOUT_LIMIT, MAX_LAYOUT_BYTES_PER_TRIANGLE · n))`.
+pub fn layout_limit(n: usize) -> u64 {
+    MAX_LAYOUT_BYTES_PER_TRIANGLE
+        .saturating_mul(n as u64)
+        .clamp(MIN_LAYOUT_LIMIT, MAX_LAYOUT_BYTES)
+}
+
 /// One slot of the packed level-order array, 32 bytes (`#[repr(C)]`, GPU-uploadable as 8
 /// words). Whether a slot is a leaf follows from its index (slots `≥ Δ_L(0)` are leaves).
 ///
@@ -141,9 +162,12 @@ impl Rtree {
     /// Build an R-tree over `tris` by successive insertion (single-threaded), or say why not:
     /// `params.check()` fails, there are `u32::MAX` or more triangles, or the complete
     /// level-order layout of section 4 (which grows as `M^(L+1)`, empty slots included) would
-    /// need `2^32 − 1` or more slots or more than [`MAX_LAYOUT_BYTES`].
+    /// need `2^32 − 1` or more slots or more than [`layout_limit`] bytes (16 KiB a triangle,
+    /// at least 64 MiB, at most 8 GiB). The insertion build refuses as soon as the tree
+    /// grows a level whose layout is over the limit (levels only grow), not after inserting
+    /// every triangle.
     pub fn try_build(tris: &[Triangle], params: &RtreeParams) -> Result<Rtree, AccelError> {
-        Self::build_within(tris, params, MAX_LAYOUT_BYTES)
+        Self::build_within(tris, params, layout_limit(tris.len()))
     }
 
     /// [`Rtree::try_build`] with a layout limit of `max_bytes`.
@@ -160,26 +184,36 @@ impl Rtree {
                 limit: u32::MAX as u64 - 1,
             });
         }
+        let fits = |levels: u32| {
+            build::slot_count(params.big_m, levels - 1)
+                .is_some_and(|n| n as u64 * std::mem::size_of::<RtreeNode>() as u64 <= max_bytes)
+        };
+        let refuse = |levels: u32, inserted: Option<usize>| {
+            let gib = (params.big_m as f64).powi(levels as i32) / (params.big_m as f64 - 1.0)
+                * std::mem::size_of::<RtreeNode>() as f64
+                / (1u64 << 30) as f64;
+            let when = match inserted {
+                Some(k) => format!(" (refused after inserting {k} of {} triangles)", tris.len()),
+                None => String::new(),
+            };
+            AccelError::Unsupported(format!(
+                "the complete {}-ary level-order layout of {levels} levels needs {gib:.3} GiB \
+                 of slots (empty ones included), over the {:.3} GiB limit for {} triangles \
+                 (16 KiB a triangle, at least 64 MiB, at most 8 GiB){when}; use a smaller M or \
+                 strategy = \"str\"",
+                params.big_m,
+                max_bytes as f64 / (1u64 << 30) as f64,
+                tris.len()
+            ))
+        };
         let b = match params.strategy {
             Strategy::Str => build::bulk_load_str(tris, params),
-            _ => build::insert_all(tris, params),
+            _ => build::insert_all(tris, params, &fits)
+                .map_err(|(levels, inserted)| refuse(levels, Some(inserted)))?,
         };
         let levels = b.height();
-        let bytes = build::slot_count(params.big_m, levels - 1)
-            .map(|n| n as u64 * std::mem::size_of::<RtreeNode>() as u64);
-        match bytes {
-            Some(bytes) if bytes <= max_bytes => {}
-            _ => {
-                let gib = (params.big_m as f64).powi(levels as i32) / (params.big_m as f64 - 1.0)
-                    * std::mem::size_of::<RtreeNode>() as f64
-                    / (1u64 << 30) as f64;
-                return Err(AccelError::Unsupported(format!(
-                    "the complete {}-ary level-order layout of {levels} levels needs {gib:.3} GiB \
-                     of slots (empty ones included), over the {:.3} GiB limit; use a smaller M",
-                    params.big_m,
-                    max_bytes as f64 / (1u64 << 30) as f64
-                )));
-            }
+        if !fits(levels) {
+            return Err(refuse(levels, None));
         }
         let counts = b.counts;
         let packed = build::pack(&b, tris, params.child_order, params.big_m);
@@ -570,6 +604,51 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("m must be in 2..=M/2"), "{e}");
+    }
+
+    /// Issue 46 item 5: identical triangles build a tree of poorly filled nodes (every key
+    /// ties, every split takes the first distribution), whose complete layout grows a level
+    /// early. Under a lowered limit the insertion build refuses as soon as the tree grows a
+    /// level over it, long before the last triangle, and says why; the default limit is
+    /// 16 KiB a triangle between 64 MiB and 8 GiB.
+    #[test]
+    fn identical_triangles_are_refused_early_over_the_limit() {
+        let n = 5000;
+        let same = vec![Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y); n];
+        let p = RtreeParams::default();
+        let t = Rtree::try_build(&same, &p).unwrap();
+        t.validate().unwrap();
+        let levels = t.root_level() + 1;
+        assert!(levels >= 8, "{levels} levels");
+        // A limit that admits two levels fewer than the tree reaches.
+        let limit = build::slot_count(4, levels - 3).unwrap() as u64 * 32;
+        let e = Rtree::build_within(&same, &p, limit)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(&format!("layout of {} levels", levels - 1)),
+            "{e}"
+        );
+        let k: usize = e
+            .split("refused after inserting ")
+            .nth(1)
+            .and_then(|r| r.split(' ').next())
+            .and_then(|k| k.parse().ok())
+            .unwrap_or_else(|| panic!("{e}"));
+        assert!(k < n / 2, "refused after {k} of {n}: {e}");
+        // STR has no insertion to stop; it is refused on its height.
+        let str_p = RtreeParams {
+            strategy: Strategy::Str,
+            ..p
+        };
+        let e = Rtree::build_within(&same, &str_p, 32)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("level-order layout"), "{e}");
+        assert_eq!(layout_limit(0), MIN_LAYOUT_LIMIT);
+        assert_eq!(layout_limit(10_000), 10_000 * 16 * 1024);
+        assert_eq!(layout_limit(1_000_000), MAX_LAYOUT_BYTES);
+        assert_eq!(layout_limit(usize::MAX), MAX_LAYOUT_BYTES);
     }
 
     #[test]
