@@ -1,7 +1,9 @@
-//! The GPU programs of the three traversals (`shaders/*.wgsl` on tb-gpu's prelude, contract in
+//! The GPU programs of the five traversals (`shaders/*.wgsl` on tb-gpu's prelude, contract in
 //! `tb_core::gpu`): `stackless` (Feldmann 2015 section 4.1, Listing 1), `ordered` (section
 //! 4.2, Listing 2; the paper's CUDA tracer used it for Tables 1 and 2) and `stack` (section
-//! 5.2, the CPU-only reference of Table 3). Each walks the packed level-order array in the CPU
+//! 5.2, the CPU-only reference of Table 3), and our variants `stackless-skip-empty` and
+//! `ordered-pop-cull` (override constants `SKIP_EMPTY` and `POP_CULL` of the same sources,
+//! programs of their own names). Each walks the packed level-order array in the CPU
 //! traversal's order, so hits and per-ray counters agree with the CPU ray for ray.
 //!
 //! Bindings: the leaf-ordered triangles (3), the slot array unchanged, empty slots included

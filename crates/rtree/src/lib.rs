@@ -721,7 +721,7 @@ mod tests {
         }
     }
 
-    /// Counter identities documented on [`Rtree`], and the three traversals agree.
+    /// Counter identities documented on [`Rtree`], and the five traversals agree.
     #[test]
     fn counters_are_consistent() {
         let tris = grid(400);

@@ -1,4 +1,5 @@
-//! The three traversals of an [`Rtree`] (paper sections 4.1, 4.2 and 5.2).
+//! The traversals of an [`Rtree`] (paper sections 4.1, 4.2 and 5.2): the paper's three and our
+//! two variants of Listings 1 and 2 (`stackless-skip-empty`, `ordered-pop-cull`).
 //!
 //! All use the slab test of [`tb_core::Aabb::intersect`] (near/far planes chosen by the sign
 //! of `1/dir`, the `NaN` of `0·inf` ignored by the max/min folds, the exit distance scaled by
