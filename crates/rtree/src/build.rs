@@ -215,14 +215,20 @@ impl<'p> Builder<'p> {
                 // The paper's minOverlap: least overlap after insertion, ties by least volume
                 // enlargement (Feldmann §5.1, §2.2.1).
                 S::MinOverlap => [overlap_with_siblings(i, &u), dv, 0.0, 0.0],
+                // Section 2.2.1's words for the R*-tree's leaf rule (the paper's minOverlap).
+                S::RStarOverlapAfter | S::RStarSrfcOverlapAfter if children_are_leaves => {
+                    [overlap_with_siblings(i, &u), dv, 0.0, 0.0]
+                }
                 S::MinOverlapEnlargement => [enlargement(), dv, v0, ds],
                 // R*-tree leaf rule (Beckmann et al. 1990).
                 S::RStar | S::RStarSrfc if children_are_leaves => [enlargement(), dv, v0, 0.0],
                 S::RStarSurfaceTies if children_are_leaves => [enlargement(), dv, v0, ds],
                 // Guttman: least volume enlargement, ties by least volume.
-                S::MinVolume | S::RStar => [dv, v0, 0.0, 0.0],
+                S::MinVolume | S::RStar | S::RStarOverlapAfter => [dv, v0, 0.0, 0.0],
                 S::MinVolumeSurfaceTies | S::RStarSurfaceTies => [dv, v0, ds, s0],
-                S::MinSurface | S::RStarSrfc | S::Str => [ds, s0, dv, 0.0],
+                S::MinSurface | S::RStarSrfc | S::RStarSrfcOverlapAfter | S::Str => {
+                    [ds, s0, dv, 0.0]
+                }
             };
             if i == 0 || less(&key, &best_key) {
                 best = i as u32;
@@ -684,6 +690,16 @@ mod tests {
             })
             .collect();
         assert_eq!(after, [3.0, 2.0, 9.0]);
+        // The R*-tree's leaf rule (entries are leaves: level 1) in both readings.
+        assert_eq!(choose(Strategy::RStar, 1, &boxes, &e), 0);
+        assert_eq!(choose(Strategy::RStarSrfc, 1, &boxes, &e), 0);
+        assert_eq!(choose(Strategy::RStarOverlapAfter, 1, &boxes, &e), 1);
+        assert_eq!(choose(Strategy::RStarSrfcOverlapAfter, 1, &boxes, &e), 1);
+        // Above the leaves both readings use the R*-tree's (or R*-treeSrfc's) volume (surface)
+        // keys: A contains the new box, so needs no enlargement.
+        for s in [Strategy::RStarOverlapAfter, Strategy::RStarSrfcOverlapAfter] {
+            assert_eq!(choose(s, 2, &boxes, &e), 0, "{s:?}");
+        }
         for level in [1, 2] {
             assert_eq!(choose(Strategy::MinOverlap, level, &boxes, &e), 1);
             assert_eq!(

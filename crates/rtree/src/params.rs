@@ -60,6 +60,19 @@ tb_core::choice! {
         /// levels (ties by least surface, then least volume enlargement), the R*-tree's rule
         /// where the entries are leaves (best in Table 1).
         RStarSrfc = "r-star-srfc",
+        /// `r-star-overlap-after`: the other reading of the R*-tree's leaf rule in the paper's
+        /// words: "data are assigned to the node whose box will overlap least with those of
+        /// its siblings afterwards; ties are resolved by using the node that requires least
+        /// area enlargement" (section 2.2.1), and "composed of minOverlap and minVolume"
+        /// (section 5.1): where the entries are leaves, `min-overlap`'s key (least summed
+        /// overlap after insertion, ties by least volume enlargement); elsewhere `r-star`'s.
+        /// `r-star` keeps Beckmann et al. 1990's overlap *enlargement*, the rule of the R*-tree
+        /// the paper cites; the paper's configs use `r-star`.
+        RStarOverlapAfter = "r-star-overlap-after",
+        /// `r-star-srfc-overlap-after`: `r-star-srfc` with the leaf rule of
+        /// `r-star-overlap-after` (the same reading of section 2.2.1); the paper's configs use
+        /// `r-star-srfc`.
+        RStarSrfcOverlapAfter = "r-star-srfc-overlap-after",
         /// `str`: no insertion; Sort-Tile-Recursive bulk loading (Leutenegger, Lopez and
         /// Edgington 1997), the bulk loading the paper's conclusion suggests (section 6).
         /// Nodes are full (`M` entries) but for the last of each level; `reinsert` is ignored.

@@ -57,6 +57,12 @@ fn conforms_surface_ties_variants() {
 }
 
 #[test]
+fn conforms_r_star_overlap_after_variants() {
+    run(strategy(Strategy::RStarOverlapAfter));
+    run(strategy(Strategy::RStarSrfcOverlapAfter));
+}
+
+#[test]
 fn conforms_no_reinsert_sorted_m16() {
     run(RtreeParams {
         m: 3,
