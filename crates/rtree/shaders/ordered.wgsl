@@ -5,12 +5,16 @@
 // and those hit are inserted into stack l with their entry distance by insertion sort
 // (decreasing from bottom to top: the nearest on top). The walk continues with the top of the
 // lowest non-empty stack, climbing a level when a stack runs empty, and ends when the root
-// level's stack is empty; an entry popped farther than the closest hit found meanwhile empties
+// level's stack is empty. Entries are culled against the closest hit only when pushed, as in
+// Listing 2; with POP_CULL (program `rtree/ordered-pop-cull-mM`, tb_rtree's
+// `ordered-pop-cull`) an entry popped farther than the closest hit found meanwhile also empties
 // its whole stack (the rest lies farther still). The same walk as tb_rtree's CPU `Ordered`,
 // node for node, so the counters agree ray for ray: boxes (the root's, then one per entry of
 // every intermediate node visited), interior, leaves, prims, steps = interior + leaves.
 
 const MAX_LEVELS: u32 = 17u;   // tb_rtree::MAX_LEVELS
+
+override POP_CULL: bool = false;   // `ordered-pop-cull` (GpuProgram::constants)
 
 fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     let rb = ray_box(r);
@@ -70,7 +74,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             }
             sp[l] -= 1u;
             let e = stack[(l - 1u) * M + sp[l]];
-            if ANY || bitcast<f32>(e.y) <= best.t * EXIT_SCALE {
+            if !POP_CULL || ANY || bitcast<f32>(e.y) <= best.t * EXIT_SCALE {
                 n = e.x;
                 l -= 1u;
                 (*st).steps += 1u;

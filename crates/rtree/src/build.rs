@@ -179,43 +179,55 @@ impl<'p> Builder<'p> {
         }
     }
 
-    /// ChooseSubtree: the entry of node `n` that receives a box `bb`, by the strategy.
-    fn choose_subtree(&self, n: u32, bb: &Aabb) -> u32 {
+    /// ChooseSubtree: the entry of node `n` that receives a box `bb`, by the strategy (keys
+    /// and ties per [`Strategy`] variant; remaining ties go to the first entry).
+    pub(crate) fn choose_subtree(&self, n: u32, bb: &Aabb) -> u32 {
+        use Strategy as S;
         let node = &self.nodes[n as usize];
         let children_are_leaves = node.level == 1;
-        let by_overlap = match self.p.strategy {
-            Strategy::MinOverlap => true,
-            Strategy::RStar | Strategy::RStarSrfc => children_are_leaves,
-            Strategy::MinVolume | Strategy::MinSurface | Strategy::Str => false,
-        };
         let es = node.entries();
+        // Summed overlap volume of `b` with the boxes of the siblings of entry `i`.
+        let overlap_with_siblings = |i: usize, b: &Aabb| -> f64 {
+            es.iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .map(|(_, o)| overlap(b, &o.bb))
+                .sum()
+        };
         let mut best = 0u32;
         let mut best_key = [f64::INFINITY; 4];
         for (i, en) in es.iter().enumerate() {
             let u = en.bb.union(bb);
             let (v0, v1) = (volume(&en.bb), volume(&u));
             let (s0, s1) = (surface(&en.bb), surface(&u));
-            let key = if by_overlap {
-                // Overlap enlargement (Beckmann et al. 1990), ties by least volume
-                // enlargement, then least volume, then least surface enlargement.
+            let (dv, ds) = (v1 - v0, s1 - s0);
+            // Overlap enlargement (Beckmann et al. 1990).
+            let enlargement = || {
                 let mut d = 0.0;
-                for (j, other) in es.iter().enumerate() {
+                for (j, o) in es.iter().enumerate() {
                     if j != i {
-                        d += overlap(&u, &other.bb) - overlap(&en.bb, &other.bb);
+                        d += overlap(&u, &o.bb) - overlap(&en.bb, &o.bb);
                     }
                 }
-                [d, v1 - v0, v0, s1 - s0]
-            } else {
-                let surf = match self.p.strategy {
-                    Strategy::MinSurface | Strategy::RStarSrfc | Strategy::Str => true,
-                    Strategy::MinVolume | Strategy::RStar | Strategy::MinOverlap => false,
-                };
-                if surf {
-                    [s1 - s0, s0, v1 - v0, 0.0]
-                } else {
-                    // Guttman: least volume enlargement, ties by least volume; then (for
-                    // flat boxes, whose volumes are all zero) least surface enlargement.
-                    [v1 - v0, v0, s1 - s0, s0]
+                d
+            };
+            let key = match self.p.strategy {
+                // The paper's minOverlap: least overlap after insertion, ties by least volume
+                // enlargement (Feldmann §5.1, §2.2.1).
+                S::MinOverlap => [overlap_with_siblings(i, &u), dv, 0.0, 0.0],
+                // Section 2.2.1's words for the R*-tree's leaf rule (the paper's minOverlap).
+                S::RStarOverlapAfter | S::RStarSrfcOverlapAfter if children_are_leaves => {
+                    [overlap_with_siblings(i, &u), dv, 0.0, 0.0]
+                }
+                S::MinOverlapEnlargement => [enlargement(), dv, v0, ds],
+                // R*-tree leaf rule (Beckmann et al. 1990).
+                S::RStar | S::RStarSrfc if children_are_leaves => [enlargement(), dv, v0, 0.0],
+                S::RStarSurfaceTies if children_are_leaves => [enlargement(), dv, v0, ds],
+                // Guttman: least volume enlargement, ties by least volume.
+                S::MinVolume | S::RStar | S::RStarOverlapAfter => [dv, v0, 0.0, 0.0],
+                S::MinVolumeSurfaceTies | S::RStarSurfaceTies => [dv, v0, ds, s0],
+                S::MinSurface | S::RStarSrfc | S::RStarSrfcOverlapAfter | S::Str => {
+                    [ds, s0, dv, 0.0]
                 }
             };
             if i == 0 || less(&key, &best_key) {
@@ -308,9 +320,12 @@ impl<'p> Builder<'p> {
     /// R*-tree split of an overflowing node (`M + 1` entries): ChooseSplitAxis by the least
     /// sum of surfaces ("margins") over all `2(M − 2m + 2)` distributions of both sorts (by
     /// lower, then upper box bound) of the axis; ChooseSplitIndex on that axis by the least
-    /// overlap volume, ties by least volume sum, then least surface sum. The node keeps the
-    /// first group; the returned new node (same level) holds the second.
-    fn split(&mut self, n: u32) -> u32 {
+    /// overlap volume, ties by least volume sum (Beckmann et al. 1990), then the first
+    /// distribution (our [`Strategy::split_surface_ties`] variants: least surface sum, then the
+    /// first). Distributions are taken in order: the sort by lower bounds before the one by
+    /// upper bounds, `k = m … M + 1 − m` entries in the first group. The node keeps the first
+    /// group; the returned new node (same level) holds the second.
+    pub(crate) fn split(&mut self, n: u32) -> u32 {
         let (m, big_m) = (self.m, self.big_m);
         let node = self.nodes[n as usize];
         let es = node.entries();
@@ -361,18 +376,19 @@ impl<'p> Builder<'p> {
                 best_axis = axis;
             }
         }
+        let surface_ties = self.p.strategy.split_surface_ties();
         let mut best: Option<(usize, usize)> = None;
         let mut best_key = [f64::INFINITY; 4];
         for (s, v) in sorted[best_axis].iter().enumerate() {
             fill(v, &mut pre, &mut suf);
             for k in m..=big_m + 1 - m {
                 let (a, b) = (&pre[k - 1], &suf[k]);
-                let key = [
-                    overlap(a, b),
-                    volume(a) + volume(b),
-                    surface(a) + surface(b),
-                    0.0,
-                ];
+                let srfc = if surface_ties {
+                    surface(a) + surface(b)
+                } else {
+                    0.0
+                };
+                let key = [overlap(a, b), volume(a) + volume(b), srfc, 0.0];
                 if best.is_none() || less(&key, &best_key) {
                     best = Some((s, k));
                     best_key = key;
@@ -480,13 +496,26 @@ fn str_order(es: &mut [Entry], big_m: usize) {
     }
 }
 
-/// Build the dynamic tree by successive insertion of every triangle's box, in scene order.
-pub(crate) fn insert_all<'p>(tris: &[Triangle], p: &'p RtreeParams) -> Builder<'p> {
+/// Build the dynamic tree by successive insertion of every triangle's box, in scene order,
+/// while `fits(levels)` holds for its height; otherwise stop and return the height reached
+/// and the triangles inserted (the height never shrinks, so the layout would not fit).
+pub(crate) fn insert_all<'p>(
+    tris: &[Triangle],
+    p: &'p RtreeParams,
+    fits: &dyn Fn(u32) -> bool,
+) -> Result<Builder<'p>, (u32, usize)> {
     let mut b = Builder::new(p);
+    let mut levels = b.height();
     for (i, t) in tris.iter().enumerate() {
         b.insert_data(t.bounds(), i as u32);
+        if b.height() != levels {
+            levels = b.height();
+            if !fits(levels) {
+                return Err((levels, i + 1));
+            }
+        }
     }
-    b
+    Ok(b)
 }
 
 /// The packed tree: complete level-order array with empty slots, triangles in leaf order.
@@ -602,5 +631,166 @@ pub(crate) fn first_leaf(big_m: u32, root_level: u32) -> u32 {
         0
     } else {
         slot_count(big_m, root_level - 1).expect("fits, as the whole tree does")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A box `[x0, x1] × [y0, y1] × [z0, z1]`.
+    fn bx(x: [f32; 2], y: [f32; 2], z: [f32; 2]) -> Aabb {
+        Aabb::new(Vec3::new(x[0], y[0], z[0]), Vec3::new(x[1], y[1], z[1]))
+    }
+
+    /// A builder whose root is one node of `level` holding `boxes` (ids 0, 1, …).
+    fn node_of<'p>(p: &'p RtreeParams, level: u32, boxes: &[Aabb]) -> Builder<'p> {
+        let mut b = Builder::new(p);
+        let mut n = DynNode::new(level);
+        for (i, bb) in boxes.iter().enumerate() {
+            n.push(Entry {
+                bb: *bb,
+                id: i as u32,
+            });
+        }
+        b.nodes = vec![n];
+        b.root = 0;
+        b
+    }
+
+    fn choose(s: Strategy, level: u32, boxes: &[Aabb], e: &Aabb) -> u32 {
+        let p = RtreeParams {
+            strategy: s,
+            ..Default::default()
+        };
+        node_of(&p, level, boxes).choose_subtree(0, e)
+    }
+
+    /// The paper's minOverlap (section 5.1, read as section 2.2.1's "overlap least with those
+    /// of its siblings afterwards") takes the entry whose box has the least summed overlap
+    /// with its siblings after including the new box; Beckmann's overlap enlargement
+    /// (`min-overlap-enlargement`) takes another. Entry A (index 0) contains the new box but
+    /// overlaps S by 3; B (index 1), enlarged, overlaps only A, by 2; S (index 2), enlarged,
+    /// overlaps A by 9. Overlap after: A 3, B 2, S 9; enlargement: A 0, B 2, S 6.
+    #[test]
+    fn min_overlap_takes_least_overlap_after_insertion() {
+        let z = [0.0, 1.0];
+        let a = bx([4.0, 7.0], [0.0, 3.0], z);
+        let b = bx([6.5, 8.0], [-3.0, -1.0], z);
+        let s = bx([0.0, 10.0], [2.0, 10.0], z);
+        let e = bx([5.0, 6.0], [0.0, 1.0], z);
+        let boxes = [a, b, s];
+        let after: Vec<f64> = (0..3)
+            .map(|i| {
+                let u = boxes[i].union(&e);
+                (0..3)
+                    .filter(|&j| j != i)
+                    .map(|j| overlap(&u, &boxes[j]))
+                    .sum()
+            })
+            .collect();
+        assert_eq!(after, [3.0, 2.0, 9.0]);
+        // The R*-tree's leaf rule (entries are leaves: level 1) in both readings.
+        assert_eq!(choose(Strategy::RStar, 1, &boxes, &e), 0);
+        assert_eq!(choose(Strategy::RStarSrfc, 1, &boxes, &e), 0);
+        assert_eq!(choose(Strategy::RStarOverlapAfter, 1, &boxes, &e), 1);
+        assert_eq!(choose(Strategy::RStarSrfcOverlapAfter, 1, &boxes, &e), 1);
+        // Above the leaves both readings use the R*-tree's (or R*-treeSrfc's) volume (surface)
+        // keys: A contains the new box, so needs no enlargement.
+        for s in [Strategy::RStarOverlapAfter, Strategy::RStarSrfcOverlapAfter] {
+            assert_eq!(choose(s, 2, &boxes, &e), 0, "{s:?}");
+        }
+        for level in [1, 2] {
+            assert_eq!(choose(Strategy::MinOverlap, level, &boxes, &e), 1);
+            assert_eq!(
+                choose(Strategy::MinOverlapEnlargement, level, &boxes, &e),
+                0
+            );
+        }
+        // Ties on overlap after insertion go to the least volume enlargement, not to the
+        // first entry: two disjoint boxes, the second nearer the new box.
+        let boxes = [bx([0.0, 1.0], [0.0, 1.0], z), bx([5.0, 6.0], [0.0, 1.0], z)];
+        let e = bx([7.0, 8.0], [0.0, 1.0], z);
+        assert_eq!(choose(Strategy::MinOverlap, 1, &boxes, &e), 1);
+    }
+
+    /// On flat (zero-volume) boxes every volume key ties: the paper's minVolume and R*-tree
+    /// (Guttman's and Beckmann's ties by volume) take the first entry, never the one of least
+    /// surface enlargement; the `…-surface-ties` variants take that one.
+    #[test]
+    fn volume_strategies_never_use_surface_on_flat_boxes() {
+        let z = [0.0, 0.0];
+        // A far from the new box (large surface enlargement), B containing it.
+        let boxes = [
+            bx([0.0, 1.0], [0.0, 1.0], z),
+            bx([9.0, 12.0], [0.0, 3.0], z),
+        ];
+        let e = bx([10.0, 11.0], [1.0, 2.0], z);
+        for (s, level, want) in [
+            (Strategy::MinVolume, 1, 0),
+            (Strategy::MinVolume, 2, 0),
+            (Strategy::RStar, 1, 0), // leaf rule: overlap enlargement, volume keys
+            (Strategy::RStar, 2, 0), // intermediate rule: volume keys
+            (Strategy::MinVolumeSurfaceTies, 1, 1),
+            (Strategy::MinVolumeSurfaceTies, 2, 1),
+            (Strategy::RStarSurfaceTies, 1, 1),
+            (Strategy::RStarSurfaceTies, 2, 1),
+            (Strategy::MinSurface, 2, 1),
+        ] {
+            assert_eq!(choose(s, level, &boxes, &e), want, "{s:?} at level {level}");
+        }
+        // Volume still decides where it differs: boxes with thickness.
+        let t = [0.0, 1.0];
+        let boxes = [
+            bx([0.0, 1.0], [0.0, 1.0], t),
+            bx([9.0, 12.0], [0.0, 3.0], t),
+        ];
+        let e = bx([10.0, 11.0], [1.0, 2.0], t);
+        assert_eq!(choose(Strategy::MinVolume, 2, &boxes, &e), 1);
+        assert_eq!(choose(Strategy::RStar, 2, &boxes, &e), 1);
+    }
+
+    /// Beckmann's split ties: on flat boxes every distribution of the chosen axis has zero
+    /// overlap and zero volume, so the paper's strategies take the first (`k = m` entries in
+    /// the first group); the surface-ties variants take the least surface sum (`k = 3`).
+    #[test]
+    fn split_ties_by_volume_then_first_on_flat_boxes() {
+        let z = [0.0, 0.0];
+        let boxes: Vec<Aabb> = (0..5)
+            .map(|i| {
+                let x0 = 1.1 * i as f32;
+                let y1 = if i == 4 { 3.0 } else { 1.0 };
+                let x1 = if i == 4 { x0 + 3.0 } else { x0 + 1.0 };
+                bx([x0, x1], [0.0, y1], z)
+            })
+            .collect();
+        let split = |s: Strategy| {
+            let p = RtreeParams {
+                strategy: s,
+                ..Default::default()
+            };
+            let mut b = node_of(&p, 0, &boxes);
+            let nn = b.split(0);
+            let ids = |n: u32| -> Vec<u32> {
+                b.nodes[n as usize].entries().iter().map(|e| e.id).collect()
+            };
+            (ids(0), ids(nn))
+        };
+        for s in [
+            Strategy::MinVolume,
+            Strategy::MinSurface,
+            Strategy::MinOverlap,
+            Strategy::RStar,
+            Strategy::RStarSrfc,
+        ] {
+            assert_eq!(split(s), (vec![0, 1], vec![2, 3, 4]), "{s:?}");
+        }
+        for s in [
+            Strategy::MinVolumeSurfaceTies,
+            Strategy::MinOverlapEnlargement,
+            Strategy::RStarSurfaceTies,
+        ] {
+            assert_eq!(split(s), (vec![0, 1, 2], vec![3, 4]), "{s:?}");
+        }
     }
 }

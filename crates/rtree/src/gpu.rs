@@ -1,7 +1,9 @@
-//! The GPU programs of the three traversals (`shaders/*.wgsl` on tb-gpu's prelude, contract in
+//! The GPU programs of the five traversals (`shaders/*.wgsl` on tb-gpu's prelude, contract in
 //! `tb_core::gpu`): `stackless` (Feldmann 2015 section 4.1, Listing 1), `ordered` (section
 //! 4.2, Listing 2; the paper's CUDA tracer used it for Tables 1 and 2) and `stack` (section
-//! 5.2, the CPU-only reference of Table 3). Each walks the packed level-order array in the CPU
+//! 5.2, the CPU-only reference of Table 3), and our variants `stackless-skip-empty` and
+//! `ordered-pop-cull` (override constants `SKIP_EMPTY` and `POP_CULL` of the same sources,
+//! programs of their own names). Each walks the packed level-order array in the CPU
 //! traversal's order, so hits and per-ray counters agree with the CPU ray for ray.
 //!
 //! Bindings: the leaf-ordered triangles (3), the slot array unchanged, empty slots included
@@ -38,7 +40,9 @@ macro_rules! names {
 }
 
 const STACKLESS: [&str; MAX_M - 3] = names!("stackless");
+const STACKLESS_SKIP_EMPTY: [&str; MAX_M - 3] = names!("stackless-skip-empty");
 const ORDERED: [&str; MAX_M - 3] = names!("ordered");
+const ORDERED_POP_CULL: [&str; MAX_M - 3] = names!("ordered-pop-cull");
 const STACK: [&str; MAX_M - 3] = names!("stack");
 
 /// The most levels (`L + 1`) of a tree [`Rtree::try_build`] accepts for this `M`: those
@@ -85,22 +89,52 @@ impl Rtree {
             .include(tb_core::gpu::LEAF_RANGES)
     }
 
-    /// The GPU program of `stackless` (`shaders/stackless.wgsl`, Listing 1, no stack).
-    pub(crate) fn gpu_stackless(&self) -> GpuProgram<'_> {
+    fn stackless_program(&self, skip_empty: bool) -> GpuProgram<'_> {
         const SRC: &str = concat!(
             include_str!("../shaders/tree.wgsl"),
             include_str!("../shaders/stackless.wgsl")
         );
-        self.gpu(&STACKLESS, SRC, 0)
+        let names = if skip_empty {
+            &STACKLESS_SKIP_EMPTY
+        } else {
+            &STACKLESS
+        };
+        self.gpu(names, SRC, 0)
+            .constant("SKIP_EMPTY", skip_empty as u8 as f64)
     }
 
-    /// The GPU program of `ordered` (`shaders/ordered.wgsl`, Listing 2, per-level stacks).
-    pub(crate) fn gpu_ordered(&self) -> GpuProgram<'_> {
+    /// The GPU program of `stackless` (`shaders/stackless.wgsl`, Listing 1, no stack).
+    pub(crate) fn gpu_stackless(&self) -> GpuProgram<'_> {
+        self.stackless_program(false)
+    }
+
+    /// The GPU program of `stackless-skip-empty` (`shaders/stackless.wgsl`, `SKIP_EMPTY`).
+    pub(crate) fn gpu_stackless_skip_empty(&self) -> GpuProgram<'_> {
+        self.stackless_program(true)
+    }
+
+    fn ordered_program(&self, pop_cull: bool) -> GpuProgram<'_> {
         const SRC: &str = concat!(
             include_str!("../shaders/tree.wgsl"),
             include_str!("../shaders/ordered.wgsl")
         );
-        self.gpu(&ORDERED, SRC, ordered_stack(self.params.big_m))
+        let names = if pop_cull {
+            &ORDERED_POP_CULL
+        } else {
+            &ORDERED
+        };
+        self.gpu(names, SRC, ordered_stack(self.params.big_m))
+            .constant("POP_CULL", pop_cull as u8 as f64)
+    }
+
+    /// The GPU program of `ordered` (`shaders/ordered.wgsl`, Listing 2, per-level stacks).
+    pub(crate) fn gpu_ordered(&self) -> GpuProgram<'_> {
+        self.ordered_program(false)
+    }
+
+    /// The GPU program of `ordered-pop-cull` (`shaders/ordered.wgsl`, `POP_CULL`).
+    pub(crate) fn gpu_ordered_pop_cull(&self) -> GpuProgram<'_> {
+        self.ordered_program(true)
     }
 
     /// The GPU program of `stack` (`shaders/stack.wgsl`, Table 3's stack-based reference).

@@ -15,8 +15,10 @@
 //!   hold their triangles as a run of [`Rtree::triangles`] (copied in leaf order;
 //!   [`Rtree::prim_ids`] maps back to scene indices).
 //! - **Traversals** (module `traverse`, [`Structure::TRAVERSALS`]): `stackless` (Listing 1), `ordered`
-//!   (Listing 2) and `stack` (the conventional stack-based scheme of Table 3).
-//! - **GPU** (module `gpu`, `shaders/`): the same three walks as WGSL kernels over the same
+//!   (Listing 2) and `stack` (the conventional stack-based scheme of Table 3), and our variants
+//!   `stackless-skip-empty` (no visits to empty sibling slots) and `ordered-pop-cull` (popped
+//!   entries beyond the closest hit dropped as well).
+//! - **GPU** (module `gpu`, `shaders/`): the same five walks as WGSL kernels over the same
 //!   packed array (the paper's CUDA tracer ran `stackless` and `ordered`, Tables 1-3), with
 //!   the per-ray counters of the CPU walks.
 
@@ -37,7 +39,8 @@ use tb_core::{
 
 /// The R-tree in the registry.
 pub static FAMILY: Family = Family::new::<Rtree, RtreeParams>(
-    "R-tree by insertion (min-volume, min-surface, min-overlap, R*, R*-srfc) or STR bulk loading, \
+    "R-tree by insertion (min-volume, min-surface, min-overlap, R*, R*-srfc, and our tie and \
+     overlap-enlargement variants) or STR bulk loading, \
      R* split, forced reinsertion, packed level-order layout (Feldmann)",
     |tris, set| build_with(set, |p: &RtreeParams| Rtree::try_build(tris, p)),
 )
@@ -54,6 +57,27 @@ pub const MAX_LEVELS: usize = 17;
 /// complete `M`-ary layout holds `(M^(L+1) − 1)/(M − 1)` slots however few are used (with
 /// `M = 4`, Conference's 331K triangles already take 695 MiB, 99 % empty).
 pub const MAX_LAYOUT_BYTES: u64 = 8 << 30;
+
+/// Most layout bytes per triangle [`Rtree::try_build`] allocates (512 slots of 32 bytes),
+/// beyond a floor of [`MIN_LAYOUT_LIMIT`] and within [`MAX_LAYOUT_BYTES`]: the limit is
+/// `min(8 GiB, max(64 MiB, 16 KiB · triangles))` ([`layout_limit`]). The complete layout of
+/// section 4 grows as `M^L` while the triangles grow as `f^L` (`f`: mean entries per node, `m ≤
+/// f ≤ M`), so its bytes per triangle are bounded by no constant: a tree of poorly filled
+/// nodes, or one level more at a level boundary, multiplies them. The paper's configurations
+/// need at most 14.9 KB (Conference, `m = 2`, `M = 8`: 4.9 GB; `M = 4`: 2.2 KB), 1M identical
+/// triangles 2.9 KB (`f = 2.7`, 14 levels).
+pub const MAX_LAYOUT_BYTES_PER_TRIANGLE: u64 = 16 << 10;
+
+/// The floor of the layout limit (small scenes, whose complete layout is small anyway).
+pub const MIN_LAYOUT_LIMIT: u64 = 64 << 20;
+
+/// The layout limit [`Rtree::try_build`] applies to `n` triangles:
+/// `min(MAX_LAYOUT_BYTES, max(MIN_LAYOUT_LIMIT, MAX_LAYOUT_BYTES_PER_TRIANGLE · n))`.
+pub fn layout_limit(n: usize) -> u64 {
+    MAX_LAYOUT_BYTES_PER_TRIANGLE
+        .saturating_mul(n as u64)
+        .clamp(MIN_LAYOUT_LIMIT, MAX_LAYOUT_BYTES)
+}
 
 /// One slot of the packed level-order array, 32 bytes (`#[repr(C)]`, GPU-uploadable as 8
 /// words). Whether a slot is a leaf follows from its index (slots `≥ Δ_L(0)` are leaves).
@@ -100,15 +124,17 @@ impl RtreeNode {
 
 /// An R-tree over triangles in the paper's implicit level-order layout.
 ///
-/// Per-ray counters (`TraversalStats`), the same for the three traversals:
+/// Per-ray counters (`TraversalStats`):
 /// - `boxes`: ray–box slab tests; `interior`: intermediate nodes whose entries were examined
 ///   (entered); `leaves`: leaves whose triangles were tested; `prims`: ray–triangle tests;
-/// - `steps`: nodes the walk enters, the same measure in the three traversals (`stackless`:
-///   every slot whose box is hit; `ordered`, `stack`: the root when its box is hit and every
-///   entry taken from a stack and not discarded as farther than the closest hit), so
-///   `steps == interior + leaves`; `stack` and `stackless` enter the same nodes, and the
-///   slots `stackless` only reaches show in `boxes`;
-/// - `restarts`: `stackless` only, climbs to a parent (`n_p`) when no next sibling remains;
+/// - `steps`: nodes the walk visits. `stackless` and `stackless-skip-empty`: every slot the
+///   walk reaches (an iteration of Listing 1's loop), empty slots included, so `steps ==
+///   boxes + empty slots visited` (`stackless-skip-empty` visits none); `ordered`,
+///   `ordered-pop-cull`, `stack`: the root when its box is hit and every entry taken from a
+///   stack and entered (`ordered` enters every popped entry, as Listing 2; the other two skip
+///   those beyond the closest hit), so `steps == interior + leaves`;
+/// - `restarts`: the stackless walks only, climbs to a parent (`n_p`) when no next sibling
+///   remains;
 /// - `planes`: always 0.
 #[derive(Clone, Debug)]
 pub struct Rtree {
@@ -136,9 +162,12 @@ impl Rtree {
     /// Build an R-tree over `tris` by successive insertion (single-threaded), or say why not:
     /// `params.check()` fails, there are `u32::MAX` or more triangles, or the complete
     /// level-order layout of section 4 (which grows as `M^(L+1)`, empty slots included) would
-    /// need `2^32 − 1` or more slots or more than [`MAX_LAYOUT_BYTES`].
+    /// need `2^32 − 1` or more slots or more than [`layout_limit`] bytes (16 KiB a triangle,
+    /// at least 64 MiB, at most 8 GiB). The insertion build refuses as soon as the tree
+    /// grows a level whose layout is over the limit (levels only grow), not after inserting
+    /// every triangle.
     pub fn try_build(tris: &[Triangle], params: &RtreeParams) -> Result<Rtree, AccelError> {
-        Self::build_within(tris, params, MAX_LAYOUT_BYTES)
+        Self::build_within(tris, params, layout_limit(tris.len()))
     }
 
     /// [`Rtree::try_build`] with a layout limit of `max_bytes`.
@@ -155,26 +184,36 @@ impl Rtree {
                 limit: u32::MAX as u64 - 1,
             });
         }
+        let fits = |levels: u32| {
+            build::slot_count(params.big_m, levels - 1)
+                .is_some_and(|n| n as u64 * std::mem::size_of::<RtreeNode>() as u64 <= max_bytes)
+        };
+        let refuse = |levels: u32, inserted: Option<usize>| {
+            let gib = (params.big_m as f64).powi(levels as i32) / (params.big_m as f64 - 1.0)
+                * std::mem::size_of::<RtreeNode>() as f64
+                / (1u64 << 30) as f64;
+            let when = match inserted {
+                Some(k) => format!(" (refused after inserting {k} of {} triangles)", tris.len()),
+                None => String::new(),
+            };
+            AccelError::Unsupported(format!(
+                "the complete {}-ary level-order layout of {levels} levels needs {gib:.3} GiB \
+                 of slots (empty ones included), over the {:.3} GiB limit for {} triangles \
+                 (16 KiB a triangle, at least 64 MiB, at most 8 GiB){when}; use a smaller M or \
+                 strategy = \"str\"",
+                params.big_m,
+                max_bytes as f64 / (1u64 << 30) as f64,
+                tris.len()
+            ))
+        };
         let b = match params.strategy {
             Strategy::Str => build::bulk_load_str(tris, params),
-            _ => build::insert_all(tris, params),
+            _ => build::insert_all(tris, params, &fits)
+                .map_err(|(levels, inserted)| refuse(levels, Some(inserted)))?,
         };
         let levels = b.height();
-        let bytes = build::slot_count(params.big_m, levels - 1)
-            .map(|n| n as u64 * std::mem::size_of::<RtreeNode>() as u64);
-        match bytes {
-            Some(bytes) if bytes <= max_bytes => {}
-            _ => {
-                let gib = (params.big_m as f64).powi(levels as i32) / (params.big_m as f64 - 1.0)
-                    * std::mem::size_of::<RtreeNode>() as f64
-                    / (1u64 << 30) as f64;
-                return Err(AccelError::Unsupported(format!(
-                    "the complete {}-ary level-order layout of {levels} levels needs {gib:.3} GiB \
-                     of slots (empty ones included), over the {:.3} GiB limit; use a smaller M",
-                    params.big_m,
-                    max_bytes as f64 / (1u64 << 30) as f64
-                )));
-            }
+        if !fits(levels) {
+            return Err(refuse(levels, None));
         }
         let counts = b.counts;
         let packed = build::pack(&b, tris, params.child_order, params.big_m);
@@ -375,11 +414,18 @@ impl Structure for Rtree {
             TraversalInfo::new(
                 "stackless",
                 "Feldmann 2015 §4.1, Listing 1",
-                "stackless depth-first by implicit index arithmetic, next sibling or parent \
-                 (Feldmann 2015 §4.1, Listing 1)",
+                "stackless depth-first by implicit index arithmetic, next sibling or parent, \
+                 visiting empty sibling slots as Listing 1 does (Feldmann 2015 §4.1, Listing 1)",
             ),
             |t, query, tri, rays, hits, stats| {
-                dispatch(&traverse::Stackless(t), query, tri, rays, hits, stats)
+                dispatch(
+                    &traverse::Stackless::<false>(t),
+                    query,
+                    tri,
+                    rays,
+                    hits,
+                    stats,
+                )
             },
             Rtree::gpu_stackless,
         ),
@@ -388,10 +434,18 @@ impl Structure for Rtree {
                 "ordered",
                 "Feldmann 2015 §4.2, Listing 2",
                 "per-level stacks of at most M entries sorted by entry distance with insertion \
-                 sort, nearest first (Feldmann 2015 §4.2, Listing 2)",
+                 sort, nearest first, culled against the closest hit when pushed only \
+                 (Feldmann 2015 §4.2, Listing 2)",
             ),
             |t, query, tri, rays, hits, stats| {
-                dispatch(&traverse::Ordered(t), query, tri, rays, hits, stats)
+                dispatch(
+                    &traverse::Ordered::<false>(t),
+                    query,
+                    tri,
+                    rays,
+                    hits,
+                    stats,
+                )
             },
             Rtree::gpu_ordered,
         ),
@@ -406,6 +460,37 @@ impl Structure for Rtree {
                 dispatch(&traverse::Stack(t), query, tri, rays, hits, stats)
             },
             Rtree::gpu_stack,
+        ),
+        Traversal::with_gpu(
+            TraversalInfo::new(
+                "stackless-skip-empty",
+                "ours, after Feldmann 2015 §4.1, Listing 1",
+                "stackless (Listing 1) that ends a node's entries at its first empty slot \
+                 instead of visiting the empty slots (ours: the same result, fewer slots)",
+            ),
+            |t, query, tri, rays, hits, stats| {
+                dispatch(
+                    &traverse::Stackless::<true>(t),
+                    query,
+                    tri,
+                    rays,
+                    hits,
+                    stats,
+                )
+            },
+            Rtree::gpu_stackless_skip_empty,
+        ),
+        Traversal::with_gpu(
+            TraversalInfo::new(
+                "ordered-pop-cull",
+                "ours, after Feldmann 2015 §4.2, Listing 2",
+                "ordered (Listing 2) that also drops a popped entry beyond the closest hit, \
+                 and the rest of its stack (ours: the same result, fewer nodes)",
+            ),
+            |t, query, tri, rays, hits, stats| {
+                dispatch(&traverse::Ordered::<true>(t), query, tri, rays, hits, stats)
+            },
+            Rtree::gpu_ordered_pop_cull,
         ),
     ];
 
@@ -526,6 +611,51 @@ mod tests {
         assert!(e.contains("m must be in 2..=M/2"), "{e}");
     }
 
+    /// Issue 46 item 5: identical triangles build a tree of poorly filled nodes (every key
+    /// ties, every split takes the first distribution), whose complete layout grows a level
+    /// early. Under a lowered limit the insertion build refuses as soon as the tree grows a
+    /// level over it, long before the last triangle, and says why; the default limit is
+    /// 16 KiB a triangle between 64 MiB and 8 GiB.
+    #[test]
+    fn identical_triangles_are_refused_early_over_the_limit() {
+        let n = 5000;
+        let same = vec![Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y); n];
+        let p = RtreeParams::default();
+        let t = Rtree::try_build(&same, &p).unwrap();
+        t.validate().unwrap();
+        let levels = t.root_level() + 1;
+        assert!(levels >= 8, "{levels} levels");
+        // A limit that admits two levels fewer than the tree reaches.
+        let limit = build::slot_count(4, levels - 3).unwrap() as u64 * 32;
+        let e = Rtree::build_within(&same, &p, limit)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(&format!("layout of {} levels", levels - 1)),
+            "{e}"
+        );
+        let k: usize = e
+            .split("refused after inserting ")
+            .nth(1)
+            .and_then(|r| r.split(' ').next())
+            .and_then(|k| k.parse().ok())
+            .unwrap_or_else(|| panic!("{e}"));
+        assert!(k < n / 2, "refused after {k} of {n}: {e}");
+        // STR has no insertion to stop; it is refused on its height.
+        let str_p = RtreeParams {
+            strategy: Strategy::Str,
+            ..p
+        };
+        let e = Rtree::build_within(&same, &str_p, 32)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("level-order layout"), "{e}");
+        assert_eq!(layout_limit(0), MIN_LAYOUT_LIMIT);
+        assert_eq!(layout_limit(10_000), 10_000 * 16 * 1024);
+        assert_eq!(layout_limit(1_000_000), MAX_LAYOUT_BYTES);
+        assert_eq!(layout_limit(usize::MAX), MAX_LAYOUT_BYTES);
+    }
+
     #[test]
     fn forced_reinsertion_switches() {
         let get = |t: &Rtree, k: &str| {
@@ -596,7 +726,7 @@ mod tests {
         }
     }
 
-    /// Counter identities documented on [`Rtree`], and the three traversals agree.
+    /// Counter identities documented on [`Rtree`], and the five traversals agree.
     #[test]
     fn counters_are_consistent() {
         let tris = grid(400);
@@ -610,6 +740,7 @@ mod tests {
             })
             .collect();
         let mut answers = Vec::new();
+        let mut stats = Vec::new();
         for ti in 0..TRAVERSALS.len() {
             for q in [Query::Closest, Query::Any] {
                 let mut hits = vec![HitRecord::MISS; rays.len()];
@@ -623,27 +754,111 @@ mod tests {
                     Some(&mut st),
                 );
                 for s in &st {
+                    let name = TRAVERSALS[ti].info.name;
                     assert_eq!(s.planes, 0);
-                    assert_eq!(
-                        s.steps,
-                        s.interior + s.leaves,
-                        "{}",
-                        TRAVERSALS[ti].info.name
-                    );
-                    if ti == 0 {
-                        assert!(s.steps <= s.boxes, "stackless: a box per slot reached");
+                    if name.starts_with("stackless") {
+                        // A box per non-empty slot visited; `skip-empty` visits no empty one.
+                        assert!(s.steps >= s.boxes, "{name}");
+                        if name == "stackless-skip-empty" {
+                            assert_eq!(s.steps, s.boxes, "{name}");
+                        }
+                        assert!(s.boxes >= s.interior + s.leaves, "{name}");
                     } else {
+                        assert_eq!(s.steps, s.interior + s.leaves, "{name}");
                         assert_eq!(s.restarts, 0);
                     }
                 }
                 if q == Query::Closest {
                     answers.push(hits.iter().map(|h| h.t).collect::<Vec<_>>());
+                    stats.push(st);
                 }
             }
         }
         assert!(answers[0].iter().any(|t| t.is_finite()));
-        assert_eq!(answers[0], answers[1]);
-        assert_eq!(answers[0], answers[2]);
+        for a in &answers[1..] {
+            assert_eq!(&answers[0], a);
+        }
+        let by_name = |n: &str| &stats[TRAVERSALS.iter().position(|t| t.info.name == n).unwrap()];
+        // The variants walk the same nodes but for what they leave out.
+        for (a, b) in by_name("stackless")
+            .iter()
+            .zip(by_name("stackless-skip-empty"))
+        {
+            assert!(a.steps >= b.steps);
+            let same = |s: &TraversalStats| (s.boxes, s.interior, s.leaves, s.prims, s.restarts);
+            assert_eq!(same(a), same(b));
+        }
+        for (a, b) in by_name("ordered").iter().zip(by_name("ordered-pop-cull")) {
+            assert!(a.steps >= b.steps && a.prims >= b.prims && a.boxes >= b.boxes);
+        }
+    }
+
+    /// Two clusters of 4 triangles stacked along the ray (`z ∈ [−0.3, 0]` and `[−10.3, −10]`):
+    /// a root at level 1 whose entries are leaves, with `M − count` empty slots after them.
+    fn two_clusters() -> (Rtree, Ray) {
+        let tris: Vec<Triangle> = [0.0f32, -0.1, -0.2, -0.3, -10.0, -10.1, -10.2, -10.3]
+            .iter()
+            .map(|&z| {
+                let p = Vec3::new(0.0, 0.0, z);
+                Triangle::new(p, p + Vec3::X, p + Vec3::Y)
+            })
+            .collect();
+        let t = Rtree::build(&tris, &RtreeParams::default());
+        assert_eq!(t.root_level(), 1);
+        (t, Ray::new(Vec3::new(0.2, 0.2, 5.0), -Vec3::Z))
+    }
+
+    fn trace_one(t: &Rtree, name: &str, ray: Ray) -> (HitRecord, TraversalStats) {
+        let ti = TRAVERSALS.iter().position(|x| x.info.name == name).unwrap();
+        let mut hits = [HitRecord::MISS];
+        let mut st = [TraversalStats::default()];
+        t.trace(
+            ti,
+            Query::Closest,
+            TriTestKind::Watertight,
+            &[ray],
+            &mut hits,
+            Some(&mut st),
+        );
+        (hits[0], st[0])
+    }
+
+    /// Listing 2 culls against `t_min` only when pushing: `ordered` enters the far leaf
+    /// popped after the near leaf's hit (t = 5) although its entry distance (15) lies beyond;
+    /// `ordered-pop-cull` drops it.
+    #[test]
+    fn ordered_culls_at_push_time_only() {
+        let (t, ray) = two_clusters();
+        let (h, paper) = trace_one(&t, "ordered", ray);
+        let (h2, ours) = trace_one(&t, "ordered-pop-cull", ray);
+        assert!((h.t - 5.0).abs() < 1e-5, "{h:?}");
+        assert_eq!(h, h2);
+        assert_eq!(ours.leaves, 1, "{ours:?}");
+        assert_eq!(ours.prims, 4);
+        assert!(paper.leaves >= 2, "{paper:?}");
+        assert_eq!(paper.prims, 8);
+        assert_eq!(paper.steps, ours.steps + paper.leaves - 1);
+        assert_eq!(paper.boxes, ours.boxes);
+    }
+
+    /// Listing 1 visits every slot of a node, the empty ones after its entries included
+    /// (`isEmptyNode`, no box test): `stackless` visits the root and all `M` slots of its
+    /// entries, `stackless-skip-empty` the root and its non-empty entries only.
+    #[test]
+    fn stackless_visits_empty_sibling_slots() {
+        let (t, ray) = two_clusters();
+        let m = t.params().big_m;
+        let count = t.nodes()[0].count;
+        assert!(count < m, "the root has empty slots");
+        let (h, paper) = trace_one(&t, "stackless", ray);
+        let (h2, ours) = trace_one(&t, "stackless-skip-empty", ray);
+        assert!((h.t - 5.0).abs() < 1e-5, "{h:?}");
+        assert_eq!(h, h2);
+        assert_eq!(paper.steps, 1 + m, "{paper:?}");
+        assert_eq!(ours.steps, 1 + count, "{ours:?}");
+        assert_eq!(paper.boxes, 1 + count);
+        assert_eq!(ours.boxes, 1 + count);
+        assert_eq!(paper.restarts, ours.restarts);
     }
 
     #[test]

@@ -7,30 +7,89 @@ use tb_core::AccelError;
 
 tb_core::choice! {
     /// ChooseSubtree criterion of the insertion build (paper section 5.1). In 3D, Guttman's
-    /// "area" is the box volume and the "margin" its surface (section 3.1); *overlap
-    /// enlargement* of an entry is the growth of the summed overlap volume with its siblings
-    /// (Beckmann et al. 1990). Remaining ties fall to further keys listed per variant.
+    /// "area" is the box volume and the "margin" its surface (section 3.1); *overlap* of an
+    /// entry is the summed intersection volume of its box with its siblings' boxes, *overlap
+    /// enlargement* the growth of that sum when the entry takes the new box (Beckmann et al.
+    /// 1990). Keys are compared in the order listed; remaining ties go to the first entry in
+    /// the node. The paper's five strategies (`min-volume`, `min-surface`, `min-overlap`,
+    /// `r-star`, `r-star-srfc`) split overflowing nodes by Beckmann's rule with his ties
+    /// (section 5.1: "we thus relied on the original approach"): least overlap, then least
+    /// volume sum, then the first distribution. The `…-surface-ties` and
+    /// `min-overlap-enlargement` variants are ours (the rules before issue 42): they also
+    /// break the split's remaining ties by least surface sum.
     #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
     pub enum Strategy {
-        /// `min-volume`: least volume enlargement at every level, ties by least volume
-        /// (Guttman 1984), then least surface enlargement.
+        /// `min-volume`: the paper's minVolume, "minimize the volume enlargement of nodes,
+        /// regardless of their level. This is the same strategy employed by the original
+        /// R-tree (Guttman, 1984)" (section 5.1): least volume enlargement, ties by least
+        /// volume ("Ties are resolved by selecting the node of least area", section 2.2.1),
+        /// then the first entry. Surface never decides, not even between flat (zero-volume)
+        /// boxes, the case where section 5.1 says minVolume fails.
         MinVolume = "min-volume",
+        /// `min-volume-surface-ties`: ours, not the paper's: `min-volume` whose remaining ties
+        /// (flat boxes: all volumes zero) go to least surface enlargement, then least surface;
+        /// split ties by surface too.
+        MinVolumeSurfaceTies = "min-volume-surface-ties",
         /// `min-surface`: least surface enlargement at every level (the SAH's measure), ties
         /// by least surface, then least volume enlargement.
         MinSurface = "min-surface",
-        /// `min-overlap`: least overlap enlargement at every level, ties by least volume
-        /// enlargement, least volume, least surface enlargement.
+        /// `min-overlap`: the paper's minOverlap, "minimize the mutual overlap of nodes,
+        /// resolve ties by selecting the node that needs least volume enlargement" (section
+        /// 5.1), read as section 2.2.1 words the overlap rule: the entry "whose box will
+        /// overlap least with those of its siblings afterwards", i.e. least summed overlap
+        /// volume of the entry's box *after* including the new box with its siblings' boxes,
+        /// ties by least volume enlargement, then the first entry; at every level. It
+        /// "assigns entries to nodes regardless of dead space" (section 5.1). The paper's
+        /// configs (`configs/rtree*.toml`, `claims/feldmann-rtrees.toml`) use this reading.
         MinOverlap = "min-overlap",
-        /// `r-star`: R*-tree (Beckmann et al. 1990): least volume enlargement at intermediate
-        /// levels, least overlap enlargement where the entries are leaves.
+        /// `min-overlap-enlargement`: the other reading of "minimize the mutual overlap", and
+        /// our rule before issue 42: least overlap *enlargement* at every level (Beckmann et
+        /// al. 1990's leaf rule applied everywhere), ties by least volume enlargement, least
+        /// volume, least surface enlargement; split ties by surface too.
+        MinOverlapEnlargement = "min-overlap-enlargement",
+        /// `r-star`: R*-tree (Beckmann et al. 1990; paper sections 2.2.1 and 5.1): least volume
+        /// enlargement at intermediate levels, ties by least volume; least overlap enlargement
+        /// where the entries are leaves, ties by least volume enlargement, then least volume;
+        /// then the first entry. Surface never decides.
         RStar = "r-star",
+        /// `r-star-surface-ties`: ours, not the paper's: `r-star` whose remaining ties (flat
+        /// boxes) go to least surface enlargement, then least surface; split ties by surface
+        /// too (our `r-star` before issue 42).
+        RStarSurfaceTies = "r-star-surface-ties",
         /// `r-star-srfc`: the paper's R*-treeSrfc: least surface enlargement at intermediate
-        /// levels, least overlap enlargement where the entries are leaves (best in Table 1).
+        /// levels (ties by least surface, then least volume enlargement), the R*-tree's rule
+        /// where the entries are leaves (best in Table 1).
         RStarSrfc = "r-star-srfc",
+        /// `r-star-overlap-after`: the other reading of the R*-tree's leaf rule in the paper's
+        /// words: "data are assigned to the node whose box will overlap least with those of
+        /// its siblings afterwards; ties are resolved by using the node that requires least
+        /// area enlargement" (section 2.2.1), and "composed of minOverlap and minVolume"
+        /// (section 5.1): where the entries are leaves, `min-overlap`'s key (least summed
+        /// overlap after insertion, ties by least volume enlargement); elsewhere `r-star`'s.
+        /// `r-star` keeps Beckmann et al. 1990's overlap *enlargement*, the rule of the R*-tree
+        /// the paper cites; the paper's configs use `r-star`.
+        RStarOverlapAfter = "r-star-overlap-after",
+        /// `r-star-srfc-overlap-after`: `r-star-srfc` with the leaf rule of
+        /// `r-star-overlap-after` (the same reading of section 2.2.1); the paper's configs use
+        /// `r-star-srfc`.
+        RStarSrfcOverlapAfter = "r-star-srfc-overlap-after",
         /// `str`: no insertion; Sort-Tile-Recursive bulk loading (Leutenegger, Lopez and
         /// Edgington 1997), the bulk loading the paper's conclusion suggests (section 6).
         /// Nodes are full (`M` entries) but for the last of each level; `reinsert` is ignored.
         Str = "str",
+    }
+}
+
+impl Strategy {
+    /// Whether the R* split breaks its remaining ties by least surface sum (our variants)
+    /// rather than taking the first distribution (Beckmann et al. 1990, the paper's).
+    pub fn split_surface_ties(self) -> bool {
+        matches!(
+            self,
+            Strategy::MinVolumeSurfaceTies
+                | Strategy::MinOverlapEnlargement
+                | Strategy::RStarSurfaceTies
+        )
     }
 }
 

@@ -1,4 +1,5 @@
-//! The three traversals of an [`Rtree`] (paper sections 4.1, 4.2 and 5.2).
+//! The traversals of an [`Rtree`] (paper sections 4.1, 4.2 and 5.2): the paper's three and our
+//! two variants of Listings 1 and 2 (`stackless-skip-empty`, `ordered-pop-cull`).
 //!
 //! All use the slab test of [`tb_core::Aabb::intersect`] (near/far planes chosen by the sign
 //! of `1/dir`, the `NaN` of `0·inf` ignored by the max/min folds, the exit distance scaled by
@@ -125,17 +126,21 @@ fn leaf<T: TriTest, C: Counter, const ANY: bool>(
     None
 }
 
-/// `stackless` (paper section 4.1, Listing 1): depth-first over the implicit layout with no
-/// stack. At slot `n`: if its box is hit within `[tmin, t_min]`, an intermediate node
-/// proceeds with its first entry `n_e(n) = M·n + 1`, a leaf tests its triangles; otherwise
-/// (or after a leaf) the walk moves to the next sibling `n + 1`, climbing to the parent
-/// `n_p(n) = ⌊(n − 1)/M⌋` while `n` is the last entry (`χ(n) = M − 1`) and ending when it
-/// climbs back to the root. Since non-empty entries come first in a node, an empty next
-/// sibling ends the node's entries as `χ(n) = M − 1` does (the paper visits the remaining
-/// empty slots one by one; they are skipped here without changing the result).
-pub(crate) struct Stackless<'a>(pub &'a Rtree);
+/// `stackless` (paper section 4.1, Listing 1) and, with `SKIP_EMPTY`, our
+/// `stackless-skip-empty`: depth-first over the implicit layout with no stack. At slot `n`:
+/// unless it is empty (the paper's `isEmptyNode`: `count == 0`, no box test), if its box is
+/// hit within `[tmin, t_min]`, an intermediate node proceeds with its first entry
+/// `n_e(n) = M·n + 1`, a leaf tests its triangles; otherwise (or after a leaf) the walk moves
+/// to the next sibling `n + 1`, climbing to the parent `n_p(n) = ⌊(n − 1)/M⌋` while `n` is the
+/// last entry (`χ(n) = M − 1`) and ending when it climbs back to the root. As in Listing 1,
+/// `stackless` visits the empty sibling slots that follow a node's last entry one by one
+/// (lines 4 and 19-29: the sibling step does not look at the next slot); `stackless-skip-empty`
+/// treats an empty next sibling like `χ(n) = M − 1` (non-empty entries come first, so nothing
+/// follows it), the same result with fewer slots visited. `steps` counts the slots visited
+/// (iterations of Listing 1's loop), empty ones included.
+pub(crate) struct Stackless<'a, const SKIP_EMPTY: bool>(pub &'a Rtree);
 
-impl Stackless<'_> {
+impl<const SKIP_EMPTY: bool> Stackless<'_, SKIP_EMPTY> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool, const OCT: u8>(
         &self,
@@ -159,18 +164,20 @@ impl Stackless<'_> {
             // SAFETY: `n` is the root, an entry `M·n + 1` of an intermediate node (which the
             // complete layout always holds) or a sibling `n + 1` within the same node.
             let node = unsafe { nodes.get_unchecked(n) };
-            c.boxes(1);
-            let (tn, tf) = rb.slab::<OCT>(&node.min, &node.max, ray.tmin, best.t);
-            if tn <= tf {
-                // A step is a node entered (its box hit), as in `stack` and `ordered`.
-                c.steps(1);
-                if n < first_leaf {
-                    c.interior();
-                    n = n * m + 1;
-                    continue;
-                }
-                if let Some(h) = leaf::<T, C, ANY>(tree, node, &pre, ray, &mut best, c) {
-                    return h;
+            c.steps(1);
+            // `skip-empty` never reaches an empty slot.
+            if SKIP_EMPTY || !node.is_empty() {
+                c.boxes(1);
+                let (tn, tf) = rb.slab::<OCT>(&node.min, &node.max, ray.tmin, best.t);
+                if tn <= tf {
+                    if n < first_leaf {
+                        c.interior();
+                        n = n * m + 1;
+                        continue;
+                    }
+                    if let Some(h) = leaf::<T, C, ANY>(tree, node, &pre, ray, &mut best, c) {
+                        return h;
+                    }
                 }
             }
             // Next sibling, climbing past last entries.
@@ -184,7 +191,7 @@ impl Stackless<'_> {
                 };
                 let last = n == parent * m + m;
                 // SAFETY: `n` is not its parent's last entry, so `n + 1` is a sibling slot.
-                if !last && !unsafe { nodes.get_unchecked(n + 1) }.is_empty() {
+                if !last && (!SKIP_EMPTY || !unsafe { nodes.get_unchecked(n + 1) }.is_empty()) {
                     n += 1;
                     break;
                 }
@@ -196,18 +203,31 @@ impl Stackless<'_> {
     }
 }
 
-kernel!(Stackless);
+impl<const SKIP_EMPTY: bool> Kernel for Stackless<'_, SKIP_EMPTY> {
+    #[inline]
+    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        by_octant!(self, ray, c, false)
+    }
 
-/// `ordered` (paper section 4.2, Listing 2): one stack of at most `M` entries per level. At
-/// an intermediate node of level `l`, the boxes of its entries are tested and those hit are
-/// pushed on stack `l` with their entry distance, kept sorted by insertion sort so that the
-/// nearest is on top. The walk continues with the top of the lowest non-empty stack, climbing
-/// a level when a stack runs empty, and ends when the root level's stack is empty. Closest
-/// hit: a popped entry farther than the closest hit found meanwhile empties its whole stack
-/// (the stack is sorted, so every entry below it is farther still).
-pub(crate) struct Ordered<'a>(pub &'a Rtree);
+    #[inline]
+    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        by_octant!(self, ray, c, true)
+    }
+}
 
-impl Ordered<'_> {
+/// `ordered` (paper section 4.2, Listing 2) and, with `POP_CULL`, our `ordered-pop-cull`: one
+/// stack of at most `M` entries per level. At an intermediate node of level `l`, the boxes of
+/// its entries are tested and those hit within `[tmin, t_min]` are pushed on stack `l` with
+/// their entry distance (Listing 2, lines 12-16: the only cull against `t_min`), kept sorted
+/// by insertion sort so that the nearest is on top. The walk continues with the top of the
+/// lowest non-empty stack, climbing a level when a stack runs empty, and ends when the root
+/// level's stack is empty. `ordered` enters every popped entry, as Listing 2 does (lines
+/// 27-32); `ordered-pop-cull` (closest hit only) also drops a popped entry whose entry
+/// distance lies beyond the closest hit found since it was pushed, and with it its whole stack
+/// (sorted, so every entry below it is farther still).
+pub(crate) struct Ordered<'a, const POP_CULL: bool>(pub &'a Rtree);
+
+impl<const POP_CULL: bool> Ordered<'_, POP_CULL> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool, const OCT: u8>(
         &self,
@@ -280,7 +300,7 @@ impl Ordered<'_> {
                 sp[l] -= 1;
                 // SAFETY: entries below the stack pointer were written when pushed.
                 let (child, d) = unsafe { stacks[l][sp[l] as usize].assume_init() };
-                if ANY || d <= best.t * EXIT_SCALE {
+                if !POP_CULL || ANY || d <= best.t * EXIT_SCALE {
                     n = child as usize;
                     l -= 1;
                     c.steps(1);
@@ -293,7 +313,17 @@ impl Ordered<'_> {
     }
 }
 
-kernel!(Ordered);
+impl<const POP_CULL: bool> Kernel for Ordered<'_, POP_CULL> {
+    #[inline]
+    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        by_octant!(self, ray, c, false)
+    }
+
+    #[inline]
+    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        by_octant!(self, ray, c, true)
+    }
+}
 
 /// Entries of the `stack` traversal's stack: at most `M − 1` pending entries per level above
 /// the current node and `M` at its own.

@@ -46,6 +46,23 @@ fn conforms_min_overlap() {
 }
 
 #[test]
+fn conforms_min_overlap_enlargement() {
+    run(strategy(Strategy::MinOverlapEnlargement));
+}
+
+#[test]
+fn conforms_surface_ties_variants() {
+    run(strategy(Strategy::MinVolumeSurfaceTies));
+    run(strategy(Strategy::RStarSurfaceTies));
+}
+
+#[test]
+fn conforms_r_star_overlap_after_variants() {
+    run(strategy(Strategy::RStarOverlapAfter));
+    run(strategy(Strategy::RStarSrfcOverlapAfter));
+}
+
+#[test]
 fn conforms_no_reinsert_sorted_m16() {
     run(RtreeParams {
         m: 3,

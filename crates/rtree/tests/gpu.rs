@@ -26,6 +26,7 @@ fn builds() -> Vec<RtreeParams> {
         Strategy::MinVolume,
         Strategy::MinSurface,
         Strategy::MinOverlap,
+        Strategy::MinOverlapEnlargement,
         Strategy::RStar,
         Strategy::RStarSrfc,
         Strategy::Str,
