@@ -490,3 +490,42 @@ fn time_derived_columns_get_the_floor() {
     );
     assert_eq!(eval(&c("c"), &[f])[0].verdict, Verdict::Agree);
 }
+
+/// A value the filter names for a `per` key without rows is a group of its own, inconclusive
+/// and named: the claim does not agree on the groups that happen to be there.
+#[test]
+fn a_filtered_value_without_rows_is_an_inconclusive_group() {
+    let t = tempfile::tempdir().unwrap();
+    let r = results(t.path());
+    let body = "measure = \"interior_per_ray\"\nfilter = { ray_kind = \"primary\", params = { k = 1 }, scene = [\"s1\", \"s2\"] }\nper = [\"scene\"]\nrows.a = { traversal = \"a\" }\nrows.b = { traversal = \"b\" }\ntest = { kind = \"order\", rows = [\"a\", \"b\"] }";
+    let all = eval(&claim(body), std::slice::from_ref(&r));
+    assert_eq!(all[0].verdict, Verdict::Agree, "{all:?}");
+    assert_eq!(all[0].groups.len(), 2);
+    let missing = body.replace("\"s2\"]", "\"s2\", \"conference\"]");
+    let v = eval(&claim(&missing), std::slice::from_ref(&r));
+    assert_eq!(v[0].verdict, Verdict::Inconclusive, "{v:?}");
+    assert_eq!(v[0].groups.len(), 3);
+    assert!(
+        v[0].why
+            .contains("rows missing: no rows for scene = conference"),
+        "{}",
+        v[0].why
+    );
+    // `most` counts the missing group too (2 of 3 agree), `any` is met by one group.
+    let most = missing.replace("per = [\"scene\"]", "per = [\"scene\"]\nneed = \"most\"");
+    assert_eq!(
+        eval(&claim(&most), std::slice::from_ref(&r))[0].verdict,
+        Verdict::Agree
+    );
+    // With two group keys the missing value stands with `*` for the other; a glob names no
+    // particular value.
+    let two = missing.replace("per = [\"scene\"]", "per = [\"scene\", \"ray_kind\"]");
+    let v = eval(&claim(&two), std::slice::from_ref(&r));
+    assert_eq!(v[0].verdict, Verdict::Inconclusive);
+    assert!(
+        v[0].groups.iter().any(|g| g.group == "conference · *"),
+        "{v:?}"
+    );
+    let glob = body.replace("\"s2\"]", "\"s2\", \"conf*\"]");
+    assert_eq!(eval(&claim(&glob), &[r])[0].verdict, Verdict::Agree);
+}

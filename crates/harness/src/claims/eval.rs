@@ -990,10 +990,13 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
         .filter(|r| filter_matches(c, device, r))
         .collect();
     let (by, groups) = group_rows(c, &names, &base);
-    let results: Vec<GroupResult> = groups
+    let mut results: Vec<GroupResult> = groups
         .iter()
         .map(|g| evaluate_group(c, g, &names, &by, &m, opts))
         .collect();
+    if !results.is_empty() {
+        results.extend(missing_groups(c, &groups));
+    }
     let (verdict, ours, why) = combine(c, device, &results, &base, set);
     ClaimResult {
         id: c.id.clone(),
@@ -1025,6 +1028,66 @@ fn group_rows<'a>(c: &Claim, names: &[&'a str], base: &[&'a Row]) -> Grouped<'a>
         }
     }
     (by, groups)
+}
+
+/// The filter's value for group key `k` (`scene`, `view`, a column, `param:NAME`).
+fn filter_for_key<'c>(c: &'c Claim, k: &str) -> Option<&'c toml::Value> {
+    match k.strip_prefix("param:") {
+        Some(p) => match c.filter.0.get("params") {
+            Some(toml::Value::Table(t)) => t.get(p),
+            _ => None,
+        },
+        None => c.filter.0.get(k),
+    }
+}
+
+/// A filter value as written (strings bare).
+fn shown_value(v: &toml::Value) -> String {
+    match v {
+        toml::Value::String(s) => s.clone(),
+        v => v.to_string(),
+    }
+}
+
+/// A group for each literal value (no `*`) the filter names for a `per` key that no group
+/// has: partial rows must not decide a claim. Each is inconclusive and says what is missing.
+fn missing_groups(c: &Claim, groups: &BTreeSet<String>) -> Vec<GroupResult> {
+    let keys: Vec<Vec<&str>> = groups.iter().map(|g| g.split(" · ").collect()).collect();
+    let mut out = Vec::new();
+    for (i, k) in c.per.iter().enumerate() {
+        let Some(f) = filter_for_key(c, k) else {
+            continue;
+        };
+        let alts: Vec<&toml::Value> = match f {
+            toml::Value::Array(a) => a.iter().collect(),
+            v => vec![v],
+        };
+        for x in alts {
+            if matches!(x, toml::Value::String(s) if s.contains('*')) {
+                continue;
+            }
+            if keys
+                .iter()
+                .any(|g| g.get(i).is_some_and(|cell| cell_matches(x, cell)))
+            {
+                continue;
+            }
+            let shown = shown_value(x);
+            let group = (0..c.per.len())
+                .map(|j| if j == i { shown.as_str() } else { "*" })
+                .collect::<Vec<_>>()
+                .join(" · ");
+            out.push(GroupResult {
+                group,
+                verdict: Verdict::Inconclusive,
+                shown: "—".into(),
+                derived: None,
+                why: format!("rows missing: no rows for {k} = {shown}"),
+                values: BTreeMap::new(),
+            });
+        }
+    }
+    out
 }
 
 /// One group's result: its selectors' values pooled and the test run on them.
