@@ -410,7 +410,8 @@ fn cmd_weights(beta: Vec<f64>, decimals: usize, csv: Option<PathBuf>) -> Result<
         tb_harness::registry::weights::weight_tables(&betas, decimals.min(12))
     );
     if let Some(path) = csv {
-        let mut text = String::from("table,heuristic,beta,patch,axis,weight_pct\n");
+        let cols = tb_harness::registry::weights::CSV_COLUMNS.map(|c| c.0);
+        let mut text = format!("{}\n", cols.join(","));
         for (t, h, b, p, a, w) in tb_harness::registry::weights::weight_rows(&betas) {
             text.push_str(&format!("{t},{h},{b},{p},{a},{w}\n"));
         }

@@ -529,3 +529,73 @@ fn a_filtered_value_without_rows_is_an_inconclusive_group() {
     let glob = body.replace("\"s2\"]", "\"s2\", \"conf*\"]");
     assert_eq!(eval(&claim(&glob), &[r])[0].verdict, Verdict::Agree);
 }
+
+/// Typos in a claims file are refused at load, one line naming the file, the claim and the
+/// key: an unknown measure, an unknown selector, filter or group key, a text value for a
+/// numeric column.
+#[test]
+fn typos_are_refused_at_load() {
+    let ok = "measure = \"interior_per_ray\"\nfilter = { ray_kind = \"primary\", threads = [1, 2] }\nrows.a = { traversal = \"a\" }\ntest = { kind = \"value\", of = \"a\", min = 1 }";
+    claims::parse(Path::new("x.toml"), &claim(ok)).expect("the correct claim loads");
+    let cases = [
+        (
+            ok.replace("interior_per_ray", "bogus_per_ray"),
+            "x.toml:3: claim c: measure: `bogus_per_ray` is not a column",
+        ),
+        (
+            ok.replace("interior_per_ray", "prims_per_ray + bogus_per_ray"),
+            "x.toml:3: claim c: measure: `bogus_per_ray` is not a column",
+        ),
+        (
+            ok.replace("interior_per_ray", "structure"),
+            "x.toml:3: claim c: measure: `structure` is not a numeric column",
+        ),
+        (
+            ok.replace("{ traversal", "{ structur = \"kdtree\", traversal"),
+            "x.toml:3: claim c: rows.a: unknown field `structur`",
+        ),
+        (
+            ok.replace("ray_kind", "raykind"),
+            "x.toml:3: claim c: filter: unknown field `raykind`",
+        ),
+        (
+            ok.replace("[1, 2]", "\"many\""),
+            "x.toml:3: claim c: filter: threads: \"many\" is not a number",
+        ),
+        (
+            ok.replace("[1, 2]", "[1, \"two\"]"),
+            "x.toml:3: claim c: filter: threads: \"two\" is not a number",
+        ),
+        (
+            ok.replace("filter", "per = [\"scen\"]\nfilter"),
+            "x.toml:3: claim c: per: unknown group key `scen`",
+        ),
+    ];
+    for (body, want) in cases {
+        let e = claims::parse(Path::new("x.toml"), &claim(&body))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with(want), "{e}\nwanted: {want}");
+        assert!(!e.contains('\n'), "{e}");
+    }
+    // The near column is named; columns of the other CSVs (dynamic, weights), counter
+    // columns, quoted numbers and free-form params are fine.
+    let e = claims::parse(
+        Path::new("x.toml"),
+        &claim(&ok.replace("ray_kind", "raykind")),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("did you mean `ray_kind`?"), "{e}");
+    let fine = ok
+        .replace("interior_per_ray", "boxes_max + spp + weight_pct")
+        .replace(
+            "threads = [1, 2]",
+            "beta = \"1\", budget_ms = [16, 33], noisy = false, params = { anything = 1 }",
+        )
+        .replace(
+            "min = 1 }",
+            "min = 1 }\nper = [\"param:whatever\", \"lambda_1\"]",
+        );
+    claims::parse(Path::new("x.toml"), &claim(&fine)).expect("known columns load");
+}
