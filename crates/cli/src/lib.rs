@@ -801,7 +801,7 @@ fn cmd_claims(
     if let Some(id) = only.iter().find(|id| file.claim(id).is_none()) {
         bail!("{}: no claim `{id}`", claims.display());
     }
-    let rows = claims::RowSet::read(results)?;
+    let rows = claims::RowSet::read_results(results)?;
     if rows.replaced > 0 {
         eprintln!(
             "note: {} rows appear in several sources; the later source's row is used",
@@ -916,14 +916,20 @@ fn cmd_reproduce(
         "report: {} (REPORT.md, REPRODUCTION.md, verdicts.json)",
         out.display()
     );
-    let failed = reports
+    let failed: Vec<String> = reports
         .iter()
         .flat_map(|r| &r.runs)
-        .filter(|r| r.exit.is_some_and(|c| c != 0))
-        .count();
-    if failed > 0 {
-        eprintln!(
-            "note: {failed} runs exited non-zero (their finished rows are used; see REPORT.md)"
+        .filter_map(|r| {
+            r.failed
+                .as_ref()
+                .map(|f| format!("{} {} ({f})", r.paper, r.label))
+        })
+        .collect();
+    if !failed.is_empty() {
+        bail!(
+            "{} runs failed: {} (their finished rows are used; see REPORT.md)",
+            failed.len(),
+            failed.join(", ")
         );
     }
     Ok(0)

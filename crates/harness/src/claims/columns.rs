@@ -108,3 +108,26 @@ pub(crate) fn check_kind(kind: Kind, v: &toml::Value) -> Result<(), String> {
 pub(crate) fn is_known(k: &str) -> bool {
     PSEUDO.contains(&k) || known().contains_key(k)
 }
+
+/// Whether a CSV header is one trace-bench writes besides results (`dynamic.csv`,
+/// `dynamic-choice.csv`, `weights.csv`).
+pub(crate) fn is_ours(header: &[String]) -> bool {
+    use crate::report::dynamic::{ChoiceRow, DynamicRow};
+    let keys = |v: Result<serde_json::Value, serde_json::Error>| -> Vec<String> {
+        match v {
+            Ok(serde_json::Value::Object(o)) => o.keys().cloned().collect(),
+            _ => Vec::new(),
+        }
+    };
+    let weights: Vec<String> = crate::registry::weights::CSV_COLUMNS
+        .iter()
+        .map(|c| c.0.to_owned())
+        .collect();
+    [
+        keys(serde_json::to_value(DynamicRow::default())),
+        keys(serde_json::to_value(ChoiceRow::default())),
+        weights,
+    ]
+    .iter()
+    .any(|h| h[..] == header[..])
+}
