@@ -599,3 +599,35 @@ fn typos_are_refused_at_load() {
         );
     claims::parse(Path::new("x.toml"), &claim(&fine)).expect("known columns load");
 }
+
+/// Rows of one group from sources made with different configs (another image size: another
+/// ray count for the same view and ray kind) are not pooled into a verdict.
+#[test]
+fn rows_of_different_configs_are_not_pooled() {
+    let t = tempfile::tempdir().unwrap();
+    let r = results(t.path());
+    let c = claim("measure = \"interior_per_ray\"\nfilter = { ray_kind = \"primary\", scene = \"s2\", params = { k = 1 } }\nrows.a = { traversal = \"a\" }\nrows.b = { traversal = \"b\" }\ntest = { kind = \"ratio\", num = \"a\", den = \"b\", max = 0.9 }");
+    let other = |rays: u32| {
+        write(
+            t.path(),
+            &format!("other-{rays}.csv"),
+            &[
+                HEAD.into(),
+                row("s2", "b", "k=1", "primary", rays, 11.0, 0.3, 9, false, 6.0),
+            ],
+        )
+    };
+    // The same config elsewhere: the verdict it gives alone.
+    let same = eval(&c, &[r.clone(), other(100)]);
+    assert_eq!(same[0].verdict, Verdict::Agree, "{same:?}");
+    let mixed = eval(&c, &[r, other(10)]);
+    assert_eq!(mixed[0].verdict, Verdict::Inconclusive, "{mixed:?}");
+    assert!(
+        mixed[0]
+            .why
+            .contains("rows of different configs pooled: s2 primary has 100 rays in")
+            && mixed[0].why.contains("other-10.csv"),
+        "{}",
+        mixed[0].why
+    );
+}

@@ -1101,6 +1101,13 @@ fn evaluate_group(
 ) -> GroupResult {
     let mut vals = BTreeMap::new();
     let mut problems = Vec::new();
+    let rows: Vec<&Row> = names
+        .iter()
+        .filter_map(|n| by[n].get(g))
+        .flatten()
+        .copied()
+        .collect();
+    problems.extend(mixed_configs(&rows));
     for n in names {
         match by[n].get(g) {
             None => problems.push(format!("no rows for `{n}`")),
@@ -1133,6 +1140,37 @@ fn evaluate_group(
             values: vals,
         }
     }
+}
+
+/// Rows of one group from several sources (folders, CSVs) that were not made with the same
+/// config: the same view and ray kind traced with a different number of rays (another image
+/// size or ray count). Rows of one run agree by construction.
+fn mixed_configs(rows: &[&Row]) -> Option<String> {
+    let mut seen: BTreeMap<String, (f64, &Row)> = BTreeMap::new();
+    for r in rows {
+        let Some(n) = r.num("rays").filter(|n| *n > 0.0) else {
+            continue;
+        };
+        let ctx = joined(r, &["scene", "ray_kind", "device"]);
+        match seen.get(&ctx) {
+            Some((m, r0)) if *m != n && r0.origin != r.origin => {
+                return Some(format!(
+                    "rows of different configs pooled: {} {} has {} rays in {} but {} in {}",
+                    r.get("scene").unwrap_or(""),
+                    r.get("ray_kind").unwrap_or(""),
+                    fmt(*m),
+                    r0.origin.display(),
+                    fmt(n),
+                    r.origin.display()
+                ))
+            }
+            Some(_) => {}
+            None => {
+                seen.insert(ctx, (n, r));
+            }
+        }
+    }
+    None
 }
 
 /// The test's verdict and why, with the caveats of the timed values: too few runs, a
