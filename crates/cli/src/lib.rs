@@ -359,7 +359,16 @@ fn dispatch(cli: Cli) -> Result<i32> {
 }
 
 /// `trace-bench merge`: merge the shards' folders and print what is missing.
+/// `--out` must be a folder (or not exist yet).
+fn out_folder(out: &Path) -> Result<()> {
+    if out.exists() && !out.is_dir() {
+        bail!("--out {}: is a file, not a folder", out.display());
+    }
+    Ok(())
+}
+
 fn cmd_merge(dirs: &[PathBuf], out: &Path) -> Result<i32> {
+    out_folder(out)?;
     let r = tb_harness::results::merge::merge(dirs, out)?;
     for n in &r.notes {
         eprintln!("note: {n}");
@@ -550,6 +559,7 @@ fn cmd_run(
             o
         }
     };
+    out_folder(&out)?;
     if resume
         && !["results.csv", "results.json"]
             .iter()
@@ -882,6 +892,9 @@ fn cmd_reproduce(
     if papers.is_empty() {
         bail!("{}: no claims file with runs", claims_dir.display());
     }
+    if let Some(o) = &out {
+        out_folder(o)?;
+    }
     let default_folder = out.is_none();
     let out = out.unwrap_or_else(|| {
         PathBuf::from("results/reproduce").join(
@@ -895,8 +908,7 @@ fn cmd_reproduce(
     }
     let opts = reproduce::Options {
         papers,
-        // A twentieth of the budget is kept for loading the claims and writing the report.
-        budget_s: budget_s * 0.95,
+        budget_s: budget_s * reproduce::RUNS_SHARE,
         devices,
         out: out.clone(),
         exe: std::env::current_exe().context("cannot find the trace-bench executable")?,

@@ -242,3 +242,107 @@ fn wait_for<T>(mut f: impl FnMut() -> Option<T>, secs: f64) -> Option<T> {
     }
     None
 }
+
+#[test]
+fn a_budget_below_the_runs_is_said() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = config(t.path(), "kdtree", 3);
+    let c = claims(t.path(), &cfg, 32);
+    fs::write(
+        &c,
+        fs::read_to_string(&c)
+            .unwrap()
+            .replace("cost_s = 1", "cost_s = 100"),
+    )
+    .unwrap();
+    let o = Command::new(EXE)
+        .args(["reproduce", c.to_str().unwrap(), "--budget", "1s", "-q"])
+        .arg("--out")
+        .arg(t.path().join("out"))
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    assert!(
+        e.contains("note: reproduce: --budget 1s is less than the runs take at their smallest images (about 100 s"),
+        "{e}"
+    );
+}
+
+#[test]
+fn out_naming_a_file_is_said() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = config(t.path(), "kdtree", 3);
+    let c = claims(t.path(), &cfg, 32);
+    let file = t.path().join("a-file");
+    fs::write(&file, "x").unwrap();
+    for args in [
+        vec!["run", cfg.to_str().unwrap(), "-q"],
+        vec!["reproduce", c.to_str().unwrap(), "-q"],
+    ] {
+        let o = Command::new(EXE)
+            .args(&args)
+            .arg("--out")
+            .arg(&file)
+            .output()
+            .unwrap();
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{e}");
+        assert_eq!(
+            e.trim(),
+            format!("error: --out {}: is a file, not a folder", file.display())
+        );
+    }
+}
+
+/// `./` and `../` scene paths are relative to the current directory, for `info` and `run`
+/// alike; other relative paths stay under the scenes root.
+#[test]
+fn dot_paths_are_relative_to_the_current_directory() {
+    let t = tempfile::tempdir().unwrap();
+    fs::write(
+        t.path().join("tri.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let root = t.path().join("root");
+    fs::create_dir(&root).unwrap();
+    let cmd = |args: &[&str]| {
+        Command::new(EXE)
+            .current_dir(t.path())
+            .args(args)
+            .arg("--scenes-root")
+            .arg(&root)
+            .output()
+            .unwrap()
+    };
+    let o = cmd(&["info", "./tri.obj"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success() && out.contains("triangles   1"),
+        "{out}{}",
+        stderr(&o)
+    );
+    let sub = t.path().join("sub");
+    fs::create_dir(&sub).unwrap();
+    let o = Command::new(EXE)
+        .current_dir(&sub)
+        .args(["info", "../tri.obj", "--scenes-root"])
+        .arg(&root)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = cmd(&["info", "tri.obj"]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("root/tri.obj"),
+        "{}",
+        stderr(&o)
+    );
+    fs::write(
+        t.path().join("c.toml"),
+        "name = \"t\"\n[run]\nthreads = 1\nrepeat = 1\nwarmup = 0\n\n[[scene]]\nsource = \"./tri.obj\"\nrays = [\"primary\"]\ncamera = { width = 32, height = 32, eye = [0.3, 0.3, 2.0], target = [0.3, 0.3, 0.0], fov = 40.0 }\n\n[[structure]]\nname = \"kdtree\"\n",
+    )
+    .unwrap();
+    let o = cmd(&["run", "c.toml", "-q", "--out", "o"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}

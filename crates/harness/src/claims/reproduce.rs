@@ -44,6 +44,10 @@ pub struct Options {
     pub quiet: bool,
 }
 
+/// The share of the user's `--budget` given to the runs ([`Options::budget_s`]); the rest is
+/// kept for loading the claims and writing the report.
+pub const RUNS_SHARE: f64 = 0.95;
+
 /// One planned (and then made) run.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct PlannedRun {
@@ -338,6 +342,19 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
 pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
     let planned = plan(opts)?;
     preflight(opts, &planned)?;
+    let estimate: f64 = planned
+        .iter()
+        .flat_map(|p| &p.2)
+        .filter(|r| status(&r.folder).as_deref() != Some("complete"))
+        .map(|r| r.cost_s)
+        .sum();
+    if estimate > opts.budget_s + 0.5 {
+        eprintln!(
+            "note: reproduce: --budget {} is less than the runs take at their smallest images \
+             (about {estimate:.0} s on the reference machine)",
+            opts.budget_text
+        );
+    }
     // One reproduce per report folder, until this one ends.
     let _lock = crate::results::lock::FolderLock::acquire(&opts.out)?;
     super::child::catch_signals();
@@ -371,6 +388,14 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
         });
     }
     let wall = started.elapsed().as_secs_f64();
+    let budget = opts.budget_s / RUNS_SHARE;
+    if wall > budget + 0.5 {
+        eprintln!(
+            "note: reproduce: took {wall:.0} s, {:.0} s over the budget of {}",
+            wall - budget,
+            opts.budget_text
+        );
+    }
     write_report(opts, &reports, &start_time, wall)?;
     Ok(reports)
 }
