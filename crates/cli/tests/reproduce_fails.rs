@@ -177,7 +177,8 @@ fn claims_refuses_sources_without_results() {
 }
 
 /// Linux: the child `run` of an interrupted reproduce is ended and waited for, and the
-/// reproduce exits non-zero saying how to resume.
+/// reproduce exits non-zero saying how to resume; a rerun into the same folder resumes the run
+/// (no lock of an orphan refuses it), and SIGINT does the same.
 #[cfg(target_os = "linux")]
 #[test]
 fn a_signal_to_reproduce_ends_its_run() {
@@ -185,33 +186,37 @@ fn a_signal_to_reproduce_ends_its_run() {
     let cfg = config(t.path(), "kdtree", 1000);
     let c = claims(t.path(), &cfg, 512);
     let out = t.path().join("out");
-    let mut p = Command::new(EXE)
-        .args(["reproduce", c.to_str().unwrap(), "-q", "--out"])
-        .arg(&out)
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let child = wait_for(|| children_of(p.id()).into_iter().next(), 60.0)
-        .expect("reproduce started its run");
-    std::thread::sleep(std::time::Duration::from_millis(300));
-    let k = Command::new("kill")
-        .args(["-TERM", &p.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(k.success());
-    let st = wait_for(|| p.try_wait().unwrap(), 30.0).expect("reproduce ended");
-    let mut e = String::new();
-    std::io::Read::read_to_string(p.stderr.as_mut().unwrap(), &mut e).unwrap();
-    assert!(!st.success(), "{e}");
-    assert!(
-        e.contains("interrupted by SIGTERM") && e.contains("rerun with --out"),
-        "{e}"
-    );
-    assert!(
-        !Path::new(&format!("/proc/{child}")).exists(),
-        "run {child} orphaned"
-    );
-    assert!(!out.join("REPORT.md").exists());
+    for (sig, name, resumed) in [("-TERM", "SIGTERM", false), ("-INT", "SIGINT", true)] {
+        let mut p = Command::new(EXE)
+            .args(["reproduce", c.to_str().unwrap(), "-q", "--out"])
+            .arg(&out)
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let child = wait_for(|| children_of(p.id()).into_iter().next(), 60.0)
+            .expect("reproduce started its run");
+        let cmdline = fs::read_to_string(format!("/proc/{child}/cmdline")).unwrap_or_default();
+        assert_eq!(cmdline.contains("--resume"), resumed, "{cmdline}");
+        std::thread::sleep(std::time::Duration::from_millis(300));
+        let k = Command::new("kill")
+            .args([sig, &p.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(k.success());
+        let st = wait_for(|| p.try_wait().unwrap(), 30.0).expect("reproduce ended");
+        let mut e = String::new();
+        std::io::Read::read_to_string(p.stderr.as_mut().unwrap(), &mut e).unwrap();
+        assert!(!st.success(), "{e}");
+        assert!(
+            e.contains(&format!("interrupted by {name}")) && e.contains("rerun with --out"),
+            "{e}"
+        );
+        assert!(
+            !Path::new(&format!("/proc/{child}")).exists(),
+            "run {child} orphaned"
+        );
+        assert!(!out.join("REPORT.md").exists());
+    }
 }
 
 #[cfg(target_os = "linux")]
