@@ -387,6 +387,9 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
             adapters: adapters(&rows),
         });
     }
+    if let Some(sig) = super::child::received() {
+        return Err(interrupted(sig, None, opts));
+    }
     let wall = started.elapsed().as_secs_f64();
     let budget = opts.budget_s / RUNS_SHARE;
     if wall > budget + 0.5 {
