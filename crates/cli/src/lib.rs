@@ -359,7 +359,16 @@ fn dispatch(cli: Cli) -> Result<i32> {
 }
 
 /// `trace-bench merge`: merge the shards' folders and print what is missing.
+/// `--out` must be a folder (or not exist yet).
+fn out_folder(out: &Path) -> Result<()> {
+    if out.exists() && !out.is_dir() {
+        bail!("--out {}: is a file, not a folder", out.display());
+    }
+    Ok(())
+}
+
 fn cmd_merge(dirs: &[PathBuf], out: &Path) -> Result<i32> {
+    out_folder(out)?;
     let r = tb_harness::results::merge::merge(dirs, out)?;
     for n in &r.notes {
         eprintln!("note: {n}");
@@ -410,7 +419,8 @@ fn cmd_weights(beta: Vec<f64>, decimals: usize, csv: Option<PathBuf>) -> Result<
         tb_harness::registry::weights::weight_tables(&betas, decimals.min(12))
     );
     if let Some(path) = csv {
-        let mut text = String::from("table,heuristic,beta,patch,axis,weight_pct\n");
+        let cols = tb_harness::registry::weights::CSV_COLUMNS.map(|c| c.0);
+        let mut text = format!("{}\n", cols.join(","));
         for (t, h, b, p, a, w) in tb_harness::registry::weights::weight_rows(&betas) {
             text.push_str(&format!("{t},{h},{b},{p},{a},{w}\n"));
         }
@@ -549,6 +559,7 @@ fn cmd_run(
             o
         }
     };
+    out_folder(&out)?;
     if resume
         && !["results.csv", "results.json"]
             .iter()
@@ -800,7 +811,7 @@ fn cmd_claims(
     if let Some(id) = only.iter().find(|id| file.claim(id).is_none()) {
         bail!("{}: no claim `{id}`", claims.display());
     }
-    let rows = claims::RowSet::read(results)?;
+    let rows = claims::RowSet::read_results(results)?;
     if rows.replaced > 0 {
         eprintln!(
             "note: {} rows appear in several sources; the later source's row is used",
@@ -881,6 +892,9 @@ fn cmd_reproduce(
     if papers.is_empty() {
         bail!("{}: no claims file with runs", claims_dir.display());
     }
+    if let Some(o) = &out {
+        out_folder(o)?;
+    }
     let default_folder = out.is_none();
     let out = out.unwrap_or_else(|| {
         PathBuf::from("results/reproduce").join(
@@ -894,8 +908,7 @@ fn cmd_reproduce(
     }
     let opts = reproduce::Options {
         papers,
-        // A twentieth of the budget is kept for loading the claims and writing the report.
-        budget_s: budget_s * 0.95,
+        budget_s: budget_s * reproduce::RUNS_SHARE,
         devices,
         out: out.clone(),
         exe: std::env::current_exe().context("cannot find the trace-bench executable")?,
@@ -915,14 +928,20 @@ fn cmd_reproduce(
         "report: {} (REPORT.md, REPRODUCTION.md, verdicts.json)",
         out.display()
     );
-    let failed = reports
+    let failed: Vec<String> = reports
         .iter()
         .flat_map(|r| &r.runs)
-        .filter(|r| r.exit.is_some_and(|c| c != 0))
-        .count();
-    if failed > 0 {
-        eprintln!(
-            "note: {failed} runs exited non-zero (their finished rows are used; see REPORT.md)"
+        .filter_map(|r| {
+            r.failed
+                .as_ref()
+                .map(|f| format!("{} {} ({f})", r.paper, r.label))
+        })
+        .collect();
+    if !failed.is_empty() {
+        bail!(
+            "{} runs failed: {} (their finished rows are used; see REPORT.md)",
+            failed.len(),
+            failed.join(", ")
         );
     }
     Ok(0)

@@ -490,3 +490,144 @@ fn time_derived_columns_get_the_floor() {
     );
     assert_eq!(eval(&c("c"), &[f])[0].verdict, Verdict::Agree);
 }
+
+/// A value the filter names for a `per` key without rows is a group of its own, inconclusive
+/// and named: the claim does not agree on the groups that happen to be there.
+#[test]
+fn a_filtered_value_without_rows_is_an_inconclusive_group() {
+    let t = tempfile::tempdir().unwrap();
+    let r = results(t.path());
+    let body = "measure = \"interior_per_ray\"\nfilter = { ray_kind = \"primary\", params = { k = 1 }, scene = [\"s1\", \"s2\"] }\nper = [\"scene\"]\nrows.a = { traversal = \"a\" }\nrows.b = { traversal = \"b\" }\ntest = { kind = \"order\", rows = [\"a\", \"b\"] }";
+    let all = eval(&claim(body), std::slice::from_ref(&r));
+    assert_eq!(all[0].verdict, Verdict::Agree, "{all:?}");
+    assert_eq!(all[0].groups.len(), 2);
+    let missing = body.replace("\"s2\"]", "\"s2\", \"conference\"]");
+    let v = eval(&claim(&missing), std::slice::from_ref(&r));
+    assert_eq!(v[0].verdict, Verdict::Inconclusive, "{v:?}");
+    assert_eq!(v[0].groups.len(), 3);
+    assert!(
+        v[0].why
+            .contains("rows missing: no rows for scene = conference"),
+        "{}",
+        v[0].why
+    );
+    // `most` counts the missing group too (2 of 3 agree), `any` is met by one group.
+    let most = missing.replace("per = [\"scene\"]", "per = [\"scene\"]\nneed = \"most\"");
+    assert_eq!(
+        eval(&claim(&most), std::slice::from_ref(&r))[0].verdict,
+        Verdict::Agree
+    );
+    // With two group keys the missing value stands with `*` for the other; a glob names no
+    // particular value.
+    let two = missing.replace("per = [\"scene\"]", "per = [\"scene\", \"ray_kind\"]");
+    let v = eval(&claim(&two), std::slice::from_ref(&r));
+    assert_eq!(v[0].verdict, Verdict::Inconclusive);
+    assert!(
+        v[0].groups.iter().any(|g| g.group == "conference · *"),
+        "{v:?}"
+    );
+    let glob = body.replace("\"s2\"]", "\"s2\", \"conf*\"]");
+    assert_eq!(eval(&claim(&glob), &[r])[0].verdict, Verdict::Agree);
+}
+
+/// Typos in a claims file are refused at load, one line naming the file, the claim and the
+/// key: an unknown measure, an unknown selector, filter or group key, a text value for a
+/// numeric column.
+#[test]
+fn typos_are_refused_at_load() {
+    let ok = "measure = \"interior_per_ray\"\nfilter = { ray_kind = \"primary\", threads = [1, 2] }\nrows.a = { traversal = \"a\" }\ntest = { kind = \"value\", of = \"a\", min = 1 }";
+    claims::parse(Path::new("x.toml"), &claim(ok)).expect("the correct claim loads");
+    let cases = [
+        (
+            ok.replace("interior_per_ray", "bogus_per_ray"),
+            "x.toml:3: claim c: measure: `bogus_per_ray` is not a column",
+        ),
+        (
+            ok.replace("interior_per_ray", "prims_per_ray + bogus_per_ray"),
+            "x.toml:3: claim c: measure: `bogus_per_ray` is not a column",
+        ),
+        (
+            ok.replace("interior_per_ray", "structure"),
+            "x.toml:3: claim c: measure: `structure` is not a numeric column",
+        ),
+        (
+            ok.replace("{ traversal", "{ structur = \"kdtree\", traversal"),
+            "x.toml:3: claim c: rows.a: unknown field `structur`",
+        ),
+        (
+            ok.replace("ray_kind", "raykind"),
+            "x.toml:3: claim c: filter: unknown field `raykind`",
+        ),
+        (
+            ok.replace("[1, 2]", "\"many\""),
+            "x.toml:3: claim c: filter: threads: \"many\" is not a number",
+        ),
+        (
+            ok.replace("[1, 2]", "[1, \"two\"]"),
+            "x.toml:3: claim c: filter: threads: \"two\" is not a number",
+        ),
+        (
+            ok.replace("filter", "per = [\"scen\"]\nfilter"),
+            "x.toml:3: claim c: per: unknown group key `scen`",
+        ),
+    ];
+    for (body, want) in cases {
+        let e = claims::parse(Path::new("x.toml"), &claim(&body))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with(want), "{e}\nwanted: {want}");
+        assert!(!e.contains('\n'), "{e}");
+    }
+    // The near column is named; columns of the other CSVs (dynamic, weights), counter
+    // columns, quoted numbers and free-form params are fine.
+    let e = claims::parse(
+        Path::new("x.toml"),
+        &claim(&ok.replace("ray_kind", "raykind")),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("did you mean `ray_kind`?"), "{e}");
+    let fine = ok
+        .replace("interior_per_ray", "boxes_max + spp + weight_pct")
+        .replace(
+            "threads = [1, 2]",
+            "beta = \"1\", budget_ms = [16, 33], noisy = false, params = { anything = 1 }",
+        )
+        .replace(
+            "min = 1 }",
+            "min = 1 }\nper = [\"param:whatever\", \"lambda_1\"]",
+        );
+    claims::parse(Path::new("x.toml"), &claim(&fine)).expect("known columns load");
+}
+
+/// Rows of one group from sources made with different configs (another image size: another
+/// ray count for the same view and ray kind) are not pooled into a verdict.
+#[test]
+fn rows_of_different_configs_are_not_pooled() {
+    let t = tempfile::tempdir().unwrap();
+    let r = results(t.path());
+    let c = claim("measure = \"interior_per_ray\"\nfilter = { ray_kind = \"primary\", scene = \"s2\", params = { k = 1 } }\nrows.a = { traversal = \"a\" }\nrows.b = { traversal = \"b\" }\ntest = { kind = \"ratio\", num = \"a\", den = \"b\", max = 0.9 }");
+    let other = |rays: u32| {
+        write(
+            t.path(),
+            &format!("other-{rays}.csv"),
+            &[
+                HEAD.into(),
+                row("s2", "b", "k=1", "primary", rays, 11.0, 0.3, 9, false, 6.0),
+            ],
+        )
+    };
+    // The same config elsewhere: the verdict it gives alone.
+    let same = eval(&c, &[r.clone(), other(100)]);
+    assert_eq!(same[0].verdict, Verdict::Agree, "{same:?}");
+    let mixed = eval(&c, &[r, other(10)]);
+    assert_eq!(mixed[0].verdict, Verdict::Inconclusive, "{mixed:?}");
+    assert!(
+        mixed[0]
+            .why
+            .contains("rows of different configs pooled: s2 primary has 100 rays in")
+            && mixed[0].why.contains("other-10.csv"),
+        "{}",
+        mixed[0].why
+    );
+}

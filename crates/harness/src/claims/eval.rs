@@ -991,10 +991,13 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
         .filter(|r| filter_matches(c, device, r))
         .collect();
     let (by, groups) = group_rows(c, &names, &base);
-    let results: Vec<GroupResult> = groups
+    let mut results: Vec<GroupResult> = groups
         .iter()
         .map(|g| evaluate_group(c, g, &names, &by, &m, opts))
         .collect();
+    if !results.is_empty() {
+        results.extend(missing_groups(c, &groups));
+    }
     let (verdict, ours, why) = combine(c, device, &results, &base, set);
     ClaimResult {
         id: c.id.clone(),
@@ -1028,6 +1031,66 @@ fn group_rows<'a>(c: &Claim, names: &[&'a str], base: &[&'a Row]) -> Grouped<'a>
     (by, groups)
 }
 
+/// The filter's value for group key `k` (`scene`, `view`, a column, `param:NAME`).
+fn filter_for_key<'c>(c: &'c Claim, k: &str) -> Option<&'c toml::Value> {
+    match k.strip_prefix("param:") {
+        Some(p) => match c.filter.0.get("params") {
+            Some(toml::Value::Table(t)) => t.get(p),
+            _ => None,
+        },
+        None => c.filter.0.get(k),
+    }
+}
+
+/// A filter value as written (strings bare).
+fn shown_value(v: &toml::Value) -> String {
+    match v {
+        toml::Value::String(s) => s.clone(),
+        v => v.to_string(),
+    }
+}
+
+/// A group for each literal value (no `*`) the filter names for a `per` key that no group
+/// has: partial rows must not decide a claim. Each is inconclusive and says what is missing.
+fn missing_groups(c: &Claim, groups: &BTreeSet<String>) -> Vec<GroupResult> {
+    let keys: Vec<Vec<&str>> = groups.iter().map(|g| g.split(" · ").collect()).collect();
+    let mut out = Vec::new();
+    for (i, k) in c.per.iter().enumerate() {
+        let Some(f) = filter_for_key(c, k) else {
+            continue;
+        };
+        let alts: Vec<&toml::Value> = match f {
+            toml::Value::Array(a) => a.iter().collect(),
+            v => vec![v],
+        };
+        for x in alts {
+            if matches!(x, toml::Value::String(s) if s.contains('*')) {
+                continue;
+            }
+            if keys
+                .iter()
+                .any(|g| g.get(i).is_some_and(|cell| cell_matches(x, cell)))
+            {
+                continue;
+            }
+            let shown = shown_value(x);
+            let group = (0..c.per.len())
+                .map(|j| if j == i { shown.as_str() } else { "*" })
+                .collect::<Vec<_>>()
+                .join(" · ");
+            out.push(GroupResult {
+                group,
+                verdict: Verdict::Inconclusive,
+                shown: "—".into(),
+                derived: None,
+                why: format!("rows missing: no rows for {k} = {shown}"),
+                values: BTreeMap::new(),
+            });
+        }
+    }
+    out
+}
+
 /// One group's result: its selectors' values pooled and the test run on them.
 fn evaluate_group(
     c: &Claim,
@@ -1039,6 +1102,13 @@ fn evaluate_group(
 ) -> GroupResult {
     let mut vals = BTreeMap::new();
     let mut problems = Vec::new();
+    let rows: Vec<&Row> = names
+        .iter()
+        .filter_map(|n| by[n].get(g))
+        .flatten()
+        .copied()
+        .collect();
+    problems.extend(mixed_configs(&rows));
     for n in names {
         match by[n].get(g) {
             None => problems.push(format!("no rows for `{n}`")),
@@ -1071,6 +1141,37 @@ fn evaluate_group(
             values: vals,
         }
     }
+}
+
+/// Rows of one group from several sources (folders, CSVs) that were not made with the same
+/// config: the same view and ray kind traced with a different number of rays (another image
+/// size or ray count). Rows of one run agree by construction.
+fn mixed_configs(rows: &[&Row]) -> Option<String> {
+    let mut seen: BTreeMap<String, (f64, &Row)> = BTreeMap::new();
+    for r in rows {
+        let Some(n) = r.num("rays").filter(|n| *n > 0.0) else {
+            continue;
+        };
+        let ctx = joined(r, &["scene", "ray_kind", "device"]);
+        match seen.get(&ctx) {
+            Some((m, r0)) if *m != n && r0.origin != r.origin => {
+                return Some(format!(
+                    "rows of different configs pooled: {} {} has {} rays in {} but {} in {}",
+                    r.get("scene").unwrap_or(""),
+                    r.get("ray_kind").unwrap_or(""),
+                    fmt(*m),
+                    r0.origin.display(),
+                    fmt(n),
+                    r.origin.display()
+                ))
+            }
+            Some(_) => {}
+            None => {
+                seen.insert(ctx, (n, r));
+            }
+        }
+    }
+    None
 }
 
 /// The test's verdict and why, with the caveats of the timed values: too few runs, a

@@ -52,6 +52,25 @@ impl Measure {
         Ok(Measure(terms))
     }
 
+    /// Every column term names a numeric column of the CSVs a run writes.
+    pub(crate) fn check_columns(&self) -> Result<(), String> {
+        use super::columns::{known, Kind};
+        for t in &self.0 {
+            if let Term::Col(c) = t {
+                match known().get(c.as_str()) {
+                    None => {
+                        return Err(format!(
+                            "`{c}` is not a column of the CSVs a run writes (see claims/README.md, Measures)"
+                        ))
+                    }
+                    Some(Kind::Number) => {}
+                    Some(_) => return Err(format!("`{c}` is not a numeric column")),
+                }
+            }
+        }
+        Ok(())
+    }
+
     pub(crate) fn timed(&self) -> bool {
         matches!(self.0[..], [Term::Time] | [Term::Mrays] | [Term::BuildTime])
     }

@@ -9,6 +9,8 @@
 //! files name columns, and any CSV a run writes (`results.csv`, `dynamic.csv`, `weights.csv`)
 //! can be read ([`rows::RowSet`]).
 
+mod child;
+mod columns;
 mod eval;
 mod measure;
 pub mod render;

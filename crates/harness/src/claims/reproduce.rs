@@ -44,6 +44,10 @@ pub struct Options {
     pub quiet: bool,
 }
 
+/// The share of the user's `--budget` given to the runs ([`Options::budget_s`]); the rest is
+/// kept for loading the claims and writing the report.
+pub const RUNS_SHARE: f64 = 0.95;
+
 /// One planned (and then made) run.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct PlannedRun {
@@ -58,6 +62,8 @@ pub struct PlannedRun {
     pub scaled: Option<String>,
     pub wall_s: Option<f64>,
     pub exit: Option<i32>,
+    /// How the run failed (`exit status 1`, `killed by signal 9`, `did not start: …`).
+    pub failed: Option<String>,
     pub reused: bool,
     /// Where the reused rows were made by another build: `commit` (`+dirty`) of their
     /// results.json, said beside the run in REPORT.md.
@@ -320,6 +326,7 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
                 scaled,
                 wall_s: None,
                 exit: None,
+                failed: None,
                 reused: false,
                 reused_from: None,
             });
@@ -329,79 +336,34 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
     Ok(out)
 }
 
-/// Make the planned runs, evaluate the claims, write the report folder.
+/// Make the planned runs, evaluate the claims, write the report folder. Everything that can
+/// be known wrong is checked before the first run ([`preflight`]); a signal ends the run in
+/// progress and returns an error (the finished rows stay for a rerun to resume).
 pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
     let planned = plan(opts)?;
-    std::fs::create_dir_all(&opts.out).map_err(|e| HarnessError::io(&opts.out, e))?;
+    preflight(opts, &planned)?;
+    let estimate: f64 = planned
+        .iter()
+        .flat_map(|p| &p.2)
+        .filter(|r| status(&r.folder).as_deref() != Some("complete"))
+        .map(|r| r.cost_s)
+        .sum();
+    if estimate > opts.budget_s + 0.5 {
+        eprintln!(
+            "note: reproduce: --budget {} is less than the runs take at their smallest images \
+             (about {estimate:.0} s on the reference machine)",
+            opts.budget_text
+        );
+    }
+    // One reproduce per report folder, until this one ends.
+    let _lock = crate::results::lock::FolderLock::acquire(&opts.out)?;
+    super::child::catch_signals();
     let started = Instant::now();
     let start_time = crate::results::meta::now_rfc3339();
     let mut reports = Vec::new();
     for (path, file, mut runs) in planned {
         for r in &mut runs {
-            if status(&r.folder).as_deref() == Some("complete")
-                || (r.args.first().is_some_and(|a| a != "run") && r.folder.is_dir())
-            {
-                r.reused = true;
-                r.reused_from = made_by(&r.folder).filter(|by| *by != this_build());
-                if let Some(by) = &r.reused_from {
-                    eprintln!(
-                        "note: reproduce: {} {}: reusing {}, made by {by}; this binary is {} \
-                         (a fresh --out measures this build)",
-                        r.paper,
-                        r.label,
-                        r.folder.display(),
-                        this_build()
-                    );
-                }
-                if !opts.quiet {
-                    eprintln!(
-                        "reproduce: {} {}: reused {}",
-                        r.paper,
-                        r.label,
-                        r.folder.display()
-                    );
-                }
-                continue;
-            }
-            let mut args = r.args.clone();
-            if r.args.first().is_some_and(|a| a == "run") && r.folder.join("results.json").exists()
-            {
-                args.push("--resume".into());
-            }
-            std::fs::create_dir_all(&r.folder).map_err(|e| HarnessError::io(&r.folder, e))?;
-            if !opts.quiet {
-                eprintln!(
-                    "reproduce: {} {} (about {:.0} s{}) …",
-                    r.paper,
-                    r.label,
-                    r.cost_s,
-                    r.scaled
-                        .as_deref()
-                        .map(|s| format!("; {s}"))
-                        .unwrap_or_default()
-                );
-            }
-            let t = Instant::now();
-            let st = Command::new(&opts.exe)
-                .args(&args)
-                .stdout(std::process::Stdio::null())
-                .status()
-                .map_err(|e| HarnessError::io(&opts.exe, e))?;
-            r.wall_s = Some(t.elapsed().as_secs_f64());
-            r.exit = st.code();
-            if !opts.quiet {
-                eprintln!(
-                    "reproduce: {} {} done in {:.0} s{}",
-                    r.paper,
-                    r.label,
-                    r.wall_s.unwrap_or(0.0),
-                    if st.success() {
-                        String::new()
-                    } else {
-                        format!(" (exit {:?})", st.code())
-                    }
-                );
-            }
+            make_run(r, opts)?;
         }
         let mut sources: Vec<PathBuf> = runs
             .iter()
@@ -425,9 +387,174 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
             adapters: adapters(&rows),
         });
     }
+    if let Some(sig) = super::child::received() {
+        return Err(interrupted(sig, None, opts));
+    }
     let wall = started.elapsed().as_secs_f64();
+    let budget = opts.budget_s / RUNS_SHARE;
+    if wall > budget + 0.5 {
+        eprintln!(
+            "note: reproduce: took {wall:.0} s, {:.0} s over the budget of {}",
+            wall - budget,
+            opts.budget_text
+        );
+    }
     write_report(opts, &reports, &start_time, wall)?;
     Ok(reports)
+}
+
+/// Before the first run: every `--with` holds trace-bench results, every run's config exists
+/// and parses with its edits, and no other process writes into a run's folder.
+fn preflight(
+    opts: &Options,
+    planned: &[(PathBuf, ClaimsFile, Vec<PlannedRun>)],
+) -> Result<(), HarnessError> {
+    for w in &opts.with {
+        RowSet::read_results(std::slice::from_ref(w))
+            .map_err(|e| HarnessError::Other(format!("--with {}: {e}", w.display())))?;
+    }
+    for (path, _, runs) in planned {
+        for r in runs.iter().filter(|r| r.args[0] == "run") {
+            let cfg = Path::new(&r.args[1]);
+            let sets: Vec<String> = r
+                .args
+                .windows(2)
+                .filter(|w| w[0] == "--set")
+                .map(|w| w[1].clone())
+                .collect();
+            let text = std::fs::read_to_string(cfg).map_err(|e| {
+                HarnessError::io(cfg, format!("{e} (a [[run]] config of {})", path.display()))
+            })?;
+            let text = crate::experiment::config::overrides::apply_sets(
+                &cfg.display().to_string(),
+                &text,
+                &sets,
+            )?;
+            toml::from_str::<toml::Table>(&text).map_err(|e| {
+                let line = e
+                    .span()
+                    .map(|s| crate::experiment::config::line_of(&text, s.start));
+                HarnessError::io(
+                    cfg,
+                    format!(
+                        "{}{} (a [[run]] config of {})",
+                        line.map(|l| format!("{l}: ")).unwrap_or_default(),
+                        e.message().trim().replace('\n', " "),
+                        path.display()
+                    ),
+                )
+            })?;
+        }
+        for r in runs.iter().filter(|r| r.folder.is_dir()) {
+            crate::results::lock::FolderLock::acquire(&r.folder)?;
+        }
+    }
+    Ok(())
+}
+
+/// Make one planned run (or reuse its folder); a failed run is recorded, a signal is an error.
+fn make_run(r: &mut PlannedRun, opts: &Options) -> Result<(), HarnessError> {
+    if let Some(sig) = super::child::received() {
+        return Err(interrupted(sig, None, opts));
+    }
+    if status(&r.folder).as_deref() == Some("complete")
+        || (r.args.first().is_some_and(|a| a != "run") && r.folder.is_dir())
+    {
+        r.reused = true;
+        r.reused_from = made_by(&r.folder).filter(|by| *by != this_build());
+        if let Some(by) = &r.reused_from {
+            eprintln!(
+                "note: reproduce: {} {}: reusing {}, made by {by}; this binary is {} \
+                 (a fresh --out measures this build)",
+                r.paper,
+                r.label,
+                r.folder.display(),
+                this_build()
+            );
+        }
+        if !opts.quiet {
+            eprintln!(
+                "reproduce: {} {}: reused {}",
+                r.paper,
+                r.label,
+                r.folder.display()
+            );
+        }
+        return Ok(());
+    }
+    let mut args = r.args.clone();
+    if r.args.first().is_some_and(|a| a == "run") && r.folder.join("results.json").exists() {
+        args.push("--resume".into());
+    }
+    std::fs::create_dir_all(&r.folder).map_err(|e| HarnessError::io(&r.folder, e))?;
+    if !opts.quiet {
+        eprintln!(
+            "reproduce: {} {} (about {:.0} s{}) …",
+            r.paper,
+            r.label,
+            r.cost_s,
+            r.scaled
+                .as_deref()
+                .map(|s| format!("; {s}"))
+                .unwrap_or_default()
+        );
+    }
+    let t = Instant::now();
+    let mut cmd = Command::new(&opts.exe);
+    cmd.args(&args).stdout(std::process::Stdio::null());
+    let (st, sig) = match super::child::run(&mut cmd) {
+        Ok(x) => x,
+        Err(e) => {
+            r.failed = Some(format!("did not start: {e}"));
+            eprintln!(
+                "reproduce: {} {}: {}: did not start: {e}",
+                r.paper,
+                r.label,
+                opts.exe.display()
+            );
+            return Ok(());
+        }
+    };
+    r.wall_s = Some(t.elapsed().as_secs_f64());
+    r.exit = st.code();
+    if let Some(sig) = sig {
+        return Err(interrupted(sig, Some(r), opts));
+    }
+    if !st.success() {
+        r.failed = Some(super::child::ended(&st));
+    }
+    if !opts.quiet || r.failed.is_some() {
+        eprintln!(
+            "reproduce: {} {} done in {:.0} s{}",
+            r.paper,
+            r.label,
+            r.wall_s.unwrap_or(0.0),
+            r.failed
+                .as_deref()
+                .map(|f| format!(" (failed: {f})"))
+                .unwrap_or_default()
+        );
+    }
+    Ok(())
+}
+
+/// The error of a reproduce ended by signal `sig` (in run `r`, which was ended).
+fn interrupted(sig: i32, r: Option<&PlannedRun>, opts: &Options) -> HarnessError {
+    let run = r
+        .map(|r| {
+            format!(
+                "ended the run {} {} (its finished rows stay in {}); ",
+                r.paper,
+                r.label,
+                r.folder.display()
+            )
+        })
+        .unwrap_or_default();
+    HarnessError::Other(format!(
+        "reproduce: interrupted by {}: {run}no report written; rerun with --out {} to resume",
+        super::child::signal_name(sig),
+        opts.out.display()
+    ))
 }
 
 fn write(path: &Path, text: &str) -> Result<(), HarnessError> {
@@ -512,7 +639,10 @@ fn write_report(
                 } else {
                     p.wall_s.map(|w| format!("{w:.0}")).unwrap_or_default()
                 },
-                p.exit.map(|c| c.to_string()).unwrap_or_default()
+                p.failed
+                    .clone()
+                    .or(p.exit.map(|c| c.to_string()))
+                    .unwrap_or_default()
             ));
         }
         md.push('\n');

@@ -14,6 +14,8 @@ pub struct Row {
     pub origin: Arc<PathBuf>,
     header: Arc<Vec<String>>,
     cells: Vec<String>,
+    /// From a CSV with the columns trace-bench writes (results, dynamic, weights, …).
+    ours: bool,
 }
 
 impl Row {
@@ -159,6 +161,24 @@ impl RowSet {
     }
 }
 
+impl RowSet {
+    /// [`RowSet::read`], refusing a source (folder or file) with no row of a CSV trace-bench
+    /// writes: an unrelated CSV, or results without rows.
+    pub fn read_results(paths: &[PathBuf]) -> Result<RowSet, HarnessError> {
+        for p in paths {
+            let one = RowSet::read(std::slice::from_ref(p))?;
+            if !one.rows.iter().any(|r| r.ours) {
+                return Err(HarnessError::io(
+                    p,
+                    "holds no trace-bench results: no row of a CSV with the columns trace-bench \
+                     writes (results.csv, dynamic.csv, weights.csv)",
+                ));
+            }
+        }
+        RowSet::read(paths)
+    }
+}
+
 fn read_csv(f: &Path, origin: &Arc<PathBuf>) -> Result<Vec<Row>, HarnessError> {
     let mut rd = csv::ReaderBuilder::new()
         .flexible(false)
@@ -183,6 +203,7 @@ fn read_csv(f: &Path, origin: &Arc<PathBuf>) -> Result<Vec<Row>, HarnessError> {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default()
     };
+    let ours = is_results || super::columns::is_ours(&header);
     let mut out = Vec::new();
     for (i, rec) in rd.records().enumerate() {
         let rec = rec.map_err(|e| HarnessError::io(f, format!("row {}: {e}", i + 2)))?;
@@ -191,6 +212,7 @@ fn read_csv(f: &Path, origin: &Arc<PathBuf>) -> Result<Vec<Row>, HarnessError> {
             origin: origin.clone(),
             header: header.clone(),
             cells: rec.iter().map(str::to_owned).collect(),
+            ours,
         });
     }
     Ok(out)

@@ -228,7 +228,11 @@ pub struct Selector(pub BTreeMap<String, toml::Value>);
 
 impl Selector {
     fn check(&self) -> Result<(), String> {
+        use super::columns;
         for (k, v) in &self.0 {
+            if !columns::is_known(k) {
+                return Err(unknown_column(k, "field"));
+            }
             if k == "params" {
                 let toml::Value::Table(t) = v else {
                     return Err("params: must be a table of parameter = value".into());
@@ -238,10 +242,44 @@ impl Selector {
                 }
             } else {
                 check_value(v).map_err(|m| format!("{k}: {m}"))?;
+                if let Some(kind) = columns::known().get(k.as_str()) {
+                    columns::check_kind(*kind, v).map_err(|m| format!("{k}: {m}"))?;
+                }
             }
         }
         Ok(())
     }
+}
+
+/// `unknown field `k``, with the nearest known column when one is near.
+fn unknown_column(k: &str, what: &str) -> String {
+    let near = super::columns::known()
+        .keys()
+        .map(String::as_str)
+        .chain(super::columns::PSEUDO.iter().copied())
+        .map(|c| (edit_distance(k, c), c))
+        .min()
+        .filter(|(d, _)| *d <= 2.max(k.len() / 4));
+    let hint = near.map(|(_, c)| format!(" (did you mean `{c}`?)"));
+    format!(
+        "unknown {what} `{k}`: not a column of the CSVs a run writes (see claims/README.md){}",
+        hint.unwrap_or_default()
+    )
+}
+
+/// Levenshtein distance.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1];
+        for (j, cb) in b.iter().enumerate() {
+            let sub = prev[j] + usize::from(ca != *cb);
+            cur.push(sub.min(prev[j + 1] + 1).min(cur[j] + 1));
+        }
+        prev = cur;
+    }
+    prev[b.len()]
 }
 
 fn check_value(v: &toml::Value) -> Result<(), String> {
@@ -341,10 +379,15 @@ impl ClaimsFile {
                 }
                 _ => {}
             }
-            super::measure::Measure::parse(&c.measure).map_err(|m| err("measure", m))?;
+            let m = super::measure::Measure::parse(&c.measure).map_err(|m| err("measure", m))?;
+            m.check_columns().map_err(|m| err("measure", m))?;
             for p in &c.per {
-                if p.is_empty() || p.contains(char::is_whitespace) {
+                let col = p.strip_prefix("param:").map_or(Some(p.as_str()), |_| None);
+                if p.is_empty() || p.contains(char::is_whitespace) || p == "param:" {
                     return Err(err("per", format!("`{p}` is not a column or group key")));
+                }
+                if let Some(col) = col.filter(|c| !super::columns::is_known(c)) {
+                    return Err(err("per", unknown_column(col, "group key")));
                 }
             }
             if c.devices.is_empty() {

@@ -136,12 +136,7 @@ fn check_file(
 ) -> Result<Result<(), String>, HarnessError> {
     let src = s.source.get_ref();
     if !src.starts_with("builtin:") {
-        let p = Path::new(src);
-        let full = if p.is_absolute() {
-            p.to_path_buf()
-        } else {
-            scenes_root.join(p)
-        };
+        let full = tb_scene::source::resolve(src, scenes_root);
         if full.is_dir() {
             return Err(cx.err(
                 s.source.span(),
