@@ -228,14 +228,7 @@ impl EmbreePeer {
 mod tests {
     use super::*;
 
-    fn tris() -> Vec<Triangle> {
-        (0..64)
-            .map(|i| {
-                let p = tb_core::Vec3::new((i % 8) as f32, (i / 8) as f32, (i % 3) as f32);
-                Triangle::new(p, p + tb_core::Vec3::X * 0.9, p + tb_core::Vec3::Y * 0.9)
-            })
-            .collect()
-    }
+    use crate::test_tris as tris;
 
     /// Embree's BVH size is unknown: `structure_bytes` 0, `bytes` our vertex and index
     /// buffers (three 12-byte vertices and three 4-byte indices a triangle).

@@ -19,6 +19,17 @@ pub mod embree;
 #[cfg(feature = "obvhs")]
 pub mod obvhs;
 
+/// 64 small triangles on a lattice: the scene of the peers' memory tests.
+#[cfg(all(test, any(feature = "bvh", feature = "embree", feature = "obvhs")))]
+fn test_tris() -> Vec<tb_core::Triangle> {
+    (0..64)
+        .map(|i| {
+            let p = tb_core::Vec3::new((i % 8) as f32, (i / 8) as f32, (i % 3) as f32);
+            tb_core::Triangle::new(p, p + tb_core::Vec3::X * 0.9, p + tb_core::Vec3::Y * 0.9)
+        })
+        .collect()
+}
+
 use tb_core::{
     CounterSet, HitRecord, MollerTrumbore, Query, Ray, TraversalInfo, TraversalStats, TriTest,
     TriTestKind, Watertight,

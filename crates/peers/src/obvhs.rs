@@ -141,14 +141,7 @@ impl Structure for ObvhsPeer {
 mod tests {
     use super::*;
 
-    fn tris() -> Vec<Triangle> {
-        (0..64)
-            .map(|i| {
-                let p = tb_core::Vec3::new((i % 8) as f32, (i / 8) as f32, (i % 3) as f32);
-                Triangle::new(p, p + tb_core::Vec3::X * 0.9, p + tb_core::Vec3::Y * 0.9)
-            })
-            .collect()
-    }
+    use crate::test_tris as tris;
 
     /// `structure_bytes` is the wide nodes and 4 bytes an index; `bytes` adds the triangles.
     #[test]
