@@ -118,6 +118,8 @@ pub struct Gpu {
     pub(crate) kernels: crate::kernels::Kernels,
     /// Optional cap on rays per dispatch ([`Gpu::limit_dispatch`]).
     pub(crate) dispatch_cap: Option<u64>,
+    /// A timed sample's least duration, ms, and most passes ([`Gpu::set_timed_sample`]).
+    pub(crate) sample: (f64, u32),
     /// First uncaptured error or device loss, reported by the next wait.
     errors: Arc<Mutex<Option<GpuError>>>,
 }
@@ -225,6 +227,7 @@ impl Gpu {
             limits,
             kernels,
             dispatch_cap: None,
+            sample: (crate::MIN_SAMPLE_MS, crate::MAX_PASSES),
             errors,
         };
         gpu.check()?;

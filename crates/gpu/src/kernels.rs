@@ -2,6 +2,15 @@
 //! over, each made on first use and cached (by program name; layouts by buffer count and
 //! whether the program sorts its rays; pipelines by program, query, triangle test and
 //! counting, the sort passes' by program).
+//!
+//! Each program is compiled twice from the same source: with wgpu's runtime checks (bounds
+//! checks on every access, a bound on every loop) for the counting variant, and as a trusted
+//! module without them ([`wgpu::ShaderRuntimeChecks::unchecked`]) for the timed variant and
+//! the sort passes, so that timed kernels run as written (issue 44). The trusted module is
+//! the same WGSL, validated by naga as the checked one; every program's timed variant is
+//! tested ray for ray against its counting (checked) variant and the CPU (tb-harness's
+//! `gpu_oracle`, the structure crates' GPU tests). `TRACE_BENCH_GPU_CHECKED=1` compiles
+//! the timed variant with the checks too.
 
 use crate::{GpuError, WORKGROUP};
 use std::collections::HashMap;
@@ -26,7 +35,10 @@ pub(crate) const COMMON_BINDINGS: u32 = 5;
 /// a second program of the same name but other code is refused rather than run with the
 /// first one's pipelines.
 struct Module {
+    /// With wgpu's runtime checks: the counting variant.
     module: wgpu::ShaderModule,
+    /// Without them (trusted): the timed variant and the sort passes.
+    trusted: wgpu::ShaderModule,
     source: &'static str,
     includes: Vec<&'static str>,
     stack_size: u32,
@@ -64,6 +76,11 @@ pub(crate) struct Kernels {
     /// Whether the watertight test's fallback runs in f64 (`SHADER_F64`).
     f64: bool,
     cache: Mutex<Cache>,
+}
+
+/// `TRACE_BENCH_GPU_CHECKED=1`: the timed variant keeps wgpu's runtime checks (module doc).
+pub fn checked_only() -> bool {
+    std::env::var_os("TRACE_BENCH_GPU_CHECKED").is_some_and(|v| v == "1")
 }
 
 fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
@@ -189,18 +206,35 @@ impl Kernels {
             }
             return Ok(());
         }
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        let source = self.source(p);
+        let desc = || wgpu::ShaderModuleDescriptor {
             label: Some(p.name),
-            source: wgpu::ShaderSource::Wgsl(self.source(p).into()),
-        });
+            source: wgpu::ShaderSource::Wgsl(source.as_str().into()),
+        };
+        let module = device.create_shader_module(desc());
         check().map_err(|e| match e {
             GpuError::Wgpu(m) => GpuError::Program(format!("GPU program `{}`: {m}", p.name)),
             e => e,
         })?;
+        let trusted = if checked_only() {
+            module.clone()
+        } else {
+            // SAFETY: the module is the checked one's WGSL, validated above; its accesses stay
+            // within the buffers and its loops end (bounded by the structure's depth, step
+            // cap or counts), which the ray-for-ray tests of every program against its checked
+            // build and the CPU confirm (module doc).
+            unsafe {
+                device.create_shader_module_trusted(
+                    desc(),
+                    wgpu::ShaderRuntimeChecks::unchecked(),
+                )
+            }
+        };
         cache.modules.insert(
             p.name,
             Module {
                 module,
+                trusted,
                 source: p.source,
                 includes: p.includes.clone(),
                 stack_size: p.stack_size,
@@ -227,7 +261,7 @@ impl Kernels {
 
     fn make_pipeline(
         device: &wgpu::Device,
-        m: &Module,
+        module: &wgpu::ShaderModule,
         l: &Layouts,
         entry: &str,
         constants: &[(&str, f64)],
@@ -235,7 +269,7 @@ impl Kernels {
         device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some(entry),
             layout: Some(&l.pipeline),
-            module: &m.module,
+            module,
             entry_point: Some(entry),
             compilation_options: wgpu::PipelineCompilationOptions {
                 constants,
@@ -271,7 +305,8 @@ impl Kernels {
                 let (name, query, tri, count) = v;
                 let m = &modules[name];
                 let constants = Self::constants(m, query, tri, count);
-                Self::make_pipeline(device, m, l, "main", &constants)
+                let module = if count { &m.module } else { &m.trusted };
+                Self::make_pipeline(device, module, l, "main", &constants)
             })
             .clone();
         (pipeline, l.clone(), fresh)
@@ -300,7 +335,7 @@ impl Kernels {
                 let constants = Self::constants(m, Query::Closest, TriTestKind::Watertight, false);
                 SORT_PASSES
                     .iter()
-                    .map(|entry| Self::make_pipeline(device, m, l, entry, &constants))
+                    .map(|entry| Self::make_pipeline(device, &m.trusted, l, entry, &constants))
                     .collect()
             })
             .clone()

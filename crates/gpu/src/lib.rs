@@ -55,7 +55,8 @@ mod trace;
 
 pub use device::{AdapterChoice, AdapterSummary, Backend, Gpu};
 pub use tb_core::{GpuArrange, GpuBuffer, GpuProgram};
-pub use trace::{GpuRays, GpuStructure, Timing};
+pub use kernels::checked_only as timed_passes_checked;
+pub use trace::{GpuRays, GpuStructure, Timing, MAX_PASSES, MIN_SAMPLE_MS};
 
 use tb_core::TraversalStats;
 

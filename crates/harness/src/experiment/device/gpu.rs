@@ -99,6 +99,16 @@ impl GpuDevice {
                     "device_type": a.device_type,
                     "adapter_type": a.kind(),
                     "timing": if a.timestamps { "timestamp-queries" } else { "wall-clock" },
+                    "timed_sample": format!(
+                        "back-to-back passes lasting at least {} ms (at most {}), trusted build without runtime checks{}",
+                        tb_gpu::MIN_SAMPLE_MS,
+                        tb_gpu::MAX_PASSES,
+                        if tb_gpu::timed_passes_checked() {
+                            " (TRACE_BENCH_GPU_CHECKED=1: checked)"
+                        } else {
+                            ""
+                        }
+                    ),
                     "watertight_fallback": if a.f64 { "f64" } else { "f32" },
                     "max_rays_per_dispatch": g.max_rays_per_dispatch(),
                 })
