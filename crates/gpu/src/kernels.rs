@@ -224,10 +224,7 @@ impl Kernels {
             // cap or counts), which the ray-for-ray tests of every program against its checked
             // build and the CPU confirm (module doc).
             unsafe {
-                device.create_shader_module_trusted(
-                    desc(),
-                    wgpu::ShaderRuntimeChecks::unchecked(),
-                )
+                device.create_shader_module_trusted(desc(), wgpu::ShaderRuntimeChecks::unchecked())
             }
         };
         cache.modules.insert(

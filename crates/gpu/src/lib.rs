@@ -54,8 +54,8 @@ mod kernels;
 mod trace;
 
 pub use device::{AdapterChoice, AdapterSummary, Backend, Gpu};
-pub use tb_core::{GpuArrange, GpuBuffer, GpuProgram};
 pub use kernels::checked_only as timed_passes_checked;
+pub use tb_core::{GpuArrange, GpuBuffer, GpuProgram};
 pub use trace::{GpuRays, GpuStructure, Timing, MAX_PASSES, MIN_SAMPLE_MS};
 
 use tb_core::TraversalStats;

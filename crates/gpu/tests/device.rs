@@ -408,7 +408,9 @@ fn first_trace_of_a_variant_is_warmed_up() {
 /// maximum; with the defaults it lasts at least the minimum unless capped.
 #[test]
 fn a_timed_trace_is_a_sustained_sample() {
-    let Some(mut gpu) = open_or_skip() else { return };
+    let Some(mut gpu) = open_or_skip() else {
+        return;
+    };
     let brute = BruteForce::new(&[triangle()]);
     let gs = gpu.upload(&program(&brute)).unwrap();
     let batch = [Ray::new(Vec3::ZERO, Vec3::Z); 64];
