@@ -491,6 +491,30 @@ fn time_derived_columns_get_the_floor() {
     assert_eq!(eval(&c("c"), &[f])[0].verdict, Verdict::Agree);
 }
 
+/// A `build_stats` entry in milliseconds (the R-tree's `insert_ms`) is a timing too: a 10 %
+/// lead is not decided, a 2x one is; a counter entry (`splits`) is decided on any gap.
+#[test]
+fn build_stats_timings_get_the_floor() {
+    let t = tempfile::tempdir().unwrap();
+    let f = write(
+        t.path(),
+        "b.csv",
+        &[
+            "scene,structure,params,traversal,device,threads,triangle_test,ray_kind,rays,build_stats".into(),
+            "s,a,k=1,x,cpu,1,watertight,primary,10,insert_ms=110;splits=11".into(),
+            "s,b,k=1,x,cpu,1,watertight,primary,10,insert_ms=100;splits=10".into(),
+            "s,c,k=1,x,cpu,1,watertight,primary,10,insert_ms=220;splits=22".into(),
+        ],
+    );
+    let c = |key: &str, other: &str| {
+        claim(&format!("measure = \"build:{key}\"\nrows.x = {{ structure = \"{other}\" }}\nrows.b = {{ structure = \"b\" }}\ntest = {{ kind = \"order\", rows = [\"b\", \"x\"], strict = true }}"))
+    };
+    let v = |key: &str, other: &str| eval(&c(key, other), std::slice::from_ref(&f))[0].verdict;
+    assert_eq!(v("insert_ms", "a"), Verdict::Inconclusive);
+    assert_eq!(v("insert_ms", "c"), Verdict::Agree);
+    assert_eq!(v("splits", "a"), Verdict::Agree);
+}
+
 /// A value the filter names for a `per` key without rows is a group of its own, inconclusive
 /// and named: the claim does not agree on the groups that happen to be there.
 #[test]

@@ -118,6 +118,9 @@ fn less(a: &[f64; 4], b: &[f64; 4]) -> bool {
 pub(crate) struct BuildCounts {
     pub splits: u64,
     pub reinserts: u64,
+    /// Entries ejected by the forced reinsertions, `p` each
+    /// ([`RtreeParams::reinsert_count`]).
+    pub ejected: u64,
 }
 
 /// The dynamic R-tree during construction.
@@ -281,11 +284,31 @@ impl<'p> Builder<'p> {
     /// ("close reinsert", Beckmann et al. 1990).
     fn reinsert(&mut self, n: u32, path: &[(u32, u32)]) {
         self.counts.reinserts += 1;
+        let level = self.nodes[n as usize].level;
+        let mut removed = self.eject(n);
+        // Refit the boxes on the path (they can only shrink).
+        let mut child = n;
+        for &(pn, s) in path.iter().rev() {
+            let b = self.nodes[child as usize].bounds();
+            self.nodes[pn as usize].e[s as usize].bb = b;
+            child = pn;
+        }
+        removed.reverse(); // closest of the ejected first
+        for e in removed {
+            self.insert(e, level);
+        }
+    }
+
+    /// Remove and return the `p` = [`RtreeParams::reinsert_count`] entries of node `n` whose
+    /// centres lie farthest from the centre of its box, farthest first (Feldmann section
+    /// 2.2.1: "the k entries with greatest ... distance are removed (ejected)"; Beckmann et
+    /// al. 1990, p = 30 % of M). The node keeps the others, closest last in distance order.
+    pub(crate) fn eject(&mut self, n: u32) -> Vec<Entry> {
+        let p = self.p.reinsert_count();
+        self.counts.ejected += p as u64;
         let node = &mut self.nodes[n as usize];
-        let level = node.level;
         let c = node.bounds().center();
         let len = node.len as usize;
-        let p = self.p.reinsert_count();
         let dist = |e: &Entry| {
             let d = e.bb.center() - c;
             let d = [d.x as f64, d.y as f64, d.z as f64];
@@ -298,23 +321,13 @@ impl<'p> Builder<'p> {
         };
         // Sort by decreasing distance; the first `p` are ejected.
         node.e[..len].sort_by(|a, b| dist(b).total_cmp(&dist(a)));
-        let mut removed: Vec<Entry> = node.e[..p].to_vec();
+        let removed: Vec<Entry> = node.e[..p].to_vec();
         node.e.copy_within(p..len, 0);
         node.len = (len - p) as u32;
         for k in node.len as usize..len {
             node.e[k] = NO_ENTRY;
         }
-        // Refit the boxes on the path (they can only shrink).
-        let mut child = n;
-        for &(pn, s) in path.iter().rev() {
-            let b = self.nodes[child as usize].bounds();
-            self.nodes[pn as usize].e[s as usize].bb = b;
-            child = pn;
-        }
-        removed.reverse(); // closest of the ejected first
-        for e in removed {
-            self.insert(e, level);
-        }
+        removed
     }
 
     /// R*-tree split of an overflowing node (`M + 1` entries): ChooseSplitAxis by the least
@@ -792,5 +805,56 @@ mod tests {
         ] {
             assert_eq!(split(s), (vec![0, 1, 2], vec![3, 4]), "{s:?}");
         }
+    }
+
+    /// The reinsert share decides how many entries a forced reinsertion ejects, and which:
+    /// the `p = round(share M)` (clamped to `1..=M + 1 − m`) farthest from the node's centre
+    /// (Feldmann section 2.2.1; Beckmann et al. 1990). Five boxes on x, the node's box
+    /// `[0, 12]` with centre 6; entry centres 1.5, 3.5, 4.5, 5.5, 11.5 lie 4.5, 2.5, 1.5, 0.5,
+    /// 5.5 from it, so the order of ejection is 4, 0, 1, 2, 3.
+    #[test]
+    fn reinsert_share_ejects_the_farthest_p() {
+        let y = [0.0, 1.0];
+        let boxes = [
+            bx([0.0, 3.0], y, y),
+            bx([3.0, 4.0], y, y),
+            bx([4.0, 5.0], y, y),
+            bx([5.0, 6.0], y, y),
+            bx([11.0, 12.0], y, y),
+        ];
+        for (share, ejected) in [
+            (0.01, &[4][..]),
+            (0.3, &[4]),
+            (0.4, &[4, 0]),
+            (0.5, &[4, 0]),
+            (0.7, &[4, 0, 1]),
+            (0.75, &[4, 0, 1]),
+        ] {
+            let p = RtreeParams {
+                reinsert_share: share,
+                ..Default::default()
+            };
+            let mut b = node_of(&p, 0, &boxes);
+            let out: Vec<u32> = b.eject(0).iter().map(|e| e.id).collect();
+            assert_eq!(out, ejected, "share {share}");
+            assert_eq!(b.counts.ejected, ejected.len() as u64);
+            let kept = &b.nodes[0];
+            assert_eq!(
+                kept.len as usize,
+                boxes.len() - ejected.len(),
+                "share {share}"
+            );
+            for e in kept.entries() {
+                assert!(!ejected.contains(&e.id), "share {share}: {} kept", e.id);
+            }
+        }
+        // At M = 8, m = 4 the clamp keeps m: 0.75 M = 6 > M + 1 − m = 5.
+        let p = RtreeParams {
+            big_m: 8,
+            m: 4,
+            reinsert_share: 0.75,
+            ..Default::default()
+        };
+        assert_eq!(p.reinsert_count(), 5);
     }
 }

@@ -32,6 +32,7 @@ pub use params::{ChildOrder, RtreeParams, Strategy};
 pub use gpu::GPU_NODES;
 
 use serde::{Deserialize, Serialize};
+use std::time::Instant;
 use tb_core::{
     build_with, dispatch, Aabb, AccelError, BuildReport, Family, MemoryReport, Structure,
     Traversal, TraversalInfo, Triangle, Vec3,
@@ -148,6 +149,15 @@ pub struct Rtree {
     params: RtreeParams,
     splits: u64,
     reinserts: u64,
+    /// Entries ejected by the forced reinsertions (`p` each).
+    ejected: u64,
+    /// Wall time of the pointer build, ms: successive insertion (STR: the bulk load), the
+    /// part Feldmann section 5 calls construction ("constructed on the CPU using pointers").
+    insert_ms: f64,
+    /// Wall time of packing the pointer tree into the level-order array of section 4 ("packed
+    /// ... into a linear memory layout in a subsequent step", section 5), ms: the slots, the
+    /// index map and the triangles in leaf order.
+    pack_ms: f64,
 }
 
 impl Rtree {
@@ -206,20 +216,24 @@ impl Rtree {
                 tris.len()
             ))
         };
+        let t_insert = Instant::now();
         let b = match params.strategy {
             Strategy::Str => build::bulk_load_str(tris, params),
             _ => build::insert_all(tris, params, &fits)
                 .map_err(|(levels, inserted)| refuse(levels, Some(inserted)))?,
         };
+        let insert_ms = t_insert.elapsed().as_secs_f64() * 1e3;
         let levels = b.height();
         if !fits(levels) {
             return Err(refuse(levels, None));
         }
         let counts = b.counts;
+        let t_pack = Instant::now();
         let packed = build::pack(&b, tris, params.child_order, params.big_m);
         drop(b);
         assert!((packed.root_level as usize) < MAX_LEVELS);
         let triangles = packed.prim_ids.iter().map(|&i| tris[i as usize]).collect();
+        let pack_ms = t_pack.elapsed().as_secs_f64() * 1e3;
         Ok(Rtree {
             first_leaf: build::first_leaf(params.big_m, packed.root_level),
             nodes: packed.nodes,
@@ -229,6 +243,9 @@ impl Rtree {
             params: *params,
             splits: counts.splits,
             reinserts: counts.reinserts,
+            ejected: counts.ejected,
+            insert_ms,
+            pack_ms,
         })
     }
 
@@ -516,7 +533,12 @@ impl Structure for Rtree {
     /// 1`, as the BVH's); extra figures: `levels` (`L + 1`), `slots` (all, empty included),
     /// `empty_slots`, `empty_share` (empty / all slots), `intermediate`, `leaves`,
     /// `fill_intermediate` and `fill_leaves` (mean entries per node), `splits`, `reinserts`
-    /// (forced reinsertions during the build).
+    /// (forced reinsertions during the build), `reinserted_entries` (the entries they
+    /// ejected, `p` = [`RtreeParams::reinsert_count`] each), and the build's two parts in wall time,
+    /// `insert_ms` (the pointer build: insertion, or STR's bulk load) and `pack_ms` (the
+    /// level-order packing; Feldmann section 5 names them apart: the trees "are constructed
+    /// on the CPU using pointers and are packed ... in a subsequent step"). `build_ms` times
+    /// both (and is the median of `run.build_repeat` builds; these two are the last build's).
     fn report(&self) -> BuildReport {
         let f = self.figures();
         let root_area = self.nodes.first().map_or(0.0, |n| n.bounds().area() as f64);
@@ -542,6 +564,9 @@ impl Structure for Rtree {
                 ),
                 ("splits".into(), self.splits as f64),
                 ("reinserts".into(), self.reinserts as f64),
+                ("reinserted_entries".into(), self.ejected as f64),
+                ("insert_ms".into(), self.insert_ms),
+                ("pack_ms".into(), self.pack_ms),
             ],
         }
     }
@@ -654,6 +679,56 @@ mod tests {
         assert_eq!(layout_limit(10_000), 10_000 * 16 * 1024);
         assert_eq!(layout_limit(1_000_000), MAX_LAYOUT_BYTES);
         assert_eq!(layout_limit(usize::MAX), MAX_LAYOUT_BYTES);
+    }
+
+    /// `reinserted_entries` is `p` per forced reinsertion, `p` from the share (1, 2, 3 of
+    /// the 5 entries at M = 4), and every share still builds a valid tree.
+    #[test]
+    fn reinsert_share_sets_the_entries_ejected() {
+        let get = |t: &Rtree, k: &str| {
+            let r = t.build_report();
+            r.extra.iter().find(|e| e.0 == k).unwrap().1
+        };
+        let mut trees = Vec::new();
+        for (share, p) in [(0.3, 1.0), (0.5, 2.0), (0.75, 3.0)] {
+            let t = Rtree::build(
+                &grid(500),
+                &RtreeParams {
+                    reinsert_share: share,
+                    ..Default::default()
+                },
+            );
+            assert_eq!(t.validate(), Ok(()));
+            let n = get(&t, "reinserts");
+            assert!(n > 0.0, "share {share}");
+            assert_eq!(get(&t, "reinserted_entries"), p * n, "share {share}");
+            trees.push(t.nodes().to_vec());
+        }
+        assert!(trees[0] != trees[1] && trees[1] != trees[2]);
+    }
+
+    /// `insert_ms` and `pack_ms` are the two parts of one build: both measured, their sum
+    /// within the build's wall time seen from outside.
+    #[test]
+    fn build_time_parts() {
+        let tris = grid(3000);
+        for strategy in [Strategy::RStarSrfc, Strategy::Str] {
+            let p = RtreeParams {
+                strategy,
+                ..Default::default()
+            };
+            let t0 = Instant::now();
+            let t = Rtree::build(&tris, &p);
+            let whole = t0.elapsed().as_secs_f64() * 1e3;
+            let r = t.build_report();
+            let get = |k: &str| r.extra.iter().find(|e| e.0 == k).unwrap().1;
+            let (insert, pack) = (get("insert_ms"), get("pack_ms"));
+            assert!(insert > 0.0 && pack > 0.0, "{strategy:?}: {insert} {pack}");
+            assert!(
+                insert + pack <= whole,
+                "{strategy:?}: {insert} + {pack} > {whole}"
+            );
+        }
     }
 
     #[test]
@@ -887,6 +962,13 @@ mod tests {
             ..Default::default()
         };
         assert!(p.check().is_err());
+        for (share, ok) in [(0.75, true), (0.76, false)] {
+            let p = RtreeParams {
+                reinsert_share: share,
+                ..Default::default()
+            };
+            assert_eq!(p.check().is_ok(), ok, "{share}");
+        }
         assert_eq!(RtreeParams::default().reinsert_count(), 1);
         let p = RtreeParams {
             big_m: 16,

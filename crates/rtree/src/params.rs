@@ -134,9 +134,11 @@ tb_core::params! {
         /// forced reinsertion on overflow, once per level per insertion (R*-tree; section
         /// 2.2.1, Table 2)
         reinsert: bool = true, ParamKind::Bool;
-        /// share p/M of the entries a forced reinsertion ejects (Beckmann et al. 1990: 30%;
-        /// p = clamp(round(share M), 1, M + 1 - m))
-        reinsert_share: f32 = 0.3, ParamKind::Float { min: 0.01, max: 0.5 };
+        /// share p/M of the entries a forced reinsertion ejects, p = clamp(round(share M), 1,
+        /// M + 1 - m) of the M + 1 (Beckmann et al. 1990: 30 %, their best; Feldmann section
+        /// 2.2.1 leaves k open, "depending on choice"); at M = 4, m = 2: 0.3 ejects 1, 0.5
+        /// ejects 2, 0.75 ejects 3, the most that leaves m (configs/rtree-reinsert.toml)
+        reinsert_share: f32 = 0.3, ParamKind::Float { min: 0.01, max: 0.75 };
         /// order of the entries within a packed node (section 3.1, Figure 3)
         child_order: ChildOrder = ChildOrder::Insertion, ParamKind::Choice(ChildOrder::NAMES);
     }

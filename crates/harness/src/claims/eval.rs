@@ -170,10 +170,13 @@ fn default_pool(t: &Term) -> Pool {
 }
 
 /// A column computed from wall-clock time (`primary_ms`, `ao_ms_per_spp`, `elapsed_ms`, the
-/// dynamic table's `spp`, …): no interval of its own, but subject to [`TIME_FLOOR`].
+/// dynamic table's `spp`, …) or a `build_stats` entry that is one (`build:insert_ms`, the
+/// grids' `build:build_merge_ms`, …): no interval of its own, but subject to [`TIME_FLOOR`].
 fn time_derived(t: &Term) -> bool {
+    let timing = |c: &str| c.ends_with("_ms") || c.contains("_ms_");
     match t {
-        Term::Col(c) => c.ends_with("_ms") || c.contains("_ms_") || c == "spp",
+        Term::Col(c) => timing(c) || c == "spp",
+        Term::Build(k) => timing(k),
         _ => false,
     }
 }
