@@ -152,9 +152,7 @@ fn algorithm3(s: &SparseBoxes, ray: &Ray, start: usize) -> Option<Walked> {
                 last = aug[last].parent as usize;
                 w.ups += 1;
                 w.interior += 1;
-                let Some((_, tmax)) = clip(aug[last].min, aug[last].max) else {
-                    return None;
-                };
+                let (_, tmax) = clip(aug[last].min, aug[last].max)?;
                 if near(tmax, tentry, crossed, tol) {
                     return None;
                 }
