@@ -5,7 +5,9 @@ Boxes") beside the paper's, from a results.csv of configs/sparse-boxes.toml.
 Rows of structure `sparse-boxes` are grouped by scene (the label before `@`: the rows of each
 of a table's `views`) and traversal; per-ray counters are averaged over the views weighted by their rays,
 T_R is the mean trace time per view in seconds. N_B and M_KD come from `build_stats` (`n_b`;
-`m_kd_bytes` for BTR/SLTR, `m_kd_htr_bytes` for HTR/SEQ, which read no box). Then the paper's
+`paper_bytes`, a box priced as Table 1 does, for BTR/SLTR (`m_kd_bytes` in rows made before
+it), `m_kd_htr_bytes` for HTR/SEQ, which read no box). SLTR is the paper's Algorithm 3;
+`sltr-mask` is our variant. Then the paper's
 claims, each with our ratio. The paper's figures are for primary rays: with another
 `--ray-kind` they are not printed ("paper: primary rays only").
 
@@ -50,7 +52,7 @@ PAPER = {
     },
 }
 
-ORDER = ["htr", "btr", "btr-root", "sltr", "sltr-root", "seq"]
+ORDER = ["htr", "btr", "btr-root", "sltr", "sltr-root", "sltr-mask", "sltr-mask-root", "seq"]
 
 
 def stats(s):
@@ -162,9 +164,11 @@ def main():
             n = sum(int(r["rays"]) for r in g)
             mean = lambda c: sum(float(r[c]) * int(r["rays"]) for r in g) / n  # noqa: E731
             bs = stats(g[0]["build_stats"])
-            boxes = trav in ("btr", "btr-root", "sltr", "sltr-root")
+            boxes = trav in ("btr", "btr-root", "sltr", "sltr-root", "sltr-mask", "sltr-mask-root")
             nb = bs.get("n_b", 0) if boxes else 0
-            mkd = bs.get("m_kd_bytes" if boxes else "m_kd_htr_bytes", 0) / 1e6
+            # M_KD as Table 1 prices a box (`paper_bytes`; older rows: `m_kd_bytes`).
+            mkd = bs.get(("paper_bytes" if "paper_bytes" in bs else "m_kd_bytes") if boxes
+                         else "m_kd_htr_bytes", 0) / 1e6
             ms = {r["scene"]: number(r["trace_ms_median"]) for r in g}
             got = [v for v in ms.values() if v is not None]
             tr = sum(got) / len(got) / 1e3 if got else None

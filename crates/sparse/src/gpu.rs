@@ -1,4 +1,5 @@
-//! The GPU program of SLTR (Havran and Bittner 2007 §5.3 on the GPU; README "GPU").
+//! The GPU program of `sltr-mask` (our stackless variant of Havran and Bittner 2007 §5.3, not
+//! the paper's Algorithm 3, which has no GPU kernel; README "GPU").
 
 use crate::SparseBoxes;
 use std::borrow::Cow;
@@ -10,21 +11,21 @@ fn bytes(words: impl Iterator<Item = u32>) -> Cow<'static, [u8]> {
 }
 
 impl SparseBoxes {
-    /// The GPU program of SLTR (`crates/sparse/shaders/sltr.wgsl`): from the start node
-    /// located per ray in the kernel (`start`, program `sparse-boxes/sltr`) or from the root
-    /// (`sparse-boxes/sltr-root`). Buffers: the kd-tree's nodes and references, the augmented
+    /// The GPU program of `sltr-mask` (`crates/sparse/shaders/sltr_mask.wgsl`): from the start
+    /// node located per ray in the kernel (`start`, program `sparse-boxes/sltr-mask`) or from
+    /// the root (`sparse-boxes/sltr-mask-root`). Buffers: the kd-tree's nodes and references, the augmented
     /// records, their depths followed by the step cap and the records' rank
     /// ([`tb_kdtree::NodeRank`], three words per 64 nodes: the bits' low and high words,
     /// the count before); meta: node count, record count, `d_min + 1`.
-    pub(crate) fn gpu_sltr(&self, start: bool) -> GpuProgram<'_> {
+    pub(crate) fn gpu_sltr_mask(&self, start: bool) -> GpuProgram<'_> {
         let v = self.kd.view();
         GpuProgram::new(
             if start {
-                "sparse-boxes/sltr"
+                "sparse-boxes/sltr-mask"
             } else {
-                "sparse-boxes/sltr-root"
+                "sparse-boxes/sltr-mask-root"
             },
-            include_str!("../shaders/sltr.wgsl"),
+            include_str!("../shaders/sltr_mask.wgsl"),
             Cow::Borrowed(v.triangles()),
         )
         .buffer(

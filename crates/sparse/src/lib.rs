@@ -12,9 +12,10 @@
 //!   multiples of `d_min + 1`, so a kernel knows a node is augmented from its depth; the
 //!   records are kept in depth-first (node index) order and a node's record is found by binary
 //!   search when a walk climbs from it. Figures: `n_b` (N_B, boxes stored), `m_kd_bytes` (M_KD
-//!   as the paper counts it: 8-byte nodes, 4-byte references, 24-byte box and 4-byte parent
-//!   link per augmented node) and our real bytes (`aug_bytes`: 32-byte records plus one depth
-//!   byte per box).
+//!   with a box priced as §4's text: 8-byte nodes, 4-byte references, 24-byte box and 4-byte
+//!   parent link per augmented node), `paper_bytes` / `paper_ratio` (a box priced as Table 1's
+//!   M_KD implies, [`PAPER_BOX_BYTES`]) and our real bytes (`aug_bytes`: 32-byte records, one
+//!   depth byte per box, the records' rank).
 //! - **Start nodes** (§3): a walk may begin at the deepest augmented node whose cell contains
 //!   the ray origin ([`SparseBoxes::start_node`]), found once per batch by the caller (the
 //!   hint seam, [`tb_core::Accel::batch_hints`]; primary rays of one camera share the eye's,
@@ -25,18 +26,30 @@
 //! - **Traversals** (§5; the table `<SparseBoxes as Structure>::TRAVERSALS`): `htr` and `seq`
 //!   are the kd-tree's `recursive-direction` (HTR, §5.1) and `sequential` (Kaplan's SEQ) over
 //!   the same tree; `btr` / `btr-root` the bottom-up traversal (§5.2, Alg. 2) from the start
-//!   node / the root; `sltr` / `sltr-root` the stackless bottom-up traversal (§5.3, Alg. 3).
-//!   See module `traverse` for the kernels and how their origin shifts are made robust without an
-//!   epsilon.
+//!   node / the root; `sltr` / `sltr-root` the stackless bottom-up traversal as the paper's
+//!   Algorithm 3 (§5.3: after each leaf the origin shifted past the leaf's exit and located
+//!   from the last augmented node, or from the first parent augmented node holding it, each
+//!   parent's `ComputeMaxT` one box test); `sltr-mask` / `sltr-mask-root` our variant of it
+//!   (no shift and no point location: the next leaf from a per-depth mask, exactly HTR's
+//!   leaves). The paper's configs and claims read `sltr`. See module `traverse` for the
+//!   kernels and how Algorithm 3's epsilon is made exact.
 //!
-//! - **GPU**: SLTR (`sltr`, `sltr-root`) as a WGSL kernel (`shaders/sltr.wgsl`), the CPU walk
-//!   statement for statement (hits and counters equal ray for ray on lavapipe, checked by the
-//!   harness's `gpu_oracle` test); there the start node is located per ray inside the timed
-//!   kernel (the GPU device takes no hints).
+//! - **GPU**: `sltr-mask` and `sltr-mask-root` as a WGSL kernel (`shaders/sltr_mask.wgsl`), the
+//!   CPU walk statement for statement (hits and counters equal ray for ray on lavapipe, checked
+//!   by the harness's `gpu_oracle` test); there the start node is located per ray inside the
+//!   timed kernel (the GPU device takes no hints). The paper's `sltr` has no GPU kernel.
 //!
-//! Counters: `interior` (N_I), `leaves` (N_L), `prims` (r_ITM) as the kd-tree's; `ups`: parent
-//! links followed; `boxes`: ray–box tests with the stored boxes (and the start cell);
-//! `restarts`: continuations after the traversal stack ran dry (BTR) or after a leaf (SLTR).
+//! Counters: `interior` (N_I), `leaves` (N_L), `prims` (r_ITM) as the kd-tree's, and a parent
+//! link followed (Alg. 2's and Alg. 3's `TraverseUp`) counts as one interior node traversed:
+//! Table 1's N_I is "the number of traversed interior nodes", and Figure 2 has SLTR traverse
+//! the hierarchy "using only the down-links between nodes and parent links between augmented
+//! nodes" (the other reading, down steps only, is `interior - ups`); `ups`: parent links
+//! followed; `boxes`: ray–box tests with the stored boxes (and the start cell); `restarts`:
+//! continuations after the traversal stack ran dry (BTR) or after a leaf (SLTR).
+//!
+//! Memory: `m_kd_bytes` prices a box as the text of §4 describes it (a 24-byte box and a
+//! 4-byte parent link: 28 bytes); `paper_bytes` as Table 1's M_KD does (40 bytes, see
+//! [`PAPER_BOX_BYTES`]); `aug_bytes` and `structure_bytes` are what we allocate.
 
 mod build;
 mod gpu;
@@ -55,12 +68,28 @@ use tb_kdtree::{KdLayout, KdTree, NodeRank, SurfaceArea, STACK_SIZE};
 /// The auxiliary array of augmented nodes (boxes and parent links), read by BTR and SLTR.
 pub const BOXES_AUX: &str = "sparse-boxes";
 
+/// Bytes a sparse box adds to M_KD in the paper's Table 1 (`paper_bytes`). The text (§4) says
+/// what a box holds: "storing a bounding box requires 24 bytes" and "a single pointer to the
+/// parent augmented node", 28 bytes (`m_kd_bytes`). Table 1's M_KD implies more: (M_KD(BTR) −
+/// M_KD(HTR)) / N_B is (117 − 89) MB / 0.725M = 38.6 bytes on arena and (64 − 42) MB / 0.557M =
+/// 39.5 on city; with the printed figures rounded (megabytes ±0.5, N_B ±0.0005M) that is
+/// 37.2-40.0 (arena) and 37.7-41.3 (city) bytes for MB = 10^6, 39.0-42.0 and 39.5-43.3 for
+/// MB = 2^20. 40 is the one whole size inside all four ranges, and the paper's own parts give it when an augmented node
+/// is a node of its own kind ("the augmented node is constructed ... otherwise we construct a
+/// simple interior node", §4): the 8-byte interior node, the 24-byte box and the 4-byte link
+/// (36 bytes) in a 48-byte record (16-byte alignment) instead of an 8-byte simple node, 40
+/// bytes more. 28 lies outside every range. The layout is our reading; the 40 is Table 1's.
+pub const PAPER_BOX_BYTES: u32 = 40;
+
+/// Bytes a box holds as §4 describes it: the box (24) and the parent link (4) (`m_kd_bytes`).
+pub const TEXT_BOX_BYTES: u32 = 28;
+
 /// The structure in the registry.
 pub static FAMILY: Family = Family::new::<SparseBoxes, SparseParams>(
     "a `kdtree` (depth-first; its builder parameters) with sparse boxes: augmented nodes (box and \
      parent link) every `d_min + 1` levels, start nodes found once per batch outside timing \
      (Havran and Bittner 2007); `htr` and `seq` are the kd-tree's `recursive-direction` and \
-     `sequential` over the same tree",
+     `sequential` over the same tree; `sltr` is the paper's Alg. 3, `sltr-mask` our variant",
     |tris, set| {
         build_with(set, |p: &SparseParams| {
             SparseBoxes::try_build(tris.clone(), p)
@@ -287,37 +316,72 @@ impl Structure for SparseBoxes {
                 traverse::trace::<{ traverse::BTR }>(s, q, tri, rays, None, false, hits, stats)
             },
         ),
-        Traversal::with_gpu(
+        Traversal::cpu(
             TraversalInfo::new(
                 "sltr",
                 "Havran & Bittner 2007 §5.3, Alg. 3",
-                "SLTR: stackless; from the start node (found once per batch, untimed) down to a \
-                 leaf, then on from the last augmented node, climbing parent links when it is \
-                 finished; the next leaf found from the last one's position, no epsilon \
-                 (Havran & Bittner 2007 §5.3, Alg. 3)",
+                "SLTR as the paper's Algorithm 3: stackless; from the start node (found once \
+                 per batch, untimed) down to the leaf holding the origin; after each leaf the \
+                 origin shifted just past the leaf's exit (exactly, not by a fixed epsilon) and \
+                 located from the last augmented node while its box holds it, else from the \
+                 first parent augmented node whose box does (ComputeMaxT per parent); the \
+                 point location of `seq` (Havran & Bittner 2007 §5.3, Alg. 3)",
             )
             .capped()
             .reads(&[BOXES_AUX]),
             |s, q, tri, rays, hits, stats| {
                 traverse::trace::<{ traverse::SLTR }>(s, q, tri, rays, None, true, hits, stats)
             },
-            |s| s.gpu_sltr(true),
         )
         .with_hints(hints, |s, q, tri, rays, h, hits, stats| {
             traverse::trace::<{ traverse::SLTR }>(s, q, tri, rays, h, true, hits, stats)
         }),
-        Traversal::with_gpu(
+        Traversal::cpu(
             TraversalInfo::new(
                 "sltr-root",
                 "Havran & Bittner 2007 §5.3, Alg. 3",
-                "SLTR started at the root",
+                "SLTR (Alg. 3) started at the root",
             )
             .capped()
             .reads(&[BOXES_AUX]),
             |s, q, tri, rays, hits, stats| {
                 traverse::trace::<{ traverse::SLTR }>(s, q, tri, rays, None, false, hits, stats)
             },
-            |s| s.gpu_sltr(false),
+        ),
+        Traversal::with_gpu(
+            TraversalInfo::new(
+                "sltr-mask",
+                "Havran & Bittner 2007 §5.3 (a variant of Alg. 3)",
+                "our stackless variant of SLTR, not the paper's Alg. 3: from the start node \
+                 down to a leaf, then on from the last augmented node, climbing parent links \
+                 when it is finished; the next leaf found from a per-depth mask of the nodes \
+                 the ray went both ways at and the last leaf's index, no shift and no point \
+                 location, so it visits exactly HTR's leaves",
+            )
+            .capped()
+            .reads(&[BOXES_AUX]),
+            |s, q, tri, rays, hits, stats| {
+                traverse::trace::<{ traverse::SLTR_MASK }>(s, q, tri, rays, None, true, hits, stats)
+            },
+            |s| s.gpu_sltr_mask(true),
+        )
+        .with_hints(hints, |s, q, tri, rays, h, hits, stats| {
+            traverse::trace::<{ traverse::SLTR_MASK }>(s, q, tri, rays, h, true, hits, stats)
+        }),
+        Traversal::with_gpu(
+            TraversalInfo::new(
+                "sltr-mask-root",
+                "Havran & Bittner 2007 §5.3 (a variant of Alg. 3)",
+                "`sltr-mask` started at the root",
+            )
+            .capped()
+            .reads(&[BOXES_AUX]),
+            |s, q, tri, rays, hits, stats| {
+                traverse::trace::<{ traverse::SLTR_MASK }>(
+                    s, q, tri, rays, None, false, hits, stats,
+                )
+            },
+            |s| s.gpu_sltr_mask(false),
         ),
         Traversal::cpu(
             TraversalInfo::new(
@@ -339,7 +403,8 @@ impl Structure for SparseBoxes {
     /// `structure_bytes`, the paper's M_KD in our sizes: the kd-tree's nodes and references
     /// (the kd-tree's own `structure_bytes`) plus, for BTR and SLTR, the augmented nodes'
     /// records, depths and rank (`aug_bytes`); not the scene's triangle array. The paper's own
-    /// accounting (8 a node, 4 a reference, 28 a box) is `m_kd_bytes` / `m_kd_htr_bytes`.
+    /// accounting (8 a node, 4 a reference, and a box at 28 bytes as §4's text prices it or at
+    /// 40 as Table 1 does) is `m_kd_bytes` / `paper_bytes` / `m_kd_htr_bytes`.
     fn own_memory(&self) -> MemoryReport {
         Accel::memory(&self.kd)
     }
@@ -352,20 +417,29 @@ impl Structure for SparseBoxes {
         }
     }
 
-    /// The kd-tree's figures, then `d_min`, `n_b` (N_B), `m_kd_bytes` (M_KD as the paper
-    /// counts it: 8 bytes per node, 4 per reference, 24 + 4 per augmented node),
-    /// `m_kd_htr_bytes` (the same without boxes: HTR's and SEQ's M_KD), `aug_bytes` (our real
-    /// bytes of the boxes, links, node indices and depths).
+    /// The kd-tree's figures, then `d_min`, `n_b` (N_B), `m_kd_bytes` (M_KD as the text of §4
+    /// prices a box: 8 bytes per node, 4 per reference, 24 + 4 per augmented node,
+    /// [`TEXT_BOX_BYTES`]), `m_kd_htr_bytes` (the same without boxes: HTR's and SEQ's M_KD),
+    /// `paper_bytes` (M_KD of BTR and SLTR as Table 1 counts it: [`PAPER_BOX_BYTES`] per box),
+    /// `paper_ratio` (`paper_bytes / m_kd_htr_bytes`: Table 1's M_KD of BTR over HTR's, one
+    /// row's key since a claim cannot divide two), `aug_bytes` (our real bytes of the boxes,
+    /// links, node indices, depths and rank).
     fn report(&self) -> BuildReport {
         let mut r = Accel::build_report(&self.kd);
         let v = self.kd.view();
         let base = (8 * v.nodes().len() + 4 * v.refs().len()) as f64;
         let nb = self.aug.len() as f64;
+        let paper = base + PAPER_BOX_BYTES as f64 * nb;
         r.extra.extend([
             ("d_min".into(), self.params.d_min as f64),
             ("n_b".into(), nb),
-            ("m_kd_bytes".into(), base + 28.0 * nb),
+            ("m_kd_bytes".into(), base + TEXT_BOX_BYTES as f64 * nb),
             ("m_kd_htr_bytes".into(), base),
+            ("paper_bytes".into(), paper),
+            (
+                "paper_ratio".into(),
+                if base > 0.0 { paper / base } else { 1.0 },
+            ),
             ("aug_bytes".into(), self.boxes_bytes() as f64),
         ]);
         r

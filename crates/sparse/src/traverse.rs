@@ -1,5 +1,6 @@
-//! The kernels: BTR (Havran and Bittner 2007 §5.2, Alg. 2) and SLTR (§5.3, Alg. 3) over a
-//! borrowed kd-tree ([`tb_kdtree::KdView`], depth-first layout) and its augmented nodes.
+//! The kernels: BTR (Havran and Bittner 2007 §5.2, Alg. 2), SLTR (§5.3, Alg. 3) and our
+//! variant of it, `sltr-mask`, over a borrowed kd-tree ([`tb_kdtree::KdView`], depth-first
+//! layout) and its augmented nodes.
 //!
 //! Shared with the kd-tree's stack traversal (`recursive-direction`): the near/far decision at
 //! an interior node (`t = (split − o_a)·(1/d_a)`; near only when `t > t_exit·SLACK`, far only
@@ -14,7 +15,8 @@
 //! until it leaves it, and every other cell it meets lies at or beyond the start cell's exit
 //! (a ray lying in one of its faces, which would meet the neighbour cells along the way, is
 //! excluded by strictness). What the origin shifts of Algorithms 2 and 3 do with an epsilon
-//! is done here by the *identity* of what is finished, so no epsilon is needed and no cell,
+//! is done by BTR and `sltr-mask` by the *identity* of what is finished, and by SLTR with the
+//! shifted point held exactly on the face it crossed, so no epsilon is needed and no cell,
 //! however thin, is skipped:
 //!
 //! - **BTR**: the stack traversal of the start subtree (Alg. 2, inner loop). When the stack
@@ -27,7 +29,30 @@
 //!   leaves it (`near exit <= finished exit`: the split plane is the finished box's exit face)
 //!   goes to its far child only, as the shifted entry would make it; the other nodes on that
 //!   path are visited again (and counted). The root ends the walk.
-//! - **SLTR**: down to a leaf choosing the first intersected child (Alg. 3, `TraverseDown`,
+//! - **SLTR** (`sltr`, the paper's Algorithm 3; the traversal the paper's configs and claims
+//!   read): down from the start node to the leaf holding the ray origin (`TraverseDown`:
+//!   the child holding the point); after each leaf, `tentry = texit + eps` shifts the point
+//!   just past the leaf's exit face, `RestartTraversal` descends again from the last augmented
+//!   node passed (`lastAugmentedNode`) when its box still holds the point (`tentry < tup`),
+//!   else `TraverseUp` follows parent links, `ComputeMaxT` of each parent's box (one box
+//!   test, and one interior node, each), to the first box holding it; none (the point leaves
+//!   the root) ends the ray. The epsilon is exact rather than a fixed amount: the point's
+//!   coordinate on the crossed face's axis is that face's coordinate and planes at it are
+//!   behind (tb-kdtree's `sequential`, Kaplan's point location, made robust the same way), so
+//!   no cell thinner than an epsilon is skipped and no point rounds back into the leaf it
+//!   left; "the box holds the point" is decided on that coordinate too (the box's far face on
+//!   that axis lies beyond it). Each descent is the point location of `sequential` below the
+//!   augmented node (other planes behind only by more than the rounding [`SLACK`], the origin
+//!   itself at `t = 0`), so SLTR visits `seq`'s leaves, as Table 1 has them (N_L 10.80 and
+//!   10.81, r_ITM equal), not HTR's: a ray through a cell edge or corner within rounding, or
+//!   lying in a split plane, cannot be placed by one point, and is handed to `sltr-mask` from
+//!   the root keeping its closest hit (one restart), as `sequential` hands the former to
+//!   kd-restart (`sequential` walks the latter once per side of the plane; on those rays the
+//!   two differ). Where the paper is silent: the start node's `tentry` is the ray's entry into
+//!   the root box (the origin for a start node below the root), a climb stops at the root,
+//!   the step cap is a guard.
+//! - **`sltr-mask`** (our variant; the GPU kernel's walk): down to a leaf choosing the first
+//!   intersected child (Alg. 3, `TraverseDown`,
 //!   the near child when both are), then on to the *next* leaf: the walk keeps, per depth, one
 //!   bit telling that the node there sent the ray both ways with the walk in the near child
 //!   (the nodes it would come back to) and, as Alg. 3, the last augmented node passed with its
@@ -46,8 +71,11 @@
 //!   moves strictly forward in the depth-first order, so a walk ends; the step cap is a guard.
 //!
 //! Counters: `interior`, `leaves`, `prims`, `planes`, `steps` as the kd-tree's (nodes revisited
-//! counted again); `boxes`: the start or root cell and every stored box read; `ups`: parent
-//! links followed; `restarts`: continuations after a dry stack (BTR) or a leaf (SLTR).
+//! counted again), and every parent link followed counted in `interior` too ([`climb`]: the
+//! paper's N_I; `interior - ups` is N_I without the climbs); `boxes`: the start or root cell,
+//! every stored box read and (SLTR) every leaf exit computed; `ups`: parent links followed;
+//! `restarts`: continuations after a dry stack (BTR) or a leaf (SLTR), and a hand-over to
+//! `sltr-mask`.
 
 use crate::{AugNode, SparseBoxes};
 use tb_core::slab::{max_num, min_num};
@@ -63,6 +91,7 @@ use tb_kdtree::{
 
 pub(crate) const BTR: u8 = 0;
 pub(crate) const SLTR: u8 = 1;
+pub(crate) const SLTR_MASK: u8 = 2;
 
 /// "Not looked up yet" for a record index.
 const NONE: u32 = u32::MAX;
@@ -108,6 +137,31 @@ struct Ctx<'a> {
     period: u32,
     root: Aabb,
     cap: u32,
+}
+
+/// The point SLTR locates (Alg. 3's shifted origin, `tentry`) and its walk's state.
+struct Point {
+    /// Per axis, the coordinate of the last exit face crossed on that axis (first the root's
+    /// entry face): planes at or before it in the direction of travel are behind the point.
+    floor: [f32; 3],
+    /// The axis of the face just crossed (3 before the first): there the point's coordinate
+    /// is `floor` exactly.
+    exact: usize,
+    /// The point's distance along the ray.
+    tn: f32,
+    /// Steps taken (the cap's count).
+    steps: u32,
+    /// A plane the point cannot be placed against was met.
+    ambiguous: bool,
+}
+
+/// SLTR's `lastAugmentedNode`: its record (`NONE`: not looked up yet), node, depth and cell.
+struct Last {
+    rec: u32,
+    node: usize,
+    depth: u32,
+    min: [f32; 3],
+    max: [f32; 3],
 }
 
 /// Per-ray data.
@@ -299,14 +353,14 @@ impl<'a> Ctx<'a> {
             // TraverseUp: the first parent augmented node extending beyond the exit.
             c.restart();
             let mut p = a.parent as usize;
-            c.up();
+            climb(c);
             while p != 0 {
                 c.boxes(1);
                 if self.exit(&s, ray.tmax, &self.aug[p]) > exit {
                     break;
                 }
                 p = self.aug[p].parent as usize;
-                c.up();
+                climb(c);
             }
             done = a.node;
             done_exit = exit;
@@ -314,7 +368,9 @@ impl<'a> Ctx<'a> {
         }
     }
 
-    /// SLTR (Alg. 3) from record `hint` (see the module doc).
+    /// SLTR as the paper's Algorithm 3 from record `hint` (see the module doc): point
+    /// location of the shifted origin from the last augmented node, climbing parent links
+    /// (`ComputeMaxT`, one box each) while the point lies beyond a node's box.
     #[inline(always)]
     fn sltr<T: TriTest, C: Counter, const ANY: bool>(
         &self,
@@ -335,8 +391,247 @@ impl<'a> Ctx<'a> {
         };
         let pre = T::prepare(ray);
         let mut best = Best::new(ray.tmax);
-        let (nodes, aug, p) = (self.nodes, self.aug, self.period);
+        let aug = self.aug;
         let st = self.start(ray, hint);
+        if st != 0 {
+            // ComputeMinMaxT(ray, startNode).
+            c.boxes(1);
+        }
+        let (rmin, rmax) = (self.root.min.to_array(), self.root.max.to_array());
+        let mut w = Point {
+            floor: std::array::from_fn(|a| if s.neg[a] { rmax[a] } else { rmin[a] }),
+            exact: 3,
+            tn: r0,
+            steps: 0,
+            ambiguous: false,
+        };
+        let a = &aug[st];
+        let mut last = Last {
+            rec: st as u32,
+            node: a.node as usize,
+            depth: self.depth[st] as u32,
+            min: a.min,
+            max: a.max,
+        };
+        let (mut idx, mut min, mut max) = self.locate(&s, &mut w, &mut last, c);
+        loop {
+            if w.ambiguous {
+                // A point the rounding cannot place: the ray goes to `sltr-mask` from the
+                // root, keeping its closest hit (as SEQ hands it to kd-restart).
+                c.restart();
+                return self.mask_walk::<T, C, ANY>(ray, &s, (r0, r1), &pre, best, 0, w.steps, c);
+            }
+            w.steps += 1;
+            if leaf::<T, C, ANY>(&self.kd, self.nodes[idx], &pre, ray, &mut best, c) {
+                return best.record();
+            }
+            if w.steps >= self.cap {
+                c.capped();
+                return best.record();
+            }
+            // The leaf's exit `texit`: its nearest far plane that is not a root face; another
+            // far plane within rounding of it (a cell edge or corner) is an ambiguity.
+            c.boxes(1);
+            let mut ts = [f32::INFINITY; 3];
+            let (mut tf, mut face) = (f32::INFINITY, 3usize);
+            for a in 0..3 {
+                let (far, root) = if s.neg[a] {
+                    (min[a], rmin[a])
+                } else {
+                    (max[a], rmax[a])
+                };
+                if far != root {
+                    let t = (far - s.org[a]) * s.inv[a];
+                    ts[a] = t;
+                    if t < tf {
+                        tf = t;
+                        face = a;
+                    }
+                }
+            }
+            // ComputeIntersections found a hit in the leaf.
+            if best.prim != u32::MAX && best.t <= tf {
+                return best.record();
+            }
+            if face == 3 || tf > r1 * SLACK {
+                // The shifted origin leaves the root box: TraverseUp climbs every parent link
+                // from the last augmented node, none holds it, and the ray is done.
+                for _ in 0..last.depth / self.period {
+                    climb(c);
+                    c.boxes(1);
+                }
+                return best.record();
+            }
+            let reach = tf + (SLACK - 1.0) * tf.abs();
+            if (0..3).any(|a| a != face && ts[a] <= reach) {
+                w.ambiguous = true;
+                continue;
+            }
+            // `tentry = texit + eps`: the point just past the exit face, exact on its axis.
+            let fc = if s.neg[face] { min[face] } else { max[face] };
+            w.floor[face] = fc;
+            w.exact = face;
+            w.tn = max_num(w.tn, tf);
+            c.restart();
+            // RestartTraversal: `tentry < tup` holds when the last augmented node's box
+            // extends beyond the exit face on its axis (the point is inside it); else
+            // TraverseUp: parent links, `ComputeMaxT` of each, to the first box that does.
+            let beyond = |lo: &[f32; 3], hi: &[f32; 3]| {
+                (if s.neg[face] { lo[face] } else { hi[face] }) != fc
+            };
+            if !beyond(&last.min, &last.max) {
+                let mut rec = if last.rec == NONE {
+                    self.rank.find(last.node as u32).expect("augmented node") as u32
+                } else {
+                    last.rec
+                };
+                // The root holds the point: the exit face is not a root face.
+                while rec != 0 {
+                    rec = aug[rec as usize].parent;
+                    climb(c);
+                    c.boxes(1);
+                    let r = &aug[rec as usize];
+                    if beyond(&r.min, &r.max) {
+                        break;
+                    }
+                }
+                let r = &aug[rec as usize];
+                last = Last {
+                    rec,
+                    node: r.node as usize,
+                    depth: self.depth[rec as usize] as u32,
+                    min: r.min,
+                    max: r.max,
+                };
+            }
+            (idx, min, max) = self.locate(&s, &mut w, &mut last, c);
+        }
+    }
+
+    /// Algorithm 3's down traversal from the last augmented node `last` to the leaf holding
+    /// the point at `w.tn` (Kaplan's point location with the rule of tb-kdtree's `sequential`:
+    /// on the axis of the face just crossed the point's coordinate is that face's exactly,
+    /// other planes behind it only by more than the rounding [`SLACK`], the origin itself at
+    /// `tn = 0`; a plane within rounding, or one holding the ray, sets `w.ambiguous`). Every
+    /// augmented node passed becomes `last` (`lastAugmentedNode`, its record looked up only
+    /// when a climb needs it). Returns the leaf and its cell.
+    #[inline(always)]
+    fn locate<C: Counter>(
+        &self,
+        s: &Setup,
+        w: &mut Point,
+        last: &mut Last,
+        c: &mut C,
+    ) -> (usize, [f32; 3], [f32; 3]) {
+        let nodes = self.nodes;
+        let (mut idx, mut min, mut max, mut depth) = (last.node, last.min, last.max, last.depth);
+        let mut phase = depth % self.period;
+        let tn = w.tn;
+        let origin = tn == 0.0;
+        let below = tn - (SLACK - 1.0) * tn.abs();
+        let above = tn + (SLACK - 1.0) * tn.abs();
+        loop {
+            let n = nodes[idx];
+            if n.is_leaf() {
+                return (idx, min, max);
+            }
+            if phase == 0 && idx != last.node {
+                *last = Last {
+                    rec: NONE,
+                    node: idx,
+                    depth,
+                    min,
+                    max,
+                };
+            }
+            c.interior();
+            c.steps(1);
+            c.planes(1);
+            w.steps += 1;
+            let a = n.axis();
+            let sp = n.split();
+            let t = (sp - s.org[a]) * s.inv[a];
+            if t.is_nan() {
+                // The ray lies in the plane: no single point decides.
+                w.ambiguous = true;
+                return (idx, min, max);
+            }
+            let behind = if s.neg[a] {
+                sp >= w.floor[a]
+            } else {
+                sp <= w.floor[a]
+            };
+            let behind = if origin {
+                behind
+                    || if s.neg[a] {
+                        sp > s.org[a]
+                    } else {
+                        sp < s.org[a]
+                    }
+            } else if a == w.exact {
+                behind
+            } else {
+                if !behind && t >= below && t <= above {
+                    w.ambiguous = true;
+                }
+                behind || t < below
+            };
+            if behind == s.neg[a] {
+                max[a] = sp;
+                idx += 1;
+            } else {
+                min[a] = sp;
+                idx = n.link();
+            }
+            depth += 1;
+            phase += 1;
+            if phase == self.period {
+                phase = 0;
+            }
+        }
+    }
+
+    /// `sltr-mask` from record `hint` (see the module doc).
+    #[inline(always)]
+    fn sltr_mask<T: TriTest, C: Counter, const ANY: bool>(
+        &self,
+        ray: &Ray,
+        hint: u32,
+        c: &mut C,
+    ) -> HitRecord {
+        if self.nodes.is_empty() {
+            return HitRecord::MISS;
+        }
+        let s = setup(ray);
+        c.boxes(1);
+        let Some((r0, r1)) = self
+            .root
+            .intersect(ray.origin, ray.inv_dir(), ray.tmin, ray.tmax)
+        else {
+            return HitRecord::MISS;
+        };
+        let pre = T::prepare(ray);
+        let st = self.start(ray, hint);
+        self.mask_walk::<T, C, ANY>(ray, &s, (r0, r1), &pre, Best::new(ray.tmax), st, 0, c)
+    }
+
+    /// The walk of `sltr-mask` from record `st`, with the closest hit so far `best` and `steps`
+    /// steps already taken (the paper's `sltr` hands it a ray whose point location cannot
+    /// decide, from the root).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn mask_walk<T: TriTest, C: Counter, const ANY: bool>(
+        &self,
+        ray: &Ray,
+        s: &Setup,
+        (r0, r1): (f32, f32),
+        pre: &T::Pre,
+        mut best: Best,
+        st: usize,
+        mut steps: u32,
+        c: &mut C,
+    ) -> HitRecord {
+        let (nodes, aug, p) = (self.nodes, self.aug, self.period);
         // The record whose subtree the walk knows: the bits are valid at depths >= `dtop`.
         let mut top = st;
         let mut dtop = self.depth[st] as u32;
@@ -344,7 +639,7 @@ impl<'a> Ctx<'a> {
             (r0, r1)
         } else {
             c.boxes(1);
-            self.interval(&s, r0, r1, &aug[st])
+            self.interval(s, r0, r1, &aug[st])
         };
         // The last augmented node passed: node, record (NONE: not looked up), depth, interval.
         let mut last = (aug[st].node as usize, st as u32, dtop, sn, sf);
@@ -357,7 +652,6 @@ impl<'a> Ctx<'a> {
         let mut both = 0u64;
         // The ray lies in a split plane it met (children's intervals overlap).
         let mut in_plane = false;
-        let mut steps = 0u32;
         loop {
             // TraverseDown to a leaf.
             loop {
@@ -372,7 +666,7 @@ impl<'a> Ctx<'a> {
                 c.steps(1);
                 c.planes(1);
                 steps += 1;
-                let d = decide(n, idx, &s, tn, tf);
+                let d = decide(n, idx, s, tn, tf);
                 match d.kind {
                     Kind::NearOnly => idx = d.near,
                     Kind::FarOnly => idx = d.far,
@@ -390,7 +684,7 @@ impl<'a> Ctx<'a> {
                 }
             }
             steps += 1;
-            if leaf::<T, C, ANY>(&self.kd, nodes[idx], &pre, ray, &mut best, c) {
+            if leaf::<T, C, ANY>(&self.kd, nodes[idx], pre, ray, &mut best, c) {
                 return best.record();
             }
             // A hit before the leaf's exit: every cell still to visit starts at or beyond it
@@ -422,11 +716,11 @@ impl<'a> Ctx<'a> {
                         while dd > dr {
                             rec = aug[rec as usize].parent;
                             dd -= p;
-                            c.up();
+                            climb(c);
                         }
                         c.boxes(1);
                         let r = &aug[rec as usize];
-                        let (an, af) = self.interval(&s, r0, r1, r);
+                        let (an, af) = self.interval(s, r0, r1, r);
                         last = (r.node as usize, rec, dr, an, af);
                     }
                     // Down toward the last leaf to depth `k`.
@@ -437,7 +731,7 @@ impl<'a> Ctx<'a> {
                         c.steps(1);
                         c.planes(1);
                         steps += 1;
-                        let d = decide(n, x, &s, xn, xf);
+                        let d = decide(n, x, s, xn, xf);
                         let toward = if lf < n.link() { x + 1 } else { n.link() };
                         if xd == k {
                             break (d.kind == Kind::Both && toward == d.near)
@@ -464,10 +758,10 @@ impl<'a> Ctx<'a> {
                 // TraverseUp above the known part: the parent augmented node, then down from
                 // it toward the last leaf to the known depth, recording the bits.
                 let pr = aug[top].parent as usize;
-                c.up();
+                climb(c);
                 c.boxes(1);
                 let dp = dtop - p;
-                let (pn, pf) = self.interval(&s, r0, r1, &aug[pr]);
+                let (pn, pf) = self.interval(s, r0, r1, &aug[pr]);
                 let (mut x, mut xn, mut xf, mut xd) = (aug[pr].node as usize, pn, pf, dp);
                 let mut cand = None;
                 while xd < dtop {
@@ -476,7 +770,7 @@ impl<'a> Ctx<'a> {
                     c.steps(1);
                     c.planes(1);
                     steps += 1;
-                    let d = decide(n, x, &s, xn, xf);
+                    let d = decide(n, x, s, xn, xf);
                     let toward = if lf < n.link() { x + 1 } else { n.link() };
                     if d.kind == Kind::Both {
                         in_plane |= d.far_tn < d.near_tf;
@@ -508,6 +802,17 @@ impl<'a> Ctx<'a> {
     }
 }
 
+/// A parent link followed (Alg. 2's and Alg. 3's `TraverseUp`): the walk enters the parent
+/// augmented node, one interior node traversed. Counted in `interior` (N_I, as the paper's
+/// "number of traversed interior nodes" counts it: Figure 2, "traverses the hierarchy using
+/// only the down-links between nodes and parent links between augmented nodes") and in `ups`,
+/// so N_I without the climbs is `interior - ups`.
+#[inline(always)]
+fn climb<C: Counter>(c: &mut C) {
+    c.up();
+    c.interior();
+}
+
 #[inline(always)]
 fn setup(ray: &Ray) -> Setup {
     let inv = ray.inv_dir().to_array();
@@ -529,8 +834,10 @@ fn run<T: TriTest, C: Counter, const ALG: u8>(
     match (ALG, q) {
         (BTR, Query::Closest) => cx.btr::<T, C, false>(ray, h, c),
         (BTR, Query::Any) => cx.btr::<T, C, true>(ray, h, c),
-        (_, Query::Closest) => cx.sltr::<T, C, false>(ray, h, c),
-        (_, Query::Any) => cx.sltr::<T, C, true>(ray, h, c),
+        (SLTR, Query::Closest) => cx.sltr::<T, C, false>(ray, h, c),
+        (SLTR, Query::Any) => cx.sltr::<T, C, true>(ray, h, c),
+        (_, Query::Closest) => cx.sltr_mask::<T, C, false>(ray, h, c),
+        (_, Query::Any) => cx.sltr_mask::<T, C, true>(ray, h, c),
     }
 }
 

@@ -81,13 +81,13 @@ fn traced(
 }
 
 /// BTR from the root is HTR (the same stack walk: same nodes, leaves and tests, ray by ray);
-/// SLTR from the root visits HTR's leaves in HTR's order (same leaves and triangle tests,
-/// more interior nodes), closest hit, on the suite's scenes and every ray kind; no ray of
-/// SLTR or SEQ ends on the step cap; the start-node variants give the same answers with hints
-/// as without.
+/// `sltr-mask` from the root visits HTR's leaves in HTR's order (same leaves and triangle
+/// tests, more interior nodes), closest hit, on the suite's scenes and every ray kind; no ray
+/// of SLTR, `sltr-mask` or SEQ ends on the step cap; the start-node variants give the same
+/// answers with hints as without.
 #[test]
 fn root_walks_visit_htr_leaves() {
-    let (htr, btr_root, sltr_root) = (index("htr"), index("btr-root"), index("sltr-root"));
+    let (htr, btr_root, sltr_root) = (index("htr"), index("btr-root"), index("sltr-mask-root"));
     let mut compared = 0;
     for scene in tb_scene::conformance::suite_scenes() {
         let s = SparseBoxes::build(&scene.triangles, &SparseParams::default());
@@ -112,7 +112,14 @@ fn root_walks_visit_htr_leaves() {
                     assert!(c.interior >= a.interior);
                 }
             }
-            for name in ["sltr", "sltr-root", "seq", "btr"] {
+            for name in [
+                "sltr",
+                "sltr-root",
+                "sltr-mask",
+                "sltr-mask-root",
+                "seq",
+                "btr",
+            ] {
                 let (h, st) = traced(&s, index(name), q, &b.rays);
                 assert!(
                     st.iter().all(|x| x.capped == 0),
@@ -179,7 +186,7 @@ fn s_no_hints() -> bool {
         tb_core::Vec3::new(0.0, 1.0, 3.0),
         -tb_core::Vec3::Z,
     )];
-    ["htr", "btr-root", "sltr-root", "seq"]
+    ["htr", "btr-root", "sltr-root", "sltr-mask-root", "seq"]
         .iter()
         .all(|n| s.batch_hints(index(n), Query::Closest, &rays).is_none())
 }
@@ -355,7 +362,7 @@ fn chunked_hints_match() {
     let rays = tb_scene::rays::primary(&cam);
     assert!(rays.len() > tb_core::par::CHUNK);
     let s = SparseBoxes::build(&scene.triangles, &SparseParams::default());
-    for name in ["btr", "sltr"] {
+    for name in ["btr", "sltr", "sltr-mask"] {
         let ti = index(name);
         let hints = s.batch_hints(ti, Query::Closest, &rays).unwrap();
         assert!(hints.iter().all(|&h| h == hints[0] && h != 0), "{name}");

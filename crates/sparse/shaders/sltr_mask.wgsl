@@ -1,11 +1,15 @@
-// SLTR, the stackless bottom-up traversal with sparse boxes (Havran and Bittner 2007 §5.3,
-// Alg. 3), programs `sparse-boxes/sltr` (START: from the start node located per ray) and
-// `sparse-boxes/sltr-root` on tb-gpu's prelude (tb_core::gpu). The same walk as the CPU kernel
-// (crates/sparse/src/traverse.rs, `Ctx::sltr`), statement for statement, so the counters agree ray
-// for ray: down to a leaf by the first intersected child, then to the far child of the deepest
-// node that sent the ray both ways (one bit per depth, two words), restarting from the last
-// augmented node or climbing parent links to the one above it, and above the start node
-// descending from the parent augmented node toward it to learn the bits of those levels.
+// `sltr-mask`: our stackless variant of the bottom-up traversal with sparse boxes (Havran and
+// Bittner 2007 §5.3), not the paper's Algorithm 3 (no epsilon shift, no point location: it
+// visits exactly HTR's leaves; the paper's SLTR, `sltr`, has no GPU kernel). Programs
+// `sparse-boxes/sltr-mask` (START: from the start node located per ray) and
+// `sparse-boxes/sltr-mask-root` on tb-gpu's prelude (tb_core::gpu). The same walk as the CPU
+// kernel (crates/sparse/src/traverse.rs, `Ctx::sltr_mask`), statement for statement, so the
+// counters agree ray for ray: down to a leaf by the first intersected child, then to the far
+// child of the deepest node that sent the ray both ways (one bit per depth, two words),
+// restarting from the last augmented node or climbing parent links to the one above it (each
+// link followed counted in `ups` and in `interior`, as traverse.rs's `climb`), and above the
+// start node descending from the parent augmented node toward it to learn the bits of those
+// levels.
 
 // tb_kdtree::KdNode, 8 bytes: interior: bits = link << 2 | axis (left child = index + 1, right
 // = link), data = split (f32 bits); leaf: bits = count << 2 | 3, data = first reference.
@@ -322,6 +326,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                         rec = aug[rec].parent;
                         dd -= p;
                         (*st).ups += 1u;
+                        (*st).interior += 1u;
                     }
                     (*st).boxes += 1u;
                     let iv = interval(rb, r0, r1, rec);
@@ -381,6 +386,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             // TraverseUp above the known part.
             let pr = aug[top].parent;
             (*st).ups += 1u;
+            (*st).interior += 1u;
             (*st).boxes += 1u;
             let dp = dtop - p;
             let piv = interval(rb, r0, r1, pr);
