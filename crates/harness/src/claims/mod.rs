@@ -5,13 +5,17 @@
 //! compares (named [`Selector`]s), the measure, how rows pool and group, and a [`Test`] with a
 //! band fixed from the paper's figure. [`evaluate`] turns rows into one [`Verdict`] per claim
 //! and device: `agree`, `disagree` or `inconclusive` (rows missing, a time interval across a
-//! bound, noisy or software-rendered timings). Nothing here knows a paper or a structure: the
-//! files name columns, and any CSV a run writes (`results.csv`, `dynamic.csv`, `weights.csv`)
-//! can be read ([`rows::RowSet`]).
+//! bound, noisy or software-rendered timings), or `undecidable` where it cannot be decided by
+//! construction. A claim is a statement of the paper (tallied), an observation or an invariant
+//! ([`ClaimKind`], shown apart); [`deviations`] lists where our implementation differs from the
+//! paper. Nothing here knows a paper or a structure: the files name columns, and any CSV a run
+//! writes (`results.csv`, `dynamic.csv`, `weights.csv`) can be read ([`rows::RowSet`]).
 
 mod child;
 mod columns;
+pub mod deviations;
 mod eval;
+mod kinds;
 mod measure;
 pub mod render;
 pub mod reproduce;
@@ -22,7 +26,7 @@ pub use eval::{
     evaluate, evaluate_with, ClaimResult, GroupResult, Options, Value, Verdict, TIME_FLOOR,
 };
 pub use rows::RowSet;
-pub use schema::{Claim, ClaimsFile, Direction, Need, Pool, RunSpec, Selector, Test};
+pub use schema::{Claim, ClaimKind, ClaimsFile, Direction, Need, Pool, RunSpec, Selector, Test};
 
 use crate::HarnessError;
 use std::path::Path;

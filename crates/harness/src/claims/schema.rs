@@ -79,6 +79,15 @@ pub struct Claim {
     /// Why this test and this tolerance.
     #[serde(default)]
     pub note: Option<String>,
+    /// What the claim is: a statement of the paper (tallied), an observation or an invariant
+    /// (shown apart, not tallied); claims/README.md, "Kinds".
+    #[serde(default)]
+    pub kind: ClaimKind,
+    /// Why the claim cannot be decided, stated before measuring (e.g. a GPU-only figure that no
+    /// GPU row can give): its `inconclusive` reads `undecidable`. A band narrower than the
+    /// timing floor is found without it (`kinds::undecidable`).
+    #[serde(default)]
+    pub undecidable: Option<String>,
     /// A column, a sum of columns (`a + b`), `time`, `mrays_per_s`, `build:KEY`, `heap_ratio`.
     pub measure: String,
     #[serde(default)]
@@ -97,6 +106,33 @@ pub struct Claim {
     /// Named selectors the test compares.
     pub rows: BTreeMap<String, Selector>,
     pub test: Test,
+}
+
+/// What a claim is (claims/README.md, "Kinds").
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq, PartialOrd, Ord)]
+#[serde(rename_all = "lowercase")]
+pub enum ClaimKind {
+    /// A statement of the paper, on the measure and device it speaks of: tallied.
+    #[default]
+    Claim,
+    /// A GPU statement tried on the CPU, a question the paper leaves open, or our own figure
+    /// for the record: evaluated and shown, not tallied.
+    Observation,
+    /// A property of our code true by construction (two kernels visiting the same nodes, one
+    /// build's memory in two rows): evaluated and shown, not tallied; where cheap, a test.
+    Invariant,
+}
+
+impl ClaimKind {
+    pub const ALL: [ClaimKind; 3] = [ClaimKind::Claim, ClaimKind::Observation, ClaimKind::Invariant];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ClaimKind::Claim => "claim",
+            ClaimKind::Observation => "observation",
+            ClaimKind::Invariant => "invariant",
+        }
+    }
 }
 
 fn yes() -> bool {
@@ -390,6 +426,9 @@ impl ClaimsFile {
                     return Err(err("per", unknown_column(col, "group key")));
                 }
             }
+            if c.undecidable.as_deref().is_some_and(|r| r.trim().is_empty()) {
+                return Err(err("undecidable", "give the reason in words".into()));
+            }
             if c.devices.is_empty() {
                 return Err(err("devices", "name at least one device".into()));
             }
@@ -404,7 +443,7 @@ impl ClaimsFile {
 }
 
 /// 1-based line of the `nth` occurrence of `needle` in `text` (1 when absent).
-fn find_line(text: &str, needle: &str, nth: usize) -> usize {
+pub(crate) fn find_line(text: &str, needle: &str, nth: usize) -> usize {
     text.match_indices(needle)
         .nth(nth)
         .map(|(p, _)| crate::experiment::config::line_of(text, p))
