@@ -673,7 +673,11 @@ fn kinds_are_shown_apart_and_only_claims_tallied() {
     assert!(at("| `tried` |") < at("1 observations (not tallied): 0 agree, 1 disagree"));
     assert!(at("**Invariants**") < at("| `built` |"));
     let txt = claims::render::text(&v, 120);
-    assert!(txt.contains("Observations (not tallied") && txt.contains("1 invariants (not tallied): 1 agree"), "{txt}");
+    assert!(
+        txt.contains("Observations (not tallied")
+            && txt.contains("1 invariants (not tallied): 1 agree"),
+        "{txt}"
+    );
     // JSON carries each result's kind, the claims' tally and every kind's counts.
     let j = claims::render::json("t", &[], &v);
     assert_eq!(j["tally"]["agree"], 1);
@@ -691,7 +695,11 @@ fn kinds_are_shown_apart_and_only_claims_tallied() {
         adapters: Vec::new(),
     };
     let repro = claims::reproduce::reproduction(&[report], "");
-    let at = |s: &str| repro.find(s).unwrap_or_else(|| panic!("{s} not in {repro}"));
+    let at = |s: &str| {
+        repro
+            .find(s)
+            .unwrap_or_else(|| panic!("{s} not in {repro}"))
+    };
     assert!(repro.contains("claims 1 agree, 1 disagree, 0 inconclusive; observations (not tallied) 0 agree, 1 disagree"));
     assert!(at("| `stated` |") < at("### Observations"));
     assert!(at("### Observations") < at("| `tried` |"));
@@ -717,7 +725,11 @@ fn a_claim_undecidable_by_construction_says_so() {
     // [1.7, 2.0] spans a factor 1.18 < 1.2²: undecidable, whatever the rows.
     let v = eval(&c("min = 1.7, max = 2.0"), std::slice::from_ref(&r));
     assert_eq!(v[0].verdict, Verdict::Undecidable, "{v:?}");
-    assert!(v[0].why.starts_with("undecidable: the band [1.7, 2]"), "{}", v[0].why);
+    assert!(
+        v[0].why.starts_with("undecidable: the band [1.7, 2]"),
+        "{}",
+        v[0].why
+    );
     assert!(v[0].undecidable.is_some());
     let tally = claims::render::Tally::of(&v);
     assert_eq!((tally.inconclusive, tally.undecidable), (0, 1));
@@ -737,14 +749,21 @@ fn a_claim_undecidable_by_construction_says_so() {
     assert_eq!(v[0].verdict, Verdict::Inconclusive, "{v:?}");
     // Counters have no floor: the same band on a counter is decided.
     let counter = c("min = 1.7, max = 2.0").replace("\"time\"", "\"interior_per_ray\"");
-    assert_ne!(eval(&counter, std::slice::from_ref(&r))[0].verdict, Verdict::Undecidable);
+    assert_ne!(
+        eval(&counter, std::slice::from_ref(&r))[0].verdict,
+        Verdict::Undecidable
+    );
     // A reason given in the file: a GPU claim no GPU row can decide.
     let gpu = claim(
         "undecidable = \"no GPU kernel\"\ndevices = [\"gpu\"]\nmeasure = \"time\"\nrows.a = { traversal = \"a\" }\ntest = { kind = \"value\", of = \"a\", min = 0 }",
     );
     let v = eval(&gpu, &[r]);
     assert_eq!(v[0].verdict, Verdict::Undecidable, "{v:?}");
-    assert!(v[0].why.starts_with("undecidable: no GPU kernel"), "{}", v[0].why);
+    assert!(
+        v[0].why.starts_with("undecidable: no GPU kernel"),
+        "{}",
+        v[0].why
+    );
 }
 
 /// A deviation names the claims it touches (ids, globs, `measure:`, `device:`): each must name
@@ -760,20 +779,47 @@ fn a_deviation_naming_an_unknown_claim_is_refused() {
     };
     let p = Path::new("claims/deviations/t.toml");
     assert_eq!(claims::deviations::path_for(Path::new("claims/t.toml")), p);
-    let ok = claims::deviations::parse(p, &dev("[\"device:gpu\", \"measure:time\", \"f*\"]"), &file).unwrap();
+    let ok =
+        claims::deviations::parse(p, &dev("[\"device:gpu\", \"measure:time\", \"f*\"]"), &file)
+            .unwrap();
     assert_eq!(ok[1].ids, ["fast", "few"]);
+    // `&` joins patterns: claims matching all of them.
+    let both = claims::deviations::parse(
+        p,
+        &dev("[\"measure:interior_per_ray & device:gpu\"]"),
+        &file,
+    )
+    .unwrap();
+    assert_eq!(both[1].ids, ["few"]);
+    assert!(claims::deviations::parse(p, &dev("[\"measure:time & device:gpu\"]"), &file).is_err());
     assert!(claims::deviations::markdown(&ok).contains("| hardware | our GPU | the only one |"));
-    for bad in ["[\"fats\"]", "[\"x*\"]", "[\"measure:steps_per_ray\"]", "[\"device:tpu\"]", "[]"] {
+    for bad in [
+        "[\"fats\"]",
+        "[\"x*\"]",
+        "[\"measure:steps_per_ray\"]",
+        "[\"device:tpu\"]",
+        "[]",
+    ] {
         let e = claims::deviations::parse(p, &dev(bad), &file)
             .err()
             .unwrap_or_else(|| panic!("{bad} accepted"))
             .to_string();
-        assert!(e.contains("claims/deviations/t.toml:7") && e.contains("deviation[1].claims"), "{e}");
+        assert!(
+            e.contains("claims/deviations/t.toml:7") && e.contains("deviation[1].claims"),
+            "{e}"
+        );
         if bad != "[]" {
             assert!(e.contains(&bad[2..bad.len() - 2]), "{e}");
         }
     }
     // Unknown keys and kinds are refused too.
-    assert!(claims::deviations::parse(p, &dev("[\"fast\"]").replace("kind = \"view\"", "kind = \"scenery\""), &file).is_err());
-    assert!(claims::deviations::parse(p, &format!("{}claim = 1\n", dev("[\"fast\"]")), &file).is_err());
+    assert!(claims::deviations::parse(
+        p,
+        &dev("[\"fast\"]").replace("kind = \"view\"", "kind = \"scenery\""),
+        &file
+    )
+    .is_err());
+    assert!(
+        claims::deviations::parse(p, &format!("{}claim = 1\n", dev("[\"fast\"]")), &file).is_err()
+    );
 }

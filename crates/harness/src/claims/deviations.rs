@@ -27,7 +27,8 @@ pub struct Deviation {
     /// Why it differs (or why it is kept).
     pub why: String,
     /// The claims it touches: ids, globs (`t5-cpu-*`), `measure:NAME` (every claim of that
-    /// measure) or `device:NAME` (every claim evaluated on that device); each must match.
+    /// measure), `device:NAME` (every claim evaluated on that device), or several of these
+    /// joined by `&` (claims matching all: `measure:time & device:cpu`); each must match.
     pub claims: Vec<String>,
 }
 
@@ -133,7 +134,11 @@ pub fn parse(path: &Path, text: &str, file: &ClaimsFile) -> Result<Vec<Resolved>
                 ));
             }
             shown.push(shown_pattern(p, &m));
-            ids.extend(m.into_iter().filter(|id| !ids.contains(id)).collect::<Vec<_>>());
+            ids.extend(
+                m.into_iter()
+                    .filter(|id| !ids.contains(id))
+                    .collect::<Vec<_>>(),
+            );
         }
         let order = |id: &String| file.claims.iter().position(|c| &c.id == id);
         ids.sort_by_key(order);
@@ -148,18 +153,18 @@ pub fn parse(path: &Path, text: &str, file: &ClaimsFile) -> Result<Vec<Resolved>
 
 /// The ids of the claims of `file` that `pattern` names.
 fn matching(pattern: &str, file: &ClaimsFile) -> Vec<String> {
-    let hit = |c: &super::Claim| {
-        if let Some(m) = pattern.strip_prefix("measure:") {
+    let hit = |c: &super::Claim, p: &str| {
+        if let Some(m) = p.strip_prefix("measure:") {
             c.measure == m
-        } else if let Some(d) = pattern.strip_prefix("device:") {
+        } else if let Some(d) = p.strip_prefix("device:") {
             c.devices.iter().any(|x| x == d)
         } else {
-            super::eval::glob(pattern, &c.id)
+            super::eval::glob(p, &c.id)
         }
     };
     file.claims
         .iter()
-        .filter(|c| hit(c))
+        .filter(|c| pattern.split('&').all(|p| hit(c, p.trim())))
         .map(|c| c.id.clone())
         .collect()
 }
@@ -182,17 +187,19 @@ fn shown_pattern(p: &str, ids: &[String]) -> String {
 /// One paper's deviations as a Markdown table: kind | what | why | claims touched.
 pub fn markdown(ds: &[Resolved]) -> String {
     let e = |x: &str| x.replace('|', "\\|").replace('\n', " ");
-    let mut s = String::from(
-        "| kind | what differs | why | claims touched |\n|---|---|---|---|\n",
-    );
+    let mut s = String::from("| kind | what differs | why | claims touched |\n|---|---|---|---|\n");
     for d in ds {
         s.push_str(&format!(
-            "| {} | {} | {} | {} ({}) |\n",
+            "| {} | {} | {} | {}{} |\n",
             d.deviation.kind.as_str(),
             e(&d.deviation.what),
             e(&d.deviation.why),
             d.shown,
-            d.ids.len()
+            if d.deviation.claims.len() > 1 {
+                format!("; {} claims in all", d.ids.len())
+            } else {
+                String::new()
+            }
         ));
     }
     s

@@ -104,7 +104,11 @@ fn count_line(kind: ClaimKind, rs: &[ClaimResult]) -> String {
     let t = Tally::of_kind(rs, kind);
     match kind {
         ClaimKind::Claim => t.to_string(),
-        k => format!("{} {} (not tallied): {t}", t.total(), section(k).0.to_lowercase()),
+        k => format!(
+            "{} {} (not tallied): {t}",
+            t.total(),
+            section(k).0.to_lowercase()
+        ),
     }
 }
 

@@ -685,7 +685,10 @@ fn write_report(
 /// The counts of every kind in one line: the claims' tally, then the others' (not tallied).
 pub fn kinds_line(k: &Kinds) -> String {
     let mut s = format!("claims {}", k.claims);
-    for (name, t) in [("observations", k.observations), ("invariants", k.invariants)] {
+    for (name, t) in [
+        ("observations", k.observations),
+        ("invariants", k.invariants),
+    ] {
         if t.total() > 0 {
             s.push_str(&format!("; {name} (not tallied) {t}"));
         }
@@ -761,7 +764,8 @@ fn verdict_table(r: &PaperReport, kind: ClaimKind) -> String {
         let (go, gv) = cell(on("gpu"));
         let mut why: Vec<String> = Vec::new();
         for c in [on("cpu"), on("gpu")].into_iter().flatten() {
-            let unmeasured = c.device == "gpu" && c.ours == "—" && c.verdict == Verdict::Inconclusive;
+            let unmeasured =
+                c.device == "gpu" && c.ours == "—" && c.verdict == Verdict::Inconclusive;
             if !(c.why.is_empty() || unmeasured) {
                 why.push(if r.claims.iter().filter(|x| x.id == id).count() > 1 {
                     format!("{}: {}", c.device.to_uppercase(), c.why)

@@ -124,7 +124,11 @@ pub enum ClaimKind {
 }
 
 impl ClaimKind {
-    pub const ALL: [ClaimKind; 3] = [ClaimKind::Claim, ClaimKind::Observation, ClaimKind::Invariant];
+    pub const ALL: [ClaimKind; 3] = [
+        ClaimKind::Claim,
+        ClaimKind::Observation,
+        ClaimKind::Invariant,
+    ];
 
     pub fn as_str(self) -> &'static str {
         match self {
@@ -338,25 +342,8 @@ fn check_value(v: &toml::Value) -> Result<(), String> {
 impl ClaimsFile {
     /// Every claim's ids, selectors, measure, test and groups, before any row is read.
     pub(crate) fn check(&self, path: &Path, text: &str) -> Result<(), HarnessError> {
+        self.check_runs(path, text)?;
         let mut ids = BTreeSet::new();
-        for (i, r) in self.runs.iter().enumerate() {
-            let line = find_line(text, "[[run]]", i);
-            let err = |m: String| HarnessError::Config {
-                file: path.into(),
-                line,
-                key: format!("run[{i}]"),
-                message: m,
-            };
-            match (&r.config, &r.exec) {
-                (Some(_), Some(_)) => return Err(err("give config or exec, not both".into())),
-                (None, None) => return Err(err("needs config or exec".into())),
-                (None, Some(e)) if e.is_empty() => return Err(err("exec is empty".into())),
-                _ => {}
-            }
-            if !(r.cost_s >= 0.0 && r.fixed_s >= 0.0 && r.fixed_s <= r.cost_s.max(r.fixed_s)) {
-                return Err(err("cost_s and fixed_s must be seconds >= 0".into()));
-            }
-        }
         for c in &self.claims {
             let line = find_line(text, &format!("id = \"{}\"", c.id), 0);
             let err = |key: &str, m: String| HarnessError::Config {
@@ -426,11 +413,37 @@ impl ClaimsFile {
                     return Err(err("per", unknown_column(col, "group key")));
                 }
             }
-            if c.undecidable.as_deref().is_some_and(|r| r.trim().is_empty()) {
+            if c.undecidable
+                .as_deref()
+                .is_some_and(|r| r.trim().is_empty())
+            {
                 return Err(err("undecidable", "give the reason in words".into()));
             }
             if c.devices.is_empty() {
                 return Err(err("devices", "name at least one device".into()));
+            }
+        }
+        Ok(())
+    }
+
+    /// Every run names a config or a command, and costs seconds.
+    fn check_runs(&self, path: &Path, text: &str) -> Result<(), HarnessError> {
+        for (i, r) in self.runs.iter().enumerate() {
+            let line = find_line(text, "[[run]]", i);
+            let err = |m: String| HarnessError::Config {
+                file: path.into(),
+                line,
+                key: format!("run[{i}]"),
+                message: m,
+            };
+            match (&r.config, &r.exec) {
+                (Some(_), Some(_)) => return Err(err("give config or exec, not both".into())),
+                (None, None) => return Err(err("needs config or exec".into())),
+                (None, Some(e)) if e.is_empty() => return Err(err("exec is empty".into())),
+                _ => {}
+            }
+            if !(r.cost_s >= 0.0 && r.fixed_s >= 0.0 && r.fixed_s <= r.cost_s.max(r.fixed_s)) {
+                return Err(err("cost_s and fixed_s must be seconds >= 0".into()));
             }
         }
         Ok(())
