@@ -670,12 +670,12 @@ fn kinds_are_shown_apart_and_only_claims_tallied() {
     assert!(at("| `plain` |") < at("1 agree, 1 disagree, 0 inconclusive"));
     assert!(at("1 agree, 1 disagree, 0 inconclusive") < at("**Observations**"));
     assert!(at("**Observations**") < at("| `tried` |"));
-    assert!(at("| `tried` |") < at("1 observations (not tallied): 0 agree, 1 disagree"));
+    assert!(at("| `tried` |") < at("Observations (not tallied, 1): 0 agree, 1 disagree"));
     assert!(at("**Invariants**") < at("| `built` |"));
     let txt = claims::render::text(&v, 120);
     assert!(
         txt.contains("Observations (not tallied")
-            && txt.contains("1 invariants (not tallied): 1 agree"),
+            && txt.contains("Invariants (not tallied, 1): 1 agree"),
         "{txt}"
     );
     // JSON carries each result's kind, the claims' tally and every kind's counts.
@@ -742,6 +742,11 @@ fn a_claim_undecidable_by_construction_says_so() {
     // Below the band by more than the floor: a verdict all the same.
     let v = eval(&c("min = 1.021, max = 1.206"), std::slice::from_ref(&r));
     assert_eq!(v[0].verdict, Verdict::Disagree, "{v:?}");
+    assert!(
+        v[0].why.contains("; undecidable by construction: the band"),
+        "{}",
+        v[0].why
+    );
     // The floor decides: at ±5 % the same band [1.7, 2.0] can hold an interval.
     let file = claims::parse(Path::new("t.toml"), &c("min = 1.7, max = 2.0")).unwrap();
     let rows = RowSet::read(std::slice::from_ref(&r)).unwrap();

@@ -982,7 +982,9 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
         Some(r) if verdict == Verdict::Inconclusive => {
             (Verdict::Undecidable, format!("undecidable: {r} ({why})"))
         }
-        _ => (verdict, why),
+        // Decided all the same (an interval wholly outside a band it could never be inside).
+        Some(r) => (verdict, format!("{why}; undecidable by construction: {r}")),
+        None => (verdict, why),
     };
     ClaimResult {
         id: c.id.clone(),

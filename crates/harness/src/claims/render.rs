@@ -84,8 +84,9 @@ pub fn section(kind: ClaimKind) -> (&'static str, &'static str) {
         ),
         ClaimKind::Invariant => (
             "Invariants",
-            "not tallied: properties of our code true by construction (the same nodes, the \
-             same build's memory), shown as a check of the runs",
+            "not tallied: properties of our code true by construction, such as two kernels \
+             visiting the same nodes or one build's memory in two rows; shown as a check of \
+             the runs",
         ),
     }
 }
@@ -104,11 +105,7 @@ fn count_line(kind: ClaimKind, rs: &[ClaimResult]) -> String {
     let t = Tally::of_kind(rs, kind);
     match kind {
         ClaimKind::Claim => t.to_string(),
-        k => format!(
-            "{} {} (not tallied): {t}",
-            t.total(),
-            section(k).0.to_lowercase()
-        ),
+        k => format!("{} (not tallied, {}): {t}", section(k).0, t.total()),
     }
 }
 
