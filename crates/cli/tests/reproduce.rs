@@ -89,7 +89,7 @@ test = {{ kind = "value", of = "w", min = 49.999, max = 50.01 }}
     fs::write(&deviations, deviation(r#"["gpu-only"]"#)).unwrap();
     let out = t.path().join("report");
     let exe = env!("CARGO_BIN_EXE_trace-bench");
-    let run = || {
+    let run_into = |out: &std::path::Path| {
         Command::new(exe)
             .args([
                 "reproduce",
@@ -98,11 +98,12 @@ test = {{ kind = "value", of = "w", min = 49.999, max = 50.01 }}
                 "20s",
                 "--out",
             ])
-            .arg(&out)
+            .arg(out)
             .args(["-q"])
             .output()
             .unwrap()
     };
+    let run = || run_into(&out);
     let o = run();
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(
@@ -117,28 +118,21 @@ test = {{ kind = "value", of = "w", min = 49.999, max = 50.01 }}
     let v: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(out.join("verdicts.json")).unwrap()).unwrap();
     let claims_out = &v["papers"][0]["claims"];
-    let verdict = |id: &str| {
+    let field = |id: &str, key: &str| {
         claims_out
             .as_array()
             .unwrap()
             .iter()
             .find(|c| c["id"] == id)
-            .unwrap()["verdict"]
+            .unwrap()[key]
             .clone()
     };
+    let verdict = |id: &str| field(id, "verdict");
     assert_eq!(verdict("restart-revisits"), "agree", "{report}");
     assert_eq!(verdict("weight"), "agree", "{report}");
     assert_eq!(verdict("gpu-only"), "inconclusive");
     // The observation is counted apart from the tally, with its kind.
-    let kind = |id: &str| {
-        claims_out
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|c| c["id"] == id)
-            .unwrap()["kind"]
-            .clone()
-    };
+    let kind = |id: &str| field(id, "kind");
     assert_eq!(kind("weight"), "observation");
     assert_eq!(kind("gpu-only"), "claim");
     assert_eq!(v["tally"]["agree"], 1, "{v}");
@@ -190,17 +184,7 @@ test = {{ kind = "value", of = "w", min = 49.999, max = 50.01 }}
     assert_eq!(o.status.code(), Some(1), "gpu-only is inconclusive");
     // A deviation naming a claim the file does not have stops reproduce before any run.
     fs::write(&deviations, deviation(r#"["gpu-olny"]"#)).unwrap();
-    let o = Command::new(exe)
-        .args([
-            "reproduce",
-            claims.to_str().unwrap(),
-            "--budget",
-            "20s",
-            "--out",
-        ])
-        .arg(t.path().join("report2"))
-        .output()
-        .unwrap();
+    let o = run_into(&t.path().join("report2"));
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(

@@ -93,19 +93,8 @@ pub fn load(claims_path: &Path, file: &ClaimsFile) -> Result<Vec<Resolved>, Harn
 
 /// [`load`] on text already read (`path` names it in errors).
 pub fn parse(path: &Path, text: &str, file: &ClaimsFile) -> Result<Vec<Resolved>, HarnessError> {
-    let raw: DeviationsFile = toml::from_str(text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|s| format!("{}: ", crate::experiment::config::line_of(text, s.start)));
-        HarnessError::ConfigSyntax {
-            file: path.into(),
-            message: format!(
-                "{}{}",
-                line.unwrap_or_default(),
-                e.message().trim().replace('\n', " ")
-            ),
-        }
-    })?;
+    let raw: DeviationsFile =
+        toml::from_str(text).map_err(|e| super::syntax_error(path, text, &e))?;
     let mut out = Vec::new();
     for (i, d) in raw.deviations.into_iter().enumerate() {
         let err = |key: &str, message: String| HarnessError::Config {

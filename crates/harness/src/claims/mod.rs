@@ -40,19 +40,22 @@ pub fn load(path: &Path) -> Result<ClaimsFile, HarnessError> {
 
 /// [`load`] on text already read.
 pub fn parse(path: &Path, text: &str) -> Result<ClaimsFile, HarnessError> {
-    let file: ClaimsFile = toml::from_str(text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|s| format!("{}: ", crate::experiment::config::line_of(text, s.start)));
-        HarnessError::ConfigSyntax {
-            file: path.into(),
-            message: format!(
-                "{}{}",
-                line.unwrap_or_default(),
-                e.message().trim().replace('\n', " ")
-            ),
-        }
-    })?;
+    let file: ClaimsFile = toml::from_str(text).map_err(|e| syntax_error(path, text, &e))?;
     file.check(path, text)?;
     Ok(file)
+}
+
+/// A TOML syntax or type error of the file at `path` in one line, naming the line.
+pub(crate) fn syntax_error(path: &Path, text: &str, e: &toml::de::Error) -> HarnessError {
+    let line = e
+        .span()
+        .map(|s| format!("{}: ", crate::experiment::config::line_of(text, s.start)));
+    HarnessError::ConfigSyntax {
+        file: path.into(),
+        message: format!(
+            "{}{}",
+            line.unwrap_or_default(),
+            e.message().trim().replace('\n', " ")
+        ),
+    }
 }
