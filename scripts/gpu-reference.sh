@@ -9,8 +9,10 @@
 #                                           default OUT results/reference/DATE)
 #   scripts/gpu-reference.sh --smoke [OUT]  a functional check at tiny sizes on any adapter
 #                                           (lavapipe in CI): small images, few validated rays,
-#                                           and, where the paper scenes are absent, small
-#                                           generated stand-ins under OUT/scenes
+#                                           and, where the paper scenes are absent (or with
+#                                           GPU_REFERENCE_STAND_INS=1, as CI sets: the builds
+#                                           on the paper scenes took most of its minutes),
+#                                           small generated stand-ins under OUT/scenes
 #
 # Environment: TRACE_BENCH (the binary; default target/release/trace-bench, built if missing),
 # TRACE_BENCH_SCENES (the paper scenes; default ../shared/scenes), GPU_REFERENCE_BUDGET (the
@@ -51,8 +53,8 @@ if [ "$smoke" = 1 ]; then
   need=(stanford-bunny/stanford-bunny.obj.gz sibenik/sibenik.obj.gz
     conference/conference.obj.gz dabrovic-sponza/sponza.obj.gz)
   for f in "${need[@]}"; do
-    if [ ! -f "$scenes/$f" ]; then
-      echo "gpu-reference: $scenes/$f absent: small generated stand-ins in $out/scenes"
+    if [ "${GPU_REFERENCE_STAND_INS:-0}" = 1 ] || [ ! -f "$scenes/$f" ]; then
+      echo "gpu-reference: $scenes/$f absent or GPU_REFERENCE_STAND_INS=1: small generated stand-ins in $out/scenes"
       scenes="$out/scenes"
       mkdir -p "$scenes"
       python3 - "$scenes" "${need[@]}" <<'EOF'

@@ -589,7 +589,13 @@ impl Structure for Bvh {
     /// the surface area and `c` the leaf price of `leaf_cost` (`|l|`, or `⌈|l|/4⌉` for
     /// `blocks`) (`None` for an empty tree or a root of zero area); extra figures:
     /// `nodes`, `leaves`, `depth_max` (root depth 0), `leaf_depth_mean`, `prims_per_leaf_mean`,
-    /// `leaf_size_max`.
+    /// `leaf_size_max`; for the binary tree also `paper_bytes`, the tree as Aila and Laine's
+    /// GPU framework stores it (its compact layout; the SBVH of Pérard-Gayot et al.'s Table 2):
+    /// 64 bytes an interior node (both children's boxes and links), 48 bytes a reference (its
+    /// Woop-transformed triangle, three `float4`) and 12 of triangle-index slots beside them,
+    /// and 20 bytes a leaf (its sentinel `float4` and index slot). Table 2's SBVH figures
+    /// (74-76 bytes a triangle) hold triangle data: nodes and 4-byte references alone
+    /// (`structure_bytes`) come to about 30 bytes a triangle on the same scenes.
     fn report(&self) -> BuildReport {
         let t = self.figures();
         let root_area = self
@@ -614,6 +620,10 @@ impl Structure for Bvh {
                 ("leaf_size_max".into(), t.max_leaf as f64),
             ]
             .into_iter()
+            .chain((self.params.width == 2).then(|| {
+                let bytes = 64 * t.interior + 60 * self.prim_ids.len() as u64 + 20 * t.leaves;
+                ("paper_bytes".into(), bytes as f64)
+            }))
             .chain(self.wide_figures())
             // Only where the bound acted, so a row says when it did.
             .chain(
@@ -676,6 +686,40 @@ mod tests {
                 assert_eq!(b.blocks.is_empty(), width == 2);
                 assert_eq!(b.memory_for(0), m);
             }
+        }
+    }
+
+    /// `paper_bytes` is Aila and Laine's compact layout of the binary tree: 64 bytes an
+    /// interior node, 60 a reference (Woop triangle and index slots), 20 a leaf (sentinel);
+    /// a wide tree has none (the layout is binary).
+    #[test]
+    fn paper_bytes_are_aila_laines_layout() {
+        let tris = grid();
+        for builder in [Builder::Binned, Builder::Sbvh] {
+            let p = BvhParams {
+                builder,
+                width: 2,
+                ..BvhParams::default()
+            };
+            let b = Bvh::build(&tris, &p);
+            let r = Accel::build_report(&b);
+            let get = |k: &str| r.extra.iter().find(|(n, _)| n == k).map(|e| e.1);
+            let (nodes, leaves) = (get("nodes").unwrap(), get("leaves").unwrap());
+            let refs = b.prim_ids.len() as f64;
+            assert!(leaves > 1.0 && refs >= 64.0, "{builder:?}");
+            assert_eq!(
+                get("paper_bytes"),
+                Some(64.0 * (nodes - leaves) + 60.0 * refs + 20.0 * leaves),
+                "{builder:?}"
+            );
+            let wide = Bvh::build(&tris, &BvhParams { width: 4, ..p });
+            assert_eq!(
+                Accel::build_report(&wide)
+                    .extra
+                    .iter()
+                    .find(|(n, _)| n == "paper_bytes"),
+                None
+            );
         }
     }
 

@@ -212,12 +212,18 @@ fn intersect(p: Pre, r: Ray, i: u32, tmax: f32) -> vec4<f32> {
     return moller_trumbore(r, v0, v1, v2, tmax);
 }
 
+// The invocation's index in its workgroup (0 .. WORKGROUP_SIZE), for programs that keep
+// per-invocation data in workgroup memory (the kd-tree's on-chip short stack).
+var<private> LANE: u32;
+
 // One thread per ray: the program's `walk` traces ray `ray_index(i)` of the dispatch (`i`
 // itself, or the i-th of the sorted order for a program with a ray key: shaders/arrange.wgsl)
 // (counters start at zero; `capped` stays 0 unless the program sets it), its hit is written at
 // the ray's own index, and its counters in the counting variant.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn main(@builtin(global_invocation_id) gid: vec3<u32>,
+        @builtin(local_invocation_index) lane: u32) {
+    LANE = lane;
     let i = gid.x;
     if i >= arrayLength(&rays) {
         return;

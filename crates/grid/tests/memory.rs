@@ -87,6 +87,8 @@ fn irregular_grid_structure_is_voxel_map_cells_and_refs() {
         let g = IrregularGrid::build(&tris, &params).unwrap();
         let m = g.memory();
         assert_eq!(32 * m.nodes, figure(&g, "cells_bytes"), "{p}");
+        // Table 2's figure, under the key the SBVH's Aila–Laine layout shares.
+        assert_eq!(figure(&g, "paper_bytes"), m.structure_bytes, "{p}");
         check(
             &g,
             &["voxel_map_bytes", "cells_bytes", "refs_bytes"],

@@ -59,6 +59,10 @@ fn highest(v: vec2<u32>) -> u32 {
 // word for the programs that read neither.
 @group(0) @binding(8) var<storage, read> aux: array<u32>;
 
+// The short stack on chip (see `stackless`): SHORT_SLOTS and SHORT_ON_CHIP come from the
+// program's source (kdtree/src/gpu.rs), one slot where it is unused.
+var<workgroup> short_stack: array<vec4<u32>, SHORT_SLOTS>;
+
 fn aux_min(i: u32) -> vec3<f32> {
     let b = 8u * i;
     return vec3<f32>(bitcast<f32>(aux[b]), bitcast<f32>(aux[b + 1u]), bitcast<f32>(aux[b + 2u]));
@@ -113,7 +117,12 @@ fn below(t: Track, at: u32) -> Track {
 // One restart-type walk `k` (K_RESTART, K_PUSH_DOWN, K_SHORT_STACK, K_BACKTRACK) of a ray clipped to
 // `[t0, t1]` from the start node, with the closest hit `best` and `steps0` steps taken; the
 // step cap (header word 11) ends it as on the CPU. The short stack is a circular array of
-// STACK_SIZE entries (the program's stack size: KdParams::short_stack, as the CPU kernel's).
+// STACK_SIZE entries (the program's stack size: KdParams::short_stack, as the CPU kernel's),
+// kept on chip as Horn et al.'s is (review §5.2: the short stack in fast memory, the full stack
+// of `recursive-direction` in the invocation's memory, Novák's contrast): in workgroup memory,
+// STACK_SIZE entries per invocation at `LANE * STACK_SIZE` (SHORT_ON_CHIP, set by the program's
+// source for sizes whose slots fit WebGPU's 16 KiB of workgroup memory: up to 16 entries);
+// larger short stacks stay in the invocation's memory.
 //
 // - `restart` (Foley and Sugerman 2005, kd-restart; review §5.1): after each leaf, restart at
 //   the start node and descend toward the last leaf down to the deepest node that sent the ray
@@ -138,7 +147,7 @@ fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, s
     let track = k != K_BACKTRACK;
     // Far child, its interval (f32 bits), and its parent's depth << 1 | whether it is the right
     // child; `count` entries, the newest at `top - 1` (mod `size`).
-    var stack: array<vec4<u32>, STACK_SIZE>;
+    var stack: array<vec4<u32>, LOCAL_SLOTS>;
     var top = 0u;
     var count = 0u;
     // The pushed-down node, its interval and depth, and whether it may still be pushed down.
@@ -176,8 +185,13 @@ fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, s
                 // `far_tn < near_tf` only for `t = NaN` (see `decide`).
                 in_plane = in_plane || d.far_tn < d.near_tf;
                 if k == K_SHORT_STACK {
-                    stack[top] = vec4<u32>(d.far, bitcast<u32>(d.far_tn), bitcast<u32>(tf),
-                                           (tr.depth << 1u) | select(1u, 0u, near_right));
+                    let e = vec4<u32>(d.far, bitcast<u32>(d.far_tn), bitcast<u32>(tf),
+                                      (tr.depth << 1u) | select(1u, 0u, near_right));
+                    if SHORT_ON_CHIP {
+                        short_stack[LANE * STACK_SIZE + top] = e;
+                    } else {
+                        stack[top] = e;
+                    }
                     top = select(top + 1u, 0u, top + 1u == size);
                     count = min(count + 1u, size);
                 }
@@ -223,7 +237,12 @@ fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, s
                 }
                 top = select(top - 1u, size - 1u, top == 0u);
                 count -= 1u;
-                let e = stack[top];
+                var e = stack[0];
+                if SHORT_ON_CHIP {
+                    e = short_stack[LANE * STACK_SIZE + top];
+                } else {
+                    e = stack[top];
+                }
                 if ANY || bitcast<f32>(e.y) <= best.t {
                     idx = e.x;
                     tn = bitcast<f32>(e.y);

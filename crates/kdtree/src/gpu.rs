@@ -58,6 +58,25 @@ fn words(w: impl IntoIterator<Item = u32>) -> Cow<'static, [u8]> {
     Cow::Owned(w.into_iter().flat_map(u32::to_le_bytes).collect())
 }
 
+/// The programs' source: `shaders/kd.wgsl`, the short stack's placement, `shaders/kdtree.wgsl`.
+const SOURCE: &str = concat!(
+    include_str!("../shaders/kd.wgsl"),
+    "const SHORT_ON_CHIP: bool = false;\nconst SHORT_SLOTS: u32 = 1u;\nconst LOCAL_SLOTS: u32 = STACK_SIZE;\n",
+    include_str!("../shaders/kdtree.wgsl")
+);
+
+/// [`SOURCE`] with the short stack on chip: `STACK_SIZE` entries per invocation in workgroup
+/// memory (Horn et al. 2007's short stack in fast memory; review §5.2).
+const SOURCE_ON_CHIP: &str = concat!(
+    include_str!("../shaders/kd.wgsl"),
+    "const SHORT_ON_CHIP: bool = true;\nconst SHORT_SLOTS: u32 = WORKGROUP_SIZE * STACK_SIZE;\nconst LOCAL_SLOTS: u32 = 1u;\n",
+    include_str!("../shaders/kdtree.wgsl")
+);
+
+/// The largest short stack kept on chip: 16 entries of 16 bytes for each of a workgroup's 64
+/// invocations fill the 16 KiB of workgroup memory WebGPU guarantees.
+pub(crate) const MAX_ON_CHIP_SHORT_STACK: usize = 16;
+
 /// The GPU programs (`shaders/kd.wgsl` then `shaders/kdtree.wgsl`, on tb-gpu's prelude; README
 /// "GPU"): one per traversal, each the CPU kernel's walk in the CPU's order with the same
 /// decisions (so the counters agree ray for ray), in either layout, from the tree's start.
@@ -107,12 +126,10 @@ impl KdTree {
             GpuKernel::ShortStack => self.params.short_stack as usize,
             _ => 1,
         };
+        let on_chip = kernel == GpuKernel::ShortStack && stack_size <= MAX_ON_CHIP_SHORT_STACK;
         GpuProgram::new(
             name,
-            concat!(
-                include_str!("../shaders/kd.wgsl"),
-                include_str!("../shaders/kdtree.wgsl")
-            ),
+            if on_chip { SOURCE_ON_CHIP } else { SOURCE },
             &self.tris[..],
         )
         .buffer(
@@ -148,7 +165,8 @@ impl KdTree {
     }
 
     /// `short-stack` (Horn et al. 2007; review §5.2): program `kdtree/short-stack-N` with a
-    /// circular stack of `N = short_stack` entries.
+    /// circular stack of `N = short_stack` entries, on chip (workgroup memory) for `N` up to
+    /// [`MAX_ON_CHIP_SHORT_STACK`], in the invocation's memory above.
     pub(crate) fn gpu_short_stack(&self) -> GpuProgram<'_> {
         let name = SHORT_STACK_PROGRAMS[self.params.short_stack as usize - 1];
         self.gpu(name, GpuKernel::ShortStack)
@@ -169,5 +187,47 @@ impl KdTree {
     /// ropes.
     pub(crate) fn gpu_ropes(&self) -> GpuProgram<'_> {
         self.gpu("kdtree/ropes", GpuKernel::Ropes)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::KdParams;
+    use tb_core::{Accel, Triangle, Vec3};
+
+    /// The short stack is on chip (workgroup memory) up to [`MAX_ON_CHIP_SHORT_STACK`] entries
+    /// and in the invocation's memory above; no other program places one on chip.
+    #[test]
+    fn short_stacks_up_to_sixteen_entries_are_on_chip() {
+        let tris: Vec<Triangle> = (0..32)
+            .map(|i| {
+                let p = Vec3::new(i as f32, (i % 5) as f32, (i % 3) as f32);
+                Triangle::new(p, p + Vec3::X, p + Vec3::Y)
+            })
+            .collect();
+        let on_chip = |short_stack: u32, traversal: &str| {
+            let kd = KdTree::build(
+                &tris,
+                &KdParams {
+                    short_stack,
+                    ..Default::default()
+                },
+            );
+            let i = Accel::traversals(&kd)
+                .iter()
+                .position(|t| t.name == traversal)
+                .unwrap();
+            let p = kd.gpu_program(i).expect("a GPU program");
+            p.source.contains("const SHORT_ON_CHIP: bool = true;")
+        };
+        for n in [1, 4, 16] {
+            assert!(on_chip(n, "short-stack"), "{n}");
+        }
+        for n in [17, 32] {
+            assert!(!on_chip(n, "short-stack"), "{n}");
+        }
+        assert!(!on_chip(4, "recursive-direction"));
+        assert!(!on_chip(4, "push-down"));
     }
 }
