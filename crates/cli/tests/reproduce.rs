@@ -67,6 +67,7 @@ test = {{ kind = "value", of = "rec", min = 0 }}
 
 [[claim]]
 id = "weight"
+kind = "observation"
 where = "Table 1"
 text = "a weight"
 paper = "50.00"
@@ -79,9 +80,16 @@ test = {{ kind = "value", of = "w", min = 49.999, max = 50.01 }}
         ),
     )
     .unwrap();
+    // Its deviations, beside it.
+    fs::create_dir(t.path().join("deviations")).unwrap();
+    let deviations = t.path().join("deviations/tiny-paper.toml");
+    let deviation = |claims: &str| {
+        format!("[[deviation]]\nkind = \"hardware\"\nwhat = \"no GPU here\"\nwhy = \"a CPU machine\"\nclaims = {claims}\n")
+    };
+    fs::write(&deviations, deviation(r#"["gpu-only"]"#)).unwrap();
     let out = t.path().join("report");
     let exe = env!("CARGO_BIN_EXE_trace-bench");
-    let run = || {
+    let run_into = |out: &std::path::Path| {
         Command::new(exe)
             .args([
                 "reproduce",
@@ -90,11 +98,12 @@ test = {{ kind = "value", of = "w", min = 49.999, max = 50.01 }}
                 "20s",
                 "--out",
             ])
-            .arg(&out)
+            .arg(out)
             .args(["-q"])
             .output()
             .unwrap()
     };
+    let run = || run_into(&out);
     let o = run();
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(
@@ -109,23 +118,43 @@ test = {{ kind = "value", of = "w", min = 49.999, max = 50.01 }}
     let v: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(out.join("verdicts.json")).unwrap()).unwrap();
     let claims_out = &v["papers"][0]["claims"];
-    let verdict = |id: &str| {
+    let field = |id: &str, key: &str| {
         claims_out
             .as_array()
             .unwrap()
             .iter()
             .find(|c| c["id"] == id)
-            .unwrap()["verdict"]
+            .unwrap()[key]
             .clone()
     };
+    let verdict = |id: &str| field(id, "verdict");
     assert_eq!(verdict("restart-revisits"), "agree", "{report}");
     assert_eq!(verdict("weight"), "agree", "{report}");
     assert_eq!(verdict("gpu-only"), "inconclusive");
+    // The observation is counted apart from the tally, with its kind.
+    let kind = |id: &str| field(id, "kind");
+    assert_eq!(kind("weight"), "observation");
+    assert_eq!(kind("gpu-only"), "claim");
+    assert_eq!(v["tally"]["agree"], 1, "{v}");
+    assert_eq!(v["kinds"]["observations"]["agree"], 1, "{v}");
     let repro = fs::read_to_string(out.join("REPRODUCTION.md")).unwrap();
     assert!(
         repro.contains("| `gpu-only` |") && repro.contains("not measured"),
         "{repro}"
     );
+    let at = |s: &str| {
+        repro
+            .find(s)
+            .unwrap_or_else(|| panic!("{s} not in {repro}"))
+    };
+    assert!(repro.contains(
+        "claims 1 agree, 0 disagree, 1 inconclusive; observations (not tallied) 1 agree"
+    ));
+    assert!(
+        at("| `gpu-only` |") < at("### Observations")
+            && at("### Observations") < at("| `weight` |")
+    );
+    assert!(at("## Deviations") < at("| hardware | no GPU here | a CPU machine | `gpu-only` |"));
     // The same folder again: both runs reused, the same verdicts.
     let o = run();
     assert!(o.status.success());
@@ -153,6 +182,19 @@ test = {{ kind = "value", of = "w", min = 49.999, max = 50.01 }}
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(1), "gpu-only is inconclusive");
+    // A deviation naming a claim the file does not have stops reproduce before any run.
+    fs::write(&deviations, deviation(r#"["gpu-olny"]"#)).unwrap();
+    let o = run_into(&t.path().join("report2"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("deviation[0].claims") && err.contains("`gpu-olny` names no claim"),
+        "{err}"
+    );
+    assert!(
+        !t.path().join("report2/runs").exists(),
+        "no run before the check"
+    );
 }
 
 /// `run.interleave`: the same rows and counters as a run timed row by row; the CPU rows of a

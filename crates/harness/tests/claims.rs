@@ -356,7 +356,7 @@ fn bad_files_name_the_line_and_key() {
     assert!(e.contains("give min, max or both"), "{e}");
 }
 
-/// Every claims file of the project parses and checks.
+/// Every claims file of the project parses and checks, and so do its deviations.
 #[test]
 fn the_projects_claims_files_load() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../claims");
@@ -366,6 +366,8 @@ fn the_projects_claims_files_load() {
         if p.extension().is_some_and(|x| x == "toml") {
             let f = claims::load(&p).unwrap_or_else(|e| panic!("{e}"));
             assert!(!f.claims.is_empty(), "{}: no claims", p.display());
+            // Its deviations (claims/deviations/STEM.toml) name only claims it has.
+            claims::deviations::load(&p, &f).unwrap_or_else(|e| panic!("{e}"));
             n += 1;
         }
     }
@@ -653,5 +655,200 @@ fn rows_of_different_configs_are_not_pooled() {
             && mixed[0].why.contains("other-10.csv"),
         "{}",
         mixed[0].why
+    );
+}
+
+/// Three claims of each kind on the same rows: only `claim`s are tallied; observations and
+/// invariants are counted and shown apart (text, Markdown, JSON, REPRODUCTION.md), and a claim
+/// without a `kind` is a `claim`.
+#[test]
+fn kinds_are_shown_apart_and_only_claims_tallied() {
+    let t = tempfile::tempdir().unwrap();
+    let r = results(t.path());
+    let one = |id: &str, kind: &str, max: f64| {
+        format!(
+            "[[claim]]\nid = \"{id}\"\n{kind}where = \"T1\"\ntext = \"t\"\npaper = \"p\"\nmeasure = \"interior_per_ray\"\nfilter = {{ ray_kind = \"primary\", params = {{ k = 1 }}, scene = \"s1\" }}\nrows.a = {{ traversal = \"a\" }}\nrows.b = {{ traversal = \"b\" }}\ntest = {{ kind = \"ratio\", num = \"a\", den = \"b\", max = {max} }}\n"
+        )
+    };
+    // s1: a / b = 0.875.
+    let text = format!(
+        "{BASE}{}{}{}{}",
+        one("plain", "", 0.9),
+        one("stated", "kind = \"claim\"\n", 0.5),
+        one("tried", "kind = \"observation\"\n", 0.5),
+        one("built", "kind = \"invariant\"\n", 0.9)
+    );
+    let v = eval(&text, &[r]);
+    let kind = |id: &str| v.iter().find(|c| c.id == id).unwrap().kind;
+    assert_eq!(kind("plain"), claims::ClaimKind::Claim);
+    assert_eq!(kind("tried"), claims::ClaimKind::Observation);
+    assert_eq!(kind("built"), claims::ClaimKind::Invariant);
+    let tally = claims::render::Tally::of(&v);
+    assert_eq!((tally.agree, tally.disagree, tally.inconclusive), (1, 1, 0));
+    let k = claims::render::Kinds::of(&v);
+    assert_eq!((k.observations.disagree, k.observations.total()), (1, 1));
+    assert_eq!((k.invariants.agree, k.invariants.total()), (1, 1));
+    // Markdown: the claims' table and tally, then each kind under its own heading and count.
+    let md = claims::render::markdown(&v);
+    let at = |s: &str| md.find(s).unwrap_or_else(|| panic!("{s} not in {md}"));
+    assert!(at("| `plain` |") < at("1 agree, 1 disagree, 0 inconclusive"));
+    assert!(at("1 agree, 1 disagree, 0 inconclusive") < at("**Observations**"));
+    assert!(at("**Observations**") < at("| `tried` |"));
+    assert!(at("| `tried` |") < at("Observations (not tallied, 1): 0 agree, 1 disagree"));
+    assert!(at("**Invariants**") < at("| `built` |"));
+    let txt = claims::render::text(&v, 120);
+    assert!(
+        txt.contains("Observations (not tallied")
+            && txt.contains("Invariants (not tallied, 1): 1 agree"),
+        "{txt}"
+    );
+    // JSON carries each result's kind, the claims' tally and every kind's counts.
+    let j = claims::render::json("t", &[], &v);
+    assert_eq!(j["tally"]["agree"], 1);
+    assert_eq!(j["kinds"]["observations"]["disagree"], 1);
+    assert_eq!(j["claims"][2]["kind"], "observation");
+    // REPRODUCTION.md: observations and invariants in their own sections after the claims.
+    let report = claims::reproduce::PaperReport {
+        key: "t".into(),
+        paper: "A paper".into(),
+        runs: Vec::new(),
+        tally,
+        kinds: k,
+        claims: v.clone(),
+        deviations: Vec::new(),
+        adapters: Vec::new(),
+    };
+    let repro = claims::reproduce::reproduction(&[report], "");
+    let at = |s: &str| {
+        repro
+            .find(s)
+            .unwrap_or_else(|| panic!("{s} not in {repro}"))
+    };
+    assert!(repro.contains("claims 1 agree, 1 disagree, 0 inconclusive; observations (not tallied) 0 agree, 1 disagree"));
+    assert!(at("| `stated` |") < at("### Observations"));
+    assert!(at("### Observations") < at("| `tried` |"));
+    assert!(at("| `tried` |") < at("### Invariants"));
+    assert!(at("### Invariants") < at("| `built` |"));
+    assert!(at("| `built` |") < at("## Deviations"));
+}
+
+/// A time band narrower than the floor between runs can never hold a time's interval: the
+/// claim reads `undecidable` (with the reason) where it would read `inconclusive`, and is not
+/// counted among the inconclusive; a band as wide as the floor stays decidable, a result
+/// clearly outside the band still disagrees, and a claim may give its own reason.
+#[test]
+fn a_claim_undecidable_by_construction_says_so() {
+    let t = tempfile::tempdir().unwrap();
+    let r = results(t.path());
+    // s1: speedup of a over b 2 (80 / 40 ms, ±1 %), widened to [1.67, 2.4] by the ±20 % floor.
+    let c = |band: &str| {
+        claim(&format!(
+            "measure = \"time\"\nfilter = {{ ray_kind = \"primary\", params = {{ k = 1 }}, scene = \"s1\" }}\nrows.a = {{ traversal = \"a\" }}\nrows.b = {{ traversal = \"b\" }}\ntest = {{ kind = \"speedup\", of = \"a\", base = \"b\", {band} }}"
+        ))
+    };
+    // [1.7, 2.0] spans a factor 1.18 < 1.2²: undecidable, whatever the rows.
+    let v = eval(&c("min = 1.7, max = 2.0"), std::slice::from_ref(&r));
+    assert_eq!(v[0].verdict, Verdict::Undecidable, "{v:?}");
+    assert!(
+        v[0].why.starts_with("undecidable: the band [1.7, 2]"),
+        "{}",
+        v[0].why
+    );
+    assert!(v[0].undecidable.is_some());
+    let tally = claims::render::Tally::of(&v);
+    assert_eq!((tally.inconclusive, tally.undecidable), (0, 1));
+    assert!(claims::render::markdown(&v).contains("*undecidable*"));
+    assert!(tally.to_string().ends_with(", 1 undecidable"));
+    // [1.5, 2.2] spans 1.47 >= 1.44: decidable, and this interval straddles 2.2.
+    let v = eval(&c("min = 1.5, max = 2.2"), std::slice::from_ref(&r));
+    assert_eq!(v[0].verdict, Verdict::Inconclusive, "{v:?}");
+    assert!(v[0].undecidable.is_none());
+    // Below the band by more than the floor: a verdict all the same.
+    let v = eval(&c("min = 1.021, max = 1.206"), std::slice::from_ref(&r));
+    assert_eq!(v[0].verdict, Verdict::Disagree, "{v:?}");
+    assert!(
+        v[0].why.contains("; undecidable by construction: the band"),
+        "{}",
+        v[0].why
+    );
+    // The floor decides: at ±5 % the same band [1.7, 2.0] can hold an interval.
+    let file = claims::parse(Path::new("t.toml"), &c("min = 1.7, max = 2.0")).unwrap();
+    let rows = RowSet::read(std::slice::from_ref(&r)).unwrap();
+    let v = claims::evaluate_with(&file, &rows, &claims::Options { time_floor: 0.05 });
+    assert_eq!(v[0].verdict, Verdict::Inconclusive, "{v:?}");
+    // Counters have no floor: the same band on a counter is decided.
+    let counter = c("min = 1.7, max = 2.0").replace("\"time\"", "\"interior_per_ray\"");
+    assert_ne!(
+        eval(&counter, std::slice::from_ref(&r))[0].verdict,
+        Verdict::Undecidable
+    );
+    // A reason given in the file: a GPU claim no GPU row can decide.
+    let gpu = claim(
+        "undecidable = \"no GPU kernel\"\ndevices = [\"gpu\"]\nmeasure = \"time\"\nrows.a = { traversal = \"a\" }\ntest = { kind = \"value\", of = \"a\", min = 0 }",
+    );
+    let v = eval(&gpu, &[r]);
+    assert_eq!(v[0].verdict, Verdict::Undecidable, "{v:?}");
+    assert!(
+        v[0].why.starts_with("undecidable: no GPU kernel"),
+        "{}",
+        v[0].why
+    );
+}
+
+/// A deviation names the claims it touches (ids, globs, `measure:`, `device:`): each must name
+/// a claim of the paper's file, or the file is refused with the line and the name.
+#[test]
+fn a_deviation_naming_an_unknown_claim_is_refused() {
+    let text = format!(
+        "{BASE}[[claim]]\nid = \"fast\"\nwhere = \"T1\"\ntext = \"t\"\npaper = \"p\"\nmeasure = \"time\"\nrows.a = {{ traversal = \"a\" }}\ntest = {{ kind = \"value\", of = \"a\", min = 0 }}\n[[claim]]\nid = \"few\"\nwhere = \"T1\"\ntext = \"t\"\npaper = \"p\"\ndevices = [\"gpu\"]\nmeasure = \"interior_per_ray\"\nrows.a = {{ traversal = \"a\" }}\ntest = {{ kind = \"value\", of = \"a\", min = 0 }}\n"
+    );
+    let file = claims::parse(Path::new("claims/t.toml"), &text).unwrap();
+    let dev = |claims: &str| {
+        format!("[[deviation]]\nkind = \"view\"\nwhat = \"w\"\nwhy = \"y\"\nclaims = [\"fast\"]\n\n[[deviation]]\nkind = \"hardware\"\nwhat = \"our GPU\"\nwhy = \"the only one\"\nclaims = {claims}\n")
+    };
+    let p = Path::new("claims/deviations/t.toml");
+    assert_eq!(claims::deviations::path_for(Path::new("claims/t.toml")), p);
+    let ok =
+        claims::deviations::parse(p, &dev("[\"device:gpu\", \"measure:time\", \"f*\"]"), &file)
+            .unwrap();
+    assert_eq!(ok[1].ids, ["fast", "few"]);
+    // `&` joins patterns: claims matching all of them.
+    let both = claims::deviations::parse(
+        p,
+        &dev("[\"measure:interior_per_ray & device:gpu\"]"),
+        &file,
+    )
+    .unwrap();
+    assert_eq!(both[1].ids, ["few"]);
+    assert!(claims::deviations::parse(p, &dev("[\"measure:time & device:gpu\"]"), &file).is_err());
+    assert!(claims::deviations::markdown(&ok).contains("| hardware | our GPU | the only one |"));
+    for bad in [
+        "[\"fats\"]",
+        "[\"x*\"]",
+        "[\"measure:steps_per_ray\"]",
+        "[\"device:tpu\"]",
+        "[]",
+    ] {
+        let e = claims::deviations::parse(p, &dev(bad), &file)
+            .err()
+            .unwrap_or_else(|| panic!("{bad} accepted"))
+            .to_string();
+        assert!(
+            e.contains("claims/deviations/t.toml:7") && e.contains("deviation[1].claims"),
+            "{e}"
+        );
+        if bad != "[]" {
+            assert!(e.contains(&bad[2..bad.len() - 2]), "{e}");
+        }
+    }
+    // Unknown keys and kinds are refused too.
+    assert!(claims::deviations::parse(
+        p,
+        &dev("[\"fast\"]").replace("kind = \"view\"", "kind = \"scenery\""),
+        &file
+    )
+    .is_err());
+    assert!(
+        claims::deviations::parse(p, &format!("{}claim = 1\n", dev("[\"fast\"]")), &file).is_err()
     );
 }

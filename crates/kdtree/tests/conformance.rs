@@ -250,7 +250,9 @@ fn step_cap_fires_and_is_counted() {
 }
 
 /// `branchless` and `stack-spilling` (with a one-entry short stack, so it spills) visit
-/// exactly the nodes of `recursive-direction`, ray by ray.
+/// exactly the nodes of `recursive-direction`, ray by ray, and spilling never restarts (the
+/// review's §5.4-5.5; were the claims s55-branchless-same-nodes,
+/// s54-spilling-same-nodes-as-full-stack and s54-spilling-never-restarts).
 #[test]
 fn branchless_and_spilling_visit_the_recursive_nodes() {
     let scene = tb_scene::load("builtin:teapot?tess=4", std::path::Path::new(".")).unwrap();
@@ -277,8 +279,10 @@ fn branchless_and_spilling_visit_the_recursive_nodes() {
             );
         }
         if name == "stack-spilling" {
-            // Spills and refills happened (counted in `boxes` beyond the root test).
+            // Spills and refills happened (counted in `boxes` beyond the root test), and the
+            // large stack of maximal depth behind the short one never lets it restart.
             assert!(other.iter().any(|s| s.boxes > 1));
+            assert!(other.iter().all(|s| s.restarts == 0), "{name} restarted");
         }
     }
 }

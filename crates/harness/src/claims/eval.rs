@@ -1,8 +1,8 @@
 //! The generic evaluator: rows → pooled values per group and selector → a test → verdicts.
 
-use super::measure::{Measure, Term};
+use super::measure::{fmt, Measure, Term};
 use super::rows::{Row, RowSet};
-use super::schema::{Claim, ClaimsFile, Direction, Need, Pool, Selector, Test};
+use super::schema::{Claim, ClaimKind, ClaimsFile, Direction, Need, Pool, Selector, Test};
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -13,6 +13,9 @@ pub enum Verdict {
     Agree,
     Disagree,
     Inconclusive,
+    /// Cannot be decided by construction (the claim's `undecidable`, or a time band narrower
+    /// than the floor between runs): shown instead of `inconclusive`, not tallied with it.
+    Undecidable,
 }
 
 impl Verdict {
@@ -21,6 +24,7 @@ impl Verdict {
             Verdict::Agree => "agree",
             Verdict::Disagree => "disagree",
             Verdict::Inconclusive => "inconclusive",
+            Verdict::Undecidable => "undecidable",
         }
     }
 }
@@ -132,8 +136,13 @@ pub struct ClaimResult {
     pub text: String,
     pub paper: String,
     pub device: String,
+    /// A claim of the paper (tallied), an observation or an invariant (shown apart).
+    pub kind: ClaimKind,
     pub measure: String,
     pub verdict: Verdict,
+    /// Why the claim cannot be decided by construction, where it cannot.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub undecidable: Option<String>,
     pub ours: String,
     pub why: String,
     pub note: Option<String>,
@@ -166,18 +175,6 @@ fn default_pool(t: &Term) -> Pool {
             Pool::Sum
         }
         _ => Pool::Mean,
-    }
-}
-
-/// A column computed from wall-clock time (`primary_ms`, `ao_ms_per_spp`, `elapsed_ms`, the
-/// dynamic table's `spp`, …) or a `build_stats` entry that is one (`build:insert_ms`, the
-/// grids' `build:build_merge_ms`, …): no interval of its own, but subject to [`TIME_FLOOR`].
-fn time_derived(t: &Term) -> bool {
-    let timing = |c: &str| c.ends_with("_ms") || c.contains("_ms_");
-    match t {
-        Term::Col(c) => timing(c) || c == "spp",
-        Term::Build(k) => timing(k),
-        _ => false,
     }
 }
 
@@ -225,7 +222,7 @@ fn software_adapter(r: &Row) -> bool {
 // ---------------------------------------------------------------------------------------
 // Matching
 
-fn glob(pat: &str, s: &str) -> bool {
+pub(crate) fn glob(pat: &str, s: &str) -> bool {
     // `*` matches any run; iterative with backtracking to the last star.
     let (p, t): (Vec<char>, Vec<char>) = (pat.chars().collect(), s.chars().collect());
     let (mut i, mut j, mut star, mut mark) = (0, 0, None, 0);
@@ -407,7 +404,7 @@ fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Va
         total += aggregate(pool.unwrap_or_else(|| default_pool(t)), &xs);
     }
     let mut v = Value::point(total, rows.len());
-    v.timed = m.0.iter().any(time_derived);
+    v.timed = m.0.iter().any(Term::wall_clock);
     Ok(v)
 }
 
@@ -580,30 +577,6 @@ fn pool_time(name: &str, rows: &[&Row], mrays: bool) -> Result<Value, String> {
 // ---------------------------------------------------------------------------------------
 // Tests
 
-/// A number in five significant digits (whole numbers from 10,000).
-pub(crate) fn fmt(x: f64) -> String {
-    if !x.is_finite() {
-        return if x.is_nan() {
-            "n/a".into()
-        } else if x > 0.0 {
-            "∞".into()
-        } else {
-            "-∞".into()
-        };
-    }
-    let a = x.abs();
-    if a >= 10000.0 || a == 0.0 {
-        return format!("{x:.0}");
-    }
-    let d = (4 - a.log10().floor() as i32).clamp(0, 8) as usize;
-    let s = format!("{x:.d$}");
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_owned()
-    } else {
-        s
-    }
-}
-
 fn fmt_iv(v: f64, lo: f64, hi: f64, timed: bool) -> String {
     if timed {
         format!("{} [{}, {}]", fmt(v), fmt(lo), fmt(hi))
@@ -706,7 +679,7 @@ fn all_of(vs: impl IntoIterator<Item = Verdict>) -> Verdict {
     for v in vs {
         match v {
             Verdict::Disagree => return Verdict::Disagree,
-            Verdict::Inconclusive => out = Verdict::Inconclusive,
+            Verdict::Inconclusive | Verdict::Undecidable => out = Verdict::Inconclusive,
             Verdict::Agree => {}
         }
     }
@@ -805,7 +778,9 @@ fn banded(
             band_text(min, max),
             fmt(100.0 * floor)
         ),
-        Verdict::Inconclusive => format!("interval straddles {}", band_text(min, max)),
+        Verdict::Inconclusive | Verdict::Undecidable => {
+            format!("interval straddles {}", band_text(min, max))
+        }
     };
     (verdict, shown, Some(d), why)
 }
@@ -1002,14 +977,25 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
         results.extend(missing_groups(c, &groups));
     }
     let (verdict, ours, why) = combine(c, device, &results, &base, set);
+    let undecidable = super::kinds::undecidable(c, opts.time_floor);
+    let (verdict, why) = match &undecidable {
+        Some(r) if verdict == Verdict::Inconclusive => {
+            (Verdict::Undecidable, format!("undecidable: {r} ({why})"))
+        }
+        // Decided all the same (an interval wholly outside a band it could never be inside).
+        Some(r) => (verdict, format!("{why}; undecidable by construction: {r}")),
+        None => (verdict, why),
+    };
     ClaimResult {
         id: c.id.clone(),
         place: c.place.clone(),
         text: c.text.clone(),
         paper: c.paper.clone(),
         device: device.into(),
+        kind: c.kind,
         measure: c.measure.clone(),
         verdict,
+        undecidable,
         ours,
         why,
         note: c.note.clone(),
@@ -1249,7 +1235,7 @@ fn combine(
                 format!("{disagree} of {n} groups disagree: {s}")
             }
         }
-        Verdict::Inconclusive => {
+        Verdict::Inconclusive | Verdict::Undecidable => {
             let s = list(Verdict::Inconclusive);
             if n == 1 || count(Verdict::Inconclusive) == 0 {
                 if s.is_empty() {

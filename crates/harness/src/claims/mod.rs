@@ -5,13 +5,17 @@
 //! compares (named [`Selector`]s), the measure, how rows pool and group, and a [`Test`] with a
 //! band fixed from the paper's figure. [`evaluate`] turns rows into one [`Verdict`] per claim
 //! and device: `agree`, `disagree` or `inconclusive` (rows missing, a time interval across a
-//! bound, noisy or software-rendered timings). Nothing here knows a paper or a structure: the
-//! files name columns, and any CSV a run writes (`results.csv`, `dynamic.csv`, `weights.csv`)
-//! can be read ([`rows::RowSet`]).
+//! bound, noisy or software-rendered timings), or `undecidable` where it cannot be decided by
+//! construction. A claim is a statement of the paper (tallied), an observation or an invariant
+//! ([`ClaimKind`], shown apart); [`deviations`] lists where our implementation differs from the
+//! paper. Nothing here knows a paper or a structure: the files name columns, and any CSV a run
+//! writes (`results.csv`, `dynamic.csv`, `weights.csv`) can be read ([`rows::RowSet`]).
 
 mod child;
 mod columns;
+pub mod deviations;
 mod eval;
+mod kinds;
 mod measure;
 pub mod render;
 pub mod reproduce;
@@ -22,7 +26,7 @@ pub use eval::{
     evaluate, evaluate_with, ClaimResult, GroupResult, Options, Value, Verdict, TIME_FLOOR,
 };
 pub use rows::RowSet;
-pub use schema::{Claim, ClaimsFile, Direction, Need, Pool, RunSpec, Selector, Test};
+pub use schema::{Claim, ClaimKind, ClaimsFile, Direction, Need, Pool, RunSpec, Selector, Test};
 
 use crate::HarnessError;
 use std::path::Path;
@@ -36,19 +40,22 @@ pub fn load(path: &Path) -> Result<ClaimsFile, HarnessError> {
 
 /// [`load`] on text already read.
 pub fn parse(path: &Path, text: &str) -> Result<ClaimsFile, HarnessError> {
-    let file: ClaimsFile = toml::from_str(text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|s| format!("{}: ", crate::experiment::config::line_of(text, s.start)));
-        HarnessError::ConfigSyntax {
-            file: path.into(),
-            message: format!(
-                "{}{}",
-                line.unwrap_or_default(),
-                e.message().trim().replace('\n', " ")
-            ),
-        }
-    })?;
+    let file: ClaimsFile = toml::from_str(text).map_err(|e| syntax_error(path, text, &e))?;
     file.check(path, text)?;
     Ok(file)
+}
+
+/// A TOML syntax or type error of the file at `path` in one line, naming the line.
+pub(crate) fn syntax_error(path: &Path, text: &str, e: &toml::de::Error) -> HarnessError {
+    let line = e
+        .span()
+        .map(|s| format!("{}: ", crate::experiment::config::line_of(text, s.start)));
+    HarnessError::ConfigSyntax {
+        file: path.into(),
+        message: format!(
+            "{}{}",
+            line.unwrap_or_default(),
+            e.message().trim().replace('\n', " ")
+        ),
+    }
 }

@@ -1,27 +1,43 @@
-//! Verdicts as a terminal table, Markdown or JSON.
+//! Verdicts as a terminal table, Markdown or JSON: the paper's claims first (the tally), then
+//! observations and invariants, each in its own section with its own counts.
 
 use super::eval::{ClaimResult, Verdict};
+use super::schema::ClaimKind;
 use serde::Serialize;
 
-/// Counts of each verdict.
+/// Counts of each verdict among the results of one kind.
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq, Eq)]
 pub struct Tally {
     pub agree: usize,
     pub disagree: usize,
     pub inconclusive: usize,
+    pub undecidable: usize,
 }
 
 impl Tally {
+    /// The tally of the paper's claims (kind `claim`); observations and invariants are not
+    /// tallied ([`Tally::of_kind`] counts them apart).
     pub fn of(rs: &[ClaimResult]) -> Tally {
+        Tally::of_kind(rs, ClaimKind::Claim)
+    }
+
+    /// Counts of the results of one kind.
+    pub fn of_kind(rs: &[ClaimResult], kind: ClaimKind) -> Tally {
         let mut t = Tally::default();
-        for r in rs {
+        for r in rs.iter().filter(|r| r.kind == kind) {
             match r.verdict {
                 Verdict::Agree => t.agree += 1,
                 Verdict::Disagree => t.disagree += 1,
                 Verdict::Inconclusive => t.inconclusive += 1,
+                Verdict::Undecidable => t.undecidable += 1,
             }
         }
         t
+    }
+
+    /// Results counted.
+    pub fn total(&self) -> usize {
+        self.agree + self.disagree + self.inconclusive + self.undecidable
     }
 }
 
@@ -31,7 +47,65 @@ impl std::fmt::Display for Tally {
             f,
             "{} agree, {} disagree, {} inconclusive",
             self.agree, self.disagree, self.inconclusive
-        )
+        )?;
+        if self.undecidable > 0 {
+            write!(f, ", {} undecidable", self.undecidable)?;
+        }
+        Ok(())
+    }
+}
+
+/// The counts of every kind: the claims' tally, and the observations' and invariants' apart.
+#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq, Eq)]
+pub struct Kinds {
+    pub claims: Tally,
+    pub observations: Tally,
+    pub invariants: Tally,
+}
+
+impl Kinds {
+    pub fn of(rs: &[ClaimResult]) -> Kinds {
+        Kinds {
+            claims: Tally::of_kind(rs, ClaimKind::Claim),
+            observations: Tally::of_kind(rs, ClaimKind::Observation),
+            invariants: Tally::of_kind(rs, ClaimKind::Invariant),
+        }
+    }
+}
+
+/// The section title of a kind, and what it holds.
+pub fn section(kind: ClaimKind) -> (&'static str, &'static str) {
+    match kind {
+        ClaimKind::Claim => ("Claims", "the paper's statements, tallied"),
+        ClaimKind::Observation => (
+            "Observations",
+            "not tallied: a GPU statement tried on the CPU, a question the paper leaves \
+             open, or our own figure for the record",
+        ),
+        ClaimKind::Invariant => (
+            "Invariants",
+            "not tallied: properties of our code true by construction, such as two kernels \
+             visiting the same nodes or one build's memory in two rows; shown as a check of \
+             the runs",
+        ),
+    }
+}
+
+/// The results of each kind present, in the order claims, observations, invariants.
+fn by_kind(rs: &[ClaimResult]) -> Vec<(ClaimKind, Vec<&ClaimResult>)> {
+    ClaimKind::ALL
+        .iter()
+        .map(|k| (*k, rs.iter().filter(|r| r.kind == *k).collect::<Vec<_>>()))
+        .filter(|(k, v)| *k == ClaimKind::Claim || !v.is_empty())
+        .collect()
+}
+
+/// The count line of one kind's section (`tally` for claims).
+fn count_line(kind: ClaimKind, rs: &[ClaimResult]) -> String {
+    let t = Tally::of_kind(rs, kind);
+    match kind {
+        ClaimKind::Claim => t.to_string(),
+        k => format!("{} (not tallied, {}): {t}", section(k).0, t.total()),
     }
 }
 
@@ -44,60 +118,87 @@ fn label(r: &ClaimResult) -> String {
     }
 }
 
-/// A terminal table: claim | paper | ours | verdict | why, cells wrapped to `width` columns.
+/// A terminal table per kind: claim | paper | ours | verdict | why, cells wrapped to `width`
+/// columns, each kind's counts below its table.
 pub fn text(rs: &[ClaimResult], width: u16) -> String {
-    let mut t = comfy_table::Table::new();
-    t.load_preset(comfy_table::presets::UTF8_HORIZONTAL_ONLY)
-        .set_content_arrangement(comfy_table::ContentArrangement::Dynamic)
-        .set_width(width.max(60))
-        .set_header(["claim", "paper", "ours", "verdict", "why"]);
-    for r in rs {
-        t.add_row([
-            label(r),
-            r.paper.clone(),
-            r.ours.clone(),
-            r.verdict.as_str().to_owned(),
-            r.why.clone(),
-        ]);
+    let kinds = by_kind(rs);
+    let mut out = String::new();
+    for (kind, v) in &kinds {
+        if kinds.len() > 1 {
+            let (title, what) = section(*kind);
+            out.push_str(&format!("{title} ({what})\n"));
+        }
+        let mut t = comfy_table::Table::new();
+        t.load_preset(comfy_table::presets::UTF8_HORIZONTAL_ONLY)
+            .set_content_arrangement(comfy_table::ContentArrangement::Dynamic)
+            .set_width(width.max(60))
+            .set_header(["claim", "paper", "ours", "verdict", "why"]);
+        for r in v {
+            t.add_row([
+                label(r),
+                r.paper.clone(),
+                r.ours.clone(),
+                r.verdict.as_str().to_owned(),
+                r.why.clone(),
+            ]);
+        }
+        out.push_str(&format!("{t}\n{}\n", count_line(*kind, rs)));
     }
-    format!("{t}\n{}\n", Tally::of(rs))
+    out
 }
 
 fn md_cell(s: &str) -> String {
     s.replace('|', "\\|").replace('\n', " ")
 }
 
-/// A Markdown table: claim (with where it stands) | paper | ours | verdict | why.
-pub fn markdown(rs: &[ClaimResult]) -> String {
-    let mut s = String::from(
-        "| claim | where | paper | ours | verdict | why |\n|---|---|---|---|---|---|\n",
-    );
-    for r in rs {
-        let v = match r.verdict {
-            Verdict::Agree => "agree",
-            Verdict::Disagree => "**disagree**",
-            Verdict::Inconclusive => "*inconclusive*",
-        };
-        s.push_str(&format!(
-            "| `{}` | {} | {} | {} | {} | {} |\n",
-            md_cell(&label(r)),
-            md_cell(&r.place),
-            md_cell(&r.paper),
-            md_cell(&r.ours),
-            v,
-            md_cell(&r.why)
-        ));
+/// A verdict as Markdown shows it (`**disagree**`, `*inconclusive*`, …).
+pub fn md_verdict(v: Verdict) -> &'static str {
+    match v {
+        Verdict::Agree => "agree",
+        Verdict::Disagree => "**disagree**",
+        Verdict::Inconclusive => "*inconclusive*",
+        Verdict::Undecidable => "*undecidable*",
     }
-    s.push_str(&format!("\n{}\n", Tally::of(rs)));
+}
+
+/// A Markdown table per kind: claim (with where it stands) | paper | ours | verdict | why,
+/// each kind's counts below its table.
+pub fn markdown(rs: &[ClaimResult]) -> String {
+    let kinds = by_kind(rs);
+    let mut s = String::new();
+    for (kind, v) in &kinds {
+        if kinds.len() > 1 {
+            let (title, what) = section(*kind);
+            s.push_str(&format!("**{title}** ({what}):\n\n"));
+        }
+        s.push_str("| claim | where | paper | ours | verdict | why |\n|---|---|---|---|---|---|\n");
+        for r in v {
+            s.push_str(&format!(
+                "| `{}` | {} | {} | {} | {} | {} |\n",
+                md_cell(&label(r)),
+                md_cell(&r.place),
+                md_cell(&r.paper),
+                md_cell(&r.ours),
+                md_verdict(r.verdict),
+                md_cell(&r.why)
+            ));
+        }
+        s.push_str(&format!("\n{}\n", count_line(*kind, rs)));
+        if kinds.len() > 1 {
+            s.push('\n');
+        }
+    }
     s
 }
 
-/// The verdicts as JSON: the paper, the tally and every claim with its groups' values.
+/// The verdicts as JSON: the paper, the tally (claims only), every kind's counts and every
+/// result with its kind and its groups' values.
 pub fn json(paper: &str, sources: &[String], rs: &[ClaimResult]) -> serde_json::Value {
     serde_json::json!({
         "paper": paper,
         "results": sources,
         "tally": Tally::of(rs),
+        "kinds": Kinds::of(rs),
         "claims": rs,
     })
 }

@@ -79,6 +79,15 @@ pub struct Claim {
     /// Why this test and this tolerance.
     #[serde(default)]
     pub note: Option<String>,
+    /// What the claim is: a statement of the paper (tallied), an observation or an invariant
+    /// (shown apart, not tallied); claims/README.md, "Kinds".
+    #[serde(default)]
+    pub kind: ClaimKind,
+    /// Why the claim cannot be decided, stated before measuring (e.g. a GPU-only figure that no
+    /// GPU row can give): its `inconclusive` reads `undecidable`. A band narrower than the
+    /// timing floor is found without it (`kinds::undecidable`).
+    #[serde(default)]
+    pub undecidable: Option<String>,
     /// A column, a sum of columns (`a + b`), `time`, `mrays_per_s`, `build:KEY`, `heap_ratio`.
     pub measure: String,
     #[serde(default)]
@@ -97,6 +106,37 @@ pub struct Claim {
     /// Named selectors the test compares.
     pub rows: BTreeMap<String, Selector>,
     pub test: Test,
+}
+
+/// What a claim is (claims/README.md, "Kinds").
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq, PartialOrd, Ord)]
+#[serde(rename_all = "lowercase")]
+pub enum ClaimKind {
+    /// A statement of the paper, on the measure and device it speaks of: tallied.
+    #[default]
+    Claim,
+    /// A GPU statement tried on the CPU, a question the paper leaves open, or our own figure
+    /// for the record: evaluated and shown, not tallied.
+    Observation,
+    /// A property of our code true by construction (two kernels visiting the same nodes, one
+    /// build's memory in two rows): evaluated and shown, not tallied; where cheap, a test.
+    Invariant,
+}
+
+impl ClaimKind {
+    pub const ALL: [ClaimKind; 3] = [
+        ClaimKind::Claim,
+        ClaimKind::Observation,
+        ClaimKind::Invariant,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ClaimKind::Claim => "claim",
+            ClaimKind::Observation => "observation",
+            ClaimKind::Invariant => "invariant",
+        }
+    }
 }
 
 fn yes() -> bool {
@@ -302,25 +342,8 @@ fn check_value(v: &toml::Value) -> Result<(), String> {
 impl ClaimsFile {
     /// Every claim's ids, selectors, measure, test and groups, before any row is read.
     pub(crate) fn check(&self, path: &Path, text: &str) -> Result<(), HarnessError> {
+        self.check_runs(path, text)?;
         let mut ids = BTreeSet::new();
-        for (i, r) in self.runs.iter().enumerate() {
-            let line = find_line(text, "[[run]]", i);
-            let err = |m: String| HarnessError::Config {
-                file: path.into(),
-                line,
-                key: format!("run[{i}]"),
-                message: m,
-            };
-            match (&r.config, &r.exec) {
-                (Some(_), Some(_)) => return Err(err("give config or exec, not both".into())),
-                (None, None) => return Err(err("needs config or exec".into())),
-                (None, Some(e)) if e.is_empty() => return Err(err("exec is empty".into())),
-                _ => {}
-            }
-            if !(r.cost_s >= 0.0 && r.fixed_s >= 0.0 && r.fixed_s <= r.cost_s.max(r.fixed_s)) {
-                return Err(err("cost_s and fixed_s must be seconds >= 0".into()));
-            }
-        }
         for c in &self.claims {
             let line = find_line(text, &format!("id = \"{}\"", c.id), 0);
             let err = |key: &str, m: String| HarnessError::Config {
@@ -390,8 +413,37 @@ impl ClaimsFile {
                     return Err(err("per", unknown_column(col, "group key")));
                 }
             }
+            if c.undecidable
+                .as_deref()
+                .is_some_and(|r| r.trim().is_empty())
+            {
+                return Err(err("undecidable", "give the reason in words".into()));
+            }
             if c.devices.is_empty() {
                 return Err(err("devices", "name at least one device".into()));
+            }
+        }
+        Ok(())
+    }
+
+    /// Every run names a config or a command, and costs seconds.
+    fn check_runs(&self, path: &Path, text: &str) -> Result<(), HarnessError> {
+        for (i, r) in self.runs.iter().enumerate() {
+            let line = find_line(text, "[[run]]", i);
+            let err = |m: String| HarnessError::Config {
+                file: path.into(),
+                line,
+                key: format!("run[{i}]"),
+                message: m,
+            };
+            match (&r.config, &r.exec) {
+                (Some(_), Some(_)) => return Err(err("give config or exec, not both".into())),
+                (None, None) => return Err(err("needs config or exec".into())),
+                (None, Some(e)) if e.is_empty() => return Err(err("exec is empty".into())),
+                _ => {}
+            }
+            if !(r.cost_s >= 0.0 && r.fixed_s >= 0.0 && r.fixed_s <= r.cost_s.max(r.fixed_s)) {
+                return Err(err("cost_s and fixed_s must be seconds >= 0".into()));
             }
         }
         Ok(())
@@ -404,7 +456,7 @@ impl ClaimsFile {
 }
 
 /// 1-based line of the `nth` occurrence of `needle` in `text` (1 when absent).
-fn find_line(text: &str, needle: &str, nth: usize) -> usize {
+pub(crate) fn find_line(text: &str, needle: &str, nth: usize) -> usize {
     text.match_indices(needle)
         .nth(nth)
         .map(|(p, _)| crate::experiment::config::line_of(text, p))
