@@ -102,6 +102,10 @@ pub struct GpuProgram<'a> {
     /// WGSL shared by several structures' programs (e.g. [`LEAF_RANGES`]), placed after the
     /// prelude and before [`GpuProgram::source`], in this order.
     pub includes: Vec<&'static str>,
+    /// Why the timed passes keep wgpu's runtime checks (`None`: they run the trusted build
+    /// without them, tb-gpu's `kernels` doc): a program whose trusted build was seen to
+    /// answer differently from its checked build, until that is mended.
+    pub checked_only: Option<&'static str>,
 }
 
 /// WGSL shared by the programs whose leaves are ranges of a leaf-ordered triangle array with
@@ -136,7 +140,15 @@ impl<'a> GpuProgram<'a> {
             needs_f64: false,
             arrange: None,
             includes: Vec::new(),
+            checked_only: None,
         }
+    }
+
+    /// Keep wgpu's runtime checks in the timed passes too, for `why`
+    /// ([`GpuProgram::checked_only`]).
+    pub fn checked_only(mut self, why: &'static str) -> Self {
+        self.checked_only = Some(why);
+        self
     }
 
     /// Place shared WGSL `part` (e.g. [`LEAF_RANGES`]) before the source, after those

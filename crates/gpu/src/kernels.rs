@@ -216,7 +216,7 @@ impl Kernels {
             GpuError::Wgpu(m) => GpuError::Program(format!("GPU program `{}`: {m}", p.name)),
             e => e,
         })?;
-        let trusted = if checked_only() {
+        let trusted = if checked_only() || p.checked_only.is_some() {
             module.clone()
         } else {
             // SAFETY: the module is the checked one's WGSL, validated above; its accesses stay
