@@ -174,6 +174,8 @@ fn default_pool(t: &Term) -> Pool {
 fn time_derived(t: &Term) -> bool {
     match t {
         Term::Col(c) => c.ends_with("_ms") || c.contains("_ms_") || c == "spp",
+        // A build phase's time (`build:build_expand_ms`): one build's, no interval.
+        Term::Build(k) => k.ends_with("_ms") || k.contains("_ms_"),
         _ => false,
     }
 }
@@ -261,6 +263,7 @@ fn cell_matches(v: &toml::Value, cell: &str) -> bool {
 
 fn selector_matches(s: &Selector, r: &Row) -> bool {
     s.0.iter().all(|(k, v)| match k.as_str() {
+        super::pick::KEY => true,
         "scene" => r.table().is_some_and(|c| cell_matches(v, c)),
         "view" => r.get("scene").is_some_and(|c| cell_matches(v, c)),
         "params" => {
@@ -312,6 +315,14 @@ fn joined(r: &Row, cols: &[&str]) -> String {
 
 /// Pool one selector's rows in one group, or say why not.
 fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Value, String> {
+    // A ratio `a / b`: each side pooled over the same rows as it would be alone, then divided.
+    if let Some((n, d)) = m.sides() {
+        let (n, d) = (
+            self::pool(name, rows, &n, pool)?,
+            self::pool(name, rows, &d, pool)?,
+        );
+        return super::measure::divide(&n, &d).map_err(|e| format!("`{name}`: {e}"));
+    }
     // A batch with no rays (a skipped batch: its `note` says why) measured nothing.
     let rows: Vec<&Row> = rows
         .iter()
@@ -346,10 +357,10 @@ fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Va
                 threads.into_iter().collect::<Vec<_>>().join(", ")
             ));
         }
-        if m.0[0] == Term::BuildTime {
+        if m.num[0] == Term::BuildTime {
             return pool_build_time(name, &rows, pool);
         }
-        return pool_time(name, &rows, matches!(m.0[0], Term::Mrays));
+        return pool_time(name, &rows, matches!(m.num[0], Term::Mrays));
     }
     // Counters do not depend on the thread count: one row per context without threads.
     let mut by_ctx: BTreeMap<String, &Row> = BTreeMap::new();
@@ -363,7 +374,7 @@ fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Va
     }
     let rows: Vec<&Row> = by_ctx.into_values().collect();
     let mut total = 0.0;
-    for t in &m.0 {
+    for t in &m.num {
         let mut rs = rows.clone();
         if per_build(t) {
             rs = one_per_build(&rs);
@@ -404,7 +415,7 @@ fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Va
         total += aggregate(pool.unwrap_or_else(|| default_pool(t)), &xs);
     }
     let mut v = Value::point(total, rows.len());
-    v.timed = m.0.iter().any(time_derived);
+    v.timed = m.num.iter().any(time_derived);
     Ok(v)
 }
 
@@ -1102,6 +1113,8 @@ fn evaluate_group(
 ) -> GroupResult {
     let mut vals = BTreeMap::new();
     let mut problems = Vec::new();
+    // What each picking selector picked (said after the test's why).
+    let mut picked: Vec<String> = Vec::new();
     let rows: Vec<&Row> = names
         .iter()
         .filter_map(|n| by[n].get(g))
@@ -1112,17 +1125,31 @@ fn evaluate_group(
     for n in names {
         match by[n].get(g) {
             None => problems.push(format!("no rows for `{n}`")),
-            Some(rs) => match pool(n, rs, m, c.pool) {
-                Ok(v) => {
-                    vals.insert(n.to_string(), v);
+            Some(rs) => {
+                let pooled = match super::pick::of(&c.rows[*n]) {
+                    None => pool(n, rs, m, c.pool),
+                    Some(p) => super::pick::pool_pick(n, rs, p, |r| pool(n, r, m, c.pool)).map(
+                        |(v, said)| {
+                            picked.push(said);
+                            v
+                        },
+                    ),
+                };
+                match pooled {
+                    Ok(v) => {
+                        vals.insert(n.to_string(), v);
+                    }
+                    Err(e) => problems.push(e),
                 }
-                Err(e) => problems.push(e),
-            },
+            }
         }
     }
     if problems.is_empty() {
         let (verdict, shown, derived, why) = run_test(&c.test, &vals, opts.time_floor);
-        let (verdict, why) = timing_caveats(&vals, verdict, why);
+        let (verdict, mut why) = timing_caveats(&vals, verdict, why);
+        for p in &picked {
+            why.push_str(&format!("; {p}"));
+        }
         GroupResult {
             group: g.to_owned(),
             verdict,

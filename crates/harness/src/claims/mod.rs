@@ -13,6 +13,7 @@ mod child;
 mod columns;
 mod eval;
 mod measure;
+mod pick;
 pub mod render;
 pub mod reproduce;
 pub mod rows;
