@@ -154,7 +154,7 @@ fn sum(s: &str) -> Result<Vec<Term>, String> {
 /// caveats (noisy rows, too few builds) of both sides carry over. Not paired round by round:
 /// only trace times are, and they are not a ratio's sides.
 pub(crate) fn divide(n: &Value, d: &Value) -> Result<Value, String> {
-    if !(d.v > 0.0) {
+    if d.v.is_nan() || d.v <= 0.0 {
         return Err(format!("the denominator is {}, not above 0", d.v));
     }
     Ok(Value {
