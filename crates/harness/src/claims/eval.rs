@@ -315,13 +315,8 @@ fn joined(r: &Row, cols: &[&str]) -> String {
 
 /// Pool one selector's rows in one group, or say why not.
 fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Value, String> {
-    // A ratio `a / b`: each side pooled over the same rows as it would be alone, then divided.
     if let Some((n, d)) = m.sides() {
-        let (n, d) = (
-            self::pool(name, rows, &n, pool)?,
-            self::pool(name, rows, &d, pool)?,
-        );
-        return super::measure::divide(&n, &d).map_err(|e| format!("`{name}`: {e}"));
+        return pool_ratio(name, rows, (&n, &d), pool);
     }
     // A batch with no rays (a skipped batch: its `note` says why) measured nothing.
     let rows: Vec<&Row> = rows
@@ -417,6 +412,31 @@ fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Va
     let mut v = Value::point(total, rows.len());
     v.timed = m.num.iter().any(time_derived);
     Ok(v)
+}
+
+/// A ratio `a / b`: each side pooled over the same rows as it would be alone, then divided
+/// ([`super::measure::divide`]); a timing when either side is, with both sides' caveats.
+fn pool_ratio(
+    name: &str,
+    rows: &[&Row],
+    (n, d): (&Measure, &Measure),
+    p: Option<Pool>,
+) -> Result<Value, String> {
+    let (n, d) = (pool(name, rows, n, p)?, pool(name, rows, d, p)?);
+    let [lo, v, hi] = super::measure::divide([n.lo, n.v, n.hi], [d.lo, d.v, d.hi])
+        .map_err(|e| format!("`{name}`: {e}"))?;
+    Ok(Value {
+        v,
+        lo,
+        hi,
+        timed: n.timed || d.timed,
+        rows: n.rows.max(d.rows),
+        noisy: n.noisy + d.noisy,
+        software: n.software + d.software,
+        few_runs: n.few_runs.max(d.few_runs),
+        runs: Vec::new(),
+        tgroups: Vec::new(),
+    })
 }
 
 /// What tells two rows' variants apart: `traversal a / b`, `param k a / b`, ….
@@ -1126,14 +1146,15 @@ fn evaluate_group(
         match by[n].get(g) {
             None => problems.push(format!("no rows for `{n}`")),
             Some(rs) => {
-                let pooled = match super::pick::of(&c.rows[*n]) {
+                let pooled = match super::pick::of(&c.rows[*n].0) {
                     None => pool(n, rs, m, c.pool),
-                    Some(p) => super::pick::pool_pick(n, rs, p, |r| pool(n, r, m, c.pool)).map(
-                        |(v, said)| {
-                            picked.push(said);
-                            v
-                        },
-                    ),
+                    Some(p) => {
+                        super::pick::pool_pick(n, rs, p, |v: &Value| v.v, |r| pool(n, r, m, c.pool))
+                            .map(|(v, said)| {
+                                picked.push(said);
+                                v
+                            })
+                    }
                 };
                 match pooled {
                     Ok(v) => {

@@ -1,8 +1,6 @@
 //! A claim's `measure`: one timed term, a sum of deterministic ones, or the ratio of two such
 //! measures of the same rows (`claims/README.md`, Measures).
 
-use super::eval::Value;
-
 /// One term of a measure.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum Term {
@@ -148,31 +146,21 @@ fn sum(s: &str) -> Result<Vec<Term>, String> {
     Ok(terms)
 }
 
-/// The ratio of two values pooled from the same rows: `n / d`, its interval the widest the
-/// two intervals allow (`n.lo / d.hi .. n.hi / d.lo`; a point where both are counters). A
-/// timing when either side is one (its comparisons then get the floor between runs); the
-/// caveats (noisy rows, too few builds) of both sides carry over. Not paired round by round:
-/// only trace times are, and they are not a ratio's sides.
-pub(crate) fn divide(n: &Value, d: &Value) -> Result<Value, String> {
-    if d.v.is_nan() || d.v <= 0.0 {
-        return Err(format!("the denominator is {}, not above 0", d.v));
+/// The ratio of two values pooled from the same rows, each `[lo, v, hi]`: `n / d`, its
+/// interval the widest the two intervals allow (`n.lo / d.hi .. n.hi / d.lo`; a point where
+/// both are points). The caller marks it a timing when either side is one (its comparisons
+/// then get the floor between runs) and carries the sides' caveats over; it is not paired
+/// round by round: only trace times are, and they are not a ratio's sides.
+pub(crate) fn divide(n: [f64; 3], d: [f64; 3]) -> Result<[f64; 3], String> {
+    if d[1].is_nan() || d[1] <= 0.0 {
+        return Err(format!("the denominator is {}, not above 0", d[1]));
     }
-    Ok(Value {
-        v: n.v / d.v,
-        lo: n.lo / d.hi,
-        hi: if d.lo > 0.0 {
-            n.hi / d.lo
-        } else {
-            f64::INFINITY
-        },
-        timed: n.timed || d.timed,
-        rows: n.rows.max(d.rows),
-        noisy: n.noisy + d.noisy,
-        software: n.software + d.software,
-        few_runs: n.few_runs.max(d.few_runs),
-        runs: Vec::new(),
-        tgroups: Vec::new(),
-    })
+    let hi = if d[0] > 0.0 {
+        n[2] / d[0]
+    } else {
+        f64::INFINITY
+    };
+    Ok([n[0] / d[2], n[1] / d[1], hi])
 }
 
 #[cfg(test)]
@@ -200,6 +188,24 @@ mod tests {
         assert!(Measure::parse("time / build_ms").is_err());
         assert!(Measure::parse("build:a / mrays_per_s").is_err());
         assert!(Measure::parse("build:a / (build_ms + build:b)").is_err());
+    }
+
+    #[test]
+    fn ratios_divide_intervals() {
+        assert_eq!(
+            divide([2.0, 2.0, 2.0], [8.0, 8.0, 8.0]),
+            Ok([0.25, 0.25, 0.25])
+        );
+        assert_eq!(
+            divide([1.0, 2.0, 3.0], [2.0, 4.0, 6.0]),
+            Ok([1.0 / 6.0, 0.5, 1.5])
+        );
+        assert_eq!(
+            divide([1.0, 1.0, 1.0], [0.0, 1.0, 2.0]).unwrap()[2],
+            f64::INFINITY
+        );
+        assert!(divide([1.0; 3], [0.0; 3]).is_err());
+        assert!(divide([1.0; 3], [f64::NAN; 3]).is_err());
     }
 
     #[test]

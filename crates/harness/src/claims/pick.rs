@@ -4,9 +4,7 @@
 //! paper's statement about the extremes of a sweep: "the slowest pair of one sweep beats the
 //! fastest of another" is a strict ordering of `pick = "max"` before `pick = "min"`.
 
-use super::eval::Value;
 use super::rows::Row;
-use super::schema::{Claim, Selector};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// The selector key.
@@ -28,9 +26,9 @@ impl Pick {
     }
 }
 
-/// The selector's pick, if it has one (checked at load: `max` or `min`).
-pub(crate) fn of(s: &Selector) -> Option<Pick> {
-    match s.0.get(KEY)? {
+/// The pick of a selector (its fields), if it has one (checked at load: `max` or `min`).
+pub(crate) fn of(s: &BTreeMap<String, toml::Value>) -> Option<Pick> {
+    match s.get(KEY)? {
         toml::Value::String(x) if x == "max" => Some(Pick::Max),
         toml::Value::String(x) if x == "min" => Some(Pick::Min),
         _ => None,
@@ -45,9 +43,9 @@ pub(crate) fn check(v: &toml::Value) -> Result<(), String> {
     }
 }
 
-/// A claim's `filter` does not pick (a pick belongs to a named selector).
-pub(crate) fn check_filter(c: &Claim) -> Result<(), String> {
-    if c.filter.0.contains_key(KEY) {
+/// A claim's `filter` (its fields) does not pick (a pick belongs to a named selector).
+pub(crate) fn check_filter(filter: &BTreeMap<String, toml::Value>) -> Result<(), String> {
+    if filter.contains_key(KEY) {
         return Err(format!("{KEY} belongs in a named selector of claim.rows"));
     }
     Ok(())
@@ -62,26 +60,27 @@ fn variant(r: &Row) -> String {
         .join("|")
 }
 
-/// Pool every variant of `rows` with `pool_one` and keep the one `p` asks for; with it, the
-/// words that say which it was (`ig` = the largest of 16 variants: lambda_1=0.012, …).
-pub(crate) fn pool_pick<'r>(
+/// Pool every variant of `rows` with `pool_one` and keep the one `p` asks for by `value`;
+/// with it, the words that say which it was (`ig` = the largest of 16 variants: …).
+pub(crate) fn pool_pick<'r, V>(
     name: &str,
     rows: &[&'r Row],
     p: Pick,
-    pool_one: impl Fn(&[&'r Row]) -> Result<Value, String>,
-) -> Result<(Value, String), String> {
+    value: impl Fn(&V) -> f64,
+    pool_one: impl Fn(&[&'r Row]) -> Result<V, String>,
+) -> Result<(V, String), String> {
     let mut by: BTreeMap<String, Vec<&'r Row>> = BTreeMap::new();
     for r in rows {
         by.entry(variant(r)).or_default().push(r);
     }
-    let mut best: Option<(Value, &Row)> = None;
+    let mut best: Option<(V, &Row)> = None;
     for rs in by.values() {
         let v = pool_one(rs)?;
         let better = match &best {
             None => true,
             Some((b, _)) => match p {
-                Pick::Max => v.v > b.v,
-                Pick::Min => v.v < b.v,
+                Pick::Max => value(&v) > value(b),
+                Pick::Min => value(&v) < value(b),
             },
         };
         if better {

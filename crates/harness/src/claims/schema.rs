@@ -350,7 +350,7 @@ impl ClaimsFile {
                 return Err(err("id", "appears twice in the file".into()));
             }
             c.filter.check().map_err(|m| err("filter", m))?;
-            super::pick::check_filter(c).map_err(|m| err("filter", m))?;
+            super::pick::check_filter(&c.filter.0).map_err(|m| err("filter", m))?;
             for (name, s) in &c.rows {
                 s.check().map_err(|m| err(&format!("rows.{name}"), m))?;
             }
