@@ -204,6 +204,11 @@ enum Cmd {
         /// GPU adapter of the GPU runs: a substring of its name (case-insensitive).
         #[arg(long)]
         adapter: Option<String>,
+        /// Also make the claims files' `heavy = true` runs (the stand-in scenes of millions
+        /// of triangles: minutes of builds) whatever the budget; without it they are made
+        /// only when the budget covers every run as declared.
+        #[arg(long)]
+        heavy: bool,
         #[arg(long, short)]
         quiet: bool,
     },
@@ -319,6 +324,7 @@ fn dispatch(cli: Cli) -> Result<i32> {
             scenes_root,
             sets,
             adapter,
+            heavy,
             quiet,
         } => cmd_reproduce(
             &paper,
@@ -328,7 +334,7 @@ fn dispatch(cli: Cli) -> Result<i32> {
             &claims_dir,
             with,
             scenes_root,
-            (sets, adapter),
+            (sets, adapter, heavy),
             quiet,
         ),
         Cmd::Claims {
@@ -856,7 +862,7 @@ fn cmd_reproduce(
     claims_dir: &Path,
     with: Vec<PathBuf>,
     scenes_root: Option<PathBuf>,
-    (sets, adapter): (Vec<String>, Option<String>),
+    (sets, adapter, heavy): (Vec<String>, Option<String>, bool),
     quiet: bool,
 ) -> Result<i32> {
     use tb_harness::claims::reproduce;
@@ -917,6 +923,7 @@ fn cmd_reproduce(
         sets,
         adapter,
         budget_text: budget.to_owned(),
+        heavy,
         quiet,
     };
     let reports = reproduce::reproduce(&opts)?;

@@ -850,5 +850,184 @@ fn a_deviation_naming_an_unknown_claim_is_refused() {
     .is_err());
     assert!(
         claims::deviations::parse(p, &format!("{}claim = 1\n", dev("[\"fast\"]")), &file).is_err()
+/// Issue 42: a measure may divide two measures of the same rows; each side pools as it would
+/// alone. Counter ratios are points; a ratio with a time side is a timing (the floor between
+/// runs widens it); trace times and ambiguous sums are refused at load.
+#[test]
+fn ratio_measures_divide_the_same_rows() {
+    let t = tempfile::tempdir().unwrap();
+    let d = t.path().join("run");
+    std::fs::create_dir_all(&d).unwrap();
+    let line = |scene: &str, params: &str, stats: &str, interior: f64| {
+        row(
+            scene, "a", params, "primary", 100, 10.0, 0.01, 9, false, interior,
+        )
+        .replace("nodes=7;paper_bytes=64", stats)
+    };
+    write(
+        &d,
+        "results.csv",
+        &[
+            HEAD.to_string(),
+            line("s1", "k=1", "a_ms=2;total_ms=10;nodes=7", 4.0),
+            line("s2", "k=1", "a_ms=1;total_ms=20;nodes=8", 2.0),
+        ],
+    );
+    let c = |measure: &str, filter: &str, min: f64, max: f64| {
+        claim(&format!(
+            "measure = \"{measure}\"\nfilter = {{ {filter} }}\nper = [\"scene\"]\nrows.a = {{ traversal = \"a\" }}\ntest = {{ kind = \"value\", of = \"a\", min = {min}, max = {max} }}"
+        ))
+    };
+    let run = |toml: String| eval(&toml, std::slice::from_ref(&d)).remove(0);
+    // One build: 1 / 20, a timing (`_ms` keys): ±20 % makes [0.0417, 0.06].
+    let share = "build:a_ms / build:total_ms";
+    let v = run(c(share, "scene = \"s2\"", 0.04, 0.0625));
+    assert_eq!(v.verdict, Verdict::Agree, "{v:?}");
+    let g = &v.groups[0];
+    assert!((g.values["a"].v - 0.05).abs() < 1e-12 && g.values["a"].timed);
+    assert_eq!(
+        run(c(share, "scene = \"s2\"", 0.045, 0.055)).verdict,
+        Verdict::Inconclusive
+    );
+    assert_eq!(
+        run(c(share, "scene = \"s2\"", 0.07, 0.1)).verdict,
+        Verdict::Disagree
+    );
+    // Two builds in one group: each side's mean over the builds, then the ratio
+    // ((2 + 1) / 2 over (10 + 20) / 2 = 0.1, not the mean of the shares, 0.125).
+    let v = run(c(share, "scene = [\"s1\", \"s2\"]", 0.0, 1.0).replace("per = [\"scene\"]\n", ""));
+    assert!((v.groups[0].values["a"].v - 0.1).abs() < 1e-12, "{v:?}");
+    assert_eq!(v.groups[0].values["a"].rows, 2);
+    // A `_ms` side makes a timing: no point band is decided.
+    let v = run(c(
+        "build:nodes / build:total_ms",
+        "scene = \"s2\"",
+        0.4,
+        0.4,
+    ));
+    assert_eq!(
+        v.verdict,
+        Verdict::Inconclusive,
+        "a _ms side makes a timing"
+    );
+    let v = run(c(
+        "(interior_per_ray + interior_per_ray) / interior_per_ray",
+        "scene = \"s1\"",
+        2.0,
+        2.0,
+    ));
+    assert_eq!(v.verdict, Verdict::Agree, "{v:?}");
+    assert!(!v.groups[0].values["a"].timed);
+    // Counters: a point, no floor; per-ray sums in parentheses pool by rays first.
+    let v = run(c(
+        "interior_per_ray / build:nodes",
+        "scene = \"s1\"",
+        4.0 / 7.0,
+        4.0 / 7.0,
+    ));
+    assert_eq!(v.verdict, Verdict::Agree, "{v:?}");
+    // A key a build does not report: the group says which.
+    let v = run(c("build:a_ms / build:bogus", "scene = \"s2\"", 0.0, 1.0));
+    assert_eq!(v.verdict, Verdict::Inconclusive);
+    assert!(v.why.contains("bogus"), "{}", v.why);
+    // Refused at load, naming the claim's line.
+    for (measure, says) in [
+        ("time / build_ms", "trace times"),
+        ("build:a_ms / build:b + build:c", "needs parentheses"),
+        (
+            "interior_per_ray / bogus_per_ray",
+            "`bogus_per_ray` is not a column",
+        ),
+        ("a / b / c", "one `/` at most"),
+    ] {
+        let e = claims::parse(Path::new("x.toml"), &c(measure, "scene = \"s2\"", 0.0, 1.0))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("x.toml:3: claim c: measure") && e.contains(says),
+            "{measure}: {e}"
+        );
+    }
+}
+
+/// Issue 42: `pick = "max"` / `"min"` lets a selector span a sweep's variants and stand for
+/// its extreme (Table 2's strong form: the slowest of one sweep before the fastest of another).
+#[test]
+fn picking_selectors_stand_for_a_sweeps_extreme() {
+    let t = tempfile::tempdir().unwrap();
+    let d = t.path().join("run");
+    std::fs::create_dir_all(&d).unwrap();
+    let r = |traversal: &str, k: u32, interior: f64| {
+        row(
+            "s",
+            traversal,
+            &format!("k={k}"),
+            "primary",
+            100,
+            10.0,
+            0.01,
+            9,
+            false,
+            interior,
+        )
+    };
+    write(
+        &d,
+        "results.csv",
+        &[
+            HEAD.to_string(),
+            r("a", 1, 3.0),
+            r("a", 2, 5.0),
+            r("a", 3, 4.0),
+            r("b", 1, 9.0),
+            r("b", 2, 6.0),
+        ],
+    );
+    let c = |hi: &str, lo: &str| {
+        claim(&format!(
+            "measure = \"interior_per_ray\"\nper = [\"scene\"]\nrows.hi = {{ traversal = \"a\"{hi} }}\nrows.lo = {{ traversal = \"b\"{lo} }}\ntest = {{ kind = \"order\", rows = [\"hi\", \"lo\"], strict = true }}"
+        ))
+    };
+    let run = |toml: String| eval(&toml, std::slice::from_ref(&d)).remove(0);
+    // Without a pick the sweep is ambiguous.
+    let v = run(c("", ""));
+    assert_eq!(v.verdict, Verdict::Inconclusive);
+    assert!(v.why.contains("ambiguous"), "{}", v.why);
+    // a's largest (5, k = 2) before b's smallest (6, k = 2).
+    let v = run(c(", pick = \"max\"", ", pick = \"min\""));
+    assert_eq!(v.verdict, Verdict::Agree, "{v:?}");
+    assert_eq!(v.groups[0].values["hi"].v, 5.0);
+    assert_eq!(v.groups[0].values["lo"].v, 6.0);
+    assert!(
+        v.why.contains("`hi` = the largest of 3 variants: k=2")
+            && v.why.contains("`lo` = the smallest of 2 variants: k=2"),
+        "{}",
+        v.why
+    );
+    // Picked the other way round the order holds no more: b's largest (9) is not what is
+    // compared, a's smallest (3) against b's largest (9) holds, a's largest against b's
+    // largest holds; a's largest against a 4-valued b would not.
+    assert_eq!(
+        run(c(", pick = \"min\"", ", pick = \"max\"")).groups[0].values["lo"].v,
+        9.0
+    );
+    let strict = c(", pick = \"max\"", ", pick = \"min\"")
+        .replace("strict = true", "strict = true, margin = 0.2");
+    assert_eq!(run(strict).verdict, Verdict::Disagree);
+    // Refused at load: another word, or a pick in the filter.
+    let e = claims::parse(Path::new("x.toml"), &c(", pick = \"median\"", ""))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("rows.hi: pick") && e.contains("\"max\" or \"min\""),
+        "{e}"
+    );
+    let in_filter = c("", "").replace("\nper = ", "\nfilter = { pick = \"max\" }\nper = ");
+    let e = claims::parse(Path::new("x.toml"), &in_filter)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("filter: pick belongs in a named selector"),
+        "{e}"
     );
 }

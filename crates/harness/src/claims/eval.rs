@@ -261,6 +261,7 @@ fn cell_matches(v: &toml::Value, cell: &str) -> bool {
 
 fn selector_matches(s: &Selector, r: &Row) -> bool {
     s.0.iter().all(|(k, v)| match k.as_str() {
+        super::pick::KEY => true,
         "scene" => r.table().is_some_and(|c| cell_matches(v, c)),
         "view" => r.get("scene").is_some_and(|c| cell_matches(v, c)),
         "params" => {
@@ -312,6 +313,9 @@ fn joined(r: &Row, cols: &[&str]) -> String {
 
 /// Pool one selector's rows in one group, or say why not.
 fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Value, String> {
+    if let Some((n, d)) = m.sides() {
+        return pool_ratio(name, rows, (&n, &d), pool);
+    }
     // A batch with no rays (a skipped batch: its `note` says why) measured nothing.
     let rows: Vec<&Row> = rows
         .iter()
@@ -346,10 +350,10 @@ fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Va
                 threads.into_iter().collect::<Vec<_>>().join(", ")
             ));
         }
-        if m.0[0] == Term::BuildTime {
+        if m.num[0] == Term::BuildTime {
             return pool_build_time(name, &rows, pool);
         }
-        return pool_time(name, &rows, matches!(m.0[0], Term::Mrays));
+        return pool_time(name, &rows, matches!(m.num[0], Term::Mrays));
     }
     // Counters do not depend on the thread count: one row per context without threads.
     let mut by_ctx: BTreeMap<String, &Row> = BTreeMap::new();
@@ -363,7 +367,7 @@ fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Va
     }
     let rows: Vec<&Row> = by_ctx.into_values().collect();
     let mut total = 0.0;
-    for t in &m.0 {
+    for t in &m.num {
         let mut rs = rows.clone();
         if per_build(t) {
             rs = one_per_build(&rs);
@@ -404,8 +408,33 @@ fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Va
         total += aggregate(pool.unwrap_or_else(|| default_pool(t)), &xs);
     }
     let mut v = Value::point(total, rows.len());
-    v.timed = m.0.iter().any(Term::wall_clock);
+    v.timed = m.num.iter().any(Term::wall_clock);
     Ok(v)
+}
+
+/// A ratio `a / b`: each side pooled over the same rows as it would be alone, then divided
+/// ([`super::measure::divide`]); a timing when either side is, with both sides' caveats.
+fn pool_ratio(
+    name: &str,
+    rows: &[&Row],
+    (n, d): (&Measure, &Measure),
+    p: Option<Pool>,
+) -> Result<Value, String> {
+    let (n, d) = (pool(name, rows, n, p)?, pool(name, rows, d, p)?);
+    let [lo, v, hi] = super::measure::divide([n.lo, n.v, n.hi], [d.lo, d.v, d.hi])
+        .map_err(|e| format!("`{name}`: {e}"))?;
+    Ok(Value {
+        v,
+        lo,
+        hi,
+        timed: n.timed || d.timed,
+        rows: n.rows.max(d.rows),
+        noisy: n.noisy + d.noisy,
+        software: n.software + d.software,
+        few_runs: n.few_runs.max(d.few_runs),
+        runs: Vec::new(),
+        tgroups: Vec::new(),
+    })
 }
 
 /// What tells two rows' variants apart: `traversal a / b`, `param k a / b`, ….
@@ -1091,6 +1120,8 @@ fn evaluate_group(
 ) -> GroupResult {
     let mut vals = BTreeMap::new();
     let mut problems = Vec::new();
+    // What each picking selector picked (said after the test's why).
+    let mut picked: Vec<String> = Vec::new();
     let rows: Vec<&Row> = names
         .iter()
         .filter_map(|n| by[n].get(g))
@@ -1101,17 +1132,32 @@ fn evaluate_group(
     for n in names {
         match by[n].get(g) {
             None => problems.push(format!("no rows for `{n}`")),
-            Some(rs) => match pool(n, rs, m, c.pool) {
-                Ok(v) => {
-                    vals.insert(n.to_string(), v);
+            Some(rs) => {
+                let pooled = match super::pick::of(&c.rows[*n].0) {
+                    None => pool(n, rs, m, c.pool),
+                    Some(p) => {
+                        super::pick::pool_pick(n, rs, p, |v: &Value| v.v, |r| pool(n, r, m, c.pool))
+                            .map(|(v, said)| {
+                                picked.push(said);
+                                v
+                            })
+                    }
+                };
+                match pooled {
+                    Ok(v) => {
+                        vals.insert(n.to_string(), v);
+                    }
+                    Err(e) => problems.push(e),
                 }
-                Err(e) => problems.push(e),
-            },
+            }
         }
     }
     if problems.is_empty() {
         let (verdict, shown, derived, why) = run_test(&c.test, &vals, opts.time_floor);
-        let (verdict, why) = timing_caveats(&vals, verdict, why);
+        let (verdict, mut why) = timing_caveats(&vals, verdict, why);
+        for p in &picked {
+            why.push_str(&format!("; {p}"));
+        }
         GroupResult {
             group: g.to_owned(),
             verdict,

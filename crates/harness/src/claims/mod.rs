@@ -17,6 +17,7 @@ pub mod deviations;
 mod eval;
 mod kinds;
 mod measure;
+mod pick;
 pub mod render;
 pub mod reproduce;
 pub mod rows;

@@ -42,6 +42,8 @@ pub struct Options {
     pub adapter: Option<String>,
     /// The budget as the user wrote it (for the report).
     pub budget_text: String,
+    /// Make the `heavy` runs whatever the budget (`--heavy`).
+    pub heavy: bool,
     pub quiet: bool,
 }
 
@@ -69,6 +71,8 @@ pub struct PlannedRun {
     /// Where the reused rows were made by another build: `commit` (`+dirty`) of their
     /// results.json, said beside the run in REPORT.md.
     pub reused_from: Option<String>,
+    /// Why a `heavy` run is not made (it is reused where an earlier reproduce made it).
+    pub left_out: Option<String>,
 }
 
 /// One paper's outcome.
@@ -164,6 +168,12 @@ pub fn fit(runs: &[&RunSpec], budget_s: f64) -> (f64, f64) {
     }
     let f = ((budget_s - fixed) / var).clamp(MIN_SCALE, 1.0);
     (f, fixed + f * var)
+}
+
+/// Whether the `heavy` runs among `runs` are made: with `--heavy`, or when every run fits the
+/// budget as declared (heavy runs are never shrunk: their cost is their builds).
+pub fn heavy_included(runs: &[&RunSpec], budget_s: f64, heavy: bool) -> bool {
+    heavy || runs.iter().map(|r| r.cost_s).sum::<f64>() <= budget_s
 }
 
 /// The smallest pixel scale reproduce applies (1/64 of the pixels: 1024² → 128²).
@@ -297,7 +307,14 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
         .flat_map(|(_, f)| f.runs.iter())
         .filter(|r| wanted(r, &opts.devices))
         .collect();
-    let (scale, _) = fit(&all, opts.budget_s);
+    let with_heavy = heavy_included(&all, opts.budget_s, opts.heavy);
+    let made: Vec<&RunSpec> = all
+        .iter()
+        .copied()
+        .filter(|r| with_heavy || !r.heavy)
+        .collect();
+    let (scale, _) = fit(&made, opts.budget_s);
+    let all_cost: f64 = all.iter().map(|r| r.cost_s).sum();
     let mut out = Vec::new();
     for (path, file) in files {
         let key = stem(&path);
@@ -316,6 +333,14 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
                 .join("runs")
                 .join(&key)
                 .join(format!("{i}-{label}"));
+            let left_out = (r.heavy && !with_heavy).then(|| {
+                format!(
+                    "left out (heavy, {:.0} s): --heavy or a budget of {:.0} s makes it",
+                    r.cost_s,
+                    (all_cost / RUNS_SHARE).ceil()
+                )
+            });
+            let scale = if r.heavy { 1.0 } else { scale };
             let (sets, scaled) = scaled_sets(r, scale);
             let cost = if r.scalable && scaled.as_deref().is_some_and(|s| !s.starts_with("not")) {
                 r.fixed_s + scale * (r.cost_s - r.fixed_s)
@@ -335,6 +360,7 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
                 failed: None,
                 reused: false,
                 reused_from: None,
+                left_out,
             });
         }
         out.push((path, file, runs));
@@ -356,9 +382,26 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
     let estimate: f64 = planned
         .iter()
         .flat_map(|p| &p.2)
-        .filter(|r| status(&r.folder).as_deref() != Some("complete"))
+        .filter(|r| status(&r.folder).as_deref() != Some("complete") && r.left_out.is_none())
         .map(|r| r.cost_s)
         .sum();
+    let left: Vec<&PlannedRun> = planned
+        .iter()
+        .flat_map(|p| &p.2)
+        .filter(|r| r.left_out.is_some() && status(&r.folder).as_deref() != Some("complete"))
+        .collect();
+    if let Some(r) = left.first() {
+        eprintln!(
+            "note: reproduce: {} heavy runs left out ({}; their claims' groups read \"rows \
+             missing\"): {}",
+            left.len(),
+            left.iter()
+                .map(|r| format!("{} {}", r.paper, r.label))
+                .collect::<Vec<_>>()
+                .join(", "),
+            r.left_out.as_deref().unwrap_or_default()
+        );
+    }
     if estimate > opts.budget_s + 0.5 {
         eprintln!(
             "note: reproduce: --budget {} is less than the runs take at their smallest images \
@@ -469,9 +512,12 @@ fn make_run(r: &mut PlannedRun, opts: &Options) -> Result<(), HarnessError> {
     if let Some(sig) = super::child::received() {
         return Err(interrupted(sig, None, opts));
     }
-    if status(&r.folder).as_deref() == Some("complete")
-        || (r.args.first().is_some_and(|a| a != "run") && r.folder.is_dir())
-    {
+    let complete = status(&r.folder).as_deref() == Some("complete");
+    if r.left_out.is_some() && !complete {
+        return Ok(());
+    }
+    r.left_out = None;
+    if complete || (r.args.first().is_some_and(|a| a != "run") && r.folder.is_dir()) {
         r.reused = true;
         r.reused_from = made_by(&r.folder).filter(|by| *by != this_build());
         if let Some(by) = &r.reused_from {
@@ -643,7 +689,10 @@ fn write_report(
                 "| `trace-bench {}` | {:.0} s | {} | {} | {} |\n",
                 p.args.join(" ").replace('|', "\\|"),
                 p.cost_s,
-                p.scaled.clone().unwrap_or_else(|| "as declared".into()),
+                p.left_out
+                    .clone()
+                    .or_else(|| p.scaled.clone())
+                    .unwrap_or_else(|| "as declared".into()),
                 if let Some(by) = &p.reused_from {
                     format!("reused, made by {by}")
                 } else if p.reused {
@@ -813,8 +862,62 @@ mod tests {
             fixed_s: fixed,
             scalable,
             interleave: true,
+            heavy: false,
             note: None,
         }
+    }
+
+    /// Heavy runs are made with `--heavy`, or when the budget covers every run as declared.
+    #[test]
+    fn heavy_runs_need_the_flag_or_the_whole_budget() {
+        let light = spec(100.0, 20.0, true);
+        let heavy = RunSpec {
+            heavy: true,
+            ..spec(300.0, 300.0, false)
+        };
+        let runs = [&light, &heavy];
+        assert!(!heavy_included(&runs, 399.0, false));
+        assert!(heavy_included(&runs, 400.0, false));
+        assert!(heavy_included(&runs, 10.0, true));
+    }
+
+    /// A left-out heavy run is planned (and reported) but not made, and the light runs are
+    /// fitted without it.
+    #[test]
+    fn plans_leave_heavy_runs_out_within_small_budgets() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("p.toml");
+        std::fs::write(
+            &file,
+            "paper = \"P\"\n\
+             [[run]]\nconfig = \"configs/a.toml\"\nset = [\"scene.camera.width=256\", \"scene.camera.height=256\"]\ncost_s = 100\nfixed_s = 20\nscalable = true\n\
+             [[run]]\nconfig = \"configs/b.toml\"\ncost_s = 300\nfixed_s = 300\nheavy = true\n",
+        )
+        .unwrap();
+        let opts = |budget_s: f64, heavy: bool| Options {
+            papers: vec![file.clone()],
+            budget_s,
+            devices: vec!["cpu".into()],
+            out: dir.path().join("out"),
+            exe: "trace-bench".into(),
+            scenes_root: None,
+            with: vec![],
+            sets: vec![],
+            adapter: None,
+            budget_text: String::new(),
+            heavy,
+            quiet: true,
+        };
+        let runs = |o: &Options| plan(o).unwrap().remove(0).2;
+        let small = runs(&opts(100.0, false));
+        assert!(small[0].left_out.is_none() && small[0].scaled.is_none());
+        let why = small[1].left_out.as_deref().expect("left out");
+        assert!(why.contains("--heavy") && why.contains("300 s"), "{why}");
+        // With the flag the heavy run is made and the light one shrinks to make room.
+        let flagged = runs(&opts(100.0, true));
+        assert!(flagged[1].left_out.is_none());
+        assert!(flagged[0].scale < 1.0 && flagged[1].scale == 1.0);
+        assert!(runs(&opts(400.0, false))[1].left_out.is_none());
     }
 
     #[test]

@@ -60,6 +60,11 @@ pub struct RunSpec {
     /// would not fit in memory together.
     #[serde(default = "yes")]
     pub interleave: bool,
+    /// A run whose builds take minutes (the stand-in scenes of millions of triangles): made
+    /// only with `reproduce --heavy` or when the budget covers every run as declared, never
+    /// shrunk to fit (`claims/README.md`).
+    #[serde(default)]
+    pub heavy: bool,
     #[serde(default)]
     pub note: Option<String>,
 }
@@ -270,6 +275,10 @@ impl Selector {
     fn check(&self) -> Result<(), String> {
         use super::columns;
         for (k, v) in &self.0 {
+            if k == super::pick::KEY {
+                super::pick::check(v)?;
+                continue;
+            }
             if !columns::is_known(k) {
                 return Err(unknown_column(k, "field"));
             }
@@ -364,6 +373,7 @@ impl ClaimsFile {
                 return Err(err("id", "appears twice in the file".into()));
             }
             c.filter.check().map_err(|m| err("filter", m))?;
+            super::pick::check_filter(&c.filter.0).map_err(|m| err("filter", m))?;
             for (name, s) in &c.rows {
                 s.check().map_err(|m| err(&format!("rows.{name}"), m))?;
             }

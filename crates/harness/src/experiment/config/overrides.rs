@@ -9,7 +9,8 @@ use toml::Value;
 /// Apply `key=value` settings to config `text`; the value is TOML (`9`, `[1, 2]`, `"x"`) or,
 /// when it does not parse as TOML, a string. A dotted key walks tables; an array of tables
 /// (`scene`, `structure`) is entered element by element, so `scene.camera.width=256` sets
-/// every scene's camera width. Returns the effective config text.
+/// every scene's camera width, unless an index follows it (`structure.1.params.beta=[1, 2]`:
+/// the second `[[structure]]` table only). Returns the effective config text.
 pub fn apply_sets(file: &str, text: &str, sets: &[String]) -> Result<String, HarnessError> {
     let bad = |set: &str, m: &str| HarnessError::ConfigSyntax {
         file: file.into(),
@@ -48,6 +49,17 @@ fn set_path(t: &mut toml::Table, path: &[&str], value: &Value) -> Result<(), Str
     match entry {
         Value::Table(sub) => set_path(sub, rest, value),
         Value::Array(items) if !items.is_empty() && items.iter().all(Value::is_table) => {
+            // `structure.1.params.beta=…`: only the second table of the array.
+            if let Ok(i) = rest[0].parse::<usize>() {
+                let n = items.len();
+                return match (items.get_mut(i), &rest[1..]) {
+                    (Some(Value::Table(sub)), more) if !more.is_empty() => {
+                        set_path(sub, more, value)
+                    }
+                    (Some(_), _) => Err(format!("`{first}.{i}` is a table: name a key in it")),
+                    (None, _) => Err(format!("`{first}` has {n} tables (0 to {})", n - 1)),
+                };
+            }
             for item in items {
                 if let Value::Table(sub) = item {
                     set_path(sub, rest, value)?;
@@ -208,6 +220,19 @@ mod tests {
         assert_eq!(t["run"]["triangle_test"].as_str(), Some("watertight"));
         for s in t["scene"].as_array().unwrap() {
             assert_eq!(s["camera"]["width"].as_integer(), Some(256));
+        }
+        // An index enters one table of an array of tables only.
+        let out = apply_sets("t.toml", text, &["scene.1.camera.width=32".into()]).unwrap();
+        let t: toml::Table = toml::from_str(&out).unwrap();
+        let widths: Vec<Option<i64>> = t["scene"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s.get("camera").and_then(|c| c["width"].as_integer()))
+            .collect();
+        assert_eq!(widths, [None, Some(32)]);
+        for bad in ["scene.2.source=c", "scene.1=3"] {
+            assert!(apply_sets("t.toml", text, &[bad.into()]).is_err(), "{bad}");
         }
         let e = apply_sets("t.toml", text, &["run.repeat.x=1".into()]).unwrap_err();
         assert!(e.to_string().contains("--set run.repeat.x=1"), "{e}");
