@@ -850,6 +850,9 @@ fn a_deviation_naming_an_unknown_claim_is_refused() {
     .is_err());
     assert!(
         claims::deviations::parse(p, &format!("{}claim = 1\n", dev("[\"fast\"]")), &file).is_err()
+    );
+}
+
 /// Issue 42: a measure may divide two measures of the same rows; each side pools as it would
 /// alone. Counter ratios are points; a ratio with a time side is a timing (the floor between
 /// runs widens it); trace times and ambiguous sums are refused at load.
