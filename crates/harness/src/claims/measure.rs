@@ -235,7 +235,6 @@ mod tests {
             .check_columns()
             .is_err());
     }
-
 }
 
 impl Term {
