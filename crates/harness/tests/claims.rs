@@ -888,9 +888,11 @@ fn ratio_measures_divide_the_same_rows() {
     assert_eq!(v.verdict, Verdict::Agree, "{v:?}");
     let g = &v.groups[0];
     assert!((g.values["a"].v - 0.05).abs() < 1e-12 && g.values["a"].timed);
+    // A band narrower than the floor allows (0.055 / 0.045 < 1.2²): undecidable by
+    // construction, not merely inconclusive.
     assert_eq!(
         run(c(share, "scene = \"s2\"", 0.045, 0.055)).verdict,
-        Verdict::Inconclusive
+        Verdict::Undecidable
     );
     assert_eq!(
         run(c(share, "scene = \"s2\"", 0.07, 0.1)).verdict,
