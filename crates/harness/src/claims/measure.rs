@@ -175,6 +175,45 @@ pub(crate) fn divide(n: [f64; 3], d: [f64; 3]) -> Result<[f64; 3], String> {
     Ok([n[0] / d[2], n[1] / d[1], hi])
 }
 
+impl Term {
+    /// A column computed from wall-clock time (`primary_ms`, `ao_ms_per_spp`, `elapsed_ms`,
+    /// the dynamic table's `spp`, …) or a `build_stats` entry that is one (`build:insert_ms`,
+    /// the grids' `build:build_merge_ms`, …): no interval of its own, but subject to
+    /// `TIME_FLOOR`.
+    pub(crate) fn wall_clock(&self) -> bool {
+        let timing = |c: &str| c.ends_with("_ms") || c.contains("_ms_");
+        match self {
+            Term::Col(c) => timing(c) || c == "spp",
+            Term::Build(k) => timing(k),
+            _ => false,
+        }
+    }
+}
+
+/// A number in five significant digits (whole numbers from 10,000).
+pub(crate) fn fmt(x: f64) -> String {
+    if !x.is_finite() {
+        return if x.is_nan() {
+            "n/a".into()
+        } else if x > 0.0 {
+            "∞".into()
+        } else {
+            "-∞".into()
+        };
+    }
+    let a = x.abs();
+    if a >= 10000.0 || a == 0.0 {
+        return format!("{x:.0}");
+    }
+    let d = (4 - a.log10().floor() as i32).clamp(0, 8) as usize;
+    let s = format!("{x:.d$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_owned()
+    } else {
+        s
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -234,44 +273,5 @@ mod tests {
             .unwrap()
             .check_columns()
             .is_err());
-    }
-}
-
-impl Term {
-    /// A column computed from wall-clock time (`primary_ms`, `ao_ms_per_spp`, `elapsed_ms`,
-    /// the dynamic table's `spp`, …) or a `build_stats` entry that is one (`build:insert_ms`,
-    /// the grids' `build:build_merge_ms`, …): no interval of its own, but subject to
-    /// `TIME_FLOOR`.
-    pub(crate) fn wall_clock(&self) -> bool {
-        let timing = |c: &str| c.ends_with("_ms") || c.contains("_ms_");
-        match self {
-            Term::Col(c) => timing(c) || c == "spp",
-            Term::Build(k) => timing(k),
-            _ => false,
-        }
-    }
-}
-
-/// A number in five significant digits (whole numbers from 10,000).
-pub(crate) fn fmt(x: f64) -> String {
-    if !x.is_finite() {
-        return if x.is_nan() {
-            "n/a".into()
-        } else if x > 0.0 {
-            "∞".into()
-        } else {
-            "-∞".into()
-        };
-    }
-    let a = x.abs();
-    if a >= 10000.0 || a == 0.0 {
-        return format!("{x:.0}");
-    }
-    let d = (4 - a.log10().floor() as i32).clamp(0, 8) as usize;
-    let s = format!("{x:.d$}");
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_owned()
-    } else {
-        s
     }
 }
