@@ -378,15 +378,7 @@ impl<'a> Ctx<'a> {
         hint: u32,
         c: &mut C,
     ) -> HitRecord {
-        if self.nodes.is_empty() {
-            return HitRecord::MISS;
-        }
-        let s = setup(ray);
-        c.boxes(1);
-        let Some((r0, r1)) = self
-            .root
-            .intersect(ray.origin, ray.inv_dir(), ray.tmin, ray.tmax)
-        else {
+        let Some((s, (r0, r1))) = self.clip_root(ray, c) else {
             return HitRecord::MISS;
         };
         let pre = T::prepare(ray);
@@ -591,6 +583,21 @@ impl<'a> Ctx<'a> {
         }
     }
 
+    /// The set-up both SLTR walks share: the ray's precomputed set-up and its interval in the
+    /// root box (one box test counted), `None` for an empty tree or a ray missing the root.
+    #[inline(always)]
+    fn clip_root<C: Counter>(&self, ray: &Ray, c: &mut C) -> Option<(Setup, (f32, f32))> {
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let s = setup(ray);
+        c.boxes(1);
+        let r = self
+            .root
+            .intersect(ray.origin, ray.inv_dir(), ray.tmin, ray.tmax)?;
+        Some((s, r))
+    }
+
     /// `sltr-mask` from record `hint` (see the module doc).
     #[inline(always)]
     fn sltr_mask<T: TriTest, C: Counter, const ANY: bool>(
@@ -599,15 +606,7 @@ impl<'a> Ctx<'a> {
         hint: u32,
         c: &mut C,
     ) -> HitRecord {
-        if self.nodes.is_empty() {
-            return HitRecord::MISS;
-        }
-        let s = setup(ray);
-        c.boxes(1);
-        let Some((r0, r1)) = self
-            .root
-            .intersect(ray.origin, ray.inv_dir(), ray.tmin, ray.tmax)
-        else {
+        let Some((s, (r0, r1))) = self.clip_root(ray, c) else {
             return HitRecord::MISS;
         };
         let pre = T::prepare(ray);
