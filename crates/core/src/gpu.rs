@@ -102,10 +102,12 @@ pub struct GpuProgram<'a> {
     /// WGSL shared by several structures' programs (e.g. [`LEAF_RANGES`]), placed after the
     /// prelude and before [`GpuProgram::source`], in this order.
     pub includes: Vec<&'static str>,
-    /// Why the timed passes keep wgpu's runtime checks (`None`: they run the trusted build
-    /// without them, tb-gpu's `kernels` doc): a program whose trusted build was seen to
-    /// answer differently from its checked build, until that is mended.
-    pub checked_only: Option<&'static str>,
+    /// Why the timed passes keep wgpu's loop bounding (`force_loop_bounding`) while dropping
+    /// its bounds checks (`None`: the trusted build has neither, tb-gpu's `kernels` doc). A
+    /// shader loop without side effects is one a compiler may assume to end (LLVM's forward
+    /// progress rule, which lavapipe's compiler applies): where that assumption changed a
+    /// program's answers, the bound (a counter per loop, never reached) keeps them.
+    pub bounded_loops: Option<&'static str>,
 }
 
 /// WGSL shared by the programs whose leaves are ranges of a leaf-ordered triangle array with
@@ -140,14 +142,14 @@ impl<'a> GpuProgram<'a> {
             needs_f64: false,
             arrange: None,
             includes: Vec::new(),
-            checked_only: None,
+            bounded_loops: None,
         }
     }
 
-    /// Keep wgpu's runtime checks in the timed passes too, for `why`
-    /// ([`GpuProgram::checked_only`]).
-    pub fn checked_only(mut self, why: &'static str) -> Self {
-        self.checked_only = Some(why);
+    /// Keep wgpu's loop bounding in the timed passes, for `why`
+    /// ([`GpuProgram::bounded_loops`]).
+    pub fn bounded_loops(mut self, why: &'static str) -> Self {
+        self.bounded_loops = Some(why);
         self
     }
 

@@ -9,8 +9,10 @@
 //! the sort passes, so that timed kernels run as written (issue 44). The trusted module is
 //! the same WGSL, validated by naga as the checked one; every program's timed variant is
 //! tested ray for ray against its counting (checked) variant and the CPU (tb-harness's
-//! `gpu_oracle`, the structure crates' GPU tests). `TRACE_BENCH_GPU_CHECKED=1` compiles
-//! the timed variant with the checks too.
+//! `gpu_oracle`, the structure crates' GPU tests). A program may keep the loop bound
+//! without the bounds checks ([`GpuProgram::bounded_loops`]: sparse boxes' mask walk, whose
+//! loops lavapipe's compiler took to end). `TRACE_BENCH_GPU_CHECKED=1` compiles the timed
+//! variant with the checks too.
 
 use crate::{GpuError, WORKGROUP};
 use std::collections::HashMap;
@@ -216,16 +218,17 @@ impl Kernels {
             GpuError::Wgpu(m) => GpuError::Program(format!("GPU program `{}`: {m}", p.name)),
             e => e,
         })?;
-        let trusted = if checked_only() || p.checked_only.is_some() {
+        let trusted = if checked_only() {
             module.clone()
         } else {
+            let mut checks = wgpu::ShaderRuntimeChecks::unchecked();
+            // A program whose answers changed when its loops lost their bound keeps it.
+            checks.force_loop_bounding = p.bounded_loops.is_some();
             // SAFETY: the module is the checked one's WGSL, validated above; its accesses stay
             // within the buffers and its loops end (bounded by the structure's depth, step
             // cap or counts), which the ray-for-ray tests of every program against its checked
             // build and the CPU confirm (module doc).
-            unsafe {
-                device.create_shader_module_trusted(desc(), wgpu::ShaderRuntimeChecks::unchecked())
-            }
+            unsafe { device.create_shader_module_trusted(desc(), checks) }
         };
         cache.modules.insert(
             p.name,
