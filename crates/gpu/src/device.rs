@@ -122,6 +122,8 @@ pub struct Gpu {
     pub(crate) sample: (f64, u32),
     /// First uncaptured error or device loss, reported by the next wait.
     errors: Arc<Mutex<Option<GpuError>>>,
+    /// The fixed-work probe, made at its first use ([`Gpu::probe_ms`]).
+    pub(crate) probe: Mutex<Option<crate::probe::Probe>>,
 }
 
 fn type_rank(t: wgpu::DeviceType) -> u8 {
@@ -229,6 +231,7 @@ impl Gpu {
             dispatch_cap: None,
             sample: (crate::MIN_SAMPLE_MS, crate::MAX_PASSES),
             errors,
+            probe: Mutex::new(None),
         };
         gpu.check()?;
         Ok(gpu)

@@ -51,10 +51,12 @@
 
 mod device;
 mod kernels;
+mod probe;
 mod trace;
 
 pub use device::{AdapterChoice, AdapterSummary, Backend, Gpu};
 pub use kernels::checked_only as timed_passes_checked;
+pub use probe::PROBE_MIN_MS;
 pub use tb_core::{GpuArrange, GpuBuffer, GpuProgram};
 pub use trace::{GpuRays, GpuStructure, Timing, MAX_PASSES, MIN_SAMPLE_MS};
 

@@ -613,7 +613,7 @@ impl Gpu {
     /// Submit one compute pass (what `encode` records) and wait: its time in ms, from GPU
     /// timestamps around the pass where the adapter has them (`true`), else the wall time
     /// from submit to the end of the wait.
-    fn timed_pass(
+    pub(crate) fn timed_pass(
         &self,
         encode: impl FnOnce(&mut wgpu::ComputePass<'_>),
     ) -> Result<(f64, bool), GpuError> {

@@ -431,3 +431,19 @@ fn a_timed_trace_is_a_sustained_sample() {
         .unwrap();
     assert_eq!(one, hits);
 }
+
+/// The probe does fixed work: its pass count is fixed at the first probe and stays so, and
+/// every probe takes a positive time.
+#[test]
+fn the_probe_does_fixed_work() {
+    let Some(gpu) = open_or_skip() else { return };
+    assert_eq!(gpu.probe_passes(), 1);
+    let first = gpu.probe_ms().unwrap();
+    let passes = gpu.probe_passes();
+    assert!((1..=tb_gpu::MAX_PASSES).contains(&passes), "{passes}");
+    assert!(first > 0.0 && first.is_finite(), "{first}");
+    for _ in 0..3 {
+        assert!(gpu.probe_ms().unwrap() > 0.0);
+        assert_eq!(gpu.probe_passes(), passes);
+    }
+}

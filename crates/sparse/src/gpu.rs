@@ -34,7 +34,9 @@ impl SparseBoxes {
         // climbs from impossible depths (the timed variant's loops write nothing, its
         // counters being dead); with the bound and no bounds checks every ray agrees
         // (gpu_oracle). Found with a scratch test comparing the builds ray for ray.
-        .bounded_loops("lavapipe's compiler took its unbounded loops to end and answered differently")
+        .bounded_loops(
+            "lavapipe's compiler took its unbounded loops to end and answered differently",
+        )
         .buffer(
             "the kd-tree node array",
             bytes(v.nodes().iter().flat_map(|n| [n.bits, n.data])),

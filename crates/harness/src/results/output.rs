@@ -81,6 +81,14 @@ macro_rules! define_row {
             /// `trace_ms_*` when the sort is timed (multi-kd `-sorted`, "inc."), not otherwise
             /// (`-presorted`, "n.inc."). Empty on other rows.
             pub sort_ms: Option<f64>,
+            /// GPU rows: the fixed-work probe's ms per pass (`tb_gpu::Gpu::probe_ms`), the
+            /// mean of the probes timed just before and just after the row's timed passes.
+            #[serde(default)]
+            pub probe_ms: Option<f64>,
+            /// GPU rows: of those two probes, the one farther from the run's first probe,
+            /// relative to it (0.03 = 3 % slower); beyond ±5 % the row is `noisy`.
+            #[serde(default)]
+            pub probe_drift: Option<f64>,
             pub hit_rate: Option<f64>,
             $(
                 #[doc = concat!("Mean per ray: ", $doc, ".")]

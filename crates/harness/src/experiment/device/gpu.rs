@@ -1,7 +1,7 @@
 //! The `gpu` device of the runner: opens the adapter once per run, uploads each build's GPU
 //! program ([`tb_core::Accel::gpu_program`], the structure's own) once per traversal and each
 //! ray batch once per build, then per row times the timed kernel
-//! (warm-up, repeats), reads the hits back (validated against the oracle like CPU rows), and
+//! (warm-up, repeats) between two probes of a fixed-work kernel ([`PROBE_MOVED`]), reads the hits back (validated against the oracle like CPU rows), and
 //! runs the counting kernel for the counter columns.
 //!
 //! Rules (README, "GPU"): a GPU row has `device = gpu`, `threads = 0` (the column counts CPU
@@ -36,7 +36,15 @@ pub struct GpuDevice {
     pub required: bool,
     /// The current build's uploaded programs (per traversal) and ray batches.
     build: GpuBuild,
+    /// The run's first probe time ([`tb_gpu::Gpu::probe_ms`]), which later rows' probes are
+    /// compared with.
+    probe_ref: Option<f64>,
 }
+
+/// A GPU row whose probe (timed just before and just after its timed passes) moved by more
+/// than this share from the run's first probe is flagged `noisy`, with a note: the GPU's
+/// state (clocks, power, other work on it) changed while rows were timed.
+pub const PROBE_MOVED: f64 = 0.05;
 
 /// Per-build GPU state: the uploaded program of each traversal and the ray batches.
 #[derive(Default)]
@@ -62,6 +70,7 @@ impl GpuDevice {
             gpu: Gpu::new(&spec.choice).map_err(|e| e.to_string()),
             required: spec.required,
             build: GpuBuild::default(),
+            probe_ref: None,
         }
     }
 
@@ -109,6 +118,11 @@ impl GpuDevice {
                             ""
                         }
                     ),
+                    "probe": format!(
+                        "a fixed-work kernel timed before and after each row's timed passes \
+                         (probe_ms, probe_drift; beyond ±{} % from the run's first the row is noisy)",
+                        PROBE_MOVED * 100.0
+                    ),
                     "watertight_fallback": if a.f64 { "f64" } else { "f32" },
                     "max_rays_per_dispatch": g.max_rays_per_dispatch(),
                 })
@@ -143,7 +157,7 @@ impl Device for GpuDevice {
         let gpu = self.gpu.as_ref().map_err(|e| e.clone())?;
         row.adapter = gpu.adapter().label();
         row.adapter_type = gpu.adapter().kind().to_owned();
-        let r = measure_on(gpu, &mut self.build, job, sample, row);
+        let r = measure_on(gpu, &mut self.build, &mut self.probe_ref, job, sample, row);
         if let Ok(Outcome::Measured(_)) = &r {
             row.note = if row.note.is_empty() {
                 CPU_BUILD_NOTE.to_string()
@@ -222,6 +236,7 @@ impl tb_render::Tracer for GpuTracer<'_> {
 fn measure_on(
     gpu: &Gpu,
     build: &mut GpuBuild,
+    probe_ref: &mut Option<f64>,
     job: &Job,
     sample: Option<&Sample>,
     row: &mut Row,
@@ -254,6 +269,7 @@ fn measure_on(
     // program says the sort is timed ("inc."), kept apart otherwise ("n.inc.").
     let timed_sort = s.arrange().is_some_and(|a| a.timed);
     let mut sorts = Vec::new();
+    let before = gpu.probe_ms().map_err(|e| e.to_string())?;
     let mut times = job.timing.run(|| {
         let t = gpu
             .trace(s, g_rays, query, tri, false)
@@ -266,8 +282,10 @@ fn measure_on(
     let warmups = sorts.len().saturating_sub(times.len());
     let sorts = &mut sorts[warmups..];
     row.sort_ms = (!sorts.is_empty()).then(|| crate::experiment::timing::median(sorts));
+    let after = gpu.probe_ms().map_err(|e| e.to_string())?;
     let (hits, readback_ms) = gpu.read_hits(g_rays).map_err(|e| e.to_string())?;
     crate::experiment::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);
+    probe(row, probe_ref, before, after);
     row.readback_ms = Some(readback_ms);
     row.hit_rate = Some(validation::hit_rate(&hits));
 
@@ -286,4 +304,50 @@ fn measure_on(
         validation::check(query, smp, &got, job.max_report)
     });
     Ok(Outcome::Measured(checked))
+}
+
+/// The row's probe columns: `probe_ms`, the mean of the probes before and after its timed
+/// passes; `probe_drift`, the one farther from the run's first probe, relative to it. A drift
+/// beyond [`PROBE_MOVED`] flags the row `noisy` and says so in its note.
+fn probe(row: &mut Row, reference: &mut Option<f64>, before: f64, after: f64) {
+    let r = *reference.get_or_insert(before);
+    let drift = [before / r - 1.0, after / r - 1.0]
+        .into_iter()
+        .max_by(|a, b| a.abs().total_cmp(&b.abs()))
+        .unwrap_or(0.0);
+    row.probe_ms = Some((before + after) / 2.0);
+    row.probe_drift = Some(drift);
+    if drift.abs() > PROBE_MOVED {
+        row.noisy = Some(true);
+        let note = format!(
+            "the GPU probe moved {:+.1} % from the run's first (the GPU's state changed)",
+            drift * 100.0
+        );
+        row.note = if row.note.is_empty() {
+            note
+        } else {
+            format!("{}; {note}", row.note)
+        };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_row_whose_probe_moved_is_flagged() {
+        let mut reference = None;
+        let mut a = Row::default();
+        probe(&mut a, &mut reference, 2.0, 2.04);
+        assert_eq!(reference, Some(2.0));
+        assert_eq!(a.noisy, None);
+        assert!((a.probe_drift.unwrap() - 0.02).abs() < 1e-12);
+        assert!((a.probe_ms.unwrap() - 2.02).abs() < 1e-12);
+        let mut b = Row::default();
+        probe(&mut b, &mut reference, 1.98, 1.7);
+        assert_eq!(b.noisy, Some(true));
+        assert!((b.probe_drift.unwrap() + 0.15).abs() < 1e-12);
+        assert!(b.note.contains("probe moved -15.0 %"), "{}", b.note);
+    }
 }
