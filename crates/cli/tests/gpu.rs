@@ -236,3 +236,79 @@ name = "bvh"
     // The same samples through the GPU BVH: the same hits, so the same error at every spp.
     assert_eq!(cpu, gpu);
 }
+
+/// `run.interleave` on the GPU: the GPU rows of a batch are timed together round by round
+/// (one timing group per batch, apart from the CPU rows' group), with the same counters,
+/// hits and validation as rows timed one by one, and probe columns on every timed GPU row.
+#[test]
+fn gpu_rows_timed_interleaved_keep_their_counters() {
+    if tb_gpu::open_or_skip().is_none() {
+        assert!(!tb_gpu::gpu_required_by_env(), "no GPU adapter");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("inter.toml");
+    std::fs::write(
+        &cfg,
+        r#"name = "inter-gpu"
+[run]
+threads = 1
+repeat = 3
+warmup = 0
+validate = 256
+devices = ["cpu", "gpu"]
+[[scene]]
+source = "builtin:cornell"
+rays = ["primary", "shadow"]
+camera = { width = 32, height = 32 }
+[[structure]]
+name = "bvh"
+[[structure]]
+name = "rtree"
+"#,
+    )
+    .unwrap();
+    let go = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "run",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "-q",
+        ];
+        args.extend_from_slice(extra);
+        assert_eq!(run(&args), 0, "{name}");
+        read_csv(&out.join("results.csv")).unwrap()
+    };
+    let apart = go("apart", &[]);
+    let together = go("together", &["--set", "run.interleave=true"]);
+    assert_eq!(apart.len(), together.len());
+    let mut gpu_rows = 0;
+    for (a, b) in apart.iter().zip(&together) {
+        assert_eq!(a.key(), b.key());
+        assert_eq!(counters(a), counters(b), "{:?}", a.key());
+        assert_eq!(a.mismatches, b.mismatches, "{:?}", a.key());
+        if b.device == "gpu" && b.trace_ms_median.is_some() {
+            gpu_rows += 1;
+            assert!(a.timing_group.is_empty());
+            assert!(!b.timing_group.is_empty(), "{:?}", b.key());
+            assert_eq!(b.trace_ms_runs.split(';').count(), 3, "{:?}", b.key());
+            assert!(b.probe_ms.is_some_and(|p| p > 0.0) && b.probe_drift.is_some());
+        }
+    }
+    assert!(gpu_rows >= 4, "{gpu_rows}");
+    // One group per batch for the GPU rows of both structures, none shared with CPU rows.
+    for kind in ["primary", "shadow"] {
+        let groups = |dev: &str| -> std::collections::BTreeSet<String> {
+            together
+                .iter()
+                .filter(|r| r.device == dev && r.ray_kind == kind && r.trace_ms_median.is_some())
+                .map(|r| r.timing_group.clone())
+                .collect()
+        };
+        let (g, c) = (groups("gpu"), groups("cpu"));
+        assert_eq!(g.len(), 1, "{kind}: {g:?}");
+        assert!(g.is_disjoint(&c), "{kind}: {g:?} {c:?}");
+    }
+}

@@ -410,6 +410,18 @@ impl Gpu {
         self.trace_sample(s, rays, query, tri, count, !count)
     }
 
+    /// One untimed pass of the timed variant (its hits, for validation, when the timed
+    /// sample is taken elsewhere, e.g. interleaved with other rows' samples).
+    pub fn trace_untimed(
+        &self,
+        s: &GpuStructure,
+        rays: &GpuRays,
+        query: Query,
+        tri: TriTestKind,
+    ) -> Result<Timing, GpuError> {
+        self.trace_sample(s, rays, query, tri, false, false)
+    }
+
     /// [`Gpu::trace`], with a sustained sample where `sustain`.
     fn trace_sample(
         &self,

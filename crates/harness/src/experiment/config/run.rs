@@ -17,8 +17,9 @@ pub struct RunSettings {
     pub gpu: GpuSpec,
     pub validate: Validate,
     pub seed: u64,
-    /// Time the CPU rows of a scene view that trace the same batch (triangle test, thread
-    /// count) interleaved, round by round, over every build of the table (`run.interleave`).
+    /// Time the rows of a scene view that trace the same batch (triangle test, thread count,
+    /// device: CPU rows together, GPU rows together) interleaved, round by round, over every
+    /// build of the table (`run.interleave`).
     pub interleave: bool,
 }
 

@@ -39,6 +39,9 @@ pub struct GpuDevice {
     /// The run's first probe time ([`tb_gpu::Gpu::probe_ms`]), which later rows' probes are
     /// compared with.
     probe_ref: Option<f64>,
+    /// Keep every build's programs until [`GpuDevice::keep_builds`] is called again
+    /// (`run.interleave`: the builds of a table are timed together after all are made).
+    keep: bool,
 }
 
 /// A GPU row whose probe (timed just before and just after its timed passes) moved by more
@@ -46,11 +49,21 @@ pub struct GpuDevice {
 /// state (clocks, power, other work on it) changed while rows were timed.
 pub const PROBE_MOVED: f64 = 0.05;
 
-/// Per-build GPU state: the uploaded program of each traversal and the ray batches.
+/// Per-build GPU state: the uploaded program of each traversal and the ray batches. With
+/// interleaved timing ([`GpuDevice::keep_builds`]) it holds every kept build's programs,
+/// told apart by the build's address.
 #[derive(Default)]
 struct GpuBuild {
-    programs: HashMap<usize, Result<GpuStructure, UploadError>>,
+    programs: HashMap<(usize, usize), Result<GpuStructure, UploadError>>,
     rays: HashMap<usize, GpuRays>,
+}
+
+/// The key of a job's program: its build's address and its traversal.
+fn program_key(job: &Job) -> (usize, usize) {
+    (
+        job.accel as *const dyn Accel as *const () as usize,
+        job.traversal,
+    )
 }
 
 /// Why a build's program is not on the GPU.
@@ -71,6 +84,7 @@ impl GpuDevice {
             required: spec.required,
             build: GpuBuild::default(),
             probe_ref: None,
+            keep: false,
         }
     }
 
@@ -138,7 +152,9 @@ impl Device for GpuDevice {
     }
 
     fn begin_build(&mut self) {
-        self.build = GpuBuild::default();
+        if !self.keep {
+            self.build = GpuBuild::default();
+        }
     }
 
     fn measure(
@@ -174,6 +190,63 @@ impl Device for GpuDevice {
 }
 
 impl GpuDevice {
+    /// Keep every build's uploaded programs (`true`, from the start of a table timed
+    /// interleaved until its rows are timed) or one build's at a time (`false`); either call
+    /// drops what was kept.
+    pub fn keep_builds(&mut self, keep: bool) {
+        self.keep = keep;
+        self.build = GpuBuild::default();
+    }
+
+    /// Time `jobs` (GPU rows of one batch and triangle test, of one or several kept builds,
+    /// each already measured with `time: false`) interleaved under `plan`, as the CPU's rows
+    /// are ([`crate::experiment::timing::TimingPlan::run_interleaved`]): each round one
+    /// sustained sample of each row in turn, so that a change of the GPU's state falls on
+    /// every row alike. The probe is timed before and after the group. Fills each row's
+    /// timing, `sort_ms` and probe columns.
+    pub fn time_interleaved(
+        &mut self,
+        jobs: &[Job],
+        plan: &crate::experiment::timing::TimingPlan,
+        rows: &mut [&mut Row],
+    ) -> Result<(), String> {
+        let gpu = self.gpu.as_ref().map_err(|e| e.clone())?;
+        let mut programs = Vec::with_capacity(jobs.len());
+        for j in jobs {
+            let s = match self.build.programs.get(&program_key(j)) {
+                Some(Ok(s)) => s,
+                _ => return Err("a row timed interleaved has no uploaded program".into()),
+            };
+            let rays = self
+                .build
+                .rays
+                .get(&j.batch_index)
+                .ok_or("a row timed interleaved has no uploaded rays")?;
+            programs.push((s, rays, s.arrange().is_some_and(|a| a.timed)));
+        }
+        let before = gpu.probe_ms().map_err(|e| e.to_string())?;
+        let mut sorts = vec![Vec::new(); jobs.len()];
+        let times = plan.run_interleaved(jobs.len(), |i| {
+            let (s, rays, timed_sort) = programs[i];
+            let j = &jobs[i];
+            let t = gpu
+                .trace(s, rays, j.batch.query, j.tri, false)
+                .map_err(|e| e.to_string())?;
+            sorts[i].extend(t.sort_ms);
+            let sort = if timed_sort { t.sort_ms } else { None };
+            Ok::<_, String>(t.kernel_ms + sort.unwrap_or(0.0))
+        })?;
+        let after = gpu.probe_ms().map_err(|e| e.to_string())?;
+        for (((row, mut t), s), j) in rows.iter_mut().zip(times).zip(sorts).zip(jobs) {
+            let warmups = s.len().saturating_sub(t.len());
+            let mut s = s[warmups..].to_vec();
+            row.sort_ms = (!s.is_empty()).then(|| crate::experiment::timing::median(&mut s));
+            crate::experiment::timing::fill(row, &mut t, j.batch.rays.len(), plan.target_ci);
+            probe(row, &mut self.probe_ref, before, after);
+        }
+        Ok(())
+    }
+
     /// A [`tb_render::Tracer`] for the convergence renders of one build: the structure is
     /// uploaded once; each batch of rays is uploaded, traced (timed kernel, no counters) and
     /// read back, so the render's elapsed time includes both copies. `Err` when there is no
@@ -242,7 +315,7 @@ fn measure_on(
     row: &mut Row,
 ) -> Result<Outcome, String> {
     let (b, query, tri) = (job.batch, job.batch.query, job.tri);
-    let upload = build.programs.entry(job.traversal).or_insert_with(|| {
+    let upload = build.programs.entry(program_key(job)).or_insert_with(|| {
         let program = job
             .accel
             .gpu_program(job.traversal)
@@ -267,6 +340,14 @@ fn measure_on(
 
     // A program that sorts its rays: the sort's time per run, added to the trace's when the
     // program says the sort is timed ("inc."), kept apart otherwise ("n.inc.").
+    if !job.time {
+        // Timed later, interleaved (GpuDevice::time_interleaved): one untimed pass's hits.
+        gpu.trace_untimed(s, g_rays, query, tri)
+            .map_err(|e| e.to_string())?;
+        let (hits, readback_ms) = gpu.read_hits(g_rays).map_err(|e| e.to_string())?;
+        row.readback_ms = Some(readback_ms);
+        return count_and_check(gpu, s, g_rays, job, sample, row, &hits);
+    }
     let timed_sort = s.arrange().is_some_and(|a| a.timed);
     let mut sorts = Vec::new();
     let before = gpu.probe_ms().map_err(|e| e.to_string())?;
@@ -287,7 +368,21 @@ fn measure_on(
     crate::experiment::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);
     probe(row, probe_ref, before, after);
     row.readback_ms = Some(readback_ms);
-    row.hit_rate = Some(validation::hit_rate(&hits));
+    count_and_check(gpu, s, g_rays, job, sample, row, &hits)
+}
+
+/// The hit rate, the counting pass's counter columns, and the validation of `hits`.
+fn count_and_check(
+    gpu: &Gpu,
+    s: &GpuStructure,
+    g_rays: &GpuRays,
+    job: &Job,
+    sample: Option<&Sample>,
+    row: &mut Row,
+    hits: &[HitRecord],
+) -> Result<Outcome, String> {
+    let (query, tri) = (job.batch.query, job.tri);
+    row.hit_rate = Some(validation::hit_rate(hits));
 
     gpu.trace(s, g_rays, query, tri, true)
         .map_err(|e| e.to_string())?;
@@ -308,7 +403,7 @@ fn measure_on(
 
 /// The row's probe columns: `probe_ms`, the mean of the probes before and after its timed
 /// passes; `probe_drift`, the one farther from the run's first probe, relative to it. A drift
-/// beyond [`PROBE_MOVED`] flags the row `noisy` and says so in its note.
+/// beyond [`PROBE_MOVED`] flags the row `noisy` (the note stays the row's own).
 fn probe(row: &mut Row, reference: &mut Option<f64>, before: f64, after: f64) {
     let r = *reference.get_or_insert(before);
     let drift = [before / r - 1.0, after / r - 1.0]
@@ -319,15 +414,6 @@ fn probe(row: &mut Row, reference: &mut Option<f64>, before: f64, after: f64) {
     row.probe_drift = Some(drift);
     if drift.abs() > PROBE_MOVED {
         row.noisy = Some(true);
-        let note = format!(
-            "the GPU probe moved {:+.1} % from the run's first (the GPU's state changed)",
-            drift * 100.0
-        );
-        row.note = if row.note.is_empty() {
-            note
-        } else {
-            format!("{}; {note}", row.note)
-        };
     }
 }
 
@@ -348,6 +434,5 @@ mod tests {
         probe(&mut b, &mut reference, 1.98, 1.7);
         assert_eq!(b.noisy, Some(true));
         assert!((b.probe_drift.unwrap() + 0.15).abs() < 1e-12);
-        assert!(b.note.contains("probe moved -15.0 %"), "{}", b.note);
     }
 }

@@ -375,6 +375,9 @@ impl<'a> Run<'a> {
     ) -> Result<(), HarnessError> {
         let exp = self.exp;
         let first = &g.views[0];
+        if let Some(gpu) = self.gpu.as_mut() {
+            gpu.keep_builds(true);
+        }
         let mut builds: Vec<(&StructureSpec, Built)> = Vec::new();
         let mut rows: Vec<PendingRow> = Vec::new();
         for (si, st) in exp.structures.iter().enumerate() {
@@ -401,10 +404,9 @@ impl<'a> Run<'a> {
                     let base = base_row(spec, tris, st, &params_s);
                     self.after_build(spec, st, &built, &params_s)?;
                     for c in t {
-                        let cpu = c.dev == DeviceKind::Cpu;
                         let row =
-                            self.measure_row(spec, g.batches, oracle, st, &built, &base, c, !cpu)?;
-                        let awaits = cpu && row.hit_rate.is_some();
+                            self.measure_row(spec, g.batches, oracle, st, &built, &base, c, false)?;
+                        let awaits = row.hit_rate.is_some();
                         rows.push((row, awaits.then_some((builds.len(), vi, c))));
                     }
                 }
@@ -412,6 +414,9 @@ impl<'a> Run<'a> {
             }
         }
         self.time_interleaved(g, &builds, &mut rows);
+        if let Some(gpu) = self.gpu.as_mut() {
+            gpu.keep_builds(false);
+        }
         for (row, _) in rows {
             self.emit(row)?;
         }
@@ -427,11 +432,11 @@ impl<'a> Run<'a> {
         builds: &[(&StructureSpec, Built)],
         rows: &mut [PendingRow],
     ) {
-        type GroupKey = (usize, usize, tb_core::TriTestKind, usize);
+        type GroupKey = (usize, usize, tb_core::TriTestKind, usize, DeviceKind);
         let mut groups: Vec<(GroupKey, Vec<usize>)> = Vec::new();
         for (i, (_, w)) in rows.iter().enumerate() {
             if let Some((_, vi, c)) = w {
-                let key = (*vi, c.bi, c.tri, c.threads);
+                let key = (*vi, c.bi, c.tri, c.threads, c.dev);
                 match groups.iter_mut().find(|(k, _)| *k == key) {
                     Some((_, v)) => v.push(i),
                     None => groups.push((key, vec![i])),
@@ -442,7 +447,7 @@ impl<'a> Run<'a> {
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0, |d| d.as_secs());
         let plan = self.exp.run.timing;
-        for (k, ((vi, bi, tri, threads), idx)) in groups.iter().enumerate() {
+        for (k, ((vi, bi, tri, threads, dev), idx)) in groups.iter().enumerate() {
             let b = &g.batches[*bi];
             self.progress.step(&format!(
                 "{}: timing {} rows interleaved ({} {} {threads}t)",
@@ -471,6 +476,11 @@ impl<'a> Run<'a> {
                 })
                 .collect();
             let before = crate::experiment::timing::CpuSample::now();
+            if *dev == DeviceKind::Gpu {
+                let tg = format!("{}-{stamp}-{k}", g.views[0].table);
+                self.time_gpu_interleaved(&jobs, &plan, idx, rows, before, tg);
+                continue;
+            }
             let times = self.cpu.time_interleaved(&jobs, &plan);
             let others = before
                 .zip(crate::experiment::timing::CpuSample::now())
@@ -485,6 +495,53 @@ impl<'a> Run<'a> {
                 row.timing_group = format!("{}-{stamp}-{k}", g.views[0].table);
                 row.cpu_others = others;
                 self.note_load(row);
+            }
+        }
+    }
+
+    /// [`Run::time_interleaved`]'s GPU groups ([`GpuDevice::time_interleaved`]): a failure
+    /// leaves the rows untimed, said once as other GPU failures are.
+    fn time_gpu_interleaved(
+        &mut self,
+        jobs: &[Job],
+        plan: &crate::experiment::timing::TimingPlan,
+        idx: &[usize],
+        rows: &mut [PendingRow],
+        before: Option<crate::experiment::timing::CpuSample>,
+        timing_group: String,
+    ) {
+        let Some(gpu) = self.gpu.as_mut() else {
+            return;
+        };
+        let mut group: Vec<&mut Row> = Vec::with_capacity(idx.len());
+        for (i, (row, _)) in rows.iter_mut().enumerate() {
+            if idx.contains(&i) {
+                group.push(row);
+            }
+        }
+        // `idx` is increasing, so `group` is in the jobs' order.
+        let r = gpu.time_interleaved(jobs, plan, &mut group);
+        let others = before
+            .zip(crate::experiment::timing::CpuSample::now())
+            .and_then(|(a, b)| b.others_since(&a));
+        match r {
+            Ok(()) => {
+                for row in group {
+                    row.timing_group = timing_group.clone();
+                    row.cpu_others = others;
+                }
+                for &i in idx {
+                    let mut row = std::mem::take(&mut rows[i].0);
+                    self.note_load(&mut row);
+                    rows[i].0 = row;
+                }
+            }
+            Err(e) => {
+                drop(group);
+                self.gpu_failure(&e);
+                for &i in idx {
+                    rows[i].0.note = format!("gpu failed: {e}");
+                }
             }
         }
     }
