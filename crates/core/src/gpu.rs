@@ -12,7 +12,7 @@
 //! then `capped`), the common prelude, the watertight test's exact-zero fallback (f64 where the
 //! adapter has it, else f32), then [`GpuProgram::source`]. The prelude declares:
 //! - the bindings of group 0: `rays` (0), `hits` (1), `stats` (2), `tris` (3: the program's
-//!   [`GpuProgram::triangles`], 9 floats each, read with `vertex(i, k)`) and the uniform
+//!   [`GpuProgram::triangles`], three `vec4<f32>` each, read with `vertex(i, k)`) and the uniform
 //!   `meta_` (4: `counts = (triangles, meta[0], meta[1], meta[2])`);
 //! - the records `Ray`, `Hit` (and `miss()`, `MISS_PRIM`);
 //! - the override constants `ANY` (any-hit query), `COUNT` (counting pass), `WATERTIGHT`

@@ -22,7 +22,7 @@ override EXIT_SCALE: f32 = 1.0;      // tb_core::slab::EXIT_SCALE = 1 + 2 gamma(
 @group(0) @binding(0) var<storage, read> rays: array<Ray>;
 @group(0) @binding(1) var<storage, read_write> hits: array<Hit>;
 @group(0) @binding(2) var<storage, read_write> stats: array<Stats>;
-@group(0) @binding(3) var<storage, read> tris: array<f32>;               // 9 floats per triangle
+@group(0) @binding(3) var<storage, read> tris: array<vec4<f32>>;         // 3 per triangle: v0, v1, v2 (w = 0)
 @group(0) @binding(4) var<uniform> meta_: Meta;
 // The program's own read-only buffers follow at bindings 5, 6, … (GpuProgram::buffers).
 
@@ -32,9 +32,9 @@ fn miss() -> Hit {
     return Hit(bitcast<f32>(0x7f800000u), MISS_PRIM, 0.0, 0.0);
 }
 
+// One 16-byte load per vertex (issue 44: vector loads), not three scalar ones.
 fn vertex(i: u32, k: u32) -> vec3<f32> {
-    let b = 9u * i + 3u * k;
-    return vec3<f32>(tris[b], tris[b + 1u], tris[b + 2u]);
+    return tris[3u * i + k].xyz;
 }
 
 // tb_core::slab::max_num / min_num: ignore a NaN `t` (origin in a slab plane, zero direction).

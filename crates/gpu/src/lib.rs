@@ -6,7 +6,7 @@
 //! - [`Gpu::new`] picks an adapter ([`AdapterChoice`]: a name substring and a [`Backend`]),
 //!   opens a device with the adapter's own limits, and reports it ([`AdapterSummary`]).
 //! - [`Gpu::upload`] copies a program's arrays unchanged (STYLE.md, "build, then flatten"):
-//!   the triangles (9 floats each) at binding 3, the `meta_` uniform `(triangles, meta[0],
+//!   the triangles (three `vec4<f32>` each, `w` = 0) at binding 3, the `meta_` uniform `(triangles, meta[0],
 //!   meta[1], meta[2])` at 4, the program's buffers at 5, 6, …; it gives a [`GpuStructure`].
 //! - [`Gpu::upload_rays`] copies a ray batch and allocates its hit and counter buffers;
 //!   [`Gpu::trace`] runs one pass of a program over it (timed with GPU timestamp queries where

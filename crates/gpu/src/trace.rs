@@ -235,7 +235,7 @@ impl Gpu {
     }
 
     /// Upload a structure's GPU program ([`tb_core::Accel::gpu_program`]): its triangles
-    /// (9 floats each), its buffers and the `meta_` uniform `(triangles, meta[0..3])`, after
+    /// (three `vec4<f32>` each, one per vertex), its buffers and the `meta_` uniform `(triangles, meta[0..3])`, after
     /// compiling its shader module if this is the first program of that name (timed: buffer
     /// creation, copy, wait; compiling is not).
     ///
@@ -291,7 +291,7 @@ impl Gpu {
             .triangles
             .iter()
             .flat_map(|t| [t.v0, t.v1, t.v2])
-            .flat_map(|v| v.to_array())
+            .flat_map(|v| [v.x, v.y, v.z, 0.0])
             .collect();
         let tri_bytes: &[u8] = bytemuck::cast_slice(&flat);
         self.fits("the triangle array", tri_bytes.len() as u64, true)?;

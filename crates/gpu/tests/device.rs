@@ -110,7 +110,7 @@ fn programs_get_their_buffers_meta_and_constants() {
     let tris = [triangle(), triangle()];
     let gs = gpu.upload(&echo(&tris, &[41, 42, 43])).unwrap();
     assert_eq!(gs.program(), "test/echo");
-    assert_eq!(gs.bytes, 2 * 36 + 12 + 4);
+    assert_eq!(gs.bytes, 2 * 48 + 12 + 4); // three vec4 per triangle
     let rays = [Ray::segment(Vec3::ZERO, Vec3::X, 0.0, 6.0)];
     for query in [Query::Closest, Query::Any] {
         let (hits, stats) = gpu
