@@ -54,35 +54,21 @@ STRICT_EXT = (".rs", ".wgsl", ".py", ".sh", ".md", ".sbatch")
 # Run outputs (a results folder's files), places outside the repository.
 UNCHECKED_HEADS = ("results/", "images/", "../", "/", "~", "http")
 # Crates of others and primitive types: a path beginning with one is not looked up.
-EXTERNAL = {"std", "core", "alloc", "f32", "f64", "u32", "u64", "usize", "bytemuck", "glam", "wgpu", "rayon", "clap", "serde"}
+EXTERNAL = {
+    "std", "core", "alloc", "f32", "f64", "u32", "u64", "usize", "bytemuck", "glam", "wgpu",
+    "rayon", "clap", "serde",
+}
 # cargo's own flags and libtest's (after `--`).
 CARGO_FLAGS = {
     "--release", "--workspace", "--features", "--all-targets", "--all", "--quiet", "--test",
     "--lib", "--bins", "--bin", "--no-run", "--package", "--check", "--nocapture",
     "--ignored", "--include-ignored", "--test-threads", "--exact", "--list", "--locked",
 }
-# Words in code font that are no code names: file formats and extensions, units, symbols of
-# the papers, prose.
-ALLOW = {
-    "obj", "gltf", "glb", "exr", "png", "csv", "json", "toml", "mtl", "md", "wgsl", "sRGB",
-    "ms", "s", "x", "y", "z", "t", "u", "v", "n", "d", "k", "K", "N", "M", "L", "m", "r", "f",
-    "T", "Y", "i", "A", "B", "k=v", "key=value", "NAME", "PAPER", "CONFIG", "DIR", "FILE",
-    "OUT", "ROOT", "RESULTS", "Δ_L(0)", "M^L", "f^L", "n_e(n) = M·n + 1", "rustc", "glam",
-    "pandas", "wgpu", "naga", "llvmpipe", "lavapipe", "callgrind", "perf", "floorf", "libm",
-    "sqrt", "bvh", "obvhs", "embree", "Embree", "rtcOccluded1", "NoContraction", "mul_add",
-    "f32", "f64", "u32", "as u32", "Index", "...", "…", "|", "a|b|c", "nan", "inf",
-}
-# Names of the sketch in ARCHITECTURE.md's interface block, which stand for a new structure's.
-FICTIONAL = {"MyParams", "MyTraversal", "MyStructure", "Split", "Sah", "STACK_SIZE", "my-structure"}
-RUST_WORDS = {
-    "fn", "pub", "struct", "impl", "for", "const", "static", "let", "mut", "self", "Self",
-    "where", "use", "mod", "crate", "super", "as", "in", "match", "if", "else", "return",
-    "true", "false", "dyn", "ref", "move", "type", "enum", "trait", "derive", "Clone", "Copy",
-    "Debug", "PartialEq", "Eq", "Default", "Option", "Some", "None", "Ok", "Err", "Result",
-    "Vec", "Box", "str", "u8", "u16", "u32", "u64", "usize", "i32", "i64", "f32", "f64",
-    "bool", "include_str", "static", "_", "s", "ray", "c", "query", "tri", "rays", "hits",
-    "stats", "tris", "set", "p", "aux", "T", "C",
-}
+# Words in code font that are no code names (a file format, a C library's symbol in a profile):
+# kept short, each a reason not to look it up.
+ALLOW = {"OBJ.gz", "floorf"}
+# The sketch of a new structure in ARCHITECTURE.md stands for names no crate has yet.
+FICTIONAL = {"MyParams", "MyTraversal", "MyStructure", "my-structure"}
 
 
 def read(path):
@@ -264,7 +250,9 @@ class Code:
         functions, constants, types, fields and variants."""
         head = re.compile(
             r"\b(?:(?:struct|enum|trait|union)\s+" + re.escape(ty) + r"\b"
-            r"|impl\b(?:<[^{;]*?>)?\s+(?:[\w:<>, ']+\s+for\s+)?(?:[\w:]+::)?" + re.escape(ty) + r"\b)[^{;]*\{"
+            r"|impl\b(?:<[^{;]*?>)?\s+(?:[\w:<>, ']+\s+for\s+)?(?:[\w:]+::)?"
+            + re.escape(ty)
+            + r"\b)[^{;]*\{"
         )
         out = set()
         for f in self.rs_files():
@@ -359,8 +347,7 @@ def check_command(cmd, code, errs):
 
 
 def check_cargo(args, code, errs):
-    it = iter(range(len(args)))
-    for i in it:
+    for i in range(len(args)):
         w = args[i]
         val = args[i + 1] if i + 1 < len(args) else ""
         if w in ("-p", "--package"):
@@ -371,7 +358,8 @@ def check_cargo(args, code, errs):
                 if f and f not in code.features:
                     errs.append(f"feature `{f}` unknown")
         elif w == "--test":
-            if not any(p.endswith(f"/tests/{val}.rs") or p.endswith(f"/tests/{val}/main.rs") for p in code.files):
+            tests = (f"/tests/{val}.rs", f"/tests/{val}/main.rs")
+            if not any(p.endswith(tests) for p in code.files):
                 errs.append(f"test `{val}` unknown (no tests/{val}.rs)")
         elif w.startswith("--") and w.split("=")[0] not in CARGO_FLAGS:
             errs.append(f"cargo flag `{w}` unknown")
@@ -420,7 +408,9 @@ def check_span(span, code, errs, rust_block=False):
         return
     for p in RUST_PATH.findall(s):
         head = p.split("::")[0]
-        if head in FICTIONAL or head in EXTERNAL or (rust_block and head not in code.crates and not code.word(head)):
+        if head in FICTIONAL or head in EXTERNAL:
+            continue
+        if rust_block and head not in code.crates and not code.word(head):
             continue
         why = code.resolve(p)
         if why:
@@ -569,12 +559,32 @@ def check_doc(path, text, code):
                 check_dotted(m.group(1).strip("[]"), code, errs)
         elif fence == "rust":
             check_span(line.split("//")[0], code, errs, rust_block=True)
+        elif fence == "":
+            check_plain(line, code, errs)
         found.extend((n, e) for e in errs)
     flush()
     out = []
     for n, e in sorted(dict.fromkeys(found)):
         out.append(f"{path}:{n}: {e}")
     return out
+
+
+def check_plain(line, code, errs):
+    """A line of an unlabelled block (a crate map): its file and folder names, its CamelCase
+    and snake_case names and its macros."""
+    for tok in re.findall(r"[\w./-]+", line):
+        tok = tok.rstrip(".,;:")
+        if FILE_EXT.search(tok) or (tok.endswith("/") and len(tok) > 2):
+            if tok in ALLOW or tok.startswith(UNCHECKED_HEADS):
+                continue
+            if not code.path_exists(tok) and not code.path_suffix(tok):
+                errs.append(f"no file or folder's path ends with `{tok}`")
+    for w in re.findall(r"(?<![\w.-])([A-Za-z_]\w*)(!?)(?![\w-])", line):
+        name, bang = w
+        named = bang or "_" in name.strip("_") or re.match(r"[A-Z][a-z0-9]+[A-Z]", name)
+        if named and not code.word(name):
+            if name not in ALLOW and name not in FICTIONAL:
+                errs.append(f"`{name}{bang}` is no word of the code")
 
 
 def check_link(doc, target, code, errs):
@@ -599,7 +609,10 @@ def check_shape(code, texts):
         first = "\n".join(readme.split("\n")[:SETUP_LINES])
         for c in SETUP:
             if c not in first:
-                out.append(f"README.md: the set-up command `{c}` is not within its first {SETUP_LINES} lines")
+                out.append(
+                    f"README.md: the set-up command `{c}` is not within its first "
+                    f"{SETUP_LINES} lines"
+                )
     arch = texts.get("ARCHITECTURE.md")
     if arch is not None:
         n = len(arch.rstrip("\n").split("\n"))
@@ -621,7 +634,8 @@ def main(argv):
     for e in errors:
         print(e)
     if errors:
-        print(f"check-docs: {len(errors)} unknown names or shape violations in {len(texts)} documents")
+        print(f"check-docs: {len(errors)} unknown names or shape violations in {len(texts)} "
+              "documents")
         return 1
     print(f"check-docs: {len(texts)} documents, every cited name found")
     return 0
