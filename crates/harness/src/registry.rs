@@ -136,11 +136,15 @@ fn cell(s: &str) -> String {
 /// Where docs/structures.md, which [`Registry::reference`] fills, lies from the README.
 const REFERENCE: &str = "docs/structures.md";
 
+/// A family and, per traversal, the name of its GPU program in a default build (`None`: it
+/// has none).
+type WithPrograms = (&'static Family, Vec<Option<String>>);
+
 impl Registry {
     /// Every family built with its default parameters on the built-in Cornell box, with the
     /// name of each traversal's GPU program where it has one (a program's name may carry a
     /// parameter, e.g. the R-tree's `M`).
-    fn programs(&self) -> Result<Vec<(&'static Family, Vec<Option<String>>)>, String> {
+    fn programs(&self) -> Result<Vec<WithPrograms>, String> {
         let scene = tb_scene::builtin::load("cornell").map_err(|e| e.to_string())?;
         let tris: std::sync::Arc<[Triangle]> = scene.triangles.clone().into();
         let mut out = Vec::new();
