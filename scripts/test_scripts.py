@@ -3,7 +3,8 @@
 ± spreads, sums, noisy marks, LaTeX output and `stat:KEY` / `a+b` values, the paper scripts'
 tables, several CSVs and run folders read as one (the later file wins), the noisy marks and
 --drop-noisy of every table script, and that plot.py writes its PNGs (sweeps of summed metrics
-with --line reference rows included). No network, a few seconds:
+with --line reference rows included), and that check-docs.py finds every name the documents
+cite and fails on a stale one. No network, a few seconds:
 
     python3 scripts/test_scripts.py [-v]
 
@@ -941,6 +942,68 @@ class WithoutMatplotlib(unittest.TestCase):
             with open(os.path.join(HERE, script)) as f:
                 top = re.findall(r"^(?:import|from) (\w+)", f.read(), re.M)
             self.assertNotIn("matplotlib", top, script)
+
+
+class CheckDocs(unittest.TestCase):
+    """check-docs.py: the documents' names exist in the code, and a stale one fails."""
+
+    @classmethod
+    def setUpClass(cls):
+        spec = importlib.util.spec_from_file_location(
+            "check_docs", os.path.join(HERE, "check-docs.py"))
+        cls.m = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(cls.m)
+        cls.code = cls.m.Code()
+
+    def unknown(self, text, path="docs/x.md"):
+        return self.m.check_doc(path, text, self.code)
+
+    def test_the_documents_pass(self):
+        self.assertEqual(self.m.main([]), 0)
+
+    def test_stale_names_fail(self):
+        # Each was cited once while the code said otherwise (issue 45).
+        for stale, why in [
+            ("`registry::generator_params`", "`generator_params` is not in registry"),
+            ("`multi::ARRANGE_BLOCK`", "`multi` is no crate, module or type"),
+            ("`Traversal::new`", "`new` is no member of `Traversal`"),
+            ("`bvh/ordered-w16`", "appears nowhere"),
+            ("`configs/nope.toml`", "does not exist"),
+            ("`shaders/nope.wgsl`", "no file's path ends with"),
+            ("`no_such_column`", "no word of the code"),
+            ("`run.no_such_key`", "no word of the code"),
+            ("`trace-bench run configs/ci.toml --no-such-flag`", "has no flag `--no-such-flag`"),
+            ("`cargo test --release -p tb-nope`", "package `tb-nope` unknown"),
+            ("`cargo test -p tb-kdtree --test nope`", "test `nope` unknown"),
+            ("`--no-such-flag`", "flag `--no-such-flag`"),
+            ("[GPU](README.md#no-such-heading)", "has no heading"),
+        ]:
+            errs = self.unknown(stale, path="ARCHITECTURE.md")
+            self.assertEqual(len(errs), 1, (stale, errs))
+            self.assertIn(why, errs[0])
+
+    def test_current_names_pass(self):
+        for good in ["`registry::generator`", "`tb_multikd::ARRANGE_BLOCK`", "`Traversal::cpu`",
+                     "`bvh/ordered-w8`", "`rtree/stackless-mM`", "`kdtree/short-stack-N`",
+                     "`GpuProgram::needs_f64`", "`tb_core::for_each_counter!`",
+                     "`shaders/kd.wgsl`", "`trace_ms_ci`", "`run.threads`", "`--resume`",
+                     "`gpu_required = false`", "`cargo test --release -p tb-kdtree --test gpu`",
+                     "`trace-bench list --markdown --details`", "[GPU](README.md#gpu)"]:
+            self.assertEqual(self.unknown(good, path="ARCHITECTURE.md"), [], good)
+
+    def test_a_span_may_cross_a_line_break(self):
+        errs = self.unknown("the tests\n(`cargo test --release\n-p tb-nope`) and more")
+        self.assertEqual(len(errs), 1, errs)
+        self.assertTrue(errs[0].startswith("docs/x.md:2: "), errs)
+
+    def test_shape(self):
+        setup = "\n".join(self.m.SETUP)
+        ok = {"README.md": "# t\n" + setup + "\n", "ARCHITECTURE.md": "a\n" * 200}
+        self.assertEqual(self.m.check_shape(self.code, ok), [])
+        late = {"README.md": "\n" * 40 + setup, "ARCHITECTURE.md": "a\n" * 201}
+        errs = self.m.check_shape(self.code, late)
+        self.assertEqual(len(errs), 3, errs)
+        self.assertIn("201 lines", errs[2])
 
 
 if __name__ == "__main__":

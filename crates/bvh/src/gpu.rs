@@ -1,5 +1,5 @@
 //! The BVH's GPU programs: `ordered` on the binary nodes (`shaders/bvh.wgsl`) and on the wide
-//! ones (`shaders/wide.wgsl`), the CPU's walks in the CPU's order (README "GPU").
+//! ones (`shaders/wide.wgsl`), the CPU's walks in the CPU's order (docs/GPU.md).
 
 use crate::{wide, Bvh, WideNode, WideNodes, STACK_SIZE, WIDE_STACK_SIZE};
 use std::borrow::Cow;

@@ -1,7 +1,7 @@
 //! The project's baseline: a bounding volume hierarchy over triangles. The default build
 //! (`name = "bvh"`) is the BVH8 from the binned builder with leaves priced per block of four
 //! (`width = 8, leaf_cost = "blocks"`), the best general configuration measured: as fast as
-//! the SBVH's BVH8 on every ray kind, built 4-7x faster (ARCHITECTURE.md, "The default BVH");
+//! the SBVH's BVH8 on every ray kind, built 4-7x faster (docs/PERFORMANCE.md, "The default BVH");
 //! [`BvhParams::binary`] is the binary binned BVH, the classic baseline and the secondary-ray
 //! generator.
 //!
@@ -66,6 +66,10 @@ pub static FAMILY: Family = Family::new::<Bvh, BvhParams>(
             Bvh::try_build(tris, p)
         })
     },
+)
+.with_summary(
+    "binned SAH BVH or SBVH, binary or 4/8-wide (MacDonald and Booth 1990; Stich et al. 2009; \
+     Ylitie et al. 2017)",
 )
 .with_rules::<BvhParams>();
 

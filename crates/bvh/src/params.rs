@@ -23,7 +23,7 @@ tb_core::params! {
         /// the builder: `binned` (binned SAH, object splits only) or `sbvh` (object and
         /// spatial splits, Stich et al. 2009); the defaults (`binned`, `width = 8`,
         /// `leaf_cost = "blocks"`) trace as fast as the SBVH's BVH8 and build 4-7x faster
-        /// (ARCHITECTURE.md, "The default BVH")
+        /// (docs/PERFORMANCE.md, "The default BVH")
         builder: Builder = Builder::Binned, ParamKind::Choice(Builder::NAMES);
         /// SBVH overlap threshold: spatial splits are tried where the object split's children
         /// overlap by more than `alpha` times the root's surface area (Stich et al. 2009 §4.4)

@@ -150,11 +150,15 @@ enum Cmd {
     },
     /// List the structures, their traversals and parameters.
     List {
-        /// The README's structure table instead: name, what, traversals with their GPU
-        /// programs (README.md holds this output between its `list --markdown` markers; a
-        /// test checks that they agree).
+        /// The README's structure table instead: one line per structure, its summary, how
+        /// many traversals and GPU programs it has (README.md holds this output between its
+        /// `list --markdown` markers; a test checks that they agree).
         #[arg(long)]
         markdown: bool,
+        /// With `--markdown`: the reference of docs/structures.md instead, each structure's
+        /// doc, traversals with their GPU programs, and parameters (between its markers).
+        #[arg(long, requires = "markdown")]
+        details: bool,
     },
     /// List the built-in scenes and their parameters.
     Scenes,
@@ -313,7 +317,7 @@ fn dispatch(cli: Cli) -> Result<i32> {
             out,
         } => cmd_diff(&a, &b, &channel, max, &out),
         Cmd::Merge { dirs, out } => cmd_merge(&dirs, &out),
-        Cmd::List { markdown } => cmd_list(markdown),
+        Cmd::List { markdown, details } => cmd_list(markdown, details),
         Cmd::Reproduce {
             paper,
             budget,
@@ -399,10 +403,13 @@ fn cmd_merge(dirs: &[PathBuf], out: &Path) -> Result<i32> {
     }
 }
 
-/// `trace-bench list`: the registry's structures, as a listing or the README's table.
-fn cmd_list(markdown: bool) -> Result<i32> {
+/// `trace-bench list`: the registry's structures, as a listing, the README's table or
+/// docs/structures.md's reference.
+fn cmd_list(markdown: bool, details: bool) -> Result<i32> {
     let registry = tb_harness::registry::Registry::builtin();
-    if markdown {
+    if details {
+        print!("{}", registry.reference().map_err(anyhow::Error::msg)?);
+    } else if markdown {
         print!("{}", registry.markdown().map_err(anyhow::Error::msg)?);
     } else {
         print!("{}", registry.listing());

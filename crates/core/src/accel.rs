@@ -458,8 +458,12 @@ pub type BuildFn = fn(&Arc<[Triangle]>, &ParamSet) -> Result<Box<dyn Accel>, Acc
 pub struct Family {
     /// Config name (`name = "bvh"` in a `[[structure]]` table).
     pub name: &'static str,
-    /// One line: what it is and its paper.
+    /// What it is, its parameters' roles and its papers (docs/structures.md, `trace-bench
+    /// list`).
     pub doc: &'static str,
+    /// One short line: what it is and its papers (the README's structure table); `doc` unless
+    /// [`Family::with_summary`] gives one.
+    pub summary: &'static str,
     /// Its parameter table.
     pub params: &'static [ParamSpec],
     /// Its default parameters.
@@ -482,6 +486,7 @@ impl Family {
         Family {
             name: S::NAME,
             doc,
+            summary: doc,
             params: P::SPECS,
             defaults: defaults_of::<P>,
             traversals: infos_of::<S>,
@@ -489,6 +494,12 @@ impl Family {
             rules: crate::params::no_rules,
             densities: None,
         }
+    }
+
+    /// This family with a short `summary` of its `doc` (the README's structure table).
+    pub const fn with_summary(mut self, summary: &'static str) -> Family {
+        self.summary = summary;
+        self
     }
 
     /// This family offering its two densities `names` (λ_1, λ_2) to the dynamic experiment.

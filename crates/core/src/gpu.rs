@@ -4,7 +4,7 @@
 //! [`crate::Accel::gpu_program`]); the GPU crate knows only the common bindings and depends on
 //! no structure crate.
 //!
-//! # The contract with the GPU crate (`tb-gpu`, README "GPU")
+//! # The contract with the GPU crate (`tb-gpu`, docs/GPU.md)
 //!
 //! The shader module is, in this order: `const STACK_SIZE: u32` ([`GpuProgram::stack_size`]),
 //! `const WORKGROUP_SIZE: u32`, `struct Stats` and `fn zero_stats()` (generated from

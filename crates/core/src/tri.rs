@@ -201,7 +201,7 @@ impl TriTest for MollerTrumbore {
 /// at most `γ(8)·Σ|e2_i|·a_i` with `a` the absolute cross product of `|s|` and `|e1|`; `γ(9)`
 /// covers the division and the comparison. Unlike the watertight test there is no f64 path:
 /// the numerator is a product of three coordinates and leaves f32's range beyond about 1e12,
-/// where the test misses (documented in the README's numerical notes).
+/// where the test misses (documented in docs/results.md, "Numerical notes").
 #[inline(always)]
 fn mt_error_bound(e2: Vec3, s: Vec3, e1: Vec3, inv: f32) -> f32 {
     let (s, e1, e2) = (s.abs(), e1.abs(), e2.abs());

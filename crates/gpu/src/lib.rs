@@ -28,7 +28,7 @@
 //! The prelude repeats tb-core's arithmetic operation for operation, and a structure's kernel
 //! visits nodes in its CPU traversal's order, so on an adapter that neither contracts `a*b+c`
 //! into FMA nor rounds division differently, hits and counters equal the CPU's bit for bit;
-//! see the README's GPU section for what Vulkan allows and what the tests check
+//! see docs/GPU.md for what Vulkan allows and what the tests check
 //! (`crates/harness/tests/gpu_oracle.rs` checks every registered program against the CPU).
 //!
 //! Ray arrangement: a program with a ray key ([`GpuProgram::arrange`], [`GpuArrange`]) gets

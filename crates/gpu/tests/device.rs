@@ -217,7 +217,7 @@ fn unrolled_loops_are_refused_beyond_llvmpipes_limit() {
 }
 
 /// The prelude's slab and triangle tests repeat tb-core's bit for bit where the adapter has
-/// `SHADER_F64` (watertight test; see the README's GPU section): brute force on the stress
+/// `SHADER_F64` (watertight test; see docs/GPU.md): brute force on the stress
 /// scene whose rays aim at shared edges and vertices, plus random rays.
 #[test]
 fn prelude_matches_the_cpu_on_shared_edges() {

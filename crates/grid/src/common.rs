@@ -796,7 +796,7 @@ pub fn walk<F: Real>(w: &WalkRay<F>, lat: &Lattice<F>, visit: impl FnMut([u32; 3
 ///
 /// Selection pays where the exit axis is unpredictable: the irregular and uniform grids'
 /// shadow, AO and random rays trace 0-18 % faster with it, their primary rays -2..+2 %
-/// (Conference, Sibenik, Sponza, one thread, two interleaved runs; ARCHITECTURE.md). The
+/// (Conference, Sibenik, Sponza, one thread, two interleaved runs; docs/PERFORMANCE.md). The
 /// two-level grid's nested walks lost about a fifth with it and keep the branches.
 #[inline(always)]
 pub fn walk_by<F: Real, const SELECT: bool>(

@@ -83,7 +83,8 @@ pub static UNIFORM_FAMILY: Family = Family::new::<UniformGrid, UniformParams>(
     "uniform grid of equation 1's density `lambda`, optional macro regions per empty cell \
      (`macro_regions`) (Amanatides and Woo 1987; Devillers 1989)",
     |tris, set| build_with(set, |p: &UniformParams| UniformGrid::build(tris, p)),
-);
+)
+.with_summary("uniform grid, optional macro regions (Amanatides and Woo 1987; Devillers 1989)");
 
 /// The two-level grid in the registry.
 pub static TWO_LEVEL_FAMILY: Family = Family::new::<TwoLevelGrid, TwoLevelParams>(
@@ -99,5 +100,8 @@ pub static IRREGULAR_FAMILY: Family = Family::new::<IrregularGrid, IrregularPara
      (`merge`, `alpha`), cell expansion passes (`expansion`), two-level voxel map (Pérard-Gayot \
      et al. 2017)",
     |tris, set| build_with(set, |p: &IrregularParams| IrregularGrid::build(tris, p)),
+)
+.with_summary(
+    "irregular grid: voxelization, SAH cell merging, cell expansion (Pérard-Gayot et al. 2017)",
 )
 .with_densities(DENSITIES);

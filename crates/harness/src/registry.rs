@@ -5,7 +5,7 @@
 //! doc, parameter table, traversal table, builder); add one line to [`FAMILIES`] and the crate
 //! to `Cargo.toml`. Nothing else in the harness, the GPU crate or the tests names a structure.
 
-use tb_core::{Accel, Family, ParamKind, Triangle};
+use tb_core::{Accel, Family, ParamKind, TraversalInfo, Triangle};
 
 /// Every registered structure family, in listing order.
 static FAMILIES: &[&Family] = &[
@@ -71,21 +71,9 @@ impl Registry {
             s.push_str(&format!("{:<14} {}\n", f.name, f.doc));
             for t in (f.traversals)() {
                 s.push_str(&format!("  traversal {:<20} {}", t.name, t.doc));
-                let mut tags = Vec::new();
-                if !t.paper.is_empty() && !t.doc.contains(t.paper) {
-                    tags.push(t.paper.to_string());
-                }
-                if t.step_cap {
-                    tags.push("step cap".into());
-                }
-                if !t.aux.is_empty() {
-                    tags.push(format!("reads {}", t.aux.join(", ")));
-                }
-                if t.counters.is_empty() {
-                    tags.push("no counters".into());
-                }
+                let tags = tags(t);
                 if !tags.is_empty() {
-                    s.push_str(&format!(" [{}]", tags.join("; ")));
+                    s.push_str(&format!(" [{tags}]"));
                 }
                 s.push('\n');
             }
@@ -95,17 +83,12 @@ impl Registry {
                     .get(p.name)
                     .map(|v| v.to_string())
                     .unwrap_or_default();
-                let values = match p.kind {
-                    ParamKind::Choice(o) => format!(" (one of: {})", o.join(", ")),
-                    ParamKind::Int { min, max } => format!(" ({min}..={max})"),
-                    ParamKind::Float { min, max } => format!(" ({min}..={max})"),
-                    ParamKind::Bool => " (true, false)".to_string(),
-                };
                 s.push_str(&format!(
-                    "  param {:<22} default {:<12} {}{values}\n",
+                    "  param {:<22} default {:<12} {} ({})\n",
                     p.name,
                     default,
-                    p.doc_line()
+                    p.doc_line(),
+                    values(p.kind)
                 ));
             }
         }
@@ -113,32 +96,120 @@ impl Registry {
     }
 }
 
+/// A traversal's facts beyond its doc line: its paper where the doc does not name it, its step
+/// cap, the auxiliary arrays it reads, no counters.
+fn tags(t: &TraversalInfo) -> String {
+    let mut tags = Vec::new();
+    if !t.paper.is_empty() && !t.doc.contains(t.paper) {
+        tags.push(t.paper.to_string());
+    }
+    if t.step_cap {
+        tags.push("step cap".into());
+    }
+    if !t.aux.is_empty() {
+        tags.push(format!("reads {}", t.aux.join(", ")));
+    }
+    if t.counters.is_empty() {
+        tags.push("no counters".into());
+    }
+    tags.join("; ")
+}
+
+/// The values a parameter accepts: its choices or its range.
+fn values(kind: ParamKind) -> String {
+    match kind {
+        ParamKind::Choice(o) => format!("one of: {}", o.join(", ")),
+        ParamKind::Int { min, max } => format!("{min}..={max}"),
+        ParamKind::Float { min, max } => format!("{min}..={max}"),
+        ParamKind::Bool => "true, false".to_string(),
+    }
+}
+
+/// A table cell: one line, `|` escaped.
+fn cell(s: &str) -> String {
+    s.split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+        .replace('|', "\\|")
+}
+
+/// Where docs/structures.md, which [`Registry::reference`] fills, lies from the README.
+const REFERENCE: &str = "docs/structures.md";
+
+/// A family and, per traversal, the name of its GPU program in a default build (`None`: it
+/// has none).
+type WithPrograms = (&'static Family, Vec<Option<String>>);
+
 impl Registry {
-    /// The README's structure table (`trace-bench list --markdown`): per family its name, what
-    /// it is (its doc line) and its traversals, each with the name of its GPU program where
-    /// it has one. The programs are those of a build with the default parameters on the
-    /// built-in Cornell box (a program's name may carry a parameter, e.g. the R-tree's `M`).
-    pub fn markdown(&self) -> Result<String, String> {
+    /// Every family built with its default parameters on the built-in Cornell box, with the
+    /// name of each traversal's GPU program where it has one (a program's name may carry a
+    /// parameter, e.g. the R-tree's `M`).
+    fn programs(&self) -> Result<Vec<WithPrograms>, String> {
         let scene = tb_scene::builtin::load("cornell").map_err(|e| e.to_string())?;
         let tris: std::sync::Arc<[Triangle]> = scene.triangles.clone().into();
-        let mut s = String::from("| name | what | traversals (GPU program) |\n|---|---|---|\n");
+        let mut out = Vec::new();
         for f in &self.families {
             let accel = (f.build)(&tris, &(f.defaults)())
                 .map_err(|e| format!("building {} on builtin:cornell: {e}", f.name))?;
-            let traversals: Vec<String> = (f.traversals)()
-                .iter()
-                .enumerate()
-                .map(|(i, t)| match accel.gpu_program(i) {
-                    Some(p) => format!("`{}` (`{}`)", t.name, p.name),
-                    None => format!("`{}`", t.name),
-                })
+            let programs = (0..(f.traversals)().len())
+                .map(|i| accel.gpu_program(i).map(|p| p.name.to_string()))
                 .collect();
+            out.push((*f, programs));
+        }
+        Ok(out)
+    }
+
+    /// The README's structure table (`trace-bench list --markdown`): one line per family, its
+    /// name linked to its section of docs/structures.md, its summary, how many traversals it
+    /// has and how many of them have a GPU program (those of a default build).
+    pub fn markdown(&self) -> Result<String, String> {
+        let mut s = String::from(
+            "| structure | what | traversals | with a GPU program |\n|---|---|---|---|\n",
+        );
+        for (f, programs) in self.programs()? {
             s.push_str(&format!(
-                "| `{}` | {} | {} |\n",
+                "| [`{}`]({REFERENCE}#{}) | {} | {} | {} |\n",
                 f.name,
-                f.doc.replace('|', "\\|"),
-                traversals.join(", ")
+                f.name,
+                cell(f.summary),
+                programs.len(),
+                programs.iter().flatten().count()
             ));
+        }
+        Ok(s)
+    }
+
+    /// docs/structures.md's reference (`trace-bench list --markdown --details`): per family a
+    /// section with its doc, its traversals (doc, paper, step cap, auxiliary arrays, the GPU
+    /// program of a default build) and its parameters (default, accepted values, doc).
+    pub fn reference(&self) -> Result<String, String> {
+        let mut s = String::new();
+        for (f, programs) in self.programs()? {
+            s.push_str(&format!("### `{}`\n\n{}\n\n", f.name, cell(f.doc)));
+            s.push_str("| traversal | what | GPU program |\n|---|---|---|\n");
+            for (t, p) in (f.traversals)().iter().zip(&programs) {
+                let what = match tags(t) {
+                    tags if tags.is_empty() => cell(t.doc),
+                    tags => format!("{} [{}]", cell(t.doc), cell(&tags)),
+                };
+                let p = p.as_ref().map(|p| format!("`{p}`")).unwrap_or_default();
+                s.push_str(&format!("| `{}` | {what} | {p} |\n", t.name));
+            }
+            if !f.params.is_empty() {
+                let defaults = (f.defaults)();
+                s.push_str("\n| parameter | default | values | meaning |\n|---|---|---|---|\n");
+                for p in f.params {
+                    let default = defaults.get(p.name).map(|v| v.to_string());
+                    s.push_str(&format!(
+                        "| `{}` | {} | {} | {} |\n",
+                        p.name,
+                        default.map(|d| format!("`{d}`")).unwrap_or_default(),
+                        cell(&values(p.kind)),
+                        cell(&p.doc_line())
+                    ));
+                }
+            }
+            s.push('\n');
         }
         Ok(s)
     }

@@ -3,7 +3,7 @@
 //! `Family`. Registered in a `Registry` beside the built-in ones, it is listed, configured
 //! (parameter sweep checked against its table), built, traced, counted and validated against
 //! the oracle on the CPU and — where an adapter is found — on the GPU, by the unchanged
-//! harness. Nothing outside this file names it (ARCHITECTURE.md, "Adding a structure").
+//! harness. Nothing outside this file names it (ARCHITECTURE.md, "Where a new structure goes").
 //!
 //! The structure, a *slab list*: the triangles sorted by centroid along the longest axis of
 //! the scene and cut into `slabs` runs of equal size, each with its bounding box; a ray tests

@@ -1,4 +1,4 @@
-//! The kd-tree's GPU programs (review §3-5 on the GPU; README "GPU").
+//! The kd-tree's GPU programs (review §3-5 on the GPU; docs/GPU.md).
 
 use crate::{KdLayout, KdTree, MAX_SHORT_STACK, STACK_SIZE};
 use std::borrow::Cow;

@@ -33,7 +33,7 @@
 //!   traversals is traced or prepared; each traversal's memory figure counts the arrays it
 //!   reads, built or not (review Table 3, "additional memory").
 //!
-//! - **GPU** (`shaders/kd.wgsl`, `shaders/kdtree.wgsl`; README "GPU"): `recursive-direction`
+//! - **GPU** (`shaders/kd.wgsl`, `shaders/kdtree.wgsl`; docs/GPU.md): `recursive-direction`
 //!   with its full stack in the invocation's memory (review §3.2; Novák 2009, review §5.2: a
 //!   conventional stack in memory is viable on GPUs), `restart` (§5.1), `push-down` (§5.2),
 //!   `short-stack` (§5.2), `backtrack` (§5.1.1), `sequential` (§3.1) and `ropes` (§3.3) as
@@ -104,6 +104,9 @@ pub static FAMILY: Family = Family::new::<KdTree, KdParams>(
             KdTree::try_build(tris.clone(), p, &SurfaceArea)
         })
     },
+)
+.with_summary(
+    "SAH kd-tree with perfect splits and the kd-tree review's traversals (Hapala and Havran 2011)",
 )
 .with_rules::<KdParams>();
 

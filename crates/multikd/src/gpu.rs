@@ -1,4 +1,4 @@
-//! The multi-kd-tree's GPU programs (Torres et al. 2012 §6 on the GPU; README "GPU").
+//! The multi-kd-tree's GPU programs (Torres et al. 2012 §6 on the GPU; docs/GPU.md).
 
 use crate::measure::Heuristic;
 use crate::MultiKdTree;

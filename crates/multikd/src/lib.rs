@@ -90,6 +90,10 @@ pub static FAMILY: Family = Family::new::<MultiKdTree, MultiKdParams>(
         })
     },
 )
+.with_summary(
+    "multi-kd-tree: three kd-trees of direction-weighted SAH measures, a tree per ray direction \
+     (Torres et al. 2012)",
+)
 .with_rules::<MultiKdParams>();
 
 /// One tree of the node array.

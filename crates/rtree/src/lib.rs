@@ -45,6 +45,9 @@ pub static FAMILY: Family = Family::new::<Rtree, RtreeParams>(
      R* split, forced reinsertion, packed level-order layout (Feldmann)",
     |tris, set| build_with(set, |p: &RtreeParams| Rtree::try_build(tris, p)),
 )
+.with_summary(
+    "R-tree by insertion (R* and others) or STR, packed level-order layout (Feldmann 2015)",
+)
 .with_rules::<RtreeParams>();
 
 /// Largest `M` supported (node capacity of the builder, size of the per-level stacks).

@@ -1,5 +1,5 @@
 //! The GPU program of `sltr-mask` (our stackless variant of Havran and Bittner 2007 §5.3, not
-//! the paper's Algorithm 3, which has no GPU kernel; README "GPU").
+//! the paper's Algorithm 3, which has no GPU kernel; docs/GPU.md).
 
 use crate::SparseBoxes;
 use std::borrow::Cow;

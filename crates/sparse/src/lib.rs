@@ -96,6 +96,10 @@ pub static FAMILY: Family = Family::new::<SparseBoxes, SparseParams>(
         })
     },
 )
+.with_summary(
+    "a kd-tree with sparse boxes: augmented nodes, start nodes, BTR and SLTR (Havran and \
+     Bittner 2007)",
+)
 .with_rules::<SparseParams>();
 
 /// An augmented node (§4): the node's cell and the index of its parent augmented node's record

@@ -4,7 +4,7 @@
 //! (warm-up, repeats) between two probes of a fixed-work kernel ([`PROBE_MOVED`]), reads the hits back (validated against the oracle like CPU rows), and
 //! runs the counting kernel for the counter columns.
 //!
-//! Rules (README, "GPU"): a GPU row has `device = gpu`, `threads = 0` (the column counts CPU
+//! Rules (docs/GPU.md): a GPU row has `device = gpu`, `threads = 0` (the column counts CPU
 //! worker threads; one host thread drives the GPU), the adapter's `name / backend / driver`,
 //! `upload_ms` (structure plus rays, host to device), `trace_ms_*` (kernel time: timestamps
 //! or wall time around submit-and-wait; for a program that sorts its rays by key, plus the
