@@ -80,7 +80,18 @@ enum Cmd {
         /// combine the shards' folders with `trace-bench merge`.
         #[arg(long, value_parser = parse_shard)]
         shard: Option<tb_harness::cluster::shard::Shard>,
-        /// Continue an interrupted run: keep its rows, skip finished combinations.
+        /// Make the run in K processes, one after another (overriding run.processes; default
+        /// 1): process I writes OUT/process-I (rows tagged `process = I`; the odd ones run the
+        /// structure entries in reverse order), and OUT holds the rows of all of them, merged
+        /// after each, so times can be compared between processes (`claims`).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64), conflicts_with = "shard")]
+        processes: Option<u32>,
+        /// Run as process I of K (`I/K`, 0-based) of a `--processes K` run, which sets it: rows
+        /// get `process = I`; odd I run the structure entries in reverse order.
+        #[arg(long, value_parser = parse_process, conflicts_with_all = ["processes", "shard"])]
+        process: Option<tb_harness::experiment::processes::Process>,
+        /// Continue an interrupted run: keep its rows, skip finished combinations (with
+        /// --processes: reuse the complete processes, resume the others).
         #[arg(long)]
         resume: bool,
         /// Replace the results of an earlier run in `--out` (results.csv, results.json,
@@ -277,6 +288,8 @@ fn dispatch(cli: Cli) -> Result<i32> {
             backend,
             select,
             shard,
+            processes,
+            process,
             resume,
             force,
             scenes_root,
@@ -289,8 +302,19 @@ fn dispatch(cli: Cli) -> Result<i32> {
                 adapter,
                 backend,
                 shard,
+                process,
                 ..select.overrides(scenes_root)
             };
+            if process.is_none() {
+                let (name, from_config) = config::peek(&config, &ov)?;
+                let n = processes.map_or(from_config, |k| k as usize);
+                if n > 1 && shard.is_some() {
+                    bail!("run.processes = {n}: a run of several processes cannot be sharded (--shard); give --processes 1");
+                }
+                if n > 1 {
+                    return cmd_processes(&config, &name, n, out, &ov, (resume, force), quiet);
+                }
+            }
             cmd_run(&config, out, ov, resume, force, quiet)
         }
         Cmd::Validate {
@@ -642,7 +666,113 @@ fn cmd_run(
     Ok(0)
 }
 
-/// `--resume` continues the same run: the same config and the same shard.
+/// `trace-bench run --processes N` (or `run.processes = N`): the run in `n` processes of this
+/// binary, one after another, merged into one folder.
+fn cmd_processes(
+    config: &Path,
+    name: &str,
+    n: usize,
+    out: Option<PathBuf>,
+    ov: &Overrides,
+    (resume, force): (bool, bool),
+    quiet: bool,
+) -> Result<i32> {
+    use tb_harness::experiment::processes;
+    let out = match out {
+        Some(o) => o,
+        None => {
+            let o = default_out(name, resume)?;
+            if !resume {
+                link_latest(&o);
+            }
+            o
+        }
+    };
+    out_folder(&out)?;
+    let begun = (0..n).any(|i| processes::folder(&out, i).join("results.json").is_file())
+        || out.join("results.csv").is_file();
+    if resume && !begun {
+        bail!(
+            "{}: nothing to resume (no process folder with results there): run without --resume",
+            out.display()
+        );
+    }
+    if begun && !resume && !force {
+        bail!(
+            "{}: holds the results of a run already: pass --resume to continue that run, --force \
+             to replace it, or choose another --out",
+            out.display()
+        );
+    }
+    // One writer per folder; each process locks its own.
+    let _lock = tb_harness::results::lock::FolderLock::acquire(&out)?;
+    let plan = processes::Plan {
+        exe: std::env::current_exe().context("cannot find the trace-bench executable")?,
+        args: process_args(config, ov),
+        out: out.clone(),
+        n,
+        resume,
+        force,
+        quiet,
+    };
+    let report = processes::run(&plan)?;
+    for (i, p) in report.processes.iter().enumerate() {
+        let how = match (&p.failed, p.reused, p.wall_s) {
+            (Some(f), _, _) => format!("failed ({f})"),
+            (None, true, _) => "complete, reused".into(),
+            (None, false, w) => format!("done in {:.0} s", w.unwrap_or(0.0)),
+        };
+        println!("process {i}: {how} ({})", p.folder.display());
+    }
+    println!(
+        "wrote {} rows of {n} processes to {} ({})",
+        report.rows,
+        out.join("results.csv").display(),
+        report.status
+    );
+    println!("      and {}", out.join("results.json").display());
+    Ok(if report.processes.iter().any(|p| p.failed.is_some()) {
+        1
+    } else {
+        0
+    })
+}
+
+/// `run CONFIG` and the options of `ov` as each process of `run --processes` gets them.
+fn process_args(config: &Path, ov: &Overrides) -> Vec<String> {
+    let mut a = vec!["run".to_owned(), config.display().to_string()];
+    let list = |v: Vec<String>| v.join(",");
+    if let Some(t) = &ov.threads {
+        a.extend(["--threads".into(), list(t.iter().map(usize::to_string).collect())]);
+    }
+    if let Some(r) = ov.repeat {
+        a.extend(["--repeat".into(), r.to_string()]);
+    }
+    if let Some(d) = &ov.devices {
+        a.extend(["--device".into(), list(d.iter().map(|d| d.name().into()).collect())]);
+    }
+    if let Some(x) = &ov.adapter {
+        a.extend(["--adapter".into(), x.clone()]);
+    }
+    if let Some(b) = ov.backend {
+        a.extend(["--backend".into(), b.name().into()]);
+    }
+    if !ov.scenes.is_empty() {
+        a.extend(["--scene".into(), list(ov.scenes.clone())]);
+    }
+    if !ov.structures.is_empty() {
+        a.extend(["--structure".into(), list(ov.structures.clone())]);
+    }
+    for s in &ov.sets {
+        a.extend(["--set".into(), s.clone()]);
+    }
+    if let Some(r) = &ov.scenes_root {
+        a.extend(["--scenes-root".into(), r.display().to_string()]);
+    }
+    a
+}
+
+/// `--resume` continues the same run: the same config, the same shard and the same process.
 fn check_resume(out: &Path, exp: &config::Experiment) -> Result<()> {
     let p = out.join("results.json");
     let Some(meta) = std::fs::read_to_string(&p)
@@ -671,6 +801,18 @@ fn check_resume(out: &Path, exp: &config::Experiment) -> Result<()> {
             p.display(),
             was.map_or("an unsharded run".into(), |s| format!("shard {s}")),
             now.map_or("unsharded".into(), |s| format!("shard {s}"))
+        );
+    }
+    let was = meta["process"]["index"]
+        .as_u64()
+        .map(|i| format!("{i}/{}", meta["process"]["of"]));
+    let now = exp.process.map(|p| p.to_string());
+    if was != now {
+        bail!(
+            "{}: --resume of {} but this run is {}",
+            p.display(),
+            was.map_or("a run of one process".into(), |s| format!("process {s}")),
+            now.map_or("a run of one process".into(), |s| format!("process {s}"))
         );
     }
     Ok(())
@@ -788,6 +930,10 @@ fn cmd_diff(a: &Path, b: &Path, channel: &str, max: Option<f32>, out: &Path) -> 
 
 fn parse_shard(s: &str) -> std::result::Result<tb_harness::cluster::shard::Shard, String> {
     tb_harness::cluster::shard::Shard::parse(s)
+}
+
+fn parse_process(s: &str) -> std::result::Result<tb_harness::experiment::processes::Process, String> {
+    tb_harness::experiment::processes::Process::parse(s)
 }
 
 fn parse_device(s: &str) -> std::result::Result<Device, String> {
