@@ -743,13 +743,19 @@ fn process_args(config: &Path, ov: &Overrides) -> Vec<String> {
     let mut a = vec!["run".to_owned(), config.display().to_string()];
     let list = |v: Vec<String>| v.join(",");
     if let Some(t) = &ov.threads {
-        a.extend(["--threads".into(), list(t.iter().map(usize::to_string).collect())]);
+        a.extend([
+            "--threads".into(),
+            list(t.iter().map(usize::to_string).collect()),
+        ]);
     }
     if let Some(r) = ov.repeat {
         a.extend(["--repeat".into(), r.to_string()]);
     }
     if let Some(d) = &ov.devices {
-        a.extend(["--device".into(), list(d.iter().map(|d| d.name().into()).collect())]);
+        a.extend([
+            "--device".into(),
+            list(d.iter().map(|d| d.name().into()).collect()),
+        ]);
     }
     if let Some(x) = &ov.adapter {
         a.extend(["--adapter".into(), x.clone()]);
@@ -932,7 +938,9 @@ fn parse_shard(s: &str) -> std::result::Result<tb_harness::cluster::shard::Shard
     tb_harness::cluster::shard::Shard::parse(s)
 }
 
-fn parse_process(s: &str) -> std::result::Result<tb_harness::experiment::processes::Process, String> {
+fn parse_process(
+    s: &str,
+) -> std::result::Result<tb_harness::experiment::processes::Process, String> {
     tb_harness::experiment::processes::Process::parse(s)
 }
 

@@ -36,7 +36,11 @@ fn run(dir: &Path, name: &str, scales: &[f64], noisy: bool) -> PathBuf {
         let b: Vec<f64> = a.iter().map(|x| 2.0 * x).collect();
         let g = format!("s-1-p{p}-0");
         let n = noisy && p == 1;
-        text.push_str(&format!("{}\n{}\n", line("a", &a, &g, p, n), line("b", &b, &g, p, n)));
+        text.push_str(&format!(
+            "{}\n{}\n",
+            line("a", &a, &g, p, n),
+            line("b", &b, &g, p, n)
+        ));
     }
     std::fs::write(d.join("results.csv"), text).unwrap();
     d
@@ -67,7 +71,10 @@ fn a_slow_process_widens_a_time_but_not_a_paired_ratio() {
     let quiet = run(t.path(), "quiet", &[1.0, 1.02, 0.99], false);
     let slowed = run(t.path(), "slowed", &[1.0, 1.6, 0.99], true);
     let width = |d: [f64; 3]| d[2] / d[0];
-    let (q, s) = (eval(VALUE, &[quiet.clone()]), eval(VALUE, &[slowed.clone()]));
+    let (q, s) = (
+        eval(VALUE, &[quiet.clone()]),
+        eval(VALUE, &[slowed.clone()]),
+    );
     assert!(
         q[0].why.contains("interval between 3 processes"),
         "{}",
@@ -108,12 +115,17 @@ fn fewer_processes_keep_the_floor_and_say_so() {
     let point = "{ kind = \"ratio\", num = \"b\", den = \"a\", min = 2, max = 2 }";
     let v = eval(point, &[three]);
     assert!(
-        v[0].undecidable.as_deref().is_some_and(|r| r.contains("no width")),
+        v[0].undecidable
+            .as_deref()
+            .is_some_and(|r| r.contains("no width")),
         "{v:?}"
     );
     // Two processes keep their rounds paired: each process's exact 2, widened to the floor.
     let d = derived(&eval(RATIO, &[two]));
-    assert!((d[0] - 2.0 / 1.2).abs() < 1e-9 && (d[2] - 2.4).abs() < 1e-9, "{d:?}");
+    assert!(
+        (d[0] - 2.0 / 1.2).abs() < 1e-9 && (d[2] - 2.4).abs() < 1e-9,
+        "{d:?}"
+    );
     // One process: as before.
     let one = run(t.path(), "one", &[1.0], false);
     let v = eval(RATIO, &[one]);

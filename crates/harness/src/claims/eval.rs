@@ -396,7 +396,9 @@ fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Va
     if m.floored() {
         let mut by: BTreeMap<&str, Vec<&Row>> = BTreeMap::new();
         for r in rows {
-            by.entry(r.get("process").unwrap_or("")).or_default().push(r);
+            by.entry(r.get("process").unwrap_or(""))
+                .or_default()
+                .push(r);
         }
         if by.len() > 1 {
             let per = by
@@ -428,7 +430,9 @@ fn across_processes(mut per: Vec<(String, Value)>) -> Value {
         [
             per.iter().map(|(_, x)| x.lo).fold(f64::INFINITY, f64::min),
             v,
-            per.iter().map(|(_, x)| x.hi).fold(f64::NEG_INFINITY, f64::max),
+            per.iter()
+                .map(|(_, x)| x.hi)
+                .fold(f64::NEG_INFINITY, f64::max),
         ]
     });
     let sum = |f: fn(&Value) -> usize| per.iter().map(|(_, x)| f(x)).sum::<usize>();
@@ -995,11 +999,7 @@ type Outcome = (Verdict, String, Option<[f64; 3]>, String);
 
 /// Run the test on one group's values; with the processes its time intervals were measured
 /// between (`None`: the floor, or no timing).
-fn run_test(
-    test: &Test,
-    vals: &BTreeMap<String, Value>,
-    floor: f64,
-) -> (Outcome, Option<usize>) {
+fn run_test(test: &Test, vals: &BTreeMap<String, Value>, floor: f64) -> (Outcome, Option<usize>) {
     let v = |n: &str| &vals[n];
     let cmp = Cmp::new(floor, vals.values().any(|x| x.timed));
     let ratio = |a: &Value, b: &Value| cmp.ratio(a, b);
@@ -1402,8 +1402,7 @@ fn evaluate_group(
         }
     }
     if problems.is_empty() {
-        let ((verdict, shown, derived, why), between) =
-            run_test(&c.test, &vals, opts.time_floor);
+        let ((verdict, shown, derived, why), between) = run_test(&c.test, &vals, opts.time_floor);
         let (verdict, mut why) = timing_caveats(&vals, verdict, why, between.is_some());
         for p in &picked {
             why.push_str(&format!("; {p}"));

@@ -1091,7 +1091,10 @@ mod tests {
             quiet: true,
         };
         let args = run_args(&a, &a.set, Path::new("o/r"), &opts);
-        assert!(args.windows(2).any(|w| w == ["--processes", "3"]), "{args:?}");
+        assert!(
+            args.windows(2).any(|w| w == ["--processes", "3"]),
+            "{args:?}"
+        );
         assert!(!run_args(&b, &b.set, Path::new("o/r"), &opts).contains(&"--processes".into()));
     }
 
@@ -1119,9 +1122,15 @@ mod tests {
         write_all(dir.path(), serde_json::json!({}), &rows).unwrap();
         let s = spread(dir.path()).expect("rows of three processes");
         assert_eq!((s.processes, s.rows), (3, 2));
-        assert!((s.max - 2.0 / 11.0).abs() < 1e-12 && s.worst.starts_with("a "), "{s:?}");
+        assert!(
+            (s.max - 2.0 / 11.0).abs() < 1e-12 && s.worst.starts_with("a "),
+            "{s:?}"
+        );
         // The median of the two spreads, 2/11 and 1/20.
-        assert!((s.median - (2.0 / 11.0 + 0.05) / 2.0).abs() < 1e-12, "{s:?}");
+        assert!(
+            (s.median - (2.0 / 11.0 + 0.05) / 2.0).abs() < 1e-12,
+            "{s:?}"
+        );
         write_all(dir.path(), serde_json::json!({}), &rows[6..]).unwrap();
         assert!(spread(dir.path()).is_none());
     }

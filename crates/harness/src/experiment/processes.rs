@@ -158,7 +158,11 @@ pub fn run(plan: &Plan) -> Result<Report, HarnessError> {
             "--out".into(),
             dir.display().to_string(),
             "--process".into(),
-            Process { index: i, of: plan.n }.to_string(),
+            Process {
+                index: i,
+                of: plan.n,
+            }
+            .to_string(),
         ]);
         if plan.quiet {
             args.push("--quiet".into());
@@ -214,7 +218,10 @@ pub fn run(plan: &Plan) -> Result<Report, HarnessError> {
             return Err(HarnessError::Other(format!(
                 "run: process {i} of {} failed before writing a row ({}); see its error above",
                 plan.n,
-                report.processes[i].failed.as_deref().unwrap_or("no results")
+                report.processes[i]
+                    .failed
+                    .as_deref()
+                    .unwrap_or("no results")
             )));
         }
     }
@@ -368,6 +375,9 @@ mod tests {
         // Another config's process is refused.
         let meta = json!({ "config_hash": "other", "status": "complete" });
         crate::results::output::write_all(&folder(out, 1), meta, &[]).unwrap();
-        assert!(merge(out, 3).unwrap_err().to_string().contains("config hash"));
+        assert!(merge(out, 3)
+            .unwrap_err()
+            .to_string()
+            .contains("config hash"));
     }
 }
