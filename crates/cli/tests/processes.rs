@@ -278,3 +278,54 @@ fn a_slowed_process_widens_a_times_interval_and_the_paired_verdict_survives() {
         assert!(v[1].why.contains("between 3 processes"), "{}", v[1].why);
     }
 }
+
+/// `reproduce` makes a `[[run]]` of `processes = 3` as `run --processes 3` (planned three times
+/// its declared cost), compares its times between the processes, and REPORT.md gives the spread
+/// of its rows between them; a rerun into the folder reuses the complete run.
+#[test]
+fn reproduce_makes_a_run_in_processes_and_reports_their_spread() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = config(t.path());
+    let claims = t.path().join("p.toml");
+    let runs = format!(
+        "paper = \"t\"\n[[run]]\nconfig = \"{}\"\ncost_s = 2\nfixed_s = 1\nprocesses = 3\n",
+        cfg.display()
+    );
+    std::fs::write(&claims, CLAIMS.replacen("paper = \"t\"\n", &runs, 1)).unwrap();
+    let out = t.path().join("report");
+    let reproduce = || {
+        trace_bench(
+            &[
+                "reproduce",
+                s(&claims),
+                "--budget",
+                "1m",
+                "--out",
+                s(&out),
+                "-q",
+            ],
+            &[],
+        )
+    };
+    let o = reproduce();
+    assert!(o.status.success(), "{o:?}");
+    let report = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
+    assert!(report.contains("--processes 3"), "{report}");
+    assert!(
+        report.contains("| 6 s |"),
+        "three processes of 2 s: {report}"
+    );
+    let line = report
+        .lines()
+        .find(|l| l.starts_with("| `0-processes` | 3 | 2 |"))
+        .unwrap_or_else(|| panic!("a spread row for the run's two rows: {report}"));
+    assert!(line.contains(" % ("), "{line}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("verdicts.json")).unwrap()).unwrap();
+    let why = v["papers"][0]["claims"][1]["why"].as_str().unwrap();
+    assert!(why.contains("between 3 processes"), "{why}");
+    let o = reproduce();
+    assert!(o.status.success(), "{o:?}");
+    let report = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
+    assert!(report.contains("| reused |"), "{report}");
+}
