@@ -47,64 +47,78 @@ impl Select {
     }
 }
 
+/// `trace-bench run`'s arguments.
+#[derive(clap::Args)]
+struct RunArgs {
+    /// The experiment config (TOML).
+    config: PathBuf,
+    /// Output directory (default: results/NAME/TIMESTAMP, or the newest one with --resume).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Thread counts, overriding the config's run.threads (0 = all cores).
+    #[arg(long, value_delimiter = ',')]
+    threads: Option<Vec<usize>>,
+    /// Timed repeats per combination, overriding run.repeat.
+    #[arg(long)]
+    repeat: Option<usize>,
+    /// Devices, overriding run.devices: `cpu`, `gpu` or `cpu,gpu`; naming `gpu` makes a
+    /// GPU failure fail the run.
+    #[arg(long, value_delimiter = ',', value_parser = parse_device)]
+    device: Option<Vec<Device>>,
+    /// GPU adapter: a substring of its name (case-insensitive), overriding run.gpu_adapter.
+    #[arg(long)]
+    adapter: Option<String>,
+    /// GPU backend, overriding run.gpu_backend: vulkan, gl, metal or dx12.
+    #[arg(long, value_parser = parse_backend)]
+    backend: Option<tb_gpu::Backend>,
+    #[command(flatten)]
+    select: Select,
+    /// Run one shard of the config's work units (one scene x one build with all its rows),
+    /// `K/N` with K in 1..=N, or `slurm` to read the job array task from
+    /// SLURM_ARRAY_TASK_ID / _COUNT / _MIN / _MAX. Deterministic for a config and binary;
+    /// combine the shards' folders with `trace-bench merge`.
+    #[arg(long, value_parser = parse_shard)]
+    shard: Option<tb_harness::cluster::shard::Shard>,
+    /// Make the run in K processes, one after another (overriding run.processes; default
+    /// 1): process I writes OUT/process-I (rows tagged `process = I`; the odd ones run the
+    /// structure entries in reverse order), and OUT holds the rows of all of them, merged
+    /// after each, so times can be compared between processes (`claims`).
+    #[arg(
+        long,
+        value_name = "K",
+        value_parser = clap::value_parser!(u32).range(1..=64),
+        conflicts_with = "shard"
+    )]
+    processes: Option<u32>,
+    /// Run as process I of K (`I/K`, 0-based) of a `--processes K` run, which sets it: rows
+    /// get `process = I`; odd I run the structure entries in reverse order.
+    #[arg(
+        long,
+        value_name = "I/K",
+        value_parser = parse_process,
+        conflicts_with_all = ["processes", "shard"]
+    )]
+    process: Option<tb_harness::experiment::processes::Process>,
+    /// Continue an interrupted run: keep its rows, skip finished combinations (with
+    /// --processes: reuse the complete processes, resume the others).
+    #[arg(long)]
+    resume: bool,
+    /// Replace the results of an earlier run in `--out` (results.csv, results.json,
+    /// convergence.csv, images/).
+    #[arg(long, conflicts_with = "resume")]
+    force: bool,
+    /// Root directory for scene files named in the config.
+    #[arg(long, env = "TRACE_BENCH_SCENES")]
+    scenes_root: Option<PathBuf>,
+    /// No progress output.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
 #[derive(Subcommand)]
 enum Cmd {
     /// Run an experiment: build, trace, count, validate; write results.csv and results.json.
-    Run {
-        /// The experiment config (TOML).
-        config: PathBuf,
-        /// Output directory (default: results/NAME/TIMESTAMP, or the newest one with --resume).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Thread counts, overriding the config's run.threads (0 = all cores).
-        #[arg(long, value_delimiter = ',')]
-        threads: Option<Vec<usize>>,
-        /// Timed repeats per combination, overriding run.repeat.
-        #[arg(long)]
-        repeat: Option<usize>,
-        /// Devices, overriding run.devices: `cpu`, `gpu` or `cpu,gpu`; naming `gpu` makes a
-        /// GPU failure fail the run.
-        #[arg(long, value_delimiter = ',', value_parser = parse_device)]
-        device: Option<Vec<Device>>,
-        /// GPU adapter: a substring of its name (case-insensitive), overriding run.gpu_adapter.
-        #[arg(long)]
-        adapter: Option<String>,
-        /// GPU backend, overriding run.gpu_backend: vulkan, gl, metal or dx12.
-        #[arg(long, value_parser = parse_backend)]
-        backend: Option<tb_gpu::Backend>,
-        #[command(flatten)]
-        select: Select,
-        /// Run one shard of the config's work units (one scene x one build with all its rows),
-        /// `K/N` with K in 1..=N, or `slurm` to read the job array task from
-        /// SLURM_ARRAY_TASK_ID / _COUNT / _MIN / _MAX. Deterministic for a config and binary;
-        /// combine the shards' folders with `trace-bench merge`.
-        #[arg(long, value_parser = parse_shard)]
-        shard: Option<tb_harness::cluster::shard::Shard>,
-        /// Make the run in K processes, one after another (overriding run.processes; default
-        /// 1): process I writes OUT/process-I (rows tagged `process = I`; the odd ones run the
-        /// structure entries in reverse order), and OUT holds the rows of all of them, merged
-        /// after each, so times can be compared between processes (`claims`).
-        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64), conflicts_with = "shard")]
-        processes: Option<u32>,
-        /// Run as process I of K (`I/K`, 0-based) of a `--processes K` run, which sets it: rows
-        /// get `process = I`; odd I run the structure entries in reverse order.
-        #[arg(long, value_parser = parse_process, conflicts_with_all = ["processes", "shard"])]
-        process: Option<tb_harness::experiment::processes::Process>,
-        /// Continue an interrupted run: keep its rows, skip finished combinations (with
-        /// --processes: reuse the complete processes, resume the others).
-        #[arg(long)]
-        resume: bool,
-        /// Replace the results of an earlier run in `--out` (results.csv, results.json,
-        /// convergence.csv, images/).
-        #[arg(long, conflicts_with = "resume")]
-        force: bool,
-        /// Root directory for scene files named in the config.
-        #[arg(long, env = "TRACE_BENCH_SCENES")]
-        scenes_root: Option<PathBuf>,
-        /// No progress output.
-        #[arg(long, short)]
-        quiet: bool,
-    },
+    Run(Box<RunArgs>),
     /// Compare every structure and traversal of a config with the brute-force oracle only;
     /// exit 1 on any mismatch.
     Validate {
@@ -278,45 +292,7 @@ pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
 
 fn dispatch(cli: Cli) -> Result<i32> {
     match cli.cmd {
-        Cmd::Run {
-            config,
-            out,
-            threads,
-            repeat,
-            device,
-            adapter,
-            backend,
-            select,
-            shard,
-            processes,
-            process,
-            resume,
-            force,
-            scenes_root,
-            quiet,
-        } => {
-            let ov = Overrides {
-                threads,
-                repeat,
-                devices: device,
-                adapter,
-                backend,
-                shard,
-                process,
-                ..select.overrides(scenes_root)
-            };
-            if process.is_none() {
-                let (name, from_config) = config::peek(&config, &ov)?;
-                let n = processes.map_or(from_config, |k| k as usize);
-                if n > 1 && shard.is_some() {
-                    bail!("run.processes = {n}: a run of several processes cannot be sharded (--shard); give --processes 1");
-                }
-                if n > 1 {
-                    return cmd_processes(&config, &name, n, out, &ov, (resume, force), quiet);
-                }
-            }
-            cmd_run(&config, out, ov, resume, force, quiet)
-        }
+        Cmd::Run(args) => cmd_run_args(*args),
         Cmd::Validate {
             config,
             scenes_root,
@@ -664,6 +640,47 @@ fn cmd_run(
         return Ok(1);
     }
     Ok(0)
+}
+
+/// `trace-bench run`: one process, or several (`--processes`, `run.processes`).
+fn cmd_run_args(a: RunArgs) -> Result<i32> {
+    let ov = Overrides {
+        threads: a.threads,
+        repeat: a.repeat,
+        devices: a.device,
+        adapter: a.adapter,
+        backend: a.backend,
+        shard: a.shard,
+        process: a.process,
+        ..a.select.overrides(a.scenes_root)
+    };
+    let (resume, force, quiet) = (a.resume, a.force, a.quiet);
+    match several_processes(&a.config, &ov, a.processes)? {
+        Some((name, n)) => cmd_processes(&a.config, &name, n, a.out, &ov, (resume, force), quiet),
+        None => cmd_run(&a.config, a.out, ov, resume, force, quiet),
+    }
+}
+
+/// The experiment's name and the processes of a run of several (`--processes`, else
+/// `run.processes`), or `None` for a run of one process (or one process of several,
+/// `--process`).
+fn several_processes(
+    config: &Path,
+    ov: &Overrides,
+    processes: Option<u32>,
+) -> Result<Option<(String, usize)>> {
+    if ov.process.is_some() {
+        return Ok(None);
+    }
+    let (name, from_config) = config::peek(config, ov)?;
+    let n = processes.map_or(from_config, |k| k as usize);
+    if n > 1 && ov.shard.is_some() {
+        bail!(
+            "run.processes = {n}: a run of several processes cannot be sharded (--shard); give \
+             --processes 1"
+        );
+    }
+    Ok((n > 1).then_some((name, n)))
 }
 
 /// `trace-bench run --processes N` (or `run.processes = N`): the run in `n` processes of this

@@ -46,12 +46,12 @@ fn run(dir: &Path, name: &str, scales: &[f64], noisy: bool) -> PathBuf {
     d
 }
 
-fn eval(test: &str, sources: &[PathBuf]) -> Vec<ClaimResult> {
+fn eval(test: &str, source: &Path) -> Vec<ClaimResult> {
     let c = format!(
         "paper = \"t\"\n[[claim]]\nid = \"c\"\nwhere = \"T1\"\ntext = \"t\"\npaper = \"p\"\nmeasure = \"time\"\nrows.a = {{ traversal = \"a\" }}\nrows.b = {{ traversal = \"b\" }}\ntest = {test}\n"
     );
     let file = claims::parse(Path::new("t.toml"), &c).expect("claims parse");
-    claims::evaluate(&file, &RowSet::read(sources).unwrap())
+    claims::evaluate(&file, &RowSet::read(&[source.to_path_buf()]).unwrap())
 }
 
 const VALUE: &str = "{ kind = \"value\", of = \"a\", min = 0 }";
@@ -71,10 +71,7 @@ fn a_slow_process_widens_a_time_but_not_a_paired_ratio() {
     let quiet = run(t.path(), "quiet", &[1.0, 1.02, 0.99], false);
     let slowed = run(t.path(), "slowed", &[1.0, 1.6, 0.99], true);
     let width = |d: [f64; 3]| d[2] / d[0];
-    let (q, s) = (
-        eval(VALUE, &[quiet.clone()]),
-        eval(VALUE, &[slowed.clone()]),
-    );
+    let (q, s) = (eval(VALUE, &quiet), eval(VALUE, &slowed));
     assert!(
         q[0].why.contains("interval between 3 processes"),
         "{}",
@@ -84,7 +81,7 @@ fn a_slow_process_widens_a_time_but_not_a_paired_ratio() {
     let (wq, ws) = (width(derived(&q)), width(derived(&s)));
     assert!(ws > 2.0 * wq && ws > 1.5, "quiet {wq}, slowed {ws}");
     for src in [quiet, slowed] {
-        let v = eval(RATIO, &[src]);
+        let v = eval(RATIO, &src);
         assert_eq!(v[0].verdict, Verdict::Agree, "{v:?}");
         let d = derived(&v);
         assert!(
@@ -101,7 +98,7 @@ fn a_slow_process_widens_a_time_but_not_a_paired_ratio() {
 fn fewer_processes_keep_the_floor_and_say_so() {
     let t = tempfile::tempdir().unwrap();
     let two = run(t.path(), "two", &[1.0, 1.1], false);
-    let v = eval(RATIO, &[two.clone()]);
+    let v = eval(RATIO, &two);
     assert!(
         v[0].why.contains("floor ±20 %") && v[0].why.contains("2 processes"),
         "{}",
@@ -111,9 +108,9 @@ fn fewer_processes_keep_the_floor_and_say_so() {
     // 2.1 / 1.9 < 1.2²: no interval at the floor can lie inside.
     assert_eq!(v[0].verdict, Verdict::Undecidable, "{v:?}");
     let three = run(t.path(), "three", &[1.0, 1.1, 0.95], false);
-    assert_eq!(eval(RATIO, &[three.clone()])[0].verdict, Verdict::Agree);
+    assert_eq!(eval(RATIO, &three)[0].verdict, Verdict::Agree);
     let point = "{ kind = \"ratio\", num = \"b\", den = \"a\", min = 2, max = 2 }";
-    let v = eval(point, &[three]);
+    let v = eval(point, &three);
     assert!(
         v[0].undecidable
             .as_deref()
@@ -121,14 +118,14 @@ fn fewer_processes_keep_the_floor_and_say_so() {
         "{v:?}"
     );
     // Two processes keep their rounds paired: each process's exact 2, widened to the floor.
-    let d = derived(&eval(RATIO, &[two]));
+    let d = derived(&eval(RATIO, &two));
     assert!(
         (d[0] - 2.0 / 1.2).abs() < 1e-9 && (d[2] - 2.4).abs() < 1e-9,
         "{d:?}"
     );
     // One process: as before.
     let one = run(t.path(), "one", &[1.0], false);
-    let v = eval(RATIO, &[one]);
+    let v = eval(RATIO, &one);
     assert!(v[0].why.contains("1 process"), "{}", v[0].why);
 }
 
@@ -152,7 +149,7 @@ fn unpaired_rows_compare_per_process_and_partial_processes_are_left_out() {
     std::fs::write(d.join("results.csv"), text).unwrap();
     let v = eval(
         "{ kind = \"speedup\", of = \"a\", base = \"b\", min = 2.5, max = 3.5 }",
-        &[d],
+        &d,
     );
     assert_eq!(v[0].verdict, Verdict::Agree, "{v:?}");
     assert!(v[0].why.contains("between 3 processes"), "{}", v[0].why);
