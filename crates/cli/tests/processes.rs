@@ -42,10 +42,6 @@ name = "brute-force"
 /// compares times that another's runs beside it would disturb.
 static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
-fn serial() -> std::sync::MutexGuard<'static, ()> {
-    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
-}
-
 fn trace_bench(args: &[&str], env: &[(&str, &str)]) -> std::process::Output {
     let mut c = Command::new(EXE);
     c.args(args);
@@ -55,10 +51,17 @@ fn trace_bench(args: &[&str], env: &[(&str, &str)]) -> std::process::Output {
     c.output().expect("trace-bench runs")
 }
 
-fn config(dir: &Path) -> PathBuf {
-    let p = dir.join("processes.toml");
-    std::fs::write(&p, CONFIG).unwrap();
-    p
+/// A test's start: the file's tests one at a time, a folder, the config in it.
+fn start() -> (
+    std::sync::MutexGuard<'static, ()>,
+    tempfile::TempDir,
+    PathBuf,
+) {
+    let one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let t = tempfile::tempdir().unwrap();
+    let cfg = t.path().join("processes.toml");
+    std::fs::write(&cfg, CONFIG).unwrap();
+    (one, t, cfg)
 }
 
 fn s(p: &Path) -> &str {
@@ -75,9 +78,7 @@ fn meta(dir: &Path) -> serde_json::Value {
 /// rows, and `--resume` completes the run.
 #[test]
 fn processes_merge_into_one_folder_and_resume() {
-    let _one = serial();
-    let t = tempfile::tempdir().unwrap();
-    let cfg = config(t.path());
+    let (_one, t, cfg) = start();
     let out = t.path().join("run");
     // Every process aborts after its first row (as if killed).
     let o = trace_bench(
@@ -200,13 +201,11 @@ test = { kind = "speedup", of = "bvh", base = "brute", min = 1.5 }
 
 /// The same run twice: three processes as the machine gives them, then with process 1 made
 /// again beside a busy loop (four spinning threads per core, so that it gets a fraction of a
-/// core whatever else runs). The BVH's time, compared between processes, gets a wider interval; the speedup
-/// over brute force, each process's rounds paired, agrees in both.
+/// core whatever else runs). The BVH's time, compared between processes, gets a wider
+/// interval; the speedup over brute force, each process's rounds paired, agrees in both.
 #[test]
 fn a_slowed_process_widens_a_times_interval_and_the_paired_verdict_survives() {
-    let _one = serial();
-    let t = tempfile::tempdir().unwrap();
-    let cfg = config(t.path());
+    let (_one, t, cfg) = start();
     let quiet = t.path().join("quiet");
     let o = trace_bench(
         &["run", s(&cfg), "--processes", "3", "--out", s(&quiet), "-q"],
@@ -296,9 +295,7 @@ fn a_slowed_process_widens_a_times_interval_and_the_paired_verdict_survives() {
 /// of its rows between them; a rerun into the folder reuses the complete run.
 #[test]
 fn reproduce_makes_a_run_in_processes_and_reports_their_spread() {
-    let _one = serial();
-    let t = tempfile::tempdir().unwrap();
-    let cfg = config(t.path());
+    let (_one, t, cfg) = start();
     let claims = t.path().join("p.toml");
     let runs = format!(
         "paper = \"t\"\n[[run]]\nconfig = \"{}\"\ncost_s = 2\nfixed_s = 1\nprocesses = 3\n",

@@ -999,6 +999,24 @@ mod tests {
         }
     }
 
+    /// Options of a quiet reproduce on the CPU into `o`, no paper yet.
+    fn options() -> Options {
+        Options {
+            papers: vec![],
+            budget_s: 0.0,
+            devices: vec!["cpu".into()],
+            out: "o".into(),
+            exe: "trace-bench".into(),
+            scenes_root: None,
+            with: vec![],
+            sets: vec![],
+            adapter: None,
+            budget_text: String::new(),
+            heavy: false,
+            quiet: true,
+        }
+    }
+
     /// Heavy runs are made with `--heavy`, or when the budget covers every run as declared.
     #[test]
     fn heavy_runs_need_the_flag_or_the_whole_budget() {
@@ -1029,16 +1047,9 @@ mod tests {
         let opts = |budget_s: f64, heavy: bool| Options {
             papers: vec![file.clone()],
             budget_s,
-            devices: vec!["cpu".into()],
             out: dir.path().join("out"),
-            exe: "trace-bench".into(),
-            scenes_root: None,
-            with: vec![],
-            sets: vec![],
-            adapter: None,
-            budget_text: String::new(),
             heavy,
-            quiet: true,
+            ..options()
         };
         let runs = |o: &Options| plan(o).unwrap().remove(0).2;
         let small = runs(&opts(100.0, false));
@@ -1076,20 +1087,7 @@ mod tests {
         let (f, est) = fit(&[&a, &b], 230.0);
         assert!((f - 0.5).abs() < 1e-12 && (est - 230.0).abs() < 1e-9);
         assert!(!heavy_included(&[&a, &b], 349.0, false));
-        let opts = Options {
-            papers: vec![],
-            budget_s: 0.0,
-            devices: vec!["cpu".into()],
-            out: "o".into(),
-            exe: "trace-bench".into(),
-            scenes_root: None,
-            with: vec![],
-            sets: vec![],
-            adapter: None,
-            budget_text: String::new(),
-            heavy: false,
-            quiet: true,
-        };
+        let opts = options();
         let args = run_args(&a, &a.set, Path::new("o/r"), &opts);
         assert!(
             args.windows(2).any(|w| w == ["--processes", "3"]),
