@@ -134,7 +134,7 @@ class Code:
 
         def flags(body):
             out = set()
-            for m in re.finditer(r"#\[arg\((.*?)\)\]\s*\n\s*(?:///[^\n]*\s*)*(\w+)\s*:", body):
+            for m in re.finditer(r"#\[arg\((.*?)\)\]\s*\n\s*(?:///[^\n]*\s*)*(\w+)\s*:", body, re.S):
                 args, field = m.group(1), m.group(2)
                 long = re.search(r'long\s*=\s*"([^"]+)"', args)
                 if re.search(r"\blong\b", args):
@@ -149,8 +149,13 @@ class Code:
 
         enum = re.search(r"enum Cmd \{(.*?)\n\}", text, re.S)
         if enum:
-            parts = re.split(r"\n    (?:///[^\n]*\n    )*([A-Z]\w*)\s*(?=[{,])", enum.group(1))
+            parts = re.split(r"\n    (?:///[^\n]*\n    )*([A-Z]\w*)\s*(?=[{,(])", enum.group(1))
             for name, body in zip(parts[1::2], parts[2::2]):
+                # `Run(Box<RunArgs>)`: the flags of that argument struct.
+                tup = re.match(r"\(\s*(?:Box<)?(\w+)", body)
+                if tup:
+                    st = re.search(r"struct " + tup.group(1) + r"\s*\{(.*?)\n\}", text, re.S)
+                    body = st.group(1) if st else ""
                 flags_of[name.lower()] = flags(body) | {"--help", "-h"}
         return flags_of
 

@@ -47,53 +47,78 @@ impl Select {
     }
 }
 
+/// `trace-bench run`'s arguments.
+#[derive(clap::Args)]
+struct RunArgs {
+    /// The experiment config (TOML).
+    config: PathBuf,
+    /// Output directory (default: results/NAME/TIMESTAMP, or the newest one with --resume).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Thread counts, overriding the config's run.threads (0 = all cores).
+    #[arg(long, value_delimiter = ',')]
+    threads: Option<Vec<usize>>,
+    /// Timed repeats per combination, overriding run.repeat.
+    #[arg(long)]
+    repeat: Option<usize>,
+    /// Devices, overriding run.devices: `cpu`, `gpu` or `cpu,gpu`; naming `gpu` makes a
+    /// GPU failure fail the run.
+    #[arg(long, value_delimiter = ',', value_parser = parse_device)]
+    device: Option<Vec<Device>>,
+    /// GPU adapter: a substring of its name (case-insensitive), overriding run.gpu_adapter.
+    #[arg(long)]
+    adapter: Option<String>,
+    /// GPU backend, overriding run.gpu_backend: vulkan, gl, metal or dx12.
+    #[arg(long, value_parser = parse_backend)]
+    backend: Option<tb_gpu::Backend>,
+    #[command(flatten)]
+    select: Select,
+    /// Run one shard of the config's work units (one scene x one build with all its rows),
+    /// `K/N` with K in 1..=N, or `slurm` to read the job array task from
+    /// SLURM_ARRAY_TASK_ID / _COUNT / _MIN / _MAX. Deterministic for a config and binary;
+    /// combine the shards' folders with `trace-bench merge`.
+    #[arg(long, value_parser = parse_shard)]
+    shard: Option<tb_harness::cluster::shard::Shard>,
+    /// Make the run in K processes, one after another (overriding run.processes; default
+    /// 1): process I writes OUT/process-I (rows tagged `process = I`; the odd ones run the
+    /// structure entries in reverse order), and OUT holds the rows of all of them, merged
+    /// after each, so times can be compared between processes (`claims`).
+    #[arg(
+        long,
+        value_name = "K",
+        value_parser = clap::value_parser!(u32).range(1..=64),
+        conflicts_with = "shard"
+    )]
+    processes: Option<u32>,
+    /// Run as process I of K (`I/K`, 0-based) of a `--processes K` run, which sets it: rows
+    /// get `process = I`; odd I run the structure entries in reverse order.
+    #[arg(
+        long,
+        value_name = "I/K",
+        value_parser = parse_process,
+        conflicts_with_all = ["processes", "shard"]
+    )]
+    process: Option<tb_harness::experiment::processes::Process>,
+    /// Continue an interrupted run: keep its rows, skip finished combinations (with
+    /// --processes: reuse the complete processes, resume the others).
+    #[arg(long)]
+    resume: bool,
+    /// Replace the results of an earlier run in `--out` (results.csv, results.json,
+    /// convergence.csv, images/).
+    #[arg(long, conflicts_with = "resume")]
+    force: bool,
+    /// Root directory for scene files named in the config.
+    #[arg(long, env = "TRACE_BENCH_SCENES")]
+    scenes_root: Option<PathBuf>,
+    /// No progress output.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
 #[derive(Subcommand)]
 enum Cmd {
     /// Run an experiment: build, trace, count, validate; write results.csv and results.json.
-    Run {
-        /// The experiment config (TOML).
-        config: PathBuf,
-        /// Output directory (default: results/NAME/TIMESTAMP, or the newest one with --resume).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Thread counts, overriding the config's run.threads (0 = all cores).
-        #[arg(long, value_delimiter = ',')]
-        threads: Option<Vec<usize>>,
-        /// Timed repeats per combination, overriding run.repeat.
-        #[arg(long)]
-        repeat: Option<usize>,
-        /// Devices, overriding run.devices: `cpu`, `gpu` or `cpu,gpu`; naming `gpu` makes a
-        /// GPU failure fail the run.
-        #[arg(long, value_delimiter = ',', value_parser = parse_device)]
-        device: Option<Vec<Device>>,
-        /// GPU adapter: a substring of its name (case-insensitive), overriding run.gpu_adapter.
-        #[arg(long)]
-        adapter: Option<String>,
-        /// GPU backend, overriding run.gpu_backend: vulkan, gl, metal or dx12.
-        #[arg(long, value_parser = parse_backend)]
-        backend: Option<tb_gpu::Backend>,
-        #[command(flatten)]
-        select: Select,
-        /// Run one shard of the config's work units (one scene x one build with all its rows),
-        /// `K/N` with K in 1..=N, or `slurm` to read the job array task from
-        /// SLURM_ARRAY_TASK_ID / _COUNT / _MIN / _MAX. Deterministic for a config and binary;
-        /// combine the shards' folders with `trace-bench merge`.
-        #[arg(long, value_parser = parse_shard)]
-        shard: Option<tb_harness::cluster::shard::Shard>,
-        /// Continue an interrupted run: keep its rows, skip finished combinations.
-        #[arg(long)]
-        resume: bool,
-        /// Replace the results of an earlier run in `--out` (results.csv, results.json,
-        /// convergence.csv, images/).
-        #[arg(long, conflicts_with = "resume")]
-        force: bool,
-        /// Root directory for scene files named in the config.
-        #[arg(long, env = "TRACE_BENCH_SCENES")]
-        scenes_root: Option<PathBuf>,
-        /// No progress output.
-        #[arg(long, short)]
-        quiet: bool,
-    },
+    Run(Box<RunArgs>),
     /// Compare every structure and traversal of a config with the brute-force oracle only;
     /// exit 1 on any mismatch.
     Validate {
@@ -271,32 +296,7 @@ pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
 
 fn dispatch(cli: Cli) -> Result<i32> {
     match cli.cmd {
-        Cmd::Run {
-            config,
-            out,
-            threads,
-            repeat,
-            device,
-            adapter,
-            backend,
-            select,
-            shard,
-            resume,
-            force,
-            scenes_root,
-            quiet,
-        } => {
-            let ov = Overrides {
-                threads,
-                repeat,
-                devices: device,
-                adapter,
-                backend,
-                shard,
-                ..select.overrides(scenes_root)
-            };
-            cmd_run(&config, out, ov, resume, force, quiet)
-        }
+        Cmd::Run(args) => cmd_run_args(*args),
         Cmd::Validate {
             config,
             scenes_root,
@@ -649,7 +649,160 @@ fn cmd_run(
     Ok(0)
 }
 
-/// `--resume` continues the same run: the same config and the same shard.
+/// `trace-bench run`: one process, or several (`--processes`, `run.processes`).
+fn cmd_run_args(a: RunArgs) -> Result<i32> {
+    let ov = Overrides {
+        threads: a.threads,
+        repeat: a.repeat,
+        devices: a.device,
+        adapter: a.adapter,
+        backend: a.backend,
+        shard: a.shard,
+        process: a.process,
+        ..a.select.overrides(a.scenes_root)
+    };
+    let (resume, force, quiet) = (a.resume, a.force, a.quiet);
+    match several_processes(&a.config, &ov, a.processes)? {
+        Some((name, n)) => cmd_processes(&a.config, &name, n, a.out, &ov, (resume, force), quiet),
+        None => cmd_run(&a.config, a.out, ov, resume, force, quiet),
+    }
+}
+
+/// The experiment's name and the processes of a run of several (`--processes`, else
+/// `run.processes`), or `None` for a run of one process (or one process of several,
+/// `--process`).
+fn several_processes(
+    config: &Path,
+    ov: &Overrides,
+    processes: Option<u32>,
+) -> Result<Option<(String, usize)>> {
+    if ov.process.is_some() {
+        return Ok(None);
+    }
+    let (name, from_config) = config::peek(config, ov)?;
+    let n = processes.map_or(from_config, |k| k as usize);
+    if n > 1 && ov.shard.is_some() {
+        bail!(
+            "run.processes = {n}: a run of several processes cannot be sharded (--shard); give \
+             --processes 1"
+        );
+    }
+    Ok((n > 1).then_some((name, n)))
+}
+
+/// `trace-bench run --processes N` (or `run.processes = N`): the run in `n` processes of this
+/// binary, one after another, merged into one folder.
+fn cmd_processes(
+    config: &Path,
+    name: &str,
+    n: usize,
+    out: Option<PathBuf>,
+    ov: &Overrides,
+    (resume, force): (bool, bool),
+    quiet: bool,
+) -> Result<i32> {
+    use tb_harness::experiment::processes;
+    let out = match out {
+        Some(o) => o,
+        None => {
+            let o = default_out(name, resume)?;
+            if !resume {
+                link_latest(&o);
+            }
+            o
+        }
+    };
+    out_folder(&out)?;
+    let begun = (0..n).any(|i| processes::folder(&out, i).join("results.json").is_file())
+        || out.join("results.csv").is_file();
+    if resume && !begun {
+        bail!(
+            "{}: nothing to resume (no process folder with results there): run without --resume",
+            out.display()
+        );
+    }
+    if begun && !resume && !force {
+        bail!(
+            "{}: holds the results of a run already: pass --resume to continue that run, --force \
+             to replace it, or choose another --out",
+            out.display()
+        );
+    }
+    // One writer per folder; each process locks its own.
+    let _lock = tb_harness::results::lock::FolderLock::acquire(&out)?;
+    let plan = processes::Plan {
+        exe: std::env::current_exe().context("cannot find the trace-bench executable")?,
+        args: process_args(config, ov),
+        out: out.clone(),
+        n,
+        resume,
+        force,
+        quiet,
+    };
+    let report = processes::run(&plan)?;
+    for (i, p) in report.processes.iter().enumerate() {
+        let how = match (&p.failed, p.reused, p.wall_s) {
+            (Some(f), _, _) => format!("failed ({f})"),
+            (None, true, _) => "complete, reused".into(),
+            (None, false, w) => format!("done in {:.0} s", w.unwrap_or(0.0)),
+        };
+        println!("process {i}: {how} ({})", p.folder.display());
+    }
+    println!(
+        "wrote {} rows of {n} processes to {} ({})",
+        report.rows,
+        out.join("results.csv").display(),
+        report.status
+    );
+    println!("      and {}", out.join("results.json").display());
+    Ok(if report.processes.iter().any(|p| p.failed.is_some()) {
+        1
+    } else {
+        0
+    })
+}
+
+/// `run CONFIG` and the options of `ov` as each process of `run --processes` gets them.
+fn process_args(config: &Path, ov: &Overrides) -> Vec<String> {
+    let mut a = vec!["run".to_owned(), config.display().to_string()];
+    let list = |v: Vec<String>| v.join(",");
+    if let Some(t) = &ov.threads {
+        a.extend([
+            "--threads".into(),
+            list(t.iter().map(usize::to_string).collect()),
+        ]);
+    }
+    if let Some(r) = ov.repeat {
+        a.extend(["--repeat".into(), r.to_string()]);
+    }
+    if let Some(d) = &ov.devices {
+        a.extend([
+            "--device".into(),
+            list(d.iter().map(|d| d.name().into()).collect()),
+        ]);
+    }
+    if let Some(x) = &ov.adapter {
+        a.extend(["--adapter".into(), x.clone()]);
+    }
+    if let Some(b) = ov.backend {
+        a.extend(["--backend".into(), b.name().into()]);
+    }
+    if !ov.scenes.is_empty() {
+        a.extend(["--scene".into(), list(ov.scenes.clone())]);
+    }
+    if !ov.structures.is_empty() {
+        a.extend(["--structure".into(), list(ov.structures.clone())]);
+    }
+    for s in &ov.sets {
+        a.extend(["--set".into(), s.clone()]);
+    }
+    if let Some(r) = &ov.scenes_root {
+        a.extend(["--scenes-root".into(), r.display().to_string()]);
+    }
+    a
+}
+
+/// `--resume` continues the same run: the same config, the same shard and the same process.
 fn check_resume(out: &Path, exp: &config::Experiment) -> Result<()> {
     let p = out.join("results.json");
     let Some(meta) = std::fs::read_to_string(&p)
@@ -678,6 +831,18 @@ fn check_resume(out: &Path, exp: &config::Experiment) -> Result<()> {
             p.display(),
             was.map_or("an unsharded run".into(), |s| format!("shard {s}")),
             now.map_or("unsharded".into(), |s| format!("shard {s}"))
+        );
+    }
+    let was = meta["process"]["index"]
+        .as_u64()
+        .map(|i| format!("{i}/{}", meta["process"]["of"]));
+    let now = exp.process.map(|p| p.to_string());
+    if was != now {
+        bail!(
+            "{}: --resume of {} but this run is {}",
+            p.display(),
+            was.map_or("a run of one process".into(), |s| format!("process {s}")),
+            now.map_or("a run of one process".into(), |s| format!("process {s}"))
         );
     }
     Ok(())
@@ -795,6 +960,12 @@ fn cmd_diff(a: &Path, b: &Path, channel: &str, max: Option<f32>, out: &Path) -> 
 
 fn parse_shard(s: &str) -> std::result::Result<tb_harness::cluster::shard::Shard, String> {
     tb_harness::cluster::shard::Shard::parse(s)
+}
+
+fn parse_process(
+    s: &str,
+) -> std::result::Result<tb_harness::experiment::processes::Process, String> {
+    tb_harness::experiment::processes::Process::parse(s)
 }
 
 fn parse_device(s: &str) -> std::result::Result<Device, String> {

@@ -53,6 +53,15 @@ pub struct Value {
     /// for round.
     #[serde(skip)]
     pub tgroups: Vec<String>,
+    /// The processes of the run the rows come from (`run --processes`; 1 for a run of one).
+    pub processes: usize,
+    /// `[lo, hi]` is the interval between those processes ([`between_processes`]), not
+    /// widened to the floor.
+    pub measured: bool,
+    /// A timing's value in each process (by the `process` column) where its rows come from
+    /// several: each pooled as the rows of one run are.
+    #[serde(skip)]
+    pub per_process: Vec<(String, Value)>,
 }
 
 /// The smallest relative uncertainty of a compared timing (a ratio of two times, or one time):
@@ -90,6 +99,51 @@ fn floor_iv(d: [f64; 3], f: f64) -> [f64; 3] {
 /// unknown, not zero).
 pub const MIN_TIMED_RUNS: f64 = 3.0;
 
+/// Processes a compared time needs for its interval to be measured between them
+/// ([`between_processes`]) instead of assumed ([`TIME_FLOOR`]). The interval is Student's t on
+/// the processes' log values, `exp(m ± t(0.975, n − 1) · s / √n)`, whose quantile falls from
+/// 12.7 with two processes (the spread of two values times 9: a 5 % difference between them
+/// gives ±32 %, wider than the floor, and a standard deviation from two values is not one to
+/// rely on) to 4.30 with three (2.5 times the spread); the distribution-free alternative, the
+/// range of `n` values, covers the median with `1 − 2^(1 − n)`, 75 % for three, and needs six
+/// processes for 95 %, twice the cost. Three is the fewest that measure; more narrow it.
+pub const MIN_PROCESSES: usize = 3;
+
+/// Two-sided 95 % quantiles of Student's t for 1 to 30 degrees of freedom (Fisher and Yates,
+/// Statistical Tables, Table III); beyond, `1.96 + 2.5 / df` (within 0.002 of the table's 40,
+/// 60 and 120).
+fn t975(df: usize) -> f64 {
+    const T: [f64; 30] = [
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
+        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
+        2.052, 2.048, 2.045, 2.042,
+    ];
+    match df {
+        0 => f64::INFINITY,
+        1..=30 => T[df - 1],
+        _ => 1.96 + 2.5 / df as f64,
+    }
+}
+
+/// The 95 % interval of a quantity measured once per process (`xs`, one value each, all
+/// positive): Student's t on their logarithms, `[exp(m − h), exp(m), exp(m + h)]` with `m` the
+/// mean log, `h = t(0.975, n − 1) · s / √n`, `s` the logs' standard deviation. Logarithms,
+/// because times vary by factors (a process that runs 20 % slow slows every row by a factor)
+/// and a ratio and its inverse then get the same interval, mirrored. Each process's value
+/// carries its own noise (its rounds), so the spread holds the variation within processes and
+/// between them. `None` with fewer than [`MIN_PROCESSES`] values or a value not above 0.
+pub(crate) fn between_processes(xs: &[f64]) -> Option<[f64; 3]> {
+    let n = xs.len();
+    if n < MIN_PROCESSES || xs.iter().any(|x| !(*x > 0.0 && x.is_finite())) {
+        return None;
+    }
+    let logs: Vec<f64> = xs.iter().map(|x| x.ln()).collect();
+    let m = logs.iter().sum::<f64>() / n as f64;
+    let var = logs.iter().map(|l| (l - m) * (l - m)).sum::<f64>() / (n - 1) as f64;
+    let h = t975(n - 1) * (var / n as f64).sqrt();
+    Some([(m - h).exp(), m.exp(), (m + h).exp()])
+}
+
 impl Value {
     fn point(v: f64, rows: usize) -> Value {
         Value {
@@ -103,12 +157,33 @@ impl Value {
             few_runs: 0,
             runs: Vec::new(),
             tgroups: Vec::new(),
+            processes: 1,
+            measured: false,
+            per_process: Vec::new(),
         }
     }
 
-    /// Whether `self` and `o` were timed interleaved, round for round.
+    /// Whether `self` and `o` were timed interleaved, round for round (in every process they
+    /// share, where they come from several).
     fn paired(&self, o: &Value) -> bool {
+        let common = self.common(o);
+        if !common.is_empty() {
+            return common.iter().all(|(a, b)| a.paired(b));
+        }
         !self.runs.is_empty() && self.runs.len() == o.runs.len() && self.tgroups == o.tgroups
+    }
+
+    /// The per-process values of `self` and `o` in the processes both come from.
+    fn common<'v>(&'v self, o: &'v Value) -> Vec<(&'v Value, &'v Value)> {
+        self.per_process
+            .iter()
+            .filter_map(|(k, a)| {
+                o.per_process
+                    .iter()
+                    .find(|(k2, _)| k2 == k)
+                    .map(|(_, b)| (a, b))
+            })
+            .collect()
     }
 }
 
@@ -123,6 +198,9 @@ pub struct GroupResult {
     /// The compared quantity (band tests), with its interval.
     pub derived: Option<[f64; 3]>,
     pub why: String,
+    /// A timed comparison's interval: `Some(n)` when it was measured between `n` processes
+    /// ([`MIN_PROCESSES`] or more), `None` when the floor gave it (or nothing is timed).
+    pub between: Option<usize>,
     /// Each selector's pooled value.
     pub values: BTreeMap<String, Value>,
 }
@@ -311,8 +389,72 @@ fn joined(r: &Row, cols: &[&str]) -> String {
 // ---------------------------------------------------------------------------------------
 // Pooling
 
-/// Pool one selector's rows in one group, or say why not.
+/// Pool one selector's rows in one group, or say why not. A timing whose rows come from
+/// several processes of a run (`process`, `run --processes`) is pooled per process, then
+/// across them ([`across_processes`]).
 fn pool(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Value, String> {
+    if m.floored() {
+        let mut by: BTreeMap<&str, Vec<&Row>> = BTreeMap::new();
+        for r in rows {
+            by.entry(r.get("process").unwrap_or(""))
+                .or_default()
+                .push(r);
+        }
+        if by.len() > 1 {
+            let per = by
+                .into_iter()
+                .map(|(k, rs)| pool_one(name, &rs, m, pool).map(|v| (k.to_owned(), v)))
+                .collect::<Result<Vec<_>, _>>()?;
+            return Ok(across_processes(per));
+        }
+    }
+    pool_one(name, rows, m, pool)
+}
+
+/// One value from a timing's per-process values: the geometric mean, its interval measured
+/// between the processes ([`between_processes`]; `measured`) with [`MIN_PROCESSES`] or
+/// more, else the hull of theirs; the caveats summed. A process with fewer of the selector's
+/// rows than the others (one interrupted) is left out: its sum is not of the same rows.
+fn across_processes(mut per: Vec<(String, Value)>) -> Value {
+    let most = per.iter().map(|(_, v)| v.rows).max().unwrap_or(0);
+    per.retain(|(_, v)| v.rows == most);
+    let xs: Vec<f64> = per.iter().map(|(_, v)| v.v).collect();
+    let measured = between_processes(&xs);
+    let [lo, v, hi] = measured.unwrap_or_else(|| {
+        let gm = (xs.iter().map(|x| x.ln()).sum::<f64>() / xs.len().max(1) as f64).exp();
+        let v = if gm.is_finite() {
+            gm
+        } else {
+            xs.iter().sum::<f64>() / xs.len().max(1) as f64
+        };
+        [
+            per.iter().map(|(_, x)| x.lo).fold(f64::INFINITY, f64::min),
+            v,
+            per.iter()
+                .map(|(_, x)| x.hi)
+                .fold(f64::NEG_INFINITY, f64::max),
+        ]
+    });
+    let sum = |f: fn(&Value) -> usize| per.iter().map(|(_, x)| f(x)).sum::<usize>();
+    Value {
+        v,
+        lo,
+        hi,
+        timed: per.iter().any(|(_, x)| x.timed),
+        rows: sum(|x| x.rows),
+        noisy: sum(|x| x.noisy),
+        software: sum(|x| x.software),
+        few_runs: sum(|x| x.few_runs),
+        runs: Vec::new(),
+        tgroups: Vec::new(),
+        processes: per.len(),
+        measured: measured.is_some(),
+        per_process: per,
+    }
+}
+
+/// [`pool`] on the rows of one process (or of a run of one).
+fn pool_one(name: &str, rows: &[&Row], m: &Measure, pool: Option<Pool>) -> Result<Value, String> {
     if let Some((n, d)) = m.sides() {
         return pool_ratio(name, rows, (&n, &d), pool);
     }
@@ -420,7 +562,7 @@ fn pool_ratio(
     (n, d): (&Measure, &Measure),
     p: Option<Pool>,
 ) -> Result<Value, String> {
-    let (n, d) = (pool(name, rows, n, p)?, pool(name, rows, d, p)?);
+    let (n, d) = (pool_one(name, rows, n, p)?, pool_one(name, rows, d, p)?);
     let [lo, v, hi] = super::measure::divide([n.lo, n.v, n.hi], [d.lo, d.v, d.hi])
         .map_err(|e| format!("`{name}`: {e}"))?;
     Ok(Value {
@@ -434,6 +576,9 @@ fn pool_ratio(
         few_runs: n.few_runs.max(d.few_runs),
         runs: Vec::new(),
         tgroups: Vec::new(),
+        processes: 1,
+        measured: false,
+        per_process: Vec::new(),
     })
 }
 
@@ -529,6 +674,9 @@ fn pool_build_time(name: &str, rows: &[&Row], pool: Option<Pool>) -> Result<Valu
         few_runs: few,
         runs: Vec::new(),
         tgroups: Vec::new(),
+        processes: 1,
+        measured: false,
+        per_process: Vec::new(),
     })
 }
 
@@ -600,6 +748,9 @@ fn pool_time(name: &str, rows: &[&Row], mrays: bool) -> Result<Value, String> {
         few_runs,
         runs,
         tgroups,
+        processes: 1,
+        measured: false,
+        per_process: Vec::new(),
     })
 }
 
@@ -649,11 +800,121 @@ fn paired_ratio(n: &Value, d: &Value) -> [f64; 3] {
     [lo, crate::experiment::timing::median(&mut r.clone()), hi]
 }
 
+/// How a group's compared times get their intervals: between the processes both sides come
+/// from, where they share [`MIN_PROCESSES`] or more ([`between_processes`] of the per-process
+/// quantity: the round-by-round ratio of each process where its rows were timed interleaved,
+/// else the ratio of its values); otherwise their own intervals (the hull of the shared
+/// processes' own) widened to at least the floor between runs ([`TIME_FLOOR`]). It records the fewest processes compared and whether the
+/// floor was used, for the group's `why`.
+struct Cmp {
+    floor: f64,
+    /// The group compares timings (else intervals are points and nothing is widened).
+    timed: bool,
+    /// The fewest processes of a comparison so far (`usize::MAX`: none yet), and whether one
+    /// was widened to the floor.
+    how: std::cell::Cell<(usize, bool)>,
+}
+
+impl Cmp {
+    fn new(floor: f64, timed: bool) -> Cmp {
+        Cmp {
+            floor,
+            timed,
+            how: std::cell::Cell::new((usize::MAX, false)),
+        }
+    }
+
+    fn note(&self, processes: usize, floored: bool) {
+        let (p, f) = self.how.get();
+        self.how.set((p.min(processes), f || floored));
+    }
+
+    /// The ratio `n / d` with its interval.
+    fn ratio(&self, n: &Value, d: &Value) -> [f64; 3] {
+        let common = n.common(d);
+        if self.timed && common.len() >= MIN_PROCESSES {
+            let rs: Vec<f64> = common
+                .iter()
+                .map(|(a, b)| {
+                    if a.paired(b) {
+                        paired_ratio(a, b)[1]
+                    } else {
+                        a.v / b.v
+                    }
+                })
+                .collect();
+            if let Some(iv) = between_processes(&rs) {
+                self.note(common.len(), false);
+                return iv;
+            }
+        }
+        // Fewer processes: the hull of each shared process's own ratio (round by round where
+        // paired), or the values' intervals where they share none.
+        let r = if common.is_empty() {
+            ratio(n, d)
+        } else {
+            let ivs: Vec<[f64; 3]> = common.iter().map(|(a, b)| ratio(a, b)).collect();
+            let mid = ivs.iter().map(|x| x[1].ln()).sum::<f64>() / ivs.len() as f64;
+            [
+                ivs.iter().map(|x| x[0]).fold(f64::INFINITY, f64::min),
+                mid.exp(),
+                ivs.iter().map(|x| x[2]).fold(f64::NEG_INFINITY, f64::max),
+            ]
+        };
+        if self.timed {
+            self.note(common.len().max(1), true);
+            floor_iv(r, self.floor)
+        } else {
+            r
+        }
+    }
+
+    /// `x` with its interval.
+    fn value(&self, x: &Value) -> [f64; 3] {
+        let d = [x.lo, x.v, x.hi];
+        if !self.timed {
+            d
+        } else if x.measured {
+            self.note(x.processes, false);
+            d
+        } else {
+            self.note(x.processes, true);
+            floor_iv(d, self.floor)
+        }
+    }
+
+    /// Whether a comparison so far was widened to the floor.
+    fn floored(&self) -> bool {
+        self.how.get().1
+    }
+
+    /// Where the timed comparisons' intervals came from, in words (`between 3 processes`,
+    /// `floor ±20 %, 1 process`), and the processes when measured between them.
+    fn said(&self) -> Option<(String, Option<usize>)> {
+        let (p, floored) = self.how.get();
+        if !self.timed || p == usize::MAX {
+            return None;
+        }
+        let procs = format!("{p} process{}", if p == 1 { "" } else { "es" });
+        Some(if floored {
+            (
+                format!(
+                    "interval: floor ±{} % (the variation between runs, not measured), {procs}",
+                    fmt(100.0 * self.floor)
+                ),
+                None,
+            )
+        } else {
+            (format!("interval between {procs}"), Some(p))
+        })
+    }
+}
+
 /// `x` before `y` in an ordering (strict: below `y·(1 − margin)`), with intervals (of the
-/// paired ratio where they were timed together).
-fn before(x: &Value, y: &Value, strict: bool, margin: f64, floor: f64) -> Verdict {
+/// paired ratio where they were timed together; between processes where measured there).
+fn before(x: &Value, y: &Value, strict: bool, margin: f64, cmp: &Cmp) -> Verdict {
     if x.timed || y.timed {
-        let r = floor_iv(ratio(x, y), floor);
+        let r = cmp.ratio(x, y);
         let f = if strict { 1.0 - margin } else { 1.0 };
         return if (strict && r[2] < f) || (!strict && r[2] <= f) {
             Verdict::Agree
@@ -682,10 +943,10 @@ fn before(x: &Value, y: &Value, strict: bool, margin: f64, floor: f64) -> Verdic
 }
 
 /// `x` above `y` by the margin (strict), with intervals.
-fn above(x: &Value, y: &Value, margin: f64, floor: f64) -> Verdict {
+fn above(x: &Value, y: &Value, margin: f64, cmp: &Cmp) -> Verdict {
     let f = 1.0 + margin;
     if x.timed || y.timed {
-        let r = floor_iv(ratio(x, y), floor);
+        let r = cmp.ratio(x, y);
         return if r[0] > f {
             Verdict::Agree
         } else if r[2] <= f {
@@ -715,9 +976,10 @@ fn all_of(vs: impl IntoIterator<Item = Verdict>) -> Verdict {
     out
 }
 
-/// Ratio `n / d` with its interval (paired round by round where they were timed together).
+/// Ratio `n / d` with its interval within one run (paired round by round where they were
+/// timed together).
 fn ratio(n: &Value, d: &Value) -> [f64; 3] {
-    if n.paired(d) {
+    if n.paired(d) && n.per_process.is_empty() {
         return paired_ratio(n, d);
     }
     [
@@ -735,28 +997,15 @@ fn ratio(n: &Value, d: &Value) -> [f64; 3] {
 /// quantity with its interval (band tests), why.
 type Outcome = (Verdict, String, Option<[f64; 3]>, String);
 
-/// `d`, widened to at least the between-process floor when the comparison is timed.
-fn floored(d: [f64; 3], timed: bool, floor: f64) -> [f64; 3] {
-    if timed {
-        floor_iv(d, floor)
-    } else {
-        d
-    }
-}
-
-/// Run the test on one group's values.
-fn run_test(test: &Test, vals: &BTreeMap<String, Value>, floor: f64) -> Outcome {
+/// Run the test on one group's values; with the processes its time intervals were measured
+/// between (`None`: the floor, or no timing).
+fn run_test(test: &Test, vals: &BTreeMap<String, Value>, floor: f64) -> (Outcome, Option<usize>) {
     let v = |n: &str| &vals[n];
-    let timed = vals.values().any(|x| x.timed);
-    // A timed comparison's interval is at least the between-process floor.
-    let fl = |d: [f64; 3]| floored(d, timed, floor);
-    let ratio = |a: &Value, b: &Value| fl(ratio(a, b));
-    let banded = |d: [f64; 3], min, max, pct: bool| banded(d, min, max, pct, timed, floor);
-    match test {
-        Test::Value { of, min, max } => {
-            let x = v(of);
-            banded(fl([x.lo, x.v, x.hi]), *min, *max, false)
-        }
+    let cmp = Cmp::new(floor, vals.values().any(|x| x.timed));
+    let ratio = |a: &Value, b: &Value| cmp.ratio(a, b);
+    let banded = |d: [f64; 3], min, max, pct: bool| banded(d, min, max, pct, &cmp);
+    let (verdict, shown, derived, why) = match test {
+        Test::Value { of, min, max } => banded(cmp.value(v(of)), *min, *max, false),
         Test::Ratio { num, den, min, max } => banded(ratio(v(num), v(den)), *min, *max, false),
         Test::Speedup { of, base, min, max } => banded(ratio(v(base), v(of)), *min, *max, false),
         Test::Gain { of, base, min, max } => {
@@ -772,29 +1021,26 @@ fn run_test(test: &Test, vals: &BTreeMap<String, Value>, floor: f64) -> Outcome 
             rows,
             strict,
             margin,
-        } => order_test(rows, *strict, *margin, vals, timed, floor),
+        } => order_test(rows, *strict, *margin, vals, &cmp),
         Test::Least {
             best,
             of,
             margin,
             direction,
-        } => least_test(best, of, *margin, *direction, vals, timed, floor),
-        Test::Equal { a, b, tolerance } => equal_test(a, b, *tolerance, vals, timed, floor),
+        } => least_test(best, of, *margin, *direction, vals, &cmp),
+        Test::Equal { a, b, tolerance } => equal_test(a, b, *tolerance, vals, &cmp),
+    };
+    match cmp.said() {
+        Some((said, between)) => ((verdict, shown, derived, format!("{why}; {said}")), between),
+        None => ((verdict, shown, derived, why), None),
     }
 }
 
 /// A band test's outcome: the compared quantity `d` (percent when `pct`) in `min..=max`.
-fn banded(
-    d: [f64; 3],
-    min: Option<f64>,
-    max: Option<f64>,
-    pct: bool,
-    timed: bool,
-    floor: f64,
-) -> Outcome {
+fn banded(d: [f64; 3], min: Option<f64>, max: Option<f64>, pct: bool, cmp: &Cmp) -> Outcome {
     let verdict = band_verdict(d[0], d[2], min, max);
     let unit = if pct { " %" } else { "" };
-    let shown = if timed {
+    let shown = if cmp.timed {
         format!("{}{unit} [{}, {}]", fmt(d[1]), fmt(d[0]), fmt(d[2]))
     } else {
         format!("{}{unit}", fmt(d[1]))
@@ -802,10 +1048,10 @@ fn banded(
     let why = match verdict {
         Verdict::Agree => format!("in {}", band_text(min, max)),
         Verdict::Disagree => format!("outside {}", band_text(min, max)),
-        Verdict::Inconclusive if timed => format!(
+        Verdict::Inconclusive if cmp.floored() => format!(
             "interval straddles {} (a time's is at least ±{} %: the variation between runs)",
             band_text(min, max),
-            fmt(100.0 * floor)
+            fmt(100.0 * cmp.floor)
         ),
         Verdict::Inconclusive | Verdict::Undecidable => {
             format!("interval straddles {}", band_text(min, max))
@@ -820,13 +1066,13 @@ fn order_test(
     strict: bool,
     margin: f64,
     vals: &BTreeMap<String, Value>,
-    timed: bool,
-    floor: f64,
+    cmp: &Cmp,
 ) -> Outcome {
     let v = |n: &str| &vals[n];
+    let timed = cmp.timed;
     let verdicts: Vec<Verdict> = rows
         .windows(2)
-        .map(|w| before(v(&w[0]), v(&w[1]), strict, margin, floor))
+        .map(|w| before(v(&w[0]), v(&w[1]), strict, margin, cmp))
         .collect();
     // Each neighbour pair with the relation measured (`<`, `=`, `>`).
     let mut shown = String::new();
@@ -869,18 +1115,18 @@ fn least_test(
     margin: f64,
     direction: Direction,
     vals: &BTreeMap<String, Value>,
-    timed: bool,
-    floor: f64,
+    cmp: &Cmp,
 ) -> Outcome {
     let v = |n: &str| &vals[n];
+    let timed = cmp.timed;
     let b = v(best);
     let verdicts: Vec<(Verdict, &String)> = of
         .iter()
         .map(|o| {
             let x = v(o);
             let r = match direction {
-                Direction::Lowest => before(b, x, true, margin, floor),
-                Direction::Highest => above(b, x, margin, floor),
+                Direction::Lowest => before(b, x, true, margin, cmp),
+                Direction::Highest => above(b, x, margin, cmp),
             };
             (r, o)
         })
@@ -935,11 +1181,11 @@ fn equal_test(
     b: &str,
     tolerance: f64,
     vals: &BTreeMap<String, Value>,
-    timed: bool,
-    floor: f64,
+    cmp: &Cmp,
 ) -> Outcome {
     let (x, y) = (&vals[a], &vals[b]);
-    let r = floored(ratio(x, y), timed, floor);
+    let timed = cmp.timed;
+    let r = cmp.ratio(x, y);
     let verdict = if timed {
         band_verdict(r[0], r[2], Some(1.0 - tolerance), Some(1.0 + tolerance))
     } else if (x.v - y.v).abs() <= tolerance * x.v.abs().max(y.v.abs()) {
@@ -1006,7 +1252,9 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
         results.extend(missing_groups(c, &groups));
     }
     let (verdict, ours, why) = combine(c, device, &results, &base, set);
-    let undecidable = super::kinds::undecidable(c, opts.time_floor);
+    // Measured: every group's time interval was measured between processes.
+    let measured = !results.is_empty() && results.iter().all(|g| g.between.is_some());
+    let undecidable = super::kinds::undecidable(c, opts.time_floor, measured);
     let (verdict, why) = match &undecidable {
         Some(r) if verdict == Verdict::Inconclusive => {
             (Verdict::Undecidable, format!("undecidable: {r} ({why})"))
@@ -1102,6 +1350,7 @@ fn missing_groups(c: &Claim, groups: &BTreeSet<String>) -> Vec<GroupResult> {
                 shown: "—".into(),
                 derived: None,
                 why: format!("rows missing: no rows for {k} = {shown}"),
+                between: None,
                 values: BTreeMap::new(),
             });
         }
@@ -1153,8 +1402,8 @@ fn evaluate_group(
         }
     }
     if problems.is_empty() {
-        let (verdict, shown, derived, why) = run_test(&c.test, &vals, opts.time_floor);
-        let (verdict, mut why) = timing_caveats(&vals, verdict, why);
+        let ((verdict, shown, derived, why), between) = run_test(&c.test, &vals, opts.time_floor);
+        let (verdict, mut why) = timing_caveats(&vals, verdict, why, between.is_some());
         for p in &picked {
             why.push_str(&format!("; {p}"));
         }
@@ -1164,6 +1413,7 @@ fn evaluate_group(
             shown,
             derived,
             why,
+            between,
             values: vals,
         }
     } else {
@@ -1173,6 +1423,7 @@ fn evaluate_group(
             shown: "—".into(),
             derived: None,
             why: problems.join("; "),
+            between: None,
             values: vals,
         }
     }
@@ -1210,12 +1461,14 @@ fn mixed_configs(rows: &[&Row]) -> Option<String> {
 }
 
 /// The test's verdict and why, with the caveats of the timed values: too few runs, a
-/// software GPU adapter or noisy rows make it inconclusive (noisy rows timed interleaved
-/// only a note).
+/// software GPU adapter or noisy rows make it inconclusive (noisy rows are only a note where
+/// they were timed interleaved, or where the interval was measured between processes
+/// (`between`): their disturbance is then in the spread it measures).
 fn timing_caveats(
     vals: &BTreeMap<String, Value>,
     mut verdict: Verdict,
     mut why: String,
+    between: bool,
 ) -> (Verdict, String) {
     let noisy: usize = vals.values().map(|v| v.noisy).sum();
     let software: usize = vals.values().map(|v| v.software).sum();
@@ -1234,6 +1487,9 @@ fn timing_caveats(
         // Load fell on every row alike: the round-by-round ratio is what is judged.
         why =
             format!("{noisy} timed rows noisy, compared round by round (timed interleaved); {why}");
+    } else if noisy > 0 && between {
+        // The disturbed process's value is one of those whose spread gives the interval.
+        why = format!("{noisy} timed rows noisy, in the spread between processes; {why}");
     } else if noisy > 0 {
         why = format!("{noisy} of the timed rows are noisy; {why}");
         verdict = Verdict::Inconclusive;
@@ -1406,6 +1662,29 @@ mod tests {
         assert!(Measure::parse("build:paper_bytes").is_ok());
         assert!(Measure::parse("Bad Name").is_err());
         assert!(Measure::parse("time").unwrap().timed());
+    }
+
+    /// Student's t on the logs: log values -1, 0, 1 (mean 0, standard deviation 1) give
+    /// `exp(±t(0.975, 2) / √3)` around 1; fewer than three processes, or a value not above 0,
+    /// give none; a ratio's inverse gets the mirrored interval.
+    #[test]
+    fn intervals_between_processes_are_t_intervals_on_logs() {
+        let e = std::f64::consts::E;
+        let iv = between_processes(&[1.0 / e, 1.0, e]).unwrap();
+        let h = 4.303 / 3f64.sqrt();
+        assert!((iv[0] - (-h).exp()).abs() < 1e-12 && (iv[1] - 1.0).abs() < 1e-12);
+        assert!((iv[2] - h.exp()).abs() < 1e-12, "{iv:?}");
+        assert!(between_processes(&[1.0, 2.0]).is_none());
+        assert!(between_processes(&[1.0, 2.0, 0.0]).is_none());
+        let xs = [0.8, 0.9, 0.85, 0.95];
+        let inv: Vec<f64> = xs.iter().map(|x| 1.0 / x).collect();
+        let (a, b) = (
+            between_processes(&xs).unwrap(),
+            between_processes(&inv).unwrap(),
+        );
+        assert!((a[0] * b[2] - 1.0).abs() < 1e-12 && (a[2] * b[0] - 1.0).abs() < 1e-12);
+        // More processes, a smaller quantile: the table's last entries and beyond.
+        assert!(t975(2) > t975(3) && t975(30) > t975(31) && (t975(60) - 2.0).abs() < 0.002);
     }
 
     #[test]

@@ -1,16 +1,22 @@
 //! What a claim is ([`ClaimKind`]) and whether it can be decided at all: a claim whose time
-//! band is narrower than the floor between runs can never agree, whatever is measured, and a
-//! claim may say why it cannot be decided (`undecidable = "…"`). Both are known before any row
-//! is read; the evaluator then shows `undecidable` where it would show `inconclusive`.
+//! band is narrower than the floor between runs can never agree while its intervals are the
+//! floor's, a time band of no width never, and a claim may say why it cannot be decided
+//! (`undecidable = "…"`). The evaluator then shows `undecidable` where it would show
+//! `inconclusive`.
 
 use super::measure::{fmt, Measure};
 use super::schema::{Claim, Test};
 
-/// Why `c` cannot be decided, before measuring: its own `undecidable` reason, or a time band
-/// narrower than the floor `floor` (a time's interval is at least `v / (1 + floor) ..
+/// Why `c` cannot be decided: its own `undecidable` reason (known before measuring), or its
+/// time band. While a time's interval is the floor's (`measured` false: fewer than
+/// [`super::eval::MIN_PROCESSES`] processes), it is at least `v / (1 + floor) ..
 /// v · (1 + floor)`, so a band `[min, max]` with `max / min < (1 + floor)²` can never hold the
-/// whole interval: the claim can come out outside its band, never inside).
-pub(crate) fn undecidable(c: &Claim, floor: f64) -> Option<String> {
+/// whole interval: the claim can come out outside its band, never inside. Where every group's
+/// interval was measured between processes (`measured`), its width is what the processes'
+/// spread gives, which no rule known before the rows bounds from below: a band is then
+/// undecidable only when it has no width (`min = max`, a tolerance of 0), which no interval of
+/// a time can lie in.
+pub(crate) fn undecidable(c: &Claim, floor: f64, measured: bool) -> Option<String> {
     if let Some(r) = &c.undecidable {
         return Some(r.clone());
     }
@@ -19,6 +25,14 @@ pub(crate) fn undecidable(c: &Claim, floor: f64) -> Option<String> {
         return None;
     }
     let (lo, hi, shown) = ratio_band(&c.test)?;
+    if measured {
+        return (lo > 0.0 && hi <= lo).then(|| {
+            format!(
+                "the band {shown} has no width: a time's interval, measured between processes, \
+                 has some"
+            )
+        });
+    }
     let need = (1.0 + floor) * (1.0 + floor);
     (lo > 0.0 && hi / lo < need).then(|| {
         format!(

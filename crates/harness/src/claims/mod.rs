@@ -11,7 +11,7 @@
 //! paper. Nothing here knows a paper or a structure: the files name columns, and any CSV a run
 //! writes (`results.csv`, `dynamic.csv`, `weights.csv`) can be read ([`rows::RowSet`]).
 
-mod child;
+pub(crate) mod child;
 mod columns;
 pub mod deviations;
 mod eval;

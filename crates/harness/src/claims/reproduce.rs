@@ -4,9 +4,11 @@
 //! Each `[[run]]` of a claims file is a child `trace-bench` process (a failed or killed run
 //! leaves the others and its own finished rows; rerunning with the same `--out` reuses every
 //! run whose `results.json` says `complete`, and resumes the others). The budget is shared by
-//! the runs' declared costs (`cost_s`, measured on the 2-core reference machine): when they do
-//! not fit, the images of `scalable` runs shrink by one factor (the variable part of a run's
-//! cost is taken as proportional to its pixels), and the report says so.
+//! the runs' declared costs (`cost_s`, measured on the 2-core reference machine, times the
+//! run's `processes`): when they do not fit, the images of `scalable` runs shrink by one factor
+//! (the variable part of a run's cost is taken as proportional to its pixels), and the report
+//! says so. A run of several processes (`run --processes`) is reported with the spread of its
+//! rows' times between them ([`Spread`]).
 
 use super::deviations::{self, Resolved};
 use super::eval::{evaluate, ClaimResult, Verdict};
@@ -73,6 +75,77 @@ pub struct PlannedRun {
     pub reused_from: Option<String>,
     /// Why a `heavy` run is not made (it is reused where an earlier reproduce made it).
     pub left_out: Option<String>,
+    /// Processes the run is made in (`run --processes`).
+    pub processes: usize,
+    /// How its rows' times moved between its processes (with more than one).
+    pub spread: Option<Spread>,
+}
+
+/// How the same rows' times moved between the processes of a run: per row timed in two
+/// processes or more, `(max − min) / median` of its `trace_ms_median` over the processes.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Spread {
+    /// The processes whose rows are in the folder.
+    pub processes: usize,
+    /// Rows timed in two processes or more.
+    pub rows: usize,
+    /// The median and the largest of the rows' spreads (fractions).
+    pub median: f64,
+    pub max: f64,
+    /// The row of the largest (`scene structure traversal ray_kind threads`).
+    pub worst: String,
+}
+
+/// The spread between processes of the rows in a run folder's `results.csv`; `None` without
+/// rows of two processes.
+pub fn spread(folder: &Path) -> Option<Spread> {
+    use std::collections::BTreeMap;
+    let rows = crate::results::output::read_csv(&folder.join("results.csv")).ok()?;
+    let mut by: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    let mut procs = std::collections::BTreeSet::new();
+    for r in &rows {
+        let (Some(p), Some(ms)) = (r.process, r.trace_ms_median) else {
+            continue;
+        };
+        procs.insert(p);
+        let params = if r.params.is_empty() {
+            String::new()
+        } else {
+            format!(" [{}]", r.params)
+        };
+        let key = format!(
+            "{} {}{params} {} {} {} {}t",
+            r.scene, r.structure, r.traversal, r.triangle_test, r.ray_kind, r.threads
+        );
+        by.entry(key).or_default().push(ms);
+    }
+    let mut s: Vec<(f64, String)> = by
+        .into_iter()
+        .filter(|(_, v)| v.len() > 1)
+        .map(|(k, mut v)| {
+            let med = crate::experiment::timing::median(&mut v);
+            let (lo, hi) = v
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+                    (a.min(*x), b.max(*x))
+                });
+            ((hi - lo) / med, k)
+        })
+        .filter(|(x, _)| x.is_finite())
+        .collect();
+    if s.is_empty() {
+        return None;
+    }
+    s.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut xs: Vec<f64> = s.iter().map(|x| x.0).collect();
+    let (max, worst) = s.pop().expect("not empty");
+    Some(Spread {
+        processes: procs.len(),
+        rows: xs.len(),
+        median: crate::experiment::timing::median(&mut xs),
+        max,
+        worst,
+    })
 }
 
 /// One paper's outcome.
@@ -148,20 +221,27 @@ fn wanted(r: &RunSpec, devices: &[String]) -> bool {
 }
 
 /// The image scale that fits `runs` into `budget_s` (1 when they fit as declared), and the
-/// estimate at that scale.
+/// estimate at that scale; a run of several processes costs each of them
+/// ([`RunSpec::total_s`]).
 pub fn fit(runs: &[&RunSpec], budget_s: f64) -> (f64, f64) {
-    let total: f64 = runs.iter().map(|r| r.cost_s).sum();
+    let total: f64 = runs.iter().map(|r| r.total_s()).sum();
     if total <= budget_s {
         return (1.0, total);
     }
     let fixed: f64 = runs
         .iter()
-        .map(|r| if r.scalable { r.fixed_s } else { r.cost_s })
+        .map(|r| {
+            if r.scalable {
+                r.total_fixed_s()
+            } else {
+                r.total_s()
+            }
+        })
         .sum();
     let var: f64 = runs
         .iter()
         .filter(|r| r.scalable)
-        .map(|r| r.cost_s - r.fixed_s)
+        .map(|r| r.total_s() - r.total_fixed_s())
         .sum();
     if var <= 0.0 {
         return (1.0, total);
@@ -173,7 +253,7 @@ pub fn fit(runs: &[&RunSpec], budget_s: f64) -> (f64, f64) {
 /// Whether the `heavy` runs among `runs` are made: with `--heavy`, or when every run fits the
 /// budget as declared (heavy runs are never shrunk: their cost is their builds).
 pub fn heavy_included(runs: &[&RunSpec], budget_s: f64, heavy: bool) -> bool {
-    heavy || runs.iter().map(|r| r.cost_s).sum::<f64>() <= budget_s
+    heavy || runs.iter().map(|r| r.total_s()).sum::<f64>() <= budget_s
 }
 
 /// The smallest pixel scale reproduce applies (1/64 of the pixels: 1024² → 128²).
@@ -233,6 +313,10 @@ fn run_args(r: &RunSpec, sets: &[String], folder: &Path, opts: &Options) -> Vec<
     if r.interleave && !sets.iter().any(|s| s.starts_with("run.interleave")) {
         a.push("--set".into());
         a.push("run.interleave=true".into());
+    }
+    if r.processes > 1 {
+        a.push("--processes".into());
+        a.push(r.processes.to_string());
     }
     if !r.structure.is_empty() {
         a.push("--structure".into());
@@ -314,7 +398,7 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
         .filter(|r| with_heavy || !r.heavy)
         .collect();
     let (scale, _) = fit(&made, opts.budget_s);
-    let all_cost: f64 = all.iter().map(|r| r.cost_s).sum();
+    let all_cost: f64 = all.iter().map(|r| r.total_s()).sum();
     let mut out = Vec::new();
     for (path, file) in files {
         let key = stem(&path);
@@ -336,16 +420,16 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
             let left_out = (r.heavy && !with_heavy).then(|| {
                 format!(
                     "left out (heavy, {:.0} s): --heavy or a budget of {:.0} s makes it",
-                    r.cost_s,
+                    r.total_s(),
                     (all_cost / RUNS_SHARE).ceil()
                 )
             });
             let scale = if r.heavy { 1.0 } else { scale };
             let (sets, scaled) = scaled_sets(r, scale);
             let cost = if r.scalable && scaled.as_deref().is_some_and(|s| !s.starts_with("not")) {
-                r.fixed_s + scale * (r.cost_s - r.fixed_s)
+                r.total_fixed_s() + scale * (r.total_s() - r.total_fixed_s())
             } else {
-                r.cost_s
+                r.total_s()
             };
             runs.push(PlannedRun {
                 paper: key.clone(),
@@ -361,6 +445,8 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
                 reused: false,
                 reused_from: None,
                 left_out,
+                processes: r.processes,
+                spread: None,
             });
         }
         out.push((path, file, runs));
@@ -418,6 +504,7 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
     for (path, file, mut runs) in planned {
         for r in &mut runs {
             make_run(r, opts)?;
+            r.spread = spread(&r.folder);
         }
         let mut sources: Vec<PathBuf> = runs
             .iter()
@@ -707,6 +794,7 @@ fn write_report(
             ));
         }
         md.push('\n');
+        md.push_str(&spread_table(r));
         md.push_str(&render::markdown(&r.claims));
     }
     write(&opts.out.join("REPORT.md"), &md)?;
@@ -729,6 +817,49 @@ fn write_report(
         &opts.out.join("verdicts.json"),
         &serde_json::to_string_pretty(&json).unwrap_or_default(),
     )
+}
+
+/// The table of the paper's runs made in several processes: the processes and how far the
+/// same rows' median times moved between them (empty when no run has several).
+fn spread_table(r: &PaperReport) -> String {
+    if r.runs.iter().all(|p| p.processes <= 1) {
+        return String::new();
+    }
+    let mut s = String::from(
+        "Between processes (`run --processes`): per row timed in several processes, \
+         `(max − min) / median` of its median time over them. A compared time of rows from \
+         3 processes or more gets its interval from their spread, else the floor ±20 %.\n\n\
+         | run | processes | rows | median spread | largest spread (row) |\n|---|---|---|---|---|\n",
+    );
+    for p in &r.runs {
+        let label = format!(
+            "`{}`",
+            p.folder
+                .file_name()
+                .map_or_else(|| p.label.clone(), |f| f.to_string_lossy().into_owned())
+        );
+        match &p.spread {
+            Some(x) => s.push_str(&format!(
+                "| {label} | {} | {} | {:.1} % | {:.1} % ({}) |\n",
+                x.processes,
+                x.rows,
+                100.0 * x.median,
+                100.0 * x.max,
+                x.worst.replace('|', "\\|")
+            )),
+            None => s.push_str(&format!(
+                "| {label} | {} | — | — | {} |\n",
+                p.processes,
+                if p.processes > 1 {
+                    "no rows timed in two processes"
+                } else {
+                    "one process: the floor"
+                }
+            )),
+        }
+    }
+    s.push('\n');
+    s
 }
 
 /// The counts of every kind in one line: the claims' tally, then the others' (not tallied).
@@ -860,10 +991,29 @@ mod tests {
             device: None,
             cost_s: cost,
             fixed_s: fixed,
+            processes: 1,
             scalable,
             interleave: true,
             heavy: false,
             note: None,
+        }
+    }
+
+    /// Options of a quiet reproduce on the CPU into `o`, no paper yet.
+    fn options() -> Options {
+        Options {
+            papers: vec![],
+            budget_s: 0.0,
+            devices: vec!["cpu".into()],
+            out: "o".into(),
+            exe: "trace-bench".into(),
+            scenes_root: None,
+            with: vec![],
+            sets: vec![],
+            adapter: None,
+            budget_text: String::new(),
+            heavy: false,
+            quiet: true,
         }
     }
 
@@ -897,16 +1047,9 @@ mod tests {
         let opts = |budget_s: f64, heavy: bool| Options {
             papers: vec![file.clone()],
             budget_s,
-            devices: vec!["cpu".into()],
             out: dir.path().join("out"),
-            exe: "trace-bench".into(),
-            scenes_root: None,
-            with: vec![],
-            sets: vec![],
-            adapter: None,
-            budget_text: String::new(),
             heavy,
-            quiet: true,
+            ..options()
         };
         let runs = |o: &Options| plan(o).unwrap().remove(0).2;
         let small = runs(&opts(100.0, false));
@@ -929,6 +1072,65 @@ mod tests {
         assert!((f - 0.5).abs() < 1e-12 && (est - 110.0).abs() < 1e-9);
         // Never below the smallest scale.
         assert_eq!(fit(&[&a, &b], 10.0).0, MIN_SCALE);
+    }
+
+    /// A run of three processes costs three times its declared process, fixed part too.
+    #[test]
+    fn fitting_counts_every_process() {
+        let a = RunSpec {
+            processes: 3,
+            ..spec(100.0, 20.0, true)
+        };
+        let b = spec(50.0, 50.0, false);
+        assert_eq!(fit(&[&a, &b], 350.0), (1.0, 350.0));
+        // 60 + 50 fixed, 240 variable: 230 s leaves 120 s, half the pixels.
+        let (f, est) = fit(&[&a, &b], 230.0);
+        assert!((f - 0.5).abs() < 1e-12 && (est - 230.0).abs() < 1e-9);
+        assert!(!heavy_included(&[&a, &b], 349.0, false));
+        let opts = options();
+        let args = run_args(&a, &a.set, Path::new("o/r"), &opts);
+        assert!(
+            args.windows(2).any(|w| w == ["--processes", "3"]),
+            "{args:?}"
+        );
+        assert!(!run_args(&b, &b.set, Path::new("o/r"), &opts).contains(&"--processes".into()));
+    }
+
+    /// The spread of a run's rows between its processes: per row `(max − min) / median`, the
+    /// median and the largest over the rows timed in two processes or more.
+    #[test]
+    fn spreads_between_processes_per_row() {
+        use crate::results::output::{write_all, Row};
+        let dir = tempfile::tempdir().unwrap();
+        let row = |scene: &str, p: u32, ms: f64| Row {
+            scene: scene.into(),
+            process: Some(p),
+            trace_ms_median: Some(ms),
+            ..Default::default()
+        };
+        let rows = [
+            row("a", 0, 10.0),
+            row("a", 1, 12.0),
+            row("a", 2, 11.0),
+            row("b", 0, 20.0),
+            row("b", 1, 20.0),
+            row("b", 2, 21.0),
+            row("c", 0, 5.0),
+        ];
+        write_all(dir.path(), serde_json::json!({}), &rows).unwrap();
+        let s = spread(dir.path()).expect("rows of three processes");
+        assert_eq!((s.processes, s.rows), (3, 2));
+        assert!(
+            (s.max - 2.0 / 11.0).abs() < 1e-12 && s.worst.starts_with("a "),
+            "{s:?}"
+        );
+        // The median of the two spreads, 2/11 and 1/20.
+        assert!(
+            (s.median - (2.0 / 11.0 + 0.05) / 2.0).abs() < 1e-12,
+            "{s:?}"
+        );
+        write_all(dir.path(), serde_json::json!({}), &rows[6..]).unwrap();
+        assert!(spread(dir.path()).is_none());
     }
 
     #[test]

@@ -72,7 +72,8 @@ impl Row {
             .and_then(|v| v.parse().ok())
     }
 
-    /// The identity of a results row (the row is the same measurement in two folders).
+    /// The identity of a results row (the row is the same measurement in two folders; the
+    /// same row of two processes of a run, `process`, is two measurements).
     fn identity(&self) -> String {
         if self.file == "results" {
             [
@@ -84,6 +85,7 @@ impl Row {
                 "threads",
                 "triangle_test",
                 "ray_kind",
+                "process",
             ]
             .iter()
             .map(|c| self.get(c).unwrap_or(""))

@@ -46,12 +46,18 @@ pub struct RunSpec {
     /// `--device` (a run naming `gpu` is left out unless reproduce is asked for the GPU).
     #[serde(default)]
     pub device: Option<Vec<String>>,
-    /// Wall seconds of the run as declared, measured on the 2-core reference machine.
+    /// Wall seconds of one process of the run as declared, measured on the 2-core reference
+    /// machine (reproduce plans `processes` times it: [`RunSpec::total_s`]).
     #[serde(default)]
     pub cost_s: f64,
     /// The part of `cost_s` that does not shrink with the image (loading, builds).
     #[serde(default)]
     pub fixed_s: f64,
+    /// Processes the run is made in (`run --processes`; default 1), for runs whose rows time
+    /// claims compare: with three or more their intervals are measured between processes
+    /// (`claims::MIN_PROCESSES`) instead of the floor.
+    #[serde(default = "one")]
+    pub processes: usize,
     /// Whether reproduce may shrink the images (same aspect) to fit its budget.
     #[serde(default)]
     pub scalable: bool,
@@ -146,6 +152,22 @@ impl ClaimKind {
 
 fn yes() -> bool {
     true
+}
+
+fn one() -> usize {
+    1
+}
+
+impl RunSpec {
+    /// Wall seconds of the whole run: `processes` times `cost_s`.
+    pub fn total_s(&self) -> f64 {
+        self.cost_s * self.processes as f64
+    }
+
+    /// The part of [`RunSpec::total_s`] that does not shrink with the image.
+    pub fn total_fixed_s(&self) -> f64 {
+        self.fixed_s * self.processes as f64
+    }
 }
 
 fn default_devices() -> Vec<String> {
@@ -454,6 +476,15 @@ impl ClaimsFile {
             }
             if !(r.cost_s >= 0.0 && r.fixed_s >= 0.0 && r.fixed_s <= r.cost_s.max(r.fixed_s)) {
                 return Err(err("cost_s and fixed_s must be seconds >= 0".into()));
+            }
+            let max = crate::experiment::processes::MAX;
+            if !(1..=max).contains(&r.processes) {
+                return Err(err(format!("processes must be 1 to {max}")));
+            }
+            if r.processes > 1 && r.exec.is_some() {
+                return Err(err(
+                    "processes: only a `config` run is made in several processes".into(),
+                ));
             }
         }
         Ok(())

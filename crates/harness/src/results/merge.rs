@@ -435,7 +435,7 @@ fn merge_csv(
 
 /// Copy the image files under `from` into `to` (not `index.csv`, merged apart); a file that is
 /// already there (a scene's render, written by every shard of the scene) is kept.
-fn copy_images(from: &Path, to: &Path) -> Result<(), HarnessError> {
+pub(crate) fn copy_images(from: &Path, to: &Path) -> Result<(), HarnessError> {
     if !from.is_dir() {
         return Ok(());
     }

@@ -36,6 +36,11 @@ macro_rules! define_row {
             /// The machine the row ran on (host name; rows of several machines can be merged).
             #[serde(default)]
             pub host: String,
+            /// Which of the run's processes timed the row (`run --processes K`: 0..K-1, the
+            /// odd ones with the structure entries in reverse order); empty for a run of one
+            /// process. The same row of several processes is one measurement each.
+            #[serde(default)]
+            pub process: Option<u32>,
             pub threads: u32,
             pub triangle_test: String,
             pub ray_kind: String,
@@ -164,6 +169,8 @@ pub struct RowKey {
     pub threads: u32,
     pub triangle_test: String,
     pub ray_kind: String,
+    /// The run's process (`run --processes K`), `None` for a run of one process.
+    pub process: Option<u32>,
 }
 
 impl Row {
@@ -177,6 +184,7 @@ impl Row {
             threads: self.threads,
             triangle_test: self.triangle_test.clone(),
             ray_kind: self.ray_kind.clone(),
+            process: self.process,
         }
     }
 }

@@ -79,6 +79,7 @@ struct RawRun {
     target_ci: Option<Spanned<f64>>,
     max_row_seconds: Option<Spanned<f64>>,
     interleave: Option<bool>,
+    processes: Option<Spanned<u32>>,
     warmup: Option<u32>,
     build_repeat: Option<Spanned<u32>>,
     triangle_test: Option<Spanned<OneOrMany<String>>>,
@@ -199,6 +200,10 @@ pub struct Experiment {
     pub config_hash: String,
     /// `[dynamic]`: per-frame rebuilds within frame budgets ([`crate::report::dynamic`]).
     pub dynamic: Option<dynamic::DynamicSpec>,
+    /// `--process I/K`: this run is process `I` of a `run --processes K`
+    /// ([`crate::experiment::processes`]): its rows carry `process = I`, and for odd `I` the
+    /// structure entries run in reverse order.
+    pub process: Option<crate::experiment::processes::Process>,
 }
 
 /// Overrides from the command line.
@@ -221,6 +226,8 @@ pub struct Overrides {
     pub structures: Vec<String>,
     /// `--shard K/N`: run only this shard's work units ([`crate::cluster::shard`]).
     pub shard: Option<crate::cluster::shard::Shard>,
+    /// `--process I/K`: run as process `I` of `K` ([`crate::experiment::processes`]).
+    pub process: Option<crate::experiment::processes::Process>,
 }
 
 impl Overrides {
@@ -299,6 +306,12 @@ pub fn parse_with(
     let mut raw: RawConfig = toml::from_str(text).map_err(|e| syntax_error(file, text, &e))?;
 
     overrides::filter(&cx, &mut raw, &ov.scenes, &ov.structures)?;
+    if let Some(p) = ov.process {
+        check_process(&cx, &raw, ov, p)?;
+        if p.reversed() {
+            raw.structures.reverse();
+        }
+    }
     let name = experiment_name(&cx, &raw, file_arg)?;
     let scenes_root = scenes_root_of(ov, &raw);
 
@@ -361,7 +374,65 @@ pub fn parse_with(
         shard,
         config_hash: config_hash(text, ov),
         dynamic,
+        process: ov.process,
     })
+}
+
+/// `--process I/K` is refused beside `--shard` (a process runs the whole config) and with
+/// `[dynamic]` (its frames are written to dynamic.csv, not as rows a process tags).
+fn check_process(
+    cx: &Ctx,
+    raw: &RawConfig,
+    ov: &Overrides,
+    p: crate::experiment::processes::Process,
+) -> Result<(), HarnessError> {
+    if ov.shard.is_some() {
+        return Err(cx.err(
+            0..0,
+            "run.processes",
+            format!("process {p} of a run cannot be sharded: drop --shard or --processes"),
+        ));
+    }
+    if raw.dynamic.is_some() {
+        return Err(cx.err(
+            0..0,
+            "run.processes",
+            "a [dynamic] run writes frames (dynamic.csv), not rows a process tags: run it as \
+             one process",
+        ));
+    }
+    Ok(())
+}
+
+/// What `run --processes` reads before it starts its processes, without loading a scene:
+/// the experiment's name (the default output folder) and `run.processes` (1 when absent), from
+/// `file` with the `--set` edits of `ov`. The syntax and the keys are checked as [`load`]
+/// checks them; everything else is checked by each process.
+pub fn peek(file: &Path, ov: &Overrides) -> Result<(String, usize), HarnessError> {
+    let text = std::fs::read_to_string(file).map_err(|e| HarnessError::io(file, e))?;
+    let edited;
+    let (text, shown) = if ov.sets.is_empty() {
+        (text.as_str(), file.to_path_buf())
+    } else {
+        edited = overrides::apply_sets(&file.display().to_string(), &text, &ov.sets)?;
+        (
+            edited.as_str(),
+            PathBuf::from(format!("{} (with --set)", file.display())),
+        )
+    };
+    let cx = Ctx { file: &shown, text };
+    let raw: RawConfig = toml::from_str(text).map_err(|e| syntax_error(&shown, text, &e))?;
+    let name = experiment_name(&cx, &raw, file)?;
+    let processes = run::check_processes(&cx, &raw.run)?;
+    if processes > 1 && raw.dynamic.is_some() {
+        return Err(cx.err(
+            0..0,
+            "run.processes",
+            "a [dynamic] run writes frames (dynamic.csv), not rows a process tags: run it as \
+             one process",
+        ));
+    }
+    Ok((name, processes))
 }
 
 /// The experiment's name: the config's `name`, else the file's stem; a plain file name.

@@ -21,6 +21,9 @@ pub struct RunSettings {
     /// device: CPU rows together, GPU rows together) interleaved, round by round, over every
     /// build of the table (`run.interleave`).
     pub interleave: bool,
+    /// Processes `trace-bench run` makes the run in (`run.processes`, `--processes`; default
+    /// 1): see [`crate::experiment::processes`].
+    pub processes: usize,
 }
 
 /// Check `[run]` with the overrides `ov`.
@@ -70,7 +73,22 @@ pub(super) fn check_run(
         validate,
         seed,
         interleave: run.interleave.unwrap_or(false),
+        processes: check_processes(cx, run)?,
     })
+}
+
+/// `run.processes`: 1 to [`crate::experiment::processes::MAX`] (1 when absent).
+pub(super) fn check_processes(cx: &Ctx, run: &RawRun) -> Result<usize, HarnessError> {
+    let max = crate::experiment::processes::MAX;
+    match &run.processes {
+        None => Ok(1),
+        Some(p) if (1..=max as u32).contains(p.get_ref()) => Ok(*p.get_ref() as usize),
+        Some(p) => Err(cx.err(
+            p.span(),
+            "run.processes",
+            format!("must be 1 to {max} (each process repeats the whole run)"),
+        )),
+    }
 }
 
 /// The thread counts: `--threads` (0 = all cores), else `run.threads`, else all cores.

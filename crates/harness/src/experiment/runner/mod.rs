@@ -168,6 +168,9 @@ impl<'a> Run<'a> {
                 if let Some(p) = &exp.shard {
                     meta["shard"] = p.meta();
                 }
+                if let Some(p) = &exp.process {
+                    meta["process"] = p.meta();
+                }
                 Some(Sink::open(&opts.out, meta, opts.resume)?)
             }
             Mode::Validate => None,
@@ -265,6 +268,7 @@ impl<'a> Run<'a> {
         let mut todo: Vec<Vec<Combo>> = Vec::with_capacity(g.views.len());
         for (spec, range) in g.views.iter().zip(g.ranges) {
             let (mut t, skipped) = plan::todo(
+                self.exp.process.map(|p| p.index as u32),
                 &spec.label,
                 st,
                 params_s,
@@ -492,7 +496,10 @@ impl<'a> Run<'a> {
                     continue;
                 }
                 crate::experiment::timing::fill(row, &mut t, b.rays.len(), plan.target_ci);
-                row.timing_group = format!("{}-{stamp}-{k}", g.views[0].table);
+                row.timing_group = match self.exp.process {
+                    Some(p) => format!("{}-{stamp}-p{}-{k}", g.views[0].table, p.index),
+                    None => format!("{}-{stamp}-{k}", g.views[0].table),
+                };
                 row.cpu_others = others;
                 self.note_load(row);
             }
@@ -746,7 +753,8 @@ impl<'a> Run<'a> {
         }
     }
 
-    fn emit(&mut self, row: Row) -> Result<(), HarnessError> {
+    fn emit(&mut self, mut row: Row) -> Result<(), HarnessError> {
+        row.process = self.exp.process.map(|p| p.index as u32);
         let params = varying_params(self.exp, &row.structure, &row.params);
         self.progress.row(&format!(
             "done {} {}{} {} {} {} {}t {}: {}",

@@ -48,8 +48,15 @@ pub fn total_rows(exp: &Experiment, devices: &[(Device, Vec<usize>)]) -> usize {
     per_batch * batches
 }
 
-/// The identity of a row (for `--resume`).
-pub fn key(scene: &str, st: &StructureSpec, params: &str, c: &Combo, batch: &Batch) -> RowKey {
+/// The identity of a row (for `--resume`) of the run's process `process` (`--processes`).
+pub fn key(
+    scene: &str,
+    st: &StructureSpec,
+    params: &str,
+    c: &Combo,
+    batch: &Batch,
+    process: Option<u32>,
+) -> RowKey {
     RowKey {
         scene: scene.to_string(),
         structure: st.family.name.to_string(),
@@ -59,11 +66,14 @@ pub fn key(scene: &str, st: &StructureSpec, params: &str, c: &Combo, batch: &Bat
         threads: c.threads as u32,
         triangle_test: c.tri.name().to_string(),
         ray_kind: batch.name.clone(),
+        process,
     }
 }
 
-/// The rows of one build still to do, in output order, and how many are already done.
+/// The rows of one build still to do, in output order, and how many are already done
+/// (`process`: the run's process, part of each row's identity).
 pub fn todo(
+    process: Option<u32>,
     scene: &str,
     st: &StructureSpec,
     params: &str,
@@ -86,7 +96,7 @@ pub fn todo(
                             dev: *dev,
                             threads,
                         };
-                        if done.contains(&key(scene, st, params, &c, b)) {
+                        if done.contains(&key(scene, st, params, &c, b, process)) {
                             skipped += 1;
                         } else {
                             out.push(c);
