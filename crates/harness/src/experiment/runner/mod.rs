@@ -479,9 +479,13 @@ impl<'a> Run<'a> {
                     }
                 })
                 .collect();
+            // Rounds pair within a group, never across processes.
+            let tg = match self.exp.process {
+                Some(p) => format!("{}-{stamp}-p{}-{k}", g.views[0].table, p.index),
+                None => format!("{}-{stamp}-{k}", g.views[0].table),
+            };
             let before = crate::experiment::timing::CpuSample::now();
             if *dev == DeviceKind::Gpu {
-                let tg = format!("{}-{stamp}-{k}", g.views[0].table);
                 self.time_gpu_interleaved(&jobs, &plan, idx, rows, before, tg);
                 continue;
             }
@@ -496,10 +500,7 @@ impl<'a> Run<'a> {
                     continue;
                 }
                 crate::experiment::timing::fill(row, &mut t, b.rays.len(), plan.target_ci);
-                row.timing_group = match self.exp.process {
-                    Some(p) => format!("{}-{stamp}-p{}-{k}", g.views[0].table, p.index),
-                    None => format!("{}-{stamp}-{k}", g.views[0].table),
-                };
+                row.timing_group = tg.clone();
                 row.cpu_others = others;
                 self.note_load(row);
             }
