@@ -155,6 +155,11 @@ enum Cmd {
         /// The channel (counter) to compare.
         #[arg(long, default_value = "steps")]
         channel: String,
+        /// Also split the mean difference between the rays where this channel is nonzero in A
+        /// or B and the rest (`--split handovers`: how much of it comes from the rays a
+        /// traversal handed to its fallback walk).
+        #[arg(long)]
+        split: Option<String>,
         /// Saturate the colours at ±MAX (default: the 99th percentile of |B − A|).
         #[arg(long)]
         max: Option<f32>,
@@ -313,9 +318,10 @@ fn dispatch(cli: Cli) -> Result<i32> {
             a,
             b,
             channel,
+            split,
             max,
             out,
-        } => cmd_diff(&a, &b, &channel, max, &out),
+        } => cmd_diff(&a, &b, &channel, split.as_deref(), max, &out),
         Cmd::Merge { dirs, out } => cmd_merge(&dirs, &out),
         Cmd::List { markdown, details } => cmd_list(markdown, details),
         Cmd::Reproduce {
@@ -912,7 +918,14 @@ fn cmd_check(baseline: &Path, results: &Path, tolerance: f64) -> Result<i32> {
     }
 }
 
-fn cmd_diff(a: &Path, b: &Path, channel: &str, max: Option<f32>, out: &Path) -> Result<i32> {
+fn cmd_diff(
+    a: &Path,
+    b: &Path,
+    channel: &str,
+    split: Option<&str>,
+    max: Option<f32>,
+    out: &Path,
+) -> Result<i32> {
     let ia = tb_render::Channels::read_exr(a)?;
     let ib = tb_render::Channels::read_exr(b)?;
     if (ia.width, ia.height) != (ib.width, ib.height) {
@@ -926,7 +939,7 @@ fn cmd_diff(a: &Path, b: &Path, channel: &str, max: Option<f32>, out: &Path) -> 
             ia.height
         );
     }
-    let get = |img: &tb_render::Channels, p: &Path| -> Result<Vec<f32>> {
+    let get_channel = |img: &tb_render::Channels, p: &Path, channel: &str| -> Result<Vec<f32>> {
         match img.get(channel) {
             Some(v) => Ok(v.to_vec()),
             None => bail!(
@@ -936,6 +949,7 @@ fn cmd_diff(a: &Path, b: &Path, channel: &str, max: Option<f32>, out: &Path) -> 
             ),
         }
     };
+    let get = |img: &tb_render::Channels, p: &Path| get_channel(img, p, channel);
     let (va, vb) = (get(&ia, a)?, get(&ib, b)?);
     if max.is_some_and(|m| !(m > 0.0 && m.is_finite())) {
         bail!("--max: must be positive");
@@ -954,6 +968,24 @@ fn cmd_diff(a: &Path, b: &Path, channel: &str, max: Option<f32>, out: &Path) -> 
         mb - ma,
         100.0 * (mb - ma) / ma.max(1e-12)
     );
+    if let Some(sc) = split {
+        let (sa, sb) = (get_channel(&ia, a, sc)?, get_channel(&ib, b, sc)?);
+        let mask: Vec<bool> = sa
+            .iter()
+            .zip(&sb)
+            .map(|(x, y)| *x != 0.0 || *y != 0.0)
+            .collect();
+        let d = tb_render::heatmap::split_diff(&va, &vb, &mask);
+        println!(
+            "{channel}: B - A {:+.4} a ray = {:+.4} from the {} rays ({:.3}%) with `{sc}` nonzero in A or B + {:+.4} from the other {}",
+            d.all,
+            d.in_mask,
+            d.masked,
+            100.0 * d.masked as f64 / d.pixels.max(1) as f64,
+            d.rest,
+            d.pixels - d.masked
+        );
+    }
     println!("wrote {} (colour scale ±{scale})", out.display());
     Ok(0)
 }

@@ -221,4 +221,13 @@ params = {{ max_leaf = [2, 8] }}
     assert_eq!(call(args("steps")), 0);
     assert!(d.is_file());
     assert_eq!(call(args("nope")), 1);
+    // Split by a channel (the rays where it is nonzero in A or B, and the rest); an unknown
+    // channel is refused.
+    let split = |ch: &str| {
+        let mut v = args("leaves");
+        v.extend(["--split".to_string(), ch.to_string()]);
+        v
+    };
+    assert_eq!(call(split("restarts")), 0);
+    assert_eq!(call(split("nope")), 1);
 }

@@ -30,6 +30,10 @@ pub trait Counter: Default + Send {
     fn up(&mut self);
     /// The ray was ended by a traversal's step cap (at most once per ray).
     fn capped(&mut self);
+    /// A point-location walk handed the ray to a fallback walk where a single point cannot
+    /// decide (at most once per ray): sparse boxes' `sltr` to `sltr-mask` (Havran and Bittner
+    /// 2007 §5.3, made exact), the kd-tree's `sequential` and `ropes` to `restart`.
+    fn handover(&mut self);
 }
 
 /// The counter that counts nothing (zero-sized; used for timing).
@@ -58,6 +62,8 @@ impl Counter for NoStats {
     fn up(&mut self) {}
     #[inline(always)]
     fn capped(&mut self) {}
+    #[inline(always)]
+    fn handover(&mut self) {}
 }
 
 /// Calls `$callback! { $($prefix)* name, per_ray_column, max_column, "definition"; … }` with
@@ -84,6 +90,8 @@ macro_rules! for_each_counter {
             cells, cells_per_ray, cells_max, "grid cells visited (N_T of the grid papers)";
             ups, ups_per_ray, ups_max,
                 "steps up a parent link between augmented nodes (sparse boxes)";
+            handovers, handovers_per_ray, handovers_max,
+                "rays a point-location walk handed to a fallback walk where one point cannot decide (0 or 1 a ray: the mean is the share handed over)";
         }
     };
 }
@@ -183,6 +191,10 @@ impl Counter for TraversalStats {
     #[inline(always)]
     fn capped(&mut self) {
         self.capped = 1;
+    }
+    #[inline(always)]
+    fn handover(&mut self) {
+        self.handovers += 1;
     }
 }
 

@@ -1033,3 +1033,67 @@ fn picking_selectors_stand_for_a_sweeps_extreme() {
         "{e}"
     );
 }
+
+/// Issue 42: a named selector may name its own `measure` (one reading of a claim whose sides
+/// are measured differently: Feldmann's Table 5 as the kd-tree's whole build against the
+/// R-tree's insertion alone). Its rows pool by it, the others by the claim's; a timing on
+/// either side gets the floor; reports show both; a bad measure, a measure in the filter or
+/// a column no run writes are refused at load; `measure:KEY` deviations name such claims.
+#[test]
+fn a_selector_may_name_its_own_measure() {
+    let t = tempfile::tempdir().unwrap();
+    let f = write(
+        t.path(),
+        "b.csv",
+        &[
+            "scene,structure,params,traversal,device,threads,triangle_test,ray_kind,rays,build_ms,build_ms_runs,build_stats".into(),
+            "s,kd,k=1,x,cpu,1,watertight,primary,10,700,690;700;710,nodes=7".into(),
+            "s,rt,k=1,x,cpu,1,watertight,primary,10,100,99;100;101,insert_ms=60;pack_ms=40".into(),
+        ],
+    );
+    let c = |own: &str, min: f64| {
+        claim(&format!(
+            "measure = \"build_ms\"\nrows.kd = {{ structure = \"kd\" }}\nrows.rt = {{ structure = \"rt\"{own} }}\ntest = {{ kind = \"ratio\", num = \"kd\", den = \"rt\", min = {min} }}"
+        ))
+    };
+    let run = |toml: String| eval(&toml, std::slice::from_ref(&f)).remove(0);
+    // The whole build: 700 / 100 = 7; insertion alone: 700 / 60 = 11.7.
+    let whole = run(c("", 10.0));
+    assert_eq!(whole.groups[0].values["rt"].v, 100.0);
+    assert_eq!(whole.verdict, Verdict::Disagree, "{whole:?}");
+    let insert = run(c(", measure = \"build:insert_ms\"", 10.0));
+    assert_eq!(insert.groups[0].values["rt"].v, 60.0);
+    assert_eq!(insert.groups[0].values["kd"].v, 700.0);
+    assert!(insert.groups[0].values["rt"].timed);
+    // 11.7 with the floor: 700 / (60 · 1.2) = 9.7 is below 10, so not decided; at 5 it is.
+    assert_eq!(insert.verdict, Verdict::Inconclusive, "{insert:?}");
+    let at5 = run(c(", measure = \"build:insert_ms\"", 5.0));
+    assert_eq!(at5.verdict, Verdict::Agree, "{at5:?}");
+    assert_eq!(at5.measure, "build_ms (rt: build:insert_ms)");
+    // Refused at load.
+    for (bad, says) in [
+        (", measure = 3", "rows.rt: measure: a measure is a string"),
+        (", measure = \"bogus_per_ray\"", "rows.rt: measure"),
+        (", measure = \"a / b + c\"", "rows.rt: measure"),
+    ] {
+        let e = claims::parse(Path::new("x.toml"), &c(bad, 5.0))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(says), "{bad}: {e}");
+    }
+    let in_filter = c("", 5.0).replace(
+        "\nrows.kd",
+        "\nfilter = { measure = \"build_ms\" }\nrows.kd",
+    );
+    let e = claims::parse(Path::new("x.toml"), &in_filter)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("filter: measure belongs in the claim"), "{e}");
+    // A deviation on `measure:build:insert_ms` names the claim whose selector reads it.
+    let file = claims::parse(
+        Path::new("t.toml"),
+        &c(", measure = \"build:insert_ms\"", 5.0),
+    )
+    .unwrap();
+    assert!(file.claims[0].measures().any(|m| m == "build:insert_ms"));
+}

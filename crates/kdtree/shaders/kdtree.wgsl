@@ -573,6 +573,7 @@ fn crawl_passes(rope_walk: bool, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, b
         return answer(best);
     }
     (*st).restarts += 1u;
+    (*st).handovers += 1u;
     return stackless(K_RESTART, r, rb, p, t0, t1, best, steps, st);
 }
 

@@ -37,8 +37,8 @@
 //! leaves it to the side its direction points to, without the fallback. Where a single point
 //! cannot decide (a plane distance within [`SLACK`] of a located point other than the origin,
 //! or two exit faces tied: a ray through a cell edge or corner), the walk stops and the ray is
-//! handed to `restart` from the root, keeping its closest hit (counted as one restart): the
-//! answer is then exactly the robust one. Rays lying in a split plane (`t = NaN`) take the
+//! handed to `restart` from the root, keeping its closest hit (counted as one restart and in
+//! `handovers`): the answer is then exactly the robust one. Rays lying in a split plane (`t = NaN`) take the
 //! left child and record the axis, and the walk is repeated for each combination of sides on
 //! the zero-direction axes where that happened (at most 4 walks); an axis whose component is
 //! below `1/f32::MAX` (subnormal: `1/d` overflows to `±inf`, and a plane through the origin
@@ -147,7 +147,8 @@ pub const ROPES: u8 = 5;
 ///
 /// Counters: `interior`, `leaves`, `planes` as the stack traversals, nodes revisited by a
 /// restart or climbed by `backtrack` included; `restarts`: restarts (from the root or the
-/// pushed-down node, or `backtrack` climbs; short-stack pops are not restarts); `boxes`: 1
+/// pushed-down node, or `backtrack` climbs; short-stack pops are not restarts; `sequential`
+/// and `ropes` count a hand-over to `restart` as one restart and in `handovers`); `boxes`: 1
 /// for the root plus one per cell interval or exit computed (`sequential`, `backtrack`,
 /// `ropes`); `steps`:
 /// nodes visited, `interior + leaves`.
@@ -192,6 +193,7 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
             }
             // Point location was ambiguous within rounding: hand the ray to kd-restart.
             c.restart();
+            c.handover();
             return self.stackless::<T, C, ANY, RESTART>(&s, ray, &pre, best, steps, c);
         }
         self.stackless::<T, C, ANY, M>(&s, ray, &pre, best, 0, c)

@@ -349,6 +349,50 @@ pub fn diff_map(
     (img, max)
 }
 
+/// The mean difference `b − a` per pixel (ray) of two images of the same rays, split by a
+/// mask: the part from the masked pixels and the part from the rest, both divided by all the
+/// pixels, so they sum to the whole (`trace-bench diff --split`: how much of the difference
+/// of two traversals' counters comes from the rays one of them handed over).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SplitDiff {
+    /// Pixels.
+    pub pixels: usize,
+    /// Masked pixels.
+    pub masked: usize,
+    /// `Σ (b − a) / pixels` over every pixel.
+    pub all: f64,
+    /// `Σ (b − a) / pixels` over the masked pixels.
+    pub in_mask: f64,
+    /// `Σ (b − a) / pixels` over the others.
+    pub rest: f64,
+}
+
+/// [`SplitDiff`] of `b − a` split by `mask` (all three of one length).
+pub fn split_diff(a: &[f32], b: &[f32], mask: &[bool]) -> SplitDiff {
+    assert!(
+        a.len() == b.len() && a.len() == mask.len(),
+        "images of the same rays"
+    );
+    let n = a.len().max(1) as f64;
+    let (mut in_mask, mut rest, mut masked) = (0.0f64, 0.0f64, 0usize);
+    for ((&x, &y), &m) in a.iter().zip(b).zip(mask) {
+        let d = y as f64 - x as f64;
+        if m {
+            in_mask += d;
+            masked += 1;
+        } else {
+            rest += d;
+        }
+    }
+    SplitDiff {
+        pixels: a.len(),
+        masked,
+        all: (in_mask + rest) / n,
+        in_mask: in_mask / n,
+        rest: rest / n,
+    }
+}
+
 /// The 99th percentile of `values` (a robust automatic heat-map scale, at least 1).
 pub fn percentile99(values: &[f32]) -> f32 {
     let mut v: Vec<f32> = values.iter().copied().filter(|x| x.is_finite()).collect();
@@ -434,6 +478,17 @@ mod tests {
         assert!(wrap(&"x".repeat(30), 10)
             .iter()
             .all(|l| l.chars().count() <= 10));
+    }
+
+    #[test]
+    fn split_diff_parts_sum_to_the_whole() {
+        let a = [1.0, 2.0, 3.0, 4.0];
+        let b = [1.0, 5.0, 3.0, 2.0];
+        let d = split_diff(&a, &b, &[false, true, false, false]);
+        assert_eq!((d.pixels, d.masked), (4, 1));
+        assert_eq!((d.all, d.in_mask, d.rest), (0.25, 0.75, -0.5));
+        let none = split_diff(&a, &b, &[false; 4]);
+        assert_eq!((none.masked, none.in_mask, none.rest), (0, 0.0, 0.25));
     }
 
     #[test]

@@ -29,7 +29,9 @@
 //!   node / the root; `sltr` / `sltr-root` the stackless bottom-up traversal as the paper's
 //!   Algorithm 3 (§5.3: after each leaf the origin shifted past the leaf's exit and located
 //!   from the last augmented node, or from the first parent augmented node holding it, each
-//!   parent's `ComputeMaxT` one box test); `sltr-mask` / `sltr-mask-root` our variant of it
+//!   parent's `ComputeMaxT` one box test; a ray lying in a split plane walked once per side
+//!   of it, as `seq` walks it); `sltr-handover` the same but such a ray handed to `sltr-mask`
+//!   (the reading before issue 42); `sltr-mask` / `sltr-mask-root` our variant of it
 //!   (no shift and no point location: the next leaf from a per-depth mask, exactly HTR's
 //!   leaves). The paper's configs and claims read `sltr`. See module `traverse` for the
 //!   kernels and how Algorithm 3's epsilon is made exact.
@@ -45,7 +47,8 @@
 //! the hierarchy "using only the down-links between nodes and parent links between augmented
 //! nodes" (the other reading, down steps only, is `interior - ups`); `ups`: parent links
 //! followed; `boxes`: ray–box tests with the stored boxes (and the start cell); `restarts`:
-//! continuations after the traversal stack ran dry (BTR) or after a leaf (SLTR).
+//! continuations after the traversal stack ran dry (BTR) or after a leaf (SLTR);
+//! `handovers`: rays SLTR handed to `sltr-mask` (module `traverse`).
 //!
 //! Memory: `m_kd_bytes` prices a box as the text of §4 describes it (a 24-byte box and a
 //! 4-byte parent link: 28 bytes); `paper_bytes` as Table 1's M_KD does (40 bytes, see
@@ -329,7 +332,9 @@ impl Structure for SparseBoxes {
                  origin shifted just past the leaf's exit (exactly, not by a fixed epsilon) and \
                  located from the last augmented node while its box holds it, else from the \
                  first parent augmented node whose box does (ComputeMaxT per parent); the \
-                 point location of `seq` (Havran & Bittner 2007 §5.3, Alg. 3)",
+                 point location of `seq`, a ray lying in a split plane walked once per side \
+                 as `seq` walks it; a point the rounding cannot place handed to `sltr-mask` \
+                 (`handovers`) (Havran & Bittner 2007 §5.3, Alg. 3)",
             )
             .capped()
             .reads(&[BOXES_AUX]),
@@ -339,6 +344,26 @@ impl Structure for SparseBoxes {
         )
         .with_hints(hints, |s, q, tri, rays, h, hits, stats| {
             traverse::trace::<{ traverse::SLTR }>(s, q, tri, rays, h, true, hits, stats)
+        }),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "sltr-handover",
+                "Havran & Bittner 2007 §5.3, Alg. 3",
+                "SLTR (Alg. 3) as `sltr`, but a ray lying in a split plane handed to \
+                 `sltr-mask` from the root (keeping its closest hit) instead of walked once per \
+                 side of the plane as `seq` walks it: `sltr`'s reading before issue 42's \
+                 fidelity item; `handovers` counts the rays handed over",
+            )
+            .capped()
+            .reads(&[BOXES_AUX]),
+            |s, q, tri, rays, hits, stats| {
+                traverse::trace::<{ traverse::SLTR_HANDOVER }>(
+                    s, q, tri, rays, None, true, hits, stats,
+                )
+            },
+        )
+        .with_hints(hints, |s, q, tri, rays, h, hits, stats| {
+            traverse::trace::<{ traverse::SLTR_HANDOVER }>(s, q, tri, rays, h, true, hits, stats)
         }),
         Traversal::cpu(
             TraversalInfo::new(

@@ -44,13 +44,18 @@
 //!   that axis lies beyond it). Each descent is the point location of `sequential` below the
 //!   augmented node (other planes behind only by more than the rounding [`SLACK`], the origin
 //!   itself at `t = 0`), so SLTR visits `seq`'s leaves, as Table 1 has them (N_L 10.80 and
-//!   10.81, r_ITM equal), not HTR's: a ray through a cell edge or corner within rounding, or
-//!   lying in a split plane, cannot be placed by one point, and is handed to `sltr-mask` from
-//!   the root keeping its closest hit (one restart), as `sequential` hands the former to
-//!   kd-restart (`sequential` walks the latter once per side of the plane; on those rays the
-//!   two differ). Where the paper is silent: the start node's `tentry` is the ray's entry into
-//!   the root box (the origin for a start node below the root), a climb stops at the root,
-//!   the step cap is a guard.
+//!   10.81, r_ITM equal), not HTR's. A ray lying in a split plane (`t = NaN`: a zero
+//!   direction component, the origin in the plane) cannot be placed by one point on that
+//!   axis: as `sequential` does, the walk takes the plane's lower side and records the axis,
+//!   and is repeated for every other combination of sides on the zero-direction axes (the
+//!   closest hit kept between the walks, the step count carried), so those rays visit SEQ's
+//!   leaves too. A ray through a cell edge or corner within rounding cannot be placed by one
+//!   point either, and is handed to `sltr-mask` from the root keeping its closest hit (one
+//!   restart, one `handovers`), as `sequential` hands it to kd-restart; on those rays the two
+//!   can differ (the share is the `handovers` column). `sltr-handover` is the reading before
+//!   issue 42: a ray lying in a split plane handed over as well. Where the paper is silent:
+//!   the start node's `tentry` is the ray's entry into the root box (the origin for a start
+//!   node below the root), a climb stops at the root, the step cap is a guard.
 //! - **`sltr-mask`** (our variant; the GPU kernel's walk): down to a leaf choosing the first
 //!   intersected child (Alg. 3, `TraverseDown`,
 //!   the near child when both are), then on to the *next* leaf: the walk keeps, per depth, one
@@ -75,7 +80,7 @@
 //! paper's N_I; `interior - ups` is N_I without the climbs); `boxes`: the start or root cell,
 //! every stored box read and (SLTR) every leaf exit computed; `ups`: parent links followed;
 //! `restarts`: continuations after a dry stack (BTR) or a leaf (SLTR), and a hand-over to
-//! `sltr-mask`.
+//! `sltr-mask`, which `handovers` counts alone (0 or 1 a ray).
 
 use crate::{AugNode, SparseBoxes};
 use tb_core::slab::{max_num, min_num};
@@ -92,6 +97,7 @@ use tb_kdtree::{
 pub(crate) const BTR: u8 = 0;
 pub(crate) const SLTR: u8 = 1;
 pub(crate) const SLTR_MASK: u8 = 2;
+pub(crate) const SLTR_HANDOVER: u8 = 3;
 
 /// "Not looked up yet" for a record index.
 const NONE: u32 = u32::MAX;
@@ -153,6 +159,20 @@ struct Point {
     steps: u32,
     /// A plane the point cannot be placed against was met.
     ambiguous: bool,
+    /// Per axis, the side of a split plane holding the ray this walk takes (bit set: the upper
+    /// one), as tb-kdtree's `sequential` walks such a ray once per side.
+    mask: u8,
+    /// The axes where a split plane holding the ray was met.
+    seen: u8,
+}
+
+/// How one walk of SLTR ended.
+enum Pass {
+    /// Done: `stop` when the ray is finished (an any-hit found, the step cap reached), `seen`
+    /// the axes where a split plane holding the ray was met.
+    Done { stop: bool, seen: u8 },
+    /// A point could not be placed: the ray goes to `sltr-mask`.
+    Ambiguous,
 }
 
 /// SLTR's `lastAugmentedNode`: its record (`NONE`: not looked up yet), node, depth and cell.
@@ -370,9 +390,12 @@ impl<'a> Ctx<'a> {
 
     /// SLTR as the paper's Algorithm 3 from record `hint` (see the module doc): point
     /// location of the shifted origin from the last augmented node, climbing parent links
-    /// (`ComputeMaxT`, one box each) while the point lies beyond a node's box.
+    /// (`ComputeMaxT`, one box each) while the point lies beyond a node's box. A ray lying in
+    /// a split plane is walked once per side of it as `seq` walks it (`HAND == false`, `sltr`),
+    /// or handed to `sltr-mask` (`HAND == true`, `sltr-handover`); a point the rounding cannot
+    /// place is handed to `sltr-mask` in both.
     #[inline(always)]
-    fn sltr<T: TriTest, C: Counter, const ANY: bool>(
+    fn sltr<T: TriTest, C: Counter, const ANY: bool, const HAND: bool>(
         &self,
         ray: &Ray,
         hint: u32,
@@ -383,19 +406,76 @@ impl<'a> Ctx<'a> {
         };
         let pre = T::prepare(ray);
         let mut best = Best::new(ray.tmax);
-        let aug = self.aug;
         let st = self.start(ray, hint);
         if st != 0 {
             // ComputeMinMaxT(ray, startNode).
             c.boxes(1);
         }
+        let mut steps = 0u32;
+        // The walk per side of the split planes the ray lies in, as tb-kdtree's `sequential`
+        // (its `passes`): first every such plane's lower side; when one was met, every other
+        // combination of sides on the axes where the direction is zero (1/d infinite).
+        let zero = (0..3).fold(0u8, |m, a| m | ((!s.inv[a].is_finite()) as u8) << a);
+        for mask in 0..8u8 {
+            if mask != 0 && mask & !zero != 0 {
+                continue;
+            }
+            match self.sltr_pass::<T, C, ANY, HAND>(
+                ray,
+                &s,
+                (r0, r1),
+                &pre,
+                &mut best,
+                st,
+                mask,
+                &mut steps,
+                c,
+            ) {
+                Pass::Done { stop, seen } => {
+                    if stop || (mask == 0 && seen == 0) {
+                        break;
+                    }
+                }
+                Pass::Ambiguous => {
+                    // A point the rounding cannot place (or, `HAND`, a ray lying in a split
+                    // plane): the ray goes to `sltr-mask` from the root, keeping its closest
+                    // hit (as SEQ hands the former to kd-restart).
+                    c.restart();
+                    c.handover();
+                    return self.mask_walk::<T, C, ANY>(ray, &s, (r0, r1), &pre, best, 0, steps, c);
+                }
+            }
+        }
+        best.record()
+    }
+
+    /// One walk of SLTR (Algorithm 3) from record `st`, split planes holding the ray taken to
+    /// the side `mask` gives per axis (bit set: the upper side); `steps` carried between the
+    /// walks for the cap.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn sltr_pass<T: TriTest, C: Counter, const ANY: bool, const HAND: bool>(
+        &self,
+        ray: &Ray,
+        s: &Setup,
+        (r0, r1): (f32, f32),
+        pre: &T::Pre,
+        best: &mut Best,
+        st: usize,
+        mask: u8,
+        steps: &mut u32,
+        c: &mut C,
+    ) -> Pass {
+        let aug = self.aug;
         let (rmin, rmax) = (self.root.min.to_array(), self.root.max.to_array());
         let mut w = Point {
             floor: std::array::from_fn(|a| if s.neg[a] { rmax[a] } else { rmin[a] }),
             exact: 3,
             tn: r0,
-            steps: 0,
+            steps: *steps,
             ambiguous: false,
+            mask,
+            seen: 0,
         };
         let a = &aug[st];
         let mut last = Last {
@@ -405,24 +485,27 @@ impl<'a> Ctx<'a> {
             min: a.min,
             max: a.max,
         };
-        let (mut idx, mut min, mut max) = self.locate(&s, &mut w, &mut last, c);
+        let (mut idx, mut min, mut max) = self.locate::<C, HAND>(s, &mut w, &mut last, c);
+        let done = |w: &Point, steps: &mut u32, stop: bool| {
+            *steps = w.steps;
+            Pass::Done { stop, seen: w.seen }
+        };
         loop {
             if w.ambiguous {
-                // A point the rounding cannot place: the ray goes to `sltr-mask` from the
-                // root, keeping its closest hit (as SEQ hands it to kd-restart).
-                c.restart();
-                return self.mask_walk::<T, C, ANY>(ray, &s, (r0, r1), &pre, best, 0, w.steps, c);
+                *steps = w.steps;
+                return Pass::Ambiguous;
             }
             w.steps += 1;
-            if leaf::<T, C, ANY>(&self.kd, self.nodes[idx], &pre, ray, &mut best, c) {
-                return best.record();
+            if leaf::<T, C, ANY>(&self.kd, self.nodes[idx], pre, ray, best, c) {
+                return done(&w, steps, true);
             }
             if w.steps >= self.cap {
                 c.capped();
-                return best.record();
+                return done(&w, steps, true);
             }
             // The leaf's exit `texit`: its nearest far plane that is not a root face; another
-            // far plane within rounding of it (a cell edge or corner) is an ambiguity.
+            // far plane within rounding of it (a cell edge or corner) is an ambiguity. A far
+            // plane on an axis the ray does not move along (`0 · inf`: NaN, or `inf`) is none.
             c.boxes(1);
             let mut ts = [f32::INFINITY; 3];
             let (mut tf, mut face) = (f32::INFINITY, 3usize);
@@ -441,18 +524,19 @@ impl<'a> Ctx<'a> {
                     }
                 }
             }
-            // ComputeIntersections found a hit in the leaf.
+            // ComputeIntersections found a hit in the leaf (or an earlier walk's lies before
+            // its exit).
             if best.prim != u32::MAX && best.t <= tf {
-                return best.record();
+                return done(&w, steps, false);
             }
             if face == 3 || tf > r1 * SLACK {
                 // The shifted origin leaves the root box: TraverseUp climbs every parent link
-                // from the last augmented node, none holds it, and the ray is done.
+                // from the last augmented node, none holds it, and the walk is done.
                 for _ in 0..last.depth / self.period {
                     climb(c);
                     c.boxes(1);
                 }
-                return best.record();
+                return done(&w, steps, false);
             }
             let reach = tf + (SLACK - 1.0) * tf.abs();
             if (0..3).any(|a| a != face && ts[a] <= reach) {
@@ -496,7 +580,7 @@ impl<'a> Ctx<'a> {
                     max: r.max,
                 };
             }
-            (idx, min, max) = self.locate(&s, &mut w, &mut last, c);
+            (idx, min, max) = self.locate::<C, HAND>(s, &mut w, &mut last, c);
         }
     }
 
@@ -504,11 +588,12 @@ impl<'a> Ctx<'a> {
     /// the point at `w.tn` (Kaplan's point location with the rule of tb-kdtree's `sequential`:
     /// on the axis of the face just crossed the point's coordinate is that face's exactly,
     /// other planes behind it only by more than the rounding [`SLACK`], the origin itself at
-    /// `tn = 0`; a plane within rounding, or one holding the ray, sets `w.ambiguous`). Every
-    /// augmented node passed becomes `last` (`lastAugmentedNode`, its record looked up only
-    /// when a climb needs it). Returns the leaf and its cell.
+    /// `tn = 0`; a plane within rounding sets `w.ambiguous`; a plane holding the ray is
+    /// passed on the side `w.mask` gives, or, `HAND`, sets `w.ambiguous`). Every augmented
+    /// node passed becomes `last` (`lastAugmentedNode`, its record looked up only when a climb
+    /// needs it). Returns the leaf and its cell.
     #[inline(always)]
-    fn locate<C: Counter>(
+    fn locate<C: Counter, const HAND: bool>(
         &self,
         s: &Setup,
         w: &mut Point,
@@ -543,32 +628,20 @@ impl<'a> Ctx<'a> {
             let a = n.axis();
             let sp = n.split();
             let t = (sp - s.org[a]) * s.inv[a];
-            if t.is_nan() {
-                // The ray lies in the plane: no single point decides.
-                w.ambiguous = true;
-                return (idx, min, max);
-            }
-            let behind = if s.neg[a] {
-                sp >= w.floor[a]
-            } else {
-                sp <= w.floor[a]
-            };
-            let behind = if origin {
-                behind
-                    || if s.neg[a] {
-                        sp > s.org[a]
-                    } else {
-                        sp < s.org[a]
-                    }
-            } else if a == w.exact {
-                behind
-            } else {
-                if !behind && t >= below && t <= above {
+            let left = if t.is_nan() {
+                // The ray lies in the plane: no single point decides. `sltr` takes the side
+                // the walk's mask gives (as `seq`: one walk per side), `sltr-handover` hands
+                // the ray over.
+                if HAND {
                     w.ambiguous = true;
+                    return (idx, min, max);
                 }
-                behind || t < below
+                w.seen |= 1 << a;
+                w.mask >> a & 1 == 0
+            } else {
+                side(s, w, a, sp, t, origin, below, above)
             };
-            if behind == s.neg[a] {
+            if left {
                 max[a] = sp;
                 idx += 1;
             } else {
@@ -801,6 +874,45 @@ impl<'a> Ctx<'a> {
     }
 }
 
+/// Whether the point at `w.tn` lies on the lower side of the plane `sp` on axis `a` (at
+/// distance `t`): Kaplan's point location with `sequential`'s rule (see `Ctx::locate`);
+/// a plane within rounding of the point sets `w.ambiguous`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn side(
+    s: &Setup,
+    w: &mut Point,
+    a: usize,
+    sp: f32,
+    t: f32,
+    origin: bool,
+    below: f32,
+    above: f32,
+) -> bool {
+    let behind = if s.neg[a] {
+        sp >= w.floor[a]
+    } else {
+        sp <= w.floor[a]
+    };
+    let behind = if origin {
+        behind
+            || if s.neg[a] {
+                sp > s.org[a]
+            } else {
+                sp < s.org[a]
+            }
+    } else if a == w.exact {
+        behind
+    } else {
+        if !behind && t >= below && t <= above {
+            w.ambiguous = true;
+        }
+        behind || t < below
+    };
+    // The near child (the lower one for a positive direction) unless the plane is behind.
+    behind == s.neg[a]
+}
+
 /// A parent link followed (Alg. 2's and Alg. 3's `TraverseUp`): the walk enters the parent
 /// augmented node, one interior node traversed. Counted in `interior` (N_I, as the paper's
 /// "number of traversed interior nodes" counts it: Figure 2, "traverses the hierarchy using
@@ -833,8 +945,10 @@ fn run<T: TriTest, C: Counter, const ALG: u8>(
     match (ALG, q) {
         (BTR, Query::Closest) => cx.btr::<T, C, false>(ray, h, c),
         (BTR, Query::Any) => cx.btr::<T, C, true>(ray, h, c),
-        (SLTR, Query::Closest) => cx.sltr::<T, C, false>(ray, h, c),
-        (SLTR, Query::Any) => cx.sltr::<T, C, true>(ray, h, c),
+        (SLTR, Query::Closest) => cx.sltr::<T, C, false, false>(ray, h, c),
+        (SLTR, Query::Any) => cx.sltr::<T, C, true, false>(ray, h, c),
+        (SLTR_HANDOVER, Query::Closest) => cx.sltr::<T, C, false, true>(ray, h, c),
+        (SLTR_HANDOVER, Query::Any) => cx.sltr::<T, C, true, true>(ray, h, c),
         (_, Query::Closest) => cx.sltr_mask::<T, C, false>(ray, h, c),
         (_, Query::Any) => cx.sltr_mask::<T, C, true>(ray, h, c),
     }

@@ -236,22 +236,20 @@ fn sltr_is_algorithm_3() {
 }
 
 /// SLTR visits the leaves of SEQ (Table 1: N_L 10.80 / 10.81, r_ITM equal), not those of HTR:
-/// on the stress and small scenes of the suite, from the root, every ray whose leaves or
-/// triangle tests differ from SEQ's is one SLTR handed to `sltr-mask` (a point that rounding
-/// cannot place, or a ray lying in a split plane: its restarts then reach its leaves, which
-/// Algorithm 3's walk alone, one restart per leaf left, never does), SLTR differs from HTR
-/// on some rays where `sltr-mask` (HTR's leaves by construction) does not, and SLTR agrees
-/// with SEQ on more rays than with HTR.
+/// on the stress and small scenes of the suite, from the root and from the start node, every
+/// ray whose leaves or triangle tests differ from SEQ's is one that SLTR or SEQ handed to its
+/// fallback walk (`handovers`: a point that rounding cannot place; its restarts then reach
+/// HTR's leaves), rays lying in a split plane included (walked once per side, as SEQ walks
+/// them); `sltr-handover`, which hands those over too, hands over more rays and differs from
+/// SEQ on more; SLTR differs from HTR on some rays where `sltr-mask` (HTR's leaves by
+/// construction) does not, and agrees with SEQ on more rays than with HTR.
 #[test]
 fn sltr_visits_seq_leaves() {
-    let (sltr, seq, htr, mask) = (
-        index("sltr-root"),
-        index("seq"),
-        index("htr"),
-        index("sltr-mask-root"),
-    );
+    let (seq, htr, mask) = (index("seq"), index("htr"), index("sltr-mask-root"));
     let (mut same_seq, mut same_htr, mut n) = (0usize, 0usize, 0usize);
     let mut mask_differs = 0usize;
+    // Per reading (sltr, sltr-handover): rays handed over, rays differing from SEQ.
+    let (mut handed, mut differ) = ([0usize; 2], [0usize; 2]);
     for scene in tb_scene::conformance::suite_scenes() {
         let s = SparseBoxes::build(&scene.triangles, &SparseParams::default());
         for b in tb_scene::conformance::batches(&scene, TriTestKind::Watertight) {
@@ -261,30 +259,102 @@ fn sltr_visits_seq_leaves() {
             let count = |ti: usize| {
                 tb_core::par::count(&s, ti, Query::Closest, TriTestKind::Watertight, &b.rays).1
             };
-            let (a, q, h, m) = (count(sltr), count(seq), count(htr), count(mask));
-            for i in 0..b.rays.len() {
-                let key = |x: &TraversalStats| (x.leaves, x.prims);
-                if key(&a[i]) == key(&q[i]) {
-                    same_seq += 1;
-                } else {
-                    assert!(
-                        a[i].restarts >= a[i].leaves,
-                        "{}: ray {i} differs from SEQ without a hand-over: {:?} vs {:?}",
-                        scene.source,
-                        a[i],
-                        q[i]
-                    );
+            let (q, h, m) = (count(seq), count(htr), count(mask));
+            let key = |x: &TraversalStats| (x.leaves, x.prims);
+            for (k, name) in ["sltr-root", "sltr", "sltr-handover"].iter().enumerate() {
+                let a = count(index(name));
+                for i in 0..b.rays.len() {
+                    let same = key(&a[i]) == key(&q[i]);
+                    assert!(a[i].handovers <= 1 && q[i].handovers <= 1);
+                    if !same {
+                        assert!(
+                            a[i].handovers == 1 || q[i].handovers == 1,
+                            "{}: {name}, ray {i} differs from SEQ without a hand-over: {:?} vs {:?}",
+                            scene.source,
+                            a[i],
+                            q[i]
+                        );
+                    }
+                    if k == 0 {
+                        same_seq += same as usize;
+                        same_htr += (key(&a[i]) == key(&h[i])) as usize;
+                        mask_differs += (key(&m[i]) != key(&h[i])) as usize;
+                        n += 1;
+                    } else {
+                        handed[k - 1] += a[i].handovers as usize;
+                        differ[k - 1] += !same as usize;
+                    }
                 }
-                same_htr += (key(&a[i]) == key(&h[i])) as usize;
-                mask_differs += (key(&m[i]) != key(&h[i])) as usize;
-                n += 1;
             }
         }
     }
     println!("of {n} rays: SLTR's leaves are SEQ's on {same_seq}, HTR's on {same_htr}");
+    println!("sltr / sltr-handover: {handed:?} rays handed over, {differ:?} differ from SEQ");
     assert_eq!(mask_differs, 0);
     assert!(same_htr < n, "SLTR visits exactly HTR's leaves");
     assert!(same_seq > same_htr, "{same_seq} vs {same_htr}");
+    assert!(handed[1] > handed[0], "{handed:?}");
+    assert!(differ[1] > differ[0], "{differ:?}");
+}
+
+/// A ray lying in the root's split plane (a zero direction component, the origin in the
+/// plane): `sltr-handover` hands it to `sltr-mask` (one hand-over counted); `sltr` walks it on
+/// both sides as SEQ does, with SEQ's leaves and triangle tests and no hand-over; both find
+/// HTR's hit. A ray beside the plane is handed over by neither.
+#[test]
+fn a_split_plane_ray_is_walked_on_both_sides() {
+    let tris = tb_scene::load("builtin:teapot?tess=6", std::path::Path::new("."))
+        .unwrap()
+        .triangles;
+    let s = SparseBoxes::build(
+        &tris,
+        &SparseParams {
+            d_min: 1,
+            ..Default::default()
+        },
+    );
+    let v = s.kd().view();
+    let root = v.nodes()[0];
+    assert!(!root.is_leaf());
+    let (a, sp) = (root.axis(), root.split());
+    let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+    let bounds = v.bounds();
+    // Across the scene's middle in the plane: from outside the box toward its centre.
+    let mut dir = tb_core::Vec3::ZERO;
+    dir[b] = 1.0;
+    dir[c] = 0.37;
+    let mut target = bounds.center();
+    target[a] = sp;
+    let extent = (bounds.max - bounds.min).length();
+    let origin = target - dir * extent;
+    let in_plane = Ray::new(origin, dir);
+    assert_eq!(in_plane.origin[a], sp);
+    let mut beside = in_plane;
+    beside.origin[a] = sp + 1e-3 * extent;
+    let run = |name: &str, r: &Ray| {
+        let mut st = vec![TraversalStats::default(); 1];
+        let h = tb_sparse::trace_hinted(
+            &s,
+            index(name),
+            Query::Closest,
+            TriTestKind::Watertight,
+            std::slice::from_ref(r),
+            Some(&mut st),
+        );
+        (h[0], st[0])
+    };
+    for r in [&in_plane, &beside] {
+        let (hh, _) = run("htr", r);
+        let (hs, ss) = run("sltr", r);
+        let (hq, sq) = run("seq", r);
+        let (hv, sv) = run("sltr-handover", r);
+        assert!(hh.is_hit(), "{r:?}");
+        assert_eq!((hs, hq, hv), (hh, hh, hh), "{r:?}");
+        assert_eq!((ss.leaves, ss.prims), (sq.leaves, sq.prims), "{r:?}");
+        assert_eq!((ss.handovers, sq.handovers), (0, 0), "{r:?}");
+        let expect = (r.origin[a] == sp) as u32;
+        assert_eq!(sv.handovers, expect, "{r:?}");
+    }
 }
 
 /// The box's bytes: `paper_bytes` prices a box at [`PAPER_BOX_BYTES`], the one whole size

@@ -114,6 +114,7 @@ fn root_walks_visit_htr_leaves() {
             }
             for name in [
                 "sltr",
+                "sltr-handover",
                 "sltr-root",
                 "sltr-mask",
                 "sltr-mask-root",
@@ -362,7 +363,7 @@ fn chunked_hints_match() {
     let rays = tb_scene::rays::primary(&cam);
     assert!(rays.len() > tb_core::par::CHUNK);
     let s = SparseBoxes::build(&scene.triangles, &SparseParams::default());
-    for name in ["btr", "sltr", "sltr-mask"] {
+    for name in ["btr", "sltr", "sltr-handover", "sltr-mask"] {
         let ti = index(name);
         let hints = s.batch_hints(ti, Query::Closest, &rays).unwrap();
         assert!(hints.iter().all(|&h| h == hints[0] && h != 0), "{name}");
@@ -381,5 +382,60 @@ fn chunked_hints_match() {
         let (b, sb) = tb_core::par::count(&s, ti, Query::Closest, TriTestKind::Watertight, &rays);
         assert_eq!(a, b, "{name}");
         assert_eq!(sa, sb, "{name}");
+    }
+}
+
+/// Figure 3's nested reading (claims/havran-bittner-sparse-boxes.toml, fig3-nested-*): with
+/// d_min + 1 a power of two (d_min = 1, 3, 7, 15) each sparser tree's augmented nodes are a
+/// subset of each denser one's, and the start node of a point is at least as deep the denser
+/// the boxes; the non-nested d_min = 1, 3, 6, 11 of the other reading have pairs that are not
+/// (3 and 6, 6 and 11).
+#[test]
+fn nested_dmin_boxes_are_subsets() {
+    let tris = tb_scene::load("builtin:teapot?tess=8", std::path::Path::new("."))
+        .unwrap()
+        .triangles;
+    let build = |d_min| {
+        SparseBoxes::build(
+            &tris,
+            &SparseParams {
+                d_min,
+                ..Default::default()
+            },
+        )
+    };
+    let nodes = |s: &SparseBoxes| -> std::collections::BTreeSet<u32> {
+        s.augmented().iter().map(|a| a.node).collect()
+    };
+    let report = Accel::build_report(build(1).kd());
+    let depth_max = report.extra.iter().find(|e| e.0 == "depth_max").unwrap().1;
+    assert!(
+        depth_max >= 16.0,
+        "a tree deep enough for d_min = 15: {depth_max}"
+    );
+    let trees: Vec<(u32, SparseBoxes)> = [1, 3, 6, 7, 11, 15]
+        .into_iter()
+        .map(|d| (d, build(d)))
+        .collect();
+    let get = |d: u32| &trees.iter().find(|t| t.0 == d).unwrap().1;
+    let bounds = tb_core::Aabb::from_points(tris.iter().flat_map(|t| [t.v0, t.v1, t.v2]));
+    let points: Vec<tb_core::Vec3> = tb_scene::rays::random(&bounds, 500, 3)
+        .iter()
+        .map(|r| r.origin)
+        .collect();
+    let start_depth = |s: &SparseBoxes, p| s.aug_depths()[s.start_node(p) as usize];
+    for w in [1, 3, 7, 15].windows(2) {
+        let (dense, sparse) = (get(w[0]), get(w[1]));
+        assert!(nodes(sparse).is_subset(&nodes(dense)), "{w:?}");
+        assert!(nodes(sparse).len() < nodes(dense).len(), "{w:?}");
+        for &p in &points {
+            assert!(
+                start_depth(dense, p) >= start_depth(sparse, p),
+                "{w:?} {p:?}"
+            );
+        }
+    }
+    for (d, e) in [(3, 6), (6, 11)] {
+        assert!(!nodes(get(e)).is_subset(&nodes(get(d))), "{d}, {e}");
     }
 }

@@ -144,7 +144,7 @@ pub fn parse(path: &Path, text: &str, file: &ClaimsFile) -> Result<Vec<Resolved>
 fn matching(pattern: &str, file: &ClaimsFile) -> Vec<String> {
     let hit = |c: &super::Claim, p: &str| {
         if let Some(m) = p.strip_prefix("measure:") {
-            c.measure == m
+            c.measures().any(|x| x == m)
         } else if let Some(d) = p.strip_prefix("device:") {
             c.devices.iter().any(|x| x == d)
         } else {

@@ -339,7 +339,7 @@ fn cell_matches(v: &toml::Value, cell: &str) -> bool {
 
 fn selector_matches(s: &Selector, r: &Row) -> bool {
     s.0.iter().all(|(k, v)| match k.as_str() {
-        super::pick::KEY => true,
+        super::pick::KEY | super::schema::MEASURE_KEY => true,
         "scene" => r.table().is_some_and(|c| cell_matches(v, c)),
         "view" => r.get("scene").is_some_and(|c| cell_matches(v, c)),
         "params" => {
@@ -1222,6 +1222,21 @@ pub fn evaluate_with(file: &ClaimsFile, rows: &RowSet, opts: &Options) -> Vec<Cl
     out
 }
 
+/// The claim's measure as reports show it: with each named selector's own, if any
+/// (`build_ms (rtree: build:insert_ms)`).
+fn shown_measure(c: &Claim) -> String {
+    let own: Vec<String> = c
+        .rows
+        .iter()
+        .filter_map(|(n, s)| s.measure().map(|m| format!("{n}: {m}")))
+        .collect();
+    if own.is_empty() {
+        c.measure.clone()
+    } else {
+        format!("{} ({})", c.measure, own.join(", "))
+    }
+}
+
 /// The rows of each selector by group (selector → group → rows), and every group.
 type Grouped<'a> = (
     BTreeMap<&'a str, BTreeMap<String, Vec<&'a Row>>>,
@@ -1270,7 +1285,7 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
         paper: c.paper.clone(),
         device: device.into(),
         kind: c.kind,
-        measure: c.measure.clone(),
+        measure: shown_measure(c),
         verdict,
         undecidable,
         ours,
@@ -1382,6 +1397,9 @@ fn evaluate_group(
         match by[n].get(g) {
             None => problems.push(format!("no rows for `{n}`")),
             Some(rs) => {
+                // The selector's own measure, if it names one (checked at load).
+                let own = c.rows[*n].measure().and_then(|x| Measure::parse(x).ok());
+                let m = own.as_ref().unwrap_or(m);
                 let pooled = match super::pick::of(&c.rows[*n].0) {
                     None => pool(n, rs, m, c.pool),
                     Some(p) => {

@@ -20,7 +20,9 @@ pub(crate) fn undecidable(c: &Claim, floor: f64, measured: bool) -> Option<Strin
     if let Some(r) = &c.undecidable {
         return Some(r.clone());
     }
-    let timed = Measure::parse(&c.measure).is_ok_and(|m| m.floored());
+    let timed = c
+        .measures()
+        .any(|x| Measure::parse(x).is_ok_and(|m| m.floored()));
     if !timed || floor <= 0.0 {
         return None;
     }

@@ -119,6 +119,14 @@ pub struct Claim {
     pub test: Test,
 }
 
+impl Claim {
+    /// Every measure the claim reads: its own, then its named selectors' own ([`MEASURE_KEY`]).
+    pub fn measures(&self) -> impl Iterator<Item = &str> {
+        std::iter::once(self.measure.as_str())
+            .chain(self.rows.values().filter_map(Selector::measure))
+    }
+}
+
 /// What a claim is (claims/README.md, "Kinds").
 #[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq, PartialOrd, Ord)]
 #[serde(rename_all = "lowercase")]
@@ -288,17 +296,41 @@ impl Test {
     }
 }
 
-/// A row selector: column (or `scene`, `view`, `params`, `file`) → value or alternatives.
+/// A row selector: column (or `scene`, `view`, `params`, `file`) → value or alternatives; a
+/// named selector may also `pick` (module `pick`) and name its own `measure`
+/// ([`MEASURE_KEY`]).
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(transparent)]
 pub struct Selector(pub BTreeMap<String, toml::Value>);
 
+/// The key of a named selector's own measure, which its rows are pooled by instead of the
+/// claim's: one reading of a claim whose two sides are measured differently (Feldmann's
+/// Table 5 read as the kd-tree's whole build against the R-tree's insertion alone:
+/// `rtree = { …, measure = "build:insert_ms" }`). Not a column; not in `filter`.
+pub const MEASURE_KEY: &str = "measure";
+
 impl Selector {
+    /// The selector's own measure, if it names one (checked at load).
+    pub fn measure(&self) -> Option<&str> {
+        match self.0.get(MEASURE_KEY)? {
+            toml::Value::String(m) => Some(m),
+            _ => None,
+        }
+    }
+
     fn check(&self) -> Result<(), String> {
         use super::columns;
         for (k, v) in &self.0 {
             if k == super::pick::KEY {
                 super::pick::check(v)?;
+                continue;
+            }
+            if k == MEASURE_KEY {
+                let toml::Value::String(m) = v else {
+                    return Err(format!("{MEASURE_KEY}: a measure is a string"));
+                };
+                let m = super::measure::Measure::parse(m).map_err(|e| format!("{k}: {e}"))?;
+                m.check_columns().map_err(|e| format!("{k}: {e}"))?;
                 continue;
             }
             if !columns::is_known(k) {
@@ -396,6 +428,14 @@ impl ClaimsFile {
             }
             c.filter.check().map_err(|m| err("filter", m))?;
             super::pick::check_filter(&c.filter.0).map_err(|m| err("filter", m))?;
+            if c.filter.0.contains_key(MEASURE_KEY) {
+                return Err(err(
+                    "filter",
+                    format!(
+                        "{MEASURE_KEY} belongs in the claim or in a named selector of claim.rows"
+                    ),
+                ));
+            }
             for (name, s) in &c.rows {
                 s.check().map_err(|m| err(&format!("rows.{name}"), m))?;
             }
