@@ -1,5 +1,6 @@
 //! The generic evaluator: rows → pooled values per group and selector → a test → verdicts.
 
+use super::effect::{self, ClaimEffect, Compared, Effect};
 use super::measure::{fmt, Measure, Term};
 use super::rows::{Row, RowSet};
 use super::schema::{Claim, ClaimKind, ClaimsFile, Direction, Need, Pool, Selector, Test};
@@ -123,6 +124,9 @@ pub struct GroupResult {
     /// The compared quantity (band tests), with its interval.
     pub derived: Option<[f64; 3]>,
     pub why: String,
+    /// A timed group's smallest decidable effect ([`effect`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub effect: Option<Effect>,
     /// Each selector's pooled value.
     pub values: BTreeMap<String, Value>,
 }
@@ -135,6 +139,9 @@ pub struct ClaimResult {
     pub place: String,
     pub text: String,
     pub paper: String,
+    /// The paper's figure in a few words, where the claims file gives it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub paper_figure: Option<String>,
     pub device: String,
     /// A claim of the paper (tallied), an observation or an invariant (shown apart).
     pub kind: ClaimKind,
@@ -147,6 +154,9 @@ pub struct ClaimResult {
     pub why: String,
     pub note: Option<String>,
     pub test: Test,
+    /// A timed claim's smallest decidable effect beside the effect its test asks for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub effect: Option<ClaimEffect>,
     pub groups: Vec<GroupResult>,
 }
 
@@ -783,6 +793,58 @@ fn run_test(test: &Test, vals: &BTreeMap<String, Value>, floor: f64) -> Outcome 
     }
 }
 
+/// A timed group's compared quantities as ratios with the bounds each must clear: a band
+/// test's `derived`, an ordering's neighbours, a `least` test's best against each rival; the
+/// intervals as the test used them (`ratio` and [`floored`]). Empty when nothing is timed.
+fn compared(
+    test: &Test,
+    vals: &BTreeMap<String, Value>,
+    derived: Option<[f64; 3]>,
+    floor: f64,
+) -> Vec<Compared> {
+    let timed = vals.values().any(|x| x.timed);
+    if !timed {
+        return Vec::new();
+    }
+    let r = |a: &str, b: &str| floored(ratio(&vals[a], &vals[b]), timed, floor);
+    match test {
+        Test::Order {
+            rows,
+            strict,
+            margin,
+        } => rows
+            .windows(2)
+            .map(|w| Compared {
+                iv: r(&w[0], &w[1]),
+                bounds: vec![effect::before_bound(*strict, *margin)],
+            })
+            .collect(),
+        Test::Least {
+            best,
+            of,
+            margin,
+            direction,
+        } => of
+            .iter()
+            .map(|o| Compared {
+                iv: r(best, o),
+                bounds: vec![effect::least_bound(*direction, *margin)],
+            })
+            .collect(),
+        Test::Equal { tolerance, .. } => derived
+            .map(|d| Compared {
+                iv: d,
+                bounds: vec![1.0 - tolerance, 1.0 + tolerance],
+            })
+            .into_iter()
+            .collect(),
+        t => derived
+            .and_then(|d| effect::banded(t, d))
+            .into_iter()
+            .collect(),
+    }
+}
+
 /// A band test's outcome: the compared quantity `d` (percent when `pct`) in `min..=max`.
 fn banded(
     d: [f64; 3],
@@ -1005,7 +1067,18 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
     if !results.is_empty() {
         results.extend(missing_groups(c, &groups));
     }
-    let (verdict, ours, why) = combine(c, device, &results, &base, set);
+    let (verdict, ours, mut why) = combine(c, device, &results, &base, set);
+    let groups: Vec<(Option<&Effect>, bool)> = results
+        .iter()
+        .map(|g| {
+            let open = !matches!(g.verdict, Verdict::Agree | Verdict::Disagree);
+            (g.effect.as_ref(), open)
+        })
+        .collect();
+    let claim_effect = effect::of_claim(&c.test, &groups);
+    if let Some(e) = &claim_effect {
+        why = format!("{why}; {}", effect::said(e));
+    }
     let undecidable = super::kinds::undecidable(c, opts.time_floor);
     let (verdict, why) = match &undecidable {
         Some(r) if verdict == Verdict::Inconclusive => {
@@ -1020,6 +1093,7 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
         place: c.place.clone(),
         text: c.text.clone(),
         paper: c.paper.clone(),
+        paper_figure: c.paper_figure.clone(),
         device: device.into(),
         kind: c.kind,
         measure: c.measure.clone(),
@@ -1029,6 +1103,7 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
         why,
         note: c.note.clone(),
         test: c.test.clone(),
+        effect: claim_effect,
         groups: results,
     }
 }
@@ -1102,6 +1177,7 @@ fn missing_groups(c: &Claim, groups: &BTreeSet<String>) -> Vec<GroupResult> {
                 shown: "—".into(),
                 derived: None,
                 why: format!("rows missing: no rows for {k} = {shown}"),
+                effect: None,
                 values: BTreeMap::new(),
             });
         }
@@ -1154,6 +1230,8 @@ fn evaluate_group(
     }
     if problems.is_empty() {
         let (verdict, shown, derived, why) = run_test(&c.test, &vals, opts.time_floor);
+        // One process: the intervals are this run's, widened to the floor.
+        let effect = effect::of_group(&compared(&c.test, &vals, derived, opts.time_floor), 1);
         let (verdict, mut why) = timing_caveats(&vals, verdict, why);
         for p in &picked {
             why.push_str(&format!("; {p}"));
@@ -1164,6 +1242,7 @@ fn evaluate_group(
             shown,
             derived,
             why,
+            effect,
             values: vals,
         }
     } else {
@@ -1173,6 +1252,7 @@ fn evaluate_group(
             shown: "—".into(),
             derived: None,
             why: problems.join("; "),
+            effect: None,
             values: vals,
         }
     }
