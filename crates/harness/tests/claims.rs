@@ -872,7 +872,7 @@ fn timed_claims_state_the_smallest_effect_they_decide() {
     let md = claims::reproduce::below_markdown(&[report]);
     assert!(md.contains("1/√processes"), "{md}");
     assert!(
-        md.contains("| `narrow` | *undecidable* | ±8.4652 % (band) | ±20 % (1 process) | 6 |"),
+        md.contains("| `narrow` | *undecidable* | ±8.5 % (band) | ±20 % (1 process) | 6 |"),
         "{md}"
     );
     assert!(

@@ -12,7 +12,6 @@
 //! independent processes), from the processes this run's intervals came from (one: the
 //! floor between runs).
 
-use super::measure::fmt;
 use super::schema::{Direction, Test};
 use serde::Serialize;
 
@@ -226,13 +225,19 @@ pub(crate) fn of_claim(t: &Test, groups: &[(Option<&Effect>, bool)]) -> Option<C
     })
 }
 
+/// A relative figure as a percentage with one decimal (`0.2` → `20`, `0.0526` → `5.3`).
+pub fn pct(x: f64) -> String {
+    let s = format!("{:.1}", 100.0 * x);
+    s.strip_suffix(".0").map_or(s.clone(), str::to_owned)
+}
+
 /// The claim's effect in words, for its long reasons: `decides effects beyond ±20 % (1
 /// process); the band asks for ±12 %: 3 processes would decide it`.
 pub fn said(e: &ClaimEffect) -> String {
     let procs = |n: usize| format!("{n} process{}", if n == 1 { "" } else { "es" });
     let mut s = format!(
         "smallest decidable effect ±{} % ({})",
-        fmt(100.0 * e.smallest),
+        pct(e.smallest),
         procs(e.processes)
     );
     match e.paper_from {
@@ -241,7 +246,7 @@ pub fn said(e: &ClaimEffect) -> String {
             "; the {} asks for {}{} %",
             if from == "band" { "band" } else { "bound" },
             if from == "band" { "±" } else { "" },
-            fmt(100.0 * e.paper)
+            pct(e.paper)
         )),
     }
     if let Some(n) = e.processes_for_paper {
@@ -270,6 +275,10 @@ mod tests {
         assert!((hw - 0.2).abs() < 1e-12, "{hw}");
         assert_eq!(half_width([0.0, 1.0, 2.0]), None);
         assert_eq!(half_width([1.0, 1.0, f64::INFINITY]), None);
+        assert_eq!(
+            (pct(0.2), pct(0.0526), pct(0.11904)),
+            ("20".into(), "5.3".into(), "11.9".into())
+        );
     }
 
     #[test]

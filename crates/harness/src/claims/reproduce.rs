@@ -835,7 +835,8 @@ pub fn below_markdown(reports: &[PaperReport]) -> String {
          band's half-width (the interval must fit in it), a one-sided bound's or a margin's \
          distance from no effect (a ratio of 1), nothing for a direction only (the paper's \
          figure is then the effect to resolve). Listed: the timed claims asking for less than \
-         the run decides. *Processes* would decide the claim's effect, *at ours* our measured \
+         the run decides (a verdict given all the same stands: our value lay far from the \
+         bound). *Processes* would decide the claim's effect, *at ours* our measured \
          value (its distance from the bound), assuming the interval's log half-width shrinks as \
          1/√processes from this run's (the spread of a mean of independent processes; from \
          one process the floor is an assumed spread, not a measured one, and an interval \
@@ -850,8 +851,8 @@ pub fn below_markdown(reports: &[PaperReport]) -> String {
         for (c, e) in cs {
             let asks = match e.paper_from {
                 "direction" => format!("a direction (paper: {})", render::short_paper(c)),
-                "band" => format!("±{} % (band)", super::measure::fmt(100.0 * e.paper)),
-                _ => format!("{} % (bound)", super::measure::fmt(100.0 * e.paper)),
+                "band" => format!("±{} % (band)", super::effect::pct(e.paper)),
+                _ => format!("{} % (bound)", super::effect::pct(e.paper)),
             };
             let n = |x: Option<usize>| x.map_or("—".to_owned(), |n| n.to_string());
             s.push_str(&format!(
@@ -859,7 +860,7 @@ pub fn below_markdown(reports: &[PaperReport]) -> String {
                 claim_label(c),
                 render::md_verdict(c.verdict),
                 asks.replace('|', "\\|"),
-                super::measure::fmt(100.0 * e.smallest),
+                super::effect::pct(e.smallest),
                 e.processes,
                 if e.processes == 1 { "" } else { "es" },
                 n(e.processes_for_paper),
