@@ -305,3 +305,57 @@ fn interleaved_runs_keep_rows_and_counters() {
         .collect();
     assert_eq!(structures.len(), 2);
 }
+
+/// `run.clock = "thread"`: one-thread rows timed by the thread's CPU time, the same rows and
+/// counters, timed both apart and interleaved; an unknown clock is refused, naming the key.
+#[test]
+fn the_thread_clock_times_the_same_rows() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = t.path().join("tiny.toml");
+    fs::write(&cfg, CONFIG).unwrap();
+    let exe = env!("CARGO_BIN_EXE_trace-bench");
+    let run = |out: &str, extra: &[&str]| {
+        Command::new(exe)
+            .args(["run", cfg.to_str().unwrap(), "--out"])
+            .arg(t.path().join(out))
+            .arg("-q")
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let rows = |out: &str| {
+        tb_harness::results::output::read_csv(&t.path().join(out).join("results.csv")).unwrap()
+    };
+    for (out, extra) in [
+        ("wall", &[][..]),
+        ("thread", &["--set", "run.clock=thread"][..]),
+        (
+            "both",
+            &["--set", "run.clock=thread", "--set", "run.interleave=true"][..],
+        ),
+    ] {
+        let o = run(out, extra);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let (wall, thread, both) = (rows("wall"), rows("thread"), rows("both"));
+    assert_eq!(wall.len(), thread.len());
+    for ((a, b), c) in wall.iter().zip(&thread).zip(&both) {
+        assert_eq!(
+            (&a.traversal, a.interior_per_ray),
+            (&b.traversal, b.interior_per_ray)
+        );
+        assert_eq!(
+            (&a.traversal, a.interior_per_ray),
+            (&c.traversal, c.interior_per_ray)
+        );
+        for r in [b, c] {
+            assert!(r.trace_ms_median.is_some_and(|m| m > 0.0), "{r:?}");
+        }
+    }
+    let o = run("bad", &["--set", "run.clock=cpu"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("run.clock") && err.contains("known: wall, thread"),
+        "{err}"
+    );
+}

@@ -241,6 +241,16 @@ fn run_args(r: &RunSpec, sets: &[String], folder: &Path, opts: &Options) -> Vec<
         a.push("--set".into());
         a.push("run.interleave=true".into());
     }
+    // One-thread rows timed by the thread's CPU time: on a shared machine the time waited
+    // for a core is most of what moves a row between processes (docs/variation.md).
+    if !sets
+        .iter()
+        .chain(&opts.sets)
+        .any(|s| s.starts_with("run.clock"))
+    {
+        a.push("--set".into());
+        a.push("run.clock=thread".into());
+    }
     if !r.structure.is_empty() {
         a.push("--structure".into());
         a.push(r.structure.join(","));

@@ -79,6 +79,7 @@ struct RawRun {
     target_ci: Option<Spanned<f64>>,
     max_row_seconds: Option<Spanned<f64>>,
     interleave: Option<bool>,
+    clock: Option<Spanned<String>>,
     warmup: Option<u32>,
     build_repeat: Option<Spanned<u32>>,
     triangle_test: Option<Spanned<OneOrMany<String>>>,
