@@ -90,7 +90,9 @@ def summary(args, arms):
                     base[g] = (k, m)
                 elif base[g][0] != k:
                     rel[n].setdefault((k, base[g][0]), []).append(m / base[g][1])
-    label = lambda k: f"{k[0]} {k[1]} {k[2].split(';')[-6] if 'width' in k[2] else ''} {k[3]} {k[4]}"
+    def label(k):
+        width = [p for p in k[2].split(";") if p.startswith("width=")]
+        return f"{k[0]} {k[1]} {' '.join(width)} {k[3]} {k[4]}"
     print(f"{'row':70} " + " ".join(f"{n + ' max/min':>14} {n + ' sd%':>9}" for n in names))
     agg = {n: ([], []) for n in names}
     for k in med[names[0]]:
