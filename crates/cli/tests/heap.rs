@@ -101,7 +101,7 @@ fn large_blocks_start_on_a_cache_line_and_keep_their_bytes() {
         eprintln!("note: TRACE_BENCH_ALIGN=0: large blocks are not aligned, nothing to check");
         return;
     }
-    let line = |p: *const u8| p as usize % heap::LINE == 0;
+    let line = |p: *const u8| (p as usize).is_multiple_of(heap::LINE);
     for n in [heap::ALIGN_MIN, 3 * heap::ALIGN_MIN + 16, 1 << 20] {
         let v = std::hint::black_box(vec![7u8; n]);
         assert!(line(v.as_ptr()), "{n} bytes at {:p}", v.as_ptr());

@@ -54,7 +54,7 @@ pub fn thread_cpu_ms() -> Option<f64> {
         };
         // SAFETY: clock_gettime writes only the timespec it is given.
         let ok = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) } == 0;
-        ok.then(|| ts.tv_sec as f64 * 1e3 + ts.tv_nsec as f64 * 1e-6)
+        ok.then_some(ts.tv_sec as f64 * 1e3 + ts.tv_nsec as f64 * 1e-6)
     }
     #[cfg(not(unix))]
     {
