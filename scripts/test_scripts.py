@@ -926,6 +926,33 @@ class SparseBoxes(unittest.TestCase):
                 self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
 
 
+class Variation(unittest.TestCase):
+    """variation.py --summary: per row the spread of its median between each arm's processes,
+    and of its ratio to the first row of its timing group."""
+
+    def test_spreads_between_processes(self):
+        header = ["scene", "structure", "params", "traversal", "ray_kind", "threads",
+                  "trace_ms_median", "trace_ms_ci", "timing_group"]
+        with tempfile.TemporaryDirectory() as tmp:
+            # Arm a: medians 10, 20 (max/min 2); arm b: 10, 11. Row y is twice row x in
+            # every process of both arms: the paired ratio does not move.
+            for arm, ms in [("a", [10.0, 20.0]), ("b", [10.0, 11.0])]:
+                for i, m in enumerate(ms):
+                    d = os.path.join(tmp, f"{arm}-{i:02d}")
+                    os.makedirs(d)
+                    rows = [{"scene": "s", "structure": "bvh", "params": "width=8",
+                             "traversal": t, "ray_kind": "primary", "threads": "1",
+                             "trace_ms_median": m * k, "trace_ms_ci": 0.05,
+                             "timing_group": "g"} for t, k in [("x", 1), ("y", 2)]]
+                    write(os.path.join(d, "results.csv"), rows, header)
+            out = run("variation.py", "--summary", "--out", tmp, "--arm", "a:",
+                      "--arm", "b:env:K=V")
+        self.assertIn("a: 2 processes; rows' median max/min, geometric mean 2.000", out)
+        self.assertIn("b: 2 processes; rows' median max/min, geometric mean 1.100", out)
+        self.assertIn("a: paired ratios (row / first row of its timing group), 1: max/min "
+                      "geometric mean 1.000", out)
+
+
 class WithoutMatplotlib(unittest.TestCase):
     @unittest.skipIf(HAVE_MPL, "matplotlib is installed")
     def test_plot_says_what_it_needs(self):

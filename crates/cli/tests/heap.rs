@@ -91,3 +91,33 @@ name = "irregular-grid"
         assert!(peak >= kept, "{}: peak {peak} < kept {kept}", r.structure);
     }
 }
+
+/// Large blocks start on a cache line (`heap::placement`), through every way a block is made:
+/// allocated, zeroed, grown past the threshold and shrunk below it, with its bytes kept.
+#[test]
+fn large_blocks_start_on_a_cache_line_and_keep_their_bytes() {
+    let _turn = serial();
+    if !heap::placement().align {
+        eprintln!("note: TRACE_BENCH_ALIGN=0: large blocks are not aligned, nothing to check");
+        return;
+    }
+    let line = |p: *const u8| (p as usize).is_multiple_of(heap::LINE);
+    for n in [heap::ALIGN_MIN, 3 * heap::ALIGN_MIN + 16, 1 << 20] {
+        let v = std::hint::black_box(vec![7u8; n]);
+        assert!(line(v.as_ptr()), "{n} bytes at {:p}", v.as_ptr());
+        let z = std::hint::black_box(vec![0u64; n / 8]);
+        assert!(line(z.as_ptr().cast()) && z.iter().all(|x| *x == 0));
+    }
+    // Grown one element at a time from a few bytes to 64 KiB (reallocated across the
+    // threshold), then shrunk below it: the same values throughout.
+    let mut v: Vec<u32> = Vec::new();
+    for i in 0..16384u32 {
+        v.push(i.wrapping_mul(2654435761));
+        if v.len() * 4 >= heap::ALIGN_MIN {
+            assert!(line(v.as_ptr().cast()), "{} elements", v.len());
+        }
+    }
+    v.truncate(100);
+    v.shrink_to_fit();
+    assert!((0..100u32).all(|i| v[i as usize] == i.wrapping_mul(2654435761)));
+}

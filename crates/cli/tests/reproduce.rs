@@ -75,6 +75,12 @@ measure = "weight_pct"
 filter = {{ file = "weights" }}
 rows.w = {{ table = 1, heuristic = "cube-obli", patch = "Y", axis = "Y" }}
 test = {{ kind = "value", of = "w", min = 49.999, max = 50.01 }}
+
+[[figure]]
+name = "nodes"
+title = "Table 9 as bars"
+script = "plot.py"
+args = ["bars", "{{run:tiny}}"]
 "#,
             cfg = cfg.display()
         ),
@@ -89,8 +95,29 @@ test = {{ kind = "value", of = "w", min = 49.999, max = 50.01 }}
     fs::write(&deviations, deviation(r#"["gpu-only"]"#)).unwrap();
     let out = t.path().join("report");
     let exe = env!("CARGO_BIN_EXE_trace-bench");
+    // The figures' interpreter: one with "matplotlib" (writes its --out), one without.
+    fs::create_dir(t.path().join("scripts")).unwrap();
+    fs::write(t.path().join("scripts/plot.py"), "").unwrap();
+    let python = |name: &str, probe: &str| {
+        use std::os::unix::fs::PermissionsExt;
+        let p = t.path().join(name);
+        fs::write(
+            &p,
+            format!(
+                "#!/bin/sh\nif [ \"$1\" = -c ]; then exit {probe}; fi\n\
+                 prev=; for a in \"$@\"; do if [ \"$prev\" = --out ]; then echo png > \"$a\"; fi; prev=$a; done\n"
+            ),
+        )
+        .unwrap();
+        fs::set_permissions(&p, fs::Permissions::from_mode(0o755)).unwrap();
+        p
+    };
+    let (with_mpl, without) = (python("python-mpl", "0"), python("python-bare", "1"));
+    let python = std::cell::RefCell::new(with_mpl);
     let run_into = |out: &std::path::Path| {
         Command::new(exe)
+            .current_dir(t.path())
+            .env("TRACE_BENCH_PYTHON", &*python.borrow())
             .args([
                 "reproduce",
                 claims.to_str().unwrap(),
@@ -137,9 +164,16 @@ test = {{ kind = "value", of = "w", min = 49.999, max = 50.01 }}
     assert_eq!(kind("gpu-only"), "claim");
     assert_eq!(v["tally"]["agree"], 1, "{v}");
     assert_eq!(v["kinds"]["observations"]["agree"], 1, "{v}");
+    // The figure, drawn from the run's folder and linked.
+    assert!(
+        report.contains("- Table 9 as bars (tiny-paper): [figures/tiny-paper-nodes.png](figures/tiny-paper-nodes.png)"),
+        "{report}"
+    );
+    assert!(out.join("figures/tiny-paper-nodes.png").is_file());
     let repro = fs::read_to_string(out.join("REPRODUCTION.md")).unwrap();
     assert!(
-        repro.contains("| `gpu-only` |") && repro.contains("not measured"),
+        repro.contains("| [`gpu-only`](#r-tiny-paper-gpu-only) |")
+            && repro.contains("not measured"),
         "{repro}"
     );
     let at = |s: &str| {
@@ -151,15 +185,23 @@ test = {{ kind = "value", of = "w", min = 49.999, max = 50.01 }}
         "claims 1 agree, 0 disagree, 1 inconclusive; observations (not tallied) 1 agree"
     ));
     assert!(
-        at("| `gpu-only` |") < at("### Observations")
-            && at("### Observations") < at("| `weight` |")
+        at("| [`gpu-only`]") < at("### Observations")
+            && at("### Observations") < at("| [`weight`]")
+            && at("| [`weight`]") < at("## Reasons")
     );
     assert!(at("## Deviations") < at("| hardware | no GPU here | a CPU machine | `gpu-only` |"));
-    // The same folder again: both runs reused, the same verdicts.
+    // The same folder again, without matplotlib: both runs reused, the same verdicts, and one
+    // line saying how to get the figures.
+    *python.borrow_mut() = without;
     let o = run();
     assert!(o.status.success());
     let report = fs::read_to_string(out.join("REPORT.md")).unwrap();
     assert_eq!(report.matches("| reused |").count(), 2, "{report}");
+    assert!(
+        report.contains("Not drawn: matplotlib is not installed for")
+            && report.contains("pip install -r scripts/requirements.txt"),
+        "{report}"
+    );
     // `claims` on the runs' folders directly, and the CI form failing on a non-agreeing claim.
     let runs = out.join("runs/tiny-paper");
     let folders: Vec<String> = fs::read_dir(&runs)
@@ -262,4 +304,58 @@ fn interleaved_runs_keep_rows_and_counters() {
         .map(|r| r["structure"].as_str())
         .collect();
     assert_eq!(structures.len(), 2);
+}
+
+/// `run.clock = "thread"`: one-thread rows timed by the thread's CPU time, the same rows and
+/// counters, timed both apart and interleaved; an unknown clock is refused, naming the key.
+#[test]
+fn the_thread_clock_times_the_same_rows() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = t.path().join("tiny.toml");
+    fs::write(&cfg, CONFIG).unwrap();
+    let exe = env!("CARGO_BIN_EXE_trace-bench");
+    let run = |out: &str, extra: &[&str]| {
+        Command::new(exe)
+            .args(["run", cfg.to_str().unwrap(), "--out"])
+            .arg(t.path().join(out))
+            .arg("-q")
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let rows = |out: &str| {
+        tb_harness::results::output::read_csv(&t.path().join(out).join("results.csv")).unwrap()
+    };
+    for (out, extra) in [
+        ("wall", &[][..]),
+        ("thread", &["--set", "run.clock=thread"][..]),
+        (
+            "both",
+            &["--set", "run.clock=thread", "--set", "run.interleave=true"][..],
+        ),
+    ] {
+        let o = run(out, extra);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let (wall, thread, both) = (rows("wall"), rows("thread"), rows("both"));
+    assert_eq!(wall.len(), thread.len());
+    for ((a, b), c) in wall.iter().zip(&thread).zip(&both) {
+        assert_eq!(
+            (&a.traversal, a.interior_per_ray),
+            (&b.traversal, b.interior_per_ray)
+        );
+        assert_eq!(
+            (&a.traversal, a.interior_per_ray),
+            (&c.traversal, c.interior_per_ray)
+        );
+        for r in [b, c] {
+            assert!(r.trace_ms_median.is_some_and(|m| m > 0.0), "{r:?}");
+        }
+    }
+    let o = run("bad", &["--set", "run.clock=cpu"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("run.clock") && err.contains("known: wall, thread"),
+        "{err}"
+    );
 }

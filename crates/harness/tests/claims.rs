@@ -717,6 +717,7 @@ fn kinds_are_shown_apart_and_only_claims_tallied() {
         claims: v.clone(),
         deviations: Vec::new(),
         adapters: Vec::new(),
+        figures: Vec::new(),
     };
     let repro = claims::reproduce::reproduction(&[report], "");
     let at = |s: &str| {
@@ -725,11 +726,160 @@ fn kinds_are_shown_apart_and_only_claims_tallied() {
             .unwrap_or_else(|| panic!("{s} not in {repro}"))
     };
     assert!(repro.contains("claims 1 agree, 1 disagree, 0 inconclusive; observations (not tallied) 0 agree, 1 disagree"));
-    assert!(at("| `stated` |") < at("### Observations"));
-    assert!(at("### Observations") < at("| `tried` |"));
-    assert!(at("| `tried` |") < at("### Invariants"));
-    assert!(at("### Invariants") < at("| `built` |"));
-    assert!(at("| `built` |") < at("## Deviations"));
+    assert!(at("| [`stated`]") < at("### Observations"));
+    assert!(at("### Observations") < at("| [`tried`]"));
+    assert!(at("| [`tried`]") < at("### Invariants"));
+    assert!(at("### Invariants") < at("| [`built`]"));
+    // The reasons keep the kinds apart too, after every short table and before the deviations.
+    assert!(at("| [`built`]") < at("## Reasons"));
+    assert!(at("## Reasons") < at("#### Observations"));
+    assert!(at("#### Observations") < at("`tried` |"));
+    assert!(at("#### Invariants") < at("## Deviations"));
+}
+
+/// REPRODUCTION.md opens each paper with a short table (claim, the paper's figure, ours,
+/// verdict) and keeps the long reasons below: the claim's `paper_figure` where given, else its
+/// `paper` shortened; an ordering's intervals reduced to its relations; each id linking to its
+/// reasons, where the full `paper`, the measured why and the note stand.
+#[test]
+fn short_tables_open_each_paper_and_the_reasons_follow() {
+    let t = tempfile::tempdir().unwrap();
+    let r = results(t.path());
+    let long = "a 10 / 20 / 30 ms vs b 20 / 40 / 60 ms (s1 views one and two; s2 not printed); a long printed figure";
+    let text = format!(
+        "{BASE}[[claim]]\nid = \"figured\"\nwhere = \"Table 9\"\ntext = \"t\"\npaper = \"{long}\"\npaper_figure = \"10 vs 20 ms\"\nnote = \"the note\"\nmeasure = \"time\"\nfilter = {{ ray_kind = \"primary\", params = {{ k = 1 }}, scene = \"s1\" }}\nrows.first_traversal = {{ traversal = \"a\" }}\nrows.second_traversal = {{ traversal = \"b\" }}\ntest = {{ kind = \"order\", rows = [\"first_traversal\", \"second_traversal\"], strict = true }}\n\
+         [[claim]]\nid = \"cut\"\nwhere = \"Table 9\"\ntext = \"t\"\npaper = \"{long}\"\nmeasure = \"interior_per_ray\"\nfilter = {{ ray_kind = \"primary\", params = {{ k = 1 }}, scene = \"s1\" }}\nrows.a = {{ traversal = \"a\" }}\nrows.b = {{ traversal = \"b\" }}\ntest = {{ kind = \"ratio\", num = \"a\", den = \"b\", max = 0.9 }}\n"
+    );
+    let v = eval(&text, &[r]);
+    assert_eq!(v[0].paper_figure.as_deref(), Some("10 vs 20 ms"));
+    // The ordering's full `ours` (values with intervals) is long; the short cell its relation.
+    assert!(v[0].ours.len() > claims::render::SHORT, "{}", v[0].ours);
+    assert_eq!(
+        claims::render::short_ours(&v[0]),
+        "first_traversal < second_traversal"
+    );
+    assert_eq!(
+        claims::render::short_paper(&v[1]),
+        "a 10 / 20 / 30 ms vs b 20 / 40 / 60 ms …"
+    );
+    let report = claims::reproduce::PaperReport {
+        key: "t".into(),
+        paper: "A paper".into(),
+        runs: Vec::new(),
+        tally: claims::render::Tally::of(&v),
+        kinds: claims::render::Kinds::of(&v),
+        claims: v.clone(),
+        deviations: Vec::new(),
+        adapters: Vec::new(),
+        figures: Vec::new(),
+    };
+    let repro = claims::reproduce::reproduction(&[report], "");
+    let at = |s: &str| {
+        repro
+            .find(s)
+            .unwrap_or_else(|| panic!("{s} not in {repro}"))
+    };
+    assert!(repro.contains(
+        "| [`figured`](#r-t-figured) | 10 vs 20 ms | first_traversal < second_traversal | agree |  |  |"
+    ));
+    assert!(repro.contains(
+        "| [`cut`](#r-t-cut) | a 10 / 20 / 30 ms vs b 20 / 40 / 60 ms … | 0.875 | agree |"
+    ));
+    // The long texts only below the short tables.
+    let reasons = at("## Reasons");
+    assert!(at("<a id=\"r-t-figured\"></a>") > reasons);
+    assert!(at(long) > reasons);
+    assert!(at("note: the note") > reasons);
+    assert!(at("in order (2 rows)") > reasons);
+}
+
+/// Every timed group states the smallest effect its intervals decide (the relative half-width
+/// of the compared interval, here the floor's ±20 %), the claim beside the effect its band asks
+/// for; REPORT.md's list takes the claims asking for less, with the processes that would decide
+/// them, and leaves counters and wide bands out.
+#[test]
+fn timed_claims_state_the_smallest_effect_they_decide() {
+    let t = tempfile::tempdir().unwrap();
+    let r = results(t.path());
+    // s1: speedup of a over b 2 (80 / 40 ms, ±1 %), widened to [1.67, 2.4] by the ±20 % floor.
+    let c = |id: &str, measure: &str, test: &str| {
+        format!(
+            "[[claim]]\nid = \"{id}\"\nwhere = \"T1\"\ntext = \"t\"\npaper = \"1.8\"\nmeasure = \"{measure}\"\nfilter = {{ ray_kind = \"primary\", params = {{ k = 1 }}, scene = \"s1\" }}\nrows.a = {{ traversal = \"a\" }}\nrows.b = {{ traversal = \"b\" }}\ntest = {test}\n"
+        )
+    };
+    let speedup =
+        |band: &str| format!("{{ kind = \"speedup\", of = \"a\", base = \"b\", {band} }}");
+    let text = format!(
+        "{BASE}{}{}{}{}",
+        c("narrow", "time", &speedup("min = 1.7, max = 2.0")),
+        c("wide", "time", &speedup("min = 1.5, max = 2.2")),
+        c(
+            "direction",
+            "time",
+            "{ kind = \"order\", rows = [\"a\", \"b\"], strict = true }"
+        ),
+        c(
+            "counter",
+            "interior_per_ray",
+            &speedup("min = 1.7, max = 2.0")
+        ),
+    );
+    let v = eval(&text, &[r]);
+    let get = |id: &str| v.iter().find(|c| c.id == id).unwrap();
+    let e = get("narrow").effect.clone().expect("timed");
+    assert!((e.smallest - 0.2).abs() < 1e-9, "{e:?}");
+    let g = get("narrow").groups[0].effect.clone().expect("timed group");
+    assert!((g.smallest - 0.2).abs() < 1e-9 && g.processes == 1, "{g:?}");
+    // The band [1.7, 2.0] asks for ±8.5 %: below ±20 %, (ln 1.2 / ln 1.0847)² = 5.03 → 6.
+    assert!((e.paper - ((2.0f64 / 1.7).sqrt() - 1.0)).abs() < 1e-12 && e.paper_from == "band");
+    assert!(e.below());
+    assert_eq!(e.processes_for_paper, Some(6));
+    assert!(
+        get("narrow")
+            .why
+            .contains("smallest decidable effect ±20 % (1 process)")
+            && get("narrow").why.contains("6 processes would decide it"),
+        "{}",
+        get("narrow").why
+    );
+    // [1.5, 2.2] asks for ±21 %: decidable.
+    assert!(!get("wide").effect.as_ref().unwrap().below());
+    // An ordering asks for a direction only: listed, decided where our value clears 1 (2x).
+    let d = get("direction").effect.clone().unwrap();
+    assert_eq!(
+        (d.paper, d.paper_from, d.processes_for_paper),
+        (0.0, "direction", None)
+    );
+    // Counters have no interval to speak of.
+    assert!(get("counter").effect.is_none());
+    // verdicts.json carries the effects.
+    let j = claims::render::json("t", &[], &v);
+    assert_eq!(j["claims"][0]["effect"]["paper_from"], "band");
+    assert!(j["claims"][0]["groups"][0]["effect"]["smallest"]
+        .as_f64()
+        .is_some());
+    let report = claims::reproduce::PaperReport {
+        key: "t".into(),
+        paper: "A paper".into(),
+        runs: Vec::new(),
+        tally: claims::render::Tally::of(&v),
+        kinds: claims::render::Kinds::of(&v),
+        claims: v.clone(),
+        deviations: Vec::new(),
+        adapters: Vec::new(),
+        figures: Vec::new(),
+    };
+    let md = claims::reproduce::below_markdown(&[report]);
+    assert!(md.contains("1/√processes"), "{md}");
+    assert!(
+        md.contains("| `narrow` | *undecidable* | ±8.5 % (band) | ±20 % (1 process) | 6 |"),
+        "{md}"
+    );
+    assert!(
+        md.contains("| `direction` | agree | a direction (paper: 1.8) |"),
+        "{md}"
+    );
+    assert!(!md.contains("`wide`") && !md.contains("`counter`"), "{md}");
 }
 
 /// A time band narrower than the floor between runs can never hold a time's interval: the

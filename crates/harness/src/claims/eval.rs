@@ -1,5 +1,6 @@
 //! The generic evaluator: rows → pooled values per group and selector → a test → verdicts.
 
+use super::effect::{self, ClaimEffect, Compared, Effect};
 use super::measure::{fmt, Measure, Term};
 use super::rows::{Row, RowSet};
 use super::schema::{Claim, ClaimKind, ClaimsFile, Direction, Need, Pool, Selector, Test};
@@ -201,6 +202,9 @@ pub struct GroupResult {
     /// A timed comparison's interval: `Some(n)` when it was measured between `n` processes
     /// ([`MIN_PROCESSES`] or more), `None` when the floor gave it (or nothing is timed).
     pub between: Option<usize>,
+    /// A timed group's smallest decidable effect ([`effect`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub effect: Option<Effect>,
     /// Each selector's pooled value.
     pub values: BTreeMap<String, Value>,
 }
@@ -213,6 +217,9 @@ pub struct ClaimResult {
     pub place: String,
     pub text: String,
     pub paper: String,
+    /// The paper's figure in a few words, where the claims file gives it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub paper_figure: Option<String>,
     pub device: String,
     /// A claim of the paper (tallied), an observation or an invariant (shown apart).
     pub kind: ClaimKind,
@@ -225,6 +232,9 @@ pub struct ClaimResult {
     pub why: String,
     pub note: Option<String>,
     pub test: Test,
+    /// A timed claim's smallest decidable effect beside the effect its test asks for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub effect: Option<ClaimEffect>,
     pub groups: Vec<GroupResult>,
 }
 
@@ -1036,6 +1046,60 @@ fn run_test(test: &Test, vals: &BTreeMap<String, Value>, floor: f64) -> (Outcome
     }
 }
 
+/// A timed group's compared quantities as ratios with the bounds each must clear: a band
+/// test's `derived`, an ordering's neighbours, a `least` test's best against each rival; the
+/// intervals as the test used them (`ratio` and [`floored`]). Empty when nothing is timed.
+fn compared(
+    test: &Test,
+    vals: &BTreeMap<String, Value>,
+    derived: Option<[f64; 3]>,
+    floor: f64,
+) -> Vec<Compared> {
+    let timed = vals.values().any(|x| x.timed);
+    if !timed {
+        return Vec::new();
+    }
+    // The same intervals the test compared: between processes where measured, else floored.
+    let cmp = Cmp::new(floor, timed);
+    let r = |a: &str, b: &str| cmp.ratio(&vals[a], &vals[b]);
+    match test {
+        Test::Order {
+            rows,
+            strict,
+            margin,
+        } => rows
+            .windows(2)
+            .map(|w| Compared {
+                iv: r(&w[0], &w[1]),
+                bounds: vec![effect::before_bound(*strict, *margin)],
+            })
+            .collect(),
+        Test::Least {
+            best,
+            of,
+            margin,
+            direction,
+        } => of
+            .iter()
+            .map(|o| Compared {
+                iv: r(best, o),
+                bounds: vec![effect::least_bound(*direction, *margin)],
+            })
+            .collect(),
+        Test::Equal { tolerance, .. } => derived
+            .map(|d| Compared {
+                iv: d,
+                bounds: vec![1.0 - tolerance, 1.0 + tolerance],
+            })
+            .into_iter()
+            .collect(),
+        t => derived
+            .and_then(|d| effect::banded(t, d))
+            .into_iter()
+            .collect(),
+    }
+}
+
 /// A band test's outcome: the compared quantity `d` (percent when `pct`) in `min..=max`.
 fn banded(d: [f64; 3], min: Option<f64>, max: Option<f64>, pct: bool, cmp: &Cmp) -> Outcome {
     let verdict = band_verdict(d[0], d[2], min, max);
@@ -1266,9 +1330,20 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
     if !results.is_empty() {
         results.extend(missing_groups(c, &groups));
     }
-    let (verdict, ours, why) = combine(c, device, &results, &base, set);
+    let (verdict, ours, mut why) = combine(c, device, &results, &base, set);
     // Measured: every group's time interval was measured between processes.
     let measured = !results.is_empty() && results.iter().all(|g| g.between.is_some());
+    let groups: Vec<(Option<&Effect>, bool)> = results
+        .iter()
+        .map(|g| {
+            let open = !matches!(g.verdict, Verdict::Agree | Verdict::Disagree);
+            (g.effect.as_ref(), open)
+        })
+        .collect();
+    let claim_effect = effect::of_claim(&c.test, &groups);
+    if let Some(e) = &claim_effect {
+        why = format!("{why}; {}", effect::said(e));
+    }
     let undecidable = super::kinds::undecidable(c, opts.time_floor, measured);
     let (verdict, why) = match &undecidable {
         Some(r) if verdict == Verdict::Inconclusive => {
@@ -1283,6 +1358,7 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
         place: c.place.clone(),
         text: c.text.clone(),
         paper: c.paper.clone(),
+        paper_figure: c.paper_figure.clone(),
         device: device.into(),
         kind: c.kind,
         measure: shown_measure(c),
@@ -1292,6 +1368,7 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
         why,
         note: c.note.clone(),
         test: c.test.clone(),
+        effect: claim_effect,
         groups: results,
     }
 }
@@ -1366,6 +1443,7 @@ fn missing_groups(c: &Claim, groups: &BTreeSet<String>) -> Vec<GroupResult> {
                 derived: None,
                 why: format!("rows missing: no rows for {k} = {shown}"),
                 between: None,
+                effect: None,
                 values: BTreeMap::new(),
             });
         }
@@ -1421,6 +1499,11 @@ fn evaluate_group(
     }
     if problems.is_empty() {
         let ((verdict, shown, derived, why), between) = run_test(&c.test, &vals, opts.time_floor);
+        // The intervals compared: measured between processes, or this run's widened to the floor.
+        let effect = effect::of_group(
+            &compared(&c.test, &vals, derived, opts.time_floor),
+            between.unwrap_or(1),
+        );
         let (verdict, mut why) = timing_caveats(&vals, verdict, why, between.is_some());
         for p in &picked {
             why.push_str(&format!("; {p}"));
@@ -1432,6 +1515,7 @@ fn evaluate_group(
             derived,
             why,
             between,
+            effect,
             values: vals,
         }
     } else {
@@ -1442,6 +1526,7 @@ fn evaluate_group(
             derived: None,
             why: problems.join("; "),
             between: None,
+            effect: None,
             values: vals,
         }
     }

@@ -14,7 +14,9 @@
 pub(crate) mod child;
 mod columns;
 pub mod deviations;
+pub mod effect;
 mod eval;
+pub mod figures;
 mod kinds;
 mod measure;
 mod pick;
@@ -27,7 +29,9 @@ pub use eval::{
     evaluate, evaluate_with, ClaimResult, GroupResult, Options, Value, Verdict, TIME_FLOOR,
 };
 pub use rows::RowSet;
-pub use schema::{Claim, ClaimKind, ClaimsFile, Direction, Need, Pool, RunSpec, Selector, Test};
+pub use schema::{
+    Claim, ClaimKind, ClaimsFile, Direction, FigureSpec, Need, Pool, RunSpec, Selector, Test,
+};
 
 use crate::HarnessError;
 use std::path::Path;

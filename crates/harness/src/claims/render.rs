@@ -1,8 +1,9 @@
 //! Verdicts as a terminal table, Markdown or JSON: the paper's claims first (the tally), then
 //! observations and invariants, each in its own section with its own counts.
 
-use super::eval::{ClaimResult, Verdict};
-use super::schema::ClaimKind;
+use super::eval::{ClaimResult, GroupResult, Verdict};
+use super::measure::fmt;
+use super::schema::{ClaimKind, Direction, Test};
 use serde::Serialize;
 
 /// Counts of each verdict among the results of one kind.
@@ -201,4 +202,96 @@ pub fn json(paper: &str, sources: &[String], rs: &[ClaimResult]) -> serde_json::
         "kinds": Kinds::of(rs),
         "claims": rs,
     })
+}
+
+/// The longest cell of the report's short tables before it is shortened.
+pub const SHORT: usize = 48;
+
+/// `s` in at most about [`SHORT`] characters: whole when short, else its first clause (before
+/// `; ` or ` (`), cut at a word, marked `…`.
+pub fn shorten(s: &str) -> String {
+    if s.chars().count() <= SHORT {
+        return s.to_owned();
+    }
+    let mut t = s;
+    for sep in ["; ", " ("] {
+        if let Some(i) = t.find(sep).filter(|i| *i > 0) {
+            t = &t[..i];
+        }
+    }
+    if t.chars().count() <= SHORT {
+        return format!("{t} …");
+    }
+    let cut: String = t.chars().take(SHORT).collect();
+    let cut = cut.rsplit_once(' ').map_or(cut.as_str(), |(a, _)| a);
+    format!("{cut} …")
+}
+
+/// The paper's figure for a short table: the claim's `paper_figure`, else its `paper`
+/// shortened.
+pub fn short_paper(r: &ClaimResult) -> String {
+    r.paper_figure.clone().unwrap_or_else(|| shorten(&r.paper))
+}
+
+/// Our figure for a short table: `ours` when short; one group's ordering as the relations
+/// measured (`a < b < c`), a `least` test's best against its nearest rival, an equality's
+/// difference; else `ours` shortened. The intervals stay in the reasons.
+pub fn short_ours(r: &ClaimResult) -> String {
+    if r.ours.chars().count() <= SHORT {
+        return r.ours.clone();
+    }
+    match &r.groups[..] {
+        [g] => relation(&r.test, g).unwrap_or_else(|| shorten(&r.ours)),
+        _ => shorten(&r.ours),
+    }
+}
+
+fn relation(t: &Test, g: &GroupResult) -> Option<String> {
+    let v = |n: &str| g.values.get(n).map(|x| x.v);
+    let rel = |a: f64, b: f64| {
+        if a < b {
+            " < "
+        } else if a == b {
+            " = "
+        } else {
+            " > "
+        }
+    };
+    match t {
+        Test::Order { rows, .. } => {
+            let mut s = rows[0].clone();
+            for w in rows.windows(2) {
+                s.push_str(rel(v(&w[0])?, v(&w[1])?));
+                s.push_str(&w[1]);
+            }
+            Some(s)
+        }
+        Test::Least {
+            best,
+            of,
+            direction,
+            ..
+        } => {
+            let key = |n: &String| {
+                v(n).map(|x| match direction {
+                    Direction::Lowest => x,
+                    Direction::Highest => -x,
+                })
+            };
+            let rival = of
+                .iter()
+                .filter_map(|n| key(n).map(|k| (k, n)))
+                .min_by(|a, b| a.0.total_cmp(&b.0))?
+                .1;
+            Some(format!(
+                "{best}{}{rival} (nearest of {})",
+                rel(v(best)?, v(rival)?),
+                of.len()
+            ))
+        }
+        Test::Equal { .. } => g
+            .derived
+            .map(|d| format!("Δ {} %", fmt(100.0 * (d[1] - 1.0)))),
+        _ => None,
+    }
 }

@@ -12,6 +12,7 @@
 
 use super::deviations::{self, Resolved};
 use super::eval::{evaluate, ClaimResult, Verdict};
+use super::figures::{self, Figure};
 use super::render::{self, Kinds, Tally};
 use super::rows::RowSet;
 use super::schema::{ClaimKind, ClaimsFile, RunSpec};
@@ -48,6 +49,10 @@ pub struct Options {
     pub heavy: bool,
     pub quiet: bool,
 }
+
+/// The folder of the plotting scripts, relative to where reproduce runs (the repository root,
+/// as the claims files' configs are).
+pub const SCRIPTS: &str = "scripts";
 
 /// The share of the user's `--budget` given to the runs ([`Options::budget_s`]); the rest is
 /// kept for loading the claims and writing the report.
@@ -163,6 +168,8 @@ pub struct PaperReport {
     pub deviations: Vec<Resolved>,
     /// The GPU adapters of the rows (`name (type)`), for the report's head.
     pub adapters: Vec<String>,
+    /// The paper's figures drawn from the runs (the claims file's `[[figure]]`s).
+    pub figures: Vec<Figure>,
 }
 
 /// The distinct GPU adapters of `rows`, `name (type)`.
@@ -318,6 +325,16 @@ fn run_args(r: &RunSpec, sets: &[String], folder: &Path, opts: &Options) -> Vec<
         a.push("--processes".into());
         a.push(r.processes.to_string());
     }
+    // One-thread rows timed by the thread's CPU time: on a shared machine the time waited
+    // for a core is most of what moves a row between processes (docs/variation.md).
+    if !sets
+        .iter()
+        .chain(&opts.sets)
+        .any(|s| s.starts_with("run.clock"))
+    {
+        a.push("--set".into());
+        a.push("run.clock=thread".into());
+    }
     if !r.structure.is_empty() {
         a.push("--structure".into());
         a.push(r.structure.join(","));
@@ -465,6 +482,97 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
         .map(|(path, file, _)| deviations::load(path, file))
         .collect::<Result<Vec<_>, _>>()?
         .into_iter();
+    say_plan(opts, &planned);
+    // One reproduce per report folder, until this one ends.
+    let _lock = crate::results::lock::FolderLock::acquire(&opts.out)?;
+    super::child::catch_signals();
+    let started = Instant::now();
+    let start_time = crate::results::meta::now_rfc3339();
+    // The interpreter for the figures, or why there are none.
+    let plot = planned.iter().any(|p| !p.1.figures.is_empty()).then(|| {
+        let py = figures::python();
+        if !Path::new(SCRIPTS).is_dir() {
+            return Err(format!(
+                "no {SCRIPTS}/ folder here (reproduce runs from the repository root)"
+            ));
+        }
+        figures::check(&py).map(|()| py)
+    });
+    let mut reports = Vec::new();
+    for (path, file, mut runs) in planned {
+        for r in &mut runs {
+            make_run(r, opts)?;
+            r.spread = spread(&r.folder);
+        }
+        let mut sources: Vec<PathBuf> = runs
+            .iter()
+            .map(|r| r.folder.clone())
+            .filter(|f| f.is_dir() && std::fs::read_dir(f).is_ok_and(|mut d| d.next().is_some()))
+            .collect();
+        sources.extend(opts.with.iter().cloned());
+        let rows = if sources.is_empty() {
+            RowSet::default()
+        } else {
+            RowSet::read(&sources)?
+        };
+        let claims = evaluate(&file, &rows);
+        let figures = match &plot {
+            Some(Ok(py)) => {
+                let labels: Vec<(String, PathBuf)> = runs
+                    .iter()
+                    .map(|r| (r.label.clone(), r.folder.clone()))
+                    .collect();
+                let figs = figures::draw(
+                    py,
+                    Path::new(SCRIPTS),
+                    &stem(&path),
+                    &file.figures,
+                    &labels,
+                    &opts.out,
+                );
+                for f in &figs {
+                    if let figures::Drawn::Failed(why) = &f.drawn {
+                        eprintln!("reproduce: figure {}-{} failed: {why}", f.paper, f.name);
+                    }
+                }
+                figs
+            }
+            _ => Vec::new(),
+        };
+        reports.push(PaperReport {
+            key: stem(&path),
+            paper: file.paper.clone(),
+            runs,
+            tally: Tally::of(&claims),
+            kinds: Kinds::of(&claims),
+            claims,
+            deviations: devs.next().unwrap_or_default(),
+            adapters: adapters(&rows),
+            figures,
+        });
+    }
+    if let Some(sig) = super::child::received() {
+        return Err(interrupted(sig, None, opts));
+    }
+    let wall = started.elapsed().as_secs_f64();
+    let budget = opts.budget_s / RUNS_SHARE;
+    if wall > budget + 0.5 {
+        eprintln!(
+            "note: reproduce: took {wall:.0} s, {:.0} s over the budget of {}",
+            wall - budget,
+            opts.budget_text
+        );
+    }
+    let notice = match plot {
+        Some(Err(why)) => Some(why),
+        _ => None,
+    };
+    write_report(opts, &reports, &start_time, wall, notice.as_deref())?;
+    Ok(reports)
+}
+
+/// Before the runs: the heavy runs left out and a budget below the runs' smallest cost, said.
+fn say_plan(opts: &Options, planned: &[(PathBuf, ClaimsFile, Vec<PlannedRun>)]) {
     let estimate: f64 = planned
         .iter()
         .flat_map(|p| &p.2)
@@ -495,54 +603,6 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
             opts.budget_text
         );
     }
-    // One reproduce per report folder, until this one ends.
-    let _lock = crate::results::lock::FolderLock::acquire(&opts.out)?;
-    super::child::catch_signals();
-    let started = Instant::now();
-    let start_time = crate::results::meta::now_rfc3339();
-    let mut reports = Vec::new();
-    for (path, file, mut runs) in planned {
-        for r in &mut runs {
-            make_run(r, opts)?;
-            r.spread = spread(&r.folder);
-        }
-        let mut sources: Vec<PathBuf> = runs
-            .iter()
-            .map(|r| r.folder.clone())
-            .filter(|f| f.is_dir() && std::fs::read_dir(f).is_ok_and(|mut d| d.next().is_some()))
-            .collect();
-        sources.extend(opts.with.iter().cloned());
-        let rows = if sources.is_empty() {
-            RowSet::default()
-        } else {
-            RowSet::read(&sources)?
-        };
-        let claims = evaluate(&file, &rows);
-        reports.push(PaperReport {
-            key: stem(&path),
-            paper: file.paper.clone(),
-            runs,
-            tally: Tally::of(&claims),
-            kinds: Kinds::of(&claims),
-            claims,
-            deviations: devs.next().unwrap_or_default(),
-            adapters: adapters(&rows),
-        });
-    }
-    if let Some(sig) = super::child::received() {
-        return Err(interrupted(sig, None, opts));
-    }
-    let wall = started.elapsed().as_secs_f64();
-    let budget = opts.budget_s / RUNS_SHARE;
-    if wall > budget + 0.5 {
-        eprintln!(
-            "note: reproduce: took {wall:.0} s, {:.0} s over the budget of {}",
-            wall - budget,
-            opts.budget_text
-        );
-    }
-    write_report(opts, &reports, &start_time, wall)?;
-    Ok(reports)
 }
 
 /// Before the first run: every `--with` holds trace-bench results, every run's config exists
@@ -736,6 +796,7 @@ fn write_report(
     reports: &[PaperReport],
     start: &str,
     wall: f64,
+    figures_notice: Option<&str>,
 ) -> Result<(), HarnessError> {
     let all: Vec<ClaimResult> = reports.iter().flat_map(|r| r.claims.clone()).collect();
     let mut gpus: Vec<&str> = Vec::new();
@@ -768,35 +829,28 @@ fn write_report(
         "# trace-bench reproduce\n\n{head}\nVerdicts: {}.\n",
         kinds_line(&Kinds::of(&all))
     );
+    let below = all
+        .iter()
+        .filter(|c| c.effect.as_ref().is_some_and(|e| e.below()))
+        .count();
+    if below > 0 {
+        md.push_str(&format!(
+            "\n{below} timed claims ask for an effect below what this run decides: \
+             [Effects below what this run decides](#effects-below-what-this-run-decides).\n"
+        ));
+    }
+    let figs: Vec<Figure> = reports.iter().flat_map(|r| r.figures.clone()).collect();
+    if figures_notice.is_some() || !figs.is_empty() {
+        md.push_str(&figures::markdown(&figs, figures_notice));
+    }
     for r in reports {
         md.push_str(&format!("\n## {} (`claims/{}.toml`)\n\n", r.paper, r.key));
-        md.push_str("| run | estimate | scaled | wall s | exit |\n|---|---|---|---|---|\n");
-        for p in &r.runs {
-            md.push_str(&format!(
-                "| `trace-bench {}` | {:.0} s | {} | {} | {} |\n",
-                p.args.join(" ").replace('|', "\\|"),
-                p.cost_s,
-                p.left_out
-                    .clone()
-                    .or_else(|| p.scaled.clone())
-                    .unwrap_or_else(|| "as declared".into()),
-                if let Some(by) = &p.reused_from {
-                    format!("reused, made by {by}")
-                } else if p.reused {
-                    "reused".into()
-                } else {
-                    p.wall_s.map(|w| format!("{w:.0}")).unwrap_or_default()
-                },
-                p.failed
-                    .clone()
-                    .or(p.exit.map(|c| c.to_string()))
-                    .unwrap_or_default()
-            ));
-        }
+        md.push_str(&runs_table(r));
         md.push('\n');
         md.push_str(&spread_table(r));
         md.push_str(&render::markdown(&r.claims));
     }
+    md.push_str(&below_markdown(reports));
     write(&opts.out.join("REPORT.md"), &md)?;
     write(
         &opts.out.join("REPRODUCTION.md"),
@@ -809,6 +863,7 @@ fn write_report(
         "wall_s": wall,
         "budget_s": opts.budget_s,
         "devices": opts.devices,
+        "figures_notice": figures_notice,
         "tally": Tally::of(&all),
         "kinds": Kinds::of(&all),
         "papers": reports,
@@ -817,6 +872,36 @@ fn write_report(
         &opts.out.join("verdicts.json"),
         &serde_json::to_string_pretty(&json).unwrap_or_default(),
     )
+}
+
+/// REPORT.md's table of a paper's runs: the command, its estimate, what was scaled, the wall
+/// time (or reuse) and the exit.
+fn runs_table(r: &PaperReport) -> String {
+    let mut md = String::new();
+    md.push_str("| run | estimate | scaled | wall s | exit |\n|---|---|---|---|---|\n");
+    for p in &r.runs {
+        md.push_str(&format!(
+            "| `trace-bench {}` | {:.0} s | {} | {} | {} |\n",
+            p.args.join(" ").replace('|', "\\|"),
+            p.cost_s,
+            p.left_out
+                .clone()
+                .or_else(|| p.scaled.clone())
+                .unwrap_or_else(|| "as declared".into()),
+            if let Some(by) = &p.reused_from {
+                format!("reused, made by {by}")
+            } else if p.reused {
+                "reused".into()
+            } else {
+                p.wall_s.map(|w| format!("{w:.0}")).unwrap_or_default()
+            },
+            p.failed
+                .clone()
+                .or(p.exit.map(|c| c.to_string()))
+                .unwrap_or_default()
+        ));
+    }
+    md
 }
 
 /// The table of the paper's runs made in several processes: the processes and how far the
@@ -876,34 +961,123 @@ pub fn kinds_line(k: &Kinds) -> String {
     s
 }
 
-/// REPRODUCTION.md: per paper, each claim's CPU and GPU verdicts side by side, with the
-/// measured reason and the claim's note; the paper's claims first (the tally), then its
-/// observations and invariants apart; then every paper's deviations.
+/// The section of REPORT.md listing the timed claims whose effect (from their test) is below
+/// the smallest effect the run decides, with the processes that would decide them.
+pub fn below_markdown(reports: &[PaperReport]) -> String {
+    use super::effect::ClaimEffect;
+    let listed: Vec<(&PaperReport, Vec<(&ClaimResult, &ClaimEffect)>)> = reports
+        .iter()
+        .map(|r| {
+            let cs = r
+                .claims
+                .iter()
+                .filter_map(|c| c.effect.as_ref().filter(|e| e.below()).map(|e| (c, e)))
+                .collect::<Vec<_>>();
+            (r, cs)
+        })
+        .filter(|(_, cs)| !cs.is_empty())
+        .collect();
+    if listed.is_empty() {
+        return String::new();
+    }
+    let mut s = String::from(
+        "\n## Effects below what this run decides\n\n\
+         A timed comparison is decided when its interval clears the bound, so a run decides \
+         only effects larger than its intervals' relative half-width: the *smallest decidable \
+         effect* (a claim's widest group; with one process the interval is widened to the \
+         floor between runs). The effect a claim asks for comes from its test: a two-sided \
+         band's half-width (the interval must fit in it), a one-sided bound's or a margin's \
+         distance from no effect (a ratio of 1), nothing for a direction only (the paper's \
+         figure is then the effect to resolve). Listed: the timed claims asking for less than \
+         the run decides (a verdict given all the same stands: our value lay far from the \
+         bound). *Processes* would decide the claim's effect, *at ours* our measured \
+         value (its distance from the bound), assuming the interval's log half-width shrinks as \
+         1/√processes from this run's (the spread of a mean of independent processes; from \
+         one process the floor is an assumed spread, not a measured one, and an interval \
+         measured between processes needs three at least); each process repeats the paper's \
+         runs, so the budget grows in proportion.\n",
+    );
+    for (r, cs) in listed {
+        s.push_str(&format!(
+            "\n### {}\n\n| claim | verdict | asks for | decides | processes | at ours |\n|---|---|---|---|---|---|\n",
+            r.paper
+        ));
+        for (c, e) in cs {
+            let asks = match e.paper_from {
+                "direction" => format!("a direction (paper: {})", render::short_paper(c)),
+                "band" => format!("±{} % (band)", super::effect::pct(e.paper)),
+                _ => format!("{} % (bound)", super::effect::pct(e.paper)),
+            };
+            let n = |x: Option<usize>| x.map_or("—".to_owned(), |n| n.to_string());
+            s.push_str(&format!(
+                "| `{}` | {} | {} | ±{} % ({} process{}) | {} | {} |\n",
+                claim_label(c),
+                render::md_verdict(c.verdict),
+                asks.replace('|', "\\|"),
+                super::effect::pct(e.smallest),
+                e.processes,
+                if e.processes == 1 { "" } else { "es" },
+                n(e.processes_for_paper),
+                n(e.processes_for_ours)
+            ));
+        }
+    }
+    s
+}
+
+/// A claim's id, with the device when not the CPU.
+fn claim_label(c: &ClaimResult) -> String {
+    if c.device == "cpu" {
+        c.id.clone()
+    } else {
+        format!("{} [{}]", c.id, c.device)
+    }
+}
+
+/// REPRODUCTION.md: per paper one short table per kind (claim, the paper's figure, ours and
+/// the verdict on the CPU and the GPU), the paper's claims first (the tally), then its
+/// observations and invariants apart; then the long reasons of every claim (where it stands,
+/// the paper's figures in full, the measured why, the note), then every paper's deviations.
 pub fn reproduction(reports: &[PaperReport], head: &str) -> String {
     let mut s = format!(
-        "# Reproduction\n\nGenerated by `trace-bench reproduce all`; what holds and what does not, with \
-         the measured reason. Verdicts: `agree`, `disagree`, `inconclusive` (rows missing, a time \
-         interval across the bound, noisy or software-GPU timings), `undecidable` (cannot be \
-         decided by construction: the reason is given); a GPU cell stays `not measured` until a run \
-         on a real GPU (`--device gpu`). Each paper's *claims* are its statements, tallied; its \
-         *observations* (a GPU statement tried on the CPU, a question the paper leaves open, our \
-         own figures) and *invariants* (properties of our code true by construction) are shown \
-         apart and not tallied. Where our implementation differs from the papers: \
-         [Deviations](#deviations). Details: `claims/README.md`.\n\n{head}"
+        "# Reproduction\n\nGenerated by `trace-bench reproduce all`: what holds and what does not. \
+         Each paper opens with a short table per kind (the claim, the paper's figure, ours, the \
+         verdict); the measured reasons are in [Reasons](#reasons) (a claim's id links to its), \
+         the figures drawn from the runs in the report folder's `REPORT.md`. Verdicts: `agree`, \
+         `disagree`, `inconclusive` (rows missing, a time interval across the bound, noisy or \
+         software-GPU timings), `undecidable` (cannot be decided by construction: the reason is \
+         given); a GPU cell stays `not measured` until a run on a real GPU (`--device gpu`). \
+         Each paper's *claims* are its statements, tallied; its *observations* (a GPU statement \
+         tried on the CPU, a question the paper leaves open, our own figures) and *invariants* \
+         (properties of our code true by construction) are shown apart and not tallied. Where \
+         our implementation differs from the papers: [Deviations](#deviations). Details: \
+         `claims/README.md`.\n\n{head}"
     );
     for r in reports {
         s.push_str(&format!("\n## {}\n\n", r.paper));
         s.push_str(&format!("{}.\n\n", kinds_line(&r.kinds)));
-        for kind in ClaimKind::ALL {
+        for kind in kinds_present(r) {
             if kind != ClaimKind::Claim {
-                if !r.claims.iter().any(|c| c.kind == kind) {
-                    continue;
-                }
                 let (title, what) = render::section(kind);
                 let t = Tally::of_kind(&r.claims, kind);
                 s.push_str(&format!("\n### {title}\n\n{what}. {t}.\n\n"));
             }
-            s.push_str(&verdict_table(r, kind));
+            s.push_str(&short_table(r, kind));
+        }
+    }
+    s.push_str(
+        "\n## Reasons\n\nPer claim: where it stands in the paper, the paper's figures as \
+         printed, and why the verdict (measured; for a timed claim, the smallest effect the run \
+         decides), with the claim's note. Every figure and interval is also in `verdicts.json`.\n",
+    );
+    for r in reports {
+        s.push_str(&format!("\n### {}\n", r.paper));
+        for kind in kinds_present(r) {
+            if kind != ClaimKind::Claim {
+                s.push_str(&format!("\n#### {}\n", render::section(kind).0));
+            }
+            s.push('\n');
+            s.push_str(&reasons_table(r, kind));
         }
     }
     s.push_str("\n## Deviations\n\nEvery difference between our implementation and the paper that remains \
@@ -920,54 +1094,99 @@ pub fn reproduction(reports: &[PaperReport], head: &str) -> String {
     s
 }
 
-/// The table of one kind's results of a paper: claim | where | paper | CPU: ours | CPU | GPU:
-/// ours | GPU | why.
-fn verdict_table(r: &PaperReport, kind: ClaimKind) -> String {
-    let mut s = String::from("| claim | where | paper | CPU: ours | CPU | GPU: ours | GPU | why (measured) |\n|---|---|---|---|---|---|---|---|\n");
+/// The kinds a paper's section shows: claims always, the others where it has some.
+fn kinds_present(r: &PaperReport) -> Vec<ClaimKind> {
+    ClaimKind::ALL
+        .into_iter()
+        .filter(|k| *k == ClaimKind::Claim || r.claims.iter().any(|c| c.kind == *k))
+        .collect()
+}
+
+/// The ids of one kind's results, in file order, each once.
+fn ids_of(r: &PaperReport, kind: ClaimKind) -> Vec<&str> {
     let mut ids: Vec<&str> = Vec::new();
     for c in r.claims.iter().filter(|c| c.kind == kind) {
         if !ids.contains(&c.id.as_str()) {
             ids.push(&c.id);
         }
     }
-    for id in ids {
+    ids
+}
+
+/// The anchor of a claim's reasons (`r-PAPER-ID`).
+fn anchor(r: &PaperReport, id: &str) -> String {
+    format!("r-{}-{id}", r.key)
+}
+
+fn md_escape(x: &str) -> String {
+    x.replace('|', "\\|").replace('\n', " ")
+}
+
+/// One kind's short table of a paper: claim | paper | CPU: ours | CPU | GPU: ours | GPU.
+fn short_table(r: &PaperReport, kind: ClaimKind) -> String {
+    let mut s = String::from(
+        "| claim | paper | CPU: ours | CPU | GPU: ours | GPU |\n|---|---|---|---|---|---|\n",
+    );
+    for id in ids_of(r, kind) {
         let on = |d: &str| r.claims.iter().find(|c| c.id == id && c.device == d);
         let first = r.claims.iter().find(|c| c.id == id).expect("listed");
         let cell = |c: Option<&ClaimResult>| match c {
-            None => ("".to_owned(), "".to_owned()),
-            Some(c) if c.device == "gpu" && c.verdict == Verdict::Inconclusive && c.ours == "—" => {
-                ("".to_owned(), "not measured".to_owned())
-            }
-            Some(c) => (c.ours.clone(), c.verdict.as_str().to_owned()),
+            None => (String::new(), String::new()),
+            Some(c) if unmeasured(c) => (String::new(), "not measured".to_owned()),
+            Some(c) => (
+                render::short_ours(c),
+                render::md_verdict(c.verdict).to_owned(),
+            ),
         };
         let (co, cv) = cell(on("cpu"));
         let (go, gv) = cell(on("gpu"));
+        s.push_str(&format!(
+            "| [`{id}`](#{}) | {} | {} | {cv} | {} | {gv} |\n",
+            anchor(r, id),
+            md_escape(&render::short_paper(first)),
+            md_escape(&co),
+            md_escape(&go),
+        ));
+    }
+    s
+}
+
+/// A GPU result without rows: its cell reads `not measured`.
+fn unmeasured(c: &ClaimResult) -> bool {
+    c.device == "gpu" && c.verdict == Verdict::Inconclusive && c.ours == "—"
+}
+
+/// One kind's reasons of a paper: claim | where | paper (as printed) | why (measured).
+fn reasons_table(r: &PaperReport, kind: ClaimKind) -> String {
+    let mut s = String::from("| claim | where | paper | why (measured) |\n|---|---|---|---|\n");
+    for id in ids_of(r, kind) {
+        let all: Vec<&ClaimResult> = r.claims.iter().filter(|c| c.id == id).collect();
+        let first = all[0];
         let mut why: Vec<String> = Vec::new();
-        for c in [on("cpu"), on("gpu")].into_iter().flatten() {
-            let unmeasured =
-                c.device == "gpu" && c.ours == "—" && c.verdict == Verdict::Inconclusive;
-            if !(c.why.is_empty() || unmeasured) {
-                why.push(if r.claims.iter().filter(|x| x.id == id).count() > 1 {
-                    format!("{}: {}", c.device.to_uppercase(), c.why)
-                } else {
-                    c.why.clone()
-                });
+        for c in &all {
+            if c.why.is_empty() || unmeasured(c) {
+                continue;
             }
+            let full = if c.ours.chars().count() > render::SHORT || all.len() > 1 {
+                format!("ours {}: {}", c.ours, c.why)
+            } else {
+                c.why.clone()
+            };
+            why.push(if all.len() > 1 {
+                format!("{}: {full}", c.device.to_uppercase())
+            } else {
+                full
+            });
         }
         if let Some(n) = &first.note {
             why.push(format!("note: {n}"));
         }
-        let e = |x: &str| x.replace('|', "\\|").replace('\n', " ");
         s.push_str(&format!(
-            "| `{}` | {} | {} | {} | {} | {} | {} | {} |\n",
-            id,
-            e(&first.place),
-            e(&first.paper),
-            e(&co),
-            cv,
-            e(&go),
-            gv,
-            e(&why.join(" — "))
+            "| <a id=\"{}\"></a>`{id}` | {} | {} | {} |\n",
+            anchor(r, id),
+            md_escape(&first.place),
+            md_escape(&first.paper),
+            md_escape(&why.join(" — "))
         ));
     }
     s

@@ -19,6 +19,26 @@ pub struct ClaimsFile {
     pub runs: Vec<RunSpec>,
     #[serde(default, rename = "claim")]
     pub claims: Vec<Claim>,
+    /// The paper's figures drawn from the runs' folders by a plotting script (`reproduce`,
+    /// with matplotlib).
+    #[serde(default, rename = "figure")]
+    pub figures: Vec<FigureSpec>,
+}
+
+/// One of the paper's figures, drawn from our runs by a script of `scripts/`.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct FigureSpec {
+    /// The PNG's name in the report's `figures/` (`PAPER-NAME.png`): lowercase letters,
+    /// digits and '-'.
+    pub name: String,
+    /// What it shows, beside which of the paper's figures or tables.
+    pub title: String,
+    /// A script of `scripts/` (`plot.py`, `irregular-figure6.py`).
+    pub script: String,
+    /// Its arguments; `{run:LABEL}` stands for the folders of the runs with that label (the
+    /// config's file stem), `--out` is added.
+    pub args: Vec<String>,
 }
 
 /// One run of `reproduce`: a `trace-bench run` of a config, or another trace-bench command.
@@ -75,6 +95,33 @@ pub struct RunSpec {
     pub note: Option<String>,
 }
 
+impl RunSpec {
+    /// The run's label: the config's file stem, or the command's first word.
+    pub fn label(&self) -> String {
+        match (&self.config, &self.exec) {
+            (Some(c), _) => Path::new(c)
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            (None, Some(e)) => e.first().cloned().unwrap_or_default(),
+            _ => String::new(),
+        }
+    }
+}
+
+/// The run labels a figure argument names (`{run:LABEL}`).
+pub(crate) fn run_refs(arg: &str) -> Vec<&str> {
+    let mut out = Vec::new();
+    let mut rest = arg;
+    while let Some(i) = rest.find("{run:") {
+        let tail = &rest[i + 5..];
+        let Some(j) = tail.find('}') else { break };
+        out.push(&tail[..j]);
+        rest = &tail[j + 1..];
+    }
+    out
+}
+
 /// One claim of a paper.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -87,6 +134,10 @@ pub struct Claim {
     pub text: String,
     /// The paper's figure(s), as printed.
     pub paper: String,
+    /// The paper's figure in a few words (`1.57 vs 1.59 s`) for the report's short tables,
+    /// where `paper` is longer; the full `paper` stays in the reasons.
+    #[serde(default)]
+    pub paper_figure: Option<String>,
     /// Why this test and this tolerance.
     #[serde(default)]
     pub note: Option<String>,
@@ -406,6 +457,7 @@ impl ClaimsFile {
     /// Every claim's ids, selectors, measure, test and groups, before any row is read.
     pub(crate) fn check(&self, path: &Path, text: &str) -> Result<(), HarnessError> {
         self.check_runs(path, text)?;
+        self.check_figures(path, text)?;
         let mut ids = BTreeSet::new();
         for c in &self.claims {
             let line = find_line(text, &format!("id = \"{}\"", c.id), 0);
@@ -493,6 +545,45 @@ impl ClaimsFile {
             }
             if c.devices.is_empty() {
                 return Err(err("devices", "name at least one device".into()));
+            }
+        }
+        Ok(())
+    }
+
+    /// Every figure has a name, a script of `scripts/` and runs that the file makes.
+    fn check_figures(&self, path: &Path, text: &str) -> Result<(), HarnessError> {
+        let labels: Vec<String> = self.runs.iter().map(RunSpec::label).collect();
+        let mut names = BTreeSet::new();
+        for (i, f) in self.figures.iter().enumerate() {
+            let err = |m: String| HarnessError::Config {
+                file: path.into(),
+                line: find_line(text, "[[figure]]", i),
+                key: format!("figure[{i}]"),
+                message: m,
+            };
+            if f.name.is_empty()
+                || !f
+                    .name
+                    .bytes()
+                    .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-')
+            {
+                return Err(err("name: use lowercase letters, digits and '-'".into()));
+            }
+            if !names.insert(f.name.as_str()) {
+                return Err(err(format!("name `{}` appears twice", f.name)));
+            }
+            if f.script.is_empty() || f.script.contains(['/', '\\']) {
+                return Err(err("script: a file name of scripts/".into()));
+            }
+            for a in &f.args {
+                for label in run_refs(a) {
+                    if !labels.iter().any(|l| l == label) {
+                        return Err(err(format!(
+                            "`{{run:{label}}}` names no run of the file (its runs: {})",
+                            labels.join(", ")
+                        )));
+                    }
+                }
             }
         }
         Ok(())

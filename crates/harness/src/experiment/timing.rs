@@ -14,6 +14,65 @@ pub struct TimingPlan {
     pub max_repeat: usize,
     pub target_ci: f64,
     pub max_row_seconds: f64,
+    /// What a one-thread CPU row's timed run measures (`run.clock`).
+    pub clock: Clock,
+}
+
+/// What a timed run of a one-thread CPU row measures (`run.clock`; rows of more threads and
+/// GPU rows are always timed by the wall clock).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Clock {
+    /// Wall-clock time (the default): what the papers measured, on a machine of their own.
+    #[default]
+    Wall,
+    /// The tracing thread's CPU time (`CLOCK_THREAD_CPUTIME_ID`; the wall clock where the
+    /// platform has none): on an idle machine the same as the wall time of this compute-bound
+    /// work, on a shared one without the time the thread waited for a core. On the 2-core
+    /// machine under other agents' builds it cut the spread of a row's median between processes
+    /// from a factor 5.3 to 1.27 and of a round-by-round ratio from ±6.7 to ±3.6 %
+    /// (docs/variation.md).
+    Thread,
+}
+
+impl Clock {
+    pub fn from_name(s: &str) -> Option<Clock> {
+        match s {
+            "wall" => Some(Clock::Wall),
+            "thread" => Some(Clock::Thread),
+            _ => None,
+        }
+    }
+}
+
+/// The calling thread's CPU time in ms (`None` where the platform does not give it).
+pub fn thread_cpu_ms() -> Option<f64> {
+    #[cfg(unix)]
+    {
+        let mut ts = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: clock_gettime writes only the timespec it is given.
+        let ok = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) } == 0;
+        ok.then_some(ts.tv_sec as f64 * 1e3 + ts.tv_nsec as f64 * 1e-6)
+    }
+    #[cfg(not(unix))]
+    {
+        None
+    }
+}
+
+/// Time `f` run on the current thread: its ms by `clock` (the wall clock for
+/// [`Clock::Wall`], or where the thread's CPU time is not available), and its result.
+pub fn timed<T>(clock: Clock, f: impl FnOnce() -> T) -> (f64, T) {
+    let t0 = Instant::now();
+    let c0 = (clock == Clock::Thread).then(thread_cpu_ms).flatten();
+    let out = f();
+    let ms = match c0.zip(thread_cpu_ms()) {
+        Some((a, b)) => b - a,
+        None => t0.elapsed().as_secs_f64() * 1e3,
+    };
+    (ms, out)
 }
 
 impl TimingPlan {
@@ -267,6 +326,7 @@ mod tests {
             max_repeat: 40,
             target_ci: 0.01,
             max_row_seconds: 60.0,
+            clock: Clock::Wall,
         };
         // Row 1 always takes twice row 0's time, under a drift that changes both alike:
         // the ratio is exact from the first rounds, so the minimum of rounds is enough.
@@ -293,6 +353,30 @@ mod tests {
         assert_eq!(t[0].len(), 40);
     }
 
+    /// The thread clock counts the thread's work, not the time it waits: a sleep costs wall
+    /// time and next to no CPU time.
+    #[cfg(unix)]
+    #[test]
+    fn the_thread_clock_leaves_out_waiting() {
+        let nap = || std::thread::sleep(std::time::Duration::from_millis(30));
+        let (wall, ()) = timed(Clock::Wall, nap);
+        let (cpu, ()) = timed(Clock::Thread, nap);
+        assert!(wall >= 30.0, "{wall}");
+        assert!(cpu < 10.0, "{cpu}");
+        // Work is counted alike.
+        let spin = || {
+            let t = Instant::now();
+            let mut x = 0u64;
+            while t.elapsed().as_millis() < 20 {
+                x = std::hint::black_box(x.wrapping_add(1));
+            }
+        };
+        let (cpu, ()) = timed(Clock::Thread, spin);
+        assert!(cpu >= 5.0, "{cpu}");
+        assert_eq!(Clock::from_name("thread"), Some(Clock::Thread));
+        assert_eq!(Clock::from_name("cpu"), None);
+    }
+
     #[test]
     fn median_confidence_intervals() {
         // Fewer than 6 values: the whole range.
@@ -311,6 +395,7 @@ mod tests {
             max_repeat: 12,
             target_ci: 0.05,
             max_row_seconds: 60.0,
+            clock: Clock::Wall,
         };
         // Steady times: stop at the minimum.
         let mut calls = 0;

@@ -80,6 +80,7 @@ struct RawRun {
     max_row_seconds: Option<Spanned<f64>>,
     interleave: Option<bool>,
     processes: Option<Spanned<u32>>,
+    clock: Option<Spanned<String>>,
     warmup: Option<u32>,
     build_repeat: Option<Spanned<u32>>,
     triangle_test: Option<Spanned<OneOrMany<String>>>,

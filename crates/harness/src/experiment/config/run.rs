@@ -238,5 +238,17 @@ fn timing_plan(
         max_repeat: (run.max_repeat.unwrap_or(0) as usize).max(repeat),
         target_ci: positive(&run.target_ci, "run.target_ci", 0.05)?,
         max_row_seconds: positive(&run.max_row_seconds, "run.max_row_seconds", 60.0)?,
+        clock: match &run.clock {
+            None => crate::experiment::timing::Clock::Wall,
+            Some(c) => {
+                crate::experiment::timing::Clock::from_name(c.get_ref()).ok_or_else(|| {
+                    cx.err(
+                        c.span(),
+                        "run.clock",
+                        format!("unknown clock `{}` (known: wall, thread)", c.get_ref()),
+                    )
+                })?
+            }
+        },
     })
 }

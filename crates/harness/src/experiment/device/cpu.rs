@@ -2,10 +2,10 @@
 //! way a batch is traced on the CPU).
 
 use super::{Device, Job, Outcome};
+use crate::experiment::timing::{timed, Clock};
 use crate::experiment::validation::{self, Checked, Sample};
 use crate::results::output::Row;
 use std::collections::HashMap;
-use std::time::Instant;
 use tb_core::{HitRecord, StatsSummary, TriTestKind};
 
 use tb_core::par::trace_hinted_into;
@@ -21,6 +21,16 @@ pub struct CpuDevice {
     counted: HashMap<Key, (StatsSummary, f64)>,
     /// Per build: validation per (traversal, test, batch).
     checked: HashMap<Key, Checked>,
+}
+
+/// The clock a row of `threads` is timed by: `run.clock` for one thread (the whole trace
+/// runs on the pool's one worker, where the clock is read), the wall clock for more.
+fn clock_for(clock: Clock, threads: usize) -> Clock {
+    if threads == 1 {
+        clock
+    } else {
+        Clock::Wall
+    }
 }
 
 impl CpuDevice {
@@ -89,20 +99,22 @@ impl CpuDevice {
         let r: Result<_, ()> = plan.run_interleaved(jobs.len(), |i| {
             let (j, h) = (&jobs[i], hints[i].as_deref());
             let pool = self.pool(j.threads);
-            let t0 = Instant::now();
-            pool.install(|| {
-                trace_hinted_into(
-                    j.accel,
-                    j.traversal,
-                    j.batch.query,
-                    j.tri,
-                    &j.batch.rays,
-                    h,
-                    &mut hits[i],
-                    None,
-                )
+            let clock = clock_for(plan.clock, j.threads);
+            let (ms, ()) = pool.install(|| {
+                timed(clock, || {
+                    trace_hinted_into(
+                        j.accel,
+                        j.traversal,
+                        j.batch.query,
+                        j.tri,
+                        &j.batch.rays,
+                        h,
+                        &mut hits[i],
+                        None,
+                    )
+                })
             });
-            Ok(t0.elapsed().as_secs_f64() * 1e3)
+            Ok(ms)
         });
         r.unwrap_or_default()
     }
@@ -178,11 +190,13 @@ impl Device for CpuDevice {
         let mut hits = vec![HitRecord::MISS; b.rays.len()];
         if job.time {
             let mut times = job.timing.run(|| -> Result<f64, String> {
-                let t0 = Instant::now();
-                pool.install(|| {
-                    trace_hinted_into(accel, ti, b.query, tri, &b.rays, hints, &mut hits, None)
+                let clock = clock_for(job.timing.clock, job.threads);
+                let (ms, ()) = pool.install(|| {
+                    timed(clock, || {
+                        trace_hinted_into(accel, ti, b.query, tri, &b.rays, hints, &mut hits, None)
+                    })
                 });
-                Ok(t0.elapsed().as_secs_f64() * 1e3)
+                Ok(ms)
             })?;
             crate::experiment::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);
         } else {
