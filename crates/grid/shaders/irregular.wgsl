@@ -4,12 +4,12 @@
 // the far planes of the cell's box and the monotone advance. Buffers: the base lattice
 // (`hdr`, then word 15: the deepest octree level D_max), the voxel map (`vmap`: per top cell
 // `D << 28 | index` of its second level, then the second levels), the cells (`cells`, 8
-// words each: lo, begin, hi, end) and the references (`refs`). Counters: cells and steps per
-// cell visited, prims per test.
+// words each: lo, begin, hi, end, read as two 16-byte loads) and the references (`refs`).
+// Counters: cells and steps per cell visited, prims per test.
 
 @group(0) @binding(5) var<storage, read> hdr: array<real>;
 @group(0) @binding(6) var<storage, read> vmap: array<u32>;
-@group(0) @binding(7) var<storage, read> cells: array<u32>;
+@group(0) @binding(7) var<storage, read> cells: array<vec4<u32>>;
 @group(0) @binding(8) var<storage, read> refs: array<u32>;
 
 // IrregularGrid::lookup: the cell holding base voxel `v` (two dependent reads, §5 step a).
@@ -40,12 +40,14 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     loop {
         (*st).cells += 1u;
         (*st).steps += 1u;
-        let c = 8u * lookup(top_res, dmax, v);
-        if test_refs(p, r, cells[c + 3u], cells[c + 7u], &best, st) {
+        let c = 2u * lookup(top_res, dmax, v);
+        let a = cells[c];
+        let b = cells[c + 1u];
+        if test_refs(p, r, a.w, b.w, &best, st) {
             break;
         }
-        let lo = vec3<u32>(cells[c], cells[c + 1u], cells[c + 2u]);
-        let hi = vec3<u32>(cells[c + 4u], cells[c + 5u], cells[c + 6u]);
+        let lo = a.xyz;
+        let hi = b.xyz;
         let x = exit(w, base, lo, hi);
         if !goes_on(best.t, x, w) {
             break;

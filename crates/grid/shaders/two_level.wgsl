@@ -1,13 +1,13 @@
 // The two-level grid's `dda` (Kalojanov et al. 2011 §4), program `two-level-grid/dda` on
 // grid.wgsl: tb_grid's TwoLevelGrid::dda cell for cell: the walk over the top level, and in
 // each top cell that is not a single empty leaf the walk over its own grid, clipped to it.
-// Buffers: the top lattice (`hdr`), the top cells (`tops`, 2 words each: first leaf,
-// resolution `rx | ry << 8 | rz << 16`), the leaf ranges (`start`) and the references
+// Buffers: the top lattice (`hdr`), the top cells (`tops`, 2 words each, one 8-byte load:
+// first leaf, resolution `rx | ry << 8 | rz << 16`), the leaf ranges (`start`) and the references
 // (`refs`). Counters: cells and steps per top and leaf cell, interior per top cell, leaves per
 // leaf cell, prims per test.
 
 @group(0) @binding(5) var<storage, read> hdr: array<real>;
-@group(0) @binding(6) var<storage, read> tops: array<u32>;
+@group(0) @binding(6) var<storage, read> tops: array<vec2<u32>>;
 @group(0) @binding(7) var<storage, read> start: array<u32>;
 @group(0) @binding(8) var<storage, read> refs: array<u32>;
 
@@ -65,9 +65,9 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
         (*st).cells += 1u;
         (*st).interior += 1u;
         (*st).steps += 1u;
-        let c = 2u * index(top, v);
-        let first = tops[c];
-        let rw = tops[c + 1u];
+        let t = tops[index(top, v)];
+        let first = t.x;
+        let rw = t.y;
         let res = vec3<u32>(rw & 0xffu, (rw >> 8u) & 0xffu, (rw >> 16u) & 0xffu);
         let single_empty = all(res == vec3<u32>(1u)) && start[first] == start[first + 1u];
         if !single_empty {

@@ -165,7 +165,8 @@ impl TwoLevelGrid {
 
 impl IrregularGrid {
     /// `irregular-grid/walk`: the base lattice and the deepest octree level, the voxel map,
-    /// the cells (lo, begin, hi, end), the references.
+    /// the cells (lo, begin, hi, end: two 16-byte words for the kernel's vector loads), the
+    /// references.
     pub(crate) fn gpu_walk(&self) -> GpuProgram<'_> {
         program(
             ["irregular-grid/walk", "irregular-grid/walk-f64"],
