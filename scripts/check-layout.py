@@ -9,6 +9,11 @@
    crate (tb_bvh, tb_kdtree, tb_multikd, tb_sparse, tb_rtree, tb_grid, tb_peers).
 3. No function in the harness or the CLI over 100 lines, but those listed in LONG with their
    present length, which they may not exceed (split them and remove the line).
+4. No two folders (top-level modules) of the harness import each other, directly or through
+   others: the folders' graph has no circle.
+5. No source file under crates/*/src over 800 lines, not counting a trailing
+   `#[cfg(test)]` module, but those listed in LONG_FILES with their present length, a
+   ceiling they may not exceed (issue 45: split them and remove the line).
 
 Exit 1 with one line per violation. `--list` prints every module's edges.
 """
@@ -23,6 +28,45 @@ MAX_FN_LINES = 100
 # Functions over MAX_FN_LINES when this check was written (2026-11-27), and their lengths:
 # a ceiling, not a licence.
 LONG = {}
+MAX_FILE_LINES = 800
+# Files over MAX_FILE_LINES when the rule was written (2026-11-28), and their lengths without
+# their tests: a ceiling, not a licence.
+LONG_FILES = {
+    "crates/harness/src/experiment/runner/mod.rs": 866,
+    "crates/scene/src/loader.rs": 957,
+    "crates/grid/src/common.rs": 979,
+    "crates/sparse/src/traverse.rs": 1012,
+    "crates/grid/src/irregular.rs": 1125,
+    "crates/cli/src/lib.rs": 1165,
+    "crates/harness/src/claims/reproduce.rs": 1194,
+    "crates/harness/src/claims/eval.rs": 1734,
+}
+
+
+def file_lines(path):
+    """Lines of the file before its first `#[cfg(test)]` line (its tests module)."""
+    n = 0
+    with open(path, encoding="utf-8") as fh:
+        for line in fh:
+            if re.match(r"#\[cfg\(test\)\]", line):
+                break
+            n += 1
+    return n
+
+
+def folder_circles(g):
+    """Circles between the top-level modules of a crate, from its module graph."""
+    top = {}
+    for m, targets in g.items():
+        a = m.split("::")[0]
+        top.setdefault(a, set())
+        for t in targets:
+            b = t.split("::")[0]
+            if a and b and a != b:
+                top[a].add(b)
+    for b in {b for t in top.values() for b in t}:
+        top.setdefault(b, set())
+    return cycles(top)
 
 
 def code_of(text):
@@ -167,6 +211,17 @@ def main():
                 print(f"{c}: {m or '(root)'} -> {', '.join(sorted(g[m]))}")
         for comp in cycles(g):
             problems.append(f"crates/{c}: import circle between {', '.join(comp)}")
+        if c == "harness":
+            for comp in folder_circles(g):
+                problems.append(f"crates/{c}: its folders {', '.join(comp)} import each other")
+        for dp, _, files in os.walk(src):
+            for f in sorted(files):
+                if f.endswith(".rs"):
+                    p = os.path.join(dp, f)
+                    rel = os.path.relpath(p, ROOT).replace(os.sep, "/")
+                    n, limit = file_lines(p), LONG_FILES.get(rel, MAX_FILE_LINES)
+                    if n > limit:
+                        problems.append(f"{rel}: {n} lines without its tests (at most {limit})")
     for d in ("crates/harness/src", "crates/cli/src"):
         for dp, _, files in os.walk(os.path.join(ROOT, d)):
             for f in sorted(files):
@@ -188,7 +243,11 @@ def main():
         print(p)
     if problems:
         sys.exit(1)
-    print(f"layout: no import circle, structures only through the registry, functions within {MAX_FN_LINES} lines ({len(LONG)} listed longer)")
+    print(
+        f"layout: no import circle (modules; the harness's folders), structures only through the registry, "
+        f"functions within {MAX_FN_LINES} lines ({len(LONG)} listed longer), files within {MAX_FILE_LINES} "
+        f"lines ({len(LONG_FILES)} listed longer)"
+    )
 
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@ mod common;
 use common::*;
 
 use std::fs;
-use tb_harness::report::convergence::ConvergenceRow;
+use tb_harness::experiment::convergence::ConvergenceRow;
 use tb_render::Channels;
 
 const SCENE: &str = "[[scene]]\nsource = \"builtin:cornell\"\n\n[[structure]]\nname = \"bvh\"\n";

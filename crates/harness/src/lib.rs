@@ -7,8 +7,8 @@
 //! the ray batches once, builds each structure, and hands every row to a device (CPU or GPU,
 //! one interface), which counts in one pass, validates against the brute-force oracle and
 //! times the trace with counters compiled out; each [`results::output::Row`] is written as
-//! soon as it is finished. [`report`] draws heat maps and error-against-time tables beside the
-//! rows; [`results::check`] compares the deterministic counters of a results file with a
+//! soon as it is finished; beside the runner, [`experiment::images`] draws heat maps and
+//! [`experiment::convergence`] and [`experiment::dynamic`] make their own tables; [`results::check`] compares the deterministic counters of a results file with a
 //! baseline; [`cluster`] splits a run into shards; [`claims`] turns rows into verdicts.
 
 pub mod claims;
@@ -16,7 +16,6 @@ pub mod cluster;
 pub mod error;
 pub mod experiment;
 pub mod registry;
-pub mod report;
 pub mod results;
 
 pub use error::HarnessError;

@@ -4,8 +4,8 @@
 
 use std::path::Path;
 use tb_harness::experiment::config::{self, Overrides};
+use tb_harness::experiment::dynamic::{samples_within, ChoiceRow, DynamicRow};
 use tb_harness::experiment::runner::{self, RunOptions};
-use tb_harness::report::dynamic::{samples_within, ChoiceRow, DynamicRow};
 
 fn text(scene: &str, structure: &str) -> String {
     format!(

@@ -1,6 +1,6 @@
 //! The columns a claims file may name: those of every CSV a run writes, derived from the row
 //! types that write them (`results.csv`: [`crate::results::output::Row`], its counter columns
-//! included; `dynamic.csv` and `dynamic-choice.csv`: [`crate::report::dynamic`]; `weights.csv`:
+//! included; `dynamic.csv` and `dynamic-choice.csv`: [`crate::experiment::dynamic`]; `weights.csv`:
 //! [`crate::registry::weights::CSV_COLUMNS`]), with each column's kind of value.
 
 use std::collections::BTreeMap;
@@ -21,7 +21,7 @@ pub(crate) const PSEUDO: &[&str] = &["scene", "view", "file", "params"];
 pub(crate) fn known() -> &'static BTreeMap<String, Kind> {
     static K: OnceLock<BTreeMap<String, Kind>> = OnceLock::new();
     K.get_or_init(|| {
-        use crate::report::dynamic::{ChoiceRow, DynamicRow};
+        use crate::experiment::dynamic::{ChoiceRow, DynamicRow};
         let mut m = BTreeMap::new();
         let results = crate::results::output::Row::default();
         add(&mut m, serde_json::to_value(&results), |col| {
@@ -112,7 +112,7 @@ pub(crate) fn is_known(k: &str) -> bool {
 /// Whether a CSV header is one trace-bench writes besides results (`dynamic.csv`,
 /// `dynamic-choice.csv`, `weights.csv`).
 pub(crate) fn is_ours(header: &[String]) -> bool {
-    use crate::report::dynamic::{ChoiceRow, DynamicRow};
+    use crate::experiment::dynamic::{ChoiceRow, DynamicRow};
     let keys = |v: Result<serde_json::Value, serde_json::Error>| -> Vec<String> {
         match v {
             Ok(serde_json::Value::Object(o)) => o.keys().cloned().collect(),

@@ -157,7 +157,7 @@ fn run_script(python: &Path, script: &Path, args: &[String], dir: &Path) -> Resu
     let how = if o.status.success() {
         "exited 0 without writing the figure".to_owned()
     } else {
-        super::child::ended(&o.status)
+        crate::experiment::child::ended(&o.status)
     };
     Err(if tail.is_empty() {
         how

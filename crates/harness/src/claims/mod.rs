@@ -11,7 +11,6 @@
 //! paper. Nothing here knows a paper or a structure: the files name columns, and any CSV a run
 //! writes (`results.csv`, `dynamic.csv`, `weights.csv`) can be read ([`rows::RowSet`]).
 
-pub(crate) mod child;
 mod columns;
 pub mod deviations;
 pub mod effect;

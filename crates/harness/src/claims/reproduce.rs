@@ -485,7 +485,7 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
     say_plan(opts, &planned);
     // One reproduce per report folder, until this one ends.
     let _lock = crate::results::lock::FolderLock::acquire(&opts.out)?;
-    super::child::catch_signals();
+    crate::experiment::child::catch_signals();
     let started = Instant::now();
     let start_time = crate::results::meta::now_rfc3339();
     // The interpreter for the figures, or why there are none.
@@ -551,7 +551,7 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
             figures,
         });
     }
-    if let Some(sig) = super::child::received() {
+    if let Some(sig) = crate::experiment::child::received() {
         return Err(interrupted(sig, None, opts));
     }
     let wall = started.elapsed().as_secs_f64();
@@ -656,7 +656,7 @@ fn preflight(
 
 /// Make one planned run (or reuse its folder); a failed run is recorded, a signal is an error.
 fn make_run(r: &mut PlannedRun, opts: &Options) -> Result<(), HarnessError> {
-    if let Some(sig) = super::child::received() {
+    if let Some(sig) = crate::experiment::child::received() {
         return Err(interrupted(sig, None, opts));
     }
     let complete = status(&r.folder).as_deref() == Some("complete");
@@ -707,7 +707,7 @@ fn make_run(r: &mut PlannedRun, opts: &Options) -> Result<(), HarnessError> {
     let t = Instant::now();
     let mut cmd = Command::new(&opts.exe);
     cmd.args(&args).stdout(std::process::Stdio::null());
-    let (st, sig) = match super::child::run(&mut cmd) {
+    let (st, sig) = match crate::experiment::child::run(&mut cmd) {
         Ok(x) => x,
         Err(e) => {
             r.failed = Some(format!("did not start: {e}"));
@@ -726,7 +726,7 @@ fn make_run(r: &mut PlannedRun, opts: &Options) -> Result<(), HarnessError> {
         return Err(interrupted(sig, Some(r), opts));
     }
     if !st.success() {
-        r.failed = Some(super::child::ended(&st));
+        r.failed = Some(crate::experiment::child::ended(&st));
     }
     if !opts.quiet || r.failed.is_some() {
         eprintln!(
@@ -757,7 +757,7 @@ fn interrupted(sig: i32, r: Option<&PlannedRun>, opts: &Options) -> HarnessError
         .unwrap_or_default();
     HarnessError::Other(format!(
         "reproduce: interrupted by {}: {run}no report written; rerun with --out {} to resume",
-        super::child::signal_name(sig),
+        crate::experiment::child::signal_name(sig),
         opts.out.display()
     ))
 }

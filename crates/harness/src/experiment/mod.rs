@@ -2,12 +2,20 @@
 //! generated once per scene ([`batches`]), the runner ([`runner`]) that builds each structure
 //! and hands every row to a device ([`device`]: CPU or GPU, one interface), which counts in
 //! one pass, validates against the brute-force oracle ([`validation`]) and times the trace
-//! with counters compiled out ([`timing`]); [`processes`] makes a run in several processes.
+//! with counters compiled out ([`timing`]); [`processes`] makes a run in several processes
+//! ([`child`]: a run as a child process that ends with its parent). Beside the main runner,
+//! each with its own config section: heat maps of primary rays ([`images`], `[run] images`),
+//! image error against run time ([`convergence`], `[convergence]`) and the dynamic-scene
+//! experiment ([`dynamic`], `[dynamic]`).
 
 pub mod batches;
+pub(crate) mod child;
 pub mod config;
+pub mod convergence;
 pub mod device;
+pub mod dynamic;
 pub mod heap;
+pub mod images;
 pub mod params;
 pub mod processes;
 pub mod progress;

@@ -140,7 +140,7 @@ fn finished(dir: &Path) -> bool {
 /// in progress and returns an error (the finished processes' rows are merged, its own stay in
 /// its folder for `--resume`).
 pub fn run(plan: &Plan) -> Result<Report, HarnessError> {
-    crate::claims::child::catch_signals();
+    crate::experiment::child::catch_signals();
     let mut report = Report::default();
     for i in 0..plan.n {
         let dir = folder(&plan.out, i);
@@ -178,7 +178,7 @@ pub fn run(plan: &Plan) -> Result<Report, HarnessError> {
         let t = Instant::now();
         let mut cmd = Command::new(&plan.exe);
         cmd.args(&args).stdout(Stdio::null());
-        let ran = crate::claims::child::run(&mut cmd);
+        let ran = crate::experiment::child::run(&mut cmd);
         let mut outcome = Outcome {
             folder: dir.clone(),
             reused: false,
@@ -188,7 +188,7 @@ pub fn run(plan: &Plan) -> Result<Report, HarnessError> {
         let sig = match ran {
             Ok((st, sig)) => {
                 if !st.success() {
-                    outcome.failed = Some(crate::claims::child::ended(&st));
+                    outcome.failed = Some(crate::experiment::child::ended(&st));
                 }
                 sig
             }
@@ -206,7 +206,7 @@ pub fn run(plan: &Plan) -> Result<Report, HarnessError> {
             return Err(HarnessError::Other(format!(
                 "run: interrupted by {} in process {i} of {} (its finished rows stay in {}; the \
                  finished processes' are merged in {}): rerun with --resume to go on",
-                crate::claims::child::signal_name(sig),
+                crate::experiment::child::signal_name(sig),
                 plan.n,
                 dir.display(),
                 plan.out.display()

@@ -4,7 +4,7 @@
 //!
 //! The schema is documented in README.md ("Config reference"). The image and convergence
 //! sections are checked in their own modules ([`images`], [`convergence`]), which the work
-//! modules ([`crate::report::images`], [`crate::report::convergence`]) read from, never the other way round.
+//! modules ([`crate::experiment::images`], [`crate::experiment::convergence`]) read from, never the other way round.
 
 pub(crate) mod ctx;
 pub mod overrides;
@@ -18,9 +18,9 @@ pub(crate) use ctx::Ctx;
 pub use run::RunSettings;
 pub use spec::{device_threads, Device, GpuSpec, RayKindSpec, SceneSpec, StructureSpec, Validate};
 
-use crate::report::convergence::config as convergence;
-use crate::report::dynamic::config as dynamic;
-use crate::report::images::config as images;
+use crate::experiment::convergence::config as convergence;
+use crate::experiment::dynamic::config as dynamic;
+use crate::experiment::images::config as images;
 
 use crate::error::HarnessError;
 use crate::registry::Registry;
@@ -188,9 +188,9 @@ pub struct Experiment {
     /// Why scenes marked `optional = true` were left out (file not under the scenes root).
     /// (Also the loaders' notes on what they left out of a file, and the shard's part.)
     pub skipped_scenes: Vec<String>,
-    /// `[run] images = true`: heat maps of primary rays ([`crate::report::images`]).
+    /// `[run] images = true`: heat maps of primary rays ([`crate::experiment::images`]).
     pub images: Option<images::ImageSpec>,
-    /// `[convergence]`: error against run time ([`crate::report::convergence`]).
+    /// `[convergence]`: error against run time ([`crate::experiment::convergence`]).
     pub convergence: Option<convergence::ConvergenceSpec>,
     /// `--shard K/N`: the partition of the run's work units and this shard's part
     /// ([`crate::cluster::shard`]); only the scenes of this shard's units are loaded.
@@ -199,7 +199,7 @@ pub struct Experiment {
     /// that change the rows (threads, repeat, devices, adapter, backend, `--scene`,
     /// `--structure`); shards of one run share it (`trace-bench merge` checks).
     pub config_hash: String,
-    /// `[dynamic]`: per-frame rebuilds within frame budgets ([`crate::report::dynamic`]).
+    /// `[dynamic]`: per-frame rebuilds within frame budgets ([`crate::experiment::dynamic`]).
     pub dynamic: Option<dynamic::DynamicSpec>,
     /// `--process I/K`: this run is process `I` of a `run --processes K`
     /// ([`crate::experiment::processes`]): its rows carry `process = I`, and for odd `I` the

@@ -85,11 +85,11 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
     let mut r = Run::open(exp, opts)?;
     // Notes are collected in the summary and printed once, after the run (stderr).
     r.summary.notes.extend(exp.skipped_scenes.iter().cloned());
-    // A `[dynamic]` run measures frames only ([`crate::report::dynamic`]); validation still checks
+    // A `[dynamic]` run measures frames only ([`crate::experiment::dynamic`]); validation still checks
     // every structure on each scene's first frame as configured.
     if let (Some(_), Mode::Run) = (&exp.dynamic, opts.mode) {
         let progress = &r.progress;
-        let notes = crate::report::dynamic::run(exp, &opts.out, &|m| progress.step(m))?;
+        let notes = crate::experiment::dynamic::run(exp, &opts.out, &|m| progress.step(m))?;
         r.summary.notes.extend(notes);
     } else {
         // The views of one scene table are consecutive specs sharing the scene: one group,
@@ -130,7 +130,7 @@ struct Run<'a> {
     /// Rows an interrupted run already wrote.
     done: HashSet<RowKey>,
     progress: Progress,
-    conv: Option<crate::report::convergence::Runner>,
+    conv: Option<crate::experiment::convergence::Runner>,
     /// The devices rows are written for, with their thread counts.
     devices: Vec<(DeviceKind, Vec<usize>)>,
     cpu: CpuDevice,
@@ -192,7 +192,7 @@ impl<'a> Run<'a> {
         };
         let progress = Progress::new(total as u64, opts.quiet);
         let conv = match opts.mode {
-            Mode::Run => crate::report::convergence::Runner::open(exp, &opts.out, opts.resume)?,
+            Mode::Run => crate::experiment::convergence::Runner::open(exp, &opts.out, opts.resume)?,
             Mode::Validate => None,
         };
         Ok(Run {
@@ -233,7 +233,7 @@ impl<'a> Run<'a> {
                 let out = &self.opts.out;
                 self.summary
                     .notes
-                    .extend(crate::report::images::write_scene(spec, out)?);
+                    .extend(crate::experiment::images::write_scene(spec, out)?);
             }
         }
         drop(gen);
@@ -569,12 +569,12 @@ impl<'a> Run<'a> {
                 .step(&format!("{}: heat maps {}", spec.label, st.family.name));
             self.summary
                 .notes
-                .extend(crate::report::images::write_build(
+                .extend(crate::experiment::images::write_build(
                     spec,
                     img,
                     &self.opts.out,
                     accel,
-                    &crate::report::images::varying_tag(&sweep, params_s),
+                    &crate::experiment::images::varying_tag(&sweep, params_s),
                     params_s,
                     &st.traversals,
                     &self.exp.run.triangle_tests,
@@ -862,5 +862,5 @@ fn varying_params(exp: &Experiment, name: &str, params: &str) -> String {
         .filter(|s| s.family.name == name)
         .flat_map(|s| s.param_sets.iter().map(|p| p.to_string()))
         .collect();
-    crate::report::images::varying_tag(&sets, params).replace(',', ";")
+    crate::experiment::images::varying_tag(&sets, params).replace(',', ";")
 }

@@ -1,4 +1,4 @@
-//! The `[convergence]` section ([`crate::report::convergence`] renders it).
+//! The `[convergence]` section ([`crate::experiment::convergence`] renders it).
 
 use crate::error::HarnessError;
 use crate::experiment::config::ctx::Ctx;

@@ -1,4 +1,4 @@
-//! The `[dynamic]` section ([`crate::report::dynamic`] runs it): the dynamic-scene experiment of
+//! The `[dynamic]` section ([`crate::experiment::dynamic`] runs it): the dynamic-scene experiment of
 //! Pérard-Gayot et al. 2017 (§6.3, Table 4).
 
 use crate::error::HarnessError;

@@ -18,7 +18,7 @@ pub mod config;
 
 use crate::error::HarnessError;
 use crate::experiment::config::SceneSpec;
-use crate::report::images::config::{HeatMax, ImageSpec};
+use crate::experiment::images::config::{HeatMax, ImageSpec};
 use std::fs::OpenOptions;
 use std::path::{Path, PathBuf};
 use tb_core::{Accel, Query, Ray, TriTestKind};

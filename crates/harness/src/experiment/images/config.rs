@@ -1,4 +1,4 @@
-//! The `[run] images` and `heatmap_max` keys ([`crate::report::images`] draws the pictures).
+//! The `[run] images` and `heatmap_max` keys ([`crate::experiment::images`] draws the pictures).
 
 use crate::error::HarnessError;
 use crate::experiment::config::ctx::Ctx;

@@ -24,8 +24,8 @@ pub mod config;
 
 use crate::error::HarnessError;
 use crate::experiment::config::{Experiment, SceneSpec, StructureSpec};
+use crate::experiment::dynamic::config::DynamicSpec;
 use crate::experiment::timing::median;
-use crate::report::dynamic::config::DynamicSpec;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::sync::Arc;

@@ -27,8 +27,8 @@ pub mod config;
 
 use crate::error::HarnessError;
 use crate::experiment::config::{Device, Experiment, SceneSpec};
+use crate::experiment::convergence::config::{ConvergenceSpec, IntegratorKind};
 use crate::experiment::progress::Progress;
-use crate::report::convergence::config::{ConvergenceSpec, IntegratorKind};
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
