@@ -1,0 +1,356 @@
+//! `trace-bench run`: the config loaded with its overrides, the output folder (a new timestamped
+//! one, or the one resumed after checking it holds this config's run), the run in one process or
+//! in several (`--processes K`: child processes, merged), and `validate`'s oracle-only pass.
+
+use super::*;
+
+pub(crate) fn load(config: &Path, ov: &Overrides, quiet: bool) -> Result<config::Experiment> {
+    let exp = config::load(config, ov, &mut |src| {
+        if !quiet {
+            eprintln!("loading {src}");
+        }
+    })?;
+    Ok(exp)
+}
+
+pub(crate) fn default_out(name: &str, resume: bool) -> Result<PathBuf> {
+    let base = PathBuf::from("results").join(name);
+    if resume {
+        // The newest run directory of this experiment.
+        let mut dirs: Vec<PathBuf> = std::fs::read_dir(&base)
+            .with_context(|| format!("{}: no earlier run to resume", base.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.join("results.csv").is_file() && !p.is_symlink())
+            .collect();
+        dirs.sort();
+        return dirs
+            .pop()
+            .with_context(|| format!("{}: no earlier run to resume", base.display()));
+    }
+    let stamp = tb_harness::results::meta::now_rfc3339().replace(':', "-");
+    Ok(base.join(stamp.trim_end_matches('Z')))
+}
+
+/// Point `LATEST` beside a new default run folder at it (`results/NAME/LATEST`), so scripts
+/// and docs can name the newest run. Best effort: a failure is a note.
+pub(crate) fn link_latest(out: &Path) {
+    let (Some(parent), Some(name)) = (out.parent(), out.file_name()) else {
+        return;
+    };
+    let result = std::fs::create_dir_all(out).and_then(|_| {
+        let link = parent.join("LATEST");
+        if link.is_symlink() || link.exists() {
+            std::fs::remove_file(&link)?;
+        }
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(name, &link)
+        }
+        #[cfg(not(unix))]
+        {
+            let _ = name;
+            Ok(())
+        }
+    });
+    if let Err(e) = result {
+        eprintln!("note: {}: cannot link LATEST: {e}", parent.display());
+    }
+}
+
+pub(crate) fn cmd_run(
+    config: &Path,
+    out: Option<PathBuf>,
+    ov: Overrides,
+    resume: bool,
+    force: bool,
+    quiet: bool,
+) -> Result<i32> {
+    let exp = load(config, &ov, quiet)?;
+    let out = match (out, ov.shard) {
+        (Some(o), _) => o,
+        (None, Some(s)) => PathBuf::from("results")
+            .join(&exp.name)
+            .join(format!("shard-{}-of-{}", s.k, s.n)),
+        (None, None) => {
+            let o = default_out(&exp.name, resume)?;
+            if !resume {
+                link_latest(&o);
+            }
+            o
+        }
+    };
+    out_folder(&out)?;
+    if resume
+        && !["results.csv", "results.json"]
+            .iter()
+            .any(|f| out.join(f).is_file())
+    {
+        bail!(
+            "{}: nothing to resume (no results.csv or results.json there): run without --resume",
+            out.display()
+        );
+    }
+    // One writer per folder, from here until this process ends (before --force touches it).
+    let _lock = tb_harness::results::lock::FolderLock::acquire(&out)?;
+    if resume {
+        check_resume(&out, &exp)?;
+    }
+    if force {
+        // Only what a run writes; anything else in the directory stays.
+        for f in tb_harness::results::output::RUN_OUTPUTS {
+            let p = out.join(f);
+            if p.is_file() {
+                std::fs::remove_file(&p).with_context(|| format!("{}", p.display()))?;
+            } else if p.is_dir() {
+                std::fs::remove_dir_all(&p).with_context(|| format!("{}", p.display()))?;
+            }
+        }
+    }
+    let opts = RunOptions {
+        out: out.clone(),
+        resume,
+        quiet,
+        mode: Mode::Run,
+        max_report: 5,
+    };
+    let summary = runner::run(&exp, &opts)?;
+    if !summary.rows.is_empty() {
+        println!("{}", runner::table(&summary.rows));
+    }
+    for n in &summary.notes {
+        eprintln!("note: {n}");
+    }
+    if summary.skipped > 0 {
+        println!(
+            "resumed: {} rows were already done and kept",
+            summary.skipped
+        );
+    }
+    for r in &summary.mismatch_reports {
+        println!("mismatch: {r}");
+    }
+    if exp.dynamic.is_some() {
+        // A [dynamic] run measures frames, not rows of results.csv.
+        let frames = std::fs::read_to_string(out.join("dynamic.csv"))
+            .map(|t| t.lines().count().saturating_sub(1))
+            .unwrap_or(0);
+        println!(
+            "wrote {frames} frame rows to {} (densities tried: {}; the notes above sum them up)",
+            out.join("dynamic.csv").display(),
+            out.join("dynamic-choice.csv").display()
+        );
+    } else {
+        println!(
+            "wrote {} rows to {}",
+            summary.written,
+            out.join("results.csv").display()
+        );
+        println!("      and {}", out.join("results.json").display());
+    }
+    if !summary.failures.is_empty() {
+        for f in &summary.failures {
+            eprintln!("error: {f}");
+        }
+        return Ok(1);
+    }
+    Ok(0)
+}
+
+/// `trace-bench run`: one process, or several (`--processes`, `run.processes`).
+pub(crate) fn cmd_run_args(a: RunArgs) -> Result<i32> {
+    let ov = Overrides {
+        threads: a.threads,
+        repeat: a.repeat,
+        devices: a.device,
+        adapter: a.adapter,
+        backend: a.backend,
+        shard: a.shard,
+        process: a.process,
+        ..a.select.overrides(a.scenes_root)
+    };
+    let (resume, force, quiet) = (a.resume, a.force, a.quiet);
+    match several_processes(&a.config, &ov, a.processes)? {
+        Some((name, n)) => cmd_processes(&a.config, &name, n, a.out, &ov, (resume, force), quiet),
+        None => cmd_run(&a.config, a.out, ov, resume, force, quiet),
+    }
+}
+
+/// The experiment's name and the processes of a run of several (`--processes`, else
+/// `run.processes`), or `None` for a run of one process (or one process of several,
+/// `--process`).
+pub(crate) fn several_processes(
+    config: &Path,
+    ov: &Overrides,
+    processes: Option<u32>,
+) -> Result<Option<(String, usize)>> {
+    if ov.process.is_some() {
+        return Ok(None);
+    }
+    let (name, from_config) = config::peek(config, ov)?;
+    let n = processes.map_or(from_config, |k| k as usize);
+    if n > 1 && ov.shard.is_some() {
+        bail!(
+            "run.processes = {n}: a run of several processes cannot be sharded (--shard); give \
+             --processes 1"
+        );
+    }
+    Ok((n > 1).then_some((name, n)))
+}
+
+/// `trace-bench run --processes N` (or `run.processes = N`): the run in `n` processes of this
+/// binary, one after another, merged into one folder.
+pub(crate) fn cmd_processes(
+    config: &Path,
+    name: &str,
+    n: usize,
+    out: Option<PathBuf>,
+    ov: &Overrides,
+    (resume, force): (bool, bool),
+    quiet: bool,
+) -> Result<i32> {
+    use tb_harness::experiment::processes;
+    let out = match out {
+        Some(o) => o,
+        None => {
+            let o = default_out(name, resume)?;
+            if !resume {
+                link_latest(&o);
+            }
+            o
+        }
+    };
+    out_folder(&out)?;
+    let begun = (0..n).any(|i| processes::folder(&out, i).join("results.json").is_file())
+        || out.join("results.csv").is_file();
+    if resume && !begun {
+        bail!(
+            "{}: nothing to resume (no process folder with results there): run without --resume",
+            out.display()
+        );
+    }
+    if begun && !resume && !force {
+        bail!(
+            "{}: holds the results of a run already: pass --resume to continue that run, --force \
+             to replace it, or choose another --out",
+            out.display()
+        );
+    }
+    // One writer per folder; each process locks its own.
+    let _lock = tb_harness::results::lock::FolderLock::acquire(&out)?;
+    let plan = processes::Plan {
+        exe: std::env::current_exe().context("cannot find the trace-bench executable")?,
+        args: process_args(config, ov),
+        out: out.clone(),
+        n,
+        resume,
+        force,
+        quiet,
+    };
+    let report = processes::run(&plan)?;
+    for (i, p) in report.processes.iter().enumerate() {
+        let how = match (&p.failed, p.reused, p.wall_s) {
+            (Some(f), _, _) => format!("failed ({f})"),
+            (None, true, _) => "complete, reused".into(),
+            (None, false, w) => format!("done in {:.0} s", w.unwrap_or(0.0)),
+        };
+        println!("process {i}: {how} ({})", p.folder.display());
+    }
+    println!(
+        "wrote {} rows of {n} processes to {} ({})",
+        report.rows,
+        out.join("results.csv").display(),
+        report.status
+    );
+    println!("      and {}", out.join("results.json").display());
+    Ok(if report.processes.iter().any(|p| p.failed.is_some()) {
+        1
+    } else {
+        0
+    })
+}
+
+/// `run CONFIG` and the options of `ov` as each process of `run --processes` gets them.
+pub(crate) fn process_args(config: &Path, ov: &Overrides) -> Vec<String> {
+    let mut a = vec!["run".to_owned(), config.display().to_string()];
+    let list = |v: Vec<String>| v.join(",");
+    if let Some(t) = &ov.threads {
+        a.extend([
+            "--threads".into(),
+            list(t.iter().map(usize::to_string).collect()),
+        ]);
+    }
+    if let Some(r) = ov.repeat {
+        a.extend(["--repeat".into(), r.to_string()]);
+    }
+    if let Some(d) = &ov.devices {
+        a.extend([
+            "--device".into(),
+            list(d.iter().map(|d| d.name().into()).collect()),
+        ]);
+    }
+    if let Some(x) = &ov.adapter {
+        a.extend(["--adapter".into(), x.clone()]);
+    }
+    if let Some(b) = ov.backend {
+        a.extend(["--backend".into(), b.name().into()]);
+    }
+    if !ov.scenes.is_empty() {
+        a.extend(["--scene".into(), list(ov.scenes.clone())]);
+    }
+    if !ov.structures.is_empty() {
+        a.extend(["--structure".into(), list(ov.structures.clone())]);
+    }
+    for s in &ov.sets {
+        a.extend(["--set".into(), s.clone()]);
+    }
+    if let Some(r) = &ov.scenes_root {
+        a.extend(["--scenes-root".into(), r.display().to_string()]);
+    }
+    a
+}
+
+/// `--resume` continues the same run: the same config, the same shard and the same process.
+pub(crate) fn check_resume(out: &Path, exp: &config::Experiment) -> Result<()> {
+    let p = out.join("results.json");
+    let Some(meta) = std::fs::read_to_string(&p)
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .map(|d| d["meta"].clone())
+    else {
+        return Ok(());
+    };
+    if let Some(h) = meta["config_hash"].as_str() {
+        if h != exp.config_hash {
+            bail!(
+                "{}: --resume of a run of another config (hash {h}, this one {}): choose another --out",
+                p.display(),
+                exp.config_hash
+            );
+        }
+    }
+    let was = meta["shard"]["k"]
+        .as_u64()
+        .map(|k| format!("{k}/{}", meta["shard"]["n"]));
+    let now = exp.shard.as_ref().map(|p| p.shard.to_string());
+    if was != now {
+        bail!(
+            "{}: --resume of {} but this run is {}",
+            p.display(),
+            was.map_or("an unsharded run".into(), |s| format!("shard {s}")),
+            now.map_or("unsharded".into(), |s| format!("shard {s}"))
+        );
+    }
+    let was = meta["process"]["index"]
+        .as_u64()
+        .map(|i| format!("{i}/{}", meta["process"]["of"]));
+    let now = exp.process.map(|p| p.to_string());
+    if was != now {
+        bail!(
+            "{}: --resume of {} but this run is {}",
+            p.display(),
+            was.map_or("a run of one process".into(), |s| format!("process {s}")),
+            now.map_or("a run of one process".into(), |s| format!("process {s}"))
+        );
+    }
+    Ok(())
+}
