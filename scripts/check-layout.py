@@ -35,7 +35,6 @@ LONG_FILES = {
     "crates/grid/src/common.rs": 979,
     "crates/sparse/src/traverse.rs": 1012,
     "crates/grid/src/irregular.rs": 1125,
-    "crates/harness/src/claims/reproduce.rs": 1194,
     "crates/harness/src/claims/eval.rs": 1734,
 }
 
