@@ -48,14 +48,59 @@ fn builds() -> Vec<RtreeParams> {
     out
 }
 
+/// One test per traversal, so that their programs compile (lavapipe: most of the time) on
+/// two cores at once.
 #[test]
-fn programs_match_the_cpu_for_every_strategy_and_m() {
+fn stackless_programs_match_the_cpu_for_every_strategy_and_m() {
+    programs_match_the_cpu_for_every_strategy_and_m("stackless");
+}
+
+#[test]
+fn ordered_programs_match_the_cpu_for_every_strategy_and_m() {
+    programs_match_the_cpu_for_every_strategy_and_m("ordered");
+}
+
+#[test]
+fn stack_programs_match_the_cpu_for_every_strategy_and_m() {
+    programs_match_the_cpu_for_every_strategy_and_m("stack");
+}
+
+#[test]
+fn stackless_skip_empty_programs_match_the_cpu_for_every_strategy_and_m() {
+    programs_match_the_cpu_for_every_strategy_and_m("stackless-skip-empty");
+}
+
+#[test]
+fn ordered_pop_cull_programs_match_the_cpu_for_every_strategy_and_m() {
+    programs_match_the_cpu_for_every_strategy_and_m("ordered-pop-cull");
+}
+
+/// A traversal added to the R-tree needs a test above.
+#[test]
+fn every_traversal_has_a_gpu_test() {
+    let names: Vec<_> = Rtree::TRAVERSALS.iter().map(|t| t.info.name).collect();
+    assert_eq!(
+        names,
+        [
+            "stackless",
+            "ordered",
+            "stack",
+            "stackless-skip-empty",
+            "ordered-pop-cull"
+        ]
+    );
+}
+
+fn programs_match_the_cpu_for_every_strategy_and_m(traversal: &str) {
     let Some(gpu) = tb_gpu::open_or_skip() else {
         return;
     };
     let tri = TriTestKind::Watertight;
     let exact = gpu.adapter().f64;
-    let n_traversals = Rtree::TRAVERSALS.len();
+    let t = Rtree::TRAVERSALS
+        .iter()
+        .position(|x| x.info.name == traversal)
+        .expect("a traversal of that name");
     let mut checked = 0;
     let mut rays_checked = 0;
     for scene in conformance::suite_scenes() {
@@ -71,7 +116,7 @@ fn programs_match_the_cpu_for_every_strategy_and_m() {
             .collect();
         for p in builds() {
             let rtree = Rtree::build(&scene.triangles, &p);
-            for t in 0..n_traversals {
+            {
                 let name = Rtree::TRAVERSALS[t].info.name;
                 let Some(program) = rtree.gpu_program(t) else {
                     panic!("{name}: no GPU program");
