@@ -390,7 +390,7 @@ fn out_folder(out: &Path) -> Result<()> {
 
 fn cmd_merge(dirs: &[PathBuf], out: &Path) -> Result<i32> {
     out_folder(out)?;
-    let r = tb_harness::results::merge::merge(dirs, out)?;
+    let r = tb_results::merge::merge(dirs, out)?;
     for n in &r.notes {
         eprintln!("note: {n}");
     }
@@ -551,10 +551,10 @@ fn cmd_validate(config: &Path, ov: Overrides, show: usize, quiet: bool) -> Resul
 }
 
 fn cmd_check(baseline: &Path, results: &Path, tolerance: f64) -> Result<i32> {
-    let base = tb_harness::results::output::read_csv(baseline)?;
-    let cur = tb_harness::results::output::read_csv(results)?;
-    let findings = tb_harness::results::check::compare(&base, &cur, tolerance);
-    print!("{}", tb_harness::results::check::report(&findings));
+    let base = tb_results::output::read_csv(baseline)?;
+    let cur = tb_results::output::read_csv(results)?;
+    let findings = tb_results::check::compare(&base, &cur, tolerance);
+    print!("{}", tb_results::check::report(&findings));
     let failed = findings.iter().filter(|f| f.failed).count();
     if failed > 0 {
         println!(

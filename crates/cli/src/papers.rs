@@ -108,7 +108,7 @@ pub(crate) fn cmd_reproduce(
     let default_folder = out.is_none();
     let out = out.unwrap_or_else(|| {
         PathBuf::from("results/reproduce").join(
-            tb_harness::results::meta::now_rfc3339()
+            tb_results::meta::now_rfc3339()
                 .replace(':', "-")
                 .trim_end_matches('Z'),
         )

@@ -27,7 +27,7 @@ pub(crate) fn default_out(name: &str, resume: bool) -> Result<PathBuf> {
             .pop()
             .with_context(|| format!("{}: no earlier run to resume", base.display()));
     }
-    let stamp = tb_harness::results::meta::now_rfc3339().replace(':', "-");
+    let stamp = tb_results::meta::now_rfc3339().replace(':', "-");
     Ok(base.join(stamp.trim_end_matches('Z')))
 }
 
@@ -91,13 +91,13 @@ pub(crate) fn cmd_run(
         );
     }
     // One writer per folder, from here until this process ends (before --force touches it).
-    let _lock = tb_harness::results::lock::FolderLock::acquire(&out)?;
+    let _lock = tb_results::lock::FolderLock::acquire(&out)?;
     if resume {
         check_resume(&out, &exp)?;
     }
     if force {
         // Only what a run writes; anything else in the directory stays.
-        for f in tb_harness::results::output::RUN_OUTPUTS {
+        for f in tb_results::output::RUN_OUTPUTS {
             let p = out.join(f);
             if p.is_file() {
                 std::fs::remove_file(&p).with_context(|| format!("{}", p.display()))?;
@@ -236,7 +236,7 @@ pub(crate) fn cmd_processes(
         );
     }
     // One writer per folder; each process locks its own.
-    let _lock = tb_harness::results::lock::FolderLock::acquire(&out)?;
+    let _lock = tb_results::lock::FolderLock::acquire(&out)?;
     let plan = processes::Plan {
         exe: std::env::current_exe().context("cannot find the trace-bench executable")?,
         args: process_args(config, ov),

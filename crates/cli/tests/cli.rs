@@ -7,7 +7,7 @@ use common::*;
 use std::fs;
 use std::path::{Path, PathBuf};
 use tb_harness::experiment::config::{self, Overrides};
-use tb_harness::results::output::read_csv;
+use tb_results::output::read_csv;
 
 const GOOD: &str = r#"
 [run]
@@ -340,7 +340,7 @@ params = { max_leaf = [2, 4] }
         .all(|r| !r["host"].as_str().unwrap().is_empty()));
 }
 
-fn write_rows(path: &Path, rows: &[tb_harness::results::output::Row]) {
+fn write_rows(path: &Path, rows: &[tb_results::output::Row]) {
     let mut w = csv::Writer::from_path(path).unwrap();
     for r in rows {
         w.serialize(r).unwrap();
@@ -455,7 +455,7 @@ name = "kdtree"
         "run.repeat=1",
     ];
     assert_eq!(common::run(&args), 0);
-    let rows = tb_harness::results::output::read_csv(&out.join("results.csv")).unwrap();
+    let rows = tb_results::output::read_csv(&out.join("results.csv")).unwrap();
     assert_eq!(rows.len(), 1, "{rows:?}");
     let r = &rows[0];
     assert_eq!(
@@ -476,7 +476,7 @@ name = "kdtree"
     forced.push("--force");
     assert_eq!(common::run(&forced), 0);
     assert_eq!(
-        tb_harness::results::output::read_csv(&out.join("results.csv"))
+        tb_results::output::read_csv(&out.join("results.csv"))
             .unwrap()
             .len(),
         1
@@ -525,7 +525,7 @@ params = { c_isect = 2.0 }
         let args = ["run", c, "--out", o, "--force", "-q", "--structure", spec];
         assert_eq!(common::run(&args), 0, "{spec}");
         let mut rows: Vec<(String, String)> =
-            tb_harness::results::output::read_csv(&out.join("results.csv"))
+            tb_results::output::read_csv(&out.join("results.csv"))
                 .unwrap()
                 .into_iter()
                 .map(|r| {

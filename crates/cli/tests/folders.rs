@@ -8,7 +8,7 @@ mod common;
 use common::run;
 use std::fs;
 use std::path::Path;
-use tb_harness::results::lock::FolderLock;
+use tb_results::lock::FolderLock;
 
 const CONFIG: &str = r#"
 [run]
@@ -182,7 +182,7 @@ name = "bvh"
     .unwrap();
     let out = dir.path().join("out");
     assert_eq!(run_in(&cfg, &out, &[]), 0);
-    let rows = tb_harness::results::output::read_csv(&out.join("results.csv")).unwrap();
+    let rows = tb_results::output::read_csv(&out.join("results.csv")).unwrap();
     assert!(!rows.is_empty());
     for r in &rows {
         assert_eq!(r.hit_rate, Some(0.0));

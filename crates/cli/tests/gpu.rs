@@ -8,7 +8,7 @@ mod common;
 use common::*;
 
 use std::path::{Path, PathBuf};
-use tb_harness::results::output::{read_csv, Row};
+use tb_results::output::{read_csv, Row};
 
 fn gpu_config() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/gpu.toml")

@@ -7,7 +7,7 @@ use common::*;
 use std::fs;
 use std::sync::{Mutex, MutexGuard};
 use tb_harness::experiment::heap::{self, CountingAlloc};
-use tb_harness::results::output::read_csv;
+use tb_results::output::read_csv;
 
 #[global_allocator]
 static HEAP: CountingAlloc = CountingAlloc;

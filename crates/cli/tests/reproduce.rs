@@ -323,9 +323,8 @@ fn the_thread_clock_times_the_same_rows() {
             .output()
             .unwrap()
     };
-    let rows = |out: &str| {
-        tb_harness::results::output::read_csv(&t.path().join(out).join("results.csv")).unwrap()
-    };
+    let rows =
+        |out: &str| tb_results::output::read_csv(&t.path().join(out).join("results.csv")).unwrap();
     for (out, extra) in [
         ("wall", &[][..]),
         ("thread", &["--set", "run.clock=thread"][..]),

@@ -150,7 +150,7 @@ fn a_run_folder_another_process_writes_is_refused() {
     let c = claims(t.path(), &cfg, 32);
     let out = t.path().join("out");
     let folder = out.join("runs/tiny-paper/0-kdtree-3");
-    let _held = tb_harness::results::lock::FolderLock::acquire(&folder).unwrap();
+    let _held = tb_results::lock::FolderLock::acquire(&folder).unwrap();
     let o = reproduce(&c, &out, &[]);
     let e = stderr(&o);
     assert!(!o.status.success(), "{e}");

@@ -16,7 +16,7 @@ use common::*;
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
 use std::path::{Path, PathBuf};
-use tb_harness::results::output::{read_csv, Row};
+use tb_results::output::{read_csv, Row};
 
 const REDUCE: [&str; 8] = [
     "--scene",
@@ -44,7 +44,7 @@ fn run_ci(out: &Path, extra: &[&str]) -> i32 {
 /// The columns that must not depend on where or how a row ran: counters, hits, validation,
 /// the structure's size and build figures (not the build's phase times).
 fn deterministic(r: &Row) -> String {
-    let mut v: Vec<String> = tb_harness::results::check::counter_columns()
+    let mut v: Vec<String> = tb_results::check::counter_columns()
         .iter()
         .map(|c| format!("{c}={:?}", r.counter(c)))
         .collect();
@@ -189,7 +189,7 @@ fn ci_in_three_shards_merges_to_the_unsharded_run() {
         let a: Vec<&str> = a.iter().map(String::as_str).collect();
         assert_eq!(run(&a), 1, "{what}");
         assert!(!out.join("results.csv").exists(), "{what}: nothing written");
-        let err = tb_harness::results::merge::merge(
+        let err = tb_results::merge::merge(
             &dirs.iter().map(|d| d.to_path_buf()).collect::<Vec<_>>(),
             &out,
         )

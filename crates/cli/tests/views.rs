@@ -8,7 +8,7 @@ use common::*;
 
 use std::fs;
 use std::path::Path;
-use tb_harness::results::output::{read_csv, Row};
+use tb_results::output::{read_csv, Row};
 
 /// The Cornell box seen from its default view and with a wider field of view, as two views of
 /// one table, and the wide view again as a table of its own.
@@ -49,7 +49,7 @@ fn rows(dir: &Path) -> Vec<Row> {
 
 /// The deterministic columns of a row: counters, hits, validation.
 fn counters(r: &Row) -> String {
-    let mut v: Vec<String> = tb_harness::results::check::counter_columns()
+    let mut v: Vec<String> = tb_results::check::counter_columns()
         .iter()
         .map(|c| format!("{c}={:?}", r.counter(c)))
         .collect();

@@ -130,7 +130,7 @@ params = {{ max_leaf = [2, 8] }}
     );
     // The mean of the heat map is the steps_per_ray of the results row (Morton order mapped back
     // to pixels loses nothing).
-    let rows = tb_harness::results::output::read_csv(&out.join("results.csv")).unwrap();
+    let rows = tb_results::output::read_csv(&out.join("results.csv")).unwrap();
     let row = rows
         .iter()
         .find(|r| {

@@ -31,3 +31,27 @@ impl HarnessError {
         }
     }
 }
+
+/// An error of reading or writing results (tb-results) or a claims file, the same line.
+impl From<tb_results::Error> for HarnessError {
+    fn from(e: tb_results::Error) -> Self {
+        match e {
+            tb_results::Error::Config {
+                file,
+                line,
+                key,
+                message,
+            } => HarnessError::Config {
+                file,
+                line,
+                key,
+                message,
+            },
+            tb_results::Error::ConfigSyntax { file, message } => {
+                HarnessError::ConfigSyntax { file, message }
+            }
+            tb_results::Error::Io { path, message } => HarnessError::Io { path, message },
+            tb_results::Error::Other(m) => HarnessError::Other(m),
+        }
+    }
+}

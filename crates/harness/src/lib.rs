@@ -6,9 +6,9 @@
 //! expanded) before any work starts; [`experiment::runner::run`] then, per scene, generates
 //! the ray batches once, builds each structure, and hands every row to a device (CPU or GPU,
 //! one interface), which counts in one pass, validates against the brute-force oracle and
-//! times the trace with counters compiled out; each [`results::output::Row`] is written as
+//! times the trace with counters compiled out; each [`tb_results::output::Row`] is written as
 //! soon as it is finished; beside the runner, [`experiment::images`] draws heat maps and
-//! [`experiment::convergence`] and [`experiment::dynamic`] make their own tables; [`results::check`] compares the deterministic counters of a results file with a
+//! [`experiment::convergence`] and [`experiment::dynamic`] make their own tables; [`tb_results::check`] compares the deterministic counters of a results file with a
 //! baseline; [`cluster`] splits a run into shards; [`claims`] turns rows into verdicts.
 
 pub mod claims;
@@ -16,6 +16,5 @@ pub mod cluster;
 pub mod error;
 pub mod experiment;
 pub mod registry;
-pub mod results;
 
 pub use error::HarnessError;

@@ -239,13 +239,6 @@ pub mod weights {
     pub use tb_multikd::measure::{weight_rows, weight_tables, TABLE2_BETAS};
 
     /// The columns of `weights.csv` (`trace-bench weights --csv`), in the order of
-    /// [`weight_rows`]' fields, each with whether it holds numbers.
-    pub const CSV_COLUMNS: [(&str, bool); 6] = [
-        ("table", true),
-        ("heuristic", false),
-        ("beta", true),
-        ("patch", false),
-        ("axis", false),
-        ("weight_pct", true),
-    ];
+    /// [`weight_rows`]' fields, each with whether it holds numbers (kept with the other CSVs' rows).
+    pub use tb_results::tables::WEIGHTS_COLUMNS as CSV_COLUMNS;
 }

@@ -20,7 +20,7 @@ use tb_core::{
 use tb_harness::experiment::config::{self, Overrides};
 use tb_harness::experiment::runner::{self, RunOptions};
 use tb_harness::registry::Registry;
-use tb_harness::results::output::Row;
+use tb_results::output::Row;
 
 tb_core::params! {
     /// Parameters of the slab list.
@@ -354,7 +354,7 @@ fn a_structure_defined_here_runs_on_the_cpu_and_the_gpu() {
                 .find(|r| r.device == "cpu" && key(r) == key(g))
                 .expect("a CPU row per GPU row");
             if g.triangle_test == "watertight" {
-                for col in tb_harness::results::check::counter_columns() {
+                for col in tb_results::check::counter_columns() {
                     assert_eq!(c.counter(col), g.counter(col), "{col}: {g:?}");
                 }
                 assert_eq!(c.hit_rate, g.hit_rate, "{g:?}");

@@ -1,5 +1,5 @@
 //! The columns a claims file may name: those of every CSV a run writes, derived from the row
-//! types that write them (`results.csv`: [`crate::results::output::Row`], its counter columns
+//! types that write them (`results.csv`: [`tb_results::output::Row`], its counter columns
 //! included; `dynamic.csv` and `dynamic-choice.csv`: [`crate::experiment::dynamic`]; `weights.csv`:
 //! [`crate::registry::weights::CSV_COLUMNS`]), with each column's kind of value.
 
@@ -23,12 +23,12 @@ pub(crate) fn known() -> &'static BTreeMap<String, Kind> {
     K.get_or_init(|| {
         use crate::experiment::dynamic::{ChoiceRow, DynamicRow};
         let mut m = BTreeMap::new();
-        let results = crate::results::output::Row::default();
+        let results = tb_results::output::Row::default();
         add(&mut m, serde_json::to_value(&results), |col| {
             let probe = |v: serde_json::Value| {
                 let mut o = serde_json::Map::new();
                 o.insert(col.to_owned(), v);
-                serde_json::from_value::<crate::results::output::Row>(o.into()).is_ok()
+                serde_json::from_value::<tb_results::output::Row>(o.into()).is_ok()
             };
             if probe(0.into()) {
                 Kind::Number

@@ -11,16 +11,16 @@
 //! of repeated-measures designs). After each process, the rows of the processes made so far are
 //! merged into `OUT` (`results.csv`, `params.csv`, `results.json`: [`merge`]): an interruption
 //! loses at most the process in progress, whose own folder keeps its finished rows, as a
-//! shard's does (`run --shard`, [`crate::results::merge`]); `--resume` reuses the complete
+//! shard's does (`run --shard`, [`tb_results::merge`]); `--resume` reuses the complete
 //! processes and resumes the others. The claims evaluator compares times between processes
 //! (`crate::claims`: the spread of the per-process values).
 
 use crate::error::HarnessError;
-use crate::results::output::{read_csv_resume, Row};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Instant;
+use tb_results::output::{read_csv_resume, Row};
 
 /// The most processes a run is made in.
 pub const MAX: usize = 64;
@@ -314,14 +314,14 @@ pub fn merge(out: &Path, n: usize) -> Result<(usize, String), HarnessError> {
         m.insert("status".into(), json!(status));
         m.insert("processes".into(), json!({ "n": n, "processes": list }));
     }
-    crate::results::output::write_all(out, meta, &rows)?;
+    tb_results::output::write_all(out, meta, &rows)?;
     let p0 = folder(out, 0);
     for f in ["convergence.csv", "convergence-budget.csv"] {
         if p0.join(f).is_file() {
             std::fs::copy(p0.join(f), out.join(f)).map_err(|e| HarnessError::io(out.join(f), e))?;
         }
     }
-    crate::results::merge::copy_images(&p0.join("images"), &out.join("images"))?;
+    tb_results::merge::copy_images(&p0.join("images"), &out.join("images"))?;
     Ok((rows.len(), status.into()))
 }
 
@@ -356,12 +356,12 @@ mod tests {
                     ..Default::default()
                 })
                 .collect();
-            crate::results::output::write_all(&folder(out, i), meta, &rs).unwrap();
+            tb_results::output::write_all(&folder(out, i), meta, &rs).unwrap();
         };
         write(0, "complete", 2);
         write(2, "running", 1);
         assert_eq!(merge(out, 3).unwrap(), (3, "incomplete".into()));
-        let rows = crate::results::output::read_csv(&out.join("results.csv")).unwrap();
+        let rows = tb_results::output::read_csv(&out.join("results.csv")).unwrap();
         let procs: Vec<Option<u32>> = rows.iter().map(|r| r.process).collect();
         assert_eq!(procs, [Some(0), Some(0), Some(2)]);
         let meta: Value =
@@ -374,7 +374,7 @@ mod tests {
         assert_eq!(merge(out, 3).unwrap(), (6, "complete".into()));
         // Another config's process is refused.
         let meta = json!({ "config_hash": "other", "status": "complete" });
-        crate::results::output::write_all(&folder(out, 1), meta, &[]).unwrap();
+        tb_results::output::write_all(&folder(out, 1), meta, &[]).unwrap();
         assert!(merge(out, 3)
             .unwrap_err()
             .to_string()

@@ -1,8 +1,10 @@
-//! Timed repeats: how many (until the median is known well enough), medians, the confidence
-//! interval of the median, and the timing columns of a row.
+//! Timed repeats: how many (until the median is known well enough), medians and the confidence
+//! interval of the median (their formulas in tb_results::stats, re-exported), and the timing
+//! columns of a row.
 
-use crate::results::output::Row;
 use std::time::{Duration, Instant};
+use tb_results::output::Row;
+pub use tb_results::stats::{median, median_ci};
 
 /// How a row is timed: `warmup` untimed runs, then at least `repeat` timed runs, more (up to
 /// `max_repeat`) while the relative half-width of the median's 95 % confidence interval is
@@ -158,25 +160,6 @@ pub fn widest_pair_ci(times: &[Vec<f64>]) -> f64 {
     w
 }
 
-/// The distribution-free 95 % confidence interval of the median of `v` (order statistics,
-/// normal approximation of the binomial: ranks `n/2 ∓ 0.98·√n`; Conover 1999); the whole range
-/// for fewer than 6 values.
-pub fn median_ci(v: &[f64]) -> (f64, f64) {
-    let mut s = v.to_vec();
-    s.sort_by(|a, b| a.total_cmp(b));
-    let n = s.len();
-    if n == 0 {
-        return (f64::NAN, f64::NAN);
-    }
-    if n < 6 {
-        return (s[0], s[n - 1]);
-    }
-    let h = 0.98 * (n as f64).sqrt();
-    let lo = ((n as f64 / 2.0 - h).floor() as usize).clamp(1, n) - 1;
-    let hi = ((n as f64 / 2.0 + 1.0 + h).ceil() as usize).clamp(1, n) - 1;
-    (s[lo], s[hi])
-}
-
 /// Half the width of [`median_ci`] relative to the median.
 pub fn relative_ci(v: &[f64]) -> f64 {
     let (lo, hi) = median_ci(v);
@@ -254,20 +237,6 @@ pub fn load_average() -> Option<f64> {
         .next()?
         .parse()
         .ok()
-}
-
-/// Median of `v` (sorted in place).
-pub fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(|a, b| a.total_cmp(b));
-    let n = v.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 /// Fill `trace_ms_{min,median,max}`, `mrays_per_s`, `timed_runs`, `trace_ms_ci` and `noisy`

@@ -108,7 +108,7 @@ pub struct Spread {
 /// rows of two processes.
 pub fn spread(folder: &Path) -> Option<Spread> {
     use std::collections::BTreeMap;
-    let rows = crate::results::output::read_csv(&folder.join("results.csv")).ok()?;
+    let rows = tb_results::output::read_csv(&folder.join("results.csv")).ok()?;
     let mut by: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     let mut procs = std::collections::BTreeSet::new();
     for r in &rows {
@@ -392,12 +392,12 @@ fn made_by(folder: &Path) -> Option<String> {
 
 /// This binary's build as [`made_by`] writes it.
 fn this_build() -> String {
-    let dirty = if crate::results::meta::dirty() == Some(true) {
+    let dirty = if tb_results::meta::dirty() == Some(true) {
         "+dirty"
     } else {
         ""
     };
-    format!("{}{dirty}", crate::results::meta::commit())
+    format!("{}{dirty}", tb_results::meta::commit())
 }
 
 /// Plan every paper's runs within the budget.
@@ -487,10 +487,10 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
         .into_iter();
     say_plan(opts, &planned);
     // One reproduce per report folder, until this one ends.
-    let _lock = crate::results::lock::FolderLock::acquire(&opts.out)?;
+    let _lock = tb_results::lock::FolderLock::acquire(&opts.out)?;
     crate::experiment::child::catch_signals();
     let started = Instant::now();
-    let start_time = crate::results::meta::now_rfc3339();
+    let start_time = tb_results::meta::now_rfc3339();
     // The interpreter for the figures, or why there are none.
     let plot = planned.iter().any(|p| !p.1.figures.is_empty()).then(|| {
         let py = figures::python();
@@ -651,7 +651,7 @@ fn preflight(
             })?;
         }
         for r in runs.iter().filter(|r| r.folder.is_dir()) {
-            crate::results::lock::FolderLock::acquire(&r.folder)?;
+            tb_results::lock::FolderLock::acquire(&r.folder)?;
         }
     }
     Ok(())
@@ -892,7 +892,7 @@ mod tests {
     /// median and the largest over the rows timed in two processes or more.
     #[test]
     fn spreads_between_processes_per_row() {
-        use crate::results::output::{write_all, Row};
+        use tb_results::output::{write_all, Row};
         let dir = tempfile::tempdir().unwrap();
         let row = |scene: &str, p: u32, ms: f64| Row {
             scene: scene.into(),
@@ -949,6 +949,6 @@ mod tests {
         assert_eq!(made_by(dir.path()).as_deref(), Some("db74e0906af1"));
         std::fs::write(dir.path().join("results.json"), json("5c35e1b19c11", true)).unwrap();
         assert_eq!(made_by(dir.path()).as_deref(), Some("5c35e1b19c11+dirty"));
-        assert!(this_build().starts_with(&crate::results::meta::commit()));
+        assert!(this_build().starts_with(&tb_results::meta::commit()));
     }
 }

@@ -12,7 +12,7 @@ pub(super) fn write(path: &Path, text: &str) -> Result<(), HarnessError> {
 
 /// The machine in one line.
 pub(super) fn machine() -> String {
-    let h = crate::results::meta::host_info();
+    let h = tb_results::meta::host_info();
     format!(
         "{} ({}, {} logical / {} physical cores, {} GiB, {})",
         h["name"].as_str().unwrap_or("?"),
@@ -25,12 +25,12 @@ pub(super) fn machine() -> String {
 }
 
 pub(super) fn commit_line() -> String {
-    let dirty = if crate::results::meta::dirty() == Some(true) {
+    let dirty = if tb_results::meta::dirty() == Some(true) {
         " (with uncommitted changes)"
     } else {
         ""
     };
-    format!("{}{dirty}", crate::results::meta::commit())
+    format!("{}{dirty}", tb_results::meta::commit())
 }
 
 pub(super) fn write_report(
@@ -99,8 +99,8 @@ pub(super) fn write_report(
         &reproduction(reports, &head),
     )?;
     let json = serde_json::json!({
-        "machine": crate::results::meta::host_info(),
-        "build": crate::results::meta::build_info(),
+        "machine": tb_results::meta::host_info(),
+        "build": tb_results::meta::build_info(),
         "started": start,
         "wall_s": wall,
         "budget_s": opts.budget_s,

@@ -3,14 +3,7 @@
 use crate::error::HarnessError;
 use std::path::Path;
 
-/// 1-based line of byte offset `pos` in `text`.
-pub fn line_of(text: &str, pos: usize) -> usize {
-    text[..pos.min(text.len())]
-        .bytes()
-        .filter(|&b| b == b'\n')
-        .count()
-        + 1
-}
+pub use tb_results::error::line_of;
 
 /// Where a config came from, for errors naming its file and line.
 pub(crate) struct Ctx<'a> {

@@ -4,9 +4,9 @@
 use super::{Device, Job, Outcome};
 use crate::experiment::timing::{timed, Clock};
 use crate::experiment::validation::{self, Checked, Sample};
-use crate::results::output::Row;
 use std::collections::HashMap;
 use tb_core::{HitRecord, StatsSummary, TriTestKind};
+use tb_results::output::Row;
 
 use tb_core::par::trace_hinted_into;
 

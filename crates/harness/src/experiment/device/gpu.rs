@@ -19,10 +19,10 @@
 use super::{Device, Job, Outcome};
 use crate::experiment::config::spec::GpuSpec;
 use crate::experiment::validation::{self, Sample};
-use crate::results::output::Row;
 use std::collections::HashMap;
 use tb_core::{Accel, HitRecord, Query, Ray, StatsSummary, TriTestKind};
 use tb_gpu::{Gpu, GpuError, GpuRays, GpuStructure};
+use tb_results::output::Row;
 
 /// The note of every measured GPU row: no structure is built on the GPU (the built arrays are
 /// uploaded; the row's build columns are the CPU build's). The papers of the GPU grids build

@@ -15,8 +15,8 @@ pub mod gpu;
 
 use crate::experiment::batches::Batch;
 use crate::experiment::validation::{Checked, Sample};
-use crate::results::output::Row;
 use tb_core::{Accel, TraversalInfo, TriTestKind};
+use tb_results::output::Row;
 
 /// One row's work: which build, traversal, test and batch, with how many threads and
 /// repeats.

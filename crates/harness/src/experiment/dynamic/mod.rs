@@ -26,49 +26,11 @@ use crate::error::HarnessError;
 use crate::experiment::config::{Experiment, SceneSpec, StructureSpec};
 use crate::experiment::dynamic::config::DynamicSpec;
 use crate::experiment::timing::median;
-use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 use tb_core::{Accel, Family, ParamSet, ParamValue, Query, TriTestKind, Triangle};
-
-/// One row of `dynamic.csv`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct DynamicRow {
-    pub scene: String,
-    pub source: String,
-    pub structure: String,
-    /// The structure's parameters with the chosen densities.
-    pub params: String,
-    pub threads: u32,
-    pub width: u32,
-    pub height: u32,
-    pub budget_ms: f64,
-    pub frame: u32,
-    pub triangles: u64,
-    pub lambda_1: f64,
-    pub lambda_2: f64,
-    pub build_ms: f64,
-    pub primary_ms: f64,
-    /// Trace time of one AO sample per pixel (one ray per primary hit).
-    pub ao_ms_per_spp: f64,
-    /// AO samples per pixel that fit: `floor((budget − build − primary) / ao)`, at least 0.
-    pub spp: u32,
-}
-
-/// One candidate of the automatic choice, in `dynamic-choice.csv`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct ChoiceRow {
-    pub scene: String,
-    pub structure: String,
-    pub params: String,
-    pub frame: u32,
-    pub lambda_1: f64,
-    pub lambda_2: f64,
-    pub build_ms: f64,
-    pub primary_ms: f64,
-    pub ao_ms_per_spp: f64,
-}
+pub use tb_results::tables::{ChoiceRow, DynamicRow};
 
 /// Samples per pixel that fit `budget` after the build and the primary rays.
 pub fn samples_within(budget: f64, build_ms: f64, primary_ms: f64, ao_ms: f64) -> u32 {

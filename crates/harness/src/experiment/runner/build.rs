@@ -3,10 +3,10 @@
 
 use crate::experiment::heap::{self, HeapUse};
 use crate::experiment::timing::median;
-use crate::results::output::Row;
 use std::sync::Arc;
 use std::time::Instant;
 use tb_core::{Accel, AccelError, Family, MemoryReport, ParamSet, Triangle};
+use tb_results::output::Row;
 
 /// A validated build and its figures.
 pub struct Built {

@@ -22,13 +22,13 @@ use crate::experiment::device::gpu::GpuDevice;
 use crate::experiment::device::{Device, Job, Outcome};
 use crate::experiment::progress::Progress;
 use crate::experiment::validation::{self, Oracle};
-use crate::results::output::{Row, RowKey, Sink};
 use build::Built;
 use plan::Combo;
 use std::collections::HashSet;
 use std::path::PathBuf;
 use std::sync::Arc;
 use tb_core::{ParamSet, Triangle};
+use tb_results::output::{Row, RowKey, Sink};
 
 /// What the runner does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -157,7 +157,7 @@ impl<'a> Run<'a> {
         }
         let sink = match opts.mode {
             Mode::Run => {
-                let mut meta = crate::results::meta::collect(
+                let mut meta = tb_results::meta::collect(
                     &exp.file.display().to_string(),
                     &exp.text,
                     &exp.run.threads,
@@ -638,7 +638,7 @@ fn base_row(spec: &SceneSpec, tris: &Arc<[Triangle]>, st: &StructureSpec, params
         triangles: tris.len() as u64,
         structure: st.family.name.to_string(),
         params: params_s.to_owned(),
-        host: crate::results::meta::host_name(),
+        host: tb_results::meta::host_name(),
         ..Default::default()
     }
 }

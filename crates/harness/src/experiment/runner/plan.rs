@@ -3,9 +3,9 @@
 
 use crate::experiment::batches::Batch;
 use crate::experiment::config::{Device, Experiment, RayKindSpec, StructureSpec};
-use crate::results::output::RowKey;
 use std::collections::HashSet;
 use tb_core::TriTestKind;
+use tb_results::output::RowKey;
 
 /// One row to measure.
 #[derive(Clone, Copy, Debug)]

@@ -1,8 +1,8 @@
 //! The plain-text summary printed after a run: one line per row of `results.csv`, full names,
 //! the parameters that vary between rows of a structure, and the timing spread.
 
-use crate::results::output::Row;
 use std::collections::{BTreeMap, BTreeSet};
+use tb_results::output::Row;
 
 /// For each structure, the parameter names whose values differ between its rows.
 fn varying_params(rows: &[Row]) -> BTreeMap<&str, BTreeSet<&str>> {

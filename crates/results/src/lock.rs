@@ -4,7 +4,7 @@
 //! interleaving its rows with the first's. The OS releases the lock when the holder exits or is
 //! killed, so a crashed run never leaves the folder locked.
 
-use crate::error::HarnessError;
+use crate::Error;
 use std::fs::{File, OpenOptions, TryLockError};
 use std::io::Write;
 use std::path::Path;
@@ -20,8 +20,8 @@ pub struct FolderLock {
 
 impl FolderLock {
     /// Lock `dir` (created if missing) for this process, or say who holds it.
-    pub fn acquire(dir: &Path) -> Result<FolderLock, HarnessError> {
-        std::fs::create_dir_all(dir).map_err(|e| HarnessError::io(dir, e))?;
+    pub fn acquire(dir: &Path) -> Result<FolderLock, Error> {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
         let path = dir.join(LOCK_FILE);
         let mut file = OpenOptions::new()
             .create(true)
@@ -29,7 +29,7 @@ impl FolderLock {
             .read(true)
             .write(true)
             .open(&path)
-            .map_err(|e| HarnessError::io(&path, e))?;
+            .map_err(|e| Error::io(&path, e))?;
         match file.try_lock() {
             Ok(()) => {
                 // Who holds it, for the message of a refused second run.
@@ -38,7 +38,7 @@ impl FolderLock {
                     file,
                     "pid {}, since {}",
                     std::process::id(),
-                    crate::results::meta::now_rfc3339()
+                    crate::meta::now_rfc3339()
                 );
                 let _ = file.flush();
                 Ok(FolderLock { file })
@@ -50,7 +50,7 @@ impl FolderLock {
                 } else {
                     format!(" ({})", who.trim())
                 };
-                Err(HarnessError::io(
+                Err(Error::io(
                     dir,
                     format!(
                         "another trace-bench run is writing to this folder{who}: wait for it to \
@@ -58,7 +58,7 @@ impl FolderLock {
                     ),
                 ))
             }
-            Err(TryLockError::Error(e)) => Err(HarnessError::io(&path, e)),
+            Err(TryLockError::Error(e)) => Err(Error::io(&path, e)),
         }
     }
 }

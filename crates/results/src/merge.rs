@@ -1,5 +1,5 @@
 //! `trace-bench merge DIR... --out DIR`: one results folder from the shards of a run
-//! (`run --shard K/N`, [`crate::cluster::shard`]).
+//! (`run --shard K/N`, `tb_harness::cluster::shard`).
 //!
 //! The shards must come from the same effective config (`meta.config_hash`), the same binary
 //! (`meta.build.commit` and `features`) and the same partition (`meta.shard.plan`); anything
@@ -10,8 +10,8 @@
 //! `params.csv` is rewritten for the merged rows, so `check`, `table.py` and `plot.py` read
 //! the merged folder like any run's.
 
-use crate::error::HarnessError;
-use crate::results::output::{read_csv_resume, Row, RowKey};
+use crate::output::{read_csv_resume, Row, RowKey};
+use crate::Error;
 use serde_json::{json, Value};
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -36,18 +36,17 @@ struct ShardDir {
     torn: bool,
 }
 
-fn refuse(msg: String) -> HarnessError {
-    HarnessError::Other(format!("refusing to merge: {msg}"))
+fn refuse(msg: String) -> Error {
+    Error::Other(format!("refusing to merge: {msg}"))
 }
 
-fn read_shard(dir: &Path) -> Result<ShardDir, HarnessError> {
+fn read_shard(dir: &Path) -> Result<ShardDir, Error> {
     let jp = dir.join("results.json");
-    let text = std::fs::read_to_string(&jp).map_err(|e| HarnessError::io(&jp, e))?;
-    let doc: Value =
-        serde_json::from_str(&text).map_err(|e| HarnessError::io(&jp, e.to_string()))?;
+    let text = std::fs::read_to_string(&jp).map_err(|e| Error::io(&jp, e))?;
+    let doc: Value = serde_json::from_str(&text).map_err(|e| Error::io(&jp, e.to_string()))?;
     let meta = doc["meta"].clone();
     let k = meta["shard"]["k"].as_u64().ok_or_else(|| {
-        HarnessError::io(
+        Error::io(
             &jp,
             "not a shard (no meta.shard): only the folders of `run --shard K/N` can be merged",
         )
@@ -83,12 +82,12 @@ struct PlanIndex<'a> {
 }
 
 /// Merge the shard folders `dirs` into `out` (which must not hold results yet).
-pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> {
+pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, Error> {
     if dirs.is_empty() {
-        return Err(HarnessError::Other("merge: no shard folder given".into()));
+        return Err(Error::Other("merge: no shard folder given".into()));
     }
     if out.join("results.csv").exists() {
-        return Err(HarnessError::io(
+        return Err(Error::io(
             out.join("results.csv"),
             "already exists: choose another --out",
         ));
@@ -116,14 +115,14 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport, HarnessError> 
     report.rows = rows.len();
     note_hosts(&rows, &mut report);
     let meta = merged_meta(&shards, &report, n);
-    crate::results::output::write_all(out, meta, &rows)?;
+    crate::output::write_all(out, meta, &rows)?;
     merge_companions(&shards, out, &index)?;
     Ok(report)
 }
 
 /// Check that the shards are of the same run (config, binary, partition) and of different
 /// shards; their folders by shard number.
-fn check_same_run(shards: &[ShardDir]) -> Result<BTreeMap<u64, &Path>, HarnessError> {
+fn check_same_run(shards: &[ShardDir]) -> Result<BTreeMap<u64, &Path>, Error> {
     let first = &shards[0];
     // Same run: config, binary, partition.
     type Field = fn(&Value) -> Value;
@@ -289,11 +288,7 @@ fn note_hosts(rows: &[Row], report: &mut MergeReport) {
 }
 
 /// Merge the companions: convergence.csv and images/ (with index.csv).
-fn merge_companions(
-    shards: &[ShardDir],
-    out: &Path,
-    index: &PlanIndex,
-) -> Result<(), HarnessError> {
+fn merge_companions(shards: &[ShardDir], out: &Path, index: &PlanIndex) -> Result<(), Error> {
     let order = |r: &csv::StringRecord, head: &csv::StringRecord| -> (usize, u8) {
         let col = |name: &str| {
             head.iter()
@@ -390,7 +385,7 @@ fn merge_csv(
     name: &Path,
     out: &Path,
     order: &dyn Fn(&csv::StringRecord, &csv::StringRecord) -> (usize, u8),
-) -> Result<(), HarnessError> {
+) -> Result<(), Error> {
     let mut head: Option<csv::StringRecord> = None;
     let mut records: Vec<((usize, u8), usize, csv::StringRecord)> = Vec::new();
     let mut seen = HashSet::new();
@@ -399,15 +394,12 @@ fn merge_csv(
         if !p.is_file() {
             continue;
         }
-        let mut r = csv::Reader::from_path(&p).map_err(|e| HarnessError::io(&p, e))?;
-        let h = r.headers().map_err(|e| HarnessError::io(&p, e))?.clone();
+        let mut r = csv::Reader::from_path(&p).map_err(|e| Error::io(&p, e))?;
+        let h = r.headers().map_err(|e| Error::io(&p, e))?.clone();
         match &head {
             None => head = Some(h.clone()),
             Some(first) if *first != h => {
-                return Err(HarnessError::io(
-                    &p,
-                    "columns differ from the first shard's",
-                ))
+                return Err(Error::io(&p, "columns differ from the first shard's"))
             }
             Some(_) => {}
         }
@@ -423,30 +415,30 @@ fn merge_csv(
     records.sort_by_key(|(o, i, _)| (*o, *i));
     let p = out.join(name);
     if let Some(parent) = p.parent() {
-        std::fs::create_dir_all(parent).map_err(|e| HarnessError::io(parent, e))?;
+        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
     }
-    let mut w = csv::Writer::from_path(&p).map_err(|e| HarnessError::io(&p, e))?;
-    w.write_record(&head).map_err(|e| HarnessError::io(&p, e))?;
+    let mut w = csv::Writer::from_path(&p).map_err(|e| Error::io(&p, e))?;
+    w.write_record(&head).map_err(|e| Error::io(&p, e))?;
     for (_, _, rec) in &records {
-        w.write_record(rec).map_err(|e| HarnessError::io(&p, e))?;
+        w.write_record(rec).map_err(|e| Error::io(&p, e))?;
     }
-    w.flush().map_err(|e| HarnessError::io(&p, e))
+    w.flush().map_err(|e| Error::io(&p, e))
 }
 
 /// Copy the image files under `from` into `to` (not `index.csv`, merged apart); a file that is
 /// already there (a scene's render, written by every shard of the scene) is kept.
-pub(crate) fn copy_images(from: &Path, to: &Path) -> Result<(), HarnessError> {
+pub fn copy_images(from: &Path, to: &Path) -> Result<(), Error> {
     if !from.is_dir() {
         return Ok(());
     }
-    std::fs::create_dir_all(to).map_err(|e| HarnessError::io(to, e))?;
-    for e in std::fs::read_dir(from).map_err(|e| HarnessError::io(from, e))? {
-        let e = e.map_err(|e| HarnessError::io(from, e))?;
+    std::fs::create_dir_all(to).map_err(|e| Error::io(to, e))?;
+    for e in std::fs::read_dir(from).map_err(|e| Error::io(from, e))? {
+        let e = e.map_err(|e| Error::io(from, e))?;
         let (src, dst) = (e.path(), to.join(e.file_name()));
         if src.is_dir() {
             copy_images(&src, &dst)?;
         } else if e.file_name() != "index.csv" && !dst.exists() {
-            std::fs::copy(&src, &dst).map_err(|e| HarnessError::io(&src, e))?;
+            std::fs::copy(&src, &dst).map_err(|e| Error::io(&src, e))?;
         }
     }
     Ok(())

@@ -10,7 +10,7 @@
 //! and thread count are ignored (counters do not depend on them), so a baseline taken with one
 //! thread checks a run with many.
 
-use crate::results::output::Row;
+use crate::output::Row;
 use std::collections::BTreeMap;
 
 /// Columns compared, by name: the mean and the maximum per ray of every counter

@@ -5,7 +5,7 @@
 //!
 //! Column names are stable and carry units; README.md documents each ("Results columns").
 
-use crate::error::HarnessError;
+use crate::Error;
 use serde::{Deserialize, Serialize};
 use std::fs::{File, OpenOptions};
 use std::path::{Path, PathBuf};
@@ -125,7 +125,7 @@ macro_rules! define_row {
             pub sah_cost: Option<f64>,
             pub build_stats: String,
             /// The most heap the build held at once above what was live before it, bytes
-            /// (measured by the binary's counting allocator, [`crate::experiment::heap`]; empty where it
+            /// (measured by the binary's counting allocator, `tb_harness::experiment::heap`; empty where it
             /// is not installed).
             pub build_heap_peak_bytes: Option<u64>,
             /// The heap the build still held when it returned (the structure), bytes.
@@ -198,16 +198,16 @@ impl Row {
 }
 
 /// Read a results CSV.
-pub fn read_csv(path: &Path) -> Result<Vec<Row>, HarnessError> {
-    let text = std::fs::read_to_string(path).map_err(|e| HarnessError::io(path, e))?;
+pub fn read_csv(path: &Path) -> Result<Vec<Row>, Error> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     parse_csv(path, &text)
 }
 
-fn parse_csv(path: &Path, text: &str) -> Result<Vec<Row>, HarnessError> {
+fn parse_csv(path: &Path, text: &str) -> Result<Vec<Row>, Error> {
     let mut r = csv::Reader::from_reader(text.as_bytes());
     let mut rows = Vec::new();
     for (i, row) in r.deserialize().enumerate() {
-        let row: Row = row.map_err(|e| HarnessError::io(path, format!("row {}: {e}", i + 2)))?;
+        let row: Row = row.map_err(|e| Error::io(path, format!("row {}: {e}", i + 2)))?;
         rows.push(row);
     }
     Ok(rows)
@@ -216,8 +216,8 @@ fn parse_csv(path: &Path, text: &str) -> Result<Vec<Row>, HarnessError> {
 /// Read the results CSV of an interrupted run. Every row is written with its newline in one
 /// flush, so an unterminated last line is a row torn by the interruption: it is dropped (and
 /// its combination run again), and the number of dropped lines is returned.
-pub fn read_csv_resume(path: &Path) -> Result<(Vec<Row>, usize), HarnessError> {
-    let text = std::fs::read_to_string(path).map_err(|e| HarnessError::io(path, e))?;
+pub fn read_csv_resume(path: &Path) -> Result<(Vec<Row>, usize), Error> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     match text.rfind('\n') {
         Some(end) if end + 1 < text.len() => Ok((parse_csv(path, &text[..=end])?, 1)),
         None if !text.is_empty() => Ok((Vec::new(), 1)),
@@ -250,19 +250,15 @@ impl Sink {
     /// [`Sink::rows`]); otherwise the directory must not hold results yet.
     /// A resumed run keeps the first session's `start` and accumulated `duration_s` and lists
     /// the sessions' starts in `resumed`.
-    pub fn open(
-        dir: &Path,
-        mut meta: serde_json::Value,
-        resume: bool,
-    ) -> Result<Sink, HarnessError> {
-        std::fs::create_dir_all(dir).map_err(|e| HarnessError::io(dir, e))?;
+    pub fn open(dir: &Path, mut meta: serde_json::Value, resume: bool) -> Result<Sink, Error> {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
         let csv_path = dir.join("results.csv");
         if resume {
             carry_meta(&dir.join("results.json"), &mut meta);
         }
         let existing = if csv_path.exists() {
             if !resume {
-                return Err(HarnessError::io(
+                return Err(Error::io(
                     &csv_path,
                     "already exists: pass --resume to continue that run, --force to replace it, or choose another --out",
                 ));
@@ -284,47 +280,45 @@ impl Sink {
             .write(true)
             .truncate(true)
             .open(&csv_path)
-            .map_err(|e| HarnessError::io(&csv_path, e))?;
+            .map_err(|e| Error::io(&csv_path, e))?;
         let mut csv = csv::WriterBuilder::new()
             .has_headers(true)
             .from_writer(file);
         if existing.is_empty() {
             // Header even for an empty file, so the columns are documented by the file itself.
             csv.write_record(header())
-                .map_err(|e| HarnessError::io(&csv_path, e))?;
-            csv.flush().map_err(|e| HarnessError::io(&csv_path, e))?;
+                .map_err(|e| Error::io(&csv_path, e))?;
+            csv.flush().map_err(|e| Error::io(&csv_path, e))?;
             csv = csv::WriterBuilder::new().has_headers(false).from_writer(
                 OpenOptions::new()
                     .append(true)
                     .open(&csv_path)
-                    .map_err(|e| HarnessError::io(&csv_path, e))?,
+                    .map_err(|e| Error::io(&csv_path, e))?,
             );
         } else {
             for r in &existing {
-                csv.serialize(r)
-                    .map_err(|e| HarnessError::io(&csv_path, e))?;
+                csv.serialize(r).map_err(|e| Error::io(&csv_path, e))?;
             }
-            csv.flush().map_err(|e| HarnessError::io(&csv_path, e))?;
+            csv.flush().map_err(|e| Error::io(&csv_path, e))?;
             csv = csv::WriterBuilder::new().has_headers(false).from_writer(
                 OpenOptions::new()
                     .append(true)
                     .open(&csv_path)
-                    .map_err(|e| HarnessError::io(&csv_path, e))?,
+                    .map_err(|e| Error::io(&csv_path, e))?,
             );
         }
         // The long-form companion, rewritten from the kept rows.
         let long_path = dir.join("params.csv");
-        let mut long =
-            csv::Writer::from_path(&long_path).map_err(|e| HarnessError::io(&long_path, e))?;
+        let mut long = csv::Writer::from_path(&long_path).map_err(|e| Error::io(&long_path, e))?;
         long.write_record(["row", "group", "key", "value"])
-            .map_err(|e| HarnessError::io(&long_path, e))?;
+            .map_err(|e| Error::io(&long_path, e))?;
         for (i, r) in existing.iter().enumerate() {
             for rec in long_records(i, r) {
                 long.write_record(&rec)
-                    .map_err(|e| HarnessError::io(&long_path, e))?;
+                    .map_err(|e| Error::io(&long_path, e))?;
             }
         }
-        long.flush().map_err(|e| HarnessError::io(&long_path, e))?;
+        long.flush().map_err(|e| Error::io(&long_path, e))?;
         let earlier_s = meta["duration_s"].as_f64().unwrap_or(0.0);
         let row_texts = existing.iter().map(row_text).collect();
         let mut sink = Sink {
@@ -349,19 +343,17 @@ impl Sink {
     }
 
     /// Append a row to both files and flush.
-    pub fn push(&mut self, row: Row) -> Result<(), HarnessError> {
+    pub fn push(&mut self, row: Row) -> Result<(), Error> {
         let p = self.dir.join("results.csv");
-        self.csv
-            .serialize(&row)
-            .map_err(|e| HarnessError::io(&p, e))?;
-        self.csv.flush().map_err(|e| HarnessError::io(&p, e))?;
+        self.csv.serialize(&row).map_err(|e| Error::io(&p, e))?;
+        self.csv.flush().map_err(|e| Error::io(&p, e))?;
         let lp = self.dir.join("params.csv");
         for rec in long_records(self.rows.len(), &row) {
             self.long
                 .write_record(&rec)
-                .map_err(|e| HarnessError::io(&lp, e))?;
+                .map_err(|e| Error::io(&lp, e))?;
         }
-        self.long.flush().map_err(|e| HarnessError::io(&lp, e))?;
+        self.long.flush().map_err(|e| Error::io(&lp, e))?;
         self.row_texts.push(row_text(&row));
         self.rows.push(row);
         if self.json_written.elapsed() >= self.json_every {
@@ -376,15 +368,15 @@ impl Sink {
     }
 
     /// Record the end of the run in the JSON metadata.
-    pub fn finish(&mut self, status: &str) -> Result<(), HarnessError> {
+    pub fn finish(&mut self, status: &str) -> Result<(), Error> {
         self.meta["duration_s"] = serde_json::Value::from(self.earlier_s);
-        crate::results::meta::finish(&mut self.meta, status, self.started);
+        crate::meta::finish(&mut self.meta, status, self.started);
         self.earlier_s = self.meta["duration_s"].as_f64().unwrap_or(self.earlier_s);
         self.started = std::time::SystemTime::now();
         self.write_json()
     }
 
-    fn write_json(&mut self) -> Result<(), HarnessError> {
+    fn write_json(&mut self) -> Result<(), Error> {
         // The run's time so far (earlier sessions and this one), kept if it is killed.
         let now = self
             .started
@@ -395,9 +387,9 @@ impl Sink {
             serde_json::Value::from(((self.earlier_s + now) * 1e3).round() / 1e3);
         let path = self.dir.join("results.json");
         let tmp = self.dir.join("results.json.tmp");
-        let text = document(&self.meta, &self.row_texts).map_err(|e| HarnessError::io(&path, e))?;
-        std::fs::write(&tmp, text).map_err(|e| HarnessError::io(&tmp, e))?;
-        std::fs::rename(&tmp, &path).map_err(|e| HarnessError::io(&path, e))?;
+        let text = document(&self.meta, &self.row_texts).map_err(|e| Error::io(&path, e))?;
+        std::fs::write(&tmp, text).map_err(|e| Error::io(&tmp, e))?;
+        std::fs::rename(&tmp, &path).map_err(|e| Error::io(&path, e))?;
         self.json_written = Instant::now();
         Ok(())
     }
@@ -456,34 +448,32 @@ pub const RUN_OUTPUTS: &[&str] = &[
 
 /// Write a whole results folder at once (`trace-bench merge`): `results.csv`, `params.csv` and
 /// `results.json` of `rows` with `meta`, as a run writes them.
-pub fn write_all(dir: &Path, meta: serde_json::Value, rows: &[Row]) -> Result<(), HarnessError> {
-    std::fs::create_dir_all(dir).map_err(|e| HarnessError::io(dir, e))?;
+pub fn write_all(dir: &Path, meta: serde_json::Value, rows: &[Row]) -> Result<(), Error> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let p = dir.join("results.csv");
     let mut csv = csv::WriterBuilder::new()
         .has_headers(false)
         .from_path(&p)
-        .map_err(|e| HarnessError::io(&p, e))?;
-    csv.write_record(header())
-        .map_err(|e| HarnessError::io(&p, e))?;
+        .map_err(|e| Error::io(&p, e))?;
+    csv.write_record(header()).map_err(|e| Error::io(&p, e))?;
     for r in rows {
-        csv.serialize(r).map_err(|e| HarnessError::io(&p, e))?;
+        csv.serialize(r).map_err(|e| Error::io(&p, e))?;
     }
-    csv.flush().map_err(|e| HarnessError::io(&p, e))?;
+    csv.flush().map_err(|e| Error::io(&p, e))?;
     let lp = dir.join("params.csv");
-    let mut long = csv::Writer::from_path(&lp).map_err(|e| HarnessError::io(&lp, e))?;
+    let mut long = csv::Writer::from_path(&lp).map_err(|e| Error::io(&lp, e))?;
     long.write_record(["row", "group", "key", "value"])
-        .map_err(|e| HarnessError::io(&lp, e))?;
+        .map_err(|e| Error::io(&lp, e))?;
     for (i, r) in rows.iter().enumerate() {
         for rec in long_records(i, r) {
-            long.write_record(&rec)
-                .map_err(|e| HarnessError::io(&lp, e))?;
+            long.write_record(&rec).map_err(|e| Error::io(&lp, e))?;
         }
     }
-    long.flush().map_err(|e| HarnessError::io(&lp, e))?;
+    long.flush().map_err(|e| Error::io(&lp, e))?;
     let jp = dir.join("results.json");
     let texts: Vec<String> = rows.iter().map(row_text).collect();
-    let text = document(&meta, &texts).map_err(|e| HarnessError::io(&jp, e))?;
-    std::fs::write(&jp, text).map_err(|e| HarnessError::io(&jp, e))
+    let text = document(&meta, &texts).map_err(|e| Error::io(&jp, e))?;
+    std::fs::write(&jp, text).map_err(|e| Error::io(&jp, e))
 }
 
 /// A resumed run's metadata: the earlier session's `start` and `duration_s`, and every

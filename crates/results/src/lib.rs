@@ -1,0 +1,19 @@
+//! tb-results: what a run leaves behind, readable without the runner. The rows and their
+//! writers ([`output`]: results.csv, results.json, flushed row by row), the rows of the other
+//! CSVs trace-bench writes ([`tables`]: dynamic.csv, dynamic-choice.csv, weights.csv), the
+//! run's provenance ([`meta`]), the statistics a row carries ([`stats`]: the median and its
+//! interval), the counter regression check against a baseline ([`check`]), the merge of
+//! shards' folders ([`merge`]) and the folder lock that keeps one writer per folder
+//! ([`lock`]). The harness (tb-harness) writes results with it, the claims (tb-claims) read
+//! them; errors are one line each ([`Error`]).
+
+pub mod check;
+pub mod error;
+pub mod lock;
+pub mod merge;
+pub mod meta;
+pub mod output;
+pub mod stats;
+pub mod tables;
+
+pub use error::Error;
