@@ -4,16 +4,19 @@
 1. No import circle between the files (modules) of any crate: `use crate::a::b` and
    `crate::a::b::x` paths and `super::x` make edges; a module's own children and parent are
    not edges (Rust's `mod` tree), comments and `#[cfg(test)] mod tests` are skipped.
-2. The harness and the CLI reach a structure only through the registry: no file of
-   crates/harness/src or crates/cli/src but crates/harness/src/registry.rs names a structure
+2. The harness, the claims, the results and the CLI reach a structure only through the
+   registry: no file of their crates but crates/harness/src/registry.rs names a structure
    crate (tb_bvh, tb_kdtree, tb_multikd, tb_sparse, tb_rtree, tb_grid, tb_peers).
-3. No function in the harness or the CLI over 100 lines, but those listed in LONG with their
+3. No function in the harness, the claims, the results or the CLI over 100 lines, but those listed in LONG with their
    present length, which they may not exceed (split them and remove the line).
 4. No two folders (top-level modules) of the harness import each other, directly or through
    others: the folders' graph has no circle.
 5. No source file under crates/*/src over 800 lines, not counting a trailing
    `#[cfg(test)]` module, but those listed in LONG_FILES with their present length, a
    ceiling they may not exceed (issue 45: split them and remove the line).
+6. The crates depend one way: tb-results on none of tb-claims, tb-harness, tb-gpu; tb-claims
+   (the claims read results, not the runner) on none of tb-harness, tb-gpu, tb-scene or a
+   structure crate; neither names such a crate in its sources.
 
 Exit 1 with one line per violation. `--list` prints every module's edges.
 """
@@ -28,6 +31,12 @@ MAX_FN_LINES = 100
 # Functions over MAX_FN_LINES when this check was written (2026-11-27), and their lengths:
 # a ceiling, not a licence.
 LONG = {}
+# Rule 6: what a crate may not depend on.
+STRUCTURE_PACKAGES = ["tb-bvh", "tb-kdtree", "tb-multikd", "tb-sparse", "tb-rtree", "tb-grid", "tb-peers"]
+DEPENDS_NOT = {
+    "results": ["tb-claims", "tb-harness", "tb-gpu"],
+    "claims": ["tb-harness", "tb-gpu", "tb-scene"] + STRUCTURE_PACKAGES,
+}
 MAX_FILE_LINES = 800
 # Files over MAX_FILE_LINES when the rule was written (2026-11-28), and their lengths without
 # their tests: a ceiling, not a licence.
@@ -35,7 +44,6 @@ LONG_FILES = {
     "crates/grid/src/common.rs": 979,
     "crates/sparse/src/traverse.rs": 1012,
     "crates/grid/src/irregular.rs": 1125,
-    "crates/harness/src/claims/eval.rs": 1734,
 }
 
 
@@ -218,7 +226,23 @@ def main():
                     n, limit = file_lines(p), LONG_FILES.get(rel, MAX_FILE_LINES)
                     if n > limit:
                         problems.append(f"{rel}: {n} lines without its tests (at most {limit})")
-    for d in ("crates/harness/src", "crates/cli/src"):
+    for crate, banned in DEPENDS_NOT.items():
+        with open(os.path.join(ROOT, "crates", crate, "Cargo.toml"), encoding="utf-8") as fh:
+            manifest = fh.read()
+        deps = re.split(r"^\[dev-dependencies\]", manifest, flags=re.M)[0]
+        for b in banned:
+            if re.search(rf"^{b}\b", deps, re.M):
+                problems.append(f"crates/{crate}/Cargo.toml: depends on {b}")
+        for dp, _, files in os.walk(os.path.join(ROOT, "crates", crate, "src")):
+            for f in sorted(files):
+                if f.endswith(".rs"):
+                    with open(os.path.join(dp, f), encoding="utf-8") as fh:
+                        code = code_of(fh.read())
+                    for b in banned:
+                        if re.search(rf"\b{b.replace('-', '_')}::", code):
+                            rel = os.path.relpath(os.path.join(dp, f), ROOT)
+                            problems.append(f"{rel}: names {b} (crate {crate} may not depend on it)")
+    for d in ("crates/harness/src", "crates/claims/src", "crates/results/src", "crates/cli/src"):
         for dp, _, files in os.walk(os.path.join(ROOT, d)):
             for f in sorted(files):
                 if not f.endswith(".rs"):
@@ -242,7 +266,7 @@ def main():
     print(
         f"layout: no import circle (modules; the harness's folders), structures only through the registry, "
         f"functions within {MAX_FN_LINES} lines ({len(LONG)} listed longer), files within {MAX_FILE_LINES} "
-        f"lines ({len(LONG_FILES)} listed longer)"
+        f"lines ({len(LONG_FILES)} listed longer), tb-results and tb-claims clear of the runner"
     )
 
 

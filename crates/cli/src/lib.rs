@@ -274,7 +274,7 @@ enum Cmd {
         width: Option<u16>,
         /// The least relative uncertainty of a compared time (the variation between runs,
         /// which one run's intervals do not see; claims/README.md).
-        #[arg(long, default_value_t = tb_harness::claims::TIME_FLOOR)]
+        #[arg(long, default_value_t = tb_claims::TIME_FLOOR)]
         time_floor: f64,
     },
     /// Print a scene's triangles, bounds, zero-area count and memory.

@@ -13,7 +13,7 @@ pub(crate) fn cmd_claims(
     width: Option<u16>,
     time_floor: f64,
 ) -> Result<i32> {
-    use tb_harness::claims;
+    use tb_claims as claims;
     if !(time_floor >= 0.0 && time_floor.is_finite()) {
         bail!("--time-floor {time_floor}: must be a fraction >= 0 (0.2 = ±20 %)");
     }
@@ -69,7 +69,7 @@ pub(crate) fn cmd_reproduce(
     (sets, adapter, heavy): (Vec<String>, Option<String>, bool),
     quiet: bool,
 ) -> Result<i32> {
-    use tb_harness::claims::reproduce;
+    use tb_claims::reproduce;
     if let Some(s) = sets.iter().find(|s| !s.contains('=')) {
         bail!("--set {s}: expected KEY=VALUE (e.g. run.validate=64)");
     }
@@ -130,10 +130,10 @@ pub(crate) fn cmd_reproduce(
         heavy,
         quiet,
     };
-    let reports = reproduce::reproduce(&opts)?;
+    let reports = reproduce::reproduce(&opts, &HarnessRuns)?;
     for r in &reports {
         println!("{}", r.paper);
-        print!("{}", tb_harness::claims::render::text(&r.claims, 160));
+        print!("{}", tb_claims::render::text(&r.claims, 160));
     }
     println!(
         "report: {} (REPORT.md, REPRODUCTION.md, verdicts.json)",
@@ -157,3 +157,39 @@ pub(crate) fn cmd_reproduce(
     }
     Ok(0)
 }
+
+/// Reproduce's runs as the runner makes them (tb-claims knows nothing of the runner): config
+/// edits as `run --set` applies them, and child processes that end with reproduce.
+struct HarnessRuns;
+
+impl tb_claims::reproduce::Runs for HarnessRuns {
+    fn apply_sets(
+        &self,
+        file: &str,
+        text: &str,
+        sets: &[String],
+    ) -> Result<String, tb_claims::Error> {
+        tb_harness::experiment::config::overrides::apply_sets(file, text, sets)
+            .map_err(|e| tb_claims::Error::Other(e.to_string()))
+    }
+    fn catch_signals(&self) {
+        child::catch_signals()
+    }
+    fn received(&self) -> Option<i32> {
+        child::received()
+    }
+    fn run(
+        &self,
+        cmd: &mut std::process::Command,
+    ) -> std::io::Result<(std::process::ExitStatus, Option<i32>)> {
+        child::run(cmd)
+    }
+    fn ended(&self, st: &std::process::ExitStatus) -> String {
+        child::ended(st)
+    }
+    fn signal_name(&self, sig: i32) -> String {
+        child::signal_name(sig)
+    }
+}
+
+use tb_harness::experiment::child;

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use tb_harness::claims::{self, RowSet, Verdict};
+use tb_claims::{self as claims, RowSet, Verdict};
 use tb_results::output::read_csv;
 
 const EXE: &str = env!("CARGO_BIN_EXE_trace-bench");

@@ -9,9 +9,8 @@
 //! times the trace with counters compiled out; each [`tb_results::output::Row`] is written as
 //! soon as it is finished; beside the runner, [`experiment::images`] draws heat maps and
 //! [`experiment::convergence`] and [`experiment::dynamic`] make their own tables; [`tb_results::check`] compares the deterministic counters of a results file with a
-//! baseline; [`cluster`] splits a run into shards; [`claims`] turns rows into verdicts.
+//! baseline; [`cluster`] splits a run into shards. The claims (tb-claims) turn rows into verdicts.
 
-pub mod claims;
 pub mod cluster;
 pub mod error;
 pub mod experiment;

@@ -12,6 +12,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use tb_core::{CounterSet, StatsSummary};
 
+/// The most processes a run is made in (`run --processes K`): a row's `process` is below it.
+pub const MAX_PROCESSES: usize = 64;
+
 /// How often a run rewrites `results.json` at most while rows come (it is always rewritten
 /// when the sink opens and when the run finishes). Rewriting it after every row made a run of
 /// 2016 rows (configs/ci.toml) spend about a third of its time serialising JSON: the whole

@@ -15,7 +15,7 @@ extern "C" fn on_signal(sig: libc::c_int) {
 }
 
 /// Catch SIGINT, SIGTERM and SIGHUP from here on: [`received`] says which came.
-pub(crate) fn catch_signals() {
+pub fn catch_signals() {
     #[cfg(unix)]
     for s in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
         // SAFETY: the handler only stores into an atomic, which is async-signal-safe.
@@ -26,7 +26,7 @@ pub(crate) fn catch_signals() {
 }
 
 /// The signal received since [`catch_signals`], if any.
-pub(crate) fn received() -> Option<i32> {
+pub fn received() -> Option<i32> {
     match SIGNAL.load(Ordering::SeqCst) {
         0 => None,
         s => Some(s),
@@ -34,7 +34,7 @@ pub(crate) fn received() -> Option<i32> {
 }
 
 /// A signal's name (`SIGTERM`).
-pub(crate) fn signal_name(s: i32) -> String {
+pub fn signal_name(s: i32) -> String {
     match s {
         2 => "SIGINT".into(),
         15 => "SIGTERM".into(),
@@ -45,7 +45,7 @@ pub(crate) fn signal_name(s: i32) -> String {
 }
 
 /// How a process ended, in words: `exit status 1`, `killed by signal 15`.
-pub(crate) fn ended(st: &ExitStatus) -> String {
+pub fn ended(st: &ExitStatus) -> String {
     if let Some(c) = st.code() {
         return format!("exit status {c}");
     }
@@ -64,7 +64,7 @@ const GRACE: Duration = Duration::from_secs(5);
 
 /// Run `cmd` in its own process group to its end, or until a signal reaches reproduce: then
 /// end the group, wait for it, and return the signal beside the run's status.
-pub(crate) fn run(cmd: &mut Command) -> std::io::Result<(ExitStatus, Option<i32>)> {
+pub fn run(cmd: &mut Command) -> std::io::Result<(ExitStatus, Option<i32>)> {
     #[cfg(unix)]
     {
         use std::os::unix::process::CommandExt;

@@ -9,7 +9,7 @@
 //! experiment ([`dynamic`], `[dynamic]`).
 
 pub mod batches;
-pub(crate) mod child;
+pub mod child;
 pub mod config;
 pub mod convergence;
 pub mod device;

@@ -13,7 +13,7 @@
 //! loses at most the process in progress, whose own folder keeps its finished rows, as a
 //! shard's does (`run --shard`, [`tb_results::merge`]); `--resume` reuses the complete
 //! processes and resumes the others. The claims evaluator compares times between processes
-//! (`crate::claims`: the spread of the per-process values).
+//! (tb-claims: the spread of the per-process values).
 
 use crate::error::HarnessError;
 use serde_json::{json, Value};
@@ -22,8 +22,8 @@ use std::process::{Command, Stdio};
 use std::time::Instant;
 use tb_results::output::{read_csv_resume, Row};
 
-/// The most processes a run is made in.
-pub const MAX: usize = 64;
+/// The most processes a run is made in (the range of its rows' `process` column).
+pub const MAX: usize = tb_results::output::MAX_PROCESSES;
 
 /// One process of a run of `of`: `index` in `0..of`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -5,6 +5,7 @@
 //! how to get it, and a script that fails is reported there, never fatal.
 
 use super::schema::{run_refs, FigureSpec};
+use crate::runs::Runs;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -63,6 +64,7 @@ pub fn check(python: &Path) -> Result<(), String> {
 /// `results.csv` (or the other CSVs a run writes), and a figure none of whose folders has rows
 /// is not drawn. `scripts` is the folder of the plotting scripts.
 pub fn draw(
+    runner: &dyn Runs,
     python: &Path,
     scripts: &Path,
     paper: &str,
@@ -79,7 +81,7 @@ pub fn draw(
             Ok(mut a) => {
                 a.push("--out".into());
                 a.push(dir.join(&file).display().to_string());
-                run_script(python, &scripts.join(&f.script), &a, &dir)
+                run_script(runner, python, &scripts.join(&f.script), &a, &dir)
                     .map(|()| Drawn::File(format!("figures/{file}")))
                     .unwrap_or_else(Drawn::Failed)
             }
@@ -133,7 +135,13 @@ fn has_rows(d: &Path) -> bool {
 }
 
 /// Run one script; `Err` says how it failed, with its last lines of output.
-fn run_script(python: &Path, script: &Path, args: &[String], dir: &Path) -> Result<(), String> {
+fn run_script(
+    runner: &dyn Runs,
+    python: &Path,
+    script: &Path,
+    args: &[String],
+    dir: &Path,
+) -> Result<(), String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let o = Command::new(python)
         .arg(script)
@@ -157,7 +165,7 @@ fn run_script(python: &Path, script: &Path, args: &[String], dir: &Path) -> Resu
     let how = if o.status.success() {
         "exited 0 without writing the figure".to_owned()
     } else {
-        crate::experiment::child::ended(&o.status)
+        runner.ended(&o.status)
     };
     Err(if tail.is_empty() {
         how
@@ -230,6 +238,28 @@ mod tests {
         p
     }
 
+    /// Only scripts are run here: how one ended is all that is asked of the runner.
+    struct Scripts;
+
+    impl crate::reproduce::Runs for Scripts {
+        fn apply_sets(&self, _: &str, _: &str, _: &[String]) -> Result<String, crate::Error> {
+            unreachable!("figures edit no config")
+        }
+        fn catch_signals(&self) {}
+        fn received(&self) -> Option<i32> {
+            None
+        }
+        fn run(&self, _: &mut Command) -> std::io::Result<(std::process::ExitStatus, Option<i32>)> {
+            unreachable!("figures start no run")
+        }
+        fn ended(&self, st: &std::process::ExitStatus) -> String {
+            st.to_string()
+        }
+        fn signal_name(&self, sig: i32) -> String {
+            sig.to_string()
+        }
+    }
+
     #[cfg(unix)]
     #[test]
     fn figures_are_drawn_linked_or_reported_never_fatal() {
@@ -248,7 +278,15 @@ mod tests {
         let out = dir.path().join("report");
         let py = fake_python(dir.path(), true);
         assert_eq!(check(&py), Ok(()));
-        let figs = draw(&py, Path::new("scripts"), "p", &specs, &runs, &out);
+        let figs = draw(
+            &Scripts,
+            &py,
+            Path::new("scripts"),
+            "p",
+            &specs,
+            &runs,
+            &out,
+        );
         assert_eq!(figs[0].drawn, Drawn::File("figures/p-a.png".into()));
         assert!(out.join("figures/p-a.png").is_file());
         assert!(matches!(&figs[1].drawn, Drawn::NoRows(w) if w.contains("heavy")));

@@ -1,7 +1,7 @@
 //! Rows of any CSV a run writes, for the claims evaluator: named columns as text, each row
 //! knowing its file stem (`results`, `dynamic`, `weights`, …).
 
-use crate::HarnessError;
+use crate::Error;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -118,13 +118,13 @@ pub struct RowSet {
 
 impl RowSet {
     /// Read each path: a folder gives every `*.csv` in it but `params.csv`; a file is one CSV.
-    pub fn read(paths: &[PathBuf]) -> Result<RowSet, HarnessError> {
+    pub fn read(paths: &[PathBuf]) -> Result<RowSet, Error> {
         let mut set = RowSet::default();
         let mut index: HashMap<String, usize> = HashMap::new();
         for p in paths {
             let files = if p.is_dir() {
                 let mut v: Vec<PathBuf> = std::fs::read_dir(p)
-                    .map_err(|e| HarnessError::io(p, e))?
+                    .map_err(|e| Error::io(p, e))?
                     .filter_map(|e| e.ok().map(|e| e.path()))
                     .filter(|f| {
                         f.extension().is_some_and(|x| x == "csv")
@@ -133,13 +133,13 @@ impl RowSet {
                     .collect();
                 v.sort();
                 if v.is_empty() {
-                    return Err(HarnessError::io(p, "no CSV file in this folder"));
+                    return Err(Error::io(p, "no CSV file in this folder"));
                 }
                 v
             } else if p.exists() {
                 vec![p.clone()]
             } else {
-                return Err(HarnessError::io(p, "no such file or folder"));
+                return Err(Error::io(p, "no such file or folder"));
             };
             set.sources.push(p.clone());
             let origin = Arc::new(p.clone());
@@ -166,11 +166,11 @@ impl RowSet {
 impl RowSet {
     /// [`RowSet::read`], refusing a source (folder or file) with no row of a CSV trace-bench
     /// writes: an unrelated CSV, or results without rows.
-    pub fn read_results(paths: &[PathBuf]) -> Result<RowSet, HarnessError> {
+    pub fn read_results(paths: &[PathBuf]) -> Result<RowSet, Error> {
         for p in paths {
             let one = RowSet::read(std::slice::from_ref(p))?;
             if !one.rows.iter().any(|r| r.ours) {
-                return Err(HarnessError::io(
+                return Err(Error::io(
                     p,
                     "holds no trace-bench results: no row of a CSV with the columns trace-bench \
                      writes (results.csv, dynamic.csv, weights.csv)",
@@ -181,14 +181,14 @@ impl RowSet {
     }
 }
 
-fn read_csv(f: &Path, origin: &Arc<PathBuf>) -> Result<Vec<Row>, HarnessError> {
+fn read_csv(f: &Path, origin: &Arc<PathBuf>) -> Result<Vec<Row>, Error> {
     let mut rd = csv::ReaderBuilder::new()
         .flexible(false)
         .from_path(f)
-        .map_err(|e| HarnessError::io(f, e))?;
+        .map_err(|e| Error::io(f, e))?;
     let header: Arc<Vec<String>> = Arc::new(
         rd.headers()
-            .map_err(|e| HarnessError::io(f, e))?
+            .map_err(|e| Error::io(f, e))?
             .iter()
             .map(str::to_owned)
             .collect(),
@@ -208,7 +208,7 @@ fn read_csv(f: &Path, origin: &Arc<PathBuf>) -> Result<Vec<Row>, HarnessError> {
     let ours = is_results || super::columns::is_ours(&header);
     let mut out = Vec::new();
     for (i, rec) in rd.records().enumerate() {
-        let rec = rec.map_err(|e| HarnessError::io(f, format!("row {}: {e}", i + 2)))?;
+        let rec = rec.map_err(|e| Error::io(f, format!("row {}: {e}", i + 2)))?;
         out.push(Row {
             file: file.clone(),
             origin: origin.clone(),

@@ -5,7 +5,7 @@
 //! refused when it loads.
 
 use super::schema::ClaimsFile;
-use crate::HarnessError;
+use crate::Error;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -82,22 +82,22 @@ pub fn path_for(claims_path: &Path) -> PathBuf {
 
 /// The deviations of the paper whose claims file is `claims_path` (none without a file),
 /// every claim they name checked against `file`.
-pub fn load(claims_path: &Path, file: &ClaimsFile) -> Result<Vec<Resolved>, HarnessError> {
+pub fn load(claims_path: &Path, file: &ClaimsFile) -> Result<Vec<Resolved>, Error> {
     let path = path_for(claims_path);
     if !path.is_file() {
         return Ok(Vec::new());
     }
-    let text = std::fs::read_to_string(&path).map_err(|e| HarnessError::io(&path, e))?;
+    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
     parse(&path, &text, file)
 }
 
 /// [`load`] on text already read (`path` names it in errors).
-pub fn parse(path: &Path, text: &str, file: &ClaimsFile) -> Result<Vec<Resolved>, HarnessError> {
+pub fn parse(path: &Path, text: &str, file: &ClaimsFile) -> Result<Vec<Resolved>, Error> {
     let raw: DeviationsFile =
         toml::from_str(text).map_err(|e| super::syntax_error(path, text, &e))?;
     let mut out = Vec::new();
     for (i, d) in raw.deviations.into_iter().enumerate() {
-        let err = |key: &str, message: String| HarnessError::Config {
+        let err = |key: &str, message: String| Error::Config {
             file: path.into(),
             line: super::schema::find_line(text, "[[deviation]]", i),
             key: format!("deviation[{i}].{key}"),
@@ -148,7 +148,7 @@ fn matching(pattern: &str, file: &ClaimsFile) -> Vec<String> {
         } else if let Some(d) = p.strip_prefix("device:") {
             c.devices.iter().any(|x| x == d)
         } else {
-            super::eval::glob(p, &c.id)
+            super::eval::select::glob(p, &c.id)
         }
     };
     file.claims

@@ -16,12 +16,14 @@ use super::figures::{self, Figure};
 use super::render::{self, Kinds, Tally};
 use super::rows::RowSet;
 use super::schema::{ClaimKind, ClaimsFile, RunSpec};
-use crate::HarnessError;
+use crate::Error;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
 mod report;
+
+pub use crate::runs::Runs;
 pub use report::*;
 
 /// What to reproduce.
@@ -131,7 +133,7 @@ pub fn spread(folder: &Path) -> Option<Spread> {
         .into_iter()
         .filter(|(_, v)| v.len() > 1)
         .map(|(k, mut v)| {
-            let med = crate::experiment::timing::median(&mut v);
+            let med = tb_results::stats::median(&mut v);
             let (lo, hi) = v
                 .iter()
                 .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
@@ -150,7 +152,7 @@ pub fn spread(folder: &Path) -> Option<Spread> {
     Some(Spread {
         processes: procs.len(),
         rows: xs.len(),
-        median: crate::experiment::timing::median(&mut xs),
+        median: tb_results::stats::median(&mut xs),
         max,
         worst,
     })
@@ -194,9 +196,9 @@ fn adapters(rows: &RowSet) -> Vec<String> {
 }
 
 /// The papers' keys (file stems) in `dir` that have runs, sorted.
-pub fn papers_in(dir: &Path) -> Result<Vec<PathBuf>, HarnessError> {
+pub fn papers_in(dir: &Path) -> Result<Vec<PathBuf>, Error> {
     let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(|e| HarnessError::io(dir, e))?
+        .map_err(|e| Error::io(dir, e))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
         .collect();
@@ -401,7 +403,7 @@ fn this_build() -> String {
 }
 
 /// Plan every paper's runs within the budget.
-pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)>, HarnessError> {
+pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)>, Error> {
     let mut files = Vec::new();
     for p in &opts.papers {
         files.push((p.clone(), super::load(p)?));
@@ -477,9 +479,9 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
 /// Make the planned runs, evaluate the claims, write the report folder. Everything that can
 /// be known wrong is checked before the first run ([`preflight`]); a signal ends the run in
 /// progress and returns an error (the finished rows stay for a rerun to resume).
-pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
+pub fn reproduce(opts: &Options, runner: &dyn Runs) -> Result<Vec<PaperReport>, Error> {
     let planned = plan(opts)?;
-    preflight(opts, &planned)?;
+    preflight(opts, &planned, runner)?;
     let mut devs = planned
         .iter()
         .map(|(path, file, _)| deviations::load(path, file))
@@ -488,7 +490,7 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
     say_plan(opts, &planned);
     // One reproduce per report folder, until this one ends.
     let _lock = tb_results::lock::FolderLock::acquire(&opts.out)?;
-    crate::experiment::child::catch_signals();
+    runner.catch_signals();
     let started = Instant::now();
     let start_time = tb_results::meta::now_rfc3339();
     // The interpreter for the figures, or why there are none.
@@ -504,7 +506,7 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
     let mut reports = Vec::new();
     for (path, file, mut runs) in planned {
         for r in &mut runs {
-            make_run(r, opts)?;
+            make_run(r, opts, runner)?;
             r.spread = spread(&r.folder);
         }
         let mut sources: Vec<PathBuf> = runs
@@ -526,6 +528,7 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
                     .map(|r| (r.label.clone(), r.folder.clone()))
                     .collect();
                 let figs = figures::draw(
+                    runner,
                     py,
                     Path::new(SCRIPTS),
                     &stem(&path),
@@ -554,8 +557,8 @@ pub fn reproduce(opts: &Options) -> Result<Vec<PaperReport>, HarnessError> {
             figures,
         });
     }
-    if let Some(sig) = crate::experiment::child::received() {
-        return Err(interrupted(sig, None, opts));
+    if let Some(sig) = runner.received() {
+        return Err(interrupted(sig, None, opts, runner));
     }
     let wall = started.elapsed().as_secs_f64();
     let budget = opts.budget_s / RUNS_SHARE;
@@ -613,10 +616,11 @@ fn say_plan(opts: &Options, planned: &[(PathBuf, ClaimsFile, Vec<PlannedRun>)]) 
 fn preflight(
     opts: &Options,
     planned: &[(PathBuf, ClaimsFile, Vec<PlannedRun>)],
-) -> Result<(), HarnessError> {
+    runner: &dyn Runs,
+) -> Result<(), Error> {
     for w in &opts.with {
         RowSet::read_results(std::slice::from_ref(w))
-            .map_err(|e| HarnessError::Other(format!("--with {}: {e}", w.display())))?;
+            .map_err(|e| Error::Other(format!("--with {}: {e}", w.display())))?;
     }
     for (path, _, runs) in planned {
         for r in runs.iter().filter(|r| r.args[0] == "run") {
@@ -628,18 +632,12 @@ fn preflight(
                 .map(|w| w[1].clone())
                 .collect();
             let text = std::fs::read_to_string(cfg).map_err(|e| {
-                HarnessError::io(cfg, format!("{e} (a [[run]] config of {})", path.display()))
+                Error::io(cfg, format!("{e} (a [[run]] config of {})", path.display()))
             })?;
-            let text = crate::experiment::config::overrides::apply_sets(
-                &cfg.display().to_string(),
-                &text,
-                &sets,
-            )?;
+            let text = runner.apply_sets(&cfg.display().to_string(), &text, &sets)?;
             toml::from_str::<toml::Table>(&text).map_err(|e| {
-                let line = e
-                    .span()
-                    .map(|s| crate::experiment::config::line_of(&text, s.start));
-                HarnessError::io(
+                let line = e.span().map(|s| tb_results::error::line_of(&text, s.start));
+                Error::io(
                     cfg,
                     format!(
                         "{}{} (a [[run]] config of {})",
@@ -658,9 +656,9 @@ fn preflight(
 }
 
 /// Make one planned run (or reuse its folder); a failed run is recorded, a signal is an error.
-fn make_run(r: &mut PlannedRun, opts: &Options) -> Result<(), HarnessError> {
-    if let Some(sig) = crate::experiment::child::received() {
-        return Err(interrupted(sig, None, opts));
+fn make_run(r: &mut PlannedRun, opts: &Options, runner: &dyn Runs) -> Result<(), Error> {
+    if let Some(sig) = runner.received() {
+        return Err(interrupted(sig, None, opts, runner));
     }
     let complete = status(&r.folder).as_deref() == Some("complete");
     if r.left_out.is_some() && !complete {
@@ -694,7 +692,7 @@ fn make_run(r: &mut PlannedRun, opts: &Options) -> Result<(), HarnessError> {
     if r.args.first().is_some_and(|a| a == "run") && r.folder.join("results.json").exists() {
         args.push("--resume".into());
     }
-    std::fs::create_dir_all(&r.folder).map_err(|e| HarnessError::io(&r.folder, e))?;
+    std::fs::create_dir_all(&r.folder).map_err(|e| Error::io(&r.folder, e))?;
     if !opts.quiet {
         eprintln!(
             "reproduce: {} {} (about {:.0} s{}) …",
@@ -710,7 +708,7 @@ fn make_run(r: &mut PlannedRun, opts: &Options) -> Result<(), HarnessError> {
     let t = Instant::now();
     let mut cmd = Command::new(&opts.exe);
     cmd.args(&args).stdout(std::process::Stdio::null());
-    let (st, sig) = match crate::experiment::child::run(&mut cmd) {
+    let (st, sig) = match runner.run(&mut cmd) {
         Ok(x) => x,
         Err(e) => {
             r.failed = Some(format!("did not start: {e}"));
@@ -726,10 +724,10 @@ fn make_run(r: &mut PlannedRun, opts: &Options) -> Result<(), HarnessError> {
     r.wall_s = Some(t.elapsed().as_secs_f64());
     r.exit = st.code();
     if let Some(sig) = sig {
-        return Err(interrupted(sig, Some(r), opts));
+        return Err(interrupted(sig, Some(r), opts, runner));
     }
     if !st.success() {
-        r.failed = Some(crate::experiment::child::ended(&st));
+        r.failed = Some(runner.ended(&st));
     }
     if !opts.quiet || r.failed.is_some() {
         eprintln!(
@@ -747,7 +745,7 @@ fn make_run(r: &mut PlannedRun, opts: &Options) -> Result<(), HarnessError> {
 }
 
 /// The error of a reproduce ended by signal `sig` (in run `r`, which was ended).
-fn interrupted(sig: i32, r: Option<&PlannedRun>, opts: &Options) -> HarnessError {
+fn interrupted(sig: i32, r: Option<&PlannedRun>, opts: &Options, runner: &dyn Runs) -> Error {
     let run = r
         .map(|r| {
             format!(
@@ -758,9 +756,9 @@ fn interrupted(sig: i32, r: Option<&PlannedRun>, opts: &Options) -> HarnessError
             )
         })
         .unwrap_or_default();
-    HarnessError::Other(format!(
+    Error::Other(format!(
         "reproduce: interrupted by {}: {run}no report written; rerun with --out {} to resume",
-        crate::experiment::child::signal_name(sig),
+        runner.signal_name(sig),
         opts.out.display()
     ))
 }

@@ -1,4 +1,5 @@
-//! The papers' claims as data, and one generic evaluator (`trace-bench claims`).
+//! tb-claims: the papers' claims as data, one generic evaluator (`trace-bench claims`) and
+//! reproduce (`trace-bench reproduce`: a paper's runs, its verdicts, the report).
 //!
 //! A claims file (`claims/PAPER.toml`, format in `claims/README.md`) lists a paper's headline
 //! claims: where each stands in the paper, the paper's figure, the rows of a results CSV it
@@ -10,6 +11,10 @@
 //! ([`ClaimKind`], shown apart); [`deviations`] lists where our implementation differs from the
 //! paper. Nothing here knows a paper or a structure: the files name columns, and any CSV a run
 //! writes (`results.csv`, `dynamic.csv`, `weights.csv`) can be read ([`rows::RowSet`]).
+//!
+//! It reads results through tb-results and knows nothing of the runner: [`reproduce`] makes
+//! its runs through [`reproduce::Runs`], which the CLI hands in (the runner's child processes
+//! and config edits, from tb-harness). Errors are tb-results' ([`Error`]), one line each.
 
 mod columns;
 pub mod deviations;
@@ -22,6 +27,7 @@ mod pick;
 pub mod render;
 pub mod reproduce;
 pub mod rows;
+mod runs;
 mod schema;
 
 pub use eval::{
@@ -32,29 +38,29 @@ pub use schema::{
     Claim, ClaimKind, ClaimsFile, Direction, FigureSpec, Need, Pool, RunSpec, Selector, Test,
 };
 
-use crate::HarnessError;
 use std::path::Path;
+pub use tb_results::Error;
 
 /// Read and check a claims file: TOML syntax and types (one line naming the line), then every
 /// claim's ids, selectors, measure and test (one line naming the line of the claim's `id`).
-pub fn load(path: &Path) -> Result<ClaimsFile, HarnessError> {
-    let text = std::fs::read_to_string(path).map_err(|e| HarnessError::io(path, e))?;
+pub fn load(path: &Path) -> Result<ClaimsFile, Error> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     parse(path, &text)
 }
 
 /// [`load`] on text already read.
-pub fn parse(path: &Path, text: &str) -> Result<ClaimsFile, HarnessError> {
+pub fn parse(path: &Path, text: &str) -> Result<ClaimsFile, Error> {
     let file: ClaimsFile = toml::from_str(text).map_err(|e| syntax_error(path, text, &e))?;
     file.check(path, text)?;
     Ok(file)
 }
 
 /// A TOML syntax or type error of the file at `path` in one line, naming the line.
-pub(crate) fn syntax_error(path: &Path, text: &str, e: &toml::de::Error) -> HarnessError {
+pub(crate) fn syntax_error(path: &Path, text: &str, e: &toml::de::Error) -> Error {
     let line = e
         .span()
-        .map(|s| format!("{}: ", crate::experiment::config::line_of(text, s.start)));
-    HarnessError::ConfigSyntax {
+        .map(|s| format!("{}: ", tb_results::error::line_of(text, s.start)));
+    Error::ConfigSyntax {
         file: path.into(),
         message: format!(
             "{}{}",

@@ -4,10 +4,10 @@
 
 use super::*;
 
-pub(super) fn write(path: &Path, text: &str) -> Result<(), HarnessError> {
+pub(super) fn write(path: &Path, text: &str) -> Result<(), Error> {
     let tmp = path.with_extension("tmp");
-    std::fs::write(&tmp, text).map_err(|e| HarnessError::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| HarnessError::io(path, e))
+    std::fs::write(&tmp, text).map_err(|e| Error::io(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
 }
 
 /// The machine in one line.
@@ -39,7 +39,7 @@ pub(super) fn write_report(
     start: &str,
     wall: f64,
     figures_notice: Option<&str>,
-) -> Result<(), HarnessError> {
+) -> Result<(), Error> {
     let all: Vec<ClaimResult> = reports.iter().flat_map(|r| r.claims.clone()).collect();
     let mut gpus: Vec<&str> = Vec::new();
     for a in reports.iter().flat_map(|r| &r.adapters) {
@@ -206,7 +206,7 @@ pub fn kinds_line(k: &Kinds) -> String {
 /// The section of REPORT.md listing the timed claims whose effect (from their test) is below
 /// the smallest effect the run decides, with the processes that would decide them.
 pub fn below_markdown(reports: &[PaperReport]) -> String {
-    use crate::claims::effect::ClaimEffect;
+    use crate::effect::ClaimEffect;
     let listed: Vec<(&PaperReport, Vec<(&ClaimResult, &ClaimEffect)>)> = reports
         .iter()
         .map(|r| {
@@ -247,8 +247,8 @@ pub fn below_markdown(reports: &[PaperReport]) -> String {
         for (c, e) in cs {
             let asks = match e.paper_from {
                 "direction" => format!("a direction (paper: {})", render::short_paper(c)),
-                "band" => format!("±{} % (band)", crate::claims::effect::pct(e.paper)),
-                _ => format!("{} % (bound)", crate::claims::effect::pct(e.paper)),
+                "band" => format!("±{} % (band)", crate::effect::pct(e.paper)),
+                _ => format!("{} % (bound)", crate::effect::pct(e.paper)),
             };
             let n = |x: Option<usize>| x.map_or("—".to_owned(), |n| n.to_string());
             s.push_str(&format!(
@@ -256,7 +256,7 @@ pub fn below_markdown(reports: &[PaperReport]) -> String {
                 claim_label(c),
                 render::md_verdict(c.verdict),
                 asks.replace('|', "\\|"),
-                crate::claims::effect::pct(e.smallest),
+                crate::effect::pct(e.smallest),
                 e.processes,
                 if e.processes == 1 { "" } else { "es" },
                 n(e.processes_for_paper),

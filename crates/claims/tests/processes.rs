@@ -4,7 +4,7 @@
 //! not the floor; with fewer the floor stays and the `why` says so.
 
 use std::path::{Path, PathBuf};
-use tb_harness::claims::{self, ClaimResult, RowSet, Verdict};
+use tb_claims::{self as claims, ClaimResult, RowSet, Verdict};
 
 const HEAD: &str = "scene,structure,params,traversal,device,adapter,threads,triangle_test,ray_kind,rays,trace_ms_min,trace_ms_median,trace_ms_max,timed_runs,trace_ms_ci,noisy,trace_ms_runs,timing_group,process";
 

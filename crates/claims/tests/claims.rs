@@ -2,7 +2,7 @@
 //! test kind, time intervals and the rows it must not give a time verdict on.
 
 use std::path::{Path, PathBuf};
-use tb_harness::claims::{self, ClaimResult, RowSet, Verdict};
+use tb_claims::{self as claims, ClaimResult, RowSet, Verdict};
 
 const HEAD: &str = "scene,structure,params,traversal,device,adapter,threads,triangle_test,ray_kind,rays,trace_ms_min,trace_ms_median,trace_ms_max,timed_runs,trace_ms_ci,noisy,interior_per_ray,build_heap_peak_bytes,build_heap_kept_bytes,build_stats";
 

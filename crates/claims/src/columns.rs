@@ -1,7 +1,8 @@
 //! The columns a claims file may name: those of every CSV a run writes, derived from the row
 //! types that write them (`results.csv`: [`tb_results::output::Row`], its counter columns
-//! included; `dynamic.csv` and `dynamic-choice.csv`: [`crate::experiment::dynamic`]; `weights.csv`:
-//! [`crate::registry::weights::CSV_COLUMNS`]), with each column's kind of value.
+//! included; `dynamic.csv` and `dynamic-choice.csv`: [`tb_results::tables::DynamicRow`] and
+//! [`tb_results::tables::ChoiceRow`]; `weights.csv`: [`tb_results::tables::WEIGHTS_COLUMNS`]),
+//! with each column's kind of value.
 
 use std::collections::BTreeMap;
 use std::sync::OnceLock;
@@ -21,7 +22,7 @@ pub(crate) const PSEUDO: &[&str] = &["scene", "view", "file", "params"];
 pub(crate) fn known() -> &'static BTreeMap<String, Kind> {
     static K: OnceLock<BTreeMap<String, Kind>> = OnceLock::new();
     K.get_or_init(|| {
-        use crate::experiment::dynamic::{ChoiceRow, DynamicRow};
+        use tb_results::tables::{ChoiceRow, DynamicRow};
         let mut m = BTreeMap::new();
         let results = tb_results::output::Row::default();
         add(&mut m, serde_json::to_value(&results), |col| {
@@ -41,7 +42,7 @@ pub(crate) fn known() -> &'static BTreeMap<String, Kind> {
         let text = |_: &str| Kind::Text;
         add(&mut m, serde_json::to_value(DynamicRow::default()), text);
         add(&mut m, serde_json::to_value(ChoiceRow::default()), text);
-        for (c, numeric) in crate::registry::weights::CSV_COLUMNS {
+        for (c, numeric) in tb_results::tables::WEIGHTS_COLUMNS {
             let k = if numeric { Kind::Number } else { Kind::Text };
             merge(&mut m, c, k);
         }
@@ -112,14 +113,14 @@ pub(crate) fn is_known(k: &str) -> bool {
 /// Whether a CSV header is one trace-bench writes besides results (`dynamic.csv`,
 /// `dynamic-choice.csv`, `weights.csv`).
 pub(crate) fn is_ours(header: &[String]) -> bool {
-    use crate::experiment::dynamic::{ChoiceRow, DynamicRow};
+    use tb_results::tables::{ChoiceRow, DynamicRow};
     let keys = |v: Result<serde_json::Value, serde_json::Error>| -> Vec<String> {
         match v {
             Ok(serde_json::Value::Object(o)) => o.keys().cloned().collect(),
             _ => Vec::new(),
         }
     };
-    let weights: Vec<String> = crate::registry::weights::CSV_COLUMNS
+    let weights: Vec<String> = tb_results::tables::WEIGHTS_COLUMNS
         .iter()
         .map(|c| c.0.to_owned())
         .collect();

@@ -1,6 +1,6 @@
 //! The claims file's schema (serde, unknown keys refused) and its checks.
 
-use crate::HarnessError;
+use crate::Error;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -455,13 +455,13 @@ fn check_value(v: &toml::Value) -> Result<(), String> {
 
 impl ClaimsFile {
     /// Every claim's ids, selectors, measure, test and groups, before any row is read.
-    pub(crate) fn check(&self, path: &Path, text: &str) -> Result<(), HarnessError> {
+    pub(crate) fn check(&self, path: &Path, text: &str) -> Result<(), Error> {
         self.check_runs(path, text)?;
         self.check_figures(path, text)?;
         let mut ids = BTreeSet::new();
         for c in &self.claims {
             let line = find_line(text, &format!("id = \"{}\"", c.id), 0);
-            let err = |key: &str, m: String| HarnessError::Config {
+            let err = |key: &str, m: String| Error::Config {
                 file: path.into(),
                 line,
                 key: format!("claim {}: {key}", c.id),
@@ -551,11 +551,11 @@ impl ClaimsFile {
     }
 
     /// Every figure has a name, a script of `scripts/` and runs that the file makes.
-    fn check_figures(&self, path: &Path, text: &str) -> Result<(), HarnessError> {
+    fn check_figures(&self, path: &Path, text: &str) -> Result<(), Error> {
         let labels: Vec<String> = self.runs.iter().map(RunSpec::label).collect();
         let mut names = BTreeSet::new();
         for (i, f) in self.figures.iter().enumerate() {
-            let err = |m: String| HarnessError::Config {
+            let err = |m: String| Error::Config {
                 file: path.into(),
                 line: find_line(text, "[[figure]]", i),
                 key: format!("figure[{i}]"),
@@ -590,10 +590,10 @@ impl ClaimsFile {
     }
 
     /// Every run names a config or a command, and costs seconds.
-    fn check_runs(&self, path: &Path, text: &str) -> Result<(), HarnessError> {
+    fn check_runs(&self, path: &Path, text: &str) -> Result<(), Error> {
         for (i, r) in self.runs.iter().enumerate() {
             let line = find_line(text, "[[run]]", i);
-            let err = |m: String| HarnessError::Config {
+            let err = |m: String| Error::Config {
                 file: path.into(),
                 line,
                 key: format!("run[{i}]"),
@@ -608,7 +608,7 @@ impl ClaimsFile {
             if !(r.cost_s >= 0.0 && r.fixed_s >= 0.0 && r.fixed_s <= r.cost_s.max(r.fixed_s)) {
                 return Err(err("cost_s and fixed_s must be seconds >= 0".into()));
             }
-            let max = crate::experiment::processes::MAX;
+            let max = tb_results::output::MAX_PROCESSES;
             if !(1..=max).contains(&r.processes) {
                 return Err(err(format!("processes must be 1 to {max}")));
             }
@@ -631,6 +631,6 @@ impl ClaimsFile {
 pub(crate) fn find_line(text: &str, needle: &str, nth: usize) -> usize {
     text.match_indices(needle)
         .nth(nth)
-        .map(|(p, _)| crate::experiment::config::line_of(text, p))
+        .map(|(p, _)| tb_results::error::line_of(text, p))
         .unwrap_or(1)
 }
