@@ -12,7 +12,7 @@
 //! resolution, least margin, mag, far-origin factor) and one word more (uniform: 1 with macro
 //! regions; irregular: the deepest octree level), then each grid's arrays exactly as built.
 
-use crate::common::Lattice;
+use crate::lattice::Lattice;
 use crate::{IrregularGrid, Precision, TwoLevelGrid, UniformGrid};
 use std::borrow::Cow;
 use tb_core::{GpuBuffer, GpuProgram};

@@ -63,12 +63,13 @@
 mod common;
 mod gpu;
 mod irregular;
+mod lattice;
 mod params;
 mod two_level;
 mod uniform;
 
-pub use common::{resolution, tri_box_overlap, Lattice};
 pub use irregular::{Cell, IrregularGrid};
+pub use lattice::{resolution, tri_box_overlap, Lattice};
 pub use params::{
     Densities, Initial, IrregularParams, Precision, Rounding, TwoLevelParams, UniformParams, Walk,
     DENSITIES,

@@ -2,9 +2,10 @@
 //! tracing on GPUs" (Eurographics): the baseline of Tables 2 and 4 of Pérard-Gayot et al.
 //! 2017.
 
-use crate::common::{
-    bin_uniform, bounded_res, box_refs, enter, grid_bounds, resolution, scale_res, test_refs, walk,
-    within_budget, Lattice, Real, Visit, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
+use crate::common::{enter, test_refs, walk, Visit};
+use crate::lattice::{
+    bin_uniform, bounded_res, box_refs, grid_bounds, resolution, scale_res, within_budget, Lattice,
+    Real, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
 };
 use crate::params::{Precision, TwoLevelParams};
 use rayon::prelude::*;
@@ -168,7 +169,7 @@ impl TwoLevelGrid {
             })
             .collect();
         drop((tstart, trefs));
-        let (start, refs) = crate::common::flatten(runs, n_leaves as usize);
+        let (start, refs) = crate::lattice::flatten(runs, n_leaves as usize);
         let mut figures = vec![
             ("build_top_ms".into(), t_top),
             ("build_leaves_ms".into(), t.elapsed().as_secs_f64() * 1e3),

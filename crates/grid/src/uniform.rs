@@ -2,9 +2,10 @@
 //! Woo 1987), optionally with macro regions (Devillers 1989): the baseline of Table 5 of
 //! Pérard-Gayot et al. 2017.
 
-use crate::common::{
-    bin_uniform, bounded_res, enter, grid_bounds, planes_for, resolution, test_refs, walk_by,
-    Lattice, Planes, Real, Visit, MAX_AXIS_RES,
+use crate::common::{enter, test_refs, walk_by, Visit};
+use crate::lattice::{
+    bin_uniform, bounded_res, grid_bounds, planes_for, resolution, Lattice, Planes, Real,
+    MAX_AXIS_RES,
 };
 use crate::params::{Precision, UniformParams};
 use rayon::prelude::*;
