@@ -99,10 +99,7 @@ impl Row {
 
 /// `k=v;k=v` → map.
 pub(crate) fn kv(s: &str) -> BTreeMap<&str, &str> {
-    s.split(';')
-        .filter_map(|p| p.split_once('='))
-        .map(|(k, v)| (k.trim(), v.trim()))
-        .collect()
+    tb_results::pairs::pairs(s).collect()
 }
 
 /// The rows of several results folders and CSV files, the later's row replacing the earlier's

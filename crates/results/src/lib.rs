@@ -1,7 +1,8 @@
 //! tb-results: what a run leaves behind, readable without the runner. The rows and their
 //! writers ([`output`]: results.csv, results.json, flushed row by row), the rows of the other
 //! CSVs trace-bench writes ([`tables`]: dynamic.csv, dynamic-choice.csv, weights.csv), the
-//! run's provenance ([`meta`]), the statistics a row carries ([`stats`]: the median and its
+//! `k=v;k=v` of the params and build statistics columns ([`pairs`]), the run's provenance
+//! ([`meta`]), the statistics a row carries ([`stats`]: the median and its
 //! interval), the counter regression check against a baseline ([`check`]), the merge of
 //! shards' folders ([`merge`]) and the folder lock that keeps one writer per folder
 //! ([`lock`]). The harness (tb-harness) writes results with it, the claims (tb-claims) read
@@ -13,6 +14,7 @@ pub mod lock;
 pub mod merge;
 pub mod meta;
 pub mod output;
+pub mod pairs;
 pub mod stats;
 pub mod tables;
 

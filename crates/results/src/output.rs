@@ -507,10 +507,8 @@ fn carry_meta(path: &Path, meta: &mut serde_json::Value) {
 /// values="value")` gives one column per key.
 fn long_records(i: usize, r: &Row) -> Vec<[String; 4]> {
     let pairs = |group: &str, s: &str| -> Vec<[String; 4]> {
-        s.split(';')
-            .filter(|kv| !kv.is_empty())
-            .map(|kv| {
-                let (k, v) = kv.split_once('=').unwrap_or((kv, ""));
+        crate::pairs::pairs(s)
+            .map(|(k, v)| {
                 [
                     i.to_string(),
                     group.to_string(),
@@ -528,8 +526,7 @@ fn long_records(i: usize, r: &Row) -> Vec<[String; 4]> {
 /// `k=v;k=v` as a JSON object, each value typed (integer, number, boolean, else string).
 fn pairs_json(s: &str) -> serde_json::Value {
     let mut m = serde_json::Map::new();
-    for kv in s.split(';').filter(|kv| !kv.is_empty()) {
-        let (k, v) = kv.split_once('=').unwrap_or((kv, ""));
+    for (k, v) in crate::pairs::pairs(s) {
         let value = if let Ok(i) = v.parse::<i64>() {
             serde_json::Value::from(i)
         } else if let Ok(b) = v.parse::<bool>() {

@@ -148,8 +148,7 @@ pub fn write_scene(spec: &SceneSpec, out: &Path) -> Result<Option<String>, Harne
 /// (empty when none does): what tells a build's files apart from its sweep siblings'.
 pub fn varying_tag(sweep: &[String], set: &str) -> String {
     let pairs = |s: &str| -> Vec<(String, String)> {
-        s.split(';')
-            .filter_map(|kv| kv.split_once('='))
+        tb_results::pairs::pairs(s)
             .map(|(k, v)| (k.to_string(), v.to_string()))
             .collect()
     };

@@ -54,12 +54,12 @@ pub fn build(
     let accel = last.expect("at least one build");
     accel.validate()?;
     let report = accel.build_report();
-    let build_stats = report
-        .extra
-        .iter()
-        .map(|(k, v)| format!("{k}={}", (v * 1000.0).round() / 1000.0))
-        .collect::<Vec<_>>()
-        .join(";");
+    let build_stats = tb_results::pairs::join(
+        report
+            .extra
+            .iter()
+            .map(|(k, v)| (k, (v * 1000.0).round() / 1000.0)),
+    );
     let build_runs = times.clone();
     Ok(Built {
         build_runs,

@@ -3,13 +3,13 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 use tb_results::output::Row;
+use tb_results::pairs::{join, pairs};
 
 /// For each structure, the parameter names whose values differ between its rows.
 fn varying_params(rows: &[Row]) -> BTreeMap<&str, BTreeSet<&str>> {
     let mut values: BTreeMap<(&str, &str), BTreeSet<&str>> = BTreeMap::new();
     for r in rows {
-        for kv in r.params.split(';').filter(|s| !s.is_empty()) {
-            let (k, v) = kv.split_once('=').unwrap_or((kv, ""));
+        for (k, v) in pairs(&r.params) {
             values.entry((&r.structure, k)).or_default().insert(v);
         }
     }
@@ -26,18 +26,13 @@ fn varying_params(rows: &[Row]) -> BTreeMap<&str, BTreeSet<&str>> {
 /// The `k=v` of `r`'s varying parameters, or `-`.
 fn shown_params(r: &Row, varying: &BTreeMap<&str, BTreeSet<&str>>) -> String {
     let keys = varying.get(r.structure.as_str());
-    let shown: Vec<&str> = r
-        .params
-        .split(';')
-        .filter(|kv| {
-            let k = kv.split_once('=').map_or(*kv, |(k, _)| k);
-            keys.is_some_and(|ks| ks.contains(k))
-        })
+    let shown: Vec<(&str, &str)> = pairs(&r.params)
+        .filter(|(k, _)| keys.is_some_and(|ks| ks.contains(k)))
         .collect();
     if shown.is_empty() {
         "-".into()
     } else {
-        shown.join(";")
+        join(shown)
     }
 }
 
