@@ -3,82 +3,157 @@
 
 use super::*;
 
-/// `trace-bench claims`: evaluate a claims file against results and print the verdicts.
-pub(crate) fn cmd_claims(
-    claims: &Path,
-    results: &[PathBuf],
-    format: &str,
-    only: &[String],
-    require_agree: bool,
-    width: Option<u16>,
-    time_floor: f64,
-) -> Result<i32> {
-    use tb_claims as claims;
-    if !(time_floor >= 0.0 && time_floor.is_finite()) {
-        bail!("--time-floor {time_floor}: must be a fraction >= 0 (0.2 = ±20 %)");
-    }
-    let file = claims::load(claims)?;
-    if let Some(id) = only.iter().find(|id| file.claim(id).is_none()) {
-        bail!("{}: no claim `{id}`", claims.display());
-    }
-    let rows = claims::RowSet::read_results(results)?;
-    if rows.replaced > 0 {
-        eprintln!(
-            "note: {} rows appear in several sources; the later source's row is used",
-            rows.replaced
-        );
-    }
-    let mut verdicts = claims::evaluate_with(&file, &rows, &claims::Options { time_floor });
-    if !only.is_empty() {
-        verdicts.retain(|v| only.contains(&v.id));
-    }
-    match format {
-        "md" => print!("{}", claims::render::markdown(&verdicts)),
-        "json" => {
-            let sources: Vec<String> = results.iter().map(|p| p.display().to_string()).collect();
-            println!(
-                "{}",
-                serde_json::to_string_pretty(&claims::render::json(
-                    &file.paper,
-                    &sources,
-                    &verdicts
-                ))?
+impl ClaimsArgs {
+    /// `trace-bench claims`: evaluate a claims file against results and print the verdicts.
+    pub(crate) fn run(self) -> Result<i32> {
+        let ClaimsArgs {
+            claims,
+            results,
+            format,
+            only,
+            require_agree,
+            width,
+            time_floor,
+        } = self;
+        let (claims, results, format, only) =
+            (claims.as_path(), &results[..], format.as_str(), &only[..]);
+        use tb_claims as claims;
+        if !(time_floor >= 0.0 && time_floor.is_finite()) {
+            bail!("--time-floor {time_floor}: must be a fraction >= 0 (0.2 = ±20 %)");
+        }
+        let file = claims::load(claims)?;
+        if let Some(id) = only.iter().find(|id| file.claim(id).is_none()) {
+            bail!("{}: no claim `{id}`", claims.display());
+        }
+        let rows = claims::RowSet::read_results(results)?;
+        if rows.replaced > 0 {
+            eprintln!(
+                "note: {} rows appear in several sources; the later source's row is used",
+                rows.replaced
             );
         }
-        _ => {
-            let w = width
-                .or_else(|| std::env::var("COLUMNS").ok().and_then(|c| c.parse().ok()))
-                .unwrap_or(160);
-            println!("{}", file.paper);
-            print!("{}", claims::render::text(&verdicts, w));
+        let mut verdicts = claims::evaluate_with(&file, &rows, &claims::Options { time_floor });
+        if !only.is_empty() {
+            verdicts.retain(|v| only.contains(&v.id));
         }
+        match format {
+            "md" => print!("{}", claims::render::markdown(&verdicts)),
+            "json" => {
+                let sources: Vec<String> =
+                    results.iter().map(|p| p.display().to_string()).collect();
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&claims::render::json(
+                        &file.paper,
+                        &sources,
+                        &verdicts
+                    ))?
+                );
+            }
+            _ => {
+                let w = width
+                    .or_else(|| std::env::var("COLUMNS").ok().and_then(|c| c.parse().ok()))
+                    .unwrap_or(160);
+                println!("{}", file.paper);
+                print!("{}", claims::render::text(&verdicts, w));
+            }
+        }
+        let all_agree = verdicts.iter().all(|v| v.verdict == claims::Verdict::Agree);
+        Ok(if require_agree && !all_agree { 1 } else { 0 })
     }
-    let all_agree = verdicts.iter().all(|v| v.verdict == claims::Verdict::Agree);
-    Ok(if require_agree && !all_agree { 1 } else { 0 })
 }
 
-/// `trace-bench reproduce`: runs, claims, report.
-pub(crate) fn cmd_reproduce(
-    paper: &str,
-    budget: &str,
-    devices: Vec<String>,
-    out: Option<PathBuf>,
-    claims_dir: &Path,
-    with: Vec<PathBuf>,
-    scenes_root: Option<PathBuf>,
-    (sets, adapter, heavy): (Vec<String>, Option<String>, bool),
-    quiet: bool,
-) -> Result<i32> {
+impl ReproduceArgs {
+    /// `trace-bench reproduce`: runs, claims, report.
+    pub(crate) fn run(self) -> Result<i32> {
+        let ReproduceArgs {
+            paper,
+            budget,
+            device: devices,
+            out,
+            claims_dir,
+            with,
+            scenes_root,
+            sets,
+            adapter,
+            heavy,
+            quiet,
+        } = self;
+        let (paper, budget, claims_dir) = (paper.as_str(), budget.as_str(), claims_dir.as_path());
+        use tb_claims::reproduce;
+        if let Some(s) = sets.iter().find(|s| !s.contains('=')) {
+            bail!("--set {s}: expected KEY=VALUE (e.g. run.validate=64)");
+        }
+        let budget_s = humantime::parse_duration(budget)
+            .with_context(|| {
+                format!("--budget {budget}: expected a duration such as 10m, 90s, 1h")
+            })?
+            .as_secs_f64();
+        if budget_s <= 0.0 {
+            bail!("--budget {budget}: must be more than zero");
+        }
+        let papers = claims_files(paper, claims_dir)?;
+        if let Some(o) = &out {
+            out_folder(o)?;
+        }
+        let default_folder = out.is_none();
+        let out = out.unwrap_or_else(|| {
+            PathBuf::from("results/reproduce").join(
+                tb_results::meta::now_rfc3339()
+                    .replace(':', "-")
+                    .trim_end_matches('Z'),
+            )
+        });
+        if default_folder {
+            link_latest(&out);
+        }
+        let opts = reproduce::Options {
+            papers,
+            budget_s: budget_s * reproduce::RUNS_SHARE,
+            devices,
+            out: out.clone(),
+            exe: std::env::current_exe().context("cannot find the trace-bench executable")?,
+            scenes_root,
+            with,
+            sets,
+            adapter,
+            budget_text: budget.to_owned(),
+            heavy,
+            quiet,
+        };
+        let reports = reproduce::reproduce(&opts, &HarnessRuns)?;
+        for r in &reports {
+            println!("{}", r.paper);
+            print!("{}", tb_claims::render::text(&r.claims, 160));
+        }
+        println!(
+            "report: {} (REPORT.md, REPRODUCTION.md, verdicts.json)",
+            out.display()
+        );
+        let failed: Vec<String> = reports
+            .iter()
+            .flat_map(|r| &r.runs)
+            .filter_map(|r| {
+                r.failed
+                    .as_ref()
+                    .map(|f| format!("{} {} ({f})", r.paper, r.label))
+            })
+            .collect();
+        if !failed.is_empty() {
+            bail!(
+                "{} runs failed: {} (their finished rows are used; see REPORT.md)",
+                failed.len(),
+                failed.join(", ")
+            );
+        }
+        Ok(0)
+    }
+}
+
+/// The claims files `reproduce PAPER` names: a paper's key under `claims_dir`, a claims file,
+/// or `all` (every claims file there with runs).
+fn claims_files(paper: &str, claims_dir: &Path) -> Result<Vec<PathBuf>> {
     use tb_claims::reproduce;
-    if let Some(s) = sets.iter().find(|s| !s.contains('=')) {
-        bail!("--set {s}: expected KEY=VALUE (e.g. run.validate=64)");
-    }
-    let budget_s = humantime::parse_duration(budget)
-        .with_context(|| format!("--budget {budget}: expected a duration such as 10m, 90s, 1h"))?
-        .as_secs_f64();
-    if budget_s <= 0.0 {
-        bail!("--budget {budget}: must be more than zero");
-    }
     let papers = if paper == "all" {
         reproduce::papers_in(claims_dir)?
     } else if Path::new(paper).is_file() {
@@ -102,60 +177,7 @@ pub(crate) fn cmd_reproduce(
     if papers.is_empty() {
         bail!("{}: no claims file with runs", claims_dir.display());
     }
-    if let Some(o) = &out {
-        out_folder(o)?;
-    }
-    let default_folder = out.is_none();
-    let out = out.unwrap_or_else(|| {
-        PathBuf::from("results/reproduce").join(
-            tb_results::meta::now_rfc3339()
-                .replace(':', "-")
-                .trim_end_matches('Z'),
-        )
-    });
-    if default_folder {
-        link_latest(&out);
-    }
-    let opts = reproduce::Options {
-        papers,
-        budget_s: budget_s * reproduce::RUNS_SHARE,
-        devices,
-        out: out.clone(),
-        exe: std::env::current_exe().context("cannot find the trace-bench executable")?,
-        scenes_root,
-        with,
-        sets,
-        adapter,
-        budget_text: budget.to_owned(),
-        heavy,
-        quiet,
-    };
-    let reports = reproduce::reproduce(&opts, &HarnessRuns)?;
-    for r in &reports {
-        println!("{}", r.paper);
-        print!("{}", tb_claims::render::text(&r.claims, 160));
-    }
-    println!(
-        "report: {} (REPORT.md, REPRODUCTION.md, verdicts.json)",
-        out.display()
-    );
-    let failed: Vec<String> = reports
-        .iter()
-        .flat_map(|r| &r.runs)
-        .filter_map(|r| {
-            r.failed
-                .as_ref()
-                .map(|f| format!("{} {} ({f})", r.paper, r.label))
-        })
-        .collect();
-    if !failed.is_empty() {
-        bail!(
-            "{} runs failed: {} (their finished rows are used; see REPORT.md)",
-            failed.len(),
-            failed.join(", ")
-        );
-    }
-    Ok(0)
+    Ok(papers)
 }
 
 /// Reproduce's runs as the runner makes them (tb-claims knows nothing of the runner): config

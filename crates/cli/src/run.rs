@@ -156,22 +156,27 @@ pub(crate) fn cmd_run(
     Ok(0)
 }
 
-/// `trace-bench run`: one process, or several (`--processes`, `run.processes`).
-pub(crate) fn cmd_run_args(a: RunArgs) -> Result<i32> {
-    let ov = Overrides {
-        threads: a.threads,
-        repeat: a.repeat,
-        devices: a.device,
-        adapter: a.adapter,
-        backend: a.backend,
-        shard: a.shard,
-        process: a.process,
-        ..a.select.overrides(a.scenes_root)
-    };
-    let (resume, force, quiet) = (a.resume, a.force, a.quiet);
-    match several_processes(&a.config, &ov, a.processes)? {
-        Some((name, n)) => cmd_processes(&a.config, &name, n, a.out, &ov, (resume, force), quiet),
-        None => cmd_run(&a.config, a.out, ov, resume, force, quiet),
+impl RunArgs {
+    /// `trace-bench run`: one process, or several (`--processes`, `run.processes`).
+    pub(crate) fn run(self) -> Result<i32> {
+        let a = self;
+        let ov = Overrides {
+            threads: a.threads,
+            repeat: a.repeat,
+            devices: a.device,
+            adapter: a.adapter,
+            backend: a.backend,
+            shard: a.shard,
+            process: a.process,
+            ..a.select.overrides(a.scenes_root)
+        };
+        let (resume, force, quiet) = (a.resume, a.force, a.quiet);
+        match several_processes(&a.config, &ov, a.processes)? {
+            Some((name, n)) => {
+                cmd_processes(&a.config, &name, n, a.out, &ov, (resume, force), quiet)
+            }
+            None => cmd_run(&a.config, a.out, ov, resume, force, quiet),
+        }
     }
 }
 
