@@ -324,6 +324,8 @@ pub trait Accel: Send + Sync {
     /// [`Accel::trace`] with the start hints of [`Accel::batch_hints`] for these rays
     /// (`None`, or a traversal that takes none: the same as [`Accel::trace`], which the
     /// default calls).
+    // Over clippy's seven: the trace signature (traversal, query, test, rays, hints, hits, counters); a batch type is issue 45's next step.
+    #[allow(clippy::too_many_arguments)]
     fn trace_hinted(
         &self,
         traversal: usize,

@@ -26,6 +26,8 @@ pub fn trace_into(
 
 /// [`trace_into`] with the per-ray start hints of [`Accel::batch_hints`] (`None`: none),
 /// split into chunks with the rays ([`Accel::trace_hinted`]).
+// Over clippy's seven: the trace signature, as `Accel::trace_hinted`'s.
+#[allow(clippy::too_many_arguments)]
 pub fn trace_hinted_into(
     accel: &dyn Accel,
     traversal: usize,

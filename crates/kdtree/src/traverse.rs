@@ -255,6 +255,8 @@ pub fn decide<L: Layout>(l: L, n: KdNode, idx: usize, s: &Setup, tn: f32, tf: f3
 /// rays (predicted: the next node's load issues early) 20-28 % faster and random rays 5-9 %
 /// slower, so the time column compared code generation rather than algorithms (issue 31).
 #[inline(always)]
+// Over clippy's seven: the interior step's scalars, inlined into every kd kernel: a struct would be one more thing between the compiler and its registers.
+#[allow(clippy::too_many_arguments)]
 pub fn split_decision<L: Layout>(
     l: L,
     n: KdNode,

@@ -232,6 +232,8 @@ const _: () = assert!(KdTree::TRAVERSALS.len() == PLAIN);
 /// Row `row` over `rays`, in the arrangement `order` ([`MultiKdTree::arrange`]) or, with
 /// `None`, in the rays' order with the tree picked per ray: the one call of the plain,
 /// `-sorted` and `-presorted` rows.
+// Over clippy's seven: the trace signature with the rays' arrangement.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn trace_order(
     m: &MultiKdTree,
     row: usize,

@@ -354,6 +354,8 @@ fn run<T: TriTest, C: Counter, const ALG: u8>(
 
 /// Trace a batch with kernel `ALG`: start records from `hints`, or found per ray here when
 /// `start_nodes` (the same point location as the hints), or the root.
+// Over clippy's seven: the trace signature with the start-node choice.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn trace<const ALG: u8>(
     s: &SparseBoxes,
     q: Query,

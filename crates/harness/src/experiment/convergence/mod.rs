@@ -202,6 +202,8 @@ impl Runner {
 
     /// The convergence renders of one built structure: every traversal x triangle test x
     /// device x integrator. Returns notes (references rendered or reused, renders cut short).
+    // Over clippy's seven: what the runner hands each build's renders; to group with the batch type.
+    #[allow(clippy::too_many_arguments)]
     pub fn build_done(
         &mut self,
         scene: &SceneSpec,
@@ -339,6 +341,8 @@ impl Runner {
     }
 
     /// The progressive render and the budget renders of one combination.
+    // Over clippy's seven: one combination's render inputs.
+    #[allow(clippy::too_many_arguments)]
     fn measure(
         &self,
         tris: &[tb_core::Triangle],

@@ -188,6 +188,8 @@ struct BuildMaps<'a> {
 /// One built structure's heat maps: for each traversal and triangle test, count over the
 /// primary rays and write the EXR and the PNGs. `tag` is [`varying_tag`] of its parameters.
 /// Returns a note when nothing is written (no camera, or a structure without counters).
+// Over clippy's seven: what the runner hands each build's heat maps.
+#[allow(clippy::too_many_arguments)]
 pub fn write_build(
     spec: &SceneSpec,
     images: &ImageSpec,

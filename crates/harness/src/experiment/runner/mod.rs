@@ -412,6 +412,8 @@ impl<'a> Run<'a> {
 
     /// Measure one row (`time`: time it too; else count and validate only, for
     /// [`Run::time_interleaved`]).
+    // Over clippy's seven: one row's inputs from the runner's loop.
+    #[allow(clippy::too_many_arguments)]
     fn measure_row(
         &mut self,
         spec: &SceneSpec,
