@@ -51,8 +51,10 @@
 //! referenced in every leaf cell it touches.
 
 mod build;
+mod check;
 mod gpu;
 pub mod layout;
+mod node;
 mod params;
 pub mod stackless;
 pub mod traverse;
@@ -70,7 +72,9 @@ use tb_core::{
 use traverse::Tree;
 use view::Aux;
 
+pub use check::{check_trees, intersect, split_cell};
 pub use layout::{DepthFirst, KdLayout, Layout, Nodes, Treelet};
+pub use node::KdNode;
 pub use params::{BoxMeasure, KdBuilder, KdParams, SahParams, SurfaceArea};
 pub use stackless::{MAX_SHORT_STACK, STEP_CAP};
 pub use traverse::{split_decision, Best, Decision, Kind, SLACK, STACK_SIZE};
@@ -109,81 +113,6 @@ pub static FAMILY: Family = Family::new::<KdTree, KdParams>(
     "SAH kd-tree with perfect splits and the kd-tree review's traversals (Hapala and Havran 2011)",
 )
 .with_rules::<KdParams>();
-
-/// One node of the flattened tree, 8 bytes (review §6; `#[repr(C)]`, two GPU words).
-///
-/// | | `bits` | `data` |
-/// |---|---|---|
-/// | interior | `link << 2 \| axis` (axis 0, 1, 2) | split position (`f32` bits) |
-/// | leaf | `count << 2 \| 3` | offset of the first reference in [`KdTree::prim_refs`] |
-///
-/// The root is node 0. Where the children are depends on the layout ([`Layout`]): in the
-/// default depth-first order the left child is the next node and the link is the right
-/// child's index; in the treelet layout the link is used only on a block's lowest level.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct KdNode {
-    pub bits: u32,
-    pub data: u32,
-}
-
-const _: () = assert!(std::mem::size_of::<KdNode>() == 8);
-
-impl KdNode {
-    /// An interior node splitting `axis` at `split`, with link `link` (see [`Layout`]).
-    pub fn interior(axis: usize, split: f32, link: u32) -> KdNode {
-        debug_assert!(axis < 3 && link < (1 << 30));
-        KdNode {
-            bits: link << 2 | axis as u32,
-            data: split.to_bits(),
-        }
-    }
-
-    /// A leaf of `count` references starting at `offset`.
-    pub fn leaf(offset: u32, count: u32) -> KdNode {
-        debug_assert!(count < (1 << 30));
-        KdNode {
-            bits: count << 2 | 3,
-            data: offset,
-        }
-    }
-
-    #[inline(always)]
-    pub fn is_leaf(&self) -> bool {
-        self.bits & 3 == 3
-    }
-
-    /// Split axis of an interior node (3 for a leaf).
-    #[inline(always)]
-    pub fn axis(&self) -> usize {
-        (self.bits & 3) as usize
-    }
-
-    /// Split position of an interior node.
-    #[inline(always)]
-    pub fn split(&self) -> f32 {
-        f32::from_bits(self.data)
-    }
-
-    /// Link of an interior node: the right child in the depth-first layout (the left child is
-    /// the node's index + 1), the first child slot on a treelet block's lowest level.
-    #[inline(always)]
-    pub fn link(&self) -> usize {
-        (self.bits >> 2) as usize
-    }
-
-    /// Number of references of a leaf.
-    #[inline(always)]
-    pub fn count(&self) -> u32 {
-        self.bits >> 2
-    }
-
-    /// Offset of a leaf's first reference.
-    #[inline(always)]
-    pub fn offset(&self) -> usize {
-        self.data as usize
-    }
-}
 
 /// A kd-tree over triangles (see the crate doc): its nodes, references and triangles (shared:
 /// several trees may index one triangle array), the root cell, its parameters, the start of
@@ -389,108 +318,6 @@ impl KdTree {
 
     fn check_invariants(&self) -> Result<(), String> {
         check_trees(&self.view(), &[0], &self.params)
-    }
-}
-
-/// The invariants of the trees rooted at `roots` in the node array of `v` (one for a kd-tree,
-/// several for a multi-kd-tree): node and reference indices in range, children after their
-/// parent and distinct, every node reached once from exactly one root (the treelet layout's
-/// unused slots empty), depth within the limit, splits inside their cells, every referenced
-/// triangle's box overlapping its leaf cell, every finite triangle referenced in every tree.
-pub fn check_trees(v: &KdView, roots: &[u32], params: &KdParams) -> Result<(), String> {
-    let nodes = v.nodes;
-    let n_tris = v.tris.len();
-    if nodes.is_empty() {
-        return if v.refs.is_empty() {
-            Ok(())
-        } else {
-            Err("references without nodes".into())
-        };
-    }
-    if let Some(k) = v.refs.iter().position(|&r| r as usize >= n_tris) {
-        return Err(format!("prim_refs[{k}] out of range ({n_tris} triangles)"));
-    }
-    let depth_limit = params.depth_limit(n_tris) as usize;
-    let mut visited = vec![false; nodes.len()];
-    for &root in roots {
-        let mut referenced = vec![false; n_tris];
-        let mut stack = vec![(root as usize, v.bounds, 0usize)];
-        while let Some((i, cell, depth)) = stack.pop() {
-            if i >= nodes.len() {
-                return Err(format!("node index {i} out of range ({})", nodes.len()));
-            }
-            if std::mem::replace(&mut visited[i], true) {
-                return Err(format!("node {i} reached twice (cycle or shared child)"));
-            }
-            if depth > depth_limit || depth > STACK_SIZE {
-                return Err(format!("node {i} at depth {depth} exceeds the depth limit"));
-            }
-            let n = nodes[i];
-            if n.is_leaf() {
-                let (o, c) = (n.offset(), n.count() as usize);
-                if o + c > v.refs.len() {
-                    return Err(format!(
-                        "leaf {i}: references {o}..{} out of range ({})",
-                        o + c,
-                        v.refs.len()
-                    ));
-                }
-                for &r in &v.refs[o..o + c] {
-                    referenced[r as usize] = true;
-                    let tb = v.tris[r as usize].bounds();
-                    let tol = build::tolerance(&tb);
-                    let grown = Aabb::new(tb.min - tol, tb.max + tol);
-                    if intersect(&grown, &cell).is_empty() {
-                        return Err(format!(
-                            "leaf {i}: triangle {r} does not overlap the leaf cell"
-                        ));
-                    }
-                }
-            } else {
-                let ((l, r), s) = (v.children(i), n.split());
-                let a = n.axis();
-                // Children after their parent (so no cycles), distinct, in range.
-                if l <= i || r <= l || r >= nodes.len() {
-                    return Err(format!("node {i}: children {l}, {r} invalid"));
-                }
-                if !(s >= cell.min[a] && s <= cell.max[a]) {
-                    return Err(format!("node {i}: split {s} outside its cell on axis {a}"));
-                }
-                let (lc, rc) = split_cell(&cell, a, s);
-                stack.push((r, rc, depth + 1));
-                stack.push((l, lc, depth + 1));
-            }
-        }
-        for (k, t) in v.tris.iter().enumerate() {
-            let finite = t.v0.is_finite() && t.v1.is_finite() && t.v2.is_finite();
-            if finite && !referenced[k] {
-                return Err(format!(
-                    "triangle {k} is referenced by no leaf of the tree at {root}"
-                ));
-            }
-        }
-    }
-    // Every node is reachable; the treelet layout's unused slots stay empty.
-    let unused = |i: usize| v.layout == KdLayout::Treelet && nodes[i] == layout::EMPTY_SLOT;
-    if let Some(i) = (0..nodes.len()).find(|&i| !visited[i] && !unused(i)) {
-        return Err(format!("node {i} is unreachable from the root"));
-    }
-    Ok(())
-}
-
-/// The two children's cells of `cell` split on `axis` at `s`.
-pub fn split_cell(cell: &Aabb, axis: usize, s: f32) -> (Aabb, Aabb) {
-    let (mut l, mut r) = (*cell, *cell);
-    l.max[axis] = s;
-    r.min[axis] = s;
-    (l, r)
-}
-
-/// Intersection of two boxes (empty when disjoint).
-pub fn intersect(a: &Aabb, b: &Aabb) -> Aabb {
-    Aabb {
-        min: a.min.max(b.min),
-        max: a.max.min(b.max),
     }
 }
 

@@ -23,19 +23,21 @@
 //!   the per-ray counters of the CPU walks.
 
 mod build;
+mod check;
 mod gpu;
+mod node;
 mod params;
 mod traverse;
 
+pub use node::RtreeNode;
 pub use params::{ChildOrder, RtreeParams, Strategy};
 
 pub use gpu::GPU_NODES;
 
-use serde::{Deserialize, Serialize};
 use std::time::Instant;
 use tb_core::{
     build_with, dispatch, Aabb, AccelError, BuildReport, Family, MemoryReport, Structure,
-    Traversal, TraversalInfo, Triangle, Vec3,
+    Traversal, TraversalInfo, Triangle,
 };
 
 /// The R-tree in the registry.
@@ -81,49 +83,6 @@ pub fn layout_limit(n: usize) -> u64 {
     MAX_LAYOUT_BYTES_PER_TRIANGLE
         .saturating_mul(n as u64)
         .clamp(MIN_LAYOUT_LIMIT, MAX_LAYOUT_BYTES)
-}
-
-/// One slot of the packed level-order array, 32 bytes (`#[repr(C)]`, GPU-uploadable as 8
-/// words). Whether a slot is a leaf follows from its index (slots `≥ Δ_L(0)` are leaves).
-///
-/// | words | intermediate node | leaf | empty slot |
-/// |---|---|---|---|
-/// | 0..3 | box min | box min | `+inf` |
-/// | 3 | `index`: 0 (entries at `M·i + 1 …`) | `index`: first triangle in [`Rtree::triangles`] | 0 |
-/// | 4..7 | box max | box max | `−inf` |
-/// | 7 | `count`: entries (non-empty first) | `count`: triangles | 0 |
-#[repr(C)]
-#[derive(
-    Clone, Copy, Debug, PartialEq, Serialize, Deserialize, bytemuck::Pod, bytemuck::Zeroable,
-)]
-pub struct RtreeNode {
-    pub min: [f32; 3],
-    pub index: u32,
-    pub max: [f32; 3],
-    pub count: u32,
-}
-
-const _: () = assert!(std::mem::size_of::<RtreeNode>() == 32);
-
-impl RtreeNode {
-    /// An empty slot: the empty box, no entries.
-    pub const EMPTY: RtreeNode = RtreeNode {
-        min: [f32::INFINITY; 3],
-        index: 0,
-        max: [f32::NEG_INFINITY; 3],
-        count: 0,
-    };
-
-    /// Whether this is an empty slot of the complete layout (paper: `isEmptyNode`).
-    #[inline(always)]
-    pub fn is_empty(&self) -> bool {
-        self.count == 0
-    }
-
-    #[inline(always)]
-    pub fn bounds(&self) -> Aabb {
-        Aabb::new(Vec3::from_array(self.min), Vec3::from_array(self.max))
-    }
 }
 
 /// An R-tree over triangles in the paper's implicit level-order layout.
@@ -287,144 +246,6 @@ impl Rtree {
     pub(crate) fn big_m(&self) -> usize {
         self.params.big_m as usize
     }
-
-    fn check_invariants(&self) -> Result<(), String> {
-        let n_tris = self.triangles.len();
-        let nodes = &self.nodes;
-        let big_m = self.params.big_m;
-        let m = self.big_m();
-        tb_core::accel::check_permutation(&self.prim_ids, n_tris).map_err(|e| e.to_string())?;
-        if n_tris == 0 {
-            return if nodes.is_empty() {
-                Ok(())
-            } else {
-                Err("an empty R-tree must have no slots".into())
-            };
-        }
-        let want = build::slot_count(big_m, self.root_level);
-        if want != Some(nodes.len() as u32) {
-            return Err(format!(
-                "{} slots, a complete {big_m}-ary tree of {} levels has {want:?}",
-                nodes.len(),
-                self.root_level + 1
-            ));
-        }
-        if self.first_leaf != build::first_leaf(big_m, self.root_level) {
-            return Err("first leaf slot is not Δ_L(0)".into());
-        }
-        if nodes[0].is_empty() {
-            return Err("the root of a non-empty tree is empty".into());
-        }
-        let same = |a: f32, b: f32| a == b || (a.is_nan() && b.is_nan());
-        let same_box = |a: &Aabb, b: &Aabb| {
-            (0..3).all(|k| same(a.min[k], b.min[k]) && same(a.max[k], b.max[k]))
-        };
-        let mut owned = vec![false; n_tris];
-        for (i, n) in nodes.iter().enumerate() {
-            let is_leaf = i as u32 >= self.first_leaf;
-            let parent_empty = i > 0 && nodes[(i - 1) / m].is_empty();
-            if n.is_empty() {
-                if *n != RtreeNode::EMPTY {
-                    return Err(format!("empty slot {i} is not the empty node"));
-                }
-                continue;
-            }
-            if parent_empty {
-                return Err(format!("slot {i} is non-empty under an empty parent"));
-            }
-            if i > 0 {
-                // Non-empty entries come first: the previous sibling is non-empty.
-                if (i - 1) % m != 0 && nodes[i - 1].is_empty() {
-                    return Err(format!("slot {i} follows an empty sibling"));
-                }
-            }
-            let count = n.count as usize;
-            let lo = if i == 0 {
-                if is_leaf {
-                    1
-                } else {
-                    2
-                }
-            } else {
-                self.params.m as usize
-            };
-            if count < lo || count > m {
-                return Err(format!(
-                    "node {i} ({}) has {count} entries, outside {lo}..={m}",
-                    if is_leaf { "leaf" } else { "intermediate" }
-                ));
-            }
-            let bb = if is_leaf {
-                let r = n.index as usize..n.index as usize + count;
-                if r.end > n_tris {
-                    return Err(format!("leaf {i}: triangles {r:?} out of range"));
-                }
-                let mut bb = Aabb::EMPTY;
-                for k in r {
-                    if std::mem::replace(&mut owned[k], true) {
-                        return Err(format!("triangle slot {k} in two leaves"));
-                    }
-                    bb = bb.union(&self.triangles[k].bounds());
-                }
-                bb
-            } else {
-                let c = i * m + 1;
-                let ch = &nodes[c..c + m];
-                if let Some(k) = (0..count).find(|&k| ch[k].is_empty()) {
-                    return Err(format!("node {i}: entry {k} of {count} is empty"));
-                }
-                if let Some(k) = (count..m).find(|&k| !ch[k].is_empty()) {
-                    return Err(format!("node {i}: slot {k} beyond {count} entries is used"));
-                }
-                ch[..count]
-                    .iter()
-                    .fold(Aabb::EMPTY, |b, c| b.union(&c.bounds()))
-            };
-            if !same_box(&bb, &n.bounds()) {
-                return Err(format!(
-                    "node {i}: box {:?} is not the minimal box {bb:?} of its entries",
-                    n.bounds()
-                ));
-            }
-        }
-        if let Some(k) = owned.iter().position(|v| !v) {
-            return Err(format!("triangle slot {k} is in no leaf"));
-        }
-        Ok(())
-    }
-
-    /// Tree figures over non-empty slots.
-    fn figures(&self) -> Figures {
-        let mut f = Figures::default();
-        for (i, n) in self.nodes.iter().enumerate() {
-            if n.is_empty() {
-                f.empty += 1;
-                continue;
-            }
-            let a = n.bounds().area() as f64;
-            if i as u32 >= self.first_leaf {
-                f.leaves += 1;
-                f.leaf_entries += n.count as u64;
-                f.leaf_area_prims += a * n.count as f64;
-            } else {
-                f.interior += 1;
-                f.interior_entries += n.count as u64;
-                f.interior_area += a;
-            }
-        }
-        f
-    }
-}
-
-#[derive(Default)]
-struct Figures {
-    interior: u64,
-    leaves: u64,
-    empty: u64,
-    interior_entries: u64,
-    leaf_entries: u64,
-    interior_area: f64,
-    leaf_area_prims: f64,
 }
 
 impl Structure for Rtree {
@@ -587,7 +408,7 @@ impl Structure for Rtree {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tb_core::{Accel, HitRecord, Query, Ray, TraversalStats, TriTestKind};
+    use tb_core::{Accel, HitRecord, Query, Ray, TraversalStats, TriTestKind, Vec3};
 
     const TRAVERSALS: &[Traversal<Rtree>] = Rtree::TRAVERSALS;
 
