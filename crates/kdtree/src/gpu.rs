@@ -58,9 +58,14 @@ fn words(w: impl IntoIterator<Item = u32>) -> Cow<'static, [u8]> {
     Cow::Owned(w.into_iter().flat_map(u32::to_le_bytes).collect())
 }
 
-/// The programs' source: `shaders/kd.wgsl`, the short stack's placement, `shaders/kdtree.wgsl`.
+/// The kd-tree family's shared WGSL (`shaders/kd.wgsl`): the node array, references and header,
+/// the interior decision and leaf loop, the recursive walk. The kd-tree's programs and those
+/// of the structures built on it (the multi-kd-tree's) include it through tb-gpu
+/// ([`GpuProgram::include`]).
+pub const KD_WGSL: &str = include_str!("../shaders/kd.wgsl");
+
+/// The programs' source after [`KD_WGSL`]: the short stack's placement, `shaders/kdtree.wgsl`.
 const SOURCE: &str = concat!(
-    include_str!("../shaders/kd.wgsl"),
     "const SHORT_ON_CHIP: bool = false;\nconst SHORT_SLOTS: u32 = 1u;\nconst LOCAL_SLOTS: u32 = STACK_SIZE;\n",
     include_str!("../shaders/kdtree.wgsl")
 );
@@ -68,7 +73,6 @@ const SOURCE: &str = concat!(
 /// [`SOURCE`] with the short stack on chip: `STACK_SIZE` entries per invocation in workgroup
 /// memory (Horn et al. 2007's short stack in fast memory; review §5.2).
 const SOURCE_ON_CHIP: &str = concat!(
-    include_str!("../shaders/kd.wgsl"),
     "const SHORT_ON_CHIP: bool = true;\nconst SHORT_SLOTS: u32 = WORKGROUP_SIZE * STACK_SIZE;\nconst LOCAL_SLOTS: u32 = 1u;\n",
     include_str!("../shaders/kdtree.wgsl")
 );
@@ -132,6 +136,7 @@ impl KdTree {
             if on_chip { SOURCE_ON_CHIP } else { SOURCE },
             &self.tris[..],
         )
+        .include(KD_WGSL)
         .buffer(
             "the kd-tree node array",
             words(self.nodes.iter().flat_map(|n| [n.bits, n.data])),

@@ -73,6 +73,7 @@ use traverse::Tree;
 use view::Aux;
 
 pub use check::{check_trees, intersect, split_cell};
+pub use gpu::KD_WGSL;
 pub use layout::{DepthFirst, KdLayout, Layout, Nodes, Treelet};
 pub use node::KdNode;
 pub use params::{BoxMeasure, KdBuilder, KdParams, SahParams, SurfaceArea};

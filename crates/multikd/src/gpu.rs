@@ -68,12 +68,10 @@ impl MultiKdTree {
             } else {
                 "multi-kd/recursive-direction"
             },
-            concat!(
-                include_str!("../../kdtree/shaders/kd.wgsl"),
-                include_str!("../shaders/multikd.wgsl")
-            ),
+            include_str!("../shaders/multikd.wgsl"),
             &self.tris[..],
         )
+        .include(tb_kdtree::KD_WGSL)
         .buffer("the multi-kd-tree node array", words(&nodes))
         .buffer("the multi-kd-tree reference array", words(&self.refs))
         .buffer("the multi-kd-tree header", words(&header))
