@@ -136,10 +136,10 @@ fn batches_with_oracle(
     let trace = |kind: RayKind, rays: &[Ray]| trace_par(oracle, 0, kind.query(), tri, rays);
     let mut out = Vec::new();
     if !scene.own_rays.is_empty() {
-        let hits = trace(RayKind::Own, &scene.own_rays);
+        let hits = trace(RayKind::Stress, &scene.own_rays);
         out.push((
             RayBatch {
-                kind: RayKind::Own,
+                kind: RayKind::Stress,
                 rays: scene.own_rays.clone(),
             },
             hits,

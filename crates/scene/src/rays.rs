@@ -29,20 +29,43 @@ use std::f32::consts::PI;
 use tb_core::tri::facing_normal;
 use tb_core::{Aabb, Accel, HitRecord, Query, Ray, TriTestKind, Triangle, Vec3};
 
-/// What a batch of rays is.
+/// What a batch of rays is, and what a config's `scene.rays` names (the one ray-kind type of
+/// the project: configs, the runner's batches, the conformance suite).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum RayKind {
     Primary,
     Shadow,
     Ao,
-    /// Path-tracing bounce number (1-based): `Path(1)` continues the primary hits.
+    /// Path-tracing bounce number (1-based): `Path(1)` continues the primary hits. A config's
+    /// `path` is [`RayKind::PATH`], the first bounce; the runner makes the bounces after it
+    /// up to the scene's `path.bounces`.
     Path(u32),
     Random,
     /// A stress scene's own rays (named `stress`).
-    Own,
+    Stress,
 }
 
 impl RayKind {
+    /// The path-tracing rays as a config names them (`path`): the first bounce.
+    pub const PATH: RayKind = RayKind::Path(1);
+
+    /// The names a config's `scene.rays` takes, in the order of [`RayKind::parse`]'s kinds.
+    pub const NAMES: [&'static str; 6] = ["primary", "shadow", "ao", "path", "random", "stress"];
+
+    /// The kind a config's `scene.rays` entry names ([`RayKind::NAMES`]; `path` is
+    /// [`RayKind::PATH`]), or `None`.
+    pub fn parse(name: &str) -> Option<RayKind> {
+        Some(match name {
+            "primary" => RayKind::Primary,
+            "shadow" => RayKind::Shadow,
+            "ao" => RayKind::Ao,
+            "path" => RayKind::PATH,
+            "random" => RayKind::Random,
+            "stress" => RayKind::Stress,
+            _ => return None,
+        })
+    }
+
     /// The kind's name in results: `primary`, `shadow`, `ao`, `path1`, `path2`, …, `random`,
     /// `stress`.
     pub fn name(&self) -> String {
@@ -52,7 +75,7 @@ impl RayKind {
             RayKind::Ao => "ao".into(),
             RayKind::Path(k) => format!("path{k}"),
             RayKind::Random => "random".into(),
-            RayKind::Own => "stress".into(),
+            RayKind::Stress => "stress".into(),
         }
     }
 
@@ -548,7 +571,12 @@ mod tests {
     #[test]
     fn kind_names_and_queries() {
         assert_eq!(RayKind::Path(2).name(), "path2");
-        assert_eq!(RayKind::Own.name(), "stress");
+        assert_eq!(RayKind::Stress.name(), "stress");
+        for name in RayKind::NAMES {
+            let k = RayKind::parse(name).expect("a config name parses");
+            assert_eq!(k.name(), if name == "path" { "path1" } else { name });
+        }
+        assert_eq!(RayKind::parse("path2"), None);
         assert_eq!(RayKind::Shadow.query(), Query::Any);
         assert_eq!(RayKind::Ao.query(), Query::Any);
         assert_eq!(RayKind::Random.query(), Query::Closest);

@@ -1,7 +1,7 @@
 //! The ray batches of a scene, generated once per scene: primary, shadow, ao, path1..k,
 //! random, stress.
 
-use crate::experiment::config::{RayKindSpec, SceneSpec};
+use crate::experiment::config::SceneSpec;
 use tb_core::{HitRecord, Query, Ray, TriTestKind};
 use tb_scene::rays::{self, RayKind};
 
@@ -27,18 +27,16 @@ pub fn generate_batches(
     notes: &mut Vec<String>,
 ) -> Vec<Batch> {
     let tris = &spec.scene.triangles;
-    let wants = |k: RayKindSpec| {
-        spec.rays.contains(&k)
-            && (first_view || !matches!(k, RayKindSpec::Random | RayKindSpec::Stress))
+    let wants = |k: RayKind| {
+        spec.rays.contains(&k) && (first_view || !matches!(k, RayKind::Random | RayKind::Stress))
     };
-    let secondary =
-        wants(RayKindSpec::Shadow) || wants(RayKindSpec::Ao) || wants(RayKindSpec::Path);
+    let secondary = wants(RayKind::Shadow) || wants(RayKind::Ao) || wants(RayKind::PATH);
     let mut out = Vec::new();
-    let primary = match (&spec.camera, wants(RayKindSpec::Primary) || secondary) {
+    let primary = match (&spec.camera, wants(RayKind::Primary) || secondary) {
         (Some(c), true) => rays::primary(c),
         _ => Vec::new(),
     };
-    if wants(RayKindSpec::Primary) {
+    if wants(RayKind::Primary) {
         out.push(Batch {
             name: RayKind::Primary.name(),
             query: Query::Closest,
@@ -62,10 +60,10 @@ pub fn generate_batches(
             &primary,
         );
         let nhit = hits.iter().filter(|h| h.is_hit()).count();
-        if wants(RayKindSpec::Shadow) {
+        if wants(RayKind::Shadow) {
             out.push(shadow_batch(spec, &primary, &hits, notes));
         }
-        if wants(RayKindSpec::Ao) {
+        if wants(RayKind::Ao) {
             let r = rays::ao(
                 tris,
                 &primary,
@@ -82,11 +80,11 @@ pub fn generate_batches(
                 skipped,
             });
         }
-        if wants(RayKindSpec::Path) {
+        if wants(RayKind::PATH) {
             out.extend(path_batches(spec, gen.as_ref(), &primary, hits, seed));
         }
     }
-    if wants(RayKindSpec::Random) {
+    if wants(RayKind::Random) {
         let r = rays::random(&spec.scene.bounds, spec.random_count, seed);
         out.push(Batch {
             name: RayKind::Random.name(),
@@ -95,9 +93,9 @@ pub fn generate_batches(
             skipped: None,
         });
     }
-    if wants(RayKindSpec::Stress) {
+    if wants(RayKind::Stress) {
         out.push(Batch {
-            name: RayKind::Own.name(),
+            name: RayKind::Stress.name(),
             query: Query::Closest,
             rays: spec.scene.own_rays.clone(),
             skipped: None,

@@ -16,7 +16,7 @@ mod structures;
 pub use ctx::line_of;
 pub(crate) use ctx::Ctx;
 pub use run::RunSettings;
-pub use spec::{device_threads, Device, GpuSpec, RayKindSpec, SceneSpec, StructureSpec, Validate};
+pub use spec::{device_threads, Device, GpuSpec, SceneSpec, StructureSpec, Validate};
 
 use crate::experiment::convergence::config as convergence;
 use crate::experiment::dynamic::config as dynamic;

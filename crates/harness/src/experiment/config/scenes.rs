@@ -1,13 +1,12 @@
 //! The `[[scene]]` tables: ray kinds, camera (over the scene's default view), light, AO,
 //! path and random settings; the scene loaded.
 
-use super::{
-    parse_validate, scene_label, Ctx, RawScene, RawView, RayKindSpec, SceneSpec, Validate,
-};
+use super::{parse_validate, scene_label, Ctx, RawScene, RawView, SceneSpec, Validate};
 use crate::error::HarnessError;
 use std::path::Path;
 use std::sync::Arc;
 use tb_core::Vec3;
+use tb_scene::rays::RayKind;
 use tb_scene::{Camera, Scene, View};
 
 /// A viewpoint of a scene table: its label, camera and light.
@@ -36,7 +35,7 @@ pub(super) fn check_scene(
     let needs_camera = kinds.iter().any(|k| {
         matches!(
             k,
-            RayKindSpec::Primary | RayKindSpec::Shadow | RayKindSpec::Ao | RayKindSpec::Path
+            RayKind::Primary | RayKind::Shadow | RayKind::Ao | RayKind::Path(_)
         )
     });
     let table = label_of(s);
@@ -56,7 +55,7 @@ pub(super) fn check_scene(
             ));
         }
     }
-    if kinds.contains(&RayKindSpec::Stress) && scene.own_rays.is_empty() {
+    if kinds.contains(&RayKind::Stress) && scene.own_rays.is_empty() {
         return Err(cx.err(
             s.rays.as_ref().map(|r| r.span()).unwrap_or(span.clone()),
             "scene.rays",
@@ -99,19 +98,19 @@ pub(super) fn check_scene(
 }
 
 /// The table's ray kinds (`rays`, primary when absent), without repeats.
-fn check_rays(cx: &Ctx, s: &RawScene) -> Result<Vec<RayKindSpec>, HarnessError> {
+fn check_rays(cx: &Ctx, s: &RawScene) -> Result<Vec<RayKind>, HarnessError> {
     let mut kinds = Vec::new();
     match &s.rays {
-        None => kinds.push(RayKindSpec::Primary),
+        None => kinds.push(RayKind::Primary),
         Some(r) => {
             for k in r.get_ref() {
-                let kind = RayKindSpec::parse(k).ok_or_else(|| {
+                let kind = RayKind::parse(k).ok_or_else(|| {
                     cx.err(
                         r.span(),
                         "scene.rays",
                         format!(
                             "unknown ray kind `{k}` (known: {})",
-                            RayKindSpec::NAMES.join(", ")
+                            RayKind::NAMES.join(", ")
                         ),
                     )
                 })?;
@@ -244,7 +243,7 @@ struct RaySettings {
 fn check_settings(
     cx: &Ctx,
     s: &RawScene,
-    kinds: &[RayKindSpec],
+    kinds: &[RayKind],
     view: Option<&View>,
     diag: f32,
 ) -> Result<RaySettings, HarnessError> {
@@ -257,8 +256,7 @@ fn check_settings(
     // Checked where AO rays are asked for (a scene scaled to 1e30 has an infinite default
     // distance, which matters only to AO rays).
     let ao_given = s.ao.as_ref().and_then(|a| a.distance).is_some();
-    if (ao_given || kinds.contains(&RayKindSpec::Ao))
-        && !(ao_distance > 0.0 && ao_distance.is_finite())
+    if (ao_given || kinds.contains(&RayKind::Ao)) && !(ao_distance > 0.0 && ao_distance.is_finite())
     {
         return Err(cx.err(span, "scene.ao.distance", "must be positive and finite"));
     }
@@ -323,39 +321,39 @@ pub(super) fn estimate(
         .map(|r| r.get_ref().clone())
         .unwrap_or_default()
     {
-        if let Some(k) = RayKindSpec::parse(&k) {
+        if let Some(k) = RayKind::parse(&k) {
             if !kinds.contains(&k) {
                 kinds.push(k);
             }
         }
     }
     if kinds.is_empty() {
-        kinds.push(RayKindSpec::Primary);
+        kinds.push(RayKind::Primary);
     }
     // Every view traces the camera's batches; random and stress rays, which do not depend on
     // the camera, only the first view.
     let views = s.views.as_ref().map_or(1, |v| v.get_ref().len().max(1));
     let mut batch_rays = Vec::new();
     for k in kinds {
-        let per_view = if matches!(k, RayKindSpec::Random | RayKindSpec::Stress) {
+        let per_view = if matches!(k, RayKind::Random | RayKind::Stress) {
             1
         } else {
             views
         };
         let start = batch_rays.len();
         match k {
-            RayKindSpec::Primary | RayKindSpec::Shadow => batch_rays.push(pixels),
-            RayKindSpec::Ao => {
+            RayKind::Primary | RayKind::Shadow => batch_rays.push(pixels),
+            RayKind::Ao => {
                 batch_rays.push(pixels * s.ao.as_ref().and_then(|a| a.samples).unwrap_or(4) as u64)
             }
-            RayKindSpec::Path => {
+            RayKind::Path(_) => {
                 let b = s.path.as_ref().map_or(2, |p| p.bounces);
                 batch_rays.extend(std::iter::repeat_n(pixels, b as usize));
             }
-            RayKindSpec::Random => {
+            RayKind::Random => {
                 batch_rays.push(s.random.as_ref().map_or(1 << 16, |r| r.count) as u64)
             }
-            RayKindSpec::Stress => batch_rays.push(1000),
+            RayKind::Stress => batch_rays.push(1000),
         }
         let one: Vec<u64> = batch_rays[start..].to_vec();
         for _ in 1..per_view {

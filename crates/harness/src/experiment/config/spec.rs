@@ -3,6 +3,7 @@
 
 use std::sync::Arc;
 use tb_core::{Family, ParamSet, TraversalInfo, Vec3};
+use tb_scene::rays::RayKind;
 use tb_scene::{Camera, Scene};
 
 /// Where oracle validation runs.
@@ -66,34 +67,6 @@ pub struct GpuSpec {
     pub required: bool,
 }
 
-/// A ray kind a scene asks for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RayKindSpec {
-    Primary,
-    Shadow,
-    Ao,
-    Path,
-    Random,
-    Stress,
-}
-
-impl RayKindSpec {
-    pub(crate) const NAMES: [&'static str; 6] =
-        ["primary", "shadow", "ao", "path", "random", "stress"];
-
-    pub(crate) fn parse(s: &str) -> Option<Self> {
-        Some(match s {
-            "primary" => Self::Primary,
-            "shadow" => Self::Shadow,
-            "ao" => Self::Ao,
-            "path" => Self::Path,
-            "random" => Self::Random,
-            "stress" => Self::Stress,
-            _ => return None,
-        })
-    }
-}
-
 /// A checked scene entry, loaded: one per scene table, or one per view of a table with
 /// `views` (the views share the loaded scene, and the runner builds each structure once for
 /// all of them).
@@ -105,7 +78,7 @@ pub struct SceneSpec {
     /// it, their scene and their builds (and form one shard unit with each build).
     pub table: String,
     pub scene: Arc<Scene>,
-    pub rays: Vec<RayKindSpec>,
+    pub rays: Vec<RayKind>,
     pub camera: Option<Camera>,
     pub light: Option<Vec3>,
     pub ao_samples: u32,

@@ -2,10 +2,11 @@
 //! device x thread count, less the rows an interrupted run already wrote (`--resume`).
 
 use crate::experiment::batches::Batch;
-use crate::experiment::config::{Device, Experiment, RayKindSpec, StructureSpec};
+use crate::experiment::config::{Device, Experiment, StructureSpec};
 use std::collections::HashSet;
 use tb_core::TriTestKind;
 use tb_results::output::RowKey;
+use tb_scene::rays::RayKind;
 
 /// One row to measure.
 #[derive(Clone, Copy, Debug)]
@@ -38,8 +39,8 @@ pub fn total_rows(exp: &Experiment, devices: &[(Device, Vec<usize>)]) -> usize {
             s.rays
                 .iter()
                 .map(|k| match k {
-                    RayKindSpec::Path => s.bounces as usize,
-                    RayKindSpec::Random | RayKindSpec::Stress if !first_view => 0,
+                    RayKind::Path(_) => s.bounces as usize,
+                    RayKind::Random | RayKind::Stress if !first_view => 0,
                     _ => 1,
                 })
                 .sum::<usize>()
