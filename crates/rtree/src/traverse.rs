@@ -126,6 +126,28 @@ fn leaf<T: TriTest, C: Counter, const ANY: bool>(
     None
 }
 
+/// The set-up the stack walks (`ordered`, `ordered-pop-cull`, `stack`) share: the root's box
+/// tested (one box; one step when hit), the prepared ray and an empty closest-hit record, or
+/// `None` for an empty tree or a ray that misses the root.
+#[inline(always)]
+fn enter_root<T: TriTest, C: Counter, const OCT: u8>(
+    tree: &Rtree,
+    ray: &Ray,
+    rb: &RayBox,
+    c: &mut C,
+) -> Option<(T::Pre, Best)> {
+    let root = tree.nodes().first()?;
+    let pre = T::prepare(ray);
+    let best = Best::new(ray);
+    c.boxes(1);
+    let (tn, tf) = rb.slab::<OCT>(&root.min, &root.max, ray.tmin, best.t);
+    if tn > tf {
+        return None;
+    }
+    c.steps(1);
+    Some((pre, best))
+}
+
 /// `stackless` (paper section 4.1, Listing 1) and, with `SKIP_EMPTY`, our
 /// `stackless-skip-empty`: depth-first over the implicit layout with no stack. At slot `n`:
 /// unless it is empty (the paper's `isEmptyNode`: `count == 0`, no box test), if its box is
@@ -237,19 +259,11 @@ impl<const POP_CULL: bool> Ordered<'_, POP_CULL> {
     ) -> HitRecord {
         let tree = self.0;
         let nodes = tree.nodes();
-        let Some(root) = nodes.first() else {
+        let Some((pre, mut best)) = enter_root::<T, C, OCT>(tree, ray, rb, c) else {
             return HitRecord::MISS;
         };
         let m = tree.big_m();
         let top = tree.root_level as usize;
-        let pre = T::prepare(ray);
-        let mut best = Best::new(ray);
-        c.boxes(1);
-        let (tn, tf) = rb.slab::<OCT>(&root.min, &root.max, ray.tmin, best.t);
-        if tn > tf {
-            return HitRecord::MISS;
-        }
-        c.steps(1);
         let mut stacks: [[MaybeUninit<(u32, f32)>; MAX_M]; MAX_LEVELS] =
             [[MaybeUninit::uninit(); MAX_M]; MAX_LEVELS];
         let mut sp = [0u8; MAX_LEVELS + 1];
@@ -347,19 +361,11 @@ impl Stack<'_> {
     ) -> HitRecord {
         let tree = self.0;
         let nodes = tree.nodes();
-        let Some(root) = nodes.first() else {
+        let Some((pre, mut best)) = enter_root::<T, C, OCT>(tree, ray, rb, c) else {
             return HitRecord::MISS;
         };
         let m = tree.big_m();
         let first_leaf = tree.first_leaf as usize;
-        let pre = T::prepare(ray);
-        let mut best = Best::new(ray);
-        c.boxes(1);
-        let (tn, tf) = rb.slab::<OCT>(&root.min, &root.max, ray.tmin, best.t);
-        if tn > tf {
-            return HitRecord::MISS;
-        }
-        c.steps(1);
         let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); STACK_SIZE];
         let mut sp = 0usize;
         let mut n = 0usize;
