@@ -366,7 +366,8 @@ impl Sink {
     }
 
     /// Rewrite `results.json` after every row (tests that read it between rows).
-    pub fn json_after_every_row(&mut self) {
+    #[cfg(test)]
+    fn json_after_every_row(&mut self) {
         self.json_every = Duration::ZERO;
     }
 
