@@ -203,7 +203,7 @@ pub fn run(plan: &Plan) -> Result<Report, HarnessError> {
         report.rows = merged.0;
         report.status = merged.1;
         if let Some(sig) = sig {
-            return Err(HarnessError::Other(format!(
+            return Err(HarnessError::other(format!(
                 "run: interrupted by {} in process {i} of {} (its finished rows stay in {}; the \
                  finished processes' are merged in {}): rerun with --resume to go on",
                 crate::experiment::child::signal_name(sig),
@@ -215,7 +215,7 @@ pub fn run(plan: &Plan) -> Result<Report, HarnessError> {
         if !began {
             // A process that wrote nothing failed before its first row (a config or scene
             // error): the next would fail alike.
-            return Err(HarnessError::Other(format!(
+            return Err(HarnessError::other(format!(
                 "run: process {i} of {} failed before writing a row ({}); see its error above",
                 plan.n,
                 report.processes[i]
@@ -253,7 +253,7 @@ pub fn merge(out: &Path, n: usize) -> Result<(usize, String), HarnessError> {
         };
         if let Some((d0, m0)) = &first {
             if m0["config_hash"] != meta["config_hash"] {
-                return Err(HarnessError::Other(format!(
+                return Err(HarnessError::other(format!(
                     "refusing to merge processes: {} has config hash {}, {} has {}",
                     d0.display(),
                     m0["config_hash"],

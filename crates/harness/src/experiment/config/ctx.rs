@@ -19,11 +19,11 @@ impl Ctx<'_> {
         key: &str,
         message: impl Into<String>,
     ) -> HarnessError {
-        HarnessError::Config {
+        HarnessError::File(tb_results::Error::Config {
             file: self.file.to_path_buf(),
             line: line_of(self.text, span.start),
             key: key.to_string(),
             message: message.into(),
-        }
+        })
     }
 }

@@ -341,10 +341,10 @@ pub fn parse_with(
         skipped_scenes.push(shard_note(p));
     }
     if scenes.is_empty() && shard.is_none() {
-        return Err(HarnessError::ConfigSyntax {
+        return Err(HarnessError::File(tb_results::Error::ConfigSyntax {
             file: file.into(),
             message: format!("no scene to run: {}", skipped_scenes.join("; ")),
-        });
+        }));
     }
     let images = images::check(
         &cx,
@@ -474,22 +474,22 @@ fn syntax_error(file: &Path, text: &str, e: &toml::de::Error) -> HarnessError {
     };
     // The key of the value at fault, when the error points at a `key = value` line.
     if let (Some(l), Some(key)) = (line, e.span().and_then(|s| key_at(text, s.start))) {
-        return HarnessError::Config {
+        return HarnessError::File(tb_results::Error::Config {
             file: file.into(),
             line: l,
             key,
             message: msg,
-        };
+        });
     }
     match line {
-        Some(l) => HarnessError::ConfigSyntax {
+        Some(l) => HarnessError::File(tb_results::Error::ConfigSyntax {
             file: file.into(),
             message: format!("line {l}: {msg}"),
-        },
-        None => HarnessError::ConfigSyntax {
+        }),
+        None => HarnessError::File(tb_results::Error::ConfigSyntax {
             file: file.into(),
             message: msg,
-        },
+        }),
     }
 }
 

@@ -12,13 +12,17 @@ use toml::Value;
 /// every scene's camera width, unless an index follows it (`structure.1.params.beta=[1, 2]`:
 /// the second `[[structure]]` table only). Returns the effective config text.
 pub fn apply_sets(file: &str, text: &str, sets: &[String]) -> Result<String, HarnessError> {
-    let bad = |set: &str, m: &str| HarnessError::ConfigSyntax {
-        file: file.into(),
-        message: format!("--set {set}: {m}"),
+    let bad = |set: &str, m: &str| {
+        HarnessError::File(tb_results::Error::ConfigSyntax {
+            file: file.into(),
+            message: format!("--set {set}: {m}"),
+        })
     };
-    let mut doc: toml::Table = toml::from_str(text).map_err(|e| HarnessError::ConfigSyntax {
-        file: file.into(),
-        message: e.message().trim().replace('\n', " "),
+    let mut doc: toml::Table = toml::from_str(text).map_err(|e| {
+        HarnessError::File(tb_results::Error::ConfigSyntax {
+            file: file.into(),
+            message: e.message().trim().replace('\n', " "),
+        })
     })?;
     for set in sets {
         let (key, raw) = set

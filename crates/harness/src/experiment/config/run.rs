@@ -44,8 +44,8 @@ pub(super) fn check_run(
     };
     let repeat = match ov.repeat {
         Some(0) => {
-            return Err(HarnessError::Other(
-                "--repeat 0: must be at least 1 (a row needs one timed run)".into(),
+            return Err(HarnessError::other(
+                "--repeat 0: must be at least 1 (a row needs one timed run)",
             ))
         }
         Some(r) => r,

@@ -163,7 +163,7 @@ impl Runner {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
-            .map_err(|e| HarnessError::Other(format!("cannot start {threads} threads: {e}")))?;
+            .map_err(|e| HarnessError::other(format!("cannot start {threads} threads: {e}")))?;
         Ok(Some(Runner {
             spec,
             path,
@@ -324,7 +324,7 @@ impl Runner {
                 self.pool
                     .install(|| render(tris, camera, integrator, seed, spp, &t, 1 << 21))
             })
-            .map_err(|e| HarnessError::Other(e.to_string()))?;
+            .map_err(|e| HarnessError::other(e.to_string()))?;
             notes.push(format!(
                 "{}: {} reference {} {}",
                 scene.label,

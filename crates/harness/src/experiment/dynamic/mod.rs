@@ -70,7 +70,7 @@ pub fn run(
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .map_err(|e| HarnessError::Other(format!("cannot start {threads} threads: {e}")))?;
+        .map_err(|e| HarnessError::other(format!("cannot start {threads} threads: {e}")))?;
     let cx = Ctx { exp, spec, pool };
     let path = out.join("dynamic.csv");
     let cpath = out.join("dynamic-choice.csv");
@@ -211,7 +211,7 @@ impl Ctx<'_> {
     fn load_frame(&self, scene: &SceneSpec, frame: u32) -> Result<Arc<[Triangle]>, HarnessError> {
         let src = frame_source(&scene.scene.source, frame);
         let s = tb_scene::load(&src, &self.exp.scenes_root)
-            .map_err(|e| HarnessError::Other(format!("dynamic: {}: {e}", scene.label)))?;
+            .map_err(|e| HarnessError::other(format!("dynamic: {}: {e}", scene.label)))?;
         Ok(s.triangles.into())
     }
 
@@ -303,7 +303,7 @@ impl Ctx<'_> {
         tris: &Arc<[Triangle]>,
     ) -> Result<Frame, HarnessError> {
         let fail = |e: tb_core::AccelError| {
-            HarnessError::Other(format!(
+            HarnessError::other(format!(
                 "dynamic: {} {} [{params}]: {e}",
                 scene.label, st.family.name
             ))

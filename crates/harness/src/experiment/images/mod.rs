@@ -52,7 +52,7 @@ pub fn scene_dir(out: &Path, scene: &str) -> PathBuf {
 }
 
 fn err(e: impl std::fmt::Display) -> HarnessError {
-    HarnessError::Other(e.to_string())
+    HarnessError::other(e.to_string())
 }
 
 /// Append one line to `images/index.csv` (header first when the file is new).

@@ -186,7 +186,7 @@ impl<'a> Run<'a> {
             }
             Mode::Validate => vec![(DeviceKind::Cpu, vec![0])],
         };
-        let cpu = CpuDevice::new(&exp.run.threads, !running).map_err(HarnessError::Other)?;
+        let cpu = CpuDevice::new(&exp.run.threads, !running).map_err(HarnessError::other)?;
         let total = match &exp.shard {
             Some(p) if opts.mode == Mode::Run => p.rows(),
             _ => plan::total_rows(exp, &devices),
