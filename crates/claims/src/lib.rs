@@ -29,6 +29,7 @@ pub mod reproduce;
 pub mod rows;
 mod runs;
 mod schema;
+pub mod stability;
 
 pub use eval::{
     evaluate, evaluate_with, ClaimResult, GroupResult, Options, Value, Verdict, TIME_FLOOR,

@@ -148,6 +148,11 @@ enum Cmd {
     /// Evaluate a paper's claims (claims/PAPER.toml) against results folders or CSVs:
     /// claim | paper | ours | verdict (agree, disagree, inconclusive) | why.
     Claims(ClaimsArgs),
+    /// Compare the verdicts of reproduce reports made alike (the same command run again):
+    /// every counter claim must keep its verdict, and no time claim may agree in one report
+    /// and disagree in another (decided in one, inconclusive in another is allowed); exit 1
+    /// otherwise.
+    Compare(CompareArgs),
     /// Print a scene's triangles, bounds, zero-area count and memory.
     Info(InfoArgs),
 }
@@ -312,6 +317,14 @@ pub(crate) struct ClaimsArgs {
     time_floor: f64,
 }
 
+/// `trace-bench compare`'s arguments.
+#[derive(clap::Args)]
+pub(crate) struct CompareArgs {
+    /// The reports: reproduce's folders (or their verdicts.json), two or more.
+    #[arg(required = true, num_args = 2..)]
+    reports: Vec<PathBuf>,
+}
+
 /// `trace-bench info`'s arguments.
 #[derive(clap::Args)]
 pub(crate) struct InfoArgs {
@@ -349,6 +362,7 @@ fn dispatch(cli: Cli) -> Result<i32> {
         Cmd::List(a) => a.run(),
         Cmd::Reproduce(a) => a.run(),
         Cmd::Claims(a) => a.run(),
+        Cmd::Compare(a) => a.run(),
         Cmd::Weights(a) => a.run(),
         Cmd::Scenes => cmd_scenes(),
         Cmd::Info(a) => a.run(),

@@ -150,6 +150,40 @@ impl ReproduceArgs {
     }
 }
 
+impl CompareArgs {
+    /// `trace-bench compare`: the verdicts of several reports, claim by claim.
+    pub(crate) fn run(self) -> Result<i32> {
+        let s = tb_claims::stability::compare(&self.reports)?;
+        let list = |what: &str, v: &[String]| {
+            if !v.is_empty() {
+                println!("{what}:");
+                for l in v {
+                    println!("  {l}");
+                }
+            }
+        };
+        list("counter verdicts that moved", &s.counter_moved);
+        list("time verdicts between agree and disagree", &s.time_flipped);
+        list(
+            "time verdicts decided in some reports only",
+            &s.time_decided_once,
+        );
+        list("claims missing from some report", &s.missing);
+        println!(
+            "{} reports: counter claims {} identical, {} moved; time claims {} identical, {} \
+             decided in some only, {} between agree and disagree; {} not in every report",
+            self.reports.len(),
+            s.counter_same,
+            s.counter_moved.len(),
+            s.time_same,
+            s.time_decided_once.len(),
+            s.time_flipped.len(),
+            s.missing.len()
+        );
+        Ok(if s.holds() { 0 } else { 1 })
+    }
+}
+
 /// The claims files `reproduce PAPER` names: a paper's key under `claims_dir`, a claims file,
 /// or `all` (every claims file there with runs).
 fn claims_files(paper: &str, claims_dir: &Path) -> Result<Vec<PathBuf>> {

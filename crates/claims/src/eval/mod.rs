@@ -56,6 +56,15 @@ type Grouped<'a> = (
     BTreeSet<String>,
 );
 
+/// Whether claim `c` (measure `m`) compares timings: its measure or a selector's own floored.
+fn timed(c: &Claim, m: &Measure) -> bool {
+    m.floored()
+        || c.rows
+            .values()
+            .filter_map(|s| s.measure().and_then(|x| Measure::parse(x).ok()))
+            .any(|x| x.floored())
+}
+
 fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> ClaimResult {
     let m = Measure::parse(&c.measure).expect("checked when the file was loaded");
     let names: Vec<&str> = {
@@ -111,6 +120,7 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
         device: device.into(),
         kind: c.kind,
         measure: shown_measure(c),
+        timed: timed(c, &m),
         verdict,
         undecidable,
         ours,

@@ -220,6 +220,9 @@ pub struct ClaimResult {
     /// A claim of the paper (tallied), an observation or an invariant (shown apart).
     pub kind: ClaimKind,
     pub measure: String,
+    /// Whether the measure (or a selector's own) is a timing ([`crate::stability`]: time
+    /// verdicts may move between runs, counter verdicts may not).
+    pub timed: bool,
     pub verdict: Verdict,
     /// Why the claim cannot be decided by construction, where it cannot.
     #[serde(skip_serializing_if = "Option::is_none")]
