@@ -113,22 +113,34 @@ pub struct RowSet {
     pub sources: Vec<PathBuf>,
 }
 
+/// The CSV files of folder `p` that hold rows: every `*.csv` in it but `params.csv`, sorted.
+fn csv_files(p: &Path) -> Result<Vec<PathBuf>, Error> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(p)
+        .map_err(|e| Error::io(p, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|f| {
+            f.extension().is_some_and(|x| x == "csv")
+                && f.file_name().is_some_and(|n| n != "params.csv")
+        })
+        .collect();
+    v.sort();
+    Ok(v)
+}
+
 impl RowSet {
+    /// Whether folder `p` holds a CSV that [`RowSet::read`] reads (a run that failed before
+    /// writing a row leaves none).
+    pub fn holds_rows(p: &Path) -> bool {
+        p.is_dir() && csv_files(p).is_ok_and(|v| !v.is_empty())
+    }
+
     /// Read each path: a folder gives every `*.csv` in it but `params.csv`; a file is one CSV.
     pub fn read(paths: &[PathBuf]) -> Result<RowSet, Error> {
         let mut set = RowSet::default();
         let mut index: HashMap<String, usize> = HashMap::new();
         for p in paths {
             let files = if p.is_dir() {
-                let mut v: Vec<PathBuf> = std::fs::read_dir(p)
-                    .map_err(|e| Error::io(p, e))?
-                    .filter_map(|e| e.ok().map(|e| e.path()))
-                    .filter(|f| {
-                        f.extension().is_some_and(|x| x == "csv")
-                            && f.file_name().is_some_and(|n| n != "params.csv")
-                    })
-                    .collect();
-                v.sort();
+                let v = csv_files(p)?;
                 if v.is_empty() {
                     return Err(Error::io(p, "no CSV file in this folder"));
                 }

@@ -93,6 +93,41 @@ fn a_failed_run_exits_non_zero_in_words() {
         .contains("exit status 1"));
 }
 
+/// A run in several processes that fails before any row leaves its processes' folders but no
+/// CSV: the report of the rest is still written and the failure is said (it ended in
+/// "no CSV file in this folder" without a report before).
+#[test]
+fn a_run_of_several_processes_failing_before_a_row_still_gets_its_report() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = t.path().join("missing-scene.toml");
+    fs::write(
+        &cfg,
+        "name = \"tiny\"\n[run]\nthreads = 1\nrepeat = 3\nwarmup = 0\n\n[[scene]]\nsource = \"no-such-scene.obj\"\nrays = [\"primary\"]\n\n[[structure]]\nname = \"kdtree\"\n",
+    )
+    .unwrap();
+    let c = claims(t.path(), &cfg, 32);
+    let text = fs::read_to_string(&c).unwrap();
+    fs::write(
+        &c,
+        text.replace("cost_s = 1\n", "cost_s = 1\nprocesses = 3\n"),
+    )
+    .unwrap();
+    let out = t.path().join("out");
+    let o = reproduce(&c, &out, &[]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(!e.contains("no CSV file"), "{e}");
+    assert!(
+        e.lines()
+            .last()
+            .unwrap()
+            .starts_with("error: 1 runs failed: tiny-paper"),
+        "{e}"
+    );
+    let report = fs::read_to_string(out.join("REPORT.md")).unwrap();
+    assert!(report.contains("exit status 1"), "{report}");
+}
+
 #[test]
 fn configs_and_with_are_checked_before_the_first_run() {
     let t = tempfile::tempdir().unwrap();

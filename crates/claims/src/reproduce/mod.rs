@@ -509,10 +509,12 @@ pub fn reproduce(opts: &Options, runner: &dyn Runs) -> Result<Vec<PaperReport>, 
             make_run(r, opts, runner)?;
             r.spread = spread(&r.folder);
         }
+        // A run that failed before writing a row (its folder may hold its processes' empty
+        // folders) adds no rows: its claims' groups read "rows missing", the report says why.
         let mut sources: Vec<PathBuf> = runs
             .iter()
             .map(|r| r.folder.clone())
-            .filter(|f| f.is_dir() && std::fs::read_dir(f).is_ok_and(|mut d| d.next().is_some()))
+            .filter(|f| RowSet::holds_rows(f))
             .collect();
         sources.extend(opts.with.iter().cloned());
         let rows = if sources.is_empty() {
