@@ -231,10 +231,10 @@ impl Structure for Bvh {
             "ordered depth-first with a stack, nearer child first (both child boxes tested at \
              the parent; pbrt-v3 §4.3.5; robust slab test, Ize 2013)",
         ),
-        |b, query, tri, rays, hits, stats| {
+        tb_core::kernel!(|b: &Bvh, batch, out| {
             let scalar = b.params.simd == Simd::Scalar;
             match &b.wide {
-                WideNodes::None => dispatch(&traverse::Ordered(b), query, tri, rays, hits, stats),
+                WideNodes::None => dispatch(&traverse::Ordered(b), batch, out),
                 WideNodes::W4(nodes) => {
                     let isa = wide::Isa::detect(4, scalar);
                     let (blocks, root) = (&b.blocks[..], b.nodes.first());
@@ -244,7 +244,7 @@ impl Structure for Bvh {
                         isa,
                         root,
                     };
-                    dispatch(&k, query, tri, rays, hits, stats)
+                    dispatch(&k, batch, out)
                 }
                 WideNodes::W8(nodes) => {
                     let isa = wide::Isa::detect(8, scalar);
@@ -255,10 +255,10 @@ impl Structure for Bvh {
                         isa,
                         root,
                     };
-                    dispatch(&k, query, tri, rays, hits, stats)
+                    dispatch(&k, batch, out)
                 }
             }
-        },
+        }),
         Bvh::gpu_ordered,
     )];
 

@@ -186,7 +186,11 @@ fn empty_scene_misses_everything() {
                     .all(|h| *h == HitRecord::MISS));
                 let mut hits = vec![HitRecord::MISS; rays.len()];
                 let mut stats = vec![TraversalStats::default(); rays.len()];
-                bvh.trace(0, q, tri, &rays, &mut hits, Some(&mut stats));
+                bvh.trace(
+                    0,
+                    tb_core::Batch::new(q, tri, &rays),
+                    tb_core::Answers::new(&mut hits, Some(&mut stats)),
+                );
                 assert!(stats.iter().all(|s| s.steps == 0));
             }
         }
@@ -320,7 +324,11 @@ fn counters_do_not_change_results() {
             let plain = trace(&bvh, q, tri, &rays);
             let mut hits = vec![HitRecord::MISS; rays.len()];
             let mut stats = vec![TraversalStats::default(); rays.len()];
-            bvh.trace(0, q, tri, &rays, &mut hits, Some(&mut stats));
+            bvh.trace(
+                0,
+                tb_core::Batch::new(q, tri, &rays),
+                tb_core::Answers::new(&mut hits, Some(&mut stats)),
+            );
             assert_eq!(plain, hits, "{q:?} {}", tri.name());
             let mut visited = 0;
             for s in &stats {
@@ -341,11 +349,8 @@ fn counters_do_not_change_results() {
     let mut hits = vec![HitRecord::MISS; rays.len()];
     bvh.trace(
         0,
-        Query::Closest,
-        TriTestKind::Watertight,
-        &rays,
-        &mut hits,
-        Some(&mut stats),
+        tb_core::Batch::new(Query::Closest, TriTestKind::Watertight, &rays),
+        tb_core::Answers::new(&mut hits, Some(&mut stats)),
     );
     let mean_prims = stats.iter().map(|s| s.prims as f64).sum::<f64>() / rays.len() as f64;
     assert!(mean_prims < 100.0, "{mean_prims}");

@@ -15,7 +15,11 @@ fn trace(
 ) -> Vec<(u32, u32, u32, u32, TraversalStats)> {
     let mut hits = vec![HitRecord::MISS; rays.len()];
     let mut stats = vec![TraversalStats::default(); rays.len()];
-    b.trace(0, q, t, rays, &mut hits, Some(&mut stats));
+    b.trace(
+        0,
+        tb_core::Batch::new(q, t, rays),
+        tb_core::Answers::new(&mut hits, Some(&mut stats)),
+    );
     hits.iter()
         .zip(stats)
         .map(|(h, s)| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits(), s))

@@ -104,9 +104,88 @@ impl TraversalInfo {
     }
 }
 
+/// One batch to trace: the query every ray asks, the triangle test, the rays and, for a
+/// traversal that takes them ([`Traversal::with_hints`]), one start hint per ray
+/// ([`Accel::batch_hints`]). The trace signature's inputs in one value ([`Accel::trace`],
+/// [`TraceFn`], [`dispatch`]); its outputs are an [`Answers`].
+#[derive(Clone, Copy, Debug)]
+pub struct Batch<'a> {
+    pub query: Query,
+    pub tri: TriTestKind,
+    pub rays: &'a [Ray],
+    /// One start hint per ray, or `None`: the kernel finds its starts itself.
+    pub hints: Option<&'a [u32]>,
+}
+
+impl<'a> Batch<'a> {
+    /// `rays` asking `query` with triangle test `tri`, without start hints.
+    pub fn new(query: Query, tri: TriTestKind, rays: &'a [Ray]) -> Self {
+        Batch {
+            query,
+            tri,
+            rays,
+            hints: None,
+        }
+    }
+
+    /// This batch with start hints `hints` (one per ray; `None`: none).
+    pub fn with_hints(self, hints: Option<&'a [u32]>) -> Self {
+        if let Some(h) = hints {
+            assert_eq!(h.len(), self.rays.len(), "one hint per ray");
+        }
+        Batch { hints, ..self }
+    }
+
+    /// Its rays from `range` (and their hints).
+    pub fn slice(self, range: std::ops::Range<usize>) -> Self {
+        Batch {
+            rays: &self.rays[range.clone()],
+            hints: self.hints.map(|h| &h[range]),
+            ..self
+        }
+    }
+
+    /// Its consecutive parts of `n` rays (the last may be shorter), hints split alike.
+    pub fn chunks(self, n: usize) -> impl Iterator<Item = Batch<'a>> {
+        let len = self.rays.len();
+        (0..len.div_ceil(n)).map(move |i| self.slice(i * n..((i + 1) * n).min(len)))
+    }
+}
+
+/// Where a traced batch's answers go: one hit record per ray and, when counting, one counter
+/// record per ray (`None`: counters compiled out, the timed pass).
+#[derive(Debug)]
+pub struct Answers<'a> {
+    pub hits: &'a mut [HitRecord],
+    pub stats: Option<&'a mut [TraversalStats]>,
+}
+
+impl<'a> Answers<'a> {
+    /// Hit records only (the timed pass).
+    pub fn hits(hits: &'a mut [HitRecord]) -> Self {
+        Answers { hits, stats: None }
+    }
+
+    /// Hit records and, when `stats` is given, counter records.
+    pub fn new(hits: &'a mut [HitRecord], stats: Option<&'a mut [TraversalStats]>) -> Self {
+        if let Some(s) = &stats {
+            assert_eq!(hits.len(), s.len(), "one stats record per hit record");
+        }
+        Answers { hits, stats }
+    }
+
+    /// The same records, borrowed again (to pass on and use after).
+    pub fn reborrow(&mut self) -> Answers<'_> {
+        Answers {
+            hits: self.hits,
+            stats: self.stats.as_deref_mut(),
+        }
+    }
+}
+
 /// Traces a batch with one traversal of structure `S` (single-threaded; see [`Accel::trace`]).
-pub type TraceFn<S> =
-    fn(&S, Query, TriTestKind, &[Ray], &mut [HitRecord], Option<&mut [TraversalStats]>);
+/// Write a table's kernels with [`kernel!`](crate::kernel), not as closures.
+pub type TraceFn<S> = fn(&S, Batch<'_>, Answers<'_>);
 
 /// The GPU program of one traversal of a build of `S`.
 pub type GpuFn<S> = for<'a> fn(&'a S) -> GpuProgram<'a>;
@@ -116,25 +195,26 @@ pub type GpuFn<S> = for<'a> fn(&'a S) -> GpuProgram<'a>;
 /// otherwise find per ray, found once per batch by the caller, outside any timing.
 pub type HintFn<S> = fn(&S, Query, &[Ray]) -> Vec<u32>;
 
-/// Traces a batch with one start hint per ray (`Some`, from the traversal's [`HintFn`] over
-/// the same rays) or without (`None`: the kernel finds its starts itself); otherwise as
-/// [`TraceFn`].
-pub type HintedTraceFn<S> = fn(
-    &S,
-    Query,
-    TriTestKind,
-    &[Ray],
-    Option<&[u32]>,
-    &mut [HitRecord],
-    Option<&mut [TraversalStats]>,
-);
-
-/// The start-hint pair of a traversal that takes hints ([`Traversal::with_hints`]).
-pub struct Hints<S> {
-    /// One hint per ray of a batch.
-    pub compute: HintFn<S>,
-    /// The trace that reads them.
-    pub trace: HintedTraceFn<S>,
+/// A traversal table's CPU kernel, `kernel!(|s: &S, batch, out| body)`: a named function of
+/// [`TraceFn`]'s type, never inlined. Written as a closure, a table's kernel is inlinable
+/// across crates (rustc treats closures as `#[inline]`), so every crate that used the
+/// structure (each test binary, the harness) compiled every kernel of its table again: minutes
+/// of CI. Named, it is compiled once, in the structure's crate. `S` must be named (a nested
+/// function cannot see `Self`).
+#[macro_export]
+macro_rules! kernel {
+    (|$s:ident: &$S:ty, $b:ident, $o:ident| $body:block) => {{
+        #[inline(never)]
+        fn kernel($s: &$S, $b: $crate::Batch<'_>, $o: $crate::Answers<'_>) $body
+        kernel as $crate::TraceFn<$S>
+    }};
+    (|$s:ident: &$S:ty, $b:ident, $o:ident| $body:expr) => {{
+        #[inline(never)]
+        fn kernel($s: &$S, $b: $crate::Batch<'_>, $o: $crate::Answers<'_>) {
+            $body
+        }
+        kernel as $crate::TraceFn<$S>
+    }};
 }
 
 /// One row of a structure's traversal table: the facts, the CPU kernel and, where there is
@@ -145,8 +225,8 @@ pub struct Traversal<S> {
     pub trace: TraceFn<S>,
     pub gpu: Option<GpuFn<S>>,
     /// Per-ray start hints computed once per batch by the caller, untimed (`None`: the
-    /// traversal takes none).
-    pub hints: Option<Hints<S>>,
+    /// traversal takes none, and its kernel gets batches without).
+    pub hints: Option<HintFn<S>>,
 }
 
 impl<S> Traversal<S> {
@@ -170,10 +250,10 @@ impl<S> Traversal<S> {
         }
     }
 
-    /// This row taking per-ray start hints: `compute` finds them for a batch, `trace` reads
-    /// them (the row's plain `trace` must give the same answers without them).
-    pub const fn with_hints(mut self, compute: HintFn<S>, trace: HintedTraceFn<S>) -> Self {
-        self.hints = Some(Hints { compute, trace });
+    /// This row taking per-ray start hints: `compute` finds them for a batch, the row's
+    /// kernel reads them from [`Batch::hints`] (and must give the same answers without them).
+    pub const fn with_hints(mut self, compute: HintFn<S>) -> Self {
+        self.hints = Some(compute);
         self
     }
 }
@@ -301,43 +381,17 @@ pub trait Accel: Send + Sync {
     /// traced batch does not pay for them.
     fn prepare(&self, traversal: usize);
 
-    /// Trace `rays` with traversal number `traversal`, writing one record per ray to `hits`
-    /// and, when `stats` is given, one counter record per ray. Single-threaded.
-    fn trace(
-        &self,
-        traversal: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    );
+    /// Trace `batch` with traversal number `traversal`, writing one record per ray to
+    /// `out.hits` and, when `out.stats` is given, one counter record per ray.
+    /// Single-threaded. The batch's hints are read only by a traversal that takes them.
+    fn trace(&self, traversal: usize, batch: Batch<'_>, out: Answers<'_>);
 
     /// Per-ray start hints of traversal number `traversal` for `rays` (one per ray), for
-    /// [`Accel::trace_hinted`]; `None` (the default) for traversals that take none. Callers
+    /// [`Batch::with_hints`]; `None` (the default) for traversals that take none. Callers
     /// compute them once per batch, outside timing.
     fn batch_hints(&self, traversal: usize, query: Query, rays: &[Ray]) -> Option<Vec<u32>> {
         let _ = (traversal, query, rays);
         None
-    }
-
-    /// [`Accel::trace`] with the start hints of [`Accel::batch_hints`] for these rays
-    /// (`None`, or a traversal that takes none: the same as [`Accel::trace`], which the
-    /// default calls).
-    // Over clippy's seven: the trace signature (traversal, query, test, rays, hints, hits, counters); a batch type is issue 45's next step.
-    #[allow(clippy::too_many_arguments)]
-    fn trace_hinted(
-        &self,
-        traversal: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hints: Option<&[u32]>,
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
-        let _ = hints;
-        self.trace(traversal, query, tri, rays, hits, stats)
     }
 
     /// Whether traversal number `traversal` has a GPU kernel (without building its program).
@@ -398,43 +452,21 @@ impl<S: Structure> Accel for S {
         }
     }
 
-    fn trace(
-        &self,
-        traversal: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
-        (row::<S>(traversal).trace)(self, query, tri, rays, hits, stats)
+    fn trace(&self, traversal: usize, batch: Batch<'_>, out: Answers<'_>) {
+        let r = row::<S>(traversal);
+        assert_eq!(batch.rays.len(), out.hits.len(), "one hit record per ray");
+        let batch = match r.hints {
+            Some(_) => batch.with_hints(batch.hints),
+            None => batch.with_hints(None),
+        };
+        (r.trace)(self, batch, out)
     }
 
     fn batch_hints(&self, traversal: usize, query: Query, rays: &[Ray]) -> Option<Vec<u32>> {
-        let h = row::<S>(traversal).hints.as_ref()?;
-        let out = (h.compute)(self, query, rays);
+        let compute = row::<S>(traversal).hints?;
+        let out = compute(self, query, rays);
         assert_eq!(out.len(), rays.len(), "{}: one hint per ray", S::NAME);
         Some(out)
-    }
-
-    fn trace_hinted(
-        &self,
-        traversal: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hints: Option<&[u32]>,
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
-        let r = row::<S>(traversal);
-        match (&r.hints, hints) {
-            (Some(h), Some(hints)) => {
-                assert_eq!(hints.len(), rays.len(), "one hint per ray");
-                (h.trace)(self, query, tri, rays, Some(hints), hits, stats)
-            }
-            _ => (r.trace)(self, query, tri, rays, hits, stats),
-        }
     }
 
     fn has_gpu_program(&self, traversal: usize) -> bool {
@@ -593,23 +625,17 @@ fn run<K: Kernel, T: TriTest, C: Counter>(k: &K, query: Query, ray: &Ray, c: &mu
     }
 }
 
-fn batch<K: Kernel, T: TriTest>(
-    k: &K,
-    query: Query,
-    rays: &[Ray],
-    hits: &mut [HitRecord],
-    stats: Option<&mut [TraversalStats]>,
-) {
-    assert_eq!(rays.len(), hits.len(), "one hit record per ray");
-    match stats {
+fn batch<K: Kernel, T: TriTest>(k: &K, query: Query, rays: &[Ray], out: Answers<'_>) {
+    assert_eq!(rays.len(), out.hits.len(), "one hit record per ray");
+    match out.stats {
         None => {
-            for (r, h) in rays.iter().zip(hits.iter_mut()) {
+            for (r, h) in rays.iter().zip(out.hits.iter_mut()) {
                 *h = run::<K, T, NoStats>(k, query, r, &mut NoStats);
             }
         }
         Some(stats) => {
             assert_eq!(rays.len(), stats.len(), "one stats record per ray");
-            for ((r, h), s) in rays.iter().zip(hits.iter_mut()).zip(stats.iter_mut()) {
+            for ((r, h), s) in rays.iter().zip(out.hits.iter_mut()).zip(stats.iter_mut()) {
                 let mut local = TraversalStats::default();
                 *h = run::<K, T, TraversalStats>(k, query, r, &mut local);
                 *s = local;
@@ -619,17 +645,10 @@ fn batch<K: Kernel, T: TriTest>(
 }
 
 /// Run kernel `k` over a batch, choosing the monomorphised variant for the triangle test and
-/// for counting (`stats` given) or timing (`None`, counters compiled out).
-pub fn dispatch<K: Kernel>(
-    k: &K,
-    query: Query,
-    tri: TriTestKind,
-    rays: &[Ray],
-    hits: &mut [HitRecord],
-    stats: Option<&mut [TraversalStats]>,
-) {
-    match tri {
-        TriTestKind::Watertight => batch::<K, Watertight>(k, query, rays, hits, stats),
-        TriTestKind::MollerTrumbore => batch::<K, MollerTrumbore>(k, query, rays, hits, stats),
+/// for counting (`out.stats` given) or timing (`None`, counters compiled out).
+pub fn dispatch<K: Kernel>(k: &K, b: Batch<'_>, out: Answers<'_>) {
+    match b.tri {
+        TriTestKind::Watertight => batch::<K, Watertight>(k, b.query, b.rays, out),
+        TriTestKind::MollerTrumbore => batch::<K, MollerTrumbore>(k, b.query, b.rays, out),
     }
 }

@@ -26,8 +26,8 @@ pub mod stats;
 pub mod tri;
 
 pub use accel::{
-    build_with, dispatch, Accel, AccelError, BuildFn, BuildReport, Family, HintFn, HintedTraceFn,
-    Hints, Kernel, MemoryReport, Query, Structure, TraceFn, Traversal, TraversalInfo,
+    build_with, dispatch, Accel, AccelError, Answers, Batch, BuildFn, BuildReport, Family, HintFn,
+    Kernel, MemoryReport, Query, Structure, TraceFn, Traversal, TraversalInfo,
 };
 pub use compare::{
     compare, compare_any, compare_closest, hex_f32, t_tolerance, Mismatch, MismatchKind, T_REL_TOL,

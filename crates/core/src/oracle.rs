@@ -117,7 +117,7 @@ impl Structure for BruteForce {
             "ground truth",
             "every triangle in index order (the oracle)",
         ),
-        dispatch::<BruteForce>,
+        crate::kernel!(|o: &BruteForce, batch, out| dispatch(o, batch, out)),
         BruteForce::gpu_linear,
     )];
 

@@ -299,9 +299,7 @@ impl Structure for TwoLevelGrid {
             "Kalojanov et al. 2011 §4",
             "3D-DDA over the top level, and in each non-empty top cell 3D-DDA over its own grid",
         ),
-        |g, query, tri, rays, hits, stats| {
-            tb_core::dispatch(&Dda(g), query, tri, rays, hits, stats)
-        },
+        tb_core::kernel!(|g: &TwoLevelGrid, batch, out| { tb_core::dispatch(&Dda(g), batch, out) }),
         TwoLevelGrid::gpu_dda,
     )];
 

@@ -293,9 +293,7 @@ impl Structure for UniformGrid {
             "3D-DDA from cell to cell (Amanatides and Woo 1987), skipping an empty cell's \
              macro region in one step where built (Devillers 1989)",
         ),
-        |g, query, tri, rays, hits, stats| {
-            tb_core::dispatch(&Dda(g), query, tri, rays, hits, stats)
-        },
+        tb_core::kernel!(|g: &UniformGrid, batch, out| { tb_core::dispatch(&Dda(g), batch, out) }),
         UniformGrid::gpu_dda,
     )];
 

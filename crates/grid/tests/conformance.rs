@@ -4,8 +4,8 @@
 
 use std::sync::Arc;
 use tb_core::{
-    compare, Accel, AccelError, BruteForce, BuildReport, GpuProgram, HitRecord, MemoryReport,
-    Query, Ray, TraversalInfo, TraversalStats, TriTestKind, Triangle, Vec3,
+    compare, Accel, AccelError, Answers, Batch, BruteForce, BuildReport, GpuProgram, HitRecord,
+    MemoryReport, Query, Ray, TraversalInfo, TraversalStats, TriTestKind, Triangle, Vec3,
 };
 use tb_grid::{
     Densities, Initial, IrregularGrid, IrregularParams, Lattice, Precision, TwoLevelGrid,
@@ -176,16 +176,8 @@ impl Accel for All {
         self.0.iter().try_for_each(|b| b.accel().validate())
     }
     fn prepare(&self, _: usize) {}
-    fn trace(
-        &self,
-        t: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
-        self.0[t].accel().trace(0, query, tri, rays, hits, stats)
+    fn trace(&self, t: usize, batch: Batch<'_>, out: Answers<'_>) {
+        self.0[t].accel().trace(0, batch, out)
     }
     fn has_gpu_program(&self, _: usize) -> bool {
         false
@@ -242,14 +234,9 @@ fn rays_along_cell_faces_edges_and_corners() {
                 tb_core::par::trace(&oracle, 0, Query::Closest, TriTestKind::Watertight, &rays);
             let mut got = vec![HitRecord::MISS; rays.len()];
             let mut st = vec![TraversalStats::default(); rays.len()];
-            b.accel().trace(
-                0,
-                Query::Closest,
-                TriTestKind::Watertight,
-                &rays,
-                &mut got,
-                Some(&mut st),
-            );
+            let batch = Batch::new(Query::Closest, TriTestKind::Watertight, &rays);
+            b.accel()
+                .trace(0, batch, Answers::new(&mut got, Some(&mut st)));
             let top = lat.res.iter().sum::<u32>();
             // A two-level walk also crosses each visited top cell's grid (at most 3 · 255 cells).
             let bound = if matches!(b, Built::TwoLevel(_)) {

@@ -328,16 +328,16 @@ impl KdTree {
 /// triangle test and the counter.
 macro_rules! per_layout {
     (|$kd:ident, $w:ident| $kernel:expr) => {
-        |$kd: &KdTree, query, tri, rays, hits, stats| match $kd.params.layout {
+        tb_core::kernel!(|$kd: &KdTree, batch, out| match $kd.params.layout {
             KdLayout::DepthFirst => {
                 let $w = $kd.tree(DepthFirst);
-                dispatch(&$kernel, query, tri, rays, hits, stats)
+                dispatch(&$kernel, batch, out)
             }
             KdLayout::Treelet => {
                 let $w = $kd.tree(Treelet::new($kd.params.treelet_height));
-                dispatch(&$kernel, query, tri, rays, hits, stats)
+                dispatch(&$kernel, batch, out)
             }
-        }
+        })
     };
 }
 
@@ -819,11 +819,8 @@ mod tests {
         for t in 0..KdTree::TRAVERSALS.len() {
             e.trace(
                 t,
-                Query::Closest,
-                TriTestKind::Watertight,
-                &rays,
-                &mut hits,
-                None,
+                tb_core::Batch::new(Query::Closest, TriTestKind::Watertight, &rays),
+                tb_core::Answers::hits(&mut hits),
             );
             assert!(!hits[0].is_hit());
         }
@@ -837,7 +834,11 @@ mod tests {
         for t in 0..KdTree::TRAVERSALS.len() {
             let mut hits = [HitRecord::MISS; 2];
             let tri = TriTestKind::Watertight;
-            one.trace(t, Query::Closest, tri, &rays, &mut hits, None);
+            one.trace(
+                t,
+                tb_core::Batch::new(Query::Closest, tri, &rays),
+                tb_core::Answers::hits(&mut hits),
+            );
             assert_eq!((hits[0].prim, hits[1].prim), (0, u32::MAX));
         }
     }
@@ -860,11 +861,8 @@ mod tests {
         let trace = |kd: &KdTree, t: usize, hits: &mut [HitRecord]| {
             kd.trace(
                 t,
-                Query::Closest,
-                TriTestKind::Watertight,
-                &rays,
-                hits,
-                None,
+                tb_core::Batch::new(Query::Closest, TriTestKind::Watertight, &rays),
+                tb_core::Answers::hits(hits),
             )
         };
         for t in 0..KdTree::TRAVERSALS.len() {

@@ -109,7 +109,11 @@ fn walks_from_a_start_node_stay_in_its_subtree() {
                 let mut hits = vec![HitRecord::MISS; rays.len()];
                 let mut stats = vec![tb_core::TraversalStats::default(); rays.len()];
                 let tri = TriTestKind::Watertight;
-                p.trace(t, q, tri, &rays, &mut hits, Some(&mut stats));
+                p.trace(
+                    t,
+                    tb_core::Batch::new(q, tri, &rays),
+                    tb_core::Answers::new(&mut hits, Some(&mut stats)),
+                );
                 let visits = stats.iter().filter(|s| s.prims >= POISON).count();
                 let at = format!("{:?} {:?}", p.params.layout, p.start());
                 assert_eq!(visits, 0, "{at}: {} {q:?}", row.info.name);
@@ -154,7 +158,11 @@ fn check(sub: &KdTree, rays: &[Ray], tally: &mut Tally, what: &str) {
             })
             .collect();
         let mut hits = vec![HitRecord::MISS; rays.len()];
-        oracle.trace(0, Query::Closest, tri, &clipped, &mut hits, None);
+        oracle.trace(
+            0,
+            tb_core::Batch::new(Query::Closest, tri, &clipped),
+            tb_core::Answers::hits(&mut hits),
+        );
         for e in hits.iter_mut().filter(|e| e.is_hit()) {
             e.prim = ids[e.prim as usize];
         }
@@ -165,7 +173,11 @@ fn check(sub: &KdTree, rays: &[Ray], tally: &mut Tally, what: &str) {
     for (ti, info) in sub.traversals().iter().enumerate() {
         for q in [Query::Closest, Query::Any] {
             let mut got = vec![HitRecord::MISS; rays.len()];
-            sub.trace(ti, q, tri, rays, &mut got, None);
+            sub.trace(
+                ti,
+                tb_core::Batch::new(q, tri, rays),
+                tb_core::Answers::hits(&mut got),
+            );
             for (k, (g, e)) in got.iter().zip(&expected).enumerate() {
                 let at = || format!("{what}: {} {q:?}, ray {k}: {:?}", info.name, rays[k]);
                 let Some((t0, t1)) = clip[k] else {
@@ -264,11 +276,8 @@ fn the_root_subtree_is_the_tree() {
             let mut s = vec![tb_core::TraversalStats::default(); rays.len()];
             t.trace(
                 ti,
-                Query::Closest,
-                TriTestKind::Watertight,
-                &rays,
-                &mut h,
-                Some(&mut s),
+                tb_core::Batch::new(Query::Closest, TriTestKind::Watertight, &rays),
+                tb_core::Answers::new(&mut h, Some(&mut s)),
             );
             (h, s)
         };
@@ -296,11 +305,8 @@ fn trees_share_one_triangle_array() {
         let mut h = vec![HitRecord::MISS; rays.len()];
         t.trace(
             0,
-            Query::Closest,
-            TriTestKind::Watertight,
-            &rays,
-            &mut h,
-            None,
+            tb_core::Batch::new(Query::Closest, TriTestKind::Watertight, &rays),
+            tb_core::Answers::hits(&mut h),
         );
         h
     };

@@ -52,17 +52,8 @@ impl Accel for Subset {
     fn gpu_program(&self, traversal: usize) -> Option<GpuProgram<'_>> {
         self.kd.gpu_program(self.which[traversal])
     }
-    fn trace(
-        &self,
-        traversal: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
-        self.kd
-            .trace(self.which[traversal], query, tri, rays, hits, stats)
+    fn trace(&self, traversal: usize, batch: tb_core::Batch<'_>, out: tb_core::Answers<'_>) {
+        self.kd.trace(self.which[traversal], batch, out)
     }
 }
 
@@ -77,11 +68,8 @@ fn traced(kd: &KdTree, ti: usize, q: Query, rays: &[Ray]) -> (Vec<HitRecord>, Ve
     let mut stats = vec![TraversalStats::default(); rays.len()];
     kd.trace(
         ti,
-        q,
-        TriTestKind::Watertight,
-        rays,
-        &mut hits,
-        Some(&mut stats),
+        tb_core::Batch::new(q, TriTestKind::Watertight, rays),
+        tb_core::Answers::new(&mut hits, Some(&mut stats)),
     );
     (hits, stats)
 }
@@ -414,11 +402,8 @@ fn sponza_ropes_hand_few_rays_to_restart() {
     let mut want = vec![HitRecord::MISS; sample.len()];
     oracle.trace(
         0,
-        Query::Closest,
-        TriTestKind::Watertight,
-        &sample,
-        &mut want,
-        None,
+        tb_core::Batch::new(Query::Closest, TriTestKind::Watertight, &sample),
+        tb_core::Answers::hits(&mut want),
     );
     for (k, w) in want.iter().enumerate() {
         assert_eq!(hits[k * 64].prim, w.prim, "ray {}", k * 64);

@@ -67,9 +67,9 @@ pub use traverse::{ARRANGE_BLOCK, TREE_SHIFT};
 use measure::{Heuristic, WeightedArea};
 use std::sync::{Arc, OnceLock};
 use tb_core::{
-    build_with, dispatch, Aabb, AccelError, BuildReport, Counter, Family, HitRecord, Kernel,
-    MemoryReport, MollerTrumbore, NoStats, Query, Ray, Structure, Traversal, TraversalInfo,
-    TraversalStats, TriTest, TriTestKind, Triangle, Watertight,
+    build_with, dispatch, Aabb, AccelError, Answers, Batch, BuildReport, Counter, Family,
+    HitRecord, Kernel, MemoryReport, MollerTrumbore, NoStats, Query, Ray, Structure, Traversal,
+    TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle, Watertight,
 };
 use tb_kdtree::stackless::{self, Stackless};
 use tb_kdtree::view::{self, Aux};
@@ -215,38 +215,48 @@ impl Structure for MultiKdTree {
     /// The kd-tree's traversals (same names, same kernels) with the per-ray tree choice, then
     /// each as `NAME-sorted`, then each as `NAME-presorted` (see the module doc).
     const TRAVERSALS: &'static [Traversal<Self>] = &[
-        Traversal::with_gpu(kd_info(0), plain::<0>, MultiKdTree::gpu_recursive_direction),
-        Traversal::cpu(kd_info(1), plain::<1>),
-        Traversal::cpu(kd_info(2), plain::<2>),
-        Traversal::cpu(kd_info(3), plain::<3>),
-        Traversal::cpu(kd_info(4), plain::<4>),
-        Traversal::cpu(kd_info(5), plain::<5>),
-        Traversal::cpu(kd_info(6), plain::<6>),
-        Traversal::cpu(kd_info(7), plain::<7>),
-        Traversal::cpu(kd_info(8), plain::<8>),
-        Traversal::cpu(kd_info(9), plain::<9>),
-        Traversal::cpu(kd_info(10), plain::<10>),
+        Traversal::with_gpu(
+            kd_info(0),
+            row_kernel!(plain, 0),
+            MultiKdTree::gpu_recursive_direction,
+        ),
+        Traversal::cpu(kd_info(1), row_kernel!(plain, 1)),
+        Traversal::cpu(kd_info(2), row_kernel!(plain, 2)),
+        Traversal::cpu(kd_info(3), row_kernel!(plain, 3)),
+        Traversal::cpu(kd_info(4), row_kernel!(plain, 4)),
+        Traversal::cpu(kd_info(5), row_kernel!(plain, 5)),
+        Traversal::cpu(kd_info(6), row_kernel!(plain, 6)),
+        Traversal::cpu(kd_info(7), row_kernel!(plain, 7)),
+        Traversal::cpu(kd_info(8), row_kernel!(plain, 8)),
+        Traversal::cpu(kd_info(9), row_kernel!(plain, 9)),
+        Traversal::cpu(kd_info(10), row_kernel!(plain, 10)),
         Traversal::with_gpu(
             sorted_info(0, "recursive-direction-sorted"),
-            sorted::<0>,
+            row_kernel!(sorted, 0),
             MultiKdTree::gpu_sorted,
         ),
-        Traversal::cpu(sorted_info(1, "havran-sorted"), sorted::<1>),
-        Traversal::cpu(sorted_info(2, "recursive-origin-sorted"), sorted::<2>),
-        Traversal::cpu(sorted_info(3, "restart-sorted"), sorted::<3>),
-        Traversal::cpu(sorted_info(4, "push-down-sorted"), sorted::<4>),
-        Traversal::cpu(sorted_info(5, "short-stack-sorted"), sorted::<5>),
-        Traversal::cpu(sorted_info(6, "sequential-sorted"), sorted::<6>),
-        Traversal::cpu(sorted_info(7, "backtrack-sorted"), sorted::<7>),
-        Traversal::cpu(sorted_info(8, "ropes-sorted"), sorted::<8>),
-        Traversal::cpu(sorted_info(9, "branchless-sorted"), sorted::<9>),
-        Traversal::cpu(sorted_info(10, "stack-spilling-sorted"), sorted::<10>),
+        Traversal::cpu(sorted_info(1, "havran-sorted"), row_kernel!(sorted, 1)),
+        Traversal::cpu(
+            sorted_info(2, "recursive-origin-sorted"),
+            row_kernel!(sorted, 2),
+        ),
+        Traversal::cpu(sorted_info(3, "restart-sorted"), row_kernel!(sorted, 3)),
+        Traversal::cpu(sorted_info(4, "push-down-sorted"), row_kernel!(sorted, 4)),
+        Traversal::cpu(sorted_info(5, "short-stack-sorted"), row_kernel!(sorted, 5)),
+        Traversal::cpu(sorted_info(6, "sequential-sorted"), row_kernel!(sorted, 6)),
+        Traversal::cpu(sorted_info(7, "backtrack-sorted"), row_kernel!(sorted, 7)),
+        Traversal::cpu(sorted_info(8, "ropes-sorted"), row_kernel!(sorted, 8)),
+        Traversal::cpu(sorted_info(9, "branchless-sorted"), row_kernel!(sorted, 9)),
+        Traversal::cpu(
+            sorted_info(10, "stack-spilling-sorted"),
+            row_kernel!(sorted, 10),
+        ),
         Traversal::with_gpu(
             presorted_info(0, "recursive-direction-presorted"),
-            sorted::<0>,
+            row_kernel!(presorted, 0),
             MultiKdTree::gpu_presorted,
         )
-        .with_hints(arrangement, presorted::<0>),
+        .with_hints(arrangement),
         presorted_row!(1, "havran-presorted"),
         presorted_row!(2, "recursive-origin-presorted"),
         presorted_row!(3, "restart-presorted"),
@@ -541,7 +551,11 @@ mod tests {
         let n = rays.len();
         let (mut h, mut st) = (vec![HitRecord::MISS; n], vec![TraversalStats::default(); n]);
         let tri = TriTestKind::Watertight;
-        m.trace_hinted(t, q, tri, rays, hints, &mut h, Some(&mut st));
+        m.trace(
+            t,
+            tb_core::Batch::new(q, tri, rays).with_hints(hints),
+            tb_core::Answers::new(&mut h, Some(&mut st)),
+        );
         (h, st)
     }
 
@@ -574,19 +588,15 @@ mod tests {
                 );
                 // Chunked as the runner traces (the hints cut with the rays), timed variant.
                 let mut h = vec![HitRecord::MISS; n];
-                tb_core::par::trace_hinted_into(
-                    &m,
-                    presorted,
-                    q,
-                    tri,
-                    &rays,
-                    Some(&hints),
-                    &mut h,
-                    None,
-                );
+                let batch = tb_core::Batch::new(q, tri, &rays).with_hints(Some(&hints));
+                tb_core::par::trace_into(&m, presorted, batch, tb_core::Answers::hits(&mut h));
                 assert_eq!(h, plain.0, "{name}-presorted in chunks");
                 let mut h = vec![HitRecord::MISS; n];
-                m.trace(sorted, q, tri, &rays, &mut h, None);
+                m.trace(
+                    sorted,
+                    tb_core::Batch::new(q, tri, &rays),
+                    tb_core::Answers::hits(&mut h),
+                );
                 assert_eq!(h, plain.0, "{name}-sorted uncounted");
                 // The walk traces each ray with the tree its entry names: another tree in the
                 // hints changes the counters (so the comparisons above can fail).
@@ -597,7 +607,11 @@ mod tests {
                 for (k, r) in rays.iter().enumerate().step_by(3) {
                     let a = &alone[m.tree_of(r.dir.to_array())];
                     let (mut ha, mut sa) = ([HitRecord::MISS], [TraversalStats::default()]);
-                    a.trace(t, q, tri, std::slice::from_ref(r), &mut ha, Some(&mut sa));
+                    a.trace(
+                        t,
+                        tb_core::Batch::new(q, tri, std::slice::from_ref(r)),
+                        tb_core::Answers::new(&mut ha, Some(&mut sa)),
+                    );
                     assert_eq!(ha[0], plain.0[k]);
                     assert_eq!(sa[0], plain.1[k], "{name} ray {k}");
                 }

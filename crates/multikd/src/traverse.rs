@@ -78,32 +78,34 @@ impl<K: Kernel> Kernel for PerRay<K> {
     }
 }
 
-/// One traced chunk: the query, the triangle test, the rays, their arrangement
-/// ([`MultiKdTree::arrange`]; `None`: the order given, the tree picked per ray in the walk),
-/// and where the answers go.
-pub(crate) struct Batch<'a> {
-    query: Query,
-    tri: TriTestKind,
-    rays: &'a [Ray],
-    order: Option<&'a [u32]>,
-    hits: &'a mut [HitRecord],
-    stats: Option<&'a mut [TraversalStats]>,
-}
-
-/// Trace batch `b` with plain row `row`'s kernel.
-pub(crate) fn trace_row(m: &MultiKdTree, row: usize, b: Batch<'_>) {
+/// Trace batch `b` into `out` with plain row `row`'s kernel, in the arrangement `order`
+/// ([`MultiKdTree::arrange`]) or, with `None`, in the rays' order with the tree picked per ray
+/// in the walk: the one call of the plain, `-sorted` and `-presorted` rows.
+pub(crate) fn trace_row(
+    m: &MultiKdTree,
+    row: usize,
+    b: Batch<'_>,
+    order: Option<&[u32]>,
+    out: Answers<'_>,
+) {
     match m.params.kd.layout {
-        KdLayout::DepthFirst => trace_in(m, DepthFirst, row, b),
-        KdLayout::Treelet => trace_in(m, Treelet::new(m.params.kd.treelet_height), row, b),
+        KdLayout::DepthFirst => trace_in(m, DepthFirst, row, (b, order, out)),
+        KdLayout::Treelet => {
+            let l = Treelet::new(m.params.kd.treelet_height);
+            trace_in(m, l, row, (b, order, out))
+        }
     }
 }
 
+/// A chunk as [`trace_row`] passes it on: the batch, its arrangement, its answers.
+type Chunk<'a, 'o> = (Batch<'a>, Option<&'a [u32]>, Answers<'o>);
+
 /// [`trace_row`] in layout `l`: the kd-tree's kernel of row `row` per header entry (the
 /// kd-tree's table order; a row added there fails [`PLAIN`]'s check and the table test).
-pub(crate) fn trace_in<L: Layout>(m: &MultiKdTree, l: L, row: usize, b: Batch<'_>) {
+pub(crate) fn trace_in<L: Layout>(m: &MultiKdTree, l: L, row: usize, c: Chunk<'_, '_>) {
     macro_rules! go {
         (|$w:ident| $kernel:expr) => {
-            walk(&m.per_ray(l, |$w| $kernel), b)
+            walk(&m.per_ray(l, |$w| $kernel), c)
         };
     }
     let ropes = || Aux {
@@ -132,18 +134,16 @@ pub(crate) fn trace_in<L: Layout>(m: &MultiKdTree, l: L, row: usize, b: Batch<'_
     }
 }
 
-/// Run the per-tree kernels `k` over batch `b`: [`dispatch`] of the per-ray choice, or the
+/// Run the per-tree kernels `k` over a chunk: [`dispatch`] of the per-ray choice, or the
 /// walk of its arrangement; monomorphised per triangle test and for counting or timing.
-pub(crate) fn walk<K: Kernel>(k: &PerRay<K>, b: Batch<'_>) {
-    let Some(order) = b.order else {
-        return dispatch(k, b.query, b.tri, b.rays, b.hits, b.stats);
+pub(crate) fn walk<K: Kernel>(k: &PerRay<K>, (b, order, out): Chunk<'_, '_>) {
+    let Some(order) = order else {
+        return dispatch(k, b, out);
     };
-    let (q, rays, hits, stats) = (b.query, b.rays, b.hits, b.stats);
+    let (q, rays) = (b.query, b.rays);
     match b.tri {
-        TriTestKind::Watertight => arranged::<K, Watertight>(&k.k, q, rays, order, hits, stats),
-        TriTestKind::MollerTrumbore => {
-            arranged::<K, MollerTrumbore>(&k.k, q, rays, order, hits, stats)
-        }
+        TriTestKind::Watertight => arranged::<K, Watertight>(&k.k, q, rays, order, out),
+        TriTestKind::MollerTrumbore => arranged::<K, MollerTrumbore>(&k.k, q, rays, order, out),
     }
 }
 
@@ -154,9 +154,9 @@ pub(crate) fn arranged<K: Kernel, T: TriTest>(
     query: Query,
     rays: &[Ray],
     order: &[u32],
-    hits: &mut [HitRecord],
-    stats: Option<&mut [TraversalStats]>,
+    out: Answers<'_>,
 ) {
+    let (hits, stats) = (out.hits, out.stats);
     assert_eq!(rays.len(), hits.len(), "one hit record per ray");
     assert_eq!(rays.len(), order.len(), "one arrangement entry per ray");
     let at = |p: usize, e: u32| {
@@ -229,60 +229,17 @@ pub(crate) const fn presorted_info(i: usize, name: &'static str) -> TraversalInf
 pub(crate) const PLAIN: usize = 11;
 const _: () = assert!(KdTree::TRAVERSALS.len() == PLAIN);
 
-/// Row `row` over `rays`, in the arrangement `order` ([`MultiKdTree::arrange`]) or, with
-/// `None`, in the rays' order with the tree picked per ray: the one call of the plain,
-/// `-sorted` and `-presorted` rows.
-// Over clippy's seven: the trace signature with the rays' arrangement.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn trace_order(
-    m: &MultiKdTree,
-    row: usize,
-    query: Query,
-    tri: TriTestKind,
-    rays: &[Ray],
-    order: Option<&[u32]>,
-    hits: &mut [HitRecord],
-    stats: Option<&mut [TraversalStats]>,
-) {
-    trace_row(
-        m,
-        row,
-        Batch {
-            query,
-            tri,
-            rays,
-            order,
-            hits,
-            stats,
-        },
-    )
-}
-
 /// Plain row `I`: the tree picked per ray, rays in the order given.
-pub(crate) fn plain<const I: usize>(
-    m: &MultiKdTree,
-    query: Query,
-    tri: TriTestKind,
-    rays: &[Ray],
-    hits: &mut [HitRecord],
-    stats: Option<&mut [TraversalStats]>,
-) {
-    trace_order(m, I, query, tri, rays, None, hits, stats)
+pub(crate) fn plain<const I: usize>(m: &MultiKdTree, b: Batch<'_>, out: Answers<'_>) {
+    trace_row(m, I, b, None, out)
 }
 
 /// `-sorted` row: arrange the chunk by tree ([`MultiKdTree::arrange`]) and walk it, both in
 /// this (timed) call.
-pub(crate) fn sorted<const I: usize>(
-    m: &MultiKdTree,
-    query: Query,
-    tri: TriTestKind,
-    rays: &[Ray],
-    hits: &mut [HitRecord],
-    stats: Option<&mut [TraversalStats]>,
-) {
+pub(crate) fn sorted<const I: usize>(m: &MultiKdTree, b: Batch<'_>, out: Answers<'_>) {
     let mut order = Vec::new();
-    m.arrange(rays, &mut order);
-    trace_order(m, I, query, tri, rays, Some(&order), hits, stats)
+    m.arrange(b.rays, &mut order);
+    trace_row(m, I, b, Some(&order), out)
 }
 
 /// The hints of the `-presorted` rows: the batch's arrangement ([`MultiKdTree::arrange`]).
@@ -292,27 +249,27 @@ pub(crate) fn arrangement(m: &MultiKdTree, _: Query, rays: &[Ray]) -> Vec<u32> {
     order
 }
 
-/// `-presorted` row with hints: walk the arrangement the hint pass found (`None`: arrange
-/// here, as `-sorted`).
-pub(crate) fn presorted<const I: usize>(
-    m: &MultiKdTree,
-    query: Query,
-    tri: TriTestKind,
-    rays: &[Ray],
-    hints: Option<&[u32]>,
-    hits: &mut [HitRecord],
-    stats: Option<&mut [TraversalStats]>,
-) {
-    match hints {
-        Some(order) => trace_order(m, I, query, tri, rays, Some(order), hits, stats),
-        None => sorted::<I>(m, query, tri, rays, hits, stats),
+/// `-presorted` row: walk the arrangement the hint pass found (no hints: arrange here, as
+/// `-sorted`).
+pub(crate) fn presorted<const I: usize>(m: &MultiKdTree, b: Batch<'_>, out: Answers<'_>) {
+    match b.hints {
+        Some(order) => trace_row(m, I, b, Some(order), out),
+        None => sorted::<I>(m, b, out),
     }
+}
+
+/// Row `I`'s kernel `$f::<I>` ([`plain`], [`sorted`], [`presorted`]) as a table's named
+/// kernel ([`tb_core::kernel!`]: compiled here, not again in every crate using the tree).
+macro_rules! row_kernel {
+    ($f:ident, $i:literal) => {
+        tb_core::kernel!(|m: &MultiKdTree, batch, out| $f::<$i>(m, batch, out))
+    };
 }
 
 /// Row `I` as `-presorted`: traced without hints it sorts (as `-sorted`).
 macro_rules! presorted_row {
     ($i:literal, $name:literal) => {
-        Traversal::cpu(presorted_info($i, $name), sorted::<$i>)
-            .with_hints(arrangement, presorted::<$i>)
+        Traversal::cpu(presorted_info($i, $name), row_kernel!(presorted, $i))
+            .with_hints(arrangement)
     };
 }

@@ -8,8 +8,8 @@
 
 use std::sync::Arc;
 use tb_core::{
-    Accel, AccelError, BuildReport, GpuProgram, HitRecord, MemoryReport, Query, Ray, Structure,
-    TraversalInfo, TraversalStats, TriTestKind,
+    Accel, AccelError, Answers, Batch, BuildReport, GpuProgram, MemoryReport, Structure,
+    TraversalInfo,
 };
 use tb_kdtree::KdLayout;
 use tb_multikd::measure::Heuristic;
@@ -71,19 +71,10 @@ impl Accel for Robust {
     fn gpu_program(&self, t: usize) -> Option<GpuProgram<'_>> {
         self.0.gpu_program(self.1[t])
     }
-    fn trace(
-        &self,
-        t: usize,
-        query: Query,
-        tri: TriTestKind,
-        rays: &[Ray],
-        hits: &mut [HitRecord],
-        stats: Option<&mut [TraversalStats]>,
-    ) {
+    fn trace(&self, t: usize, batch: Batch<'_>, out: Answers<'_>) {
         let t = self.1[t];
-        let hints = self.0.batch_hints(t, query, rays);
-        self.0
-            .trace_hinted(t, query, tri, rays, hints.as_deref(), hits, stats)
+        let hints = self.0.batch_hints(t, batch.query, batch.rays);
+        self.0.trace(t, batch.with_hints(hints.as_deref()), out)
     }
 }
 

@@ -104,8 +104,10 @@ impl crate::PerRay for BvhRsPeer {
 
 impl Structure for BvhRsPeer {
     const NAME: &'static str = "bvh-rs";
-    const TRAVERSALS: &'static [Traversal<Self>] =
-        &[Traversal::cpu(crate::NATIVE, crate::trace_each::<Self>)];
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+        crate::NATIVE,
+        tb_core::kernel!(|p: &BvhRsPeer, batch, out| crate::trace_each(p, batch, out)),
+    )];
 
     /// The library's nodes, its shapes (one per triangle: index, box and node, which its
     /// traversal reads) and our copy of the triangles.

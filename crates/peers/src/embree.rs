@@ -156,12 +156,12 @@ impl Structure for EmbreePeer {
     const NAME: &'static str = "embree";
     const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
         crate::NATIVE.own_test("embree"),
-        |e, query, _tri, rays, hits, stats| {
-            e.trace(query, rays, hits);
-            if let Some(s) = stats {
+        tb_core::kernel!(|e: &EmbreePeer, batch, out| {
+            e.trace(batch.query, batch.rays, out.hits);
+            if let Some(s) = out.stats {
                 s.fill(TraversalStats::default());
             }
-        },
+        }),
     )];
 
     /// Our vertex and index buffers only: Embree does not report its BVH's size.

@@ -31,8 +31,8 @@ fn test_tris() -> Vec<tb_core::Triangle> {
 }
 
 use tb_core::{
-    CounterSet, HitRecord, MollerTrumbore, Query, Ray, TraversalInfo, TraversalStats, TriTest,
-    TriTestKind, Watertight,
+    Answers, Batch, CounterSet, HitRecord, MollerTrumbore, Query, Ray, TraversalInfo,
+    TraversalStats, TriTest, TriTestKind, Watertight,
 };
 
 /// A peer that answers one ray at a time with our triangle test on its candidates.
@@ -43,21 +43,14 @@ pub trait PerRay {
 
 /// The `native` traversal of a [`PerRay`] peer: each ray with the requested triangle test;
 /// counters, which the library does not expose, left at zero (and reported as none).
-pub fn trace_each<P: PerRay>(
-    p: &P,
-    query: Query,
-    tri: TriTestKind,
-    rays: &[Ray],
-    hits: &mut [HitRecord],
-    stats: Option<&mut [TraversalStats]>,
-) {
-    for (r, h) in rays.iter().zip(hits.iter_mut()) {
-        *h = match tri {
-            TriTestKind::Watertight => p.trace_one::<Watertight>(query, r),
-            TriTestKind::MollerTrumbore => p.trace_one::<MollerTrumbore>(query, r),
+pub fn trace_each<P: PerRay>(p: &P, b: Batch<'_>, out: Answers<'_>) {
+    for (r, h) in b.rays.iter().zip(out.hits.iter_mut()) {
+        *h = match b.tri {
+            TriTestKind::Watertight => p.trace_one::<Watertight>(b.query, r),
+            TriTestKind::MollerTrumbore => p.trace_one::<MollerTrumbore>(b.query, r),
         };
     }
-    if let Some(s) = stats {
+    if let Some(s) = out.stats {
         s.fill(TraversalStats::default());
     }
 }

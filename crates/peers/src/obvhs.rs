@@ -117,8 +117,10 @@ impl crate::PerRay for ObvhsPeer {
 
 impl Structure for ObvhsPeer {
     const NAME: &'static str = "obvhs";
-    const TRAVERSALS: &'static [Traversal<Self>] =
-        &[Traversal::cpu(crate::NATIVE, crate::trace_each::<Self>)];
+    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
+        crate::NATIVE,
+        tb_core::kernel!(|p: &ObvhsPeer, batch, out| crate::trace_each(p, batch, out)),
+    )];
 
     /// The compressed wide nodes, the primitive indices and our copy of the triangles.
     ///

@@ -278,7 +278,8 @@ mod tests {
         ));
         let bf = BruteForce::new(&tris);
         let tracer = |q: Query, r: &[Ray], h: &mut [HitRecord]| {
-            tb_core::Accel::trace(&bf, 0, q, TriTestKind::Watertight, r, h, None)
+            let batch = tb_core::Batch::new(q, TriTestKind::Watertight, r);
+            tb_core::Accel::trace(&bf, 0, batch, tb_core::Answers::hits(h))
         };
         let ao = Integrator::Ao { distance: 2.0 };
         let a = render(&tris, cam, ao, 7, 6, &tracer, 48);

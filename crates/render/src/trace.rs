@@ -2,7 +2,7 @@
 //! this trait, so they run on every structure ([`AccelTracer`] over any `&dyn Accel`) and on any
 //! device: a GPU device implements `Tracer` (or passes a closure) and needs nothing else.
 
-use tb_core::{Accel, HitRecord, Query, Ray, TriTestKind};
+use tb_core::{Accel, Answers, Batch, HitRecord, Query, Ray, TriTestKind};
 
 /// Traces a batch of rays: one hit record per ray (closest or any hit, as `query` asks).
 pub trait Tracer: Sync {
@@ -29,14 +29,7 @@ pub struct AccelTracer<'a> {
 
 impl Tracer for AccelTracer<'_> {
     fn trace(&self, query: Query, rays: &[Ray], hits: &mut [HitRecord]) {
-        tb_core::par::trace_into(
-            self.accel,
-            self.traversal,
-            query,
-            self.tri,
-            rays,
-            hits,
-            None,
-        );
+        let batch = Batch::new(query, self.tri, rays);
+        tb_core::par::trace_into(self.accel, self.traversal, batch, Answers::hits(hits));
     }
 }

@@ -258,16 +258,9 @@ impl Structure for Rtree {
                 "stackless depth-first by implicit index arithmetic, next sibling or parent, \
                  visiting empty sibling slots as Listing 1 does (Feldmann 2015 §4.1, Listing 1)",
             ),
-            |t, query, tri, rays, hits, stats| {
-                dispatch(
-                    &traverse::Stackless::<false>(t),
-                    query,
-                    tri,
-                    rays,
-                    hits,
-                    stats,
-                )
-            },
+            tb_core::kernel!(|t: &Rtree, batch, out| {
+                dispatch(&traverse::Stackless::<false>(t), batch, out)
+            }),
             Rtree::gpu_stackless,
         ),
         Traversal::with_gpu(
@@ -278,16 +271,9 @@ impl Structure for Rtree {
                  sort, nearest first, culled against the closest hit when pushed only \
                  (Feldmann 2015 §4.2, Listing 2)",
             ),
-            |t, query, tri, rays, hits, stats| {
-                dispatch(
-                    &traverse::Ordered::<false>(t),
-                    query,
-                    tri,
-                    rays,
-                    hits,
-                    stats,
-                )
-            },
+            tb_core::kernel!(|t: &Rtree, batch, out| {
+                dispatch(&traverse::Ordered::<false>(t), batch, out)
+            }),
             Rtree::gpu_ordered,
         ),
         Traversal::with_gpu(
@@ -297,9 +283,7 @@ impl Structure for Rtree {
                 "conventional depth-first with one stack, skipping boxes entered beyond the \
                  closest hit (Feldmann 2015 §5.2, Table 3)",
             ),
-            |t, query, tri, rays, hits, stats| {
-                dispatch(&traverse::Stack(t), query, tri, rays, hits, stats)
-            },
+            tb_core::kernel!(|t: &Rtree, batch, out| { dispatch(&traverse::Stack(t), batch, out) }),
             Rtree::gpu_stack,
         ),
         Traversal::with_gpu(
@@ -309,16 +293,9 @@ impl Structure for Rtree {
                 "stackless (Listing 1) that ends a node's entries at its first empty slot \
                  instead of visiting the empty slots (ours: the same result, fewer slots)",
             ),
-            |t, query, tri, rays, hits, stats| {
-                dispatch(
-                    &traverse::Stackless::<true>(t),
-                    query,
-                    tri,
-                    rays,
-                    hits,
-                    stats,
-                )
-            },
+            tb_core::kernel!(|t: &Rtree, batch, out| {
+                dispatch(&traverse::Stackless::<true>(t), batch, out)
+            }),
             Rtree::gpu_stackless_skip_empty,
         ),
         Traversal::with_gpu(
@@ -328,9 +305,9 @@ impl Structure for Rtree {
                 "ordered (Listing 2) that also drops a popped entry beyond the closest hit, \
                  and the rest of its stack (ours: the same result, fewer nodes)",
             ),
-            |t, query, tri, rays, hits, stats| {
-                dispatch(&traverse::Ordered::<true>(t), query, tri, rays, hits, stats)
-            },
+            tb_core::kernel!(|t: &Rtree, batch, out| {
+                dispatch(&traverse::Ordered::<true>(t), batch, out)
+            }),
             Rtree::gpu_ordered_pop_cull,
         ),
     ];
@@ -646,11 +623,8 @@ mod tests {
                 let mut st = vec![TraversalStats::default(); rays.len()];
                 t.trace(
                     ti,
-                    q,
-                    TriTestKind::Watertight,
-                    &rays,
-                    &mut hits,
-                    Some(&mut st),
+                    tb_core::Batch::new(q, TriTestKind::Watertight, &rays),
+                    tb_core::Answers::new(&mut hits, Some(&mut st)),
                 );
                 for s in &st {
                     let name = TRAVERSALS[ti].info.name;
@@ -713,11 +687,8 @@ mod tests {
         let mut st = [TraversalStats::default()];
         t.trace(
             ti,
-            Query::Closest,
-            TriTestKind::Watertight,
-            &[ray],
-            &mut hits,
-            Some(&mut st),
+            tb_core::Batch::new(Query::Closest, TriTestKind::Watertight, &[ray]),
+            tb_core::Answers::new(&mut hits, Some(&mut st)),
         );
         (hits[0], st[0])
     }

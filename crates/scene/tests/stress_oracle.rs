@@ -4,8 +4,8 @@
 
 use std::path::Path;
 use tb_core::{
-    compare_closest, Accel, AccelError, BruteForce, HitRecord, MemoryReport, Query, Ray, Structure,
-    Traversal, TraversalInfo, TraversalStats, TriTestKind, Triangle,
+    compare_closest, Accel, AccelError, Answers, Batch, BruteForce, HitRecord, MemoryReport, Query,
+    Structure, Traversal, TraversalInfo, TriTestKind, Triangle,
 };
 use tb_scene::conformance::{self, assert_conforms, check};
 use tb_scene::rays::trace_all;
@@ -62,16 +62,9 @@ fn brute_force_conforms() {
 struct Broken(BruteForce);
 
 /// Brute force, then every ray with `dir.x == 0` turned into a miss.
-fn broken_trace(
-    b: &Broken,
-    query: Query,
-    tri: TriTestKind,
-    rays: &[Ray],
-    hits: &mut [HitRecord],
-    stats: Option<&mut [TraversalStats]>,
-) {
-    b.0.trace(0, query, tri, rays, hits, stats);
-    for (r, h) in rays.iter().zip(hits.iter_mut()) {
+fn broken_trace(b: &Broken, batch: Batch<'_>, mut out: Answers<'_>) {
+    b.0.trace(0, batch, out.reborrow());
+    for (r, h) in batch.rays.iter().zip(out.hits.iter_mut()) {
         if r.dir.x == 0.0 {
             *h = HitRecord::MISS;
         }
@@ -137,7 +130,7 @@ impl Structure for Invalid {
     const NAME: &'static str = "invalid";
     const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::cpu(
         TraversalInfo::new("linear", "none", "brute force"),
-        |v, query, tri, rays, hits, stats| v.0.trace(0, query, tri, rays, hits, stats),
+        tb_core::kernel!(|v: &Invalid, batch, out| v.0.trace(0, batch, out)),
     )];
     fn own_memory(&self) -> MemoryReport {
         MemoryReport::default()

@@ -63,8 +63,9 @@ pub use params::SparseParams;
 
 use std::sync::Arc;
 use tb_core::{
-    build_with, Aabb, Accel, AccelError, BuildReport, Family, HitRecord, MemoryReport, Query, Ray,
-    Structure, Traversal, TraversalInfo, TraversalStats, TriTestKind, Triangle, Vec3,
+    build_with, Aabb, Accel, AccelError, Answers, Batch, BuildReport, Family, HitRecord,
+    MemoryReport, Query, Ray, Structure, Traversal, TraversalInfo, TraversalStats, TriTestKind,
+    Triangle, Vec3,
 };
 use tb_kdtree::{KdLayout, KdTree, NodeRank, SurfaceArea, STACK_SIZE};
 
@@ -290,9 +291,9 @@ impl Structure for SparseBoxes {
                 "HTR: the kd-tree's recursive-direction traversal from the root over the same \
                  tree (Havran & Bittner 2007 §5.1, Alg. 1); no boxes read",
             ),
-            |s, q, tri, rays, hits, stats| {
-                s.kd.trace(kd_row("recursive-direction"), q, tri, rays, hits, stats)
-            },
+            tb_core::kernel!(|s: &SparseBoxes, batch, out| {
+                s.kd.trace(kd_row("recursive-direction"), batch, out)
+            }),
         ),
         Traversal::cpu(
             TraversalInfo::new(
@@ -304,13 +305,11 @@ impl Structure for SparseBoxes {
                  there, the finished subtree skipped (Havran & Bittner 2007 §5.2, Alg. 2)",
             )
             .reads(&[BOXES_AUX]),
-            |s, q, tri, rays, hits, stats| {
-                traverse::trace::<{ traverse::BTR }>(s, q, tri, rays, None, true, hits, stats)
-            },
+            tb_core::kernel!(|s: &SparseBoxes, batch, out| {
+                traverse::trace::<{ traverse::BTR }>(s, batch, true, out)
+            }),
         )
-        .with_hints(hints, |s, q, tri, rays, h, hits, stats| {
-            traverse::trace::<{ traverse::BTR }>(s, q, tri, rays, h, true, hits, stats)
-        }),
+        .with_hints(hints),
         Traversal::cpu(
             TraversalInfo::new(
                 "btr-root",
@@ -319,9 +318,9 @@ impl Structure for SparseBoxes {
                  same walk as HTR)",
             )
             .reads(&[BOXES_AUX]),
-            |s, q, tri, rays, hits, stats| {
-                traverse::trace::<{ traverse::BTR }>(s, q, tri, rays, None, false, hits, stats)
-            },
+            tb_core::kernel!(|s: &SparseBoxes, batch, out| {
+                traverse::trace::<{ traverse::BTR }>(s, batch, false, out)
+            }),
         ),
         Traversal::cpu(
             TraversalInfo::new(
@@ -338,13 +337,11 @@ impl Structure for SparseBoxes {
             )
             .capped()
             .reads(&[BOXES_AUX]),
-            |s, q, tri, rays, hits, stats| {
-                traverse::trace::<{ traverse::SLTR }>(s, q, tri, rays, None, true, hits, stats)
-            },
+            tb_core::kernel!(|s: &SparseBoxes, batch, out| {
+                traverse::trace::<{ traverse::SLTR }>(s, batch, true, out)
+            }),
         )
-        .with_hints(hints, |s, q, tri, rays, h, hits, stats| {
-            traverse::trace::<{ traverse::SLTR }>(s, q, tri, rays, h, true, hits, stats)
-        }),
+        .with_hints(hints),
         Traversal::cpu(
             TraversalInfo::new(
                 "sltr-handover",
@@ -356,15 +353,11 @@ impl Structure for SparseBoxes {
             )
             .capped()
             .reads(&[BOXES_AUX]),
-            |s, q, tri, rays, hits, stats| {
-                traverse::trace::<{ traverse::SLTR_HANDOVER }>(
-                    s, q, tri, rays, None, true, hits, stats,
-                )
-            },
+            tb_core::kernel!(|s: &SparseBoxes, batch, out| {
+                traverse::trace::<{ traverse::SLTR_HANDOVER }>(s, batch, true, out)
+            }),
         )
-        .with_hints(hints, |s, q, tri, rays, h, hits, stats| {
-            traverse::trace::<{ traverse::SLTR_HANDOVER }>(s, q, tri, rays, h, true, hits, stats)
-        }),
+        .with_hints(hints),
         Traversal::cpu(
             TraversalInfo::new(
                 "sltr-root",
@@ -373,9 +366,9 @@ impl Structure for SparseBoxes {
             )
             .capped()
             .reads(&[BOXES_AUX]),
-            |s, q, tri, rays, hits, stats| {
-                traverse::trace::<{ traverse::SLTR }>(s, q, tri, rays, None, false, hits, stats)
-            },
+            tb_core::kernel!(|s: &SparseBoxes, batch, out| {
+                traverse::trace::<{ traverse::SLTR }>(s, batch, false, out)
+            }),
         ),
         Traversal::with_gpu(
             TraversalInfo::new(
@@ -389,14 +382,12 @@ impl Structure for SparseBoxes {
             )
             .capped()
             .reads(&[BOXES_AUX]),
-            |s, q, tri, rays, hits, stats| {
-                traverse::trace::<{ traverse::SLTR_MASK }>(s, q, tri, rays, None, true, hits, stats)
-            },
+            tb_core::kernel!(|s: &SparseBoxes, batch, out| {
+                traverse::trace::<{ traverse::SLTR_MASK }>(s, batch, true, out)
+            }),
             |s| s.gpu_sltr_mask(true),
         )
-        .with_hints(hints, |s, q, tri, rays, h, hits, stats| {
-            traverse::trace::<{ traverse::SLTR_MASK }>(s, q, tri, rays, h, true, hits, stats)
-        }),
+        .with_hints(hints),
         Traversal::with_gpu(
             TraversalInfo::new(
                 "sltr-mask-root",
@@ -405,11 +396,9 @@ impl Structure for SparseBoxes {
             )
             .capped()
             .reads(&[BOXES_AUX]),
-            |s, q, tri, rays, hits, stats| {
-                traverse::trace::<{ traverse::SLTR_MASK }>(
-                    s, q, tri, rays, None, false, hits, stats,
-                )
-            },
+            tb_core::kernel!(|s: &SparseBoxes, batch, out| {
+                traverse::trace::<{ traverse::SLTR_MASK }>(s, batch, false, out)
+            }),
             |s| s.gpu_sltr_mask(false),
         ),
         Traversal::cpu(
@@ -420,9 +409,9 @@ impl Structure for SparseBoxes {
                  boxes read",
             )
             .capped(),
-            |s, q, tri, rays, hits, stats| {
-                s.kd.trace(kd_row("sequential"), q, tri, rays, hits, stats)
-            },
+            tb_core::kernel!(|s: &SparseBoxes, batch, out| {
+                s.kd.trace(kd_row("sequential"), batch, out)
+            }),
         ),
     ];
 
@@ -495,6 +484,7 @@ pub fn trace_hinted(
 ) -> Vec<HitRecord> {
     let h = s.batch_hints(ti, q, rays);
     let mut hits = vec![HitRecord::MISS; rays.len()];
-    s.trace_hinted(ti, q, tri, rays, h.as_deref(), &mut hits, stats);
+    let batch = Batch::new(q, tri, rays).with_hints(h.as_deref());
+    s.trace(ti, batch, Answers::new(&mut hits, stats));
     hits
 }

@@ -2,7 +2,9 @@
 //! start nodes in use (the kernels find them per ray when no hints are given, as the hints
 //! would), and the identities between the traversals.
 
-use tb_core::{Accel, HitRecord, Query, Ray, Structure, TraversalStats, TriTestKind};
+use tb_core::{
+    Accel, Answers, Batch, HitRecord, Query, Ray, Structure, TraversalStats, TriTestKind,
+};
 use tb_sparse::{SparseBoxes, SparseParams};
 
 fn index(name: &str) -> usize {
@@ -128,14 +130,8 @@ fn root_walks_visit_htr_leaves() {
                     scene.source
                 );
                 let mut plain = vec![HitRecord::MISS; b.rays.len()];
-                s.trace(
-                    index(name),
-                    q,
-                    TriTestKind::Watertight,
-                    &b.rays,
-                    &mut plain,
-                    None,
-                );
+                let batch = Batch::new(q, TriTestKind::Watertight, &b.rays);
+                s.trace(index(name), batch, Answers::hits(&mut plain));
                 assert_eq!(h, plain, "{}: {name}", scene.source);
             }
             compared += b.rays.len();
@@ -369,16 +365,9 @@ fn chunked_hints_match() {
         assert!(hints.iter().all(|&h| h == hints[0] && h != 0), "{name}");
         let mut a = vec![HitRecord::MISS; rays.len()];
         let mut sa = vec![TraversalStats::default(); rays.len()];
-        tb_core::par::trace_hinted_into(
-            &s,
-            ti,
-            Query::Closest,
-            TriTestKind::Watertight,
-            &rays,
-            Some(&hints),
-            &mut a,
-            Some(&mut sa),
-        );
+        let batch = Batch::new(Query::Closest, TriTestKind::Watertight, &rays);
+        let out = Answers::new(&mut a, Some(&mut sa));
+        tb_core::par::trace_into(&s, ti, batch.with_hints(Some(&hints)), out);
         let (b, sb) = tb_core::par::count(&s, ti, Query::Closest, TriTestKind::Watertight, &rays);
         assert_eq!(a, b, "{name}");
         assert_eq!(sa, sb, "{name}");

@@ -272,7 +272,9 @@ mod tests {
     /// both triangle tests, rays from inside and outside the scenes.
     #[test]
     fn every_isa_equals_the_lane_loop() {
-        use tb_core::{dispatch, HitRecord, Query, Ray, TraversalStats, TriTestKind};
+        use tb_core::{
+            dispatch, Answers, Batch, HitRecord, Query, Ray, TraversalStats, TriTestKind,
+        };
         let mut rnd = uniform(0x2545f4914f6cdd1d);
         let mut isas = vec![walk::Isa::Scalar];
         #[cfg(target_arch = "x86_64")]
@@ -314,7 +316,8 @@ mod tests {
                         };
                         let mut hits = vec![HitRecord::MISS; rays.len()];
                         let mut stats = vec![TraversalStats::default(); rays.len()];
-                        dispatch(&k, q, tri, &rays, &mut hits, Some(&mut stats));
+                        let out = Answers::new(&mut hits, Some(&mut stats));
+                        dispatch(&k, Batch::new(q, tri, &rays), out);
                         (hits, stats)
                     };
                     let reference = run(walk::Isa::Scalar);

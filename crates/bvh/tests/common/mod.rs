@@ -99,7 +99,7 @@ pub fn rays(tris: &[Triangle], n: usize, seed: u64) -> Vec<Ray> {
 pub fn trace(accel: &dyn Accel, q: Query, tri: TriTestKind, rays: &[Ray]) -> Vec<HitRecord> {
     let mut hits = vec![HitRecord::MISS; rays.len()];
     for (r, h) in rays.chunks(97).zip(hits.chunks_mut(97)) {
-        accel.trace(0, q, tri, r, h, None);
+        accel.trace(0, tb_core::Batch::new(q, tri, r), tb_core::Answers::hits(h));
     }
     hits
 }

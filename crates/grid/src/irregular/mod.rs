@@ -189,9 +189,9 @@ impl Structure for IrregularGrid {
             "3D-DDA on the virtual base grid with the increment recomputed per cell: voxel-map \
              look-up, exit through the cell box's three far planes, monotone advance",
         ),
-        |g, query, tri, rays, hits, stats| {
-            tb_core::dispatch(&Walk(g), query, tri, rays, hits, stats)
-        },
+        tb_core::kernel!(|g: &IrregularGrid, batch, out| {
+            tb_core::dispatch(&Walk(g), batch, out)
+        }),
         IrregularGrid::gpu_walk,
     )];
 

@@ -85,8 +85,8 @@
 use crate::{AugNode, SparseBoxes};
 use tb_core::slab::{max_num, min_num};
 use tb_core::{
-    Aabb, Counter, HitRecord, MollerTrumbore, NoStats, Query, Ray, TraversalStats, TriTest,
-    TriTestKind, Vec3, Watertight,
+    Aabb, Answers, Batch, Counter, HitRecord, MollerTrumbore, NoStats, Query, Ray, TraversalStats,
+    TriTest, TriTestKind, Vec3, Watertight,
 };
 use tb_kdtree::traverse::leaf;
 use tb_kdtree::NodeRank;
@@ -352,34 +352,28 @@ fn run<T: TriTest, C: Counter, const ALG: u8>(
     }
 }
 
-/// Trace a batch with kernel `ALG`: start records from `hints`, or found per ray here when
-/// `start_nodes` (the same point location as the hints), or the root.
-// Over clippy's seven: the trace signature with the start-node choice.
-#[allow(clippy::too_many_arguments)]
+/// Trace a batch with kernel `ALG`: start records from the batch's hints, or found per ray
+/// here when `start_nodes` (the same point location as the hints), or the root.
 pub(crate) fn trace<const ALG: u8>(
     s: &SparseBoxes,
-    q: Query,
-    tri: TriTestKind,
-    rays: &[Ray],
-    hints: Option<&[u32]>,
+    b: Batch<'_>,
     start_nodes: bool,
-    hits: &mut [HitRecord],
-    stats: Option<&mut [TraversalStats]>,
+    out: Answers<'_>,
 ) {
-    assert_eq!(rays.len(), hits.len(), "one hit record per ray");
+    assert_eq!(b.rays.len(), out.hits.len(), "one hit record per ray");
     let own;
-    let starts: Option<&[u32]> = match hints {
+    let starts: Option<&[u32]> = match b.hints {
         Some(h) => Some(h),
         None if start_nodes => {
-            own = s.start_nodes(rays);
+            own = s.start_nodes(b.rays);
             Some(&own)
         }
         None => None,
     };
-    match tri {
-        TriTestKind::Watertight => batch::<Watertight, ALG>(s, q, rays, starts, hits, stats),
+    match b.tri {
+        TriTestKind::Watertight => batch::<Watertight, ALG>(s, b.query, b.rays, starts, out),
         TriTestKind::MollerTrumbore => {
-            batch::<MollerTrumbore, ALG>(s, q, rays, starts, hits, stats)
+            batch::<MollerTrumbore, ALG>(s, b.query, b.rays, starts, out)
         }
     }
 }
@@ -389,12 +383,12 @@ fn batch<T: TriTest, const ALG: u8>(
     q: Query,
     rays: &[Ray],
     starts: Option<&[u32]>,
-    hits: &mut [HitRecord],
-    stats: Option<&mut [TraversalStats]>,
+    out: Answers<'_>,
 ) {
     let cx = Ctx::new(s);
     let h = |i: usize| starts.map_or(0, |h| h[i]);
-    match stats {
+    let hits = out.hits;
+    match out.stats {
         None => {
             for (i, (r, hit)) in rays.iter().zip(hits.iter_mut()).enumerate() {
                 *hit = run::<T, NoStats, ALG>(&cx, q, r, h(i), &mut NoStats);

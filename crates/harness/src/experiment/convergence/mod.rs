@@ -202,7 +202,7 @@ impl Runner {
 
     /// The convergence renders of one built structure: every traversal x triangle test x
     /// device x integrator. Returns notes (references rendered or reused, renders cut short).
-    // Over clippy's seven: what the runner hands each build's renders; to group with the batch type.
+    // Over clippy's seven: what the runner hands each build's renders.
     #[allow(clippy::too_many_arguments)]
     pub fn build_done(
         &mut self,

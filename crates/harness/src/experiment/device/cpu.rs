@@ -8,7 +8,8 @@ use std::collections::HashMap;
 use tb_core::{HitRecord, StatsSummary, TriTestKind};
 use tb_results::output::Row;
 
-use tb_core::par::trace_hinted_into;
+use tb_core::par::trace_into;
+use tb_core::{Answers, Batch};
 
 type Key = (usize, TriTestKind, usize);
 
@@ -97,21 +98,14 @@ impl CpuDevice {
             .map(|j| vec![HitRecord::MISS; j.batch.rays.len()])
             .collect();
         let r: Result<_, ()> = plan.run_interleaved(jobs.len(), |i| {
-            let (j, h) = (&jobs[i], hints[i].as_deref());
+            let j = &jobs[i];
+            let batch =
+                Batch::new(j.batch.query, j.tri, &j.batch.rays).with_hints(hints[i].as_deref());
             let pool = self.pool(j.threads);
             let clock = clock_for(plan.clock, j.threads);
             let (ms, ()) = pool.install(|| {
                 timed(clock, || {
-                    trace_hinted_into(
-                        j.accel,
-                        j.traversal,
-                        j.batch.query,
-                        j.tri,
-                        &j.batch.rays,
-                        h,
-                        &mut hits[i],
-                        None,
-                    )
+                    trace_into(j.accel, j.traversal, batch, Answers::hits(&mut hits[i]))
                 })
             });
             Ok(ms)
@@ -152,22 +146,13 @@ impl Device for CpuDevice {
         let hints = self
             .widest()
             .install(|| accel.batch_hints(ti, b.query, &b.rays));
-        let hints = hints.as_deref();
+        let batch = Batch::new(b.query, tri, &b.rays).with_hints(hints.as_deref());
         // Counting pass: a separate pass, never timed.
         if !self.counted.contains_key(&key) {
             let (hits, stats) = self.widest().install(|| {
                 let mut hits = vec![HitRecord::MISS; b.rays.len()];
                 let mut stats = vec![tb_core::TraversalStats::default(); b.rays.len()];
-                trace_hinted_into(
-                    accel,
-                    ti,
-                    b.query,
-                    tri,
-                    &b.rays,
-                    hints,
-                    &mut hits,
-                    Some(&mut stats),
-                );
+                trace_into(accel, ti, batch, Answers::new(&mut hits, Some(&mut stats)));
                 (hits, stats)
             });
             self.counted.insert(
@@ -193,16 +178,14 @@ impl Device for CpuDevice {
                 let clock = clock_for(job.timing.clock, job.threads);
                 let (ms, ()) = pool.install(|| {
                     timed(clock, || {
-                        trace_hinted_into(accel, ti, b.query, tri, &b.rays, hints, &mut hits, None)
+                        trace_into(accel, ti, batch, Answers::hits(&mut hits))
                     })
                 });
                 Ok(ms)
             })?;
             crate::experiment::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);
         } else {
-            pool.install(|| {
-                trace_hinted_into(accel, ti, b.query, tri, &b.rays, hints, &mut hits, None)
-            });
+            pool.install(|| trace_into(accel, ti, batch, Answers::hits(&mut hits)));
         }
         // Validation of what was timed (as on the GPU): the timed pass's hits on the oracle's
         // sample, once per (traversal, test, batch); the report takes the first mismatches
