@@ -14,8 +14,8 @@
 //! entry has been found meanwhile. Any hit: the same walk, returning at the first hit.
 
 use crate::Bvh;
-use std::mem::MaybeUninit;
 use tb_core::slab::{RayBox, EXIT_SCALE};
+use tb_core::stack::Stack;
 use tb_core::{Counter, HitRecord, Ray, TriTest};
 
 /// Entries of the traversal stack. The builder bounds the leaf depth by this (only median
@@ -72,8 +72,7 @@ impl Ordered<'_> {
         let mut hit_slot = usize::MAX;
         let (mut hit_u, mut hit_v) = (0.0f32, 0.0f32);
         // Far children still to visit, with their entry distances.
-        let mut stack: [MaybeUninit<(u32, f32)>; STACK_SIZE] = [MaybeUninit::uninit(); STACK_SIZE];
-        let mut sp = 0usize;
+        let mut stack = Stack::<(u32, f32), STACK_SIZE>::new();
         let mut node = root;
         'walk: loop {
             if !node.is_leaf() {
@@ -92,9 +91,8 @@ impl Ordered<'_> {
                     if hit_b {
                         let (near, far, far_t) = if an <= bn { (a, l + 1, bn) } else { (b, l, an) };
                         // The builder bounds the depth by STACK_SIZE, and at most one entry
-                        // per level is pending, so this index is in range (checked anyway).
-                        stack[sp] = MaybeUninit::new((far as u32, far_t));
-                        sp += 1;
+                        // per level is pending, so the stack holds it (checked anyway).
+                        stack.push((far as u32, far_t));
                         node = near;
                     } else {
                         node = a;
@@ -136,19 +134,11 @@ impl Ordered<'_> {
                 }
             }
             // Pop the next pending subtree, skipping those entered beyond the closest hit.
-            loop {
-                if sp == 0 {
-                    break 'walk;
-                }
-                sp -= 1;
-                // SAFETY: entries below `sp` were written by the push above.
-                let (idx, entry) = unsafe { stack.get_unchecked(sp).assume_init() };
-                if ANY || entry <= best_t * EXIT_SCALE {
-                    // SAFETY: pushed indices are children of interior nodes (see above).
-                    node = unsafe { nodes.get_unchecked(idx as usize) };
-                    break;
-                }
-            }
+            let Some((idx, _)) = stack.pop_until(|e| ANY || e.1 <= best_t * EXIT_SCALE) else {
+                break 'walk;
+            };
+            // SAFETY: pushed indices are children of interior nodes (see above).
+            node = unsafe { nodes.get_unchecked(idx as usize) };
         }
         if hit_slot == usize::MAX {
             HitRecord::MISS

@@ -22,6 +22,7 @@ pub mod oracle;
 pub mod par;
 pub mod params;
 pub mod slab;
+pub mod stack;
 pub mod stats;
 pub mod tri;
 

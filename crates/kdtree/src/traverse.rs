@@ -12,8 +12,8 @@
 //! Each node is visited at most once, so no step cap is needed.
 
 use crate::{KdNode, KdStart, KdView, Layout};
-use std::mem::MaybeUninit;
 use tb_core::slab::{max_num, min_num};
+pub(crate) use tb_core::stack::Stack;
 use tb_core::{Counter, HitRecord, Ray, TriTest};
 
 /// Entries of the traversal stacks; the depth limit of the builder is at most this.
@@ -26,55 +26,91 @@ pub const STACK_SIZE: usize = 64;
 /// children are visited otherwise (the split distance then clamped to the interval).
 pub const SLACK: f32 = 1.0 + 8.0 * f32::EPSILON;
 
-/// A walk's stack of at most `N` entries, its storage left uninitialised: a walk pushes before
-/// it pops, and zeroing a full-depth stack for every ray is work no walk needs (for `havran`'s
-/// 64 entries of two points, 1.8 KB a ray, 6-10 % of its primary-ray trace time on Sibenik
-/// and Sponza; the smaller entries of the other walks cost too little to measure).
-pub(crate) struct Stack<E, const N: usize> {
-    items: [MaybeUninit<E>; N],
-    len: usize,
+/// A pending subtree of the stack walks: node, entry and exit of its interval (distances, or
+/// points for `havran`).
+type Entry<E> = (u32, E, E);
+
+/// Where a stack walk keeps its pending subtrees: the full stack ([`Stack`]) or
+/// `stack-spilling`'s short stack with its memory stack ([`Spilling`]).
+trait Pending<E: Copy> {
+    /// Keep `e` to visit later.
+    fn defer<C: Counter>(&mut self, e: Entry<E>, c: &mut C);
+
+    /// The next pending subtree `keep` accepts, the ones popped before it dropped; `None`
+    /// when none is left.
+    fn resume<C: Counter>(
+        &mut self,
+        keep: impl Fn(&Entry<E>) -> bool,
+        c: &mut C,
+    ) -> Option<Entry<E>>;
 }
 
-impl<E: Copy, const N: usize> Stack<E, N> {
+impl<E: Copy> Pending<E> for Stack<Entry<E>, STACK_SIZE> {
     #[inline(always)]
-    pub(crate) fn new() -> Self {
-        Stack {
-            items: [const { MaybeUninit::uninit() }; N],
-            len: 0,
-        }
-    }
-
-    /// Push `e`; panics beyond `N` entries (the builders' depth limits keep walks within).
-    #[inline(always)]
-    pub(crate) fn push(&mut self, e: E) {
-        self.items[self.len] = MaybeUninit::new(e);
-        self.len += 1;
+    fn defer<C: Counter>(&mut self, e: Entry<E>, _: &mut C) {
+        self.push(e)
     }
 
     #[inline(always)]
-    pub(crate) fn pop(&mut self) -> Option<E> {
-        self.len = self.len.checked_sub(1)?;
-        // SAFETY: entries below `len` were written by `push`.
-        Some(unsafe { self.items[self.len].assume_init() })
+    fn resume<C: Counter>(
+        &mut self,
+        keep: impl Fn(&Entry<E>) -> bool,
+        _: &mut C,
+    ) -> Option<Entry<E>> {
+        self.pop_until(keep)
     }
 }
 
-/// Pop the next pending subtree `(node, entry, exit)`, skipping those whose entry distance
-/// (`entry_t`) lies beyond the closest hit `best_t` (any-hit queries skip nothing). Skipped
-/// entries do not end the walk: a subtree pushed to be visited over its parent's whole
-/// interval may lie below entries that start later. `None` when empty.
+/// The walk the stack-based kernels share (review §3.2, Alg. 2; §5.2 for `stack-spilling`):
+/// from the start node over the start interval, each interior node counted (one node, one
+/// step) and handed to `step`, which counts its planes, returns the next node and pushes the
+/// far child where both are visited (narrowing the current interval); each leaf tested; then
+/// the next pending subtree popped, those whose entry (`entry_t`) lies beyond the closest hit
+/// skipped (any-hit queries skip nothing). A skipped entry does not end the walk: a subtree
+/// pushed to be visited over its parent's whole interval may lie below entries that start
+/// later. `begin` gives the walk's per-ray data and the start interval's two ends.
 #[inline(always)]
-fn pop_pending<E: Copy, const ANY: bool>(
-    stack: &mut Stack<(u32, E, E), STACK_SIZE>,
-    best_t: f32,
+fn stack_walk<T, C, L, E, R, P, const ANY: bool>(
+    w: &Tree<'_, L>,
+    ray: &Ray,
+    c: &mut C,
+    mut pending: P,
+    begin: impl FnOnce(&Setup) -> (R, E, E),
     entry_t: impl Fn(&E) -> f32,
-) -> Option<(u32, E, E)> {
-    while let Some(e) = stack.pop() {
-        if ANY || entry_t(&e.1) <= best_t {
-            return Some(e);
+    mut step: impl FnMut(&Setup, &R, usize, KdNode, &mut (E, E), &mut P, &mut C) -> usize,
+) -> HitRecord
+where
+    T: TriTest,
+    C: Counter,
+    L: Layout,
+    E: Copy,
+    P: Pending<E>,
+{
+    let Some((s, pre, mut best)) = start::<T, C, L>(w, ray, c) else {
+        return HitRecord::MISS;
+    };
+    let nodes = w.v.nodes;
+    let (r, en, ex) = begin(&s);
+    let (mut idx, mut at) = (w.from.node as usize, (en, ex));
+    loop {
+        // SAFETY: indices are the start node (checked against the node count in
+        // `Tree::new`) and children written by the builder (checked by `validate`).
+        let n = unsafe { *nodes.get_unchecked(idx) };
+        if !n.is_leaf() {
+            c.interior();
+            c.steps(1);
+            idx = step(&s, &r, idx, n, &mut at, &mut pending, c);
+            continue;
         }
+        if leaf::<T, C, ANY>(&w.v, n, &pre, ray, &mut best, c) {
+            return best.record();
+        }
+        let keep = |e: &Entry<E>| ANY || entry_t(&e.1) <= best.t;
+        let Some((i, a, b)) = pending.resume(keep, c) else {
+            return best.record();
+        };
+        (idx, at) = (i as usize, (a, b));
     }
-    None
 }
 
 /// What a kernel reads: the view, its layout `L` (the kernels are compiled per layout) and the
@@ -306,40 +342,23 @@ impl<L: Layout> RecursiveDirection<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let w = &self.0;
-        let Some((s, pre, mut best)) = start::<T, C, L>(w, ray, c) else {
-            return HitRecord::MISS;
-        };
-        let nodes = w.v.nodes;
-        let mut stack = Stack::<(u32, f32, f32), STACK_SIZE>::new();
-        let (mut idx, mut tn, mut tf) = (w.from.node as usize, s.t0, s.t1);
-        loop {
-            // SAFETY: indices are the start node (checked against the node count in
-            // `Tree::new`) and children written by the builder (checked by `validate`).
-            let n = unsafe { *nodes.get_unchecked(idx) };
-            if !n.is_leaf() {
-                c.interior();
-                c.steps(1);
+        let stack = Stack::<Entry<f32>, STACK_SIZE>::new();
+        let begin = |s: &Setup| ((), s.t0, s.t1);
+        stack_walk::<T, C, L, f32, (), _, ANY>(w, ray, c, stack, begin, |t| *t, {
+            |s, _, idx, n, (tn, tf), stack, c| {
                 c.planes(1);
-                let d = decide(w.l, n, idx, &s, tn, tf);
+                let d = decide(w.l, n, idx, s, *tn, *tf);
                 match d.kind {
-                    Kind::NearOnly => idx = d.near,
-                    Kind::FarOnly => idx = d.far,
+                    Kind::NearOnly => d.near,
+                    Kind::FarOnly => d.far,
                     Kind::Both => {
-                        stack.push((d.far as u32, d.far_tn, tf));
-                        idx = d.near;
-                        tf = d.near_tf;
+                        stack.defer((d.far as u32, d.far_tn, *tf), c);
+                        *tf = d.near_tf;
+                        d.near
                     }
                 }
-                continue;
             }
-            if leaf::<T, C, ANY>(&w.v, n, &pre, ray, &mut best, c) {
-                return best.record();
-            }
-            let Some((i, a, b)) = pop_pending::<f32, ANY>(&mut stack, best.t, |t| *t) else {
-                return best.record();
-            };
-            (idx, tn, tf) = (i as usize, a, b);
-        }
+        })
     }
 }
 
@@ -384,31 +403,25 @@ impl<L: Layout> Havran<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let w = &self.0;
-        let Some((s, pre, mut best)) = start::<T, C, L>(w, ray, c) else {
-            return HitRecord::MISS;
-        };
-        let nodes = w.v.nodes;
-        let mut stack = Stack::<(u32, Pt, Pt), STACK_SIZE>::new();
-        let mut idx = w.from.node as usize;
         let b = &w.from.cell;
-        let mut en = Pt {
-            t: s.t0,
-            p: point(b, &s, s.t0),
+        let stack = Stack::<Entry<Pt>, STACK_SIZE>::new();
+        let begin = |s: &Setup| {
+            // Rounding allowance of point coordinates on each axis.
+            let err: [f32; 3] = std::array::from_fn(|a| {
+                8.0 * f32::EPSILON * (s.org[a].abs() + b.min[a].abs().max(b.max[a].abs()))
+            });
+            let en = Pt {
+                t: s.t0,
+                p: point(b, s, s.t0),
+            };
+            let ex = Pt {
+                t: s.t1,
+                p: point(b, s, s.t1),
+            };
+            (err, en, ex)
         };
-        let mut ex = Pt {
-            t: s.t1,
-            p: point(b, &s, s.t1),
-        };
-        // Rounding allowance of point coordinates on each axis.
-        let err: [f32; 3] = std::array::from_fn(|a| {
-            8.0 * f32::EPSILON * (s.org[a].abs() + b.min[a].abs().max(b.max[a].abs()))
-        });
-        loop {
-            // SAFETY: as in `RecursiveDirection::walk`.
-            let n = unsafe { *nodes.get_unchecked(idx) };
-            if !n.is_leaf() {
-                c.interior();
-                c.steps(1);
+        stack_walk::<T, C, L, Pt, [f32; 3], _, ANY>(w, ray, c, stack, begin, |p| p.t, {
+            |s, err, idx, n, (en, ex), stack, c| {
                 let a = n.axis();
                 let split = n.split();
                 let (left, right) = w.l.children(idx, n);
@@ -418,46 +431,33 @@ impl<L: Layout> Havran<'_, L> {
                 // on the right.
                 let (el, er) = (ea <= hi, ea >= lo);
                 let (xl, xr) = (xa <= hi, xa >= lo);
-                let far;
                 // A direction component of 0 gives ea == xa: only the first three cases.
-                if !er && !xr {
-                    idx = left; // N1, N2, N3 (and P5 beyond rounding)
-                    continue;
+                let (near, far) = if !er && !xr {
+                    return left; // N1, N2, N3 (and P5 beyond rounding)
                 } else if !el && !xl {
-                    idx = right; // P1, P2, P3 (and N5 beyond rounding)
-                    continue;
+                    return right; // P1, P2, P3 (and N5 beyond rounding)
                 } else if el && er && xl && xr {
                     // Z: the ray lies in the plane (up to rounding): both children over the
                     // whole interval.
-                    stack.push((right as u32, en, ex));
-                    idx = left;
-                    continue;
+                    stack.defer((right as u32, *en, *ex), c);
+                    return left;
                 } else if !s.neg[a] {
                     // N4 (or a crossing within rounding): the ray runs left to right.
-                    far = right;
-                    idx = left;
+                    (left, right)
                 } else {
-                    far = left; // P4
-                    idx = right;
-                }
+                    (right, left) // P4
+                };
                 c.planes(1);
                 let tp = (split - s.org[a]) * s.inv[a];
                 let tp = min_num(max_num(en.t, tp), ex.t);
-                let mut p = point(b, &s, tp);
+                let mut p = point(b, s, tp);
                 p[a] = split;
                 let mid = Pt { t: tp, p };
-                stack.push((far as u32, mid, ex));
-                ex = mid;
-                continue;
+                stack.defer((far as u32, mid, *ex), c);
+                *ex = mid;
+                near
             }
-            if leaf::<T, C, ANY>(&w.v, n, &pre, ray, &mut best, c) {
-                return best.record();
-            }
-            let Some((i, a, b)) = pop_pending::<Pt, ANY>(&mut stack, best.t, |p| p.t) else {
-                return best.record();
-            };
-            (idx, en, ex) = (i as usize, a, b);
-        }
+        })
     }
 }
 
@@ -475,18 +475,10 @@ impl<L: Layout> RecursiveOrigin<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let w = &self.0;
-        let Some((s, pre, mut best)) = start::<T, C, L>(w, ray, c) else {
-            return HitRecord::MISS;
-        };
-        let nodes = w.v.nodes;
-        let mut stack = Stack::<(u32, f32, f32), STACK_SIZE>::new();
-        let (mut idx, mut tn, mut tf) = (w.from.node as usize, s.t0, s.t1);
-        loop {
-            // SAFETY: as in `RecursiveDirection::walk`.
-            let n = unsafe { *nodes.get_unchecked(idx) };
-            if !n.is_leaf() {
-                c.interior();
-                c.steps(1);
+        let stack = Stack::<Entry<f32>, STACK_SIZE>::new();
+        let begin = |s: &Setup| ((), s.t0, s.t1);
+        stack_walk::<T, C, L, f32, (), _, ANY>(w, ray, c, stack, begin, |t| *t, {
+            |s, _, idx, n, (tn, tf), stack, c| {
                 c.planes(1);
                 let a = n.axis();
                 let split = n.split();
@@ -497,27 +489,19 @@ impl<L: Layout> RecursiveOrigin<'_, L> {
                 } else {
                     (right, left)
                 };
-                if t < 0.0 || t > tf * SLACK {
-                    idx = near;
-                } else if t * SLACK < tn {
-                    idx = far;
+                if t < 0.0 || t > *tf * SLACK {
+                    near
+                } else if t * SLACK < *tn {
+                    far
                 } else {
                     // Clamped into the interval; a NaN `t` (origin in the plane, direction
                     // 0 on this axis) leaves both children the whole interval.
-                    stack.push((far as u32, max_num(tn, t).min(tf), tf));
-                    idx = near;
-                    tf = min_num(tf, t).max(tn);
+                    stack.defer((far as u32, max_num(*tn, t).min(*tf), *tf), c);
+                    *tf = min_num(*tf, t).max(*tn);
+                    near
                 }
-                continue;
             }
-            if leaf::<T, C, ANY>(&w.v, n, &pre, ray, &mut best, c) {
-                return best.record();
-            }
-            let Some((i, a, b)) = pop_pending::<f32, ANY>(&mut stack, best.t, |t| *t) else {
-                return best.record();
-            };
-            (idx, tn, tf) = (i as usize, a, b);
-        }
+        })
     }
 }
 
@@ -598,75 +582,93 @@ tb_core::kernel_by_query!(walk: [L: Layout] Branchless<'_, L>);
 /// traffic to the memory stack). Extra memory: the short stack and a full stack per ray.
 pub struct StackSpilling<'a, L>(pub Tree<'a, L>);
 
+/// `stack-spilling`'s pending subtrees: a circular short stack of `size` entries whose oldest
+/// entry is spilled to the memory stack on overflow, the memory stack popped when the short
+/// one runs empty; `boxes` counts each entry spilled or refilled.
+struct Spilling {
+    short: [Entry<f32>; crate::MAX_SHORT_STACK],
+    size: usize,
+    /// `count` entries, the newest at `top - 1` (mod `size`).
+    top: usize,
+    count: usize,
+    spill: Stack<Entry<f32>, STACK_SIZE>,
+}
+
+impl Pending<f32> for Spilling {
+    #[inline(always)]
+    fn defer<C: Counter>(&mut self, e: Entry<f32>, c: &mut C) {
+        let size = self.size;
+        if self.count == size {
+            // Overflow: spill the oldest entry.
+            let oldest = (self.top + size - self.count) % size;
+            self.spill.push(self.short[oldest]);
+            self.count -= 1;
+            c.boxes(1);
+        }
+        self.short[self.top] = e;
+        self.top = if self.top + 1 == size {
+            0
+        } else {
+            self.top + 1
+        };
+        self.count += 1;
+    }
+
+    #[inline(always)]
+    fn resume<C: Counter>(
+        &mut self,
+        keep: impl Fn(&Entry<f32>) -> bool,
+        c: &mut C,
+    ) -> Option<Entry<f32>> {
+        loop {
+            let e = if self.count > 0 {
+                self.top = if self.top == 0 {
+                    self.size - 1
+                } else {
+                    self.top - 1
+                };
+                self.count -= 1;
+                self.short[self.top]
+            } else {
+                // Underflow: refill from the memory stack.
+                let e = self.spill.pop()?;
+                c.boxes(1);
+                e
+            };
+            if keep(&e) {
+                return Some(e);
+            }
+        }
+    }
+}
+
 impl<L: Layout> StackSpilling<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let w = &self.0;
-        let Some((s, pre, mut best)) = start::<T, C, L>(w, ray, c) else {
-            return HitRecord::MISS;
+        let pending = Spilling {
+            short: [(0, 0.0, 0.0); crate::MAX_SHORT_STACK],
+            size: w.v.short_stack as usize,
+            top: 0,
+            count: 0,
+            spill: Stack::new(),
         };
-        let nodes = w.v.nodes;
-        let size = w.v.short_stack as usize;
-        let mut short = [(0u32, 0f32, 0f32); crate::MAX_SHORT_STACK];
-        // Circular: `count` entries, the newest at `top - 1` (mod `size`).
-        let (mut top, mut count) = (0usize, 0usize);
-        let mut spill = [(0u32, 0f32, 0f32); STACK_SIZE];
-        let mut sn = 0usize;
-        let (mut idx, mut tn, mut tf) = (w.from.node as usize, s.t0, s.t1);
-        loop {
-            // SAFETY: as in `RecursiveDirection::walk`.
-            let n = unsafe { *nodes.get_unchecked(idx) };
-            if !n.is_leaf() {
-                c.interior();
-                c.steps(1);
+        let begin = |s: &Setup| ((), s.t0, s.t1);
+        stack_walk::<T, C, L, f32, (), _, ANY>(w, ray, c, pending, begin, |t| *t, {
+            |s, _, idx, n, (tn, tf), pending, c| {
                 c.planes(1);
-                let d = decide(w.l, n, idx, &s, tn, tf);
+                let d = decide(w.l, n, idx, s, *tn, *tf);
                 match d.kind {
-                    Kind::NearOnly => idx = d.near,
-                    Kind::FarOnly => idx = d.far,
+                    Kind::NearOnly => d.near,
+                    Kind::FarOnly => d.far,
                     Kind::Both => {
-                        if count == size {
-                            // Overflow: spill the oldest entry.
-                            let oldest = (top + size - count) % size;
-                            spill[sn] = short[oldest];
-                            sn += 1;
-                            count -= 1;
-                            c.boxes(1);
-                        }
-                        short[top] = (d.far as u32, d.far_tn, tf);
-                        top = if top + 1 == size { 0 } else { top + 1 };
-                        count += 1;
-                        idx = d.near;
-                        tf = d.near_tf;
+                        pending.defer((d.far as u32, d.far_tn, *tf), c);
+                        *tf = d.near_tf;
+                        d.near
                     }
                 }
-                continue;
             }
-            if leaf::<T, C, ANY>(&w.v, n, &pre, ray, &mut best, c) {
-                return best.record();
-            }
-            let next = loop {
-                let e = if count > 0 {
-                    top = if top == 0 { size - 1 } else { top - 1 };
-                    count -= 1;
-                    short[top]
-                } else if sn > 0 {
-                    // Underflow: refill from the memory stack.
-                    sn -= 1;
-                    c.boxes(1);
-                    spill[sn]
-                } else {
-                    break None;
-                };
-                if ANY || e.1 <= best.t {
-                    break Some(e);
-                }
-            };
-            let Some((i, a, b)) = next else {
-                return best.record();
-            };
-            (idx, tn, tf) = (i as usize, a, b);
-        }
+        })
     }
 }
 

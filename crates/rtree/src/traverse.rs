@@ -8,8 +8,8 @@
 //! returning at the first triangle hit.
 
 use crate::{Rtree, RtreeNode, MAX_LEVELS, MAX_M};
-use std::mem::MaybeUninit;
 use tb_core::slab::{RayBox, EXIT_SCALE};
+use tb_core::stack;
 use tb_core::{Counter, HitRecord, Kernel, Ray, TriTest};
 
 /// Call `$walk::<T, C, ANY, OCT>($ray, &rb, c)` for the ray's octant.
@@ -264,9 +264,7 @@ impl<const POP_CULL: bool> Ordered<'_, POP_CULL> {
         };
         let m = tree.big_m();
         let top = tree.root_level as usize;
-        let mut stacks: [[MaybeUninit<(u32, f32)>; MAX_M]; MAX_LEVELS] =
-            [[MaybeUninit::uninit(); MAX_M]; MAX_LEVELS];
-        let mut sp = [0u8; MAX_LEVELS + 1];
+        let mut stacks = [const { stack::Stack::<(u32, f32), MAX_M>::new() }; MAX_LEVELS];
         let mut n = 0usize;
         let mut l = top;
         'walk: loop {
@@ -275,7 +273,6 @@ impl<const POP_CULL: bool> Ordered<'_, POP_CULL> {
             if l > 0 {
                 c.interior();
                 let st = &mut stacks[l];
-                let mut k = 0usize;
                 let first = n * m + 1;
                 // SAFETY: the entries `M·n + 1 … M·n + count` of an intermediate node exist in
                 // the complete layout (`count ≤ M`).
@@ -285,42 +282,27 @@ impl<const POP_CULL: bool> Ordered<'_, POP_CULL> {
                     let (tn, tf) = rb.slab::<OCT>(&child.min, &child.max, ray.tmin, best.t);
                     if tn <= tf {
                         // Insertion sort: decreasing distance from bottom to top.
-                        let mut j = k;
-                        while j > 0 {
-                            // SAFETY: entries below `k` were written in this loop.
-                            let below = unsafe { st[j - 1].assume_init() };
-                            if below.1 >= tn {
-                                break;
-                            }
-                            st[j] = MaybeUninit::new(below);
-                            j -= 1;
-                        }
-                        st[j] = MaybeUninit::new(((first + i) as u32, tn));
-                        k += 1;
+                        st.insert_by(((first + i) as u32, tn), |e, x| x.1 < e.1);
                     }
                 }
-                sp[l] = k as u8;
             } else if let Some(h) = leaf::<T, C, ANY>(tree, node, &pre, ray, &mut best, c) {
                 return h;
             }
             // The next node: top of the lowest non-empty stack.
             loop {
-                while l <= top && sp[l] == 0 {
+                while l <= top && stacks[l].is_empty() {
                     l += 1;
                 }
-                if l > top {
+                let Some((child, d)) = stacks.get_mut(l).and_then(stack::Stack::pop) else {
                     break 'walk;
-                }
-                sp[l] -= 1;
-                // SAFETY: entries below the stack pointer were written when pushed.
-                let (child, d) = unsafe { stacks[l][sp[l] as usize].assume_init() };
+                };
                 if !POP_CULL || ANY || d <= best.t * EXIT_SCALE {
                     n = child as usize;
                     l -= 1;
                     c.steps(1);
                     break;
                 }
-                sp[l] = 0;
+                stacks[l].clear();
             }
         }
         best.record(tree)
@@ -366,8 +348,7 @@ impl Stack<'_> {
         };
         let m = tree.big_m();
         let first_leaf = tree.first_leaf as usize;
-        let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); STACK_SIZE];
-        let mut sp = 0usize;
+        let mut stack = stack::Stack::<(u32, f32), STACK_SIZE>::new();
         let mut n = 0usize;
         'walk: loop {
             // SAFETY: `n` is the root or an entry pushed from an intermediate node.
@@ -381,26 +362,17 @@ impl Stack<'_> {
                     c.boxes(1);
                     let (tn, tf) = rb.slab::<OCT>(&child.min, &child.max, ray.tmin, best.t);
                     if tn <= tf {
-                        stack[sp] = MaybeUninit::new(((first + i) as u32, tn));
-                        sp += 1;
+                        stack.push(((first + i) as u32, tn));
                     }
                 }
             } else if let Some(h) = leaf::<T, C, ANY>(tree, node, &pre, ray, &mut best, c) {
                 return h;
             }
-            loop {
-                if sp == 0 {
-                    break 'walk;
-                }
-                sp -= 1;
-                // SAFETY: entries below `sp` were written by the push above.
-                let (child, d) = unsafe { stack[sp].assume_init() };
-                if ANY || d <= best.t * EXIT_SCALE {
-                    n = child as usize;
-                    c.steps(1);
-                    break;
-                }
-            }
+            let Some((child, _)) = stack.pop_until(|e| ANY || e.1 <= best.t * EXIT_SCALE) else {
+                break 'walk;
+            };
+            n = child as usize;
+            c.steps(1);
         }
         best.record(tree)
     }

@@ -62,8 +62,8 @@ pub(crate) use walk::{Isa, Wide};
 #[cfg(doc)]
 use crate::Bvh;
 use crate::{BvhNode, BvhParams, Collapse, LeafCost};
-use std::mem::MaybeUninit;
 use tb_core::slab::{max_num, min_num, EXIT_SCALE};
+use tb_core::stack::Stack;
 use tb_core::{Aabb, Counter, HitRecord, Ray, Tri4, TriTest, Triangle, Vec3};
 
 /// Marks an empty child slot in [`WideNode::count`] (its box is empty: `min = +inf`,

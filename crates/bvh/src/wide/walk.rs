@@ -311,9 +311,7 @@ impl<const N: usize> Wide<'_, N> {
         let pre = T::prepare(ray);
         let mut hit_prim: Option<u32> = None;
         let (mut hit_u, mut hit_v) = (0.0f32, 0.0f32);
-        let mut stack: [MaybeUninit<Entry>; WIDE_STACK_SIZE] =
-            [MaybeUninit::uninit(); WIDE_STACK_SIZE];
-        let mut sp = 0usize;
+        let mut stack = Stack::<Entry, WIDE_STACK_SIZE>::new();
         let mut cur = Entry {
             index: 0,
             count: 0,
@@ -347,12 +345,11 @@ impl<const N: usize> Wide<'_, N> {
                         while mask != 0 {
                             let i = mask.trailing_zeros() as usize;
                             mask &= mask - 1;
-                            stack[sp] = MaybeUninit::new(Entry {
+                            stack.push(Entry {
                                 index: node.child[i],
                                 count: node.count[i],
                                 t: tn[i],
                             });
-                            sp += 1;
                         }
                         cur = Entry {
                             index: node.child[first],
@@ -361,38 +358,26 @@ impl<const N: usize> Wide<'_, N> {
                         };
                         continue 'walk;
                     }
-                    // Several hit: sort by entry distance (insertion sort, ≤ 8), push all but
-                    // the nearest, farthest first.
-                    let mut hit: [MaybeUninit<(f32, usize)>; N] = [MaybeUninit::uninit(); N];
-                    hit[0] = MaybeUninit::new((tn[first], first));
-                    let mut k = 1;
+                    // Several hit: sort by entry distance (insertion sort, ≤ 8, the farthest
+                    // on top), push all but the nearest, farthest first.
+                    let mut hit = Stack::<(f32, usize), N>::new();
+                    hit.push((tn[first], first));
                     while mask != 0 {
                         let i = mask.trailing_zeros() as usize;
                         mask &= mask - 1;
-                        let e = (tn[i], i);
-                        let mut j = k;
-                        // SAFETY: entries below `k` are written.
-                        while j > 0 && unsafe { hit[j - 1].assume_init().0 } > e.0 {
-                            hit[j] = hit[j - 1];
-                            j -= 1;
-                        }
-                        hit[j] = MaybeUninit::new(e);
-                        k += 1;
+                        hit.insert_by((tn[i], i), |e, x| x.0 > e.0);
                     }
-                    for j in (1..k).rev() {
-                        // SAFETY: entries below `k` are written.
-                        let (t, i) = unsafe { hit[j].assume_init() };
+                    let sorted = hit.as_slice();
+                    for &(t, i) in sorted[1..].iter().rev() {
                         // At most N − 1 entries per level and a depth of at most MAX_DEPTH
                         // (checked by `validate`): in range.
-                        stack[sp] = MaybeUninit::new(Entry {
+                        stack.push(Entry {
                             index: node.child[i],
                             count: node.count[i],
                             t,
                         });
-                        sp += 1;
                     }
-                    // SAFETY: k ≥ 2 entries are written.
-                    let (t, i) = unsafe { hit[0].assume_init() };
+                    let (t, i) = sorted[0];
                     cur = Entry {
                         index: node.child[i],
                         count: node.count[i],
@@ -464,18 +449,10 @@ impl<const N: usize> Wide<'_, N> {
                     }
                 }
             }
-            loop {
-                if sp == 0 {
-                    break 'walk;
-                }
-                sp -= 1;
-                // SAFETY: entries below `sp` were written by a push.
-                let e = unsafe { stack.get_unchecked(sp).assume_init() };
-                if ANY || e.t <= best_t * EXIT_SCALE {
-                    cur = e;
-                    break;
-                }
-            }
+            let Some(e) = stack.pop_until(|e| ANY || e.t <= best_t * EXIT_SCALE) else {
+                break 'walk;
+            };
+            cur = e;
         }
         match hit_prim {
             None => HitRecord::MISS,

@@ -26,12 +26,12 @@ impl Ctx<'_> {
         let mut done = NONE;
         // Where the ray leaves the finished subtree.
         let mut done_exit = f32::NEG_INFINITY;
-        let mut stack = [(0u32, 0f32, 0f32); STACK_SIZE];
+        let mut stack = Stack::<(u32, f32, f32), STACK_SIZE>::new();
         loop {
             let a = &self.aug[sa];
             c.boxes(1);
             if let Some((t0, t1)) = a.cell().intersect(ray.origin, inv, ray.tmin, ray.tmax) {
-                let mut sp = 0usize;
+                stack.clear();
                 let (mut idx, mut tn, mut tf) = (a.node as usize, t0, t1);
                 // Whether `idx` is an ancestor of the finished subtree (stack entries carry
                 // it in the top bit of the node index).
@@ -71,9 +71,8 @@ impl Ctx<'_> {
                                         continue;
                                     }
                                     let far_path = path && d.far == toward;
-                                    stack[sp] =
-                                        ((far_path as u32) << 31 | d.far as u32, d.far_tn, tf);
-                                    sp += 1;
+                                    let far = (far_path as u32) << 31 | d.far as u32;
+                                    stack.push((far, d.far_tn, tf));
                                     path &= d.near == toward;
                                     idx = d.near;
                                     tf = d.near_tf;
@@ -85,16 +84,9 @@ impl Ctx<'_> {
                             return best.record();
                         }
                     }
-                    let mut next = None;
-                    while sp > 0 {
-                        sp -= 1;
-                        let e = stack[sp];
-                        if ANY || e.1 <= best.t {
-                            next = Some(e);
-                            break;
-                        }
-                    }
-                    let Some((i, x, y)) = next else { break };
+                    let Some((i, x, y)) = stack.pop_until(|e| ANY || e.1 <= best.t) else {
+                        break;
+                    };
                     path = i >> 31 == 1;
                     (idx, tn, tf) = ((i & !(1 << 31)) as usize, x, y);
                 }

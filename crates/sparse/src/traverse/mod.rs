@@ -84,6 +84,7 @@
 
 use crate::{AugNode, SparseBoxes};
 use tb_core::slab::{max_num, min_num};
+use tb_core::stack::Stack;
 use tb_core::{
     Aabb, Answers, Batch, Counter, HitRecord, MollerTrumbore, NoStats, Query, Ray, TraversalStats,
     TriTest, TriTestKind, Vec3, Watertight,
