@@ -341,25 +341,42 @@ pub struct RecursiveDirection<'a, L>(pub Tree<'a, L>);
 impl<L: Layout> RecursiveDirection<'_, L> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        let w = &self.0;
         let stack = Stack::<Entry<f32>, STACK_SIZE>::new();
-        let begin = |s: &Setup| ((), s.t0, s.t1);
-        stack_walk::<T, C, L, f32, (), _, ANY>(w, ray, c, stack, begin, |t| *t, {
-            |s, _, idx, n, (tn, tf), stack, c| {
-                c.planes(1);
-                let d = decide(w.l, n, idx, s, *tn, *tf);
-                match d.kind {
-                    Kind::NearOnly => d.near,
-                    Kind::FarOnly => d.far,
-                    Kind::Both => {
-                        stack.defer((d.far as u32, d.far_tn, *tf), c);
-                        *tf = d.near_tf;
-                        d.near
-                    }
+        by_direction::<T, C, L, _, ANY>(&self.0, ray, c, stack)
+    }
+}
+
+/// The direction-classified stack walk of [`RecursiveDirection`] with its pending subtrees
+/// kept in `pending` (the full stack, or `stack-spilling`'s short stack).
+#[inline(always)]
+fn by_direction<T, C, L, P, const ANY: bool>(
+    w: &Tree<'_, L>,
+    ray: &Ray,
+    c: &mut C,
+    pending: P,
+) -> HitRecord
+where
+    T: TriTest,
+    C: Counter,
+    L: Layout,
+    P: Pending<f32>,
+{
+    let begin = |s: &Setup| ((), s.t0, s.t1);
+    stack_walk::<T, C, L, f32, (), _, ANY>(w, ray, c, pending, begin, |t| *t, {
+        |s, _, idx, n, (tn, tf), pending, c| {
+            c.planes(1);
+            let d = decide(w.l, n, idx, s, *tn, *tf);
+            match d.kind {
+                Kind::NearOnly => d.near,
+                Kind::FarOnly => d.far,
+                Kind::Both => {
+                    pending.defer((d.far as u32, d.far_tn, *tf), c);
+                    *tf = d.near_tf;
+                    d.near
                 }
             }
-        })
-    }
+        }
+    })
 }
 
 tb_core::kernel_by_query!(walk: [L: Layout] RecursiveDirection<'_, L>);
@@ -653,22 +670,7 @@ impl<L: Layout> StackSpilling<'_, L> {
             count: 0,
             spill: Stack::new(),
         };
-        let begin = |s: &Setup| ((), s.t0, s.t1);
-        stack_walk::<T, C, L, f32, (), _, ANY>(w, ray, c, pending, begin, |t| *t, {
-            |s, _, idx, n, (tn, tf), pending, c| {
-                c.planes(1);
-                let d = decide(w.l, n, idx, s, *tn, *tf);
-                match d.kind {
-                    Kind::NearOnly => d.near,
-                    Kind::FarOnly => d.far,
-                    Kind::Both => {
-                        pending.defer((d.far as u32, d.far_tn, *tf), c);
-                        *tf = d.near_tf;
-                        d.near
-                    }
-                }
-            }
-        })
+        by_direction::<T, C, L, _, ANY>(w, ray, c, pending)
     }
 }
 
