@@ -112,6 +112,17 @@ pub enum WideNodes {
 }
 
 impl Bvh {
+    /// The wide walk over `nodes` (width `N`, this build's), with the leaf blocks and the
+    /// binary root, on the instruction set the CPU and [`BvhParams::simd`] allow.
+    fn wide_walk<'a, const N: usize>(&'a self, nodes: &'a [WideNode<N>]) -> wide::Wide<'a, N> {
+        wide::Wide {
+            nodes,
+            blocks: &self.blocks,
+            isa: wide::Isa::detect(N, self.params.simd == Simd::Scalar),
+            root: self.nodes.first(),
+        }
+    }
+
     /// Build a BVH over `tris` with `params` (on the current rayon pool, or on a pool of
     /// `params.build_threads`; the same tree either way). Panics if `params.check()`
     /// fails or there are `u32::MAX` or more triangles.
@@ -231,33 +242,10 @@ impl Structure for Bvh {
             "ordered depth-first with a stack, nearer child first (both child boxes tested at \
              the parent; pbrt-v3 §4.3.5; robust slab test, Ize 2013)",
         ),
-        tb_core::kernel!(|b: &Bvh, batch, out| {
-            let scalar = b.params.simd == Simd::Scalar;
-            match &b.wide {
-                WideNodes::None => dispatch(&traverse::Ordered(b), batch, out),
-                WideNodes::W4(nodes) => {
-                    let isa = wide::Isa::detect(4, scalar);
-                    let (blocks, root) = (&b.blocks[..], b.nodes.first());
-                    let k = wide::Wide {
-                        nodes,
-                        blocks,
-                        isa,
-                        root,
-                    };
-                    dispatch(&k, batch, out)
-                }
-                WideNodes::W8(nodes) => {
-                    let isa = wide::Isa::detect(8, scalar);
-                    let (blocks, root) = (&b.blocks[..], b.nodes.first());
-                    let k = wide::Wide {
-                        nodes,
-                        blocks,
-                        isa,
-                        root,
-                    };
-                    dispatch(&k, batch, out)
-                }
-            }
+        tb_core::kernel!(|b: &Bvh, batch, out| match &b.wide {
+            WideNodes::None => dispatch(&traverse::Ordered(b), batch, out),
+            WideNodes::W4(nodes) => dispatch(&b.wide_walk(nodes), batch, out),
+            WideNodes::W8(nodes) => dispatch(&b.wide_walk(nodes), batch, out),
         }),
         Bvh::gpu_ordered,
     )];

@@ -54,6 +54,23 @@ fn is_leaf(n: KdNode) -> bool {
     return (n.bits & 3u) == 3u;
 }
 
+// One interior node on the way down toward the last leaf `lf` (the split decision, and
+// `toward`: the child holding `lf`), counted as traverse.rs counts it.
+struct Toward { d: Dec, toward: u32 }
+
+fn toward_leaf(x: u32, lf: u32, rb: RayBox, xn: f32, xf: f32, st: ptr<function, Stats>) -> Toward {
+    let n = nodes[x];
+    (*st).interior += 1u;
+    (*st).steps += 1u;
+    (*st).planes += 1u;
+    let d = decide(n, x, rb, xn, xf, bitcast<f32>(0x3f800008u));
+    var toward = n.bits >> 2u;
+    if lf < toward {
+        toward = x + 1u;
+    }
+    return Toward(d, toward);
+}
+
 // traverse.rs `AugRank::find`: the record of `node` (records in node order: the number of
 // augmented nodes before it), 0 if none. The rank follows the step cap in `depths`: per 64
 // nodes, the bits' low and high words and the count of the blocks before.
@@ -345,16 +362,10 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                 var f = vec3<f32>(0.0);
                 var f_idx = 0u;
                 loop {
-                    let n = nodes[x];
-                    (*st).interior += 1u;
-                    (*st).steps += 1u;
-                    (*st).planes += 1u;
+                    let w = toward_leaf(x, lf, rb, xn, xf, st);
+                    let d = w.d;
+                    let toward = w.toward;
                     steps += 1u;
-                    let d = decide(n, x, rb, xn, xf, slack);
-                    var toward = n.bits >> 2u;
-                    if lf < toward {
-                        toward = x + 1u;
-                    }
                     if xd == k {
                         found = d.kind == 2u && toward == d.near;
                         f_idx = d.far;
@@ -399,16 +410,10 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             var c = vec3<f32>(0.0);
             var ck = 0u;
             while xd < dtop {
-                let n = nodes[x];
-                (*st).interior += 1u;
-                (*st).steps += 1u;
-                (*st).planes += 1u;
+                let w = toward_leaf(x, lf, rb, xn, xf, st);
+                let d = w.d;
+                let toward = w.toward;
                 steps += 1u;
-                let d = decide(n, x, rb, xn, xf, slack);
-                var toward = n.bits >> 2u;
-                if lf < toward {
-                    toward = x + 1u;
-                }
                 if d.kind == 2u {
                     in_plane = in_plane || d.far_tn < d.near_tf;
                     if toward == d.near {
