@@ -70,6 +70,19 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// `reproduce` ended with exit status 1, its last line naming the one failed run of the tiny
+/// paper (`e`: its standard error).
+fn assert_one_run_failed(o: &Output, e: &str) {
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.lines()
+            .last()
+            .unwrap()
+            .starts_with("error: 1 runs failed: tiny-paper"),
+        "{e}"
+    );
+}
+
 #[test]
 fn a_failed_run_exits_non_zero_in_words() {
     let t = tempfile::tempdir().unwrap();
@@ -78,15 +91,8 @@ fn a_failed_run_exits_non_zero_in_words() {
     let out = t.path().join("out");
     let o = reproduce(&c, &out, &[]);
     let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert_one_run_failed(&o, &e);
     assert!(e.contains("exit status 1") && !e.contains("Some("), "{e}");
-    assert!(
-        e.lines()
-            .last()
-            .unwrap()
-            .starts_with("error: 1 runs failed: tiny-paper"),
-        "{e}"
-    );
     // The report of what did finish is still written.
     assert!(fs::read_to_string(out.join("REPORT.md"))
         .unwrap()
@@ -115,15 +121,8 @@ fn a_run_of_several_processes_failing_before_a_row_still_gets_its_report() {
     let out = t.path().join("out");
     let o = reproduce(&c, &out, &[]);
     let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert_one_run_failed(&o, &e);
     assert!(!e.contains("no CSV file"), "{e}");
-    assert!(
-        e.lines()
-            .last()
-            .unwrap()
-            .starts_with("error: 1 runs failed: tiny-paper"),
-        "{e}"
-    );
     let report = fs::read_to_string(out.join("REPORT.md")).unwrap();
     assert!(report.contains("exit status 1"), "{report}");
 }
