@@ -26,27 +26,6 @@ pub const STACK_SIZE: usize = 64;
 pub(crate) struct Ordered<'a>(pub &'a Bvh);
 
 impl Ordered<'_> {
-    /// Dispatch on the ray's octant to a walk specialised for it.
-    #[inline(always)]
-    fn traverse<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        let inv = ray.inv_dir().to_array();
-        let rb = RayBox {
-            org: ray.origin.to_array(),
-            inv,
-        };
-        let oct = (inv[0] < 0.0) as u8 | ((inv[1] < 0.0) as u8) << 1 | ((inv[2] < 0.0) as u8) << 2;
-        match oct {
-            0 => self.walk::<T, C, ANY, 0>(ray, &rb, c),
-            1 => self.walk::<T, C, ANY, 1>(ray, &rb, c),
-            2 => self.walk::<T, C, ANY, 2>(ray, &rb, c),
-            3 => self.walk::<T, C, ANY, 3>(ray, &rb, c),
-            4 => self.walk::<T, C, ANY, 4>(ray, &rb, c),
-            5 => self.walk::<T, C, ANY, 5>(ray, &rb, c),
-            6 => self.walk::<T, C, ANY, 6>(ray, &rb, c),
-            _ => self.walk::<T, C, ANY, 7>(ray, &rb, c),
-        }
-    }
-
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool, const OCT: u8>(
         &self,
@@ -153,4 +132,4 @@ impl Ordered<'_> {
     }
 }
 
-tb_core::kernel_by_query!(traverse: [] Ordered<'_>);
+tb_core::kernel_by_octant!([] Ordered<'_>);

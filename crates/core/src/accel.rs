@@ -617,6 +617,34 @@ macro_rules! kernel_by_query {
     )+};
 }
 
+/// Implement [`Kernel`] for hierarchy walks with a method
+/// `walk::<T, C, ANY, OCT>(&self, ray, &RayBox, c)`, specialised by the ray's octant through
+/// [`crate::by_octant!`] (the BVH's and the R-tree's); generics as in [`kernel_by_query!`].
+#[macro_export]
+macro_rules! kernel_by_octant {
+    ($([$($gen:tt)*] $ty:ty),+ $(,)?) => {$(
+        impl<$($gen)*> $crate::Kernel for $ty {
+            #[inline]
+            fn closest<T: $crate::TriTest, C: $crate::Counter>(
+                &self,
+                ray: &$crate::Ray,
+                c: &mut C,
+            ) -> $crate::HitRecord {
+                $crate::by_octant!(self, ray, c, false)
+            }
+
+            #[inline]
+            fn any<T: $crate::TriTest, C: $crate::Counter>(
+                &self,
+                ray: &$crate::Ray,
+                c: &mut C,
+            ) -> $crate::HitRecord {
+                $crate::by_octant!(self, ray, c, true)
+            }
+        }
+    )+};
+}
+
 #[inline(always)]
 fn run<K: Kernel, T: TriTest, C: Counter>(k: &K, query: Query, ray: &Ray, c: &mut C) -> HitRecord {
     match query {

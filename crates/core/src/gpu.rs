@@ -121,6 +121,12 @@ pub const LEAF_RANGES: &str = include_str!("../shaders/leaf_ranges.wgsl");
 /// closest hit, or `NO_ENTRY`.
 pub const STACK_POP: &str = include_str!("../shaders/stack_pop.wgsl");
 
+/// Little-endian bytes of 32-bit words, as a program buffer ([`GpuProgram::buffer`]) holds
+/// them: `array<u32>`, or `f32` bits of `array<f32>`.
+pub fn words(w: impl IntoIterator<Item = u32>) -> Cow<'static, [u8]> {
+    Cow::Owned(w.into_iter().flat_map(u32::to_le_bytes).collect())
+}
+
 impl<'a> GpuProgram<'a> {
     /// The program `name` (`structure/traversal`) of WGSL `source` over `triangles`, with no
     /// further buffer, meta word, stack, constant or arrangement: add those with the methods

@@ -71,6 +71,27 @@ impl RayBox {
     }
 }
 
+/// `$walker.walk::<T, C, $any, OCT>($ray, &rb, $c)` for the ray's octant `OCT`, with `rb` its
+/// [`RayBox`]: the octant made a const parameter of a hierarchy walk (the BVH's and the
+/// R-tree's), inside a generic kernel whose type parameters are named `T` and `C`.
+#[macro_export]
+macro_rules! by_octant {
+    ($walker:expr, $ray:expr, $c:expr, $any:expr) => {{
+        let ray = $ray;
+        let (rb, oct) = $crate::slab::RayBox::new(ray);
+        match oct {
+            0 => $walker.walk::<T, C, $any, 0>(ray, &rb, $c),
+            1 => $walker.walk::<T, C, $any, 1>(ray, &rb, $c),
+            2 => $walker.walk::<T, C, $any, 2>(ray, &rb, $c),
+            3 => $walker.walk::<T, C, $any, 3>(ray, &rb, $c),
+            4 => $walker.walk::<T, C, $any, 4>(ray, &rb, $c),
+            5 => $walker.walk::<T, C, $any, 5>(ray, &rb, $c),
+            6 => $walker.walk::<T, C, $any, 6>(ray, &rb, $c),
+            _ => $walker.walk::<T, C, $any, 7>(ray, &rb, $c),
+        }
+    }};
+}
+
 impl RayBox {
     /// [`RayBox::slab`] with the octant chosen at run time (for tests and one-off queries;
     /// kernels make `OCT` a const parameter instead).

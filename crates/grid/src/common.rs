@@ -32,8 +32,9 @@
 //! every triangle instead. Every step of either walk is monotone in voxel indices, so walks
 //! end whatever the rounding.
 
-use crate::lattice::{Lattice, Real};
+use crate::lattice::{Lattice, Planes, Real};
 use std::hint::select_unpredictable;
+use std::ops::Range;
 use tb_core::{Counter, HitRecord, Ray, TriTest, Triangle};
 
 /// The walk ray's coordinates in voxel units of one lattice as linear functions of `t`:
@@ -289,6 +290,46 @@ pub fn walk_by<F: Real, const SELECT: bool>(
             None => return,
         }
     }
+}
+
+/// The walk of the one-level grids (the uniform grid's `dda`, the irregular grid's `walk`):
+/// the ray entered into `lat` ([`enter`]), then [`walk_by`] over its `planes`, each visited
+/// voxel `v` counted (a cell and a step) and resolved by `cell` to its references (a range of
+/// `refs`) and its box in voxels `lo..hi`, which are tested ([`test_refs`]) before the walk
+/// leaves the box through its far planes.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)] // a hot walk: the grids' arrays by reference
+pub fn cell_walk<T: TriTest, C: Counter, const ANY: bool, F: Real>(
+    ray: &Ray,
+    lat: &Lattice<F>,
+    planes: &Planes<F>,
+    tris: &[Triangle],
+    refs: &[u32],
+    c: &mut C,
+    cell: impl Fn([u32; 3]) -> (Range<usize>, [u32; 3], [u32; 3]),
+) -> HitRecord {
+    let w = match enter::<T, C, ANY, F>(ray, lat, tris, c) {
+        Ok(w) => w,
+        Err(h) => return h,
+    };
+    let pre = T::prepare(ray);
+    let mut hit = HitRecord::MISS;
+    let mut best = ray.tmax;
+    walk_by::<F, true>(
+        &w,
+        lat,
+        |a, i| planes.get(a, i),
+        |v| {
+            c.cell();
+            c.steps(1);
+            let (r, lo, hi) = cell(v);
+            if test_refs::<T, C, ANY>(&pre, ray, tris, &refs[r], &mut hit, &mut best, c) {
+                return Visit::Stop;
+            }
+            Visit::Continue { lo, hi, best }
+        },
+    );
+    hit
 }
 
 /// Test the triangles `refs` (scene indices) against the ray, keeping the closest hit in

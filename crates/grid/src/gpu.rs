@@ -15,12 +15,8 @@
 use crate::lattice::Lattice;
 use crate::{IrregularGrid, Precision, TwoLevelGrid, UniformGrid};
 use std::borrow::Cow;
+use tb_core::gpu::words;
 use tb_core::{GpuBuffer, GpuProgram};
-
-/// Little-endian bytes of `w` (the GPU's words).
-fn words(w: impl IntoIterator<Item = u32>) -> Cow<'static, [u8]> {
-    Cow::Owned(w.into_iter().flat_map(u32::to_le_bytes).collect())
-}
 
 /// The header buffer: `lat` as 15 words in `precision` (as the CPU walk rounds it,
 /// [`Lattice::cast`]), then `extra`.

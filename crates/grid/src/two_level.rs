@@ -279,17 +279,7 @@ impl TwoLevelGrid {
     }
 }
 
-tb_core::kernel_by_query!(dda: [] Dda<'_>);
-
-/// The `dda` traversal of a [`TwoLevelGrid`].
-pub(crate) struct Dda<'a>(pub &'a TwoLevelGrid);
-
-impl Dda<'_> {
-    #[inline(always)]
-    fn dda<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.0.dda::<T, C, ANY>(ray, c)
-    }
-}
+tb_core::kernel_by_query!(dda: [] TwoLevelGrid);
 
 impl Structure for TwoLevelGrid {
     const NAME: &'static str = "two-level-grid";
@@ -299,7 +289,7 @@ impl Structure for TwoLevelGrid {
             "Kalojanov et al. 2011 §4",
             "3D-DDA over the top level, and in each non-empty top cell 3D-DDA over its own grid",
         ),
-        tb_core::kernel!(|g: &TwoLevelGrid, batch, out| { tb_core::dispatch(&Dda(g), batch, out) }),
+        tb_core::kernel!(|g: &TwoLevelGrid, batch, out| { tb_core::dispatch(g, batch, out) }),
         TwoLevelGrid::gpu_dda,
     )];
 

@@ -2,7 +2,7 @@
 //! Woo 1987), optionally with macro regions (Devillers 1989): the baseline of Table 5 of
 //! Pérard-Gayot et al. 2017.
 
-use crate::common::{enter, test_refs, walk_by, Visit};
+use crate::common::cell_walk;
 use crate::lattice::{
     bin_uniform, bounded_res, grid_bounds, planes_for, resolution, Lattice, Planes, Real,
     MAX_AXIS_RES,
@@ -107,57 +107,20 @@ impl UniformGrid {
         ray: &Ray,
         c: &mut C,
     ) -> HitRecord {
-        let w = match enter::<T, C, ANY, F>(ray, lat, &self.tris, c) {
-            Ok(w) => w,
-            Err(h) => return h,
-        };
-        let pre = T::prepare(ray);
-        let mut hit = HitRecord::MISS;
-        let mut best = ray.tmax;
-        walk_by::<F, true>(
-            &w,
-            lat,
-            |a, i| planes.get(a, i),
-            |v| {
-                c.cell();
-                c.steps(1);
-                let i = lat.index(v);
-                let r = self.start[i] as usize..self.start[i + 1] as usize;
-                if test_refs::<T, C, ANY>(
-                    &pre,
-                    ray,
-                    &self.tris,
-                    &self.refs[r.clone()],
-                    &mut hit,
-                    &mut best,
-                    c,
-                ) {
-                    return Visit::Stop;
-                }
-                let (lo, hi) = if r.is_empty() && !self.macros.is_empty() {
-                    let m = self.macros[i];
-                    ([m[0], m[1], m[2]], [m[3], m[4], m[5]])
-                } else {
-                    (v, v.map(|x| x + 1))
-                };
-                Visit::Continue { lo, hi, best }
-            },
-        );
-        hit
+        cell_walk::<T, C, ANY, F>(ray, lat, planes, &self.tris, &self.refs, c, |v| {
+            let i = lat.index(v);
+            let r = self.start[i] as usize..self.start[i + 1] as usize;
+            if r.is_empty() && !self.macros.is_empty() {
+                let m = self.macros[i];
+                (r, [m[0], m[1], m[2]], [m[3], m[4], m[5]])
+            } else {
+                (r, v, v.map(|x| x + 1))
+            }
+        })
     }
 }
 
-tb_core::kernel_by_query!(dda: [] Dda<'_>);
-
-/// The `dda` traversal of a [`UniformGrid`].
-pub(crate) struct Dda<'a>(pub &'a UniformGrid);
-
-impl Dda<'_> {
-    #[inline(always)]
-    fn dda<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.0.dda::<T, C, ANY>(ray, c)
-    }
-}
+tb_core::kernel_by_query!(dda: [] UniformGrid);
 
 /// Macro regions (Devillers 1989, "The macro-regions: an efficient space subdivision
 /// structure for ray tracing"): for every empty cell a large empty box of cells around it, so
@@ -293,7 +256,7 @@ impl Structure for UniformGrid {
             "3D-DDA from cell to cell (Amanatides and Woo 1987), skipping an empty cell's \
              macro region in one step where built (Devillers 1989)",
         ),
-        tb_core::kernel!(|g: &UniformGrid, batch, out| { tb_core::dispatch(&Dda(g), batch, out) }),
+        tb_core::kernel!(|g: &UniformGrid, batch, out| { tb_core::dispatch(g, batch, out) }),
         UniformGrid::gpu_dda,
     )];
 

@@ -1,18 +1,20 @@
 // The kd-tree's shared WGSL (tb_kdtree; Hapala and Havran 2011, "Review: Kd-tree traversal
-// algorithms for ray tracing"), prepended to every kd program (kdtree/…, multi-kd/…) on tb-gpu's
-// prelude (tb_core::gpu): the node array and its decoding in both layouts (review §6), the
-// header, the one split decision every kd traversal shares (traverse.rs `split_decision`), the
-// leaf test, and the full-stack recursive traversal (traverse.rs `RecursiveDirection`).
+// algorithms for ray tracing"), included by every program of the kd family (kdtree/…,
+// multi-kd/…, sparse-boxes/…) on tb-gpu's prelude (tb_core::gpu): the node array and its
+// decoding in both layouts (review §6), the header, the one split decision every kd traversal
+// shares (traverse.rs `split_decision`), the leaf test, and the full-stack recursive traversal
+// (traverse.rs `RecursiveDirection`).
 
 // tb_kdtree::KdNode, 8 bytes: bits = link << 2 | axis (interior) or count << 2 | 3 (leaf);
 // data = split (f32 bits) or the first reference. The node count is meta_.counts.y.
 @group(0) @binding(5) var<storage, read> nodes: array<vec2<u32>>;   // GpuProgram::buffers[0]
 @group(0) @binding(6) var<storage, read> refs: array<u32>;          // buffers[1]: references
-// buffers[2], 12 words: the start nodes (kd-tree: word 0, the walk's start node; multi-kd:
-// roots X, Y, Z); word 3 the multi-kd pick rule; word 4 the layout (0 depth-first, else the
-// treelet block's slot mask); words 5..10 the start cell min xyz, max xyz (f32 bits); word 11
-// the step cap of the restart-type traversals.
-@group(0) @binding(7) var<storage, read> header: array<u32, 12>;
+// buffers[2], 12 words (tb_kdtree::gpu_header): the start nodes (kd-tree: word 0, the walk's
+// start node; multi-kd: roots X, Y, Z); word 3 the multi-kd pick rule; word 4 the layout (0
+// depth-first, else the treelet block's slot mask); words 5..10 the start cell min xyz, max xyz
+// (f32 bits); word 11 the step cap of the restart-type traversals. Sized at run time: a
+// program built on the kd-tree may append its own words (sparse boxes' depths and rank).
+@group(0) @binding(7) var<storage, read> header: array<u32>;
 
 // tb_kdtree::traverse::SLACK = 1 + 8·2^-23.
 const SLACK: f32 = 1.00000095367431640625;

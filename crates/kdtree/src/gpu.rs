@@ -1,8 +1,8 @@
 //! The kd-tree's GPU programs (review §3-5 on the GPU; docs/GPU.md).
 
-use crate::{KdLayout, KdTree, MAX_SHORT_STACK, STACK_SIZE};
-use std::borrow::Cow;
-use tb_core::GpuProgram;
+use crate::{KdLayout, KdParams, KdTree, MAX_SHORT_STACK, STACK_SIZE};
+use tb_core::gpu::words;
+use tb_core::{Aabb, GpuProgram};
 
 /// The GPU kernels of `shaders/kdtree.wgsl` (its override constant `KERNEL`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -53,15 +53,38 @@ const SHORT_STACK_PROGRAMS: [&str; MAX_SHORT_STACK] = [
     "kdtree/short-stack-32",
 ];
 
-/// Little-endian bytes of `w` (the GPU's words).
-fn words(w: impl IntoIterator<Item = u32>) -> Cow<'static, [u8]> {
-    Cow::Owned(w.into_iter().flat_map(u32::to_le_bytes).collect())
+/// The 12-word header of `shaders/kd.wgsl` (binding 7), which the programs built on the kd-tree
+/// (multi-kd's; sparse boxes', whose own words follow it in the same buffer) fill too:
+/// `starts` (words 0..=3: the kd-tree's start node; multi-kd's roots X, Y, Z and pick rule),
+/// the layout (word 4: 0 depth-first, else the treelet block's slot mask), the start `cell`
+/// (words 5..=10, f32 bits) and the restart-type traversals' `step_cap` (word 11).
+pub fn gpu_header(params: &KdParams, starts: [u32; 4], cell: Aabb, step_cap: u32) -> [u32; 12] {
+    let mask = match params.layout {
+        KdLayout::DepthFirst => 0,
+        KdLayout::Treelet => (1u32 << params.treelet_height) - 1,
+    };
+    let (b0, b1) = (cell.min, cell.max);
+    let [s0, s1, s2, s3] = starts;
+    [
+        s0,
+        s1,
+        s2,
+        s3,
+        mask,
+        b0.x.to_bits(),
+        b0.y.to_bits(),
+        b0.z.to_bits(),
+        b1.x.to_bits(),
+        b1.y.to_bits(),
+        b1.z.to_bits(),
+        step_cap,
+    ]
 }
 
 /// The kd-tree family's shared WGSL (`shaders/kd.wgsl`): the node array, references and header,
 /// the interior decision and leaf loop, the recursive walk. The kd-tree's programs and those
-/// of the structures built on it (the multi-kd-tree's) include it through tb-gpu
-/// ([`GpuProgram::include`]).
+/// of the structures built on it (the multi-kd-tree's, sparse boxes') include it through
+/// tb-gpu ([`GpuProgram::include`]).
 pub const KD_WGSL: &str = include_str!("../shaders/kd.wgsl");
 
 /// The programs' source after [`KD_WGSL`]: the short stack's placement, `shaders/kdtree.wgsl`.
@@ -95,25 +118,12 @@ impl KdTree {
     /// `short-stack` (the circular stack; one program per size, [`SHORT_STACK_PROGRAMS`], since
     /// a program's stack size is fixed by its name), none for the others.
     pub(crate) fn gpu(&self, name: &'static str, kernel: GpuKernel) -> GpuProgram<'_> {
-        let mask = match self.params.layout {
-            KdLayout::DepthFirst => 0,
-            KdLayout::Treelet => (1u32 << self.params.treelet_height) - 1,
-        };
-        let (b0, b1) = (self.start.cell.min, self.start.cell.max);
-        let header = [
-            self.start.node,
-            0,
-            0,
-            0,
-            mask,
-            b0.x.to_bits(),
-            b0.y.to_bits(),
-            b0.z.to_bits(),
-            b1.x.to_bits(),
-            b1.y.to_bits(),
-            b1.z.to_bits(),
+        let header = gpu_header(
+            &self.params,
+            [self.start.node, 0, 0, 0],
+            self.start.cell,
             self.params.step_cap,
-        ];
+        );
         let back = || {
             self.back_nodes().iter().flat_map(|b| {
                 let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));

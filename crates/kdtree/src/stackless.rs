@@ -505,6 +505,72 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
     }
 }
 
+/// The point of Kaplan's point location (review §3.1) as `sequential` and `ropes` place it
+/// (see [`Walk::locate`]), and sparse boxes' SLTR after them: the point at distance `tn`,
+/// whose coordinate on an axis whose exit face was crossed is that face's (`floor`) exactly.
+#[derive(Clone, Copy, Debug)]
+pub struct Located {
+    floor: [f32; 3],
+    /// The axis of the exit face just crossed (3 before the first).
+    exact: usize,
+    /// `tn = 0`: the point is the ray origin itself, exact on every axis.
+    origin: bool,
+    /// `tn` less and plus the rounding [`SLACK`].
+    below: f32,
+    above: f32,
+}
+
+impl Located {
+    /// The point at distance `tn`, on the face `floor[exact]` crossed last.
+    #[inline(always)]
+    pub fn new(tn: f32, floor: [f32; 3], exact: usize) -> Self {
+        Located {
+            floor,
+            exact,
+            origin: tn == 0.0,
+            below: tn - (SLACK - 1.0) * tn.abs(),
+            above: tn + (SLACK - 1.0) * tn.abs(),
+        }
+    }
+
+    /// At the split plane `sp` on axis `a`, met at distance `t` (not `NaN`) by the ray from
+    /// `org` with direction signs `neg`: whether the point lies in the lower child (the near
+    /// one for a positive direction, unless the plane is behind the point), and whether the
+    /// plane lies within rounding of the point (the walk cannot place it). A plane at or
+    /// before `floor[a]` in the direction of travel is behind; one beyond it on the `exact`
+    /// axis is ahead; any other plane is behind only when `t` is below `tn` by more than the
+    /// rounding. At the origin a plane through it is not behind: the ray leaves it toward
+    /// the far side, but touches the near cell at the origin (a hit at `t = 0` there counts),
+    /// so the near cell is visited first and its exit is that plane at `t = 0`.
+    #[inline(always)]
+    pub fn lower(
+        &self,
+        org: &[f32; 3],
+        neg: &[bool; 3],
+        a: usize,
+        sp: f32,
+        t: f32,
+    ) -> (bool, bool) {
+        let behind = if neg[a] {
+            sp >= self.floor[a]
+        } else {
+            sp <= self.floor[a]
+        };
+        let (behind, ambiguous) = if self.origin {
+            let through = if neg[a] { sp > org[a] } else { sp < org[a] };
+            (behind || through, false)
+        } else if a == self.exact {
+            (behind, false)
+        } else {
+            (
+                behind || t < self.below,
+                !behind && t >= self.below && t <= self.above,
+            )
+        };
+        (behind == neg[a], ambiguous)
+    }
+}
+
 /// The state of one `sequential` or `ropes` walk (see the module doc).
 struct Walk<'a, L> {
     w: &'a Tree<'a, L>,
@@ -559,10 +625,7 @@ impl<L: Layout> Walk<'_, L> {
     ) -> (usize, [f32; 3], [f32; 3]) {
         let s = self.s;
         let nodes = self.w.v.nodes;
-        // At `tn = 0` the located point is the ray origin itself, exact on every axis.
-        let origin = tn == 0.0;
-        let below = tn - (SLACK - 1.0) * tn.abs();
-        let above = tn + (SLACK - 1.0) * tn.abs();
+        let at = Located::new(tn, floor, self.exact);
         loop {
             let n = nodes[idx];
             if n.is_leaf() {
@@ -580,32 +643,9 @@ impl<L: Layout> Walk<'_, L> {
                 self.seen |= 1 << a;
                 self.mask >> a & 1 == 0
             } else {
-                let behind = if s.neg[a] {
-                    sp >= floor[a]
-                } else {
-                    sp <= floor[a]
-                };
-                let behind = if origin {
-                    // The point is the origin exactly: compare coordinates. A plane through
-                    // it is not behind: the ray leaves it toward the far side, but touches
-                    // the near cell at the origin (a hit at `t = 0` there counts), so the
-                    // near cell is visited first and its exit is that plane at `t = 0`.
-                    behind
-                        || if s.neg[a] {
-                            sp > s.org[a]
-                        } else {
-                            sp < s.org[a]
-                        }
-                } else if a == self.exact {
-                    behind
-                } else {
-                    if !behind && t >= below && t <= above {
-                        self.ambiguous = true;
-                    }
-                    behind || t < below
-                };
-                // The near child (left for a positive direction) unless the plane is behind.
-                behind == s.neg[a]
+                let (lower, ambiguous) = at.lower(&s.org, &s.neg, a, sp, t);
+                self.ambiguous |= ambiguous;
+                lower
             };
             let (l, r) = self.w.l.children(idx, n);
             if left {

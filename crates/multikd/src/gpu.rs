@@ -2,9 +2,9 @@
 
 use crate::measure::Heuristic;
 use crate::MultiKdTree;
-use std::borrow::Cow;
+use tb_core::gpu::words;
 use tb_core::{GpuArrange, GpuProgram};
-use tb_kdtree::{KdLayout, STACK_SIZE};
+use tb_kdtree::{gpu_header, STACK_SIZE};
 
 impl MultiKdTree {
     /// The GPU program of `recursive-direction` (`shaders/kd.wgsl`'s `recursive` from the ray's
@@ -33,35 +33,14 @@ impl MultiKdTree {
     /// The `recursive-direction` program, its rays sorted by tree index first when `sort` is
     /// `Some(timed)`.
     pub(crate) fn gpu_program(&self, sort: Option<bool>) -> GpuProgram<'_> {
-        let words = |w: &[u32]| -> Cow<'_, [u8]> {
-            Cow::Owned(w.iter().flat_map(|x| x.to_le_bytes()).collect())
-        };
-        let nodes: Vec<u32> = self.nodes.iter().flat_map(|n| [n.bits, n.data]).collect();
+        let nodes = self.nodes.iter().flat_map(|n| [n.bits, n.data]);
         let rule = match self.pick {
             Heuristic::Sah => 0,
             Heuristic::CubeOrth | Heuristic::CubeObli => 1,
             _ => 2,
         };
-        let mask = match self.params.kd.layout {
-            KdLayout::DepthFirst => 0,
-            KdLayout::Treelet => (1u32 << self.params.kd.treelet_height) - 1,
-        };
-        let (b0, b1) = (self.bounds.min, self.bounds.max);
-        let h = self.header;
-        let header = [
-            h[0],
-            h[1],
-            h[2],
-            rule,
-            mask,
-            b0.x.to_bits(),
-            b0.y.to_bits(),
-            b0.z.to_bits(),
-            b1.x.to_bits(),
-            b1.y.to_bits(),
-            b1.z.to_bits(),
-            0,
-        ];
+        let [x, y, z] = self.header;
+        let header = gpu_header(&self.params.kd, [x, y, z, rule], self.bounds, 0);
         GpuProgram::new(
             if sort.is_some() {
                 "multi-kd/recursive-direction-sorted"
@@ -72,9 +51,12 @@ impl MultiKdTree {
             &self.tris[..],
         )
         .include(tb_kdtree::KD_WGSL)
-        .buffer("the multi-kd-tree node array", words(&nodes))
-        .buffer("the multi-kd-tree reference array", words(&self.refs))
-        .buffer("the multi-kd-tree header", words(&header))
+        .buffer("the multi-kd-tree node array", words(nodes))
+        .buffer(
+            "the multi-kd-tree reference array",
+            words(self.refs.iter().copied()),
+        )
+        .buffer("the multi-kd-tree header", words(header))
         .meta([self.nodes.len() as u32, 0, 0])
         .stack(STACK_SIZE as u32)
         .arranged(sort.map(|timed| GpuArrange {

@@ -10,41 +10,7 @@
 use crate::{Rtree, RtreeNode, MAX_LEVELS, MAX_M};
 use tb_core::slab::{RayBox, EXIT_SCALE};
 use tb_core::stack;
-use tb_core::{Counter, HitRecord, Kernel, Ray, TriTest};
-
-/// Call `$walk::<T, C, ANY, OCT>($ray, &rb, c)` for the ray's octant.
-macro_rules! by_octant {
-    ($self:ident, $ray:ident, $c:ident, $any:expr) => {{
-        let (rb, oct) = RayBox::new($ray);
-        match oct {
-            0 => $self.walk::<T, C, $any, 0>($ray, &rb, $c),
-            1 => $self.walk::<T, C, $any, 1>($ray, &rb, $c),
-            2 => $self.walk::<T, C, $any, 2>($ray, &rb, $c),
-            3 => $self.walk::<T, C, $any, 3>($ray, &rb, $c),
-            4 => $self.walk::<T, C, $any, 4>($ray, &rb, $c),
-            5 => $self.walk::<T, C, $any, 5>($ray, &rb, $c),
-            6 => $self.walk::<T, C, $any, 6>($ray, &rb, $c),
-            _ => $self.walk::<T, C, $any, 7>($ray, &rb, $c),
-        }
-    }};
-}
-
-/// The `Kernel` impl of a traversal type with a `walk::<T, C, ANY, OCT>` method.
-macro_rules! kernel {
-    ($ty:ident) => {
-        impl Kernel for $ty<'_> {
-            #[inline]
-            fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-                by_octant!(self, ray, c, false)
-            }
-
-            #[inline]
-            fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-                by_octant!(self, ray, c, true)
-            }
-        }
-    };
-}
+use tb_core::{Counter, HitRecord, Ray, TriTest};
 
 /// The closest hit found so far.
 struct Best {
@@ -127,16 +93,17 @@ fn leaf<T: TriTest, C: Counter, const ANY: bool>(
 }
 
 /// The set-up the stack walks (`ordered`, `ordered-pop-cull`, `stack`) share: the root's box
-/// tested (one box; one step when hit), the prepared ray and an empty closest-hit record, or
-/// `None` for an empty tree or a ray that misses the root.
+/// tested (one box; one step when hit), then the node array, `M`, the prepared ray and an
+/// empty closest-hit record; `None` for an empty tree or a ray that misses the root.
 #[inline(always)]
-fn enter_root<T: TriTest, C: Counter, const OCT: u8>(
-    tree: &Rtree,
+fn enter_root<'a, T: TriTest, C: Counter, const OCT: u8>(
+    tree: &'a Rtree,
     ray: &Ray,
     rb: &RayBox,
     c: &mut C,
-) -> Option<(T::Pre, Best)> {
-    let root = tree.nodes().first()?;
+) -> Option<(&'a [RtreeNode], usize, T::Pre, Best)> {
+    let nodes = tree.nodes();
+    let root = nodes.first()?;
     let pre = T::prepare(ray);
     let best = Best::new(ray);
     c.boxes(1);
@@ -145,7 +112,7 @@ fn enter_root<T: TriTest, C: Counter, const OCT: u8>(
         return None;
     }
     c.steps(1);
-    Some((pre, best))
+    Some((nodes, tree.big_m(), pre, best))
 }
 
 /// `stackless` (paper section 4.1, Listing 1) and, with `SKIP_EMPTY`, our
@@ -225,17 +192,7 @@ impl<const SKIP_EMPTY: bool> Stackless<'_, SKIP_EMPTY> {
     }
 }
 
-impl<const SKIP_EMPTY: bool> Kernel for Stackless<'_, SKIP_EMPTY> {
-    #[inline]
-    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        by_octant!(self, ray, c, false)
-    }
-
-    #[inline]
-    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        by_octant!(self, ray, c, true)
-    }
-}
+tb_core::kernel_by_octant!([const SKIP_EMPTY: bool] Stackless<'_, SKIP_EMPTY>);
 
 /// `ordered` (paper section 4.2, Listing 2) and, with `POP_CULL`, our `ordered-pop-cull`: one
 /// stack of at most `M` entries per level. At an intermediate node of level `l`, the boxes of
@@ -258,11 +215,9 @@ impl<const POP_CULL: bool> Ordered<'_, POP_CULL> {
         c: &mut C,
     ) -> HitRecord {
         let tree = self.0;
-        let nodes = tree.nodes();
-        let Some((pre, mut best)) = enter_root::<T, C, OCT>(tree, ray, rb, c) else {
+        let Some((nodes, m, pre, mut best)) = enter_root::<T, C, OCT>(tree, ray, rb, c) else {
             return HitRecord::MISS;
         };
-        let m = tree.big_m();
         let top = tree.root_level as usize;
         let mut stacks = [const { stack::Stack::<(u32, f32), MAX_M>::new() }; MAX_LEVELS];
         let mut n = 0usize;
@@ -309,17 +264,7 @@ impl<const POP_CULL: bool> Ordered<'_, POP_CULL> {
     }
 }
 
-impl<const POP_CULL: bool> Kernel for Ordered<'_, POP_CULL> {
-    #[inline]
-    fn closest<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        by_octant!(self, ray, c, false)
-    }
-
-    #[inline]
-    fn any<T: TriTest, C: Counter>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        by_octant!(self, ray, c, true)
-    }
-}
+tb_core::kernel_by_octant!([const POP_CULL: bool] Ordered<'_, POP_CULL>);
 
 /// Entries of the `stack` traversal's stack: at most `M − 1` pending entries per level above
 /// the current node and `M` at its own.
@@ -342,11 +287,9 @@ impl Stack<'_> {
         c: &mut C,
     ) -> HitRecord {
         let tree = self.0;
-        let nodes = tree.nodes();
-        let Some((pre, mut best)) = enter_root::<T, C, OCT>(tree, ray, rb, c) else {
+        let Some((nodes, m, pre, mut best)) = enter_root::<T, C, OCT>(tree, ray, rb, c) else {
             return HitRecord::MISS;
         };
-        let m = tree.big_m();
         let first_leaf = tree.first_leaf as usize;
         let mut stack = stack::Stack::<(u32, f32), STACK_SIZE>::new();
         let mut n = 0usize;
@@ -378,4 +321,4 @@ impl Stack<'_> {
     }
 }
 
-kernel!(Stack);
+tb_core::kernel_by_octant!([] Stack<'_>);

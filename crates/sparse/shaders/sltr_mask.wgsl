@@ -11,60 +11,35 @@
 // start node descending from the parent augmented node toward it to learn the bits of those
 // levels.
 
-// tb_kdtree::KdNode, 8 bytes: interior: bits = link << 2 | axis (left child = index + 1, right
-// = link), data = split (f32 bits); leaf: bits = count << 2 | 3, data = first reference.
-struct KdNode { bits: u32, data: u32 }
+// On the kd-tree family's WGSL (tb_kdtree::KD_WGSL, included through tb-gpu before this file):
+// its node array (`nodes`, binding 5), references (`refs`, 6), `is_leaf`, the split decision
+// `decide` (traverse.rs `split_decision`) and the leaf test `leaf`. The kd header (binding 7:
+// depth-first layout, the root cell, the step cap in word 11) carries this program's own words
+// after its 12: the augmented records' depths from word HEAD, then the records' rank.
+
 // tb_sparse::AugNode, 32 bytes: the node's cell, the parent record, the node.
 struct Aug { bmin: vec3<f32>, parent: u32, bmax: vec3<f32>, node: u32 }
 
-@group(0) @binding(5) var<storage, read> nodes: array<KdNode>;   // buffers[0]
-@group(0) @binding(6) var<storage, read> refs: array<u32>;       // buffers[1]: triangle indices
-@group(0) @binding(7) var<storage, read> aug: array<Aug>;        // buffers[2]: record 0 = root
-@group(0) @binding(8) var<storage, read> depths: array<u32>;     // buffers[3]: per record, then the step cap, then the rank
+@group(0) @binding(8) var<storage, read> aug: array<Aug>;        // buffers[3]: record 0 = root
 
 // Start at the start node (the deepest augmented node strictly holding the origin).
 override START: bool = false;
 
 const NONE: u32 = 0xffffffffu;
-
-struct Dec { kind: u32, near: u32, far: u32, near_tf: f32, far_tn: f32 }
-
-// traverse.rs `decide` (kind 0: near only, 1: far only, 2: both).
-fn decide(n: KdNode, idx: u32, rb: RayBox, tn: f32, tf: f32, slack: f32) -> Dec {
-    let a = n.bits & 3u;
-    let t = (bitcast<f32>(n.data) - rb.org[a]) * rb.inv[a];
-    let left = idx + 1u;
-    let right = n.bits >> 2u;
-    var near = left;
-    var far = right;
-    if rb.neg[a] {
-        near = right;
-        far = left;
-    }
-    var kind = 2u;
-    if t > tf * slack {
-        kind = 0u;
-    } else if t * slack < tn {
-        kind = 1u;
-    }
-    return Dec(kind, near, far, min_num(tf, t), max_num(tn, t));
-}
-
-fn is_leaf(n: KdNode) -> bool {
-    return (n.bits & 3u) == 3u;
-}
+// The first word after the kd header: record k's depth is header[HEAD + k].
+const HEAD: u32 = 12u;
 
 // One interior node on the way down toward the last leaf `lf` (the split decision, and
 // `toward`: the child holding `lf`), counted as traverse.rs counts it.
-struct Toward { d: Dec, toward: u32 }
+struct Toward { d: Decision, toward: u32 }
 
 fn toward_leaf(x: u32, lf: u32, rb: RayBox, xn: f32, xf: f32, st: ptr<function, Stats>) -> Toward {
     let n = nodes[x];
     (*st).interior += 1u;
     (*st).steps += 1u;
     (*st).planes += 1u;
-    let d = decide(n, x, rb, xn, xf, bitcast<f32>(0x3f800008u));
-    var toward = n.bits >> 2u;
+    let d = decide(x, n, rb, xn, xf);
+    var toward = n.x >> 2u;
     if lf < toward {
         toward = x + 1u;
     }
@@ -72,14 +47,14 @@ fn toward_leaf(x: u32, lf: u32, rb: RayBox, xn: f32, xf: f32, st: ptr<function, 
 }
 
 // traverse.rs `AugRank::find`: the record of `node` (records in node order: the number of
-// augmented nodes before it), 0 if none. The rank follows the step cap in `depths`: per 64
+// augmented nodes before it), 0 if none. The rank follows the depths in the header: per 64
 // nodes, the bits' low and high words and the count of the blocks before.
 fn find_aug(node: u32) -> u32 {
-    let k = meta_.counts.z + 1u + 3u * (node / 64u);
+    let k = HEAD + meta_.counts.z + 3u * (node / 64u);
     let b = node % 64u;
-    let lo = depths[k];
-    let hi = depths[k + 1u];
-    var n = depths[k + 2u];
+    let lo = header[k];
+    let hi = header[k + 1u];
+    var n = header[k + 2u];
     var bit = 0u;
     if b < 32u {
         bit = (lo >> b) & 1u;
@@ -118,12 +93,12 @@ fn start_record(r: Ray) -> u32 {
         if d % period == 0u {
             last = idx;
         }
-        let a = n.bits & 3u;
-        let s = bitcast<f32>(n.data);
+        let a = n.x & 3u;
+        let s = bitcast<f32>(n.y);
         if o[a] < s {
             idx = idx + 1u;
         } else if o[a] > s {
-            idx = n.bits >> 2u;
+            idx = n.x >> 2u;
         } else {
             break;
         }
@@ -212,9 +187,8 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     if meta_.counts.y == 0u {
         return miss();
     }
-    let slack = bitcast<f32>(0x3f800008u);   // 1 + 8·2^-23, traverse.rs SLACK
     let p = meta_.counts.w;
-    let cap = depths[meta_.counts.z];
+    let cap = header[11];
     let rb = ray_box(r);
     (*st).boxes += 1u;
     let root = aug[0];
@@ -225,16 +199,13 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     let r0 = rs.x;
     let r1 = rs.y;
     let pre = prepare(r);
-    var best_t = r.tmax;
-    var best_prim = MISS_PRIM;
-    var best_u = 0.0;
-    var best_v = 0.0;
+    var best = Hit(r.tmax, MISS_PRIM, 0.0, 0.0);
     var stt = 0u;
     if START {
         stt = start_record(r);
     }
     var top = stt;
-    var dtop = depths[stt];
+    var dtop = header[HEAD + stt];
     var sn = r0;
     var sf = r1;
     if stt != 0u {
@@ -274,10 +245,10 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             (*st).steps += 1u;
             (*st).planes += 1u;
             steps += 1u;
-            let d = decide(n, idx, rb, tn, tf, slack);
-            if d.kind == 0u {
+            let d = decide(idx, n, rb, tn, tf);
+            if d.kind == NEAR_ONLY {
                 idx = d.near;
-            } else if d.kind == 1u {
+            } else if d.kind == FAR_ONLY {
                 idx = d.far;
             } else {
                 in_plane = in_plane || d.far_tn < d.near_tf;
@@ -289,31 +260,10 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
         }
         steps += 1u;
         // The leaf.
-        let leaf = nodes[idx];
-        (*st).leaves += 1u;
-        (*st).steps += 1u;
-        let count = leaf.bits >> 2u;
-        let first = leaf.data;
-        if !ANY {
-            (*st).prims += count;
+        if leaf(nodes[idx], pre, r, &best, st) {
+            return best;
         }
-        for (var k = 0u; k < count; k++) {
-            if ANY {
-                (*st).prims += 1u;
-            }
-            let id = refs[first + k];
-            let h = intersect(pre, r, id, best_t);
-            if h.w != 0.0 {
-                if ANY {
-                    return Hit(h.x, id, h.y, h.z);
-                }
-                best_t = h.x;
-                best_prim = id;
-                best_u = h.y;
-                best_v = h.z;
-            }
-        }
-        if best_t < tf && !in_plane {
+        if best.t < tf && !in_plane {
             break;
         }
         if steps >= cap {
@@ -367,12 +317,12 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                     let toward = w.toward;
                     steps += 1u;
                     if xd == k {
-                        found = d.kind == 2u && toward == d.near;
+                        found = d.kind == BOTH && toward == d.near;
                         f_idx = d.far;
                         f = vec3<f32>(d.far_tn, xf, 0.0);
                         break;
                     }
-                    if d.kind == 2u {
+                    if d.kind == BOTH {
                         if toward == d.near {
                             xf = d.near_tf;
                         } else {
@@ -382,7 +332,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                     x = toward;
                     xd += 1u;
                 }
-                if found && (ANY || f.x <= best_t) {
+                if found && (ANY || f.x <= best.t) {
                     next_idx = f_idx;
                     next = f;
                     at = k + 1u;
@@ -414,7 +364,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                 let d = w.d;
                 let toward = w.toward;
                 steps += 1u;
-                if d.kind == 2u {
+                if d.kind == BOTH {
                     in_plane = in_plane || d.far_tn < d.near_tf;
                     if toward == d.near {
                         both = set_bit(both, xd);
@@ -437,7 +387,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             l_depth = dp;
             l_tn = piv.x;
             l_tf = piv.y;
-            if has && (ANY || c.x <= best_t) {
+            if has && (ANY || c.x <= best.t) {
                 both = keep_below(both, ck);
                 next_idx = c_idx;
                 next = c;
@@ -453,8 +403,5 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
         tf = next.y;
         depth = at;
     }
-    if best_prim == MISS_PRIM {
-        return miss();
-    }
-    return Hit(best_t, best_prim, best_u, best_v);
+    return answer(best);
 }

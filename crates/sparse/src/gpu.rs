@@ -3,20 +3,19 @@
 
 use crate::SparseBoxes;
 use std::borrow::Cow;
+use tb_core::gpu::words;
 use tb_core::GpuProgram;
-
-/// Little-endian-as-native bytes of `words` (GPU buffers).
-fn bytes(words: impl Iterator<Item = u32>) -> Cow<'static, [u8]> {
-    Cow::Owned(words.flat_map(|w| w.to_ne_bytes()).collect())
-}
+use tb_kdtree::gpu_header;
 
 impl SparseBoxes {
     /// The GPU program of `sltr-mask` (`crates/sparse/shaders/sltr_mask.wgsl`): from the start
     /// node located per ray in the kernel (`start`, program `sparse-boxes/sltr-mask`) or from
-    /// the root (`sparse-boxes/sltr-mask-root`). Buffers: the kd-tree's nodes and references, the augmented
-    /// records, their depths followed by the step cap and the records' rank
-    /// ([`tb_kdtree::NodeRank`], three words per 64 nodes: the bits' low and high words,
-    /// the count before); meta: node count, record count, `d_min + 1`.
+    /// the root (`sparse-boxes/sltr-mask-root`), on the kd-tree family's WGSL
+    /// ([`tb_kdtree::KD_WGSL`]: its node decoding, split decision and leaf test). Buffers: the
+    /// kd-tree's nodes and references; the kd header ([`gpu_header`]: depth-first, the root
+    /// cell, the step cap in word 11) followed by the augmented records' depths and their rank
+    /// ([`tb_kdtree::NodeRank`], three words per 64 nodes: the bits' low and high words, the
+    /// count before); the augmented records; meta: node count, record count, `d_min + 1`.
     pub(crate) fn gpu_sltr_mask(&self, start: bool) -> GpuProgram<'_> {
         let v = self.kd.view();
         GpuProgram::new(
@@ -37,17 +36,34 @@ impl SparseBoxes {
         .bounded_loops(
             "lavapipe's compiler took its unbounded loops to end and answered differently",
         )
+        .include(tb_kdtree::KD_WGSL)
+        // No stack: one entry sizes the array of kd.wgsl's `recursive`, which it never calls.
+        .stack(1)
         .buffer(
             "the kd-tree node array",
-            bytes(v.nodes().iter().flat_map(|n| [n.bits, n.data])),
+            words(v.nodes().iter().flat_map(|n| [n.bits, n.data])),
         )
         .buffer(
             "the kd-tree reference array",
-            bytes(v.refs().iter().copied()),
+            words(v.refs().iter().copied()),
+        )
+        .buffer(
+            "the kd-tree header, the augmented nodes' depths and their rank",
+            words(
+                gpu_header(
+                    self.kd.params(),
+                    [0; 4],
+                    self.kd.bounds(),
+                    self.params.step_cap,
+                )
+                .into_iter()
+                .chain(self.depth.iter().map(|&d| d as u32))
+                .chain(self.rank.words()),
+            ),
         )
         .buffer(
             "the augmented nodes",
-            bytes(self.aug.iter().flat_map(|a| {
+            words(self.aug.iter().flat_map(|a| {
                 [
                     a.min[0].to_bits(),
                     a.min[1].to_bits(),
@@ -59,16 +75,6 @@ impl SparseBoxes {
                     a.node,
                 ]
             })),
-        )
-        .buffer(
-            "the augmented nodes' depths, the step cap and the rank",
-            bytes(
-                self.depth
-                    .iter()
-                    .map(|&d| d as u32)
-                    .chain([self.params.step_cap])
-                    .chain(self.rank.words()),
-            ),
         )
         .meta([
             v.nodes().len() as u32,

@@ -2,7 +2,7 @@
 //! irregular grids" (Eurographics): build (§4: initial subdivision, SAH cell merging, cell
 //! expansion) and the traversal of §5.
 
-use crate::common::{enter, test_refs, walk_by, Visit};
+use crate::common::cell_walk;
 use crate::lattice::{
     bin_uniform, bounded_res, grid_bounds, is_subset, planes_for, resolution, union_into,
     union_len, Lattice, Planes, Real, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
@@ -120,40 +120,10 @@ impl IrregularGrid {
         ray: &Ray,
         c: &mut C,
     ) -> HitRecord {
-        let w = match enter::<T, C, ANY, F>(ray, base, &self.tris, c) {
-            Ok(w) => w,
-            Err(h) => return h,
-        };
-        let pre = T::prepare(ray);
-        let mut hit = HitRecord::MISS;
-        let mut best = ray.tmax;
-        walk_by::<F, true>(
-            &w,
-            base,
-            |a, i| planes.get(a, i),
-            |v| {
-                c.cell();
-                c.steps(1);
-                let cell = &self.cells[self.lookup(v) as usize];
-                if test_refs::<T, C, ANY>(
-                    &pre,
-                    ray,
-                    &self.tris,
-                    &self.refs[cell.range()],
-                    &mut hit,
-                    &mut best,
-                    c,
-                ) {
-                    return Visit::Stop;
-                }
-                Visit::Continue {
-                    lo: cell.lo,
-                    hi: cell.hi,
-                    best,
-                }
-            },
-        );
-        hit
+        cell_walk::<T, C, ANY, F>(ray, base, planes, &self.tris, &self.refs, c, |v| {
+            let cell = &self.cells[self.lookup(v) as usize];
+            (cell.range(), cell.lo, cell.hi)
+        })
     }
 }
 
@@ -168,17 +138,7 @@ fn lookup(map: &[u32], top: &Lattice, dmax: u32, v: [u32; 3]) -> u32 {
     map[first + (s[0] | s[1] << d | s[2] << (2 * d))]
 }
 
-tb_core::kernel_by_query!(walk: [] Walk<'_>);
-
-/// The `walk` traversal of an [`IrregularGrid`] (§5).
-pub(crate) struct Walk<'a>(pub &'a IrregularGrid);
-
-impl Walk<'_> {
-    #[inline(always)]
-    fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
-        self.0.walk::<T, C, ANY>(ray, c)
-    }
-}
+tb_core::kernel_by_query!(walk: [] IrregularGrid);
 
 impl Structure for IrregularGrid {
     const NAME: &'static str = "irregular-grid";
@@ -189,9 +149,7 @@ impl Structure for IrregularGrid {
             "3D-DDA on the virtual base grid with the increment recomputed per cell: voxel-map \
              look-up, exit through the cell box's three far planes, monotone advance",
         ),
-        tb_core::kernel!(|g: &IrregularGrid, batch, out| {
-            tb_core::dispatch(&Walk(g), batch, out)
-        }),
+        tb_core::kernel!(|g: &IrregularGrid, batch, out| { tb_core::dispatch(g, batch, out) }),
         IrregularGrid::gpu_walk,
     )];
 

@@ -92,7 +92,7 @@ use tb_core::{
 use tb_kdtree::traverse::leaf;
 use tb_kdtree::NodeRank;
 use tb_kdtree::{
-    split_decision, Best, Decision, DepthFirst, KdNode, KdView, Kind, SLACK, STACK_SIZE,
+    split_decision, Best, Decision, DepthFirst, KdNode, KdView, Kind, Located, SLACK, STACK_SIZE,
 };
 
 mod btr;
@@ -271,45 +271,6 @@ impl<'a> Ctx<'a> {
         }
         tf
     }
-}
-
-/// Whether the point at `w.tn` lies on the lower side of the plane `sp` on axis `a` (at
-/// distance `t`): Kaplan's point location with `sequential`'s rule (see `Ctx::locate`);
-/// a plane within rounding of the point sets `w.ambiguous`.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn side(
-    s: &Setup,
-    w: &mut Point,
-    a: usize,
-    sp: f32,
-    t: f32,
-    origin: bool,
-    below: f32,
-    above: f32,
-) -> bool {
-    let behind = if s.neg[a] {
-        sp >= w.floor[a]
-    } else {
-        sp <= w.floor[a]
-    };
-    let behind = if origin {
-        behind
-            || if s.neg[a] {
-                sp > s.org[a]
-            } else {
-                sp < s.org[a]
-            }
-    } else if a == w.exact {
-        behind
-    } else {
-        if !behind && t >= below && t <= above {
-            w.ambiguous = true;
-        }
-        behind || t < below
-    };
-    // The near child (the lower one for a positive direction) unless the plane is behind.
-    behind == s.neg[a]
 }
 
 /// A parent link followed (Alg. 2's and Alg. 3's `TraverseUp`): the walk enters the parent

@@ -220,10 +220,7 @@ impl Ctx<'_> {
         let nodes = self.nodes;
         let (mut idx, mut min, mut max, mut depth) = (last.node, last.min, last.max, last.depth);
         let mut phase = depth % self.period;
-        let tn = w.tn;
-        let origin = tn == 0.0;
-        let below = tn - (SLACK - 1.0) * tn.abs();
-        let above = tn + (SLACK - 1.0) * tn.abs();
+        let at = Located::new(w.tn, w.floor, w.exact);
         loop {
             let n = nodes[idx];
             if n.is_leaf() {
@@ -256,7 +253,9 @@ impl Ctx<'_> {
                 w.seen |= 1 << a;
                 w.mask >> a & 1 == 0
             } else {
-                side(s, w, a, sp, t, origin, below, above)
+                let (lower, ambiguous) = at.lower(&s.org, &s.neg, a, sp, t);
+                w.ambiguous |= ambiguous;
+                lower
             };
             if left {
                 max[a] = sp;
