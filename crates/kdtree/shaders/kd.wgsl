@@ -80,6 +80,15 @@ fn decide(idx: u32, n: vec2<u32>, rb: RayBox, tn: f32, tf: f32) -> Decision {
     return Decision(kind, near, far, min_num(tf, t), max_num(tn, t));
 }
 
+// An interior node visited: counted as traverse.rs counts it (interior, step, plane), then
+// decided.
+fn counted_decide(idx: u32, n: vec2<u32>, rb: RayBox, tn: f32, tf: f32, st: ptr<function, Stats>) -> Decision {
+    (*st).interior += 1u;
+    (*st).steps += 1u;
+    (*st).planes += 1u;
+    return decide(idx, n, rb, tn, tf);
+}
+
 // traverse::leaf: test the leaf's triangles against [r.tmin, best.t), updating `best` (no hit:
 // prim MISS_PRIM); with ANY, true at the first hit. Counts the leaf, its step and its tests.
 fn leaf(n: vec2<u32>, p: Pre, r: Ray, best: ptr<function, Hit>, st: ptr<function, Stats>) -> bool {
@@ -152,10 +161,7 @@ fn recursive(r: Ray, root: u32, st: ptr<function, Stats>) -> Hit {
     loop {
         let n = nodes[idx];
         if !is_leaf(n) {
-            (*st).interior += 1u;
-            (*st).steps += 1u;
-            (*st).planes += 1u;
-            let d = decide(idx, n, rb, tn, tf);
+            let d = counted_decide(idx, n, rb, tn, tf, st);
             if d.kind == NEAR_ONLY {
                 idx = d.near;
             } else if d.kind == FAR_ONLY {

@@ -169,11 +169,8 @@ fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, s
             if is_leaf(n) {
                 break;
             }
-            (*st).interior += 1u;
-            (*st).steps += 1u;
-            (*st).planes += 1u;
             steps += 1u;
-            let d = decide(idx, n, rb, tn, tf);
+            let d = counted_decide(idx, n, rb, tn, tf, st);
             let near_right = rb.neg[n.x & 3u];
             var go_right = near_right;
             if d.kind == NEAR_ONLY {
@@ -311,11 +308,8 @@ fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, s
                     break;
                 }
                 let n = nodes[x];
-                (*st).interior += 1u;
-                (*st).steps += 1u;
-                (*st).planes += 1u;
                 steps += 1u;
-                let d = decide(x, n, rb, xn, xf);
+                let d = counted_decide(x, n, rb, xn, xf, st);
                 var toward: u32;
                 if df {
                     // The left subtree of `x` is `x + 1 .. link`.

@@ -35,10 +35,7 @@ struct Toward { d: Decision, toward: u32 }
 
 fn toward_leaf(x: u32, lf: u32, rb: RayBox, xn: f32, xf: f32, st: ptr<function, Stats>) -> Toward {
     let n = nodes[x];
-    (*st).interior += 1u;
-    (*st).steps += 1u;
-    (*st).planes += 1u;
-    let d = decide(x, n, rb, xn, xf);
+    let d = counted_decide(x, n, rb, xn, xf, st);
     var toward = n.x >> 2u;
     if lf < toward {
         toward = x + 1u;
@@ -241,11 +238,8 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                 l_tn = tn;
                 l_tf = tf;
             }
-            (*st).interior += 1u;
-            (*st).steps += 1u;
-            (*st).planes += 1u;
             steps += 1u;
-            let d = decide(idx, n, rb, tn, tf);
+            let d = counted_decide(idx, n, rb, tn, tf, st);
             if d.kind == NEAR_ONLY {
                 idx = d.near;
             } else if d.kind == FAR_ONLY {

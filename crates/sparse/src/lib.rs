@@ -55,6 +55,7 @@
 //! [`PAPER_BOX_BYTES`]); `aug_bytes` and `structure_bytes` are what we allocate.
 
 mod build;
+mod check;
 mod gpu;
 mod params;
 mod report;
@@ -215,54 +216,6 @@ impl SparseBoxes {
     /// beyond the kd-tree).
     fn boxes_bytes(&self) -> u64 {
         (std::mem::size_of_val(&*self.aug) + self.depth.len()) as u64 + self.rank.bytes()
-    }
-
-    fn check_invariants(&self) -> Result<(), String> {
-        let v = self.kd.view();
-        let nodes = v.nodes();
-        if nodes.is_empty() {
-            return if self.aug.is_empty() {
-                Ok(())
-            } else {
-                Err("augmented nodes without a tree".into())
-            };
-        }
-        if self.aug.first().map(|a| a.node) != Some(0) {
-            return Err("record 0 is not the root".into());
-        }
-        if self.aug.len() != self.depth.len() {
-            return Err("one depth per record".into());
-        }
-        let period = self.params.period();
-        let mut expect = Vec::new();
-        v.walk(v.root(), |i, cell, d| {
-            let n = nodes[i];
-            if i == 0 || (!n.is_leaf() && d % period == 0) {
-                expect.push((i as u32, *cell, d));
-            }
-        });
-        if expect.len() != self.aug.len() {
-            return Err(format!(
-                "{} records for {} augmented nodes",
-                self.aug.len(),
-                expect.len()
-            ));
-        }
-        for (k, ((node, cell, d), a)) in expect.iter().zip(self.aug.iter()).enumerate() {
-            if a.node != *node || a.cell() != *cell || self.depth[k] as u32 != *d {
-                return Err(format!("record {k} does not match node {node}"));
-            }
-            if k > 0 {
-                let p = a.parent as usize;
-                if p >= k
-                    || self.depth[p] as u32 + period != *d
-                    || !self.aug[p].cell().contains_box(cell)
-                {
-                    return Err(format!("record {k}: parent link {p} is not its ancestor"));
-                }
-            }
-        }
-        Ok(())
     }
 }
 
