@@ -274,6 +274,18 @@ fn goes_on(best: f32, e: Exit, w: WalkRay) -> bool {
     return !(real(best) <= e.t || e.t >= w.t1);
 }
 
+// The walk's next voxel after voxel `v` whose cell is the box lo..hi (tb_grid::common::walk_by's
+// step): out through the box's nearest far plane (`exit`, `advance`); `ok = false` when the
+// closest hit so far (`best`) or the ray's interval ends first (`goes_on`), or the walk would
+// leave the lattice.
+fn next_voxel(w: WalkRay, l: Lat, best: f32, v: vec3<u32>, lo: vec3<u32>, hi: vec3<u32>) -> Next {
+    let x = exit(w, l, lo, hi);
+    if !goes_on(best, x, w) {
+        return Next(v, false);
+    }
+    return advance(w, l, x.t, x.axis, v, lo, hi);
+}
+
 // The closest hit so far (`best.t` is the ray's tmax until one is found).
 fn no_hit(r: Ray) -> Hit {
     return Hit(r.tmax, MISS_PRIM, 0.0, 0.0);

@@ -48,11 +48,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
         }
         let lo = a.xyz;
         let hi = b.xyz;
-        let x = exit(w, base, lo, hi);
-        if !goes_on(best.t, x, w) {
-            break;
-        }
-        let n = advance(w, base, x.t, x.axis, v, lo, hi);
+        let n = next_voxel(w, base, best.t, v, lo, hi);
         if !n.ok {
             break;
         }

@@ -36,11 +36,7 @@ fn walk_leaves(w: WalkRay, sub: Lat, first: u32, p: Pre, r: Ray, best: ptr<funct
             return true;
         }
         let hi = u + vec3<u32>(1u);
-        let x = exit(w, sub, u, hi);
-        if !goes_on((*best).t, x, w) {
-            return false;
-        }
-        let n = advance(w, sub, x.t, x.axis, u, u, hi);
+        let n = next_voxel(w, sub, (*best).t, u, u, hi);
         if !n.ok {
             return false;
         }
@@ -78,11 +74,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             }
         }
         let hi = v + vec3<u32>(1u);
-        let x = exit(w, top, v, hi);
-        if !goes_on(best.t, x, w) {
-            break;
-        }
-        let n = advance(w, top, x.t, x.axis, v, v, hi);
+        let n = next_voxel(w, top, best.t, v, v, hi);
         if !n.ok {
             break;
         }

@@ -38,11 +38,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             lo = vec3<u32>(macros[m], macros[m + 1u], macros[m + 2u]);
             hi = vec3<u32>(macros[m + 3u], macros[m + 4u], macros[m + 5u]);
         }
-        let x = exit(w, l, lo, hi);
-        if !goes_on(best.t, x, w) {
-            break;
-        }
-        let n = advance(w, l, x.t, x.axis, v, lo, hi);
+        let n = next_voxel(w, l, best.t, v, lo, hi);
         if !n.ok {
             break;
         }
