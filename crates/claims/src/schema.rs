@@ -171,7 +171,7 @@ pub struct Claim {
 }
 
 impl Claim {
-    /// Every measure the claim reads: its own, then its named selectors' own ([`MEASURE_KEY`]).
+    /// Every measure the claim reads: its own, then its named selectors' own (`MEASURE_KEY`).
     pub fn measures(&self) -> impl Iterator<Item = &str> {
         std::iter::once(self.measure.as_str())
             .chain(self.rows.values().filter_map(Selector::measure))
@@ -349,7 +349,7 @@ impl Test {
 
 /// A row selector: column (or `scene`, `view`, `params`, `file`) → value or alternatives; a
 /// named selector may also `pick` (module `pick`) and name its own `measure`
-/// ([`MEASURE_KEY`]).
+/// (`MEASURE_KEY`).
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(transparent)]
 pub struct Selector(pub BTreeMap<String, toml::Value>);

@@ -9,7 +9,7 @@
 //! ([`Traversal`]: the facts of each traversal in a [`TraversalInfo`], its CPU kernel and, where
 //! it has one, its [`GpuProgram`]) and its figures. [`Accel`], the object-safe interface the
 //! harness, renderer and tests use, is derived from it; [`Family`] (one `static` per crate) is
-//! what the harness's registry lists: name, doc, parameter table ([`crate::params`]) and
+//! what the harness's registry lists: name, doc, parameter table ([`crate::params`](mod@crate::params)) and
 //! builder.
 //!
 //! How the interface fits the structures of the five papers:

@@ -5,13 +5,13 @@
 //! - [`stats`]: the [`Counter`] trait with the zero-sized [`NoStats`] and [`TraversalStats`];
 //! - [`accel`]: the object-safe [`Accel`] interface (one virtual call per ray batch) and the
 //!   [`Kernel`] trait whose monomorphised variants a structure dispatches to;
-//! - [`params`]: parameter tables declared next to the fields ([`params!`], [`choice!`]);
+//! - [`params`](mod@params): parameter tables declared next to the fields ([`params!`], [`choice!`]);
 //! - [`gpu`]: the wgpu-free description of a structure's GPU program;
 //! - [`clip`]: conservative boxes of triangles clipped to boxes (kd-tree and SBVH builders);
 //! - [`oracle`]: brute force, the ground truth;
 //! - [`par`]: the one way a batch is traced on the CPU (rayon, chunks of rays);
 //! - [`slab`]: the octant-specialised, NaN-safe slab test of the hierarchy traversals;
-//! - [`compare`]: the documented rule deciding whether a structure's answer matches the oracle.
+//! - [`compare`](mod@compare): the documented rule deciding whether a structure's answer matches the oracle.
 
 pub mod accel;
 pub mod clip;

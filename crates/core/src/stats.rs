@@ -5,7 +5,7 @@
 //! per ray, kept in a local and written out once per ray (pbrt-v4's per-thread counters,
 //! madmann91/bvh's `if constexpr (CaptureStats)`).
 //!
-//! The counters and their definitions are listed once, in [`for_each_counter!`] (the same for
+//! The counters and their definitions are listed once, in [`crate::for_each_counter!`] (the same for
 //! every structure; the sparse-boxes paper's Table 1 names `interior`, `leaves` and `prims`
 //! N_I, N_L and r_ITM). `capped` marks a ray ended by its traversal's per-ray step cap
 //! (traversals that may revisit nodes; [`crate::TraversalInfo::step_cap`]).
@@ -112,7 +112,7 @@ pub struct CounterDef {
 macro_rules! define_stats {
     ($($name:ident, $per:ident, $max:ident, $doc:literal;)*) => {
         /// Per-ray traversal counts (`#[repr(C)]`, one `u32` per counter of
-        /// [`for_each_counter!`] and then `capped`, so a GPU kernel writes the same record).
+        /// [`crate::for_each_counter!`] and then `capped`, so a GPU kernel writes the same record).
         #[repr(C)]
         #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
         pub struct TraversalStats {

@@ -215,7 +215,7 @@ pub struct Lattice<F: Real = f64> {
 }
 
 impl Lattice {
-    /// The lattice of `res` voxels over `bounds` (already padded, see [`grid_bounds`]), with
+    /// The lattice of `res` voxels over `bounds` (already padded, see `grid_bounds`), with
     /// the reference margin of walks in `precision` (the module doc).
     pub fn new(bounds: &Aabb, res: [u32; 3], precision: Precision) -> Self {
         let lo = bounds.min.to_array().map(f64::from);
@@ -313,7 +313,7 @@ impl<F: Real> Lattice<F> {
     /// such ulps ([`Lattice::far_scale`] of `|o| + mag` is taken; the margin covers every
     /// origin inside the grid's box). True only for origins far outside the grid compared
     /// with its size (the far origins of `stress/ray-limits`); such rays are answered by
-    /// testing every triangle (see [`brute_force`]), which is what the margin could not
+    /// testing every triangle (see `common::brute_force`), which is what the margin could not
     /// guarantee for them.
     #[inline(always)]
     pub fn far(&self, ray: &Ray) -> bool {

@@ -2,7 +2,7 @@
 //! `trace-bench list` prints it (pbrt's `CreateAccelerator`, ripgrep's flag table).
 //!
 //! Where a new structure goes: its crate exports a `pub static FAMILY: tb_core::Family` (name,
-//! doc, parameter table, traversal table, builder); add one line to [`FAMILIES`] and the crate
+//! doc, parameter table, traversal table, builder); add one line to `FAMILIES` and the crate
 //! to `Cargo.toml`. Nothing else in the harness, the GPU crate or the tests names a structure.
 
 use tb_core::{Accel, Family, ParamKind, TraversalInfo, Triangle};

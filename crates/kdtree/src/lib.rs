@@ -228,7 +228,7 @@ impl KdTree {
     }
 
     /// Leaves the builder made because the reference budget was reached
-    /// ([`build::MAX_REFS_PER_TRIANGLE`]; 0 where it never acted).
+    /// (`build::MAX_REFS_PER_TRIANGLE`; 0 where it never acted).
     pub fn budget_leaves(&self) -> u64 {
         self.budget_leaves
     }

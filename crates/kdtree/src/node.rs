@@ -5,9 +5,9 @@
 /// | | `bits` | `data` |
 /// |---|---|---|
 /// | interior | `link << 2 \| axis` (axis 0, 1, 2) | split position (`f32` bits) |
-/// | leaf | `count << 2 \| 3` | offset of the first reference in [`KdTree::prim_refs`] |
+/// | leaf | `count << 2 \| 3` | offset of the first reference in [`crate::KdTree::prim_refs`] |
 ///
-/// The root is node 0. Where the children are depends on the layout ([`Layout`]): in the
+/// The root is node 0. Where the children are depends on the layout ([`crate::Layout`]): in the
 /// default depth-first order the left child is the next node and the link is the right
 /// child's index; in the treelet layout the link is used only on a block's lowest level.
 #[repr(C)]
@@ -20,7 +20,7 @@ pub struct KdNode {
 const _: () = assert!(std::mem::size_of::<KdNode>() == 8);
 
 impl KdNode {
-    /// An interior node splitting `axis` at `split`, with link `link` (see [`Layout`]).
+    /// An interior node splitting `axis` at `split`, with link `link` (see [`crate::Layout`]).
     pub fn interior(axis: usize, split: f32, link: u32) -> KdNode {
         debug_assert!(axis < 3 && link < (1 << 30));
         KdNode {

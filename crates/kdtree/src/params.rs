@@ -87,7 +87,7 @@ tb_core::params! {
 }
 
 impl KdParams {
-    /// The ranges of the table: what [`KdTree::build`] checks (the kd-tree has no rules
+    /// The ranges of the table: what [`crate::KdTree::build`] checks (the kd-tree has no rules
     /// across its parameters beyond them).
     pub fn check(&self) -> Result<(), AccelError> {
         tb_core::ParamRules::check_all(self, "kd-tree")

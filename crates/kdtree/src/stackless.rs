@@ -506,7 +506,7 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
 }
 
 /// The point of Kaplan's point location (review §3.1) as `sequential` and `ropes` place it
-/// (see [`Walk::locate`]), and sparse boxes' SLTR after them: the point at distance `tn`,
+/// (see `Walk::locate`), and sparse boxes' SLTR after them: the point at distance `tn`,
 /// whose coordinate on an axis whose exit face was crossed is that face's (`floor`) exactly.
 #[derive(Clone, Copy, Debug)]
 pub struct Located {

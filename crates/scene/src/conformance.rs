@@ -422,7 +422,7 @@ pub fn rays_around(tris: &[Triangle], n: usize, seed: u64) -> Vec<Ray> {
 }
 
 /// How many of `rays` traversal `traversal` of `accel` answers (with `query`, watertight test)
-/// differently from brute force over `tris` ([`tb_core::compare`]).
+/// differently from brute force over `tris` ([`tb_core::compare`](mod@tb_core::compare)).
 pub fn differences(
     accel: &dyn Accel,
     traversal: usize,

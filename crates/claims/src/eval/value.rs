@@ -40,7 +40,7 @@ pub struct Value {
     pub noisy: usize,
     /// Of them, GPU rows from a software adapter (timed measures).
     pub software: usize,
-    /// Of them, rows timed fewer than [`MIN_TIMED_RUNS`] times (no interval).
+    /// Of them, rows timed fewer than `MIN_TIMED_RUNS` times (no interval).
     pub few_runs: usize,
     /// Timed rows timed interleaved (`run.interleave`): the pooled value of each round (the
     /// rows' `trace_ms_runs` summed round by round); empty otherwise.
@@ -52,7 +52,7 @@ pub struct Value {
     pub tgroups: Vec<String>,
     /// The processes of the run the rows come from (`run --processes`; 1 for a run of one).
     pub processes: usize,
-    /// `[lo, hi]` is the interval between those processes ([`between_processes`]), not
+    /// `[lo, hi]` is the interval between those processes (`between_processes`), not
     /// widened to the floor.
     pub measured: bool,
     /// A timing's value in each process (by the `process` column) where its rows come from
@@ -196,7 +196,7 @@ pub struct GroupResult {
     pub derived: Option<[f64; 3]>,
     pub why: String,
     /// A timed comparison's interval: `Some(n)` when it was measured between `n` processes
-    /// ([`MIN_PROCESSES`] or more), `None` when the floor gave it (or nothing is timed).
+    /// (`MIN_PROCESSES` or more), `None` when the floor gave it (or nothing is timed).
     pub between: Option<usize>,
     /// A timed group's smallest decidable effect ([`effect`]).
     #[serde(skip_serializing_if = "Option::is_none")]

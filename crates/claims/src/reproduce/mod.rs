@@ -477,7 +477,7 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
 }
 
 /// Make the planned runs, evaluate the claims, write the report folder. Everything that can
-/// be known wrong is checked before the first run ([`preflight`]); a signal ends the run in
+/// be known wrong is checked before the first run (`preflight`); a signal ends the run in
 /// progress and returns an error (the finished rows stay for a rerun to resume).
 pub fn reproduce(opts: &Options, runner: &dyn Runs) -> Result<Vec<PaperReport>, Error> {
     let planned = plan(opts)?;

@@ -21,7 +21,7 @@ mod build;
 mod merge;
 
 /// One cell, 32 bytes: its box on the virtual base grid (`lo..hi`, exclusive, in base voxels;
-/// grown by expansion) and its range of [`IrregularGrid::refs`].
+/// grown by expansion) and its range of `IrregularGrid::refs`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Cell {

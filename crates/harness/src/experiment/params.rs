@@ -1,5 +1,5 @@
 //! A config's `params` table to parameter sets: checked against the structure's own table
-//! ([`tb_core::params`], declared next to its params struct), defaults from the structure.
+//! ([`tb_core::params`](mod@tb_core::params), declared next to its params struct), defaults from the structure.
 //! Each key gives a value or a list of values; lists expand into the cartesian product of
 //! parameter sets (a sweep), in the order of the specs.
 

@@ -1,6 +1,6 @@
 //! Validation against the brute-force oracle, shared by every device: the sample of a batch
 //! that is validated, the oracle's answers for it (computed once per batch and shared by every
-//! row), the comparison of a device's answers ([`tb_core::compare`]) and the report of the
+//! row), the comparison of a device's answers ([`tb_core::compare`](mod@tb_core::compare)) and the report of the
 //! first mismatching rays.
 
 use crate::experiment::config::spec::Validate;
