@@ -22,10 +22,12 @@
 //! - the entry point `main`: one thread per ray, it calls the program's `walk` with zeroed
 //!   counters, writes the returned hit and, in the counting pass, the counters.
 //!
-//! The source declares its own read-only storage buffers at bindings 5, 6, … in the order of
-//! [`GpuProgram::buffers`] (4 at most on every adapter: WebGPU guarantees 8 storage buffers
-//! per stage and the prelude binds 4; buffers are bound padded to at least 64 bytes, so
-//! lengths come from the meta words, not `arrayLength`), may declare further `override`
+//! The source declares its own read-only buffers at bindings 5, 6, … in the order of
+//! [`GpuProgram::buffers`]: storage buffers (4 at most on every adapter: WebGPU guarantees 8
+//! storage buffers per stage and the prelude binds 4; buffers are bound padded to at least 64
+//! bytes, so lengths come from the meta words, not `arrayLength`), or uniform buffers for the
+//! constants every ray reads, such as a header ([`GpuProgram::uniform`]: `var<uniform>`, its
+//! arrays of 16-byte elements, e.g. `array<vec4<u32>, 3>`), may declare further `override`
 //! constants ([`GpuProgram::constants`]), and defines
 //! `fn walk(r: Ray, st: ptr<function, Stats>) -> Hit`: the closest (or, when `ANY`, any) hit
 //! in `[r.tmin, r.tmax)` with `prim` the scene's triangle index, counting into `*st` exactly
@@ -67,6 +69,9 @@ pub struct GpuBuffer<'a> {
     pub what: &'static str,
     /// Its bytes, exactly as the WGSL declares the array.
     pub bytes: Cow<'a, [u8]>,
+    /// Bound as a uniform buffer (`var<uniform>`: constants every ray reads, which a GPU
+    /// serves from its constant caches), else as a read-only storage buffer.
+    pub uniform: bool,
 }
 
 /// The GPU program of one traversal of one build.
@@ -79,8 +84,8 @@ pub struct GpuProgram<'a> {
     pub source: &'static str,
     /// The triangles bound at binding 3, in the order the program's indices refer to.
     pub triangles: Cow<'a, [Triangle]>,
-    /// Further read-only buffers, bound at 5, 6, … in this order (at most 4 on every
-    /// adapter; each a whole number of 4-byte words).
+    /// Further read-only buffers, bound at 5, 6, … in this order (at most 4 storage buffers
+    /// on every adapter; each a whole number of 4-byte words).
     pub buffers: Vec<GpuBuffer<'a>>,
     /// Words 1..=3 of the `meta_` uniform (e.g. the node count).
     pub meta: [u32; 3],
@@ -159,6 +164,16 @@ impl<'a> GpuProgram<'a> {
         self
     }
 
+    /// Which of [`GpuProgram::buffers`] are uniform buffers: bit `k` for buffer `k` (binding
+    /// `5 + k`).
+    pub fn uniform_mask(&self) -> u32 {
+        self.buffers
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| b.uniform)
+            .fold(0, |m, (k, _)| m | 1 << k)
+    }
+
     /// Place shared WGSL `part` (e.g. [`LEAF_RANGES`]) before the source, after those
     /// included before.
     pub fn include(mut self, part: &'static str) -> Self {
@@ -166,11 +181,24 @@ impl<'a> GpuProgram<'a> {
         self
     }
 
-    /// The next read-only buffer (bound at 5, 6, … in the order added).
+    /// The next read-only storage buffer (bound at 5, 6, … in the order added).
     pub fn buffer(mut self, what: &'static str, bytes: impl Into<Cow<'a, [u8]>>) -> Self {
         self.buffers.push(GpuBuffer {
             what,
             bytes: bytes.into(),
+            uniform: false,
+        });
+        self
+    }
+
+    /// The next buffer as a uniform buffer (bound at 5, 6, … in the order added, as
+    /// [`GpuProgram::buffer`]): per-dispatch constants every ray reads, such as a header,
+    /// declared `var<uniform>` with arrays of 16-byte elements (a WGSL uniform's layout).
+    pub fn uniform(mut self, what: &'static str, bytes: impl Into<Cow<'a, [u8]>>) -> Self {
+        self.buffers.push(GpuBuffer {
+            what,
+            bytes: bytes.into(),
+            uniform: true,
         });
         self
     }
@@ -229,4 +257,27 @@ impl GpuArrange {
     /// Most keys a program may declare (histograms stay small; the scan stays within
     /// llvmpipe's loop limit at the largest dispatch).
     pub const MAX_KEYS: u32 = 16;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `uniform` marks its buffer in the mask by its position among all buffers; `buffer`
+    /// does not.
+    #[test]
+    fn uniform_mask_names_the_uniform_buffers() {
+        let tris: [Triangle; 0] = [];
+        let p = GpuProgram::new("test/mask", "", &tris[..])
+            .buffer("a", words([1]))
+            .uniform("b", words([2]))
+            .buffer("c", words([3]))
+            .uniform("d", words([4]));
+        assert_eq!(p.uniform_mask(), 0b1010);
+        assert!(p.buffers[1].uniform && !p.buffers[2].uniform);
+        assert_eq!(
+            GpuProgram::new("test/none", "", &tris[..]).uniform_mask(),
+            0
+        );
+    }
 }

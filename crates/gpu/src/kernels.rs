@@ -58,6 +58,10 @@ pub(crate) struct Layouts {
     pipeline: wgpu::PipelineLayout,
 }
 
+/// A program's own buffers: how many, and which are uniform buffers (bit `k` for buffer `k`,
+/// [`tb_core::GpuProgram::uniform_mask`]); the others are read-only storage buffers.
+pub(crate) type Shape = (usize, u32);
+
 /// A pipeline variant: program name, query, triangle test, counting (else timed).
 type Variant = (&'static str, Query, TriTestKind, bool);
 
@@ -65,9 +69,9 @@ type Variant = (&'static str, Query, TriTestKind, bool);
 struct Cache {
     /// Shader modules by program name.
     modules: HashMap<&'static str, Module>,
-    /// Bind group and pipeline layouts by the number of the program's own buffers and
-    /// whether it sorts its rays.
-    layouts: HashMap<(usize, bool), Layouts>,
+    /// Bind group and pipeline layouts by the program's own buffers ([`Shape`]) and whether
+    /// it sorts its rays.
+    layouts: HashMap<(Shape, bool), Layouts>,
     pipelines: HashMap<Variant, wgpu::ComputePipeline>,
     /// The sort passes' pipelines ([`SORT_PASSES`]) by program name.
     sorts: HashMap<&'static str, Vec<wgpu::ComputePipeline>>,
@@ -85,6 +89,19 @@ pub fn checked_only() -> bool {
     std::env::var_os("TRACE_BENCH_GPU_CHECKED").is_some_and(|v| v == "1")
 }
 
+fn uniform(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
 fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
@@ -98,27 +115,25 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-/// The layouts of a program with `n` buffers of its own: the common bindings 0–4, then `n`
-/// read-only storage buffers at 5, 6, …; and, when it sorts its rays (`arranged`), group 1
-/// with the arrangement buffer.
-fn layout(device: &wgpu::Device, n: usize, arranged: bool) -> Layouts {
+/// The layouts of a program with buffers of its own of `shape`: the common bindings 0–4, then
+/// its buffers at 5, 6, … (uniform where the shape's mask says, else read-only storage); and,
+/// when it sorts its rays (`arranged`), group 1 with the arrangement buffer.
+fn layout(device: &wgpu::Device, (n, uniforms): Shape, arranged: bool) -> Layouts {
     let mut entries = vec![
         storage(0, true),
         storage(1, false),
         storage(2, false),
         storage(3, true),
-        wgpu::BindGroupLayoutEntry {
-            binding: 4,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        },
+        uniform(4),
     ];
-    entries.extend((0..n as u32).map(|k| storage(COMMON_BINDINGS + k, true)));
+    entries.extend((0..n as u32).map(|k| {
+        let binding = COMMON_BINDINGS + k;
+        if uniforms >> k & 1 == 1 {
+            uniform(binding)
+        } else {
+            storage(binding, true)
+        }
+    }));
     let group0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: None,
         entries: &entries,
@@ -190,10 +205,11 @@ impl Kernels {
     ) -> Result<(), GpuError> {
         let mut cache = self.cache();
         let keys = Self::keys(p);
+        let shape = (p.buffers.len(), p.uniform_mask());
         cache
             .layouts
-            .entry((p.buffers.len(), keys > 0))
-            .or_insert_with(|| layout(device, p.buffers.len(), keys > 0));
+            .entry((shape, keys > 0))
+            .or_insert_with(|| layout(device, shape, keys > 0));
         if let Some(m) = cache.modules.get(p.name) {
             if m.source != p.source
                 || m.includes != p.includes
@@ -279,15 +295,15 @@ impl Kernels {
         })
     }
 
-    /// The pipeline of variant `v` (made on first use) and the layouts of a program with `n`
-    /// buffers (sorting its rays when `arranged`), and whether the pipeline was made by this
-    /// call (its first dispatch may include the driver's compilation). The program must have
-    /// been prepared ([`Gpu::upload`]).
+    /// The pipeline of variant `v` (made on first use) and the layouts of a program with
+    /// buffers of `shape` (sorting its rays when `arranged`), and whether the pipeline was made
+    /// by this call (its first dispatch may include the driver's compilation). The program
+    /// must have been prepared ([`Gpu::upload`]).
     pub(crate) fn pipeline(
         &self,
         device: &wgpu::Device,
         v: Variant,
-        n: usize,
+        shape: Shape,
         arranged: bool,
     ) -> (wgpu::ComputePipeline, Layouts, bool) {
         let mut cache = self.cache();
@@ -297,7 +313,7 @@ impl Kernels {
             pipelines,
             ..
         } = &mut *cache;
-        let l = &layouts[&(n, arranged)];
+        let l = &layouts[&(shape, arranged)];
         let fresh = !pipelines.contains_key(&v);
         let pipeline = pipelines
             .entry(v)
@@ -318,7 +334,7 @@ impl Kernels {
         &self,
         device: &wgpu::Device,
         name: &'static str,
-        n: usize,
+        shape: Shape,
     ) -> Vec<wgpu::ComputePipeline> {
         let mut cache = self.cache();
         let Cache {
@@ -327,7 +343,7 @@ impl Kernels {
             sorts,
             ..
         } = &mut *cache;
-        let l = &layouts[&(n, true)];
+        let l = &layouts[&(shape, true)];
         sorts
             .entry(name)
             .or_insert_with(|| {

@@ -7,7 +7,8 @@
 //!   opens a device with the adapter's own limits, and reports it ([`AdapterSummary`]).
 //! - [`Gpu::upload`] copies a program's arrays unchanged (STYLE.md, "build, then flatten"):
 //!   the triangles (three `vec4<f32>` each, `w` = 0) at binding 3, the `meta_` uniform `(triangles, meta[0],
-//!   meta[1], meta[2])` at 4, the program's buffers at 5, 6, …; it gives a [`GpuStructure`].
+//!   meta[1], meta[2])` at 4, the program's buffers at 5, 6, … (read-only storage, or uniform
+//!   where the program says); it gives a [`GpuStructure`].
 //! - [`Gpu::upload_rays`] copies a ray batch and allocates its hit and counter buffers;
 //!   [`Gpu::trace`] runs one pass of a program over it (timed with GPU timestamp queries where
 //!   the adapter has them, else wall time around submit-and-wait); [`Gpu::read_hits`] and
@@ -44,9 +45,11 @@
 //! that every bound buffer range respects `max_storage_buffer_binding_size` and the workgroup
 //! count respects `max_compute_workgroups_per_dimension`; a program's array that exceeds the
 //! binding size cannot be split (every ray may need all of it) and gives
-//! [`GpuError::TooLarge`]; a program may have as many buffers as
+//! [`GpuError::TooLarge`]; a program may have as many storage buffers as
 //! `max_storage_buffers_per_shader_stage` leaves beside the 4 common storage buffers (4 on
-//! every WebGPU adapter). A program that computes in `f64` ([`GpuProgram::needs_f64`]) is
+//! every WebGPU adapter), and uniform buffers ([`GpuProgram::uniform`]: per-dispatch
+//! constants such as a header) within `max_uniform_buffers_per_shader_stage` beside `meta_`
+//! and `max_uniform_buffer_binding_size`. A program that computes in `f64` ([`GpuProgram::needs_f64`]) is
 //! refused ([`GpuError::Unsupported`], one line) on an adapter without `SHADER_F64`.
 
 mod device;

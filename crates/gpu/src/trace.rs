@@ -2,7 +2,7 @@
 //! limits), the sort passes of programs with a ray key, timing and readback.
 
 use crate::device::Gpu;
-use crate::kernels::{Layouts, COMMON_BINDINGS};
+use crate::kernels::{Layouts, Shape, COMMON_BINDINGS};
 use crate::{one_line, GpuError, STATS_BYTES, WORKGROUP};
 use bytemuck::{Pod, Zeroable};
 use std::sync::{mpsc, Mutex};
@@ -38,6 +38,8 @@ pub struct GpuStructure {
     program: &'static str,
     arrange: Option<GpuArrange>,
     tris: wgpu::Buffer,
+    /// Its buffers' number and uniform ones ([`Shape`]).
+    shape: Shape,
     buffers: Vec<wgpu::Buffer>,
     meta: wgpu::Buffer,
     /// Host-to-device copy of the arrays, ms (buffer creation, write, wait).
@@ -264,11 +266,19 @@ impl Gpu {
         }
         let bindable = self.limits.max_storage_buffers_per_shader_stage;
         let sorting = p.arrange.is_some() as u64;
-        if COMMON_STORAGE as u64 + p.buffers.len() as u64 + sorting > bindable as u64 {
+        let uniforms = p.uniform_mask().count_ones() as u64;
+        let storage = p.buffers.len() as u64 - uniforms;
+        if COMMON_STORAGE as u64 + storage + sorting > bindable as u64 {
             return Err(GpuError::Unsupported(format!(
-                "{}: {} buffers of its own, {COMMON_STORAGE} common ones and {sorting} for sorting its rays, over the adapter's max_storage_buffers_per_shader_stage of {bindable}",
+                "{}: {storage} storage buffers of its own, {COMMON_STORAGE} common ones and {sorting} for sorting its rays, over the adapter's max_storage_buffers_per_shader_stage of {bindable}",
                 p.name,
-                p.buffers.len()
+            )));
+        }
+        let bindable = self.limits.max_uniform_buffers_per_shader_stage;
+        if 1 + uniforms > bindable as u64 {
+            return Err(GpuError::Unsupported(format!(
+                "{}: {uniforms} uniform buffers of its own and the meta uniform, over the adapter's max_uniform_buffers_per_shader_stage of {bindable}",
+                p.name,
             )));
         }
         if let Some(a) = p.arrange {
@@ -304,7 +314,19 @@ impl Gpu {
                     b.bytes.len()
                 )));
             }
-            self.fits(b.what, b.bytes.len() as u64, true)?;
+            if b.uniform {
+                let most = self.limits.max_uniform_buffer_binding_size;
+                if b.bytes.len() as u64 > most {
+                    return Err(GpuError::Unsupported(format!(
+                        "{}: {} has {} bytes, over the adapter's max_uniform_buffer_binding_size of {most}",
+                        p.name,
+                        b.what,
+                        b.bytes.len()
+                    )));
+                }
+            } else {
+                self.fits(b.what, b.bytes.len() as u64, true)?;
+            }
         }
         self.kernels.prepare(&self.device, p, || self.check())?;
         let [m0, m1, m2] = p.meta;
@@ -315,7 +337,14 @@ impl Gpu {
         let buffers = p
             .buffers
             .iter()
-            .map(|b| self.buffer(b.what, &b.bytes, storage))
+            .map(|b| {
+                let usage = if b.uniform {
+                    wgpu::BufferUsages::UNIFORM
+                } else {
+                    storage
+                };
+                self.buffer(b.what, &b.bytes, usage)
+            })
             .collect();
         let meta = self.buffer(
             "meta",
@@ -328,6 +357,7 @@ impl Gpu {
             program: p.name,
             arrange: p.arrange,
             tris,
+            shape: (p.buffers.len(), p.uniform_mask()),
             buffers,
             meta,
             upload_ms: start.elapsed().as_secs_f64() * 1e3,
@@ -435,7 +465,7 @@ impl Gpu {
         let (pipeline, layouts, fresh) = self.kernels.pipeline(
             &self.device,
             (s.program, query, tri, count),
-            s.buffers.len(),
+            s.shape,
             s.arrange.is_some(),
         );
         if fresh {
@@ -476,7 +506,7 @@ impl Gpu {
                 let g1 = self.arrangement(a, rays, layouts, &chunks)?;
                 let passes = self
                     .kernels
-                    .sort_pipelines(&self.device, s.program, s.buffers.len());
+                    .sort_pipelines(&self.device, s.program, s.shape);
                 let (ms, _) = self.timed_pass(|pass| {
                     for (((_, len), g0), g1) in chunks.iter().zip(&groups).zip(&g1) {
                         let wgs = len.div_ceil(WORKGROUP as u64) as u32;

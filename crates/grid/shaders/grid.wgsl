@@ -9,10 +9,19 @@
 // in f32 a driver that contracts into FMAs may place a boundary crossing an ulp away, which
 // the reference margin covers (the hits stay exact; a counter may differ on a grazing ray).
 //
-// Every program declares `hdr: array<real>` (binding 5), whose lattices are read by
-// `lattice`: 15 words, min (3), size (3), 1/size (3), resolution (3), the least margin
-// delta, mag and the far-origin factor (tb_grid::Lattice); word 15 is the program's own
-// (uniform: macro regions; irregular: the deepest octree level).
+// Every program's first buffer is the header `hdr` (binding 5), a uniform buffer (the same
+// for every ray: a GPU serves it from its constant caches, as the authors' code keeps its grid
+// in CUDA constant memory): 16 values in `real`, four to an element (a uniform array's
+// elements are 16-byte aligned), read by `hw`. Its lattice is read by `lattice`: 15 values,
+// min (3), size (3), 1/size (3), resolution (3), the least margin delta, mag and the
+// far-origin factor (tb_grid::Lattice); value 15 is the program's own (uniform: macro
+// regions; irregular: the deepest octree level).
+@group(0) @binding(5) var<uniform> hdr: array<vec4<real>, 4>;
+
+// Value `k` of the header.
+fn hw(k: u32) -> real {
+    return hdr[k >> 2u][k & 3u];
+}
 
 struct Lat {
     lo: vec3<real>,
@@ -41,17 +50,17 @@ struct Next {
     ok: bool,
 }
 
-// The lattice stored at word `k` of `hdr`.
+// The lattice stored from value `k` of `hdr`.
 fn lattice(k: u32) -> Lat {
     let h = k;
     return Lat(
-        vec3<real>(hdr[h], hdr[h + 1u], hdr[h + 2u]),
-        vec3<real>(hdr[h + 3u], hdr[h + 4u], hdr[h + 5u]),
-        vec3<real>(hdr[h + 6u], hdr[h + 7u], hdr[h + 8u]),
-        vec3<u32>(u32(hdr[h + 9u]), u32(hdr[h + 10u]), u32(hdr[h + 11u])),
-        hdr[h + 12u],
-        hdr[h + 13u],
-        hdr[h + 14u],
+        vec3<real>(hw(h), hw(h + 1u), hw(h + 2u)),
+        vec3<real>(hw(h + 3u), hw(h + 4u), hw(h + 5u)),
+        vec3<real>(hw(h + 6u), hw(h + 7u), hw(h + 8u)),
+        vec3<u32>(u32(hw(h + 9u)), u32(hw(h + 10u)), u32(hw(h + 11u))),
+        hw(h + 12u),
+        hw(h + 13u),
+        hw(h + 14u),
     );
 }
 

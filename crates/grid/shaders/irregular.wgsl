@@ -7,7 +7,6 @@
 // words each: lo, begin, hi, end, read as two 16-byte loads) and the references (`refs`).
 // Counters: cells and steps per cell visited, prims per test.
 
-@group(0) @binding(5) var<storage, read> hdr: array<real>;
 @group(0) @binding(6) var<storage, read> vmap: array<u32>;
 @group(0) @binding(7) var<storage, read> cells: array<vec4<u32>>;
 @group(0) @binding(8) var<storage, read> refs: array<u32>;
@@ -32,7 +31,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     if far(base, r) {
         return brute_force(r, st);
     }
-    let dmax = u32(hdr[15]);
+    let dmax = u32(hw(15u));
     let top_res = base.res >> vec3<u32>(dmax);
     let p = prepare(r);
     var best = no_hit(r);

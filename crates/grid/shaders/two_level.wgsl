@@ -6,7 +6,6 @@
 // (`refs`). Counters: cells and steps per top and leaf cell, interior per top cell, leaves per
 // leaf cell, prims per test.
 
-@group(0) @binding(5) var<storage, read> hdr: array<real>;
 @group(0) @binding(6) var<storage, read> tops: array<vec2<u32>>;
 @group(0) @binding(7) var<storage, read> start: array<u32>;
 @group(0) @binding(8) var<storage, read> refs: array<u32>;

@@ -4,7 +4,6 @@
 // (`start`), the references (`refs`) and the macro regions (6 words per cell: lo, hi; one
 // unused word without them). Counters: cells and steps per cell visited, prims per test.
 
-@group(0) @binding(5) var<storage, read> hdr: array<real>;
 @group(0) @binding(6) var<storage, read> start: array<u32>;
 @group(0) @binding(7) var<storage, read> refs: array<u32>;
 @group(0) @binding(8) var<storage, read> macros: array<u32>;
@@ -18,7 +17,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     if far(l, r) {
         return brute_force(r, st);
     }
-    let with_macros = hdr[15] != real(0.0);
+    let with_macros = hw(15u) != real(0.0);
     let p = prepare(r);
     var best = no_hit(r);
     var v = voxel_at(w, l, w.t0);

@@ -8,9 +8,11 @@
 //! [`GpuProgram::needs_f64`] (named `…-f64`), and tb-gpu refuses them on adapters without
 //! `SHADER_F64` (one line, the row's note).
 //!
-//! Buffers (bindings 5 to 8): the lattice as 15 words in the precision (min, size, 1/size,
-//! resolution, least margin, mag, far-origin factor) and one word more (uniform: 1 with macro
-//! regions; irregular: the deepest octree level), then each grid's arrays exactly as built.
+//! Buffers (bindings 5 to 8): the header, a uniform buffer (the same for every ray, as the
+//! authors' code keeps its grid in CUDA constant memory): the lattice as 15 values in the
+//! precision (min, size, 1/size, resolution, least margin, mag, far-origin factor) and one
+//! more (uniform: 1 with macro regions; irregular: the deepest octree level); then each
+//! grid's arrays exactly as built, in storage buffers.
 
 use crate::lattice::Lattice;
 use crate::{IrregularGrid, Precision, TwoLevelGrid, UniformGrid};
@@ -45,6 +47,7 @@ fn header(
     GpuBuffer {
         what,
         bytes: Cow::Owned(bytes),
+        uniform: true,
     }
 }
 
@@ -60,7 +63,13 @@ fn program<'a>(
     let k = (precision == Precision::F64) as usize;
     let p = buffers.into_iter().fold(
         GpuProgram::new(names[k], sources[k], Cow::Borrowed(triangles)),
-        |p, b| p.buffer(b.what, b.bytes),
+        |p, b| {
+            if b.uniform {
+                p.uniform(b.what, b.bytes)
+            } else {
+                p.buffer(b.what, b.bytes)
+            }
+        },
     );
     if precision == Precision::F64 {
         p.in_f64()
@@ -112,14 +121,17 @@ impl UniformGrid {
                 GpuBuffer {
                     what: "the uniform grid's cell ranges",
                     bytes: words(self.start.iter().copied()),
+                    uniform: false,
                 },
                 GpuBuffer {
                     what: "the uniform grid's references",
                     bytes: words(self.refs.iter().copied()),
+                    uniform: false,
                 },
                 GpuBuffer {
                     what: "the uniform grid's macro regions",
                     bytes: macro_words,
+                    uniform: false,
                 },
             ],
         )
@@ -145,14 +157,17 @@ impl TwoLevelGrid {
                 GpuBuffer {
                     what: "the two-level grid's top cells",
                     bytes: words(self.tops.iter().flat_map(|t| [t.first_leaf, t.res])),
+                    uniform: false,
                 },
                 GpuBuffer {
                     what: "the two-level grid's leaf ranges",
                     bytes: words(self.start.iter().copied()),
+                    uniform: false,
                 },
                 GpuBuffer {
                     what: "the two-level grid's references",
                     bytes: words(self.refs.iter().copied()),
+                    uniform: false,
                 },
             ],
         )
@@ -179,6 +194,7 @@ impl IrregularGrid {
                 GpuBuffer {
                     what: "the irregular grid's voxel map",
                     bytes: words(self.map.iter().copied()),
+                    uniform: false,
                 },
                 GpuBuffer {
                     what: "the irregular grid's cells",
@@ -187,10 +203,12 @@ impl IrregularGrid {
                             c.lo[0], c.lo[1], c.lo[2], c.begin, c.hi[0], c.hi[1], c.hi[2], c.end,
                         ]
                     })),
+                    uniform: false,
                 },
                 GpuBuffer {
                     what: "the irregular grid's references",
                     bytes: words(self.refs.iter().copied()),
+                    uniform: false,
                 },
             ],
         )

@@ -9,12 +9,18 @@
 // data = split (f32 bits) or the first reference. The node count is meta_.counts.y.
 @group(0) @binding(5) var<storage, read> nodes: array<vec2<u32>>;   // GpuProgram::buffers[0]
 @group(0) @binding(6) var<storage, read> refs: array<u32>;          // buffers[1]: references
-// buffers[2], 12 words (tb_kdtree::gpu_header): the start nodes (kd-tree: word 0, the walk's
-// start node; multi-kd: roots X, Y, Z); word 3 the multi-kd pick rule; word 4 the layout (0
-// depth-first, else the treelet block's slot mask); words 5..10 the start cell min xyz, max xyz
-// (f32 bits); word 11 the step cap of the restart-type traversals. Sized at run time: a
-// program built on the kd-tree may append its own words (sparse boxes' depths and rank).
-@group(0) @binding(7) var<storage, read> header: array<u32>;
+// buffers[2], a uniform buffer (the same for every ray), 12 words (tb_kdtree::gpu_header), four
+// to an element (a uniform array's elements are 16-byte aligned), read by `hw`: the start
+// nodes (kd-tree: word 0, the walk's start node; multi-kd: roots X, Y, Z); word 3 the multi-kd
+// pick rule; word 4 the layout (0 depth-first, else the treelet block's slot mask); words
+// 5..10 the start cell min xyz, max xyz (f32 bits); word 11 the step cap of the restart-type
+// traversals.
+@group(0) @binding(7) var<uniform> header: array<vec4<u32>, 3>;
+
+// Word `k` of the header.
+fn hw(k: u32) -> u32 {
+    return header[k >> 2u][k & 3u];
+}
 
 // tb_kdtree::traverse::SLACK = 1 + 8·2^-23.
 const SLACK: f32 = 1.00000095367431640625;
@@ -25,12 +31,12 @@ fn is_leaf(n: vec2<u32>) -> bool {
 
 // The depth-first layout (review §6.1).
 fn depth_first() -> bool {
-    return header[4] == 0u;
+    return hw(4u) == 0u;
 }
 
 // Layout::children: depth-first (left next, right at the link) or treelet blocks (§6.2).
 fn children(i: u32, n: vec2<u32>) -> vec2<u32> {
-    let mask = header[4];
+    let mask = hw(4u);
     let link = n.x >> 2u;
     if mask == 0u {
         return vec2<u32>(i + 1u, link);
@@ -44,10 +50,10 @@ fn children(i: u32, n: vec2<u32>) -> vec2<u32> {
 
 // The start cell.
 fn cell_min() -> vec3<f32> {
-    return vec3<f32>(bitcast<f32>(header[5]), bitcast<f32>(header[6]), bitcast<f32>(header[7]));
+    return vec3<f32>(bitcast<f32>(hw(5u)), bitcast<f32>(hw(6u)), bitcast<f32>(hw(7u)));
 }
 fn cell_max() -> vec3<f32> {
-    return vec3<f32>(bitcast<f32>(header[8]), bitcast<f32>(header[9]), bitcast<f32>(header[10]));
+    return vec3<f32>(bitcast<f32>(hw(8u)), bitcast<f32>(hw(9u)), bitcast<f32>(hw(10u)));
 }
 
 // traverse::Kind.

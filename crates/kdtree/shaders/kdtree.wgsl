@@ -140,8 +140,8 @@ fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, s
              st: ptr<function, Stats>) -> Hit {
     var best = best0;
     var steps = steps0;
-    let root = header[0];
-    let cap = header[11];
+    let root = hw(0u);
+    let cap = hw(11u);
     let size = STACK_SIZE;
     let df = depth_first();
     let track = k != K_BACKTRACK;
@@ -467,9 +467,9 @@ fn crawl(w: ptr<function, Walk>, rope_walk: bool, r: Ray, rb: RayBox, p: Pre, t0
          best: ptr<function, Hit>, st: ptr<function, Stats>) -> u32 {
     let lo_c = cell_min();
     let hi_c = cell_max();
-    let cap = header[11];
+    let cap = hw(11u);
     let n_nodes = meta_.counts.y;
-    var loc = locate(w, rb, header[0], lo_c, hi_c, t0, st);
+    var loc = locate(w, rb, hw(0u), lo_c, hi_c, t0, st);
     var tn = t0;
     loop {
         if (*w).ambiguous {
@@ -530,7 +530,7 @@ fn crawl(w: ptr<function, Walk>, rope_walk: bool, r: Ray, rb: RayBox, p: Pre, t0
             loc = locate(w, rb, rope, loc.lo, loc.hi, tn, st);
         } else {
             (*st).restarts += 1u;
-            loc = locate(w, rb, header[0], lo_c, hi_c, tn, st);
+            loc = locate(w, rb, hw(0u), lo_c, hi_c, tn, st);
         }
     }
     return 0u;
@@ -573,7 +573,7 @@ fn crawl_passes(rope_walk: bool, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, b
 
 fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     if KERNEL == K_RECURSIVE {
-        return recursive(r, header[0], st);
+        return recursive(r, hw(0u), st);
     }
     let rb = ray_box(r);
     let s = enter(r, rb, st);

@@ -53,8 +53,8 @@ const SHORT_STACK_PROGRAMS: [&str; MAX_SHORT_STACK] = [
     "kdtree/short-stack-32",
 ];
 
-/// The 12-word header of `shaders/kd.wgsl` (binding 7), which the programs built on the kd-tree
-/// (multi-kd's; sparse boxes', whose own words follow it in the same buffer) fill too:
+/// The 12-word header of `shaders/kd.wgsl` (binding 7, a uniform buffer), which the programs
+/// built on the kd-tree (multi-kd's, sparse boxes') fill too:
 /// `starts` (words 0..=3: the kd-tree's start node; multi-kd's roots X, Y, Z and pick rule),
 /// the layout (word 4: 0 depth-first, else the treelet block's slot mask), the start `cell`
 /// (words 5..=10, f32 bits) and the restart-type traversals' `step_cap` (word 11).
@@ -155,7 +155,7 @@ impl KdTree {
             "the kd-tree reference array",
             words(self.prim_refs.iter().copied()),
         )
-        .buffer("the kd-tree header", words(header))
+        .uniform("the kd-tree header", words(header))
         .buffer("the kd-tree cell, parent and rope arrays", aux)
         .meta([self.nodes.len() as u32, 0, 0])
         .stack(stack_size as u32)

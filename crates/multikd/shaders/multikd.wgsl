@@ -14,7 +14,7 @@
 
 // measure::Heuristic::pick, operation for operation.
 fn pick(d: vec3<f32>) -> u32 {
-    let rule = header[3];
+    let rule = hw(3u);
     let a = abs(d);
     if rule == 0u {
         return 0u;
@@ -43,5 +43,5 @@ fn ray_key(r: Ray) -> u32 {
 }
 
 fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
-    return recursive(r, header[pick(r.dir)], st);
+    return recursive(r, hw(pick(r.dir)), st);
 }

@@ -56,7 +56,7 @@ impl MultiKdTree {
             "the multi-kd-tree reference array",
             words(self.refs.iter().copied()),
         )
-        .buffer("the multi-kd-tree header", words(header))
+        .uniform("the multi-kd-tree header", words(header))
         .meta([self.nodes.len() as u32, 0, 0])
         .stack(STACK_SIZE as u32)
         .arranged(sort.map(|timed| GpuArrange {

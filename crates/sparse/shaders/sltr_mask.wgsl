@@ -12,22 +12,20 @@
 // levels.
 
 // On the kd-tree family's WGSL (tb_kdtree::KD_WGSL, included through tb-gpu before this file):
-// its node array (`nodes`, binding 5), references (`refs`, 6), `is_leaf`, the split decision
-// `decide` (traverse.rs `split_decision`) and the leaf test `leaf`. The kd header (binding 7:
-// depth-first layout, the root cell, the step cap in word 11) carries this program's own words
-// after its 12: the augmented records' depths from word HEAD, then the records' rank.
+// its node array (`nodes`, binding 5), references (`refs`, 6), header (7: depth-first layout,
+// the root cell, the step cap in word 11), `is_leaf`, the split decision `decide` (traverse.rs
+// `split_decision`) and the leaf test `leaf`.
 
 // tb_sparse::AugNode, 32 bytes: the node's cell, the parent record, the node.
 struct Aug { bmin: vec3<f32>, parent: u32, bmax: vec3<f32>, node: u32 }
 
 @group(0) @binding(8) var<storage, read> aug: array<Aug>;        // buffers[3]: record 0 = root
+@group(0) @binding(9) var<storage, read> depths: array<u32>;     // buffers[4]: per record, then the rank
 
 // Start at the start node (the deepest augmented node strictly holding the origin).
 override START: bool = false;
 
 const NONE: u32 = 0xffffffffu;
-// The first word after the kd header: record k's depth is header[HEAD + k].
-const HEAD: u32 = 12u;
 
 // One interior node on the way down toward the last leaf `lf` (the split decision, and
 // `toward`: the child holding `lf`), counted as traverse.rs counts it.
@@ -44,14 +42,14 @@ fn toward_leaf(x: u32, lf: u32, rb: RayBox, xn: f32, xf: f32, st: ptr<function, 
 }
 
 // traverse.rs `AugRank::find`: the record of `node` (records in node order: the number of
-// augmented nodes before it), 0 if none. The rank follows the depths in the header: per 64
+// augmented nodes before it), 0 if none. The rank follows the depths in `depths`: per 64
 // nodes, the bits' low and high words and the count of the blocks before.
 fn find_aug(node: u32) -> u32 {
-    let k = HEAD + meta_.counts.z + 3u * (node / 64u);
+    let k = meta_.counts.z + 3u * (node / 64u);
     let b = node % 64u;
-    let lo = header[k];
-    let hi = header[k + 1u];
-    var n = header[k + 2u];
+    let lo = depths[k];
+    let hi = depths[k + 1u];
+    var n = depths[k + 2u];
     var bit = 0u;
     if b < 32u {
         bit = (lo >> b) & 1u;
@@ -185,7 +183,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
         return miss();
     }
     let p = meta_.counts.w;
-    let cap = header[11];
+    let cap = hw(11u);
     let rb = ray_box(r);
     (*st).boxes += 1u;
     let root = aug[0];
@@ -202,7 +200,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
         stt = start_record(r);
     }
     var top = stt;
-    var dtop = header[HEAD + stt];
+    var dtop = depths[stt];
     var sn = r0;
     var sf = r1;
     if stt != 0u {

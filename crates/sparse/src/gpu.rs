@@ -12,10 +12,11 @@ impl SparseBoxes {
     /// node located per ray in the kernel (`start`, program `sparse-boxes/sltr-mask`) or from
     /// the root (`sparse-boxes/sltr-mask-root`), on the kd-tree family's WGSL
     /// ([`tb_kdtree::KD_WGSL`]: its node decoding, split decision and leaf test). Buffers: the
-    /// kd-tree's nodes and references; the kd header ([`gpu_header`]: depth-first, the root
-    /// cell, the step cap in word 11) followed by the augmented records' depths and their rank
-    /// ([`tb_kdtree::NodeRank`], three words per 64 nodes: the bits' low and high words, the
-    /// count before); the augmented records; meta: node count, record count, `d_min + 1`.
+    /// kd-tree's nodes and references; the kd header ([`gpu_header`], a uniform buffer:
+    /// depth-first, the root cell, the step cap in word 11); the augmented records; their
+    /// depths followed by their rank ([`tb_kdtree::NodeRank`], three words per 64 nodes: the
+    /// bits' low and high words, the count before); meta: node count, record count,
+    /// `d_min + 1`.
     pub(crate) fn gpu_sltr_mask(&self, start: bool) -> GpuProgram<'_> {
         let v = self.kd.view();
         GpuProgram::new(
@@ -47,19 +48,14 @@ impl SparseBoxes {
             "the kd-tree reference array",
             words(v.refs().iter().copied()),
         )
-        .buffer(
-            "the kd-tree header, the augmented nodes' depths and their rank",
-            words(
-                gpu_header(
-                    self.kd.params(),
-                    [0; 4],
-                    self.kd.bounds(),
-                    self.params.step_cap,
-                )
-                .into_iter()
-                .chain(self.depth.iter().map(|&d| d as u32))
-                .chain(self.rank.words()),
-            ),
+        .uniform(
+            "the kd-tree header",
+            words(gpu_header(
+                self.kd.params(),
+                [0; 4],
+                self.kd.bounds(),
+                self.params.step_cap,
+            )),
         )
         .buffer(
             "the augmented nodes",
@@ -75,6 +71,15 @@ impl SparseBoxes {
                     a.node,
                 ]
             })),
+        )
+        .buffer(
+            "the augmented nodes' depths and their rank",
+            words(
+                self.depth
+                    .iter()
+                    .map(|&d| d as u32)
+                    .chain(self.rank.words()),
+            ),
         )
         .meta([
             v.nodes().len() as u32,
