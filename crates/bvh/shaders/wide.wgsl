@@ -17,8 +17,9 @@ const EMPTY: u32 = 0xffffffffu;
 
 @group(0) @binding(5) var<storage, read> wnodes: array<u32>;     // GpuProgram::buffers[0]
 @group(0) @binding(6) var<storage, read> prim_ids: array<u32>;   // GpuProgram::buffers[1]
-// The binary root (tb_bvh::BvhNode): its box is tested first, as on the CPU.
-@group(0) @binding(7) var<storage, read> root_node: array<f32>;  // GpuProgram::buffers[2]
+// The binary root (tb_bvh::BvhNode, 32 bytes: min, index, max, count), a uniform buffer (the
+// same for every ray): its box is tested first, as on the CPU.
+@group(0) @binding(7) var<uniform> root_node: array<vec4<f32>, 2>;  // GpuProgram::buffers[2]
 
 fn wf(i: u32) -> f32 {
     return bitcast<f32>(wnodes[i]);
@@ -40,8 +41,8 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     let tmin = r.tmin;
     var best = no_best(r);
     (*st).boxes += 1u;
-    let rmin = vec3<f32>(root_node[0], root_node[1], root_node[2]);
-    let rmax = vec3<f32>(root_node[4], root_node[5], root_node[6]);
+    let rmin = root_node[0].xyz;
+    let rmax = root_node[1].xyz;
     let rs = slab(rb, rmin, rmax, tmin, best.t);
     if !(rs.x <= rs.y) {
         return miss();

@@ -24,7 +24,7 @@ impl Bvh {
             "the primitive-id array",
             Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
         )
-        .buffer(
+        .uniform(
             "the binary root node",
             Cow::Borrowed(bytemuck::cast_slice(&self.nodes[..1])),
         )
@@ -41,7 +41,7 @@ impl Bvh {
     /// Wide builds get `shaders/wide.wgsl` (programs `bvh/ordered-w4`, `bvh/ordered-w8`, the
     /// wide walk in the CPU's order): the wide nodes (leaves naming their first triangle in
     /// the leaf-ordered triangles, not their first block), the primitive ids and the binary
-    /// root node (its box is tested first), the wide node count in `meta[0]`.
+    /// root node (a uniform buffer; its box is tested first), the wide node count in `meta[0]`.
     pub(crate) fn gpu_ordered(&self) -> GpuProgram<'_> {
         fn bytes<const N: usize>(w: &[WideNode<N>], first: &[u32]) -> Vec<u8> {
             bytemuck::cast_slice(&wide::unpack_leaves(w, first)).to_vec()
