@@ -52,6 +52,7 @@
 //! and `max_uniform_buffer_binding_size`. A program that computes in `f64` ([`GpuProgram::needs_f64`]) is
 //! refused ([`GpuError::Unsupported`], one line) on an adapter without `SHADER_F64`.
 
+mod admit;
 mod device;
 mod kernels;
 mod probe;

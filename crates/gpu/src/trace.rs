@@ -18,11 +18,6 @@ const RECORD_BYTES: u64 = max(RAY_BYTES, max(HIT_BYTES, STATS_BYTES));
 /// Dispatch sizes are multiples of this many rays, so every per-dispatch buffer offset is a
 /// multiple of 256 bytes (the largest `min_storage_buffer_offset_alignment` WebGPU allows).
 const RAY_ALIGN: u64 = 256;
-/// Storage buffers among [`COMMON_BINDINGS`] (all but the `meta_` uniform).
-const COMMON_STORAGE: u32 = 4;
-/// Iterations llvmpipe allows the loops of one shader invocation (65535), with a margin:
-/// a program with an unrolled triangle loop handles at most `unroll` times this many there.
-const LLVMPIPE_LOOP_MAX: u64 = 65_000;
 
 const fn max(a: u64, b: u64) -> u64 {
     if a > b {
@@ -208,7 +203,12 @@ impl Gpu {
         self.limits.max_storage_buffer_binding_size
     }
 
-    fn fits(&self, what: &'static str, bytes: u64, binding: bool) -> Result<(), GpuError> {
+    pub(crate) fn fits(
+        &self,
+        what: &'static str,
+        bytes: u64,
+        binding: bool,
+    ) -> Result<(), GpuError> {
         let l = &self.limits;
         if bytes > l.max_buffer_size || (binding && bytes > l.max_storage_buffer_binding_size) {
             return Err(GpuError::TooLarge {
@@ -248,55 +248,8 @@ impl Gpu {
     /// without `SHADER_F64`; [`GpuError::Program`] for a malformed program (a buffer that is not whole
     /// 4-byte words, a name reused with other code, WGSL that does not compile).
     pub fn upload(&self, p: &GpuProgram<'_>) -> Result<GpuStructure, GpuError> {
-        if p.needs_f64 && !self.summary.f64 {
-            return Err(GpuError::Unsupported(format!(
-                "{} computes in f64, and adapter {} lacks SHADER_F64",
-                p.name, self.summary.name
-            )));
-        }
+        self.admit(p)?;
         let n_tris = p.triangles.len() as u64;
-        if let Some(unroll) = p.unrolled_triangle_loop {
-            let most = unroll as u64 * LLVMPIPE_LOOP_MAX;
-            if self.summary.driver.contains("llvmpipe") && n_tris > most {
-                return Err(GpuError::Unsupported(format!(
-                    "{} over {n_tris} triangles on llvmpipe: it ends a shader's loops after 65535 iterations, so at most {most} triangles",
-                    p.name
-                )));
-            }
-        }
-        let bindable = self.limits.max_storage_buffers_per_shader_stage;
-        let sorting = p.arrange.is_some() as u64;
-        let uniforms = p.uniform_mask().count_ones() as u64;
-        let storage = p.buffers.len() as u64 - uniforms;
-        if COMMON_STORAGE as u64 + storage + sorting > bindable as u64 {
-            return Err(GpuError::Unsupported(format!(
-                "{}: {storage} storage buffers of its own, {COMMON_STORAGE} common ones and {sorting} for sorting its rays, over the adapter's max_storage_buffers_per_shader_stage of {bindable}",
-                p.name,
-            )));
-        }
-        let bindable = self.limits.max_uniform_buffers_per_shader_stage;
-        if 1 + uniforms > bindable as u64 {
-            return Err(GpuError::Unsupported(format!(
-                "{}: {uniforms} uniform buffers of its own and the meta uniform, over the adapter's max_uniform_buffers_per_shader_stage of {bindable}",
-                p.name,
-            )));
-        }
-        if let Some(a) = p.arrange {
-            if !(1..=GpuArrange::MAX_KEYS).contains(&a.keys) {
-                return Err(GpuError::Program(format!(
-                    "GPU program `{}`: {} ray keys, not 1 to {}",
-                    p.name,
-                    a.keys,
-                    GpuArrange::MAX_KEYS
-                )));
-            }
-        }
-        if n_tris > u32::MAX as u64 {
-            return Err(GpuError::Program(format!(
-                "GPU program `{}`: {n_tris} triangles, more than a u32 counts",
-                p.name
-            )));
-        }
         let flat: Vec<f32> = p
             .triangles
             .iter()
@@ -304,30 +257,6 @@ impl Gpu {
             .flat_map(|v| [v.x, v.y, v.z, 0.0])
             .collect();
         let tri_bytes: &[u8] = bytemuck::cast_slice(&flat);
-        self.fits("the triangle array", tri_bytes.len() as u64, true)?;
-        for b in &p.buffers {
-            if b.bytes.len() % 4 != 0 {
-                return Err(GpuError::Program(format!(
-                    "GPU program `{}`: {} has {} bytes, not a whole number of 4-byte words",
-                    p.name,
-                    b.what,
-                    b.bytes.len()
-                )));
-            }
-            if b.uniform {
-                let most = self.limits.max_uniform_buffer_binding_size;
-                if b.bytes.len() as u64 > most {
-                    return Err(GpuError::Unsupported(format!(
-                        "{}: {} has {} bytes, over the adapter's max_uniform_buffer_binding_size of {most}",
-                        p.name,
-                        b.what,
-                        b.bytes.len()
-                    )));
-                }
-            } else {
-                self.fits(b.what, b.bytes.len() as u64, true)?;
-            }
-        }
         self.kernels.prepare(&self.device, p, || self.check())?;
         let [m0, m1, m2] = p.meta;
         let meta = [n_tris as u32, m0, m1, m2];
