@@ -244,9 +244,20 @@ fn exit(w: WalkRay, l: Lat, lo: vec3<u32>, hi: vec3<u32>) -> Exit {
     return Exit(k, t[k]);
 }
 
+// tb_grid::common::VoxelLine: the ray in voxel units of lattice `l`, `base + t·slope` per
+// axis, computed once per walk of a lattice (WalkRay::voxel_line).
+struct Line {
+    base: vec3<real>,
+    slope: vec3<real>,
+}
+
+fn voxel_line(w: WalkRay, l: Lat) -> Line {
+    return Line((w.o - l.lo) * l.inv, w.d * l.inv);
+}
+
 // WalkRay::advance: the monotone advance of §5 from voxel `v` leaving the box lo..hi at `t`
-// through the far plane of `axis`.
-fn advance(w: WalkRay, l: Lat, t: real, axis: u32, v: vec3<u32>, lo: vec3<u32>, hi: vec3<u32>) -> Next {
+// through the far plane of `axis`, the other axes placed on the walk's `line`.
+fn advance(w: WalkRay, l: Lat, line: Line, t: real, axis: u32, v: vec3<u32>, lo: vec3<u32>, hi: vec3<u32>) -> Next {
     var n = v;
     for (var a = 0u; a < 3u; a++) {
         if a == axis {
@@ -262,11 +273,7 @@ fn advance(w: WalkRay, l: Lat, t: real, axis: u32, v: vec3<u32>, lo: vec3<u32>, 
                 n[a] = lo[a] - 1u;
             }
         } else if w.d[a] != real(0.0) {
-            // VoxelLine: base + t·slope, the CPU's per-walk constants (recomputed here; the
-            // same operations give the same values).
-            let base = (w.o[a] - l.lo[a]) * l.inv[a];
-            let slope = w.d[a] * l.inv[a];
-            let p = clamp(voxel_scaled(l, a, base + t * slope), lo[a], hi[a] - 1u);
+            let p = clamp(voxel_scaled(l, a, line.base[a] + t * line.slope[a]), lo[a], hi[a] - 1u);
             if w.d[a] > real(0.0) {
                 n[a] = max(p, v[a]);
             } else {
@@ -287,12 +294,12 @@ fn goes_on(best: f32, e: Exit, w: WalkRay) -> bool {
 // step): out through the box's nearest far plane (`exit`, `advance`); `ok = false` when the
 // closest hit so far (`best`) or the ray's interval ends first (`goes_on`), or the walk would
 // leave the lattice.
-fn next_voxel(w: WalkRay, l: Lat, best: f32, v: vec3<u32>, lo: vec3<u32>, hi: vec3<u32>) -> Next {
+fn next_voxel(w: WalkRay, l: Lat, line: Line, best: f32, v: vec3<u32>, lo: vec3<u32>, hi: vec3<u32>) -> Next {
     let x = exit(w, l, lo, hi);
     if !goes_on(best, x, w) {
         return Next(v, false);
     }
-    return advance(w, l, x.t, x.axis, v, lo, hi);
+    return advance(w, l, line, x.t, x.axis, v, lo, hi);
 }
 
 // The closest hit so far (`best.t` is the ray's tmax until one is found).

@@ -1,10 +1,11 @@
 // The irregular grid's `walk` (Pérard-Gayot et al. 2017 §5), program `irregular-grid/walk` on
 // grid.wgsl: tb_grid's IrregularGrid::walk cell for cell: on the virtual base grid, the cell
-// of the current voxel from the two-level voxel map, its references, then the exit through
-// the far planes of the cell's box and the monotone advance. Buffers: the base lattice
-// (`hdr`, then word 15: the deepest octree level D_max), the voxel map (`vmap`: per top cell
-// `D << 28 | index` of its second level, then the second levels), the cells (`cells`, 8
-// words each: lo, begin, hi, end, read as two 16-byte loads) and the references (`refs`).
+// of the current voxel from the two-level voxel map, the exit through the far planes of the
+// cell's box and the monotone advance, then its references (hagrid's order). Buffers: the
+// base lattice (`hdr`, then value 15: the deepest octree level D_max), the voxel map (`vmap`:
+// per top cell `D << 28 | index` of its second level, then the second levels), the cells
+// (`cells`, 8 words each: lo, begin, hi, end, read as two 16-byte loads) and the references
+// (`refs`).
 // Counters: cells and steps per cell visited, prims per test.
 
 @group(0) @binding(6) var<storage, read> vmap: array<u32>;
@@ -36,19 +37,24 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     let p = prepare(r);
     var best = no_hit(r);
     var v = voxel_at(w, base, w.t0);
+    let line = voxel_line(w, base);
     loop {
         (*st).cells += 1u;
         (*st).steps += 1u;
         let c = 2u * lookup(top_res, dmax, v);
         let a = cells[c];
         let b = cells[c + 1u];
+        let lo = a.xyz;
+        let hi = b.xyz;
+        // The authors' step order (hagrid's traversal): the exit and the next voxel before
+        // the cell's references, which they do not depend on; then the tests of the walk's
+        // end, after the references, as the CPU walk makes them (the same cells and counts).
+        let x = exit(w, base, lo, hi);
+        let n = advance(w, base, line, x.t, x.axis, v, lo, hi);
         if test_refs(p, r, a.w, b.w, &best, st) {
             break;
         }
-        let lo = a.xyz;
-        let hi = b.xyz;
-        let n = next_voxel(w, base, best.t, v, lo, hi);
-        if !n.ok {
+        if !goes_on(best.t, x, w) || !n.ok {
             break;
         }
         v = n.v;

@@ -26,6 +26,7 @@ fn sub_lattice(top: Lat, v: vec3<u32>, res: vec3<u32>) -> Lat {
 // The walk over the leaves of one top cell; true when ANY and a hit was found.
 fn walk_leaves(w: WalkRay, sub: Lat, first: u32, p: Pre, r: Ray, best: ptr<function, Hit>, st: ptr<function, Stats>) -> bool {
     var u = voxel_at(w, sub, w.t0);
+    let line = voxel_line(w, sub);
     loop {
         (*st).cells += 1u;
         (*st).leaves += 1u;
@@ -35,7 +36,7 @@ fn walk_leaves(w: WalkRay, sub: Lat, first: u32, p: Pre, r: Ray, best: ptr<funct
             return true;
         }
         let hi = u + vec3<u32>(1u);
-        let n = next_voxel(w, sub, (*best).t, u, u, hi);
+        let n = next_voxel(w, sub, line, (*best).t, u, u, hi);
         if !n.ok {
             return false;
         }
@@ -56,6 +57,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     let p = prepare(r);
     var best = no_hit(r);
     var v = voxel_at(w, top, w.t0);
+    let line = voxel_line(w, top);
     loop {
         (*st).cells += 1u;
         (*st).interior += 1u;
@@ -73,7 +75,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             }
         }
         let hi = v + vec3<u32>(1u);
-        let n = next_voxel(w, top, best.t, v, v, hi);
+        let n = next_voxel(w, top, line, best.t, v, v, hi);
         if !n.ok {
             break;
         }

@@ -21,6 +21,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     let p = prepare(r);
     var best = no_hit(r);
     var v = voxel_at(w, l, w.t0);
+    let line = voxel_line(w, l);
     loop {
         (*st).cells += 1u;
         (*st).steps += 1u;
@@ -37,7 +38,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             lo = vec3<u32>(macros[m], macros[m + 1u], macros[m + 2u]);
             hi = vec3<u32>(macros[m + 3u], macros[m + 4u], macros[m + 5u]);
         }
-        let n = next_voxel(w, l, best.t, v, lo, hi);
+        let n = next_voxel(w, l, line, best.t, v, lo, hi);
         if !n.ok {
             break;
         }
