@@ -619,29 +619,22 @@ macro_rules! kernel_by_query {
 
 /// Implement [`Kernel`] for hierarchy walks with a method
 /// `walk::<T, C, ANY, OCT>(&self, ray, &RayBox, c)`, specialised by the ray's octant through
-/// [`crate::by_octant!`] (the BVH's and the R-tree's); generics as in [`kernel_by_query!`].
+/// [`crate::by_octant!`] (the BVH's and the R-tree's): an `octant_walk` per query, then
+/// [`kernel_by_query!`] on it; generics as there.
 #[macro_export]
 macro_rules! kernel_by_octant {
     ($([$($gen:tt)*] $ty:ty),+ $(,)?) => {$(
-        impl<$($gen)*> $crate::Kernel for $ty {
-            #[inline]
-            fn closest<T: $crate::TriTest, C: $crate::Counter>(
+        impl<$($gen)*> $ty {
+            #[inline(always)]
+            fn octant_walk<T: $crate::TriTest, C: $crate::Counter, const ANY: bool>(
                 &self,
                 ray: &$crate::Ray,
                 c: &mut C,
             ) -> $crate::HitRecord {
-                $crate::by_octant!(self, ray, c, false)
-            }
-
-            #[inline]
-            fn any<T: $crate::TriTest, C: $crate::Counter>(
-                &self,
-                ray: &$crate::Ray,
-                c: &mut C,
-            ) -> $crate::HitRecord {
-                $crate::by_octant!(self, ray, c, true)
+                $crate::by_octant!(self, ray, c, ANY)
             }
         }
+        $crate::kernel_by_query!(octant_walk: [$($gen)*] $ty);
     )+};
 }
 

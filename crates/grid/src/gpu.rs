@@ -61,16 +61,9 @@ fn program<'a>(
     buffers: Vec<GpuBuffer<'a>>,
 ) -> GpuProgram<'a> {
     let k = (precision == Precision::F64) as usize;
-    let p = buffers.into_iter().fold(
-        GpuProgram::new(names[k], sources[k], Cow::Borrowed(triangles)),
-        |p, b| {
-            if b.uniform {
-                p.uniform(b.what, b.bytes)
-            } else {
-                p.buffer(b.what, b.bytes)
-            }
-        },
-    );
+    let mut p = GpuProgram::new(names[k], sources[k], Cow::Borrowed(triangles));
+    // Each bound as it says (the header uniform, the arrays storage).
+    p.buffers.extend(buffers);
     if precision == Precision::F64 {
         p.in_f64()
     } else {
