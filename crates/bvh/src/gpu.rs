@@ -1,5 +1,6 @@
 //! The BVH's GPU programs: `ordered` on the binary nodes (`shaders/bvh.wgsl`) and on the wide
-//! ones (`shaders/wide.wgsl`), the CPU's walks in the CPU's order (docs/GPU.md).
+//! ones (`shaders/wide.wgsl`), and `while-while` on the binary nodes with persistent threads
+//! (`shaders/while_while.wgsl`), the CPU's walks in the CPU's order (docs/GPU.md).
 
 use crate::{wide, Bvh, WideNode, WideNodes, STACK_SIZE, WIDE_STACK_SIZE};
 use std::borrow::Cow;
@@ -73,5 +74,29 @@ impl Bvh {
         .stack(STACK_SIZE as u32)
         .include(tb_core::gpu::LEAF_RANGES)
         .include(tb_core::gpu::STACK_POP)
+    }
+
+    /// The GPU program of `while-while` (`shaders/while_while.wgsl`, Aila and Laine's kernel,
+    /// the CPU's walk in the CPU's order), traced with persistent threads: the leaf-ordered
+    /// triangles, the binary nodes (a wide build's binary tree) and the primitive ids, the
+    /// node count in `meta[0]`.
+    pub(crate) fn gpu_while_while(&self) -> GpuProgram<'_> {
+        GpuProgram::new(
+            "bvh/while-while",
+            include_str!("../shaders/while_while.wgsl"),
+            &self.triangles[..],
+        )
+        .buffer(
+            "the BVH node array",
+            Cow::Borrowed(bytemuck::cast_slice(&self.nodes)),
+        )
+        .buffer(
+            "the primitive-id array",
+            Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
+        )
+        .meta([self.nodes.len() as u32, 0, 0])
+        .stack(STACK_SIZE as u32)
+        .include(tb_core::gpu::LEAF_RANGES)
+        .persistent()
     }
 }

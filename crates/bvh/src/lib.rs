@@ -32,6 +32,9 @@
 //! - **Traversal** `ordered` (module `traverse`): depth-first with a fixed-size stack, both
 //!   children's boxes tested at their parent and the nearer visited first (pbrt-v3 §4.3.5), the
 //!   slab test made robust as in Ize 2013, "Robust BVH ray traversal" (see [`Aabb::intersect`]).
+//! - **Traversal** `while-while` (module `while_while`, run on request): Aila and Laine's GPU
+//!   trace kernel (2009; the 2012 addendum), the baseline of the irregular-grid and multi-kd
+//!   papers, on the binary nodes, with persistent threads on the GPU.
 
 mod build;
 mod check;
@@ -41,6 +44,7 @@ mod params;
 mod report;
 mod sbvh;
 mod traverse;
+mod while_while;
 mod wide;
 
 use tb_core::{
@@ -85,6 +89,9 @@ pub static FAMILY: Family = Family::new::<Bvh, BvhParams>(
 /// - `steps`: nodes visited, interior or leaf (`steps == interior + leaves`); a stack entry
 ///   discarded on pop because a closer hit was found meanwhile is not a step;
 /// - `planes`, `restarts`: always 0.
+///
+/// `while-while` counts the same way, without the root's box test (`boxes` is 2 per interior
+/// node visited) and with no entry discarded on pop (module `while_while`).
 #[derive(Clone, Debug)]
 pub struct Bvh {
     nodes: Vec<BvhNode>,
@@ -236,20 +243,41 @@ impl Bvh {
 
 impl Structure for Bvh {
     const NAME: &'static str = "bvh";
-    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::with_gpu(
-        TraversalInfo::new(
-            "ordered",
-            "pbrt-v3 §4.3.5; Ize 2013",
-            "ordered depth-first with a stack, nearer child first (both child boxes tested at \
+    const TRAVERSALS: &'static [Traversal<Self>] = &[
+        Traversal::with_gpu(
+            TraversalInfo::new(
+                "ordered",
+                "pbrt-v3 §4.3.5; Ize 2013",
+                "ordered depth-first with a stack, nearer child first (both child boxes tested at \
              the parent; pbrt-v3 §4.3.5; robust slab test, Ize 2013)",
+            ),
+            tb_core::kernel!(|b: &Bvh, batch, out| match &b.wide {
+                WideNodes::None => dispatch(&traverse::Ordered(b), batch, out),
+                WideNodes::W4(nodes) => dispatch(&b.wide_walk(nodes), batch, out),
+                WideNodes::W8(nodes) => dispatch(&b.wide_walk(nodes), batch, out),
+            }),
+            Bvh::gpu_ordered,
         ),
-        tb_core::kernel!(|b: &Bvh, batch, out| match &b.wide {
-            WideNodes::None => dispatch(&traverse::Ordered(b), batch, out),
-            WideNodes::W4(nodes) => dispatch(&b.wide_walk(nodes), batch, out),
-            WideNodes::W8(nodes) => dispatch(&b.wide_walk(nodes), batch, out),
-        }),
-        Bvh::gpu_ordered,
-    )];
+        Traversal::with_gpu(
+            TraversalInfo::new(
+                "while-while",
+                "Aila and Laine 2009; Aila, Laine and Karras 2012",
+                "Aila and Laine's while-while GPU kernel, the papers' SBVH baseline (Pérard-Gayot \
+             et al. 2017 §6.2; Torres et al. 2012 §6): an inner loop over interior nodes (both \
+             child boxes tested, nearer first, node indices on the stack, no cull on pop, no \
+             root box test), then the leaf's triangles; binary nodes (a wide build's binary \
+             tree); the GPU program traces with persistent threads (Aila and Laine 2009; \
+             Aila, Laine and Karras 2012)",
+            )
+            .on_request(),
+            tb_core::kernel!(|b: &Bvh, batch, out| dispatch(
+                &while_while::WhileWhile(b),
+                batch,
+                out
+            )),
+            Bvh::gpu_while_while,
+        ),
+    ];
 
     /// The arrays the CPU traversal reads: the binary nodes, the triangles and the primitive
     /// ids (`width = 2`), or the wide nodes and the leaf blocks (triangles and primitive ids

@@ -37,6 +37,29 @@ fn good_config_parses() {
     assert_eq!(exp.structures[0].param_sets.len(), 1);
 }
 
+/// A table without `traversals` runs every traversal but those run on request (the BVH's
+/// `while-while`); naming one runs it.
+#[test]
+fn on_request_traversals_run_only_when_named() {
+    let names = |text: &str| -> Vec<&'static str> {
+        let exp = config::parse(
+            Path::new("t.toml"),
+            text,
+            &Overrides::default(),
+            &mut |_| {},
+        )
+        .unwrap();
+        let s = &exp.structures[0];
+        s.traversals.iter().map(|&i| s.infos[i].name).collect()
+    };
+    assert_eq!(names(GOOD), ["ordered"]);
+    let named = GOOD.replace(
+        "name = \"bvh\"",
+        "name = \"bvh\"\ntraversals = [\"while-while\", \"ordered\"]",
+    );
+    assert_eq!(names(&named), ["while-while", "ordered"]);
+}
+
 #[test]
 fn optional_scenes_that_are_absent_are_skipped_with_a_note() {
     let text = format!(

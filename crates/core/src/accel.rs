@@ -63,6 +63,10 @@ pub struct TraversalInfo {
     /// The triangle test it always uses when it ignores the requested one (Embree's own
     /// intersector); `None` when it honours [`TriTestKind`].
     pub own_triangle_test: Option<&'static str>,
+    /// Run only where a config names it (`traversals = [...]`, `--structure NAME:traversal`),
+    /// not by a table that lists no traversals: a baseline kept for the papers that compare
+    /// against it (the BVH's `while-while`), which every other config would otherwise run.
+    pub on_request: bool,
 }
 
 impl TraversalInfo {
@@ -76,7 +80,14 @@ impl TraversalInfo {
             aux: &[],
             counters: CounterSet::ALL,
             own_triangle_test: None,
+            on_request: false,
         }
+    }
+
+    /// Run only where a config names it ([`TraversalInfo::on_request`]).
+    pub const fn on_request(mut self) -> Self {
+        self.on_request = true;
+        self
     }
 
     /// With a per-ray step cap.

@@ -19,8 +19,11 @@
 //!   (triangle test) and `EXIT_SCALE` (the slab test's, [`crate::slab::EXIT_SCALE`]);
 //! - the slab test (`ray_box`, `slab`, as [`crate::slab`]) and both triangle tests
 //!   (`prepare`, `intersect(pre, ray, i, tmax)`), rounding as tb-core's Rust does;
-//! - the entry point `main`: one thread per ray, it calls the program's `walk` with zeroed
-//!   counters, writes the returned hit and, in the counting pass, the counters.
+//! - `trace_ray(i)`, which calls the program's `walk` for the dispatch's ray `i` with zeroed
+//!   counters, writes the returned hit and, in the counting pass, the counters; the entry
+//!   point `main` (appended after the source) calls it once per thread and ray, or, for a
+//!   [`GpuProgram::persistent`] program, in a loop over runs of rays fetched from a counter
+//!   (tb-gpu binds it at the binding after the program's buffers).
 //!
 //! The source declares its own read-only buffers at bindings 5, 6, … in the order of
 //! [`GpuProgram::buffers`]: storage buffers (4 at most on every adapter: WebGPU guarantees 8
@@ -113,6 +116,13 @@ pub struct GpuProgram<'a> {
     /// progress rule, which lavapipe's compiler applies): where that assumption changed a
     /// program's answers, the bound (a counter per loop, never reached) keeps them.
     pub bounded_loops: Option<&'static str>,
+    /// Trace with persistent threads (Aila and Laine 2009, "persistent threads"): tb-gpu
+    /// launches a fixed pool of workgroups, enough to fill a large GPU (fewer for a small
+    /// batch), each of which fetches the next run of rays (one per thread of the
+    /// workgroup, `WORKGROUP_SIZE`) from a global counter until none is left, instead of one thread per ray launched for
+    /// all rays. The walk, and so every hit and counter, is the same; what changes is which
+    /// thread traces a ray and when.
+    pub persistent: bool,
 }
 
 /// WGSL shared by the programs whose leaves are ranges of a leaf-ordered triangle array with
@@ -154,7 +164,14 @@ impl<'a> GpuProgram<'a> {
             arrange: None,
             includes: Vec::new(),
             bounded_loops: None,
+            persistent: false,
         }
+    }
+
+    /// Trace with persistent threads ([`GpuProgram::persistent`]).
+    pub fn persistent(mut self) -> Self {
+        self.persistent = true;
+        self
     }
 
     /// Keep wgpu's loop bounding in the timed passes, for `why`

@@ -6,7 +6,8 @@
 // `struct Stats` with `fn zero_stats()` (tb_core::stats::wgsl_stats_struct: one u32 per
 // counter, then `capped`), and appends one `edge_fallback` (f64 where the adapter has
 // SHADER_F64, else f32), `fn ray_index` (shaders/unsorted.wgsl, or shaders/arrange.wgsl for a
-// program with a ray key) and then the program's source.
+// program with a ray key), the program's source and its entry point `main` (shaders/entry.wgsl,
+// or shaders/persistent.wgsl for a persistent program).
 
 struct Ray { origin: vec3<f32>, tmin: f32, dir: vec3<f32>, tmax: f32 }   // tb_core::Ray, 32 B
 struct Hit { t: f32, prim: u32, u: f32, v: f32 }                          // tb_core::HitRecord
@@ -216,18 +217,12 @@ fn intersect(p: Pre, r: Ray, i: u32, tmax: f32) -> vec4<f32> {
 // per-invocation data in workgroup memory (the kd-tree's on-chip short stack).
 var<private> LANE: u32;
 
-// One thread per ray: the program's `walk` traces ray `ray_index(i)` of the dispatch (`i`
-// itself, or the i-th of the sorted order for a program with a ray key: shaders/arrange.wgsl)
-// (counters start at zero; `capped` stays 0 unless the program sets it), its hit is written at
-// the ray's own index, and its counters in the counting variant.
-@compute @workgroup_size(WORKGROUP_SIZE)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>,
-        @builtin(local_invocation_index) lane: u32) {
-    LANE = lane;
-    let i = gid.x;
-    if i >= arrayLength(&rays) {
-        return;
-    }
+// Ray `i` of the dispatch: the program's `walk` traces ray `ray_index(i)` (`i` itself, or the
+// i-th of the sorted order for a program with a ray key: shaders/arrange.wgsl) (counters start
+// at zero; `capped` stays 0 unless the program sets it), its hit is written at the ray's own
+// index, and its counters in the counting variant. The entry point `main` (shaders/entry.wgsl,
+// one thread per ray, or shaders/persistent.wgsl) calls it.
+fn trace_ray(i: u32) {
     let j = ray_index(i);
     var st = zero_stats();
     hits[j] = walk(rays[j], &st);

@@ -38,9 +38,10 @@ impl Gpu {
         let sorting = p.arrange.is_some() as u64;
         let uniforms = p.uniform_mask().count_ones() as u64;
         let storage = p.buffers.len() as u64 - uniforms;
-        if COMMON_STORAGE as u64 + storage + sorting > bindable as u64 {
+        let pool = p.persistent as u64;
+        if COMMON_STORAGE as u64 + storage + sorting + pool > bindable as u64 {
             return Err(GpuError::Unsupported(format!(
-                "{}: {storage} storage buffers of its own, {COMMON_STORAGE} common ones and {sorting} for sorting its rays, over the adapter's max_storage_buffers_per_shader_stage of {bindable}",
+                "{}: {storage} storage buffers of its own, {COMMON_STORAGE} common ones, {sorting} for sorting its rays and {pool} for persistent threads, over the adapter's max_storage_buffers_per_shader_stage of {bindable}",
                 p.name,
             )));
         }

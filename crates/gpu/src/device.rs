@@ -120,6 +120,8 @@ pub struct Gpu {
     pub(crate) dispatch_cap: Option<u64>,
     /// A timed sample's least duration, ms, and most passes ([`Gpu::set_timed_sample`]).
     pub(crate) sample: (f64, u32),
+    /// Most workgroups of a persistent program's dispatch ([`Gpu::set_persistent_groups`]).
+    pub(crate) persistent_groups: u32,
     /// First uncaptured error or device loss, reported by the next wait.
     errors: Arc<Mutex<Option<GpuError>>>,
     /// The fixed-work probe, made at its first use ([`Gpu::probe_ms`]).
@@ -230,6 +232,7 @@ impl Gpu {
             kernels,
             dispatch_cap: None,
             sample: (crate::MIN_SAMPLE_MS, crate::MAX_PASSES),
+            persistent_groups: crate::PERSISTENT_GROUPS,
             errors,
             probe: Mutex::new(None),
         };

@@ -25,6 +25,8 @@ const EDGE_F64: &str = include_str!("../shaders/edge_f64.wgsl");
 const EDGE_F32: &str = include_str!("../shaders/edge_f32.wgsl");
 const UNSORTED: &str = include_str!("../shaders/unsorted.wgsl");
 const ARRANGE: &str = include_str!("../shaders/arrange.wgsl");
+const ENTRY: &str = include_str!("../shaders/entry.wgsl");
+const PERSISTENT: &str = include_str!("../shaders/persistent.wgsl");
 
 /// The entry points of the sort passes of a program with a ray key (`shaders/arrange.wgsl`),
 /// in the order they run.
@@ -47,6 +49,8 @@ struct Module {
     constants: Vec<(&'static str, f64)>,
     /// Keys of its ray arrangement (0: none).
     keys: u32,
+    /// Persistent threads ([`GpuProgram::persistent`]).
+    persistent: bool,
 }
 
 /// Layouts of a program: group 0 (the common bindings and its buffers), group 1 (the
@@ -59,8 +63,14 @@ pub(crate) struct Layouts {
 }
 
 /// A program's own buffers: how many, and which are uniform buffers (bit `k` for buffer `k`,
-/// [`tb_core::GpuProgram::uniform_mask`]); the others are read-only storage buffers.
-pub(crate) type Shape = (usize, u32);
+/// [`tb_core::GpuProgram::uniform_mask`]; the others are read-only storage buffers), and
+/// whether it is persistent (its fetch counter bound after them).
+pub(crate) type Shape = (usize, u32, bool);
+
+/// The shape of `p`'s bindings.
+pub(crate) fn shape(p: &GpuProgram<'_>) -> Shape {
+    (p.buffers.len(), p.uniform_mask(), p.persistent)
+}
 
 /// A pipeline variant: program name, query, triangle test, counting (else timed).
 type Variant = (&'static str, Query, TriTestKind, bool);
@@ -116,9 +126,10 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
 }
 
 /// The layouts of a program with buffers of its own of `shape`: the common bindings 0–4, then
-/// its buffers at 5, 6, … (uniform where the shape's mask says, else read-only storage); and,
-/// when it sorts its rays (`arranged`), group 1 with the arrangement buffer.
-fn layout(device: &wgpu::Device, (n, uniforms): Shape, arranged: bool) -> Layouts {
+/// its buffers at 5, 6, … (uniform where the shape's mask says, else read-only storage), then
+/// a persistent program's fetch counter (read-write storage); and, when it sorts its rays
+/// (`arranged`), group 1 with the arrangement buffer.
+fn layout(device: &wgpu::Device, (n, uniforms, persistent): Shape, arranged: bool) -> Layouts {
     let mut entries = vec![
         storage(0, true),
         storage(1, false),
@@ -134,6 +145,9 @@ fn layout(device: &wgpu::Device, (n, uniforms): Shape, arranged: bool) -> Layout
             storage(binding, true)
         }
     }));
+    if persistent {
+        entries.push(storage(COMMON_BINDINGS + n as u32, false));
+    }
     let group0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: None,
         entries: &entries,
@@ -173,15 +187,25 @@ impl Kernels {
 
     /// The full WGSL of `p`: `STACK_SIZE`, `WORKGROUP_SIZE`, the `Stats` record, the common
     /// prelude, the edge fallback, `ray_index` (with `KEYS` and the sort passes for a program
-    /// that sorts its rays), the shared parts it includes, the program's source.
+    /// that sorts its rays), the shared parts it includes, the program's source, the entry
+    /// point (one thread per ray, or persistent threads with the fetch counter bound after
+    /// the program's buffers).
     fn source(&self, p: &GpuProgram<'_>) -> String {
+        let entry = if p.persistent {
+            PERSISTENT.replace(
+                "POOL_BINDING",
+                &(COMMON_BINDINGS as usize + p.buffers.len()).to_string(),
+            )
+        } else {
+            ENTRY.to_string()
+        };
         let edge = if self.f64 { EDGE_F64 } else { EDGE_F32 };
         let order = match p.arrange {
             Some(a) => format!("const KEYS: u32 = {}u;\n{ARRANGE}", a.keys),
             None => UNSORTED.to_string(),
         };
         format!(
-            "const STACK_SIZE: u32 = {}u;\nconst WORKGROUP_SIZE: u32 = {WORKGROUP}u;\n{}{COMMON}\n{edge}\n{order}\n{}\n{}",
+            "const STACK_SIZE: u32 = {}u;\nconst WORKGROUP_SIZE: u32 = {WORKGROUP}u;\n{}{COMMON}\n{edge}\n{order}\n{}\n{}\n{entry}",
             p.stack_size,
             wgsl_stats_struct(),
             p.includes.join("\n"),
@@ -205,7 +229,7 @@ impl Kernels {
     ) -> Result<(), GpuError> {
         let mut cache = self.cache();
         let keys = Self::keys(p);
-        let shape = (p.buffers.len(), p.uniform_mask());
+        let shape = shape(p);
         cache
             .layouts
             .entry((shape, keys > 0))
@@ -216,9 +240,10 @@ impl Kernels {
                 || m.stack_size != p.stack_size
                 || m.constants != p.constants
                 || m.keys != keys
+                || m.persistent != p.persistent
             {
                 return Err(GpuError::Program(format!(
-                    "GPU program `{}`: another program of that name (other source, stack size, constants or keys) was compiled before; names must be unique",
+                    "GPU program `{}`: another program of that name (other source, stack size, constants, keys or entry) was compiled before; names must be unique",
                     p.name
                 )));
             }
@@ -256,6 +281,7 @@ impl Kernels {
                 stack_size: p.stack_size,
                 constants: p.constants.clone(),
                 keys,
+                persistent: p.persistent,
             },
         );
         Ok(())

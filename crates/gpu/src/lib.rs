@@ -18,9 +18,12 @@
 //! is `const STACK_SIZE` ([`GpuProgram::stack_size`]), `const WORKGROUP_SIZE`, the `Stats`
 //! record generated from tb-core's counter list ([`tb_core::stats::wgsl_stats_struct`]), the
 //! common prelude (`shaders/prelude.wgsl`: the bindings 0–4, `Ray`, `Hit`, the slab test, both
-//! triangle tests, the entry point `main` calling the program's `walk`), the watertight
-//! test's edge fallback (`shaders/edge_f64.wgsl` on adapters with `SHADER_F64`, else
-//! `edge_f32.wgsl`), then the program's source; the contract is stated in `tb_core::gpu`.
+//! triangle tests, `trace_ray` calling the program's `walk`), the watertight test's edge
+//! fallback (`shaders/edge_f64.wgsl` on adapters with `SHADER_F64`, else `edge_f32.wgsl`), the
+//! program's source, then the entry point `main` (`shaders/entry.wgsl`, a thread per ray, or
+//! for a [`GpuProgram::persistent`] program `shaders/persistent.wgsl`: at most
+//! [`PERSISTENT_GROUPS`] workgroups fetching runs of rays from a counter bound after the
+//! program's buffers, module `persistent`); the contract is stated in `tb_core::gpu`.
 //! Modules are compiled once per program name, bind group layouts made once per number of
 //! program buffers, and pipelines once per (program, query, triangle test, counting): WGSL
 //! override constants pick the query (`ANY`), the triangle test (`WATERTIGHT`, watertight /
@@ -46,8 +49,8 @@
 //! count respects `max_compute_workgroups_per_dimension`; a program's array that exceeds the
 //! binding size cannot be split (every ray may need all of it) and gives
 //! [`GpuError::TooLarge`]; a program may have as many storage buffers as
-//! `max_storage_buffers_per_shader_stage` leaves beside the 4 common storage buffers (4 on
-//! every WebGPU adapter), and uniform buffers ([`GpuProgram::uniform`]: per-dispatch
+//! `max_storage_buffers_per_shader_stage` leaves beside the 4 common storage buffers, the
+//! sort's and a persistent program's counter (4 on every WebGPU adapter without those), and uniform buffers ([`GpuProgram::uniform`]: per-dispatch
 //! constants such as a header) within `max_uniform_buffers_per_shader_stage` beside `meta_`
 //! and `max_uniform_buffer_binding_size`. A program that computes in `f64` ([`GpuProgram::needs_f64`]) is
 //! refused ([`GpuError::Unsupported`], one line) on an adapter without `SHADER_F64`.
@@ -55,11 +58,13 @@
 mod admit;
 mod device;
 mod kernels;
+mod persistent;
 mod probe;
 mod trace;
 
 pub use device::{AdapterChoice, AdapterSummary, Backend, Gpu};
 pub use kernels::checked_only as timed_passes_checked;
+pub use persistent::PERSISTENT_GROUPS;
 pub use probe::PROBE_MIN_MS;
 pub use tb_core::{GpuArrange, GpuBuffer, GpuProgram};
 pub use trace::{GpuRays, GpuStructure, Timing, MAX_PASSES, MIN_SAMPLE_MS};

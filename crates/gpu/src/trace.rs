@@ -2,7 +2,8 @@
 //! limits), the sort passes of programs with a ray key, timing and readback.
 
 use crate::device::Gpu;
-use crate::kernels::{Layouts, Shape, COMMON_BINDINGS};
+use crate::kernels::{shape, Layouts, Shape, COMMON_BINDINGS};
+use crate::persistent::Pool;
 use crate::{one_line, GpuError, STATS_BYTES, WORKGROUP};
 use bytemuck::{Pod, Zeroable};
 use std::sync::{mpsc, Mutex};
@@ -33,7 +34,7 @@ pub struct GpuStructure {
     program: &'static str,
     arrange: Option<GpuArrange>,
     tris: wgpu::Buffer,
-    /// Its buffers' number and uniform ones ([`Shape`]).
+    /// Its buffers' number and uniform ones, and whether it is persistent ([`Shape`]).
     shape: Shape,
     buffers: Vec<wgpu::Buffer>,
     meta: wgpu::Buffer,
@@ -286,7 +287,7 @@ impl Gpu {
             program: p.name,
             arrange: p.arrange,
             tris,
-            shape: (p.buffers.len(), p.uniform_mask()),
+            shape: shape(p),
             buffers,
             meta,
             upload_ms: start.elapsed().as_secs_f64() * 1e3,
@@ -426,10 +427,20 @@ impl Gpu {
         passes: u32,
     ) -> Result<Timing, GpuError> {
         let chunks = self.chunks(rays.n);
+        let pool = s.shape.2.then(|| Pool::new(self, chunks.len()));
         let groups: Vec<wgpu::BindGroup> = chunks
             .iter()
-            .map(|&(first, len)| self.bind_group(s, rays, layouts, first, len))
+            .enumerate()
+            .map(|(c, &(first, len))| {
+                let counter = pool.as_ref().map(|p| p.counter(c));
+                self.bind_group(s, rays, layouts, first, len, counter)
+            })
             .collect();
+        // Workgroups of a chunk's dispatch: one thread per ray, or the persistent pool.
+        let workgroups = |len: u64| match &pool {
+            Some(p) => p.workgroups(len),
+            None => len.div_ceil(WORKGROUP as u64) as u32,
+        };
         let sort = match s.arrange {
             Some(a) => {
                 let g1 = self.arrangement(a, rays, layouts, &chunks)?;
@@ -452,7 +463,10 @@ impl Gpu {
             }
             None => None,
         };
-        let passes = passes.max(1);
+        let mut passes = passes.max(1);
+        if let Some(p) = &pool {
+            passes = p.most_passes(passes, &chunks);
+        }
         let (kernel_ms, timestamps) = self.timed_pass(|pass| {
             pass.set_pipeline(pipeline);
             for _ in 0..passes {
@@ -461,7 +475,7 @@ impl Gpu {
                     if let Some((g1, _)) = &sort {
                         pass.set_bind_group(1, &g1[c], &[]);
                     }
-                    pass.dispatch_workgroups(len.div_ceil(WORKGROUP as u64) as u32, 1, 1);
+                    pass.dispatch_workgroups(workgroups(*len), 1, 1);
                 }
             }
         })?;
@@ -475,7 +489,8 @@ impl Gpu {
         })
     }
 
-    /// The group-0 bind group of the dispatch of rays `first .. first + len`.
+    /// The group-0 bind group of the dispatch of rays `first .. first + len` (with a
+    /// persistent program's fetch counter: its buffer and offset).
     fn bind_group(
         &self,
         s: &GpuStructure,
@@ -483,6 +498,7 @@ impl Gpu {
         layouts: &Layouts,
         first: u64,
         len: u64,
+        counter: Option<(&wgpu::Buffer, u64)>,
     ) -> wgpu::BindGroup {
         let mut entries = vec![
             wgpu::BindGroupEntry {
@@ -512,6 +528,16 @@ impl Gpu {
                 resource: b.as_entire_binding(),
             }
         }));
+        if let Some((buffer, offset)) = counter {
+            entries.push(wgpu::BindGroupEntry {
+                binding: COMMON_BINDINGS + s.buffers.len() as u32,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer,
+                    offset,
+                    size: wgpu::BufferSize::new(4),
+                }),
+            });
+        }
         self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: None,
             layout: &layouts.group0,

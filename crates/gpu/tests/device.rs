@@ -447,3 +447,64 @@ fn the_probe_does_fixed_work() {
         assert_eq!(gpu.probe_passes(), passes);
     }
 }
+
+/// A persistent program that records, in each ray's hit, the ray (`t`) and the value of its
+/// dispatch's fetch counter when the ray was traced (`u`; tb-gpu's shaders/persistent.wgsl).
+const POOLED: &str = "
+fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
+    (*st).steps = 1u;
+    return Hit(r.tmax, 0u, f32(atomicLoad(&tb_pool)), 0.0);
+}
+";
+
+/// Persistent threads (`GpuProgram::persistent`): with 3 workgroups per dispatch, each
+/// fetches many runs of rays, and every ray is traced by each pass of a sustained sample (the
+/// counter it saw lies in the last pass's range of fetches: the counter counts on across the
+/// passes of one sample, as the shader assumes) and by the single pass of the counting
+/// variant, with its own counter per dispatch chunk.
+#[test]
+fn persistent_threads_trace_every_ray_in_every_pass() {
+    let Some(mut gpu) = open_or_skip() else {
+        return;
+    };
+    gpu.limit_dispatch(1000);
+    gpu.set_persistent_groups(3);
+    gpu.set_timed_sample(1e9, 5);
+    let tris = [triangle()];
+    let p = GpuProgram::new("test/pooled", POOLED, Cow::Borrowed(&tris[..])).persistent();
+    let gs = gpu.upload(&p).unwrap();
+    let batch: Vec<Ray> = (0..2000)
+        .map(|i| Ray::segment(Vec3::ZERO, Vec3::X, 0.0, 1.0 + i as f32))
+        .collect();
+    let rays = gpu.upload_rays(&batch).unwrap();
+    let chunk = gpu.max_rays_per_dispatch() as usize;
+    assert_eq!(chunk, 768);
+    // Fetches per pass of a dispatch of `len` rays: its runs of 64, one more per workgroup.
+    let fetches = |i: usize| {
+        let first = i / chunk * chunk;
+        let runs = (batch.len() - first).min(chunk).div_ceil(64);
+        (runs + runs.min(3)) as f32
+    };
+    let tri = TriTestKind::Watertight;
+    for count in [false, true] {
+        let t = gpu.trace(&gs, &rays, Query::Closest, tri, count).unwrap();
+        assert_eq!(t.dispatches, 3);
+        let passes = t.passes as f32;
+        assert_eq!(passes, if count { 1.0 } else { 5.0 });
+        let (hits, _) = gpu.read_hits(&rays).unwrap();
+        for (i, h) in hits.iter().enumerate() {
+            assert_eq!(h.t, batch[i].tmax, "ray {i} traced");
+            let f = fetches(i);
+            let seen = (passes - 1.0) * f..passes * f;
+            assert!(
+                seen.contains(&h.u),
+                "ray {i}: counter {} not in {seen:?}",
+                h.u
+            );
+        }
+        if count {
+            let (stats, _) = gpu.read_stats(&rays).unwrap();
+            assert!(stats.iter().all(|s| s.steps == 1));
+        }
+    }
+}

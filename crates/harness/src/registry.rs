@@ -112,6 +112,9 @@ fn tags(t: &TraversalInfo) -> String {
     if t.counters.is_empty() {
         tags.push("no counters".into());
     }
+    if t.on_request {
+        tags.push("on request: run only where `traversals` names it".into());
+    }
     tags.join("; ")
 }
 

@@ -31,7 +31,9 @@ impl MultiKdTree {
     }
 
     /// The `recursive-direction` program, its rays sorted by tree index first when `sort` is
-    /// `Some(timed)`.
+    /// `Some(timed)`, traced with persistent threads: the paper's kernel TI "is actually the
+    /// algorithm persistent while-while by (Aila and Laine, 2009) adapted to kd-trees"
+    /// (Torres et al. 2012 §6); which thread traces a ray changes, not the walk.
     pub(crate) fn gpu_program(&self, sort: Option<bool>) -> GpuProgram<'_> {
         let nodes = self.nodes.iter().flat_map(|n| [n.bits, n.data]);
         let rule = match self.pick {
@@ -63,5 +65,6 @@ impl MultiKdTree {
             keys: self.header.len() as u32,
             timed,
         }))
+        .persistent()
     }
 }

@@ -1,7 +1,8 @@
 //! The multi-kd-tree's `recursive-direction-sorted` and `-presorted` programs: with the GPU's
 //! dispatches cut as the CPU's arrangement blocks, tb-gpu's sort pass gives exactly
 //! [`MultiKdTree::arrange`]'s order (a stable sort by the same 2-bit key is unique), and the
-//! hits and counters equal the CPU's ray for ray. Without an adapter the test prints a notice
+//! hits and counters equal the CPU's ray for ray, traced by two persistent workgroups per
+//! dispatch. Without an adapter the test prints a notice
 //! and passes, unless `TRACE_BENCH_REQUIRE_GPU=1`.
 
 use tb_core::{Accel, Query, TriTestKind};
@@ -22,6 +23,8 @@ fn multi_kd_sort_pass_is_the_cpu_arrangement() {
         return;
     };
     gpu.limit_dispatch(ARRANGE_BLOCK as u64);
+    // Persistent threads (the paper's kernel TI): two workgroups fetch every run of rays.
+    gpu.set_persistent_groups(2);
     assert_eq!(gpu.max_rays_per_dispatch() as usize, ARRANGE_BLOCK);
     let scene = tb_scene::load("builtin:stress/watertight", std::path::Path::new(".")).unwrap();
     let tri = TriTestKind::Watertight;

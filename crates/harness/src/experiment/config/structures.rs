@@ -26,7 +26,8 @@ pub(super) fn check_structure(
     })?;
     let infos = (family.traversals)();
     let traversals = match &s.traversals {
-        None => (0..infos.len()).collect(),
+        // A table without a list runs every traversal but those run on request.
+        None => (0..infos.len()).filter(|&i| !infos[i].on_request).collect(),
         Some(t) => {
             let mut out = Vec::new();
             for n in t.get_ref() {
