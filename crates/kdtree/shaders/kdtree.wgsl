@@ -63,6 +63,36 @@ fn highest(v: vec2<u32>) -> u32 {
 // program's source (kdtree/src/gpu.rs), one slot where it is unused.
 var<workgroup> short_stack: array<vec4<u32>, SHORT_SLOTS>;
 
+// The short stack in registers (SHORT_IN_REGISTERS, STACK_SIZE <= REG_SLOTS): newest entry
+// first, every index a constant (so that a compiler keeps the entries in registers, which
+// dynamic indexing would send to memory); a push shifts the entries down, the oldest falling
+// off when all STACK_SIZE are taken, as the circular stack overwrites its oldest; a pop takes
+// the first and shifts the rest up. The same entries come back in the same order.
+const REG_SLOTS: u32 = 8u;
+
+fn reg_push(s: ptr<function, array<vec4<u32>, REG_SLOTS>>, e: vec4<u32>) {
+    if STACK_SIZE > 7u { (*s)[7] = (*s)[6]; }
+    if STACK_SIZE > 6u { (*s)[6] = (*s)[5]; }
+    if STACK_SIZE > 5u { (*s)[5] = (*s)[4]; }
+    if STACK_SIZE > 4u { (*s)[4] = (*s)[3]; }
+    if STACK_SIZE > 3u { (*s)[3] = (*s)[2]; }
+    if STACK_SIZE > 2u { (*s)[2] = (*s)[1]; }
+    if STACK_SIZE > 1u { (*s)[1] = (*s)[0]; }
+    (*s)[0] = e;
+}
+
+fn reg_pop(s: ptr<function, array<vec4<u32>, REG_SLOTS>>) -> vec4<u32> {
+    let e = (*s)[0];
+    if STACK_SIZE > 1u { (*s)[0] = (*s)[1]; }
+    if STACK_SIZE > 2u { (*s)[1] = (*s)[2]; }
+    if STACK_SIZE > 3u { (*s)[2] = (*s)[3]; }
+    if STACK_SIZE > 4u { (*s)[3] = (*s)[4]; }
+    if STACK_SIZE > 5u { (*s)[4] = (*s)[5]; }
+    if STACK_SIZE > 6u { (*s)[5] = (*s)[6]; }
+    if STACK_SIZE > 7u { (*s)[6] = (*s)[7]; }
+    return e;
+}
+
 fn aux_min(i: u32) -> vec3<f32> {
     let b = 8u * i;
     return vec3<f32>(bitcast<f32>(aux[b]), bitcast<f32>(aux[b + 1u]), bitcast<f32>(aux[b + 2u]));
@@ -119,7 +149,8 @@ fn below(t: Track, at: u32) -> Track {
 // step cap (header word 11) ends it as on the CPU. The short stack is a circular array of
 // STACK_SIZE entries (the program's stack size: KdParams::short_stack, as the CPU kernel's),
 // kept on chip as Horn et al.'s is (review §5.2: the short stack in fast memory, the full stack
-// of `recursive-direction` in the invocation's memory, Novák's contrast): in workgroup memory,
+// of `recursive-direction` in the invocation's memory, Novák's contrast): in registers up to
+// REG_SLOTS entries (SHORT_IN_REGISTERS: `reg_push`, `reg_pop`), else in workgroup memory,
 // STACK_SIZE entries per invocation at `LANE * STACK_SIZE` (SHORT_ON_CHIP, set by the program's
 // source for sizes whose slots fit WebGPU's 16 KiB of workgroup memory: up to 16 entries);
 // larger short stacks stay in the invocation's memory.
@@ -148,6 +179,7 @@ fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, s
     // Far child, its interval (f32 bits), and its parent's depth << 1 | whether it is the right
     // child; `count` entries, the newest at `top - 1` (mod `size`).
     var stack: array<vec4<u32>, LOCAL_SLOTS>;
+    var regs: array<vec4<u32>, REG_SLOTS>;
     var top = 0u;
     var count = 0u;
     // The pushed-down node, its interval and depth, and whether it may still be pushed down.
@@ -184,7 +216,9 @@ fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, s
                 if k == K_SHORT_STACK {
                     let e = vec4<u32>(d.far, bitcast<u32>(d.far_tn), bitcast<u32>(tf),
                                       (tr.depth << 1u) | select(1u, 0u, near_right));
-                    if SHORT_ON_CHIP {
+                    if SHORT_IN_REGISTERS {
+                        reg_push(&regs, e);
+                    } else if SHORT_ON_CHIP {
                         short_stack[LANE * STACK_SIZE + top] = e;
                     } else {
                         stack[top] = e;
@@ -235,7 +269,9 @@ fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, s
                 top = select(top - 1u, size - 1u, top == 0u);
                 count -= 1u;
                 var e = stack[0];
-                if SHORT_ON_CHIP {
+                if SHORT_IN_REGISTERS {
+                    e = reg_pop(&regs);
+                } else if SHORT_ON_CHIP {
                     e = short_stack[LANE * STACK_SIZE + top];
                 } else {
                     e = stack[top];

@@ -89,20 +89,31 @@ pub const KD_WGSL: &str = include_str!("../shaders/kd.wgsl");
 
 /// The programs' source after [`KD_WGSL`]: the short stack's placement, `shaders/kdtree.wgsl`.
 const SOURCE: &str = concat!(
-    "const SHORT_ON_CHIP: bool = false;\nconst SHORT_SLOTS: u32 = 1u;\nconst LOCAL_SLOTS: u32 = STACK_SIZE;\n",
+    "const SHORT_IN_REGISTERS: bool = false;\nconst SHORT_ON_CHIP: bool = false;\nconst SHORT_SLOTS: u32 = 1u;\nconst LOCAL_SLOTS: u32 = STACK_SIZE;\n",
     include_str!("../shaders/kdtree.wgsl")
 );
 
 /// [`SOURCE`] with the short stack on chip: `STACK_SIZE` entries per invocation in workgroup
 /// memory (Horn et al. 2007's short stack in fast memory; review §5.2).
 const SOURCE_ON_CHIP: &str = concat!(
-    "const SHORT_ON_CHIP: bool = true;\nconst SHORT_SLOTS: u32 = WORKGROUP_SIZE * STACK_SIZE;\nconst LOCAL_SLOTS: u32 = 1u;\n",
+    "const SHORT_IN_REGISTERS: bool = false;\nconst SHORT_ON_CHIP: bool = true;\nconst SHORT_SLOTS: u32 = WORKGROUP_SIZE * STACK_SIZE;\nconst LOCAL_SLOTS: u32 = 1u;\n",
     include_str!("../shaders/kdtree.wgsl")
 );
 
 /// The largest short stack kept on chip: 16 entries of 16 bytes for each of a workgroup's 64
 /// invocations fill the 16 KiB of workgroup memory WebGPU guarantees.
 pub(crate) const MAX_ON_CHIP_SHORT_STACK: usize = 16;
+
+/// The largest short stack kept in registers (`shaders/kdtree.wgsl` `REG_SLOTS`: 8 entries of
+/// 16 bytes, 32 registers, shifted on push and pop with constant indices).
+pub(crate) const MAX_REGISTER_SHORT_STACK: usize = 8;
+
+/// [`SOURCE`] with the short stack in registers (issue 44: "the kd kernels' short stack in
+/// registers"): `shaders/kdtree.wgsl`'s `reg_push` and `reg_pop`.
+const SOURCE_IN_REGISTERS: &str = concat!(
+    "const SHORT_IN_REGISTERS: bool = true;\nconst SHORT_ON_CHIP: bool = false;\nconst SHORT_SLOTS: u32 = 1u;\nconst LOCAL_SLOTS: u32 = 1u;\n",
+    include_str!("../shaders/kdtree.wgsl")
+);
 
 /// The GPU programs (`shaders/kd.wgsl` then `shaders/kdtree.wgsl`, on tb-gpu's prelude; README
 /// "GPU"): one per traversal, each the CPU kernel's walk in the CPU's order with the same
@@ -140,26 +151,26 @@ impl KdTree {
             GpuKernel::ShortStack => self.params.short_stack as usize,
             _ => 1,
         };
-        let on_chip = kernel == GpuKernel::ShortStack && stack_size <= MAX_ON_CHIP_SHORT_STACK;
-        GpuProgram::new(
-            name,
-            if on_chip { SOURCE_ON_CHIP } else { SOURCE },
-            &self.tris[..],
-        )
-        .include(KD_WGSL)
-        .buffer(
-            "the kd-tree node array",
-            words(self.nodes.iter().flat_map(|n| [n.bits, n.data])),
-        )
-        .buffer(
-            "the kd-tree reference array",
-            words(self.prim_refs.iter().copied()),
-        )
-        .uniform("the kd-tree header", words(header))
-        .buffer("the kd-tree cell, parent and rope arrays", aux)
-        .meta([self.nodes.len() as u32, 0, 0])
-        .stack(stack_size as u32)
-        .constant("KERNEL", kernel as u32 as f64)
+        let source = match kernel {
+            GpuKernel::ShortStack if stack_size <= MAX_REGISTER_SHORT_STACK => SOURCE_IN_REGISTERS,
+            GpuKernel::ShortStack if stack_size <= MAX_ON_CHIP_SHORT_STACK => SOURCE_ON_CHIP,
+            _ => SOURCE,
+        };
+        GpuProgram::new(name, source, &self.tris[..])
+            .include(KD_WGSL)
+            .buffer(
+                "the kd-tree node array",
+                words(self.nodes.iter().flat_map(|n| [n.bits, n.data])),
+            )
+            .buffer(
+                "the kd-tree reference array",
+                words(self.prim_refs.iter().copied()),
+            )
+            .uniform("the kd-tree header", words(header))
+            .buffer("the kd-tree cell, parent and rope arrays", aux)
+            .meta([self.nodes.len() as u32, 0, 0])
+            .stack(stack_size as u32)
+            .constant("KERNEL", kernel as u32 as f64)
     }
 
     /// `recursive-direction` with its full stack in the invocation's memory (review §3.2,
@@ -180,7 +191,8 @@ impl KdTree {
     }
 
     /// `short-stack` (Horn et al. 2007; review §5.2): program `kdtree/short-stack-N` with a
-    /// circular stack of `N = short_stack` entries, on chip (workgroup memory) for `N` up to
+    /// circular stack of `N = short_stack` entries, in registers for `N` up to
+    /// [`MAX_REGISTER_SHORT_STACK`], on chip (workgroup memory) up to
     /// [`MAX_ON_CHIP_SHORT_STACK`], in the invocation's memory above.
     pub(crate) fn gpu_short_stack(&self) -> GpuProgram<'_> {
         let name = SHORT_STACK_PROGRAMS[self.params.short_stack as usize - 1];
@@ -211,10 +223,11 @@ mod tests {
     use crate::KdParams;
     use tb_core::{Accel, Triangle, Vec3};
 
-    /// The short stack is on chip (workgroup memory) up to [`MAX_ON_CHIP_SHORT_STACK`] entries
-    /// and in the invocation's memory above; no other program places one on chip.
+    /// The short stack is in registers up to [`MAX_REGISTER_SHORT_STACK`] entries, on chip
+    /// (workgroup memory) up to [`MAX_ON_CHIP_SHORT_STACK`] and in the invocation's memory
+    /// above; no other program places one in either.
     #[test]
-    fn short_stacks_up_to_sixteen_entries_are_on_chip() {
+    fn short_stacks_in_registers_then_on_chip() {
         let tris: Vec<Triangle> = (0..32)
             .map(|i| {
                 let p = Vec3::new(i as f32, (i % 5) as f32, (i % 3) as f32);
@@ -234,15 +247,20 @@ mod tests {
                 .position(|t| t.name == traversal)
                 .unwrap();
             let p = kd.gpu_program(i).expect("a GPU program");
-            p.source.contains("const SHORT_ON_CHIP: bool = true;")
+            let registers = p.source.contains("const SHORT_IN_REGISTERS: bool = true;");
+            let chip = p.source.contains("const SHORT_ON_CHIP: bool = true;");
+            (registers, chip)
         };
-        for n in [1, 4, 16] {
-            assert!(on_chip(n, "short-stack"), "{n}");
+        for n in [1, 4, 8] {
+            assert_eq!(on_chip(n, "short-stack"), (true, false), "{n}");
+        }
+        for n in [9, 16] {
+            assert_eq!(on_chip(n, "short-stack"), (false, true), "{n}");
         }
         for n in [17, 32] {
-            assert!(!on_chip(n, "short-stack"), "{n}");
+            assert_eq!(on_chip(n, "short-stack"), (false, false), "{n}");
         }
-        assert!(!on_chip(4, "recursive-direction"));
-        assert!(!on_chip(4, "push-down"));
+        assert_eq!(on_chip(4, "recursive-direction"), (false, false));
+        assert_eq!(on_chip(4, "push-down"), (false, false));
     }
 }
