@@ -1,12 +1,13 @@
-// The BVH `while-while` traversal (tb_bvh, module while_while; Aila and Laine 2009, the
-// while-while trace kernel; Aila, Laine and Karras 2012), program `bvh/while-while` on tb-gpu's
-// prelude (tb_core::gpu), traced with persistent threads (tb_core::GpuProgram::persistent,
-// shaders/persistent.wgsl of tb-gpu). Per ray an outer loop of two inner loops: interior nodes
-// (both children's boxes tested against [tmin, closest t], the nearer child hit first, the
-// other's index pushed, a pop when neither is hit) until a leaf, then the leaf's triangles.
-// No root box test, node indices only on the stack, no cull on pop. It visits the nodes in
-// exactly the CPU's order, so the counters agree ray for ray: 2 boxes, interior and steps per
-// interior node; leaves and steps per leaf; prims.
+// The BVH `while-while` traversals (tb_bvh, module while_while; Aila and Laine 2009, the
+// while-while trace kernel and speculative traversal; Aila, Laine and Karras 2012), programs
+// `bvh/while-while` and `bvh/while-while-speculative` on tb-gpu's prelude (tb_core::gpu), traced
+// with persistent threads (tb_core::GpuProgram::persistent, shaders/persistent.wgsl of tb-gpu).
+// Per ray an outer loop of two inner loops: interior nodes (both children's boxes tested
+// against [tmin, closest t], the nearer child hit first, the other's index pushed, a pop when
+// neither is hit), then leaves' triangles. No root box test, node indices only on the stack,
+// no cull on pop. `bvh/while-while` visits the nodes in exactly the CPU's order, so the
+// counters agree ray for ray: 2 boxes, interior and steps per interior node; leaves and steps
+// per leaf; prims. `bvh/while-while-speculative`'s depend on the ray's subgroup.
 
 // tb_bvh::BvhNode, 32 bytes, read as two 16-byte loads: interior (count == 0): index = left
 // child, right = index + 1 (the sibling pair is the authors' 64-byte node of two child boxes);
@@ -17,10 +18,18 @@ struct Node { bmin: vec3<f32>, index: u32, bmax: vec3<f32>, count: u32 }
 @group(0) @binding(5) var<storage, read> nodes: array<Node>;     // GpuProgram::buffers[0]
 @group(0) @binding(6) var<storage, read> prim_ids: array<u32>;   // GpuProgram::buffers[1]
 
-// Stack entry meaning "empty": no node has this index.
-const EMPTY: u32 = 0xffffffffu;
+// `id` when the walk is over; `leaf` when no leaf is postponed.
+const DONE: u32 = 0xffffffffu;
+const NONE: u32 = 0xffffffffu;
 
 // The program's entry, called by tb-gpu's `trace_ray` once per ray with zeroed counters.
+//
+// Aila and Laine's kernel with its postponed leaf: the first leaf reached is set aside and the
+// walk goes on through interior nodes until `all_lanes` says every active lane of the subgroup
+// has a leaf set aside (speculative traversal), then the leaves are tested. `all_lanes` is
+// the subgroup vote in `bvh/while-while-speculative` (speculative.wgsl) and the lane's own
+// value in `bvh/while-while` (solo.wgsl): a subgroup of one, which visits the nodes in the
+// CPU walk's order.
 fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     if meta_.counts.y == 0u {
         return miss();
@@ -33,9 +42,15 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     var sp = 0u;
     var id = 0u;
     var node = nodes[0];
+    var leaf = NONE;
+    if node.count != 0u {
+        // A root that is a leaf: tested at once.
+        leaf = 0u;
+        id = DONE;
+    }
     loop {
-        // Interior nodes until a leaf (or the end of the walk: id == EMPTY).
-        while node.count == 0u {
+        // Interior nodes, until every active lane has a leaf set aside.
+        while id != DONE && node.count == 0u {
             (*st).interior += 1u;
             (*st).steps += 1u;
             (*st).boxes += 2u;
@@ -49,38 +64,64 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             if hit_a && hit_b {
                 if sb.x < sa.x {
                     stack[sp] = l;
+                    id = l + 1u;
                     node = b;
                 } else {
                     stack[sp] = l + 1u;
+                    id = l;
                     node = a;
                 }
                 sp += 1u;
             } else if hit_a {
+                id = l;
                 node = a;
             } else if hit_b {
+                id = l + 1u;
                 node = b;
+            } else if sp == 0u {
+                id = DONE;
             } else {
-                if sp == 0u {
-                    id = EMPTY;
-                    break;
-                }
                 sp -= 1u;
-                node = nodes[stack[sp]];
+                id = stack[sp];
+                node = nodes[id];
+            }
+            // The first leaf reached is set aside; the walk goes on from the next node.
+            if id != DONE && node.count != 0u && leaf == NONE {
+                leaf = id;
+                if sp == 0u {
+                    id = DONE;
+                } else {
+                    sp -= 1u;
+                    id = stack[sp];
+                    node = nodes[id];
+                }
+            }
+            if all_lanes(leaf != NONE) {
+                break;
             }
         }
-        if id == EMPTY {
+        // The leaf set aside, then every leaf the walk stands on.
+        while leaf != NONE {
+            let n = nodes[leaf];
+            (*st).steps += 1u;
+            if leaf_range(n.index, n.count, p, r, &best, st) {
+                return record(best);
+            }
+            leaf = NONE;
+            if id != DONE && node.count != 0u {
+                leaf = id;
+                if sp == 0u {
+                    id = DONE;
+                } else {
+                    sp -= 1u;
+                    id = stack[sp];
+                    node = nodes[id];
+                }
+            }
+        }
+        if id == DONE {
             break;
         }
-        // The leaf's triangles.
-        (*st).steps += 1u;
-        if leaf_range(node.index, node.count, p, r, &best, st) {
-            return record(best);
-        }
-        if sp == 0u {
-            break;
-        }
-        sp -= 1u;
-        node = nodes[stack[sp]];
     }
     return record(best);
 }

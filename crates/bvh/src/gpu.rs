@@ -1,6 +1,7 @@
 //! The BVH's GPU programs: `ordered` on the binary nodes (`shaders/bvh.wgsl`) and on the wide
 //! ones (`shaders/wide.wgsl`), and `while-while` on the binary nodes with persistent threads
-//! (`shaders/while_while.wgsl`), the CPU's walks in the CPU's order (docs/GPU.md).
+//! (`shaders/while_while.wgsl`), the CPU's walks in the CPU's order (docs/GPU.md); and
+//! `while-while-speculative`, the same walk with Aila and Laine's subgroup vote.
 
 use crate::{wide, Bvh, WideNode, WideNodes, STACK_SIZE, WIDE_STACK_SIZE};
 use std::borrow::Cow;
@@ -76,13 +77,33 @@ impl Bvh {
         .include(tb_core::gpu::STACK_POP)
     }
 
-    /// The GPU program of `while-while` (`shaders/while_while.wgsl`, Aila and Laine's kernel,
-    /// the CPU's walk in the CPU's order), traced with persistent threads: the leaf-ordered
-    /// triangles, the binary nodes (a wide build's binary tree) and the primitive ids, the
-    /// node count in `meta[0]`.
+    /// The GPU program of `while-while` (`shaders/while_while.wgsl` with `shaders/solo.wgsl`,
+    /// Aila and Laine's kernel, the CPU's walk in the CPU's order), traced with persistent
+    /// threads: the leaf-ordered triangles, the binary nodes (a wide build's binary tree) and
+    /// the primitive ids, the node count in `meta[0]`.
     pub(crate) fn gpu_while_while(&self) -> GpuProgram<'_> {
+        self.while_while("bvh/while-while", include_str!("../shaders/solo.wgsl"))
+    }
+
+    /// The GPU program of `while-while-speculative`: [`Bvh::gpu_while_while`]'s with the
+    /// subgroup vote of `shaders/speculative.wgsl` (Aila and Laine 2009's speculative
+    /// traversal), so its counters depend on the other rays of the subgroup.
+    pub(crate) fn gpu_while_while_speculative(&self) -> GpuProgram<'_> {
+        self.while_while(
+            "bvh/while-while-speculative",
+            include_str!("../shaders/speculative.wgsl"),
+        )
+        .in_subgroups()
+        .own_counts(
+            "speculative traversal: a ray's walk goes on past a leaf until every ray of its \
+             subgroup has one, so its steps depend on the adapter's subgroup size and the other rays",
+        )
+    }
+
+    /// `shaders/while_while.wgsl` with the vote `all_lanes` of `vote`.
+    fn while_while(&self, name: &'static str, vote: &'static str) -> GpuProgram<'_> {
         GpuProgram::new(
-            "bvh/while-while",
+            name,
             include_str!("../shaders/while_while.wgsl"),
             &self.triangles[..],
         )
@@ -97,6 +118,7 @@ impl Bvh {
         .meta([self.nodes.len() as u32, 0, 0])
         .stack(STACK_SIZE as u32)
         .include(tb_core::gpu::LEAF_RANGES)
+        .include(vote)
         .persistent()
     }
 }

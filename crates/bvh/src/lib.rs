@@ -34,7 +34,8 @@
 //!   slab test made robust as in Ize 2013, "Robust BVH ray traversal" (see [`Aabb::intersect`]).
 //! - **Traversal** `while-while` (module `while_while`, run on request): Aila and Laine's GPU
 //!   trace kernel (2009; the 2012 addendum), the baseline of the irregular-grid and multi-kd
-//!   papers, on the binary nodes, with persistent threads on the GPU.
+//!   papers, on the binary nodes, with persistent threads on the GPU; `while-while-speculative`
+//!   adds their speculative traversal (a subgroup vote) on the GPU.
 
 mod build;
 mod check;
@@ -276,6 +277,24 @@ impl Structure for Bvh {
                 out
             )),
             Bvh::gpu_while_while,
+        ),
+        Traversal::with_gpu(
+            TraversalInfo::new(
+                "while-while-speculative",
+                "Aila and Laine 2009",
+                "`while-while` with Aila and Laine's speculative traversal on the GPU: the first \
+                 leaf reached is set aside and interior nodes are visited until every ray of the \
+                 subgroup has one (a subgroup vote; needs the adapter's subgroups); the GPU rows' \
+                 counters are the GPU's own (they depend on the subgroup). On the CPU, a subgroup \
+                 of one ray: `while-while` itself (Aila and Laine 2009)",
+            )
+            .on_request(),
+            tb_core::kernel!(|b: &Bvh, batch, out| dispatch(
+                &while_while::WhileWhile(b),
+                batch,
+                out
+            )),
+            Bvh::gpu_while_while_speculative,
         ),
     ];
 

@@ -40,7 +40,10 @@
 //!
 //! A program whose source uses `f64` beyond the prelude's fallback sets
 //! [`GpuProgram::needs_f64`]; the GPU crate then refuses it on adapters without
-//! `SHADER_F64` (a one-line [`GpuProgram::name`]d refusal, a row's note in a run).
+//! `SHADER_F64` (a one-line [`GpuProgram::name`]d refusal, a row's note in a run). Likewise a
+//! program using subgroup operations sets [`GpuProgram::needs_subgroups`] (refused without
+//! wgpu's `SUBGROUP`); one whose counters cannot be the CPU's ray for ray says why in
+//! [`GpuProgram::own_counts`].
 //!
 //! # Ray arrangement by key
 //!
@@ -123,6 +126,15 @@ pub struct GpuProgram<'a> {
     /// all rays. The walk, and so every hit and counter, is the same; what changes is which
     /// thread traces a ray and when.
     pub persistent: bool,
+    /// The source uses WGSL's subgroup operations (`subgroupAll`, …; naga takes them without
+    /// an `enable` directive once the device has them): tb-gpu refuses the program, with one
+    /// line naming it, on an adapter without wgpu's `SUBGROUP` feature.
+    pub needs_subgroups: bool,
+    /// Why the program's counters are its own rather than the CPU traversal's ray for ray
+    /// (`None`: they are the CPU's): a walk whose steps depend on the other rays of its
+    /// subgroup (speculative traversal). Its hits still answer the same query; tests compare
+    /// its hits, not its counters, with the CPU's, and GPU rows carry this in their note.
+    pub own_counts: Option<&'static str>,
 }
 
 /// WGSL shared by the programs whose leaves are ranges of a leaf-ordered triangle array with
@@ -165,7 +177,21 @@ impl<'a> GpuProgram<'a> {
             includes: Vec::new(),
             bounded_loops: None,
             persistent: false,
+            needs_subgroups: false,
+            own_counts: None,
         }
+    }
+
+    /// The source uses subgroup operations ([`GpuProgram::needs_subgroups`]).
+    pub fn in_subgroups(mut self) -> Self {
+        self.needs_subgroups = true;
+        self
+    }
+
+    /// Its counters are its own, for `why` ([`GpuProgram::own_counts`]).
+    pub fn own_counts(mut self, why: &'static str) -> Self {
+        self.own_counts = Some(why);
+        self
     }
 
     /// Trace with persistent threads ([`GpuProgram::persistent`]).

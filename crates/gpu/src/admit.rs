@@ -14,13 +14,20 @@ const LLVMPIPE_LOOP_MAX: u64 = 65_000;
 const TRIANGLE_BYTES: u64 = 48;
 
 impl Gpu {
-    /// `Ok` when the adapter can run `p`: `f64` where it computes in it, llvmpipe's loop
+    /// `Ok` when the adapter can run `p`: `f64` where it computes in it, subgroups where it
+    /// uses them, llvmpipe's loop
     /// limit, the adapter's storage and uniform buffer counts and binding sizes, the ray
     /// keys, buffers of whole 4-byte words; else the error [`Gpu::upload`] gives.
     pub(crate) fn admit(&self, p: &GpuProgram<'_>) -> Result<(), GpuError> {
         if p.needs_f64 && !self.summary.f64 {
             return Err(GpuError::Unsupported(format!(
                 "{} computes in f64, and adapter {} lacks SHADER_F64",
+                p.name, self.summary.name
+            )));
+        }
+        if p.needs_subgroups && self.summary.subgroups.is_none() {
+            return Err(GpuError::Unsupported(format!(
+                "{} uses subgroup operations, and adapter {} lacks SUBGROUP",
                 p.name, self.summary.name
             )));
         }

@@ -71,6 +71,9 @@ pub struct AdapterSummary {
     pub timestamps: bool,
     /// Whether the watertight test's exact-zero fallback runs in f64 as on the CPU.
     pub f64: bool,
+    /// The subgroup sizes the adapter may use (wgpu's `SUBGROUP` feature; lavapipe: 8, NVIDIA:
+    /// 32), `None` without the feature: programs that need subgroups are refused.
+    pub subgroups: Option<(u32, u32)>,
 }
 
 impl AdapterSummary {
@@ -91,7 +94,7 @@ impl AdapterSummary {
         format!("{} / {} / {}", self.name, self.backend, self.driver)
     }
 
-    fn from_info(info: &wgpu::AdapterInfo, timestamps: bool, f64: bool) -> Self {
+    fn from_info(info: &wgpu::AdapterInfo, timestamps: bool, f64: bool, subgroups: bool) -> Self {
         let driver = [info.driver.as_str(), info.driver_info.as_str()]
             .iter()
             .filter(|s| !s.is_empty())
@@ -105,6 +108,7 @@ impl AdapterSummary {
             device_type: format!("{:?}", info.device_type),
             timestamps,
             f64,
+            subgroups: subgroups.then_some((info.subgroup_min_size, info.subgroup_max_size)),
         }
     }
 }
@@ -191,7 +195,11 @@ impl Gpu {
         let features = adapter.features();
         let timestamps = features.contains(wgpu::Features::TIMESTAMP_QUERY);
         let f64 = features.contains(wgpu::Features::SHADER_F64);
+        let subgroups = features.contains(wgpu::Features::SUBGROUP);
         let mut required = wgpu::Features::empty();
+        if subgroups {
+            required |= wgpu::Features::SUBGROUP;
+        }
         if timestamps {
             required |= wgpu::Features::TIMESTAMP_QUERY;
         }
@@ -227,7 +235,7 @@ impl Gpu {
         let gpu = Gpu {
             device,
             queue,
-            summary: AdapterSummary::from_info(&info, timestamps, f64),
+            summary: AdapterSummary::from_info(&info, timestamps, f64, subgroups),
             limits,
             kernels,
             dispatch_cap: None,

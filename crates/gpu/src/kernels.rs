@@ -51,6 +51,8 @@ struct Module {
     keys: u32,
     /// Persistent threads ([`GpuProgram::persistent`]).
     persistent: bool,
+    /// Subgroup operations ([`GpuProgram::needs_subgroups`]).
+    subgroups: bool,
 }
 
 /// Layouts of a program: group 0 (the common bindings and its buffers), group 1 (the
@@ -241,6 +243,7 @@ impl Kernels {
                 || m.constants != p.constants
                 || m.keys != keys
                 || m.persistent != p.persistent
+                || m.subgroups != p.needs_subgroups
             {
                 return Err(GpuError::Program(format!(
                     "GPU program `{}`: another program of that name (other source, stack size, constants, keys or entry) was compiled before; names must be unique",
@@ -282,6 +285,7 @@ impl Kernels {
                 constants: p.constants.clone(),
                 keys,
                 persistent: p.persistent,
+                subgroups: p.needs_subgroups,
             },
         );
         Ok(())

@@ -36,6 +36,8 @@ pub struct GpuStructure {
     tris: wgpu::Buffer,
     /// Its buffers' number and uniform ones, and whether it is persistent ([`Shape`]).
     shape: Shape,
+    /// Why its counters are its own ([`GpuProgram::own_counts`]).
+    own_counts: Option<&'static str>,
     buffers: Vec<wgpu::Buffer>,
     meta: wgpu::Buffer,
     /// Host-to-device copy of the arrays, ms (buffer creation, write, wait).
@@ -53,6 +55,12 @@ impl GpuStructure {
     /// The program's ray arrangement ([`GpuProgram::arrange`]).
     pub fn arrange(&self) -> Option<GpuArrange> {
         self.arrange
+    }
+
+    /// Why the program's counters are its own, not the CPU's ray for ray
+    /// ([`GpuProgram::own_counts`]).
+    pub fn own_counts(&self) -> Option<&'static str> {
+        self.own_counts
     }
 }
 
@@ -288,6 +296,7 @@ impl Gpu {
             arrange: p.arrange,
             tris,
             shape: shape(p),
+            own_counts: p.own_counts,
             buffers,
             meta,
             upload_ms: start.elapsed().as_secs_f64() * 1e3,

@@ -122,6 +122,7 @@ impl GpuDevice {
                     "device_type": a.device_type,
                     "adapter_type": a.kind(),
                     "timing": if a.timestamps { "timestamp-queries" } else { "wall-clock" },
+                    "subgroups": a.subgroups.map(|(lo, hi)| format!("{lo}..={hi} invocations")),
                     "timed_sample": format!(
                         "back-to-back passes lasting at least {} ms (at most {}), trusted build without runtime checks{}",
                         tb_gpu::MIN_SAMPLE_MS,
@@ -389,6 +390,15 @@ fn count_and_check(
     let (stats, _) = gpu.read_stats(g_rays).map_err(|e| e.to_string())?;
     let summary = StatsSummary::from_stats(&stats);
     row.set_counters(&summary, job.info.counters);
+    if let Some(why) = s.own_counts() {
+        // Counters that are not the CPU traversal's ray for ray say so.
+        let own = format!("counters are the GPU's own: {why}");
+        row.note = if row.note.is_empty() {
+            own
+        } else {
+            format!("{}; {own}", row.note)
+        };
+    }
     // Rays ended by the step cap, as the CPU rows count them (the kernel writes `capped`).
     if job.info.step_cap {
         row.capped_rays = Some(summary.capped);
