@@ -2,19 +2,13 @@
 // prelude (tb_core::gpu): depth-first with a fixed stack (STACK_SIZE = tb_bvh::STACK_SIZE), both
 // children's boxes tested at their parent, the nearer child first, the farther pushed with its
 // entry distance and skipped on pop when a closer hit was found meanwhile. One thread per ray
-// (the reference kernel; Aila and Laine 2009's persistent threads are not used). It visits the
+// (the reference kernel; Aila and Laine 2009's persistent threads: `while-while`). It visits the
 // nodes in exactly the CPU's order, so the counters agree ray for ray: boxes (1 for the root,
 // 2 per interior node), interior, leaves, prims, steps = interior + leaves.
 
-// tb_bvh::BvhNode, 32 bytes: interior (count == 0): index = left child, right = index + 1;
-// leaf: triangles index .. index + count of the leaf-ordered triangle array (the prelude's
-// `tris`). The node count is `meta_.counts.y` (GpuProgram::meta[0]).
-struct Node { bmin: vec3<f32>, index: u32, bmax: vec3<f32>, count: u32 }
+// The node, the bindings and `children`: binary.wgsl, included before this source.
 
-@group(0) @binding(5) var<storage, read> nodes: array<Node>;     // GpuProgram::buffers[0]
-@group(0) @binding(6) var<storage, read> prim_ids: array<u32>;   // GpuProgram::buffers[1]
-
-// The program's entry, called by the prelude's `main` once per ray with zeroed counters.
+// The program's entry, called by the prelude's `trace_ray` once per ray with zeroed counters.
 fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     if meta_.counts.y == 0u {
         return miss();
@@ -35,32 +29,26 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     var node = root;
     loop {
         if node.count == 0u {
-            (*st).interior += 1u;
-            (*st).steps += 1u;
-            (*st).boxes += 2u;
             let l = node.index;
-            let a = nodes[l];
-            let b = nodes[l + 1u];
-            let sa = slab(rb, a.bmin, a.bmax, tmin, best.t);
-            let sb = slab(rb, b.bmin, b.bmax, tmin, best.t);
-            let hit_a = sa.x <= sa.y;
-            let hit_b = sb.x <= sb.y;
+            let c = children(node, rb, tmin, best.t, st);
+            let hit_a = c.sa.x <= c.sa.y;
+            let hit_b = c.sb.x <= c.sb.y;
             if hit_a {
                 if hit_b {
-                    if sa.x <= sb.x {
-                        stack[sp] = vec2<u32>(l + 1u, bitcast<u32>(sb.x));
-                        node = a;
+                    if c.sa.x <= c.sb.x {
+                        stack[sp] = vec2<u32>(l + 1u, bitcast<u32>(c.sb.x));
+                        node = c.a;
                     } else {
-                        stack[sp] = vec2<u32>(l, bitcast<u32>(sa.x));
-                        node = b;
+                        stack[sp] = vec2<u32>(l, bitcast<u32>(c.sa.x));
+                        node = c.b;
                     }
                     sp += 1u;
                 } else {
-                    node = a;
+                    node = c.a;
                 }
                 continue;
             } else if hit_b {
-                node = b;
+                node = c.b;
                 continue;
             }
         } else {

@@ -9,18 +9,22 @@
 // counters agree ray for ray: 2 boxes, interior and steps per interior node; leaves and steps
 // per leaf; prims. `bvh/while-while-speculative`'s depend on the ray's subgroup.
 
-// tb_bvh::BvhNode, 32 bytes, read as two 16-byte loads: interior (count == 0): index = left
-// child, right = index + 1 (the sibling pair is the authors' 64-byte node of two child boxes);
-// leaf: triangles index .. index + count of the leaf-ordered triangle array (the prelude's
-// `tris`). The node count is `meta_.counts.y` (GpuProgram::meta[0]).
-struct Node { bmin: vec3<f32>, index: u32, bmax: vec3<f32>, count: u32 }
-
-@group(0) @binding(5) var<storage, read> nodes: array<Node>;     // GpuProgram::buffers[0]
-@group(0) @binding(6) var<storage, read> prim_ids: array<u32>;   // GpuProgram::buffers[1]
+// The node, the bindings and `children`: binary.wgsl, included before this source.
 
 // `id` when the walk is over; `leaf` when no leaf is postponed.
 const DONE: u32 = 0xffffffffu;
 const NONE: u32 = 0xffffffffu;
+
+// The next node from the stack (its index; `*node` read), or DONE when the stack is empty.
+fn pop(stack: ptr<function, array<u32, STACK_SIZE>>, sp: ptr<function, u32>, node: ptr<function, Node>) -> u32 {
+    if *sp == 0u {
+        return DONE;
+    }
+    *sp -= 1u;
+    let id = (*stack)[*sp];
+    *node = nodes[id];
+    return id;
+}
 
 // The program's entry, called by tb-gpu's `trace_ray` once per ray with zeroed counters.
 //
@@ -51,50 +55,34 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     loop {
         // Interior nodes, until every active lane has a leaf set aside.
         while id != DONE && node.count == 0u {
-            (*st).interior += 1u;
-            (*st).steps += 1u;
-            (*st).boxes += 2u;
             let l = node.index;
-            let a = nodes[l];
-            let b = nodes[l + 1u];
-            let sa = slab(rb, a.bmin, a.bmax, tmin, best.t);
-            let sb = slab(rb, b.bmin, b.bmax, tmin, best.t);
-            let hit_a = sa.x <= sa.y;
-            let hit_b = sb.x <= sb.y;
+            let c = children(node, rb, tmin, best.t, st);
+            let hit_a = c.sa.x <= c.sa.y;
+            let hit_b = c.sb.x <= c.sb.y;
             if hit_a && hit_b {
-                if sb.x < sa.x {
+                if c.sb.x < c.sa.x {
                     stack[sp] = l;
                     id = l + 1u;
-                    node = b;
+                    node = c.b;
                 } else {
                     stack[sp] = l + 1u;
                     id = l;
-                    node = a;
+                    node = c.a;
                 }
                 sp += 1u;
             } else if hit_a {
                 id = l;
-                node = a;
+                node = c.a;
             } else if hit_b {
                 id = l + 1u;
-                node = b;
-            } else if sp == 0u {
-                id = DONE;
+                node = c.b;
             } else {
-                sp -= 1u;
-                id = stack[sp];
-                node = nodes[id];
+                id = pop(&stack, &sp, &node);
             }
             // The first leaf reached is set aside; the walk goes on from the next node.
             if id != DONE && node.count != 0u && leaf == NONE {
                 leaf = id;
-                if sp == 0u {
-                    id = DONE;
-                } else {
-                    sp -= 1u;
-                    id = stack[sp];
-                    node = nodes[id];
-                }
+                id = pop(&stack, &sp, &node);
             }
             if all_lanes(leaf != NONE) {
                 break;
@@ -110,13 +98,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
             leaf = NONE;
             if id != DONE && node.count != 0u {
                 leaf = id;
-                if sp == 0u {
-                    id = DONE;
-                } else {
-                    sp -= 1u;
-                    id = stack[sp];
-                    node = nodes[id];
-                }
+                id = pop(&stack, &sp, &node);
             }
         }
         if id == DONE {

@@ -58,23 +58,8 @@ impl Bvh {
             }
             _ => {}
         }
-        GpuProgram::new(
-            "bvh/ordered",
-            include_str!("../shaders/bvh.wgsl"),
-            &self.triangles[..],
-        )
-        .buffer(
-            "the BVH node array",
-            Cow::Borrowed(bytemuck::cast_slice(&self.nodes)),
-        )
-        .buffer(
-            "the primitive-id array",
-            Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
-        )
-        .meta([self.nodes.len() as u32, 0, 0])
-        .stack(STACK_SIZE as u32)
-        .include(tb_core::gpu::LEAF_RANGES)
-        .include(tb_core::gpu::STACK_POP)
+        self.binary("bvh/ordered", include_str!("../shaders/bvh.wgsl"))
+            .include(tb_core::gpu::STACK_POP)
     }
 
     /// The GPU program of `while-while` (`shaders/while_while.wgsl` with `shaders/solo.wgsl`,
@@ -102,23 +87,27 @@ impl Bvh {
 
     /// `shaders/while_while.wgsl` with the vote `all_lanes` of `vote`.
     fn while_while(&self, name: &'static str, vote: &'static str) -> GpuProgram<'_> {
-        GpuProgram::new(
-            name,
-            include_str!("../shaders/while_while.wgsl"),
-            &self.triangles[..],
-        )
-        .buffer(
-            "the BVH node array",
-            Cow::Borrowed(bytemuck::cast_slice(&self.nodes)),
-        )
-        .buffer(
-            "the primitive-id array",
-            Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
-        )
-        .meta([self.nodes.len() as u32, 0, 0])
-        .stack(STACK_SIZE as u32)
-        .include(tb_core::gpu::LEAF_RANGES)
-        .include(vote)
-        .persistent()
+        self.binary(name, include_str!("../shaders/while_while.wgsl"))
+            .include(vote)
+            .persistent()
+    }
+
+    /// A program `name` of `source` over the binary nodes (`shaders/binary.wgsl` included
+    /// before it): the leaf-ordered triangles, the nodes and primitive ids as they are, the
+    /// node count in `meta[0]`, the binary walks' stack, the shared leaf loop.
+    fn binary(&self, name: &'static str, source: &'static str) -> GpuProgram<'_> {
+        GpuProgram::new(name, source, &self.triangles[..])
+            .buffer(
+                "the BVH node array",
+                Cow::Borrowed(bytemuck::cast_slice(&self.nodes)),
+            )
+            .buffer(
+                "the primitive-id array",
+                Cow::Borrowed(bytemuck::cast_slice(&self.prim_ids)),
+            )
+            .meta([self.nodes.len() as u32, 0, 0])
+            .stack(STACK_SIZE as u32)
+            .include(include_str!("../shaders/binary.wgsl"))
+            .include(tb_core::gpu::LEAF_RANGES)
     }
 }

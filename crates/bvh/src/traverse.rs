@@ -13,7 +13,8 @@
 //! pair is pushed with its entry distance, and discarded on pop when a hit closer than that
 //! entry has been found meanwhile. Any hit: the same walk, returning at the first hit.
 
-use crate::Bvh;
+use crate::{Bvh, BvhNode};
+use tb_core::leaves::{test_range, Best};
 use tb_core::slab::{RayBox, EXIT_SCALE};
 use tb_core::stack::Stack;
 use tb_core::{Counter, HitRecord, Ray, TriTest};
@@ -35,35 +36,25 @@ impl Ordered<'_> {
     ) -> HitRecord {
         let bvh = self.0;
         let nodes = bvh.nodes();
-        let tris = bvh.triangles.as_slice();
         let Some(root) = nodes.first() else {
             return HitRecord::MISS;
         };
         let tmin = ray.tmin;
-        let mut best_t = ray.tmax;
+        let mut best = Best::new(ray.tmax);
         c.boxes(1);
-        let (tn, tf) = rb.slab::<OCT>(&root.min, &root.max, tmin, best_t);
+        let (tn, tf) = rb.slab::<OCT>(&root.min, &root.max, tmin, best.t);
         let root_hit = tn <= tf;
         if !root_hit {
             return HitRecord::MISS;
         }
         let pre = T::prepare(ray);
-        let mut hit_slot = usize::MAX;
-        let (mut hit_u, mut hit_v) = (0.0f32, 0.0f32);
         // Far children still to visit, with their entry distances.
         let mut stack = Stack::<(u32, f32), STACK_SIZE>::new();
         let mut node = root;
         'walk: loop {
             if !node.is_leaf() {
-                c.interior();
-                c.steps(1);
-                c.boxes(2);
-                let l = node.index as usize;
-                // SAFETY: a `Bvh` is only made by `Bvh::build`, whose interior nodes have
-                // `index + 1 < nodes.len()` (checked by `validate`).
-                let (a, b) = unsafe { (nodes.get_unchecked(l), nodes.get_unchecked(l + 1)) };
-                let (an, af) = rb.slab::<OCT>(&a.min, &a.max, tmin, best_t);
-                let (bn, bf) = rb.slab::<OCT>(&b.min, &b.max, tmin, best_t);
+                let (l, [a, b], [(an, af), (bn, bf)]) =
+                    children::<C, OCT>(nodes, node, rb, tmin, best.t, c);
                 let hit_a = an <= af;
                 let hit_b = bn <= bf;
                 if hit_a {
@@ -81,54 +72,72 @@ impl Ordered<'_> {
                     node = b;
                     continue 'walk;
                 }
-            } else {
-                c.leaf();
-                c.steps(1);
-                let first = node.index as usize;
-                // SAFETY: `Bvh::build` makes leaves whose ranges lie inside `triangles`
-                // (checked by `validate`).
-                let leaf = unsafe { tris.get_unchecked(first..first + node.count as usize) };
-                if ANY {
-                    for (k, tri) in leaf.iter().enumerate() {
-                        c.prims(1);
-                        if let Some((t, u, v)) = T::intersect(&pre, ray, tri, best_t) {
-                            return HitRecord {
-                                t,
-                                prim: bvh.prim_ids[first + k],
-                                u,
-                                v,
-                            };
-                        }
-                    }
-                } else {
-                    c.prims(node.count);
-                    for (k, tri) in leaf.iter().enumerate() {
-                        if let Some((t, u, v)) = T::intersect(&pre, ray, tri, best_t) {
-                            best_t = t;
-                            hit_slot = first + k;
-                            hit_u = u;
-                            hit_v = v;
-                        }
-                    }
-                }
+            } else if let Some(hit) = leaf::<T, C, ANY>(bvh, node, &pre, ray, &mut best, c) {
+                return hit;
             }
             // Pop the next pending subtree, skipping those entered beyond the closest hit.
-            let Some((idx, _)) = stack.pop_until(|e| ANY || e.1 <= best_t * EXIT_SCALE) else {
+            let Some((idx, _)) = stack.pop_until(|e| ANY || e.1 <= best.t * EXIT_SCALE) else {
                 break 'walk;
             };
             // SAFETY: pushed indices are children of interior nodes (see above).
             node = unsafe { nodes.get_unchecked(idx as usize) };
         }
-        if hit_slot == usize::MAX {
-            HitRecord::MISS
-        } else {
-            HitRecord {
-                t: best_t,
-                prim: bvh.prim_ids[hit_slot],
-                u: hit_u,
-                v: hit_v,
-            }
-        }
+        best.record(&bvh.prim_ids)
+    }
+}
+
+/// The sibling pair of interior node `node` (its first child's index, the two children, their
+/// slab entries and exits against `[tmin, tmax]`), counted as the binary walks count an
+/// interior node: one interior node, one step, two boxes.
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+pub(crate) fn children<'a, C: Counter, const OCT: u8>(
+    nodes: &'a [BvhNode],
+    node: &BvhNode,
+    rb: &RayBox,
+    tmin: f32,
+    tmax: f32,
+    c: &mut C,
+) -> (usize, [&'a BvhNode; 2], [(f32, f32); 2]) {
+    c.interior();
+    c.steps(1);
+    c.boxes(2);
+    let l = node.index as usize;
+    // SAFETY: a `Bvh` is only made by `Bvh::build`, whose interior nodes have
+    // `index + 1 < nodes.len()` (checked by `validate`).
+    let (a, b) = unsafe { (nodes.get_unchecked(l), nodes.get_unchecked(l + 1)) };
+    let sa = rb.slab::<OCT>(&a.min, &a.max, tmin, tmax);
+    let sb = rb.slab::<OCT>(&b.min, &b.max, tmin, tmax);
+    (l, [a, b], [sa, sb])
+}
+
+/// The triangles of leaf `node`, tested as the binary walks test them: one leaf and one step,
+/// then [`test_range`] (`Some` with an any-hit query's first hit).
+#[inline(always)]
+pub(crate) fn leaf<T: TriTest, C: Counter, const ANY: bool>(
+    bvh: &Bvh,
+    node: &BvhNode,
+    pre: &T::Pre,
+    ray: &Ray,
+    best: &mut Best,
+    c: &mut C,
+) -> Option<HitRecord> {
+    c.leaf();
+    c.steps(1);
+    let (tris, ids) = (bvh.triangles.as_slice(), bvh.prim_ids.as_slice());
+    // SAFETY: `Bvh::build` makes leaves whose ranges lie inside `triangles`, each slot with its
+    // primitive id (checked by `validate`).
+    unsafe {
+        test_range::<T, C, ANY>(
+            tris,
+            ids,
+            node.index as usize,
+            node.count,
+            pre,
+            ray,
+            best,
+            c,
+        )
     }
 }
 

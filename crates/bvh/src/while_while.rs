@@ -32,7 +32,9 @@
 //! `persistent` it is the authors' persistent-threads form (tb-gpu: a fixed pool of threads
 //! fetching rays from a global counter), which changes which thread traces a ray, not the walk.
 
+use crate::traverse::{children, leaf};
 use crate::{Bvh, STACK_SIZE};
+use tb_core::leaves::Best;
 use tb_core::slab::RayBox;
 use tb_core::stack::Stack;
 use tb_core::{Counter, HitRecord, Ray, TriTest};
@@ -50,91 +52,45 @@ impl WhileWhile<'_> {
     ) -> HitRecord {
         let bvh = self.0;
         let nodes = bvh.nodes();
-        let tris = bvh.triangles.as_slice();
         if nodes.is_empty() {
             return HitRecord::MISS;
         }
         let tmin = ray.tmin;
-        let mut best_t = ray.tmax;
+        let mut best = Best::new(ray.tmax);
         let pre = T::prepare(ray);
-        let mut hit_slot = usize::MAX;
-        let (mut hit_u, mut hit_v) = (0.0f32, 0.0f32);
         let mut stack = Stack::<u32, STACK_SIZE>::new();
-        let mut node = 0usize;
+        let mut node = &nodes[0];
         'outer: loop {
             // Interior nodes until a leaf is reached (or the stack runs out).
-            while !nodes[node].is_leaf() {
-                c.interior();
-                c.steps(1);
-                c.boxes(2);
-                let l = nodes[node].index as usize;
-                // SAFETY: a `Bvh` is only made by `Bvh::build`, whose interior nodes have
-                // `index + 1 < nodes.len()` (checked by `validate`).
-                let (a, b) = unsafe { (nodes.get_unchecked(l), nodes.get_unchecked(l + 1)) };
-                let (an, af) = rb.slab::<OCT>(&a.min, &a.max, tmin, best_t);
-                let (bn, bf) = rb.slab::<OCT>(&b.min, &b.max, tmin, best_t);
-                match (an <= af, bn <= bf) {
+            while !node.is_leaf() {
+                let (l, [a, b], [(an, af), (bn, bf)]) =
+                    children::<C, OCT>(nodes, node, rb, tmin, best.t, c);
+                node = match (an <= af, bn <= bf) {
                     (true, true) => {
-                        let (near, far) = if bn < an { (l + 1, l) } else { (l, l + 1) };
+                        let (near, far) = if bn < an { (b, l) } else { (a, l + 1) };
                         // The builder bounds the depth by STACK_SIZE, and at most one entry
                         // per level is pending.
                         stack.push(far as u32);
-                        node = near;
+                        near
                     }
-                    (true, false) => node = l,
-                    (false, true) => node = l + 1,
+                    (true, false) => a,
+                    (false, true) => b,
                     (false, false) => match stack.pop() {
-                        Some(n) => node = n as usize,
+                        Some(n) => &nodes[n as usize],
                         None => break 'outer,
                     },
-                }
+                };
             }
             // The leaf's triangles.
-            let leaf = &nodes[node];
-            c.leaf();
-            c.steps(1);
-            let first = leaf.index as usize;
-            // SAFETY: `Bvh::build` makes leaves whose ranges lie inside `triangles` (checked
-            // by `validate`).
-            let tri = unsafe { tris.get_unchecked(first..first + leaf.count as usize) };
-            if ANY {
-                for (k, t) in tri.iter().enumerate() {
-                    c.prims(1);
-                    if let Some((t, u, v)) = T::intersect(&pre, ray, t, best_t) {
-                        return HitRecord {
-                            t,
-                            prim: bvh.prim_ids[first + k],
-                            u,
-                            v,
-                        };
-                    }
-                }
-            } else {
-                c.prims(leaf.count);
-                for (k, t) in tri.iter().enumerate() {
-                    if let Some((t, u, v)) = T::intersect(&pre, ray, t, best_t) {
-                        best_t = t;
-                        hit_slot = first + k;
-                        hit_u = u;
-                        hit_v = v;
-                    }
-                }
+            if let Some(hit) = leaf::<T, C, ANY>(bvh, node, &pre, ray, &mut best, c) {
+                return hit;
             }
             match stack.pop() {
-                Some(n) => node = n as usize,
+                Some(n) => node = &nodes[n as usize],
                 None => break 'outer,
             }
         }
-        if hit_slot == usize::MAX {
-            HitRecord::MISS
-        } else {
-            HitRecord {
-                t: best_t,
-                prim: bvh.prim_ids[hit_slot],
-                u: hit_u,
-                v: hit_v,
-            }
-        }
+        best.record(&bvh.prim_ids)
     }
 }
 

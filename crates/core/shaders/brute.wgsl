@@ -34,7 +34,7 @@ fn visit(k: u32, r: Ray, p: Pre, w: ptr<function, Walk>) {
     }
 }
 
-// The program's entry, called by the prelude's `main` once per ray with zeroed counters.
+// The program's entry, called by the prelude's `trace_ray` once per ray with zeroed counters.
 fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     let n = meta_.counts.x;
     let p = prepare(r);

@@ -18,6 +18,7 @@ pub mod clip;
 pub mod compare;
 pub mod geom;
 pub mod gpu;
+pub mod leaves;
 pub mod oracle;
 pub mod par;
 pub mod params;

@@ -8,43 +8,10 @@
 //! returning at the first triangle hit.
 
 use crate::{Rtree, RtreeNode, MAX_LEVELS, MAX_M};
+use tb_core::leaves::{test_range, Best};
 use tb_core::slab::{RayBox, EXIT_SCALE};
 use tb_core::stack;
 use tb_core::{Counter, HitRecord, Ray, TriTest};
-
-/// The closest hit found so far.
-struct Best {
-    t: f32,
-    slot: usize,
-    u: f32,
-    v: f32,
-}
-
-impl Best {
-    #[inline(always)]
-    fn new(ray: &Ray) -> Self {
-        Best {
-            t: ray.tmax,
-            slot: usize::MAX,
-            u: 0.0,
-            v: 0.0,
-        }
-    }
-
-    #[inline(always)]
-    fn record(&self, tree: &Rtree) -> HitRecord {
-        if self.slot == usize::MAX {
-            HitRecord::MISS
-        } else {
-            HitRecord {
-                t: self.t,
-                prim: tree.prim_ids[self.slot],
-                u: self.u,
-                v: self.v,
-            }
-        }
-    }
-}
 
 /// Test the triangles of leaf `node`; with `ANY`, return the first hit.
 #[inline(always)]
@@ -57,39 +24,21 @@ fn leaf<T: TriTest, C: Counter, const ANY: bool>(
     c: &mut C,
 ) -> Option<HitRecord> {
     c.leaf();
-    let first = node.index as usize;
-    // SAFETY: `Rtree::build` makes leaves whose runs lie inside `triangles` (checked by
-    // `validate`).
-    let tris = unsafe {
-        tree.triangles
-            .get_unchecked(first..first + node.count as usize)
-    };
-    if ANY {
-        for (k, tri) in tris.iter().enumerate() {
-            c.prims(1);
-            if let Some((t, u, v)) = T::intersect(pre, ray, tri, best.t) {
-                return Some(HitRecord {
-                    t,
-                    prim: tree.prim_ids[first + k],
-                    u,
-                    v,
-                });
-            }
-        }
-    } else {
-        c.prims(node.count);
-        for (k, tri) in tris.iter().enumerate() {
-            if let Some((t, u, v)) = T::intersect(pre, ray, tri, best.t) {
-                *best = Best {
-                    t,
-                    slot: first + k,
-                    u,
-                    v,
-                };
-            }
-        }
+    let (tris, ids) = (tree.triangles.as_slice(), tree.prim_ids.as_slice());
+    // SAFETY: `Rtree::build` makes leaves whose runs lie inside `triangles`, each slot with its
+    // primitive id (checked by `validate`).
+    unsafe {
+        test_range::<T, C, ANY>(
+            tris,
+            ids,
+            node.index as usize,
+            node.count,
+            pre,
+            ray,
+            best,
+            c,
+        )
     }
-    None
 }
 
 /// The set-up the stack walks (`ordered`, `ordered-pop-cull`, `stack`) share: the root's box
@@ -105,7 +54,7 @@ fn enter_root<'a, T: TriTest, C: Counter, const OCT: u8>(
     let nodes = tree.nodes();
     let root = nodes.first()?;
     let pre = T::prepare(ray);
-    let best = Best::new(ray);
+    let best = Best::new(ray.tmax);
     c.boxes(1);
     let (tn, tf) = rb.slab::<OCT>(&root.min, &root.max, ray.tmin, best.t);
     if tn > tf {
@@ -147,7 +96,7 @@ impl<const SKIP_EMPTY: bool> Stackless<'_, SKIP_EMPTY> {
         let shift = m.is_power_of_two().then(|| m.trailing_zeros());
         let first_leaf = tree.first_leaf as usize;
         let pre = T::prepare(ray);
-        let mut best = Best::new(ray);
+        let mut best = Best::new(ray.tmax);
         let mut n = 0usize;
         'walk: loop {
             // SAFETY: `n` is the root, an entry `M·n + 1` of an intermediate node (which the
@@ -188,7 +137,7 @@ impl<const SKIP_EMPTY: bool> Stackless<'_, SKIP_EMPTY> {
                 n = parent;
             }
         }
-        best.record(tree)
+        best.record(&tree.prim_ids)
     }
 }
 
@@ -260,7 +209,7 @@ impl<const POP_CULL: bool> Ordered<'_, POP_CULL> {
                 stacks[l].clear();
             }
         }
-        best.record(tree)
+        best.record(&tree.prim_ids)
     }
 }
 
@@ -317,7 +266,7 @@ impl Stack<'_> {
             n = child as usize;
             c.steps(1);
         }
-        best.record(tree)
+        best.record(&tree.prim_ids)
     }
 }
 
