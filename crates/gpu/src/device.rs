@@ -71,6 +71,9 @@ pub struct AdapterSummary {
     pub timestamps: bool,
     /// Whether the watertight test's exact-zero fallback runs in f64 as on the CPU.
     pub f64: bool,
+    /// PCI vendor and device ids (`wgpu::AdapterInfo`; 0x10de: NVIDIA), 0 where the backend
+    /// does not say.
+    pub pci: (u32, u32),
     /// The subgroup sizes the adapter may use (wgpu's `SUBGROUP` feature; lavapipe: 8, NVIDIA:
     /// 32), `None` without the feature: programs that need subgroups are refused.
     pub subgroups: Option<(u32, u32)>,
@@ -108,6 +111,7 @@ impl AdapterSummary {
             device_type: format!("{:?}", info.device_type),
             timestamps,
             f64,
+            pci: (info.vendor, info.device),
             subgroups: subgroups.then_some((info.subgroup_min_size, info.subgroup_max_size)),
         }
     }

@@ -105,6 +105,15 @@ macro_rules! define_row {
             /// relative to it (0.03 = 3 % slower); beyond ±5 % the row is `noisy`.
             #[serde(default)]
             pub probe_drift: Option<f64>,
+            /// GPU rows where the driver exposes the clocks (NVIDIA, `nvidia-smi`): the least
+            /// and most SM clock, MHz, sampled while the row was timed (between its probes).
+            #[serde(default)]
+            pub gpu_sm_mhz_min: Option<f64>,
+            #[serde(default)]
+            pub gpu_sm_mhz_max: Option<f64>,
+            /// The memory clock, MHz, the mean of the same samples.
+            #[serde(default)]
+            pub gpu_mem_mhz: Option<f64>,
             pub hit_rate: Option<f64>,
             $(
                 #[doc = concat!("Mean per ray: ", $doc, ".")]

@@ -16,10 +16,12 @@
 //! line, writes the GPU rows with the error as `note`, still writes every CPU row, and fails
 //! (exit 1) only when the GPU was required ([`crate::experiment::config::GpuSpec::required`]).
 
+use super::clocks::Clocks;
 use super::{Device, Job, Outcome};
 use crate::experiment::config::spec::GpuSpec;
 use crate::experiment::validation::{self, Sample};
 use std::collections::HashMap;
+use std::time::Instant;
 use tb_core::{Accel, HitRecord, Query, Ray, StatsSummary, TriTestKind};
 use tb_gpu::{Gpu, GpuError, GpuRays, GpuStructure};
 use tb_results::output::Row;
@@ -36,12 +38,20 @@ pub struct GpuDevice {
     pub required: bool,
     /// The current build's uploaded programs (per traversal) and ray batches.
     build: GpuBuild,
-    /// The run's first probe time ([`tb_gpu::Gpu::probe_ms`]), which later rows' probes are
-    /// compared with.
-    probe_ref: Option<f64>,
+    /// The run's first probe time and the clocks' sampler.
+    watch: Watch,
     /// Keep every build's programs until [`GpuDevice::keep_builds`] is called again
     /// (`run.interleave`: the builds of a table are timed together after all are made).
     keep: bool,
+}
+
+/// What every timed GPU row is watched by: the run's first probe time
+/// ([`tb_gpu::Gpu::probe_ms`]), which later rows' probes are compared with, and the adapter's
+/// clocks where the driver exposes them ([`Clocks`]).
+#[derive(Default)]
+struct Watch {
+    probe_ref: Option<f64>,
+    clocks: Option<Clocks>,
 }
 
 /// A GPU row whose probe (timed just before and just after its timed passes) moved by more
@@ -79,11 +89,19 @@ enum UploadError {
 impl GpuDevice {
     /// Open the adapter `spec` chooses.
     pub fn open(spec: &GpuSpec) -> GpuDevice {
+        let gpu = Gpu::new(&spec.choice).map_err(|e| e.to_string());
+        let clocks = gpu.as_ref().ok().and_then(|g| {
+            let (vendor, device) = g.adapter().pci;
+            Clocks::start(vendor, device)
+        });
         GpuDevice {
-            gpu: Gpu::new(&spec.choice).map_err(|e| e.to_string()),
+            gpu,
             required: spec.required,
             build: GpuBuild::default(),
-            probe_ref: None,
+            watch: Watch {
+                probe_ref: None,
+                clocks,
+            },
             keep: false,
         }
     }
@@ -123,6 +141,10 @@ impl GpuDevice {
                     "adapter_type": a.kind(),
                     "timing": if a.timestamps { "timestamp-queries" } else { "wall-clock" },
                     "subgroups": a.subgroups.map(|(lo, hi)| format!("{lo}..={hi} invocations")),
+                    "clocks": self.watch.clocks.as_ref().map(|_| format!(
+                        "nvidia-smi every {} ms (gpu_sm_mhz_min, gpu_sm_mhz_max, gpu_mem_mhz)",
+                        super::clocks::EVERY_MS
+                    )),
                     "timed_sample": format!(
                         "back-to-back passes lasting at least {} ms (at most {}), trusted build without runtime checks{}",
                         tb_gpu::MIN_SAMPLE_MS,
@@ -174,7 +196,7 @@ impl Device for GpuDevice {
         let gpu = self.gpu.as_ref().map_err(|e| e.clone())?;
         row.adapter = gpu.adapter().label();
         row.adapter_type = gpu.adapter().kind().to_owned();
-        let r = measure_on(gpu, &mut self.build, &mut self.probe_ref, job, sample, row);
+        let r = measure_on(gpu, &mut self.build, &mut self.watch, job, sample, row);
         if let Ok(Outcome::Measured(_)) = &r {
             row.note = if row.note.is_empty() {
                 CPU_BUILD_NOTE.to_string()
@@ -226,6 +248,7 @@ impl GpuDevice {
             programs.push((s, rays, s.arrange().is_some_and(|a| a.timed)));
         }
         let before = gpu.probe_ms().map_err(|e| e.to_string())?;
+        let from = Instant::now();
         let mut sorts = vec![Vec::new(); jobs.len()];
         let times = plan.run_interleaved(jobs.len(), |i| {
             let (s, rays, timed_sort) = programs[i];
@@ -237,13 +260,14 @@ impl GpuDevice {
             let sort = if timed_sort { t.sort_ms } else { None };
             Ok::<_, String>(t.kernel_ms + sort.unwrap_or(0.0))
         })?;
+        let to = Instant::now();
         let after = gpu.probe_ms().map_err(|e| e.to_string())?;
         for (((row, mut t), s), j) in rows.iter_mut().zip(times).zip(sorts).zip(jobs) {
             let warmups = s.len().saturating_sub(t.len());
             let mut s = s[warmups..].to_vec();
             row.sort_ms = (!s.is_empty()).then(|| crate::experiment::timing::median(&mut s));
             crate::experiment::timing::fill(row, &mut t, j.batch.rays.len(), plan.target_ci);
-            probe(row, &mut self.probe_ref, before, after);
+            self.watch.row(row, before, after, from, to);
         }
         Ok(())
     }
@@ -310,7 +334,7 @@ impl tb_render::Tracer for GpuTracer<'_> {
 fn measure_on(
     gpu: &Gpu,
     build: &mut GpuBuild,
-    probe_ref: &mut Option<f64>,
+    watch: &mut Watch,
     job: &Job,
     sample: Option<&Sample>,
     row: &mut Row,
@@ -352,6 +376,7 @@ fn measure_on(
     let timed_sort = s.arrange().is_some_and(|a| a.timed);
     let mut sorts = Vec::new();
     let before = gpu.probe_ms().map_err(|e| e.to_string())?;
+    let from = Instant::now();
     let mut times = job.timing.run(|| {
         let t = gpu
             .trace(s, g_rays, query, tri, false)
@@ -364,10 +389,11 @@ fn measure_on(
     let warmups = sorts.len().saturating_sub(times.len());
     let sorts = &mut sorts[warmups..];
     row.sort_ms = (!sorts.is_empty()).then(|| crate::experiment::timing::median(sorts));
+    let to = Instant::now();
     let after = gpu.probe_ms().map_err(|e| e.to_string())?;
     let (hits, readback_ms) = gpu.read_hits(g_rays).map_err(|e| e.to_string())?;
     crate::experiment::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);
-    probe(row, probe_ref, before, after);
+    watch.row(row, before, after, from, to);
     row.readback_ms = Some(readback_ms);
     count_and_check(gpu, s, g_rays, job, sample, row, &hits)
 }
@@ -414,6 +440,19 @@ fn count_and_check(
 /// The row's probe columns: `probe_ms`, the mean of the probes before and after its timed
 /// passes; `probe_drift`, the one farther from the run's first probe, relative to it. A drift
 /// beyond [`PROBE_MOVED`] flags the row `noisy` (the note stays the row's own).
+impl Watch {
+    /// A timed row's probes (`before`, `after` its timed passes, [`probe`]) and the clocks
+    /// sampled between `from` and `to`, its timed passes.
+    fn row(&mut self, row: &mut Row, before: f64, after: f64, from: Instant, to: Instant) {
+        probe(row, &mut self.probe_ref, before, after);
+        if let Some(w) = self.clocks.as_ref().and_then(|c| c.window(from, to)) {
+            row.gpu_sm_mhz_min = Some(w.sm_min);
+            row.gpu_sm_mhz_max = Some(w.sm_max);
+            row.gpu_mem_mhz = Some(w.mem);
+        }
+    }
+}
+
 fn probe(row: &mut Row, reference: &mut Option<f64>, before: f64, after: f64) {
     let r = *reference.get_or_insert(before);
     let drift = [before / r - 1.0, after / r - 1.0]

@@ -10,6 +10,7 @@
 //!   each batch once per build, times the timed kernel, validates the hits it read back, then
 //!   runs the counting kernel.
 
+pub mod clocks;
 pub mod cpu;
 pub mod gpu;
 
