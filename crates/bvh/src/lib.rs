@@ -286,9 +286,11 @@ impl Structure for Bvh {
                  leaf reached is set aside and interior nodes are visited until every ray of the \
                  subgroup has one (a subgroup vote; needs the adapter's subgroups); the GPU rows' \
                  counters are the GPU's own (they depend on the subgroup). On the CPU, a subgroup \
-                 of one ray: `while-while` itself (Aila and Laine 2009)",
+                 of one ray: `while-while` itself, so runs make no CPU rows of it (Aila and \
+                 Laine 2009)",
             )
-            .on_request(),
+            .on_request()
+            .cpu_as("while-while"),
             tb_core::kernel!(|b: &Bvh, batch, out| dispatch(
                 &while_while::WhileWhile(b),
                 batch,

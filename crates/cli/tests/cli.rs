@@ -515,6 +515,47 @@ name = "kdtree"
     );
 }
 
+/// A traversal whose CPU walk is another's (`TraversalInfo::cpu_as`: the BVH's
+/// `while-while-speculative`) gets CPU rows with a note naming that walk and no timing, beside
+/// the walk's own measured rows.
+#[test]
+fn cpu_as_traversals_make_no_cpu_rows_of_their_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("s.toml");
+    std::fs::write(
+        &cfg,
+        r#"
+[run]
+threads = [1]
+repeat = 1
+warmup = 0
+[[scene]]
+source = "builtin:cornell"
+camera = { width = 16, height = 16 }
+rays = ["primary"]
+[[structure]]
+name = "bvh"
+traversals = ["while-while", "while-while-speculative"]
+params = { builder = "sbvh", width = 2, max_leaf = 8, c_trav = 2.0, leaf_cost = "linear" }
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    assert_eq!(common::run_quiet(&cfg, &out), 0);
+    let rows = tb_results::output::read_csv(&out.join("results.csv")).unwrap();
+    let of = |t: &str| rows.iter().find(|r| r.traversal == t).expect(t).clone();
+    let (ww, spec) = (of("while-while"), of("while-while-speculative"));
+    assert!(
+        ww.mrays_per_s.is_some() && ww.steps_per_ray.is_some(),
+        "{ww:?}"
+    );
+    assert!(
+        spec.mrays_per_s.is_none() && spec.steps_per_ray.is_none(),
+        "{spec:?}"
+    );
+    assert!(spec.note.contains("`while-while`'s walk"), "{}", spec.note);
+}
+
 /// `--structure NAME:traversal` keeps only the tables of that name that run the traversal,
 /// each table once with the traversals asked of it (one build per table, no repeated rows).
 #[test]

@@ -67,6 +67,11 @@ pub struct TraversalInfo {
     /// not by a table that lists no traversals: a baseline kept for the papers that compare
     /// against it (the BVH's `while-while`), which every other config would otherwise run.
     pub on_request: bool,
+    /// On the CPU this traversal is another's walk (named): a GPU-side variant (the BVH's
+    /// `while-while-speculative`, whose speculation needs a subgroup). Its CPU kernel stays
+    /// (tests check the GPU program against it), but runs make no CPU rows for it, only a row
+    /// whose note names the walk, so the same walk is not timed twice.
+    pub cpu_as: Option<&'static str>,
 }
 
 impl TraversalInfo {
@@ -81,7 +86,14 @@ impl TraversalInfo {
             counters: CounterSet::ALL,
             own_triangle_test: None,
             on_request: false,
+            cpu_as: None,
         }
+    }
+
+    /// On the CPU, traversal `walk`'s walk ([`TraversalInfo::cpu_as`]).
+    pub const fn cpu_as(mut self, walk: &'static str) -> Self {
+        self.cpu_as = Some(walk);
+        self
     }
 
     /// Run only where a config names it ([`TraversalInfo::on_request`]).

@@ -112,6 +112,9 @@ fn tags(t: &TraversalInfo) -> String {
     if t.counters.is_empty() {
         tags.push("no counters".into());
     }
+    if let Some(walk) = t.cpu_as {
+        tags.push(format!("on the CPU `{walk}`'s walk: no CPU rows"));
+    }
     if t.on_request {
         tags.push("on request: run only where `traversals` names it".into());
     }

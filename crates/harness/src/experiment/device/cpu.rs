@@ -130,6 +130,12 @@ impl Device for CpuDevice {
         sample: Option<&Sample>,
         row: &mut Row,
     ) -> Result<Outcome, String> {
+        if let Some(walk) = job.info.cpu_as {
+            return Ok(Outcome::Unsupported(format!(
+                "on the CPU {} is `{walk}`'s walk: see that traversal's rows",
+                job.info.name
+            )));
+        }
         let (accel, ti, tri, b) = (job.accel, job.traversal, job.tri, job.batch);
         let key = (ti, tri, job.batch_index);
         if self.validate_only {
