@@ -36,9 +36,14 @@
 //!   trace kernel (2009; the 2012 addendum), the baseline of the irregular-grid and multi-kd
 //!   papers, on the binary nodes, with persistent threads on the GPU; `while-while-speculative`
 //!   adds their speculative traversal (a subgroup vote) on the GPU.
+//! - **Compressed wide BVH** (structure `cwbvh`, module `cwbvh`, [`CWBVH_FAMILY`]): Ylitie,
+//!   Karras and Laine 2017's 80-byte quantized 8-wide nodes over this crate's binary SBVH and
+//!   SAH-optimal collapse, children in octant slots, and their node-group traversal; the
+//!   state of the art GPU row beside the papers' baselines.
 
 mod build;
 mod check;
+mod cwbvh;
 mod gpu;
 mod node;
 mod params;
@@ -53,6 +58,9 @@ use tb_core::{
     Traversal, TraversalInfo, Triangle,
 };
 
+pub use cwbvh::{
+    CwNode, Cwbvh, CwbvhParams, CW_STACK_SIZE, FAMILY as CWBVH_FAMILY, MAX_LEAF as CW_MAX_LEAF,
+};
 pub use node::BvhNode;
 pub use params::{Builder, BvhParams, Collapse, LeafCost, ObjectSplit, Simd};
 pub use traverse::STACK_SIZE;

@@ -10,7 +10,7 @@
 //! `SHADER_F64` (or where the driver contracts into FMAs) a few grazing rays may differ, as
 //! `gpu_oracle` allows: at most 2% of a batch.
 
-use tb_bvh::{Builder, Bvh, BvhParams};
+use tb_bvh::{Builder, Bvh, BvhParams, Cwbvh, CwbvhParams};
 use tb_core::{Accel, Query, TriTestKind};
 use tb_scene::conformance;
 
@@ -45,6 +45,44 @@ fn speculative_program_finds_the_cpus_hits() {
 /// Traversal `traversal` of a build by `builder` of `width` (the SBVH binary as Aila, Laine and
 /// Karras build it: node cost 2, leaves up to 8).
 fn program_matches_the_cpu(builder: Builder, width: u32, traversal: usize) {
+    let p = BvhParams {
+        builder,
+        width,
+        max_leaf: if width == 2 { 8 } else { 4 },
+        c_trav: if width == 2 { 2.0 } else { 1.0 },
+        ..BvhParams::binary()
+    };
+    accel_program_matches_the_cpu(
+        &format!("{builder:?} width {width}"),
+        &|tris| Box::new(Bvh::build(tris, &p)),
+        traversal,
+    );
+}
+
+/// The compressed wide BVH's `node-groups` program (`shaders/cwbvh.wgsl`, persistent), the
+/// default build (a binary SBVH of one triangle per leaf, leaves up to 3), and the binned one.
+#[test]
+fn cwbvh_program_matches_the_cpu() {
+    for builder in [Builder::Sbvh, Builder::Binned] {
+        let p = CwbvhParams {
+            builder,
+            ..CwbvhParams::default()
+        };
+        accel_program_matches_the_cpu(
+            &format!("cwbvh {builder:?}"),
+            &|tris| Box::new(Cwbvh::build(tris, &p)),
+            0,
+        );
+    }
+}
+
+/// Traversal `traversal` of the structure `make` builds (named `label`) on the GPU against
+/// the CPU.
+fn accel_program_matches_the_cpu(
+    label: &str,
+    make: &dyn Fn(&[tb_core::Triangle]) -> Box<dyn Accel>,
+    traversal: usize,
+) {
     let Some(mut gpu) = tb_gpu::open_or_skip() else {
         return;
     };
@@ -58,14 +96,8 @@ fn program_matches_the_cpu(builder: Builder, width: u32, traversal: usize) {
     for scene in conformance::suite_scenes() {
         let batches = conformance::batches(&scene, tri);
         {
-            let p = BvhParams {
-                builder,
-                width,
-                max_leaf: if width == 2 { 8 } else { 4 },
-                c_trav: if width == 2 { 2.0 } else { 1.0 },
-                ..BvhParams::binary()
-            };
-            let bvh = Bvh::build(&scene.triangles, &p);
+            let bvh = make(&scene.triangles);
+            let bvh = bvh.as_ref();
             let Some(program) = bvh.gpu_program(traversal) else {
                 panic!("no GPU program");
             };
@@ -87,7 +119,7 @@ fn program_matches_the_cpu(builder: Builder, width: u32, traversal: usize) {
                 let rays: Vec<_> = (0..n.min(MAX_RAYS))
                     .map(|i| b.rays[i * n / n.min(MAX_RAYS)])
                     .collect();
-                let (cpu_hits, cpu_stats) = tb_core::par::count(&bvh, traversal, query, tri, &rays);
+                let (cpu_hits, cpu_stats) = tb_core::par::count(bvh, traversal, query, tri, &rays);
                 let (hits, stats) = gpu.trace_once(&s, &rays, query, tri, true).expect("trace");
                 let stats = stats.expect("counters");
                 let differ = (0..rays.len())
@@ -117,7 +149,7 @@ fn program_matches_the_cpu(builder: Builder, width: u32, traversal: usize) {
                 };
                 assert!(
                     differ <= allowed,
-                    "{} {builder:?} width {width} traversal {traversal} {}: {differ} of {} rays differ from the CPU",
+                    "{} {label} traversal {traversal} {}: {differ} of {} rays differ from the CPU",
                     scene.source,
                     b.kind.name(),
                     rays.len()

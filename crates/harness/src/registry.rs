@@ -11,6 +11,7 @@ use tb_core::{Accel, Family, ParamKind, TraversalInfo, Triangle};
 static FAMILIES: &[&Family] = &[
     &tb_core::oracle::FAMILY,
     &tb_bvh::FAMILY,
+    &tb_bvh::CWBVH_FAMILY,
     &tb_kdtree::FAMILY,
     &tb_multikd::FAMILY,
     &tb_sparse::FAMILY,

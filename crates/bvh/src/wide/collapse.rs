@@ -105,12 +105,15 @@ impl<const N: usize> Dp<N> {
             let (k_int, dist_n) = Self::distribute(&cost[l], &cost[r], N);
             let interior = cm.c_trav * area + dist_n;
             let tris = nl + nr;
-            let leaf = if contiguous[i] && tris <= cm.max_leaf {
+            let leaf_ok = contiguous[i] && tris <= cm.max_leaf;
+            let leaf = if leaf_ok {
                 cm.leaf(area, tris)
             } else {
                 f64::INFINITY
             };
-            let (c, ch) = if leaf <= interior {
+            // `leaf_ok` too: where areas overflow both costs are infinite, and a leaf that
+            // is not allowed must not win the tie.
+            let (c, ch) = if leaf_ok && leaf <= interior {
                 (leaf, 0)
             } else {
                 (interior, k_int)

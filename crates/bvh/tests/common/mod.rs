@@ -117,13 +117,25 @@ pub fn build(tris: &[Triangle], params: &BvhParams) -> Bvh {
 /// the first watertight mismatch; Möller–Trumbore may differ on at most 1% of the rays.
 pub fn check_against_oracle(tris: &[Triangle], rays: &[Ray], params: &BvhParams) -> usize {
     let bvh = build(tris, params);
+    check_accel_against_oracle(tris, rays, &bvh, &format!("{params:?}"))
+}
+
+/// [`check_against_oracle`] for any built structure `accel` (traversal 0), named `label` in
+/// the failure message.
+pub fn check_accel_against_oracle(
+    tris: &[Triangle],
+    rays: &[Ray],
+    accel: &dyn Accel,
+    label: &str,
+) -> usize {
+    let bvh = accel;
     let oracle = BruteForce::new(tris);
     let mut hits = 0;
     let mut mt_mismatches = 0;
     for tri in TriTestKind::ALL {
         for q in [Query::Closest, Query::Any] {
             let want = trace(&oracle, q, tri, rays);
-            let got = trace(&bvh, q, tri, rays);
+            let got = trace(bvh, q, tri, rays);
             for (i, (w, g)) in want.iter().zip(&got).enumerate() {
                 let m = compare(q, &rays[i], w, g);
                 if let Some(kind) = m {
@@ -135,7 +147,7 @@ pub fn check_against_oracle(tris: &[Triangle], rays: &[Ray], params: &BvhParams)
                         continue;
                     }
                     panic!(
-                        "{params:?} {q:?} {}: ray {i} {:?}: {kind:?}, expected {w:?}, got {g:?}",
+                        "{label} {q:?} {}: ray {i} {:?}: {kind:?}, expected {w:?}, got {g:?}",
                         tri.name(),
                         rays[i]
                     );
