@@ -19,6 +19,16 @@ pub trait Runs {
     /// Run `cmd` in its own process group to its end, or until a signal reaches this process:
     /// then end the group, wait for it, and return the signal beside the run's status.
     fn run(&self, cmd: &mut Command) -> std::io::Result<(ExitStatus, Option<i32>)>;
+    /// [`Runs::run`] ended at `deadline` too, if it is still running then (the third value
+    /// says it was); without a deadline of its own a runner runs `cmd` to its end.
+    fn run_until(
+        &self,
+        cmd: &mut Command,
+        deadline: Option<std::time::Instant>,
+    ) -> std::io::Result<(ExitStatus, Option<i32>, bool)> {
+        let _ = deadline;
+        self.run(cmd).map(|(st, sig)| (st, sig, false))
+    }
     /// How a process ended, in words (`exit status 1`, `killed by signal 15`).
     fn ended(&self, st: &ExitStatus) -> String;
     /// A signal's name (`SIGTERM`).

@@ -253,7 +253,8 @@ pub(crate) struct WeightsArgs {
 #[derive(clap::Args)]
 pub(crate) struct ReproduceArgs {
     /// A paper's key (`feldmann-rtrees`, … : a file stem under --claims-dir), a claims
-    /// file, or `all` (every claims file with runs).
+    /// file, or `all` (every claims file with runs); several, comma-separated, are made in
+    /// that order (`a,b,all`: a, b, then the others).
     paper: String,
     /// Time for all the runs (`10m`, `90s`, `1h`); images shrink to fit.
     #[arg(long, default_value = "10m")]
@@ -286,6 +287,11 @@ pub(crate) struct ReproduceArgs {
     /// only when the budget covers every run as declared.
     #[arg(long)]
     heavy: bool,
+    /// A hard limit on the runs' wall time (`7m`, `450s`): a run still going then is ended
+    /// (its finished rows kept), runs not yet started are left out, and the claims and the
+    /// report are made from what is there (the budget plans; this stops).
+    #[arg(long)]
+    deadline: Option<String>,
     #[arg(long, short)]
     quiet: bool,
 }

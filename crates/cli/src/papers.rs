@@ -77,6 +77,7 @@ impl ReproduceArgs {
             sets,
             adapter,
             heavy,
+            deadline,
             quiet,
         } = self;
         let (paper, budget, claims_dir) = (paper.as_str(), budget.as_str(), claims_dir.as_path());
@@ -92,6 +93,20 @@ impl ReproduceArgs {
         if budget_s <= 0.0 {
             bail!("--budget {budget}: must be more than zero");
         }
+        let deadline_s = match &deadline {
+            None => None,
+            Some(d) => {
+                let s = humantime::parse_duration(d)
+                    .with_context(|| {
+                        format!("--deadline {d}: expected a duration such as 7m, 450s")
+                    })?
+                    .as_secs_f64();
+                if s <= 0.0 {
+                    bail!("--deadline {d}: must be more than zero");
+                }
+                Some(s)
+            }
+        };
         let papers = claims_files(paper, claims_dir)?;
         if let Some(o) = &out {
             out_folder(o)?;
@@ -119,6 +134,7 @@ impl ReproduceArgs {
             adapter,
             budget_text: budget.to_owned(),
             heavy,
+            deadline_s,
             quiet,
         };
         let reports = reproduce::reproduce(&opts, &HarnessRuns)?;
@@ -188,6 +204,18 @@ impl CompareArgs {
 /// or `all` (every claims file there with runs).
 fn claims_files(paper: &str, claims_dir: &Path) -> Result<Vec<PathBuf>> {
     use tb_claims::reproduce;
+    if paper.contains(',') {
+        // Papers in this order (`all` adds the ones not named yet), each once.
+        let mut papers: Vec<PathBuf> = Vec::new();
+        for part in paper.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+            for p in claims_files(part, claims_dir)? {
+                if !papers.contains(&p) {
+                    papers.push(p);
+                }
+            }
+        }
+        return Ok(papers);
+    }
     let papers = if paper == "all" {
         reproduce::papers_in(claims_dir)?
     } else if Path::new(paper).is_file() {
@@ -239,6 +267,13 @@ impl tb_claims::reproduce::Runs for HarnessRuns {
         cmd: &mut std::process::Command,
     ) -> std::io::Result<(std::process::ExitStatus, Option<i32>)> {
         child::run(cmd)
+    }
+    fn run_until(
+        &self,
+        cmd: &mut std::process::Command,
+        deadline: Option<std::time::Instant>,
+    ) -> std::io::Result<(std::process::ExitStatus, Option<i32>, bool)> {
+        child::run_until(cmd, deadline)
     }
     fn ended(&self, st: &std::process::ExitStatus) -> String {
         child::ended(st)

@@ -358,3 +358,81 @@ fn the_thread_clock_times_the_same_rows() {
         "{err}"
     );
 }
+
+/// `--deadline`: a run still going at the deadline is ended with its finished rows kept, the
+/// runs after it are left out, and the claims and the report are made from what is there
+/// (the GPU reference's guard against its device's time limit).
+#[test]
+fn a_deadline_ends_the_runs_and_still_reports() {
+    let t = tempfile::tempdir().unwrap();
+    // Many rows of a few hundred ms each on two cores: far longer than the deadline.
+    let slow = CONFIG.replace("repeat = 3", "repeat = 40").replace(
+        "rays = [\"primary\"]",
+        "rays = [\"primary\"]\ncamera = { width = 512, height = 512 }",
+    );
+    let cfg = t.path().join("slow.toml");
+    fs::write(&cfg, slow).unwrap();
+    let claims = t.path().join("slow-paper.toml");
+    fs::write(
+        &claims,
+        format!(
+            r#"
+paper = "A slow paper"
+
+[[run]]
+config = "{cfg}"
+cost_s = 5
+
+[[run]]
+exec = ["weights", "--csv", "{{out}}/weights.csv"]
+cost_s = 0
+
+[[claim]]
+id = "restart-revisits"
+where = "Table 9"
+text = "restart visits more nodes than the recursive walk"
+paper = "more"
+measure = "interior_per_ray"
+rows.rec = {{ traversal = "recursive-direction" }}
+rows.restart = {{ traversal = "restart" }}
+test = {{ kind = "order", rows = ["rec", "restart"], strict = true }}
+"#,
+            cfg = cfg.display()
+        ),
+    )
+    .unwrap();
+    let out = t.path().join("report");
+    let started = std::time::Instant::now();
+    let o = Command::new(env!("CARGO_BIN_EXE_trace-bench"))
+        .current_dir(t.path())
+        .args([
+            "reproduce",
+            claims.to_str().unwrap(),
+            "--deadline",
+            "3s",
+            "-q",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let took = started.elapsed().as_secs_f64();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(took < 20.0, "took {took:.1} s\n{stderr}");
+    // A run ended at the deadline is a failed run: exit 1, and the report is written.
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    let report = fs::read_to_string(out.join("REPORT.md")).unwrap();
+    assert!(
+        report.contains("ended at the --deadline of 3 s"),
+        "{report}"
+    );
+    assert!(
+        report.contains("not made: the --deadline of 3 s had passed"),
+        "{report}"
+    );
+    assert!(!out.join("weights.csv").exists());
+    // The verdicts are written, from the rows the ended run finished (or none).
+    let v: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(out.join("verdicts.json")).unwrap()).unwrap();
+    assert_eq!(v["papers"][0]["claims"][0]["id"], "restart-revisits", "{v}");
+}

@@ -52,6 +52,10 @@ pub struct Options {
     pub budget_text: String,
     /// Make the `heavy` runs whatever the budget (`--heavy`).
     pub heavy: bool,
+    /// Seconds after the start at which a run still going is ended (its finished rows kept)
+    /// and no further run is started (`--deadline`); the claims and the report are made
+    /// either way.
+    pub deadline_s: Option<f64>,
     pub quiet: bool,
 }
 
@@ -504,9 +508,12 @@ pub fn reproduce(opts: &Options, runner: &dyn Runs) -> Result<Vec<PaperReport>, 
         figures::check(&py).map(|()| py)
     });
     let mut reports = Vec::new();
+    let deadline = opts
+        .deadline_s
+        .map(|s| started + std::time::Duration::from_secs_f64(s));
     for (path, file, mut runs) in planned {
         for r in &mut runs {
-            make_run(r, opts, runner)?;
+            make_run(r, opts, runner, deadline)?;
             r.spread = spread(&r.folder);
         }
         // A run that failed before writing a row (its folder may hold its processes' empty
@@ -658,7 +665,12 @@ fn preflight(
 }
 
 /// Make one planned run (or reuse its folder); a failed run is recorded, a signal is an error.
-fn make_run(r: &mut PlannedRun, opts: &Options, runner: &dyn Runs) -> Result<(), Error> {
+fn make_run(
+    r: &mut PlannedRun,
+    opts: &Options,
+    runner: &dyn Runs,
+    deadline: Option<Instant>,
+) -> Result<(), Error> {
     if let Some(sig) = runner.received() {
         return Err(interrupted(sig, None, opts, runner));
     }
@@ -690,6 +702,19 @@ fn make_run(r: &mut PlannedRun, opts: &Options, runner: &dyn Runs) -> Result<(),
         }
         return Ok(());
     }
+    if deadline.is_some_and(|d| Instant::now() >= d) {
+        r.left_out = Some(format!(
+            "not made: the --deadline of {:.0} s had passed",
+            opts.deadline_s.unwrap_or(0.0)
+        ));
+        eprintln!(
+            "reproduce: {} {}: {}",
+            r.paper,
+            r.label,
+            r.left_out.as_deref().unwrap_or("")
+        );
+        return Ok(());
+    }
     let mut args = r.args.clone();
     if r.args.first().is_some_and(|a| a == "run") && r.folder.join("results.json").exists() {
         args.push("--resume".into());
@@ -710,7 +735,7 @@ fn make_run(r: &mut PlannedRun, opts: &Options, runner: &dyn Runs) -> Result<(),
     let t = Instant::now();
     let mut cmd = Command::new(&opts.exe);
     cmd.args(&args).stdout(std::process::Stdio::null());
-    let (st, sig) = match runner.run(&mut cmd) {
+    let (st, sig, cut) = match runner.run_until(&mut cmd, deadline) {
         Ok(x) => x,
         Err(e) => {
             r.failed = Some(format!("did not start: {e}"));
@@ -728,7 +753,12 @@ fn make_run(r: &mut PlannedRun, opts: &Options, runner: &dyn Runs) -> Result<(),
     if let Some(sig) = sig {
         return Err(interrupted(sig, Some(r), opts, runner));
     }
-    if !st.success() {
+    if cut {
+        r.failed = Some(format!(
+            "ended at the --deadline of {:.0} s (its finished rows are kept; --out resumes it)",
+            opts.deadline_s.unwrap_or(0.0)
+        ));
+    } else if !st.success() {
         r.failed = Some(runner.ended(&st));
     }
     if !opts.quiet || r.failed.is_some() {
@@ -805,6 +835,7 @@ mod tests {
             adapter: None,
             budget_text: String::new(),
             heavy: false,
+            deadline_s: None,
             quiet: true,
         }
     }

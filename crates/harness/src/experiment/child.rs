@@ -65,6 +65,15 @@ const GRACE: Duration = Duration::from_secs(5);
 /// Run `cmd` in its own process group to its end, or until a signal reaches reproduce: then
 /// end the group, wait for it, and return the signal beside the run's status.
 pub fn run(cmd: &mut Command) -> std::io::Result<(ExitStatus, Option<i32>)> {
+    run_until(cmd, None).map(|(st, sig, _)| (st, sig))
+}
+
+/// [`run`] with a deadline: a child still running at `deadline` is ended as on a signal
+/// (SIGTERM to its group, SIGKILL after [`GRACE`]), and the third value says so.
+pub fn run_until(
+    cmd: &mut Command,
+    deadline: Option<Instant>,
+) -> std::io::Result<(ExitStatus, Option<i32>, bool)> {
     #[cfg(unix)]
     {
         use std::os::unix::process::CommandExt;
@@ -81,11 +90,15 @@ pub fn run(cmd: &mut Command) -> std::io::Result<(ExitStatus, Option<i32>)> {
     let mut child = cmd.spawn()?;
     loop {
         if let Some(st) = child.try_wait()? {
-            return Ok((st, received()));
+            return Ok((st, received(), false));
         }
         if let Some(sig) = received() {
             end(&mut child);
-            return Ok((child.wait()?, Some(sig)));
+            return Ok((child.wait()?, Some(sig), false));
+        }
+        if deadline.is_some_and(|d| Instant::now() >= d) {
+            end(&mut child);
+            return Ok((child.wait()?, None, true));
         }
         std::thread::sleep(Duration::from_millis(50));
     }
