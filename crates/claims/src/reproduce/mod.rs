@@ -19,9 +19,12 @@ use super::schema::{ClaimKind, ClaimsFile, RunSpec};
 use crate::Error;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 mod report;
+mod stop;
+
+use stop::{interrupted, past_deadline};
 
 pub use crate::runs::Runs;
 pub use report::*;
@@ -510,7 +513,7 @@ pub fn reproduce(opts: &Options, runner: &dyn Runs) -> Result<Vec<PaperReport>, 
     let mut reports = Vec::new();
     let deadline = opts
         .deadline_s
-        .map(|s| started + std::time::Duration::from_secs_f64(s));
+        .map(|s| started + Duration::from_secs_f64(s));
     for (path, file, mut runs) in planned {
         for r in &mut runs {
             make_run(r, opts, runner, deadline)?;
@@ -578,10 +581,7 @@ pub fn reproduce(opts: &Options, runner: &dyn Runs) -> Result<Vec<PaperReport>, 
             opts.budget_text
         );
     }
-    let notice = match plot {
-        Some(Err(why)) => Some(why),
-        _ => None,
-    };
+    let notice = plot.and_then(Result::err);
     write_report(opts, &reports, &start_time, wall, notice.as_deref())?;
     Ok(reports)
 }
@@ -702,17 +702,7 @@ fn make_run(
         }
         return Ok(());
     }
-    if deadline.is_some_and(|d| Instant::now() >= d) {
-        r.left_out = Some(format!(
-            "not made: the --deadline of {:.0} s had passed",
-            opts.deadline_s.unwrap_or(0.0)
-        ));
-        eprintln!(
-            "reproduce: {} {}: {}",
-            r.paper,
-            r.label,
-            r.left_out.as_deref().unwrap_or("")
-        );
+    if past_deadline(r, opts, deadline) {
         return Ok(());
     }
     let mut args = r.args.clone();
@@ -753,14 +743,14 @@ fn make_run(
     if let Some(sig) = sig {
         return Err(interrupted(sig, Some(r), opts, runner));
     }
-    if cut {
-        r.failed = Some(format!(
+    r.failed = if cut {
+        Some(format!(
             "ended at the --deadline of {:.0} s (its finished rows are kept; --out resumes it)",
             opts.deadline_s.unwrap_or(0.0)
-        ));
-    } else if !st.success() {
-        r.failed = Some(runner.ended(&st));
-    }
+        ))
+    } else {
+        (!st.success()).then(|| runner.ended(&st))
+    };
     if !opts.quiet || r.failed.is_some() {
         eprintln!(
             "reproduce: {} {} done in {:.0} s{}",
@@ -774,25 +764,6 @@ fn make_run(
         );
     }
     Ok(())
-}
-
-/// The error of a reproduce ended by signal `sig` (in run `r`, which was ended).
-fn interrupted(sig: i32, r: Option<&PlannedRun>, opts: &Options, runner: &dyn Runs) -> Error {
-    let run = r
-        .map(|r| {
-            format!(
-                "ended the run {} {} (its finished rows stay in {}); ",
-                r.paper,
-                r.label,
-                r.folder.display()
-            )
-        })
-        .unwrap_or_default();
-    Error::Other(format!(
-        "reproduce: interrupted by {}: {run}no report written; rerun with --out {} to resume",
-        runner.signal_name(sig),
-        opts.out.display()
-    ))
 }
 
 #[cfg(test)]
