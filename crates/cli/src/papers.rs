@@ -85,28 +85,11 @@ impl ReproduceArgs {
         if let Some(s) = sets.iter().find(|s| !s.contains('=')) {
             bail!("--set {s}: expected KEY=VALUE (e.g. run.validate=64)");
         }
-        let budget_s = humantime::parse_duration(budget)
-            .with_context(|| {
-                format!("--budget {budget}: expected a duration such as 10m, 90s, 1h")
-            })?
-            .as_secs_f64();
-        if budget_s <= 0.0 {
-            bail!("--budget {budget}: must be more than zero");
-        }
-        let deadline_s = match &deadline {
-            None => None,
-            Some(d) => {
-                let s = humantime::parse_duration(d)
-                    .with_context(|| {
-                        format!("--deadline {d}: expected a duration such as 7m, 450s")
-                    })?
-                    .as_secs_f64();
-                if s <= 0.0 {
-                    bail!("--deadline {d}: must be more than zero");
-                }
-                Some(s)
-            }
-        };
+        let budget_s = seconds("--budget", budget)?;
+        let deadline_s = deadline
+            .as_deref()
+            .map(|d| seconds("--deadline", d))
+            .transpose()?;
         let papers = claims_files(paper, claims_dir)?;
         if let Some(o) = &out {
             out_folder(o)?;
@@ -202,6 +185,17 @@ impl CompareArgs {
 
 /// The claims files `reproduce PAPER` names: a paper's key under `claims_dir`, a claims file,
 /// or `all` (every claims file there with runs).
+/// The seconds of duration `text` given to `flag` (`10m`, `90s`, `1h`), more than zero.
+fn seconds(flag: &str, text: &str) -> Result<f64> {
+    let s = humantime::parse_duration(text)
+        .with_context(|| format!("{flag} {text}: expected a duration such as 10m, 90s, 1h"))?
+        .as_secs_f64();
+    if s <= 0.0 {
+        bail!("{flag} {text}: must be more than zero");
+    }
+    Ok(s)
+}
+
 fn claims_files(paper: &str, claims_dir: &Path) -> Result<Vec<PathBuf>> {
     use tb_claims::reproduce;
     if paper.contains(',') {

@@ -22,6 +22,18 @@ name = "kdtree"
 traversals = ["recursive-direction", "restart"]
 "#;
 
+/// A counter claim on [`CONFIG`]'s rows (placed in the claims files by `format!`).
+const RESTART_CLAIM: &str = r#"[[claim]]
+id = "restart-revisits"
+where = "Table 9"
+text = "restart visits more nodes than the recursive walk"
+paper = "more"
+measure = "interior_per_ray"
+rows.rec = { traversal = "recursive-direction" }
+rows.restart = { traversal = "restart" }
+test = { kind = "order", rows = ["rec", "restart"], strict = true }
+"#;
+
 #[test]
 fn reproduce_runs_scales_and_reports() {
     let t = tempfile::tempdir().unwrap();
@@ -45,16 +57,7 @@ scalable = true
 exec = ["weights", "--csv", "{{out}}/weights.csv"]
 cost_s = 0
 
-[[claim]]
-id = "restart-revisits"
-where = "Table 9"
-text = "restart visits more nodes than the recursive walk"
-paper = "more"
-measure = "interior_per_ray"
-rows.rec = {{ traversal = "recursive-direction" }}
-rows.restart = {{ traversal = "restart" }}
-test = {{ kind = "order", rows = ["rec", "restart"], strict = true }}
-
+{RESTART_CLAIM}
 [[claim]]
 id = "gpu-only"
 where = "Table 9"
@@ -387,16 +390,7 @@ cost_s = 5
 exec = ["weights", "--csv", "{{out}}/weights.csv"]
 cost_s = 0
 
-[[claim]]
-id = "restart-revisits"
-where = "Table 9"
-text = "restart visits more nodes than the recursive walk"
-paper = "more"
-measure = "interior_per_ray"
-rows.rec = {{ traversal = "recursive-direction" }}
-rows.restart = {{ traversal = "restart" }}
-test = {{ kind = "order", rows = ["rec", "restart"], strict = true }}
-"#,
+{RESTART_CLAIM}"#,
             cfg = cfg.display()
         ),
     )
@@ -435,4 +429,19 @@ test = {{ kind = "order", rows = ["rec", "restart"], strict = true }}
     let v: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(out.join("verdicts.json")).unwrap()).unwrap();
     assert_eq!(v["papers"][0]["claims"][0]["id"], "restart-revisits", "{v}");
+    // A deadline that is no duration, or none, is refused in one line before any run.
+    for (bad, why) in [
+        ("soon", "expected a duration"),
+        ("0s", "must be more than zero"),
+    ] {
+        let o = Command::new(env!("CARGO_BIN_EXE_trace-bench"))
+            .current_dir(t.path())
+            .args(["reproduce", claims.to_str().unwrap(), "--deadline", bad])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(err.contains(&format!("--deadline {bad}: {why}")), "{err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+    }
 }

@@ -228,12 +228,6 @@ fn quantize(n: &mut CwNode, s: usize, b: &Aabb) -> Result<(), AccelError> {
     Ok(())
 }
 
-/// The octant of direction `d` as [`tb_core::slab::RayBox::new`] numbers it (for tests).
-#[cfg(test)]
-pub(crate) fn octant(d: tb_core::Vec3) -> usize {
-    (d.x < 0.0) as usize | ((d.y < 0.0) as usize) << 1 | ((d.z < 0.0) as usize) << 2
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -306,7 +300,8 @@ mod tests {
                 if k & 2 != 0 { -1.0 } else { 1.0 },
                 if k & 4 != 0 { -1.0 } else { 1.0 },
             );
-            assert_eq!(s, octant(d), "box {k}");
+            let (_, octant) = tb_core::slab::RayBox::new(&tb_core::Ray::new(Vec3::ZERO, d));
+            assert_eq!(s, octant as usize, "box {k}");
         }
     }
 

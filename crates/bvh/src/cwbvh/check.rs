@@ -163,7 +163,7 @@ impl Cwbvh {
     /// collapsed from), `bytes_per_triangle` (nodes and references a scene triangle).
     pub(crate) fn report_figures(&self) -> BuildReport {
         let f = self.figures();
-        let node_bytes = std::mem::size_of_val(self.nodes.as_slice()) + 4 * self.prim_ids.len();
+        let structure = tb_core::Structure::own_memory(self).structure_bytes;
         BuildReport {
             sah_cost: self.sah,
             extra: vec![
@@ -181,7 +181,7 @@ impl Cwbvh {
                 ("binary_nodes".into(), self.binary_nodes as f64),
                 (
                     "bytes_per_triangle".into(),
-                    node_bytes as f64 / self.n_scene.max(1) as f64,
+                    structure as f64 / self.n_scene.max(1) as f64,
                 ),
             ],
         }

@@ -181,12 +181,7 @@ pub static FAMILY: Family = Family::new::<Cwbvh, CwbvhParams>(
      collapsed SAH-optimally into 8-wide nodes with leaves of at most `max_leaf` = 3 triangles, \
      children ordered per ray octant, child boxes quantized to 8 bits in 80-byte nodes; node- and \
      triangle-group stack traversal (Ylitie, Karras and Laine 2017)",
-    |tris, set| {
-        build_with(set, |p: &CwbvhParams| {
-            tb_core::ParamRules::check_all(p, "cwbvh")?;
-            Cwbvh::try_build(tris, p)
-        })
-    },
+    |tris, set| build_with(set, |p: &CwbvhParams| Cwbvh::try_build(tris, p)),
 )
 .with_summary("compressed 8-wide BVH, 80-byte quantized nodes (Ylitie, Karras and Laine 2017)")
 .with_rules::<CwbvhParams>();
@@ -209,17 +204,16 @@ pub struct Cwbvh {
 }
 
 impl Cwbvh {
-    /// Build over `tris` with `params` (their ranges checked). An empty input gives an empty
-    /// tree (no nodes) that misses every ray.
+    /// Build over `tris` with `params`; panics where [`Cwbvh::try_build`] fails. An empty
+    /// input gives an empty tree (no nodes) that misses every ray.
     pub fn build(tris: &[Triangle], params: &CwbvhParams) -> Cwbvh {
-        if let Err(e) = tb_core::ParamRules::check_all(params, "cwbvh") {
-            panic!("{e}");
-        }
         Self::try_build(tris, params).unwrap_or_else(|e| panic!("{e}"))
     }
 
-    /// [`Cwbvh::build`] with an error instead of a panic.
+    /// [`Cwbvh::build`] with an error instead of a panic: parameters out of their ranges, or
+    /// too many triangles.
     pub fn try_build(tris: &[Triangle], params: &CwbvhParams) -> Result<Cwbvh, AccelError> {
+        tb_core::ParamRules::check_all(params, "cwbvh")?;
         build::build(tris, params)
     }
 

@@ -173,3 +173,17 @@ pub fn check_accel_against_oracle(
     );
     hits
 }
+
+/// Random soups of 1, 7, 300 and 1500 triangles (seeds from `k`, the parameter set's index)
+/// with their rays, each given to `check` (the oracle's hit count back): the soups of 300 and
+/// more must give over 100 hits, so the comparison is not vacuous.
+pub fn for_random_soups(k: usize, check: &dyn Fn(&[Triangle], &[Ray]) -> usize) {
+    for (n, size) in [(1usize, 0.5f32), (7, 0.5), (300, 0.1), (1500, 0.05)] {
+        let tris = soup(n, 1.0, size, Vec3::ZERO, 10 + k as u64 + n as u64);
+        let rays = rays(&tris, 1500, 99 + n as u64);
+        let hits = check(&tris, &rays);
+        if n >= 300 {
+            assert!(hits > 100, "too few hits ({hits}) to mean anything");
+        }
+    }
+}
