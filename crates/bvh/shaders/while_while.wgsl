@@ -31,7 +31,7 @@ fn pop(stack: ptr<function, array<u32, STACK_SIZE>>, sp: ptr<function, u32>, nod
 // Aila and Laine's kernel with its postponed leaf: the first leaf reached is set aside and the
 // walk goes on through interior nodes until `all_lanes` says every active lane of the subgroup
 // has a leaf set aside (speculative traversal), then the leaves are tested. `all_lanes` is
-// the subgroup vote in `bvh/while-while-speculative` (speculative.wgsl) and the lane's own
+// the subgroup vote in `bvh/while-while-speculative` (subgroup.wgsl) and the lane's own
 // value in `bvh/while-while` (solo.wgsl): a subgroup of one, which visits the nodes in the
 // CPU walk's order.
 fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {

@@ -71,12 +71,12 @@ impl Bvh {
     }
 
     /// The GPU program of `while-while-speculative`: [`Bvh::gpu_while_while`]'s with the
-    /// subgroup vote of `shaders/speculative.wgsl` (Aila and Laine 2009's speculative
+    /// subgroup vote of `shaders/subgroup.wgsl` (Aila and Laine 2009's speculative
     /// traversal), so its counters depend on the other rays of the subgroup.
     pub(crate) fn gpu_while_while_speculative(&self) -> GpuProgram<'_> {
         self.while_while(
             "bvh/while-while-speculative",
-            include_str!("../shaders/speculative.wgsl"),
+            include_str!("../shaders/subgroup.wgsl"),
         )
         .in_subgroups()
         .own_counts(

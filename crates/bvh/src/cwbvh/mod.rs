@@ -29,8 +29,10 @@
 //! rounding, checked at build time to contain the child) and tested with tb-core's robust slab
 //! test (Ize 2013), not the authors' fused-multiply-add form on the quantized values, so that
 //! the walk agrees with the oracle on the stress scenes; the triangle test is the run's; the
-//! GPU program has no triangle postponing (the authors' heuristic that defers a lane's
-//! triangles while few lanes of the warp have any) and stores uncompressed stack entries.
+//! GPU programs store uncompressed stack entries. The authors' triangle postponing (a lane's
+//! triangles wait on its stack while few lanes of the warp test triangles) is the traversal
+//! `node-groups-postponing` (run on request, GPU rows only: on the CPU a ray is a subgroup of
+//! one, which never postpones); its threshold, 20 %, is the share reimplementations use.
 //! The cost constants `C_node = 1`, `C_prim = 0.3` are the commonly reimplemented reading of
 //! the authors' SAH (parameters here).
 //!
@@ -240,7 +242,8 @@ impl Cwbvh {
 
 impl Structure for Cwbvh {
     const NAME: &'static str = "cwbvh";
-    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::with_gpu(
+    const TRAVERSALS: &'static [Traversal<Self>] = &[
+        Traversal::with_gpu(
         TraversalInfo::new(
             "node-groups",
             "Ylitie, Karras and Laine 2017 §4",
@@ -251,6 +254,21 @@ impl Structure for Cwbvh {
         ),
         tb_core::kernel!(|b: &Cwbvh, batch, out| dispatch(&walk::NodeGroups(b), batch, out)),
         Cwbvh::gpu_node_groups,
+    ),
+    Traversal::with_gpu(
+        TraversalInfo::new(
+            "node-groups-postponing",
+            "Ylitie, Karras and Laine 2017 §4",
+            "`node-groups` with the authors' triangle postponing on the GPU: a ray's triangle \
+             group waits on its stack while fewer than a fifth of its subgroup's lanes test \
+             triangles (a subgroup ballot; needs the adapter's subgroups); the GPU rows' counters \
+             are the GPU's own. On the CPU, a subgroup of one ray: `node-groups` itself, so runs \
+             make no CPU rows of it (Ylitie, Karras and Laine 2017 §4)",
+        )
+        .on_request()
+        .cpu_as("node-groups"),
+        tb_core::kernel!(|b: &Cwbvh, batch, out| dispatch(&walk::NodeGroups(b), batch, out)),
+        Cwbvh::gpu_node_groups_postponing,
     )];
 
     /// The nodes (80 bytes each), the triangles in node order and their primitive ids;
