@@ -218,10 +218,12 @@ fn voxel_at(w: WalkRay, l: Lat, t: real) -> vec3<u32> {
 }
 
 // WalkRay::exits and argmin3: the axis and distance of the nearest far plane of the box of
-// voxels lo..hi (ties to the lower axis; +inf on axes the ray is parallel to).
+// voxels lo..hi (ties to the lower axis; +inf on axes the ray is parallel to), and every
+// axis's far-plane distance (`ts`, for advance_ties).
 struct Exit {
     axis: u32,
     t: real,
+    ts: vec3<real>,
 }
 
 fn exit(w: WalkRay, l: Lat, lo: vec3<u32>, hi: vec3<u32>) -> Exit {
@@ -241,7 +243,7 @@ fn exit(w: WalkRay, l: Lat, lo: vec3<u32>, hi: vec3<u32>) -> Exit {
             k = a;
         }
     }
-    return Exit(k, t[k]);
+    return Exit(k, t[k], t);
 }
 
 // tb_grid::common::VoxelLine: the ray in voxel units of lattice `l`, `base + t·slope` per
@@ -282,6 +284,32 @@ fn advance(w: WalkRay, l: Lat, line: Line, t: real, axis: u32, v: vec3<u32>, lo:
         }
     }
     return Next(n, true);
+}
+
+// WalkRay::advance_ties: the authors' step (hagrid) from voxel `v` leaving the box lo..hi at
+// `e.t`: every axis whose far plane lies at `e.t` steps past the box, the others take the exit
+// point's voxel (clamped to the lattice, not to the box) and never go back.
+fn advance_ties(w: WalkRay, l: Lat, line: Line, e: Exit, v: vec3<u32>, lo: vec3<u32>, hi: vec3<u32>) -> Next {
+    var n = v;
+    var out = false;
+    for (var a = 0u; a < 3u; a++) {
+        let forward = w.d[a] > real(0.0);
+        var layer = lo[a] - 1u;
+        var outside = lo[a] == 0u;
+        if forward {
+            layer = hi[a];
+            outside = hi[a] >= l.res[a];
+        }
+        var along = v[a];
+        if w.d[a] != real(0.0) {
+            let p = voxel_scaled(l, a, line.base[a] + e.t * line.slope[a]);
+            along = select(min(p, v[a]), max(p, v[a]), forward);
+        }
+        let tie = e.ts[a] == e.t;
+        n[a] = select(along, layer, tie);
+        out = out || (tie && outside);
+    }
+    return Next(n, !out);
 }
 
 // Whether the walk goes on after a cell whose box exits at `e`: the closest hit so far lies

@@ -6,6 +6,9 @@
 // per top cell `D << 28 | index` of its second level, then the second levels), the cells
 // (`cells`, 8 words each: lo, begin, hi, end, read as two 16-byte loads) and the references
 // (`refs`).
+// `TIES` (a constant the program's source declares first): program
+// `irregular-grid/walk-hagrid`, the authors' step (grid.wgsl's advance_ties) instead of the
+// monotone advance.
 // Counters: cells and steps per cell visited, prims per test.
 
 @group(0) @binding(6) var<storage, read> vmap: array<u32>;
@@ -50,7 +53,12 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
         // the cell's references, which they do not depend on; then the tests of the walk's
         // end, after the references, as the CPU walk makes them (the same cells and counts).
         let x = exit(w, base, lo, hi);
-        let n = advance(w, base, line, x.t, x.axis, v, lo, hi);
+        var n: Next;
+        if TIES {
+            n = advance_ties(w, base, line, x, v, lo, hi);
+        } else {
+            n = advance(w, base, line, x.t, x.axis, v, lo, hi);
+        }
         if test_refs(p, r, a.w, b.w, &best, st) {
             break;
         }

@@ -236,6 +236,76 @@ impl<F: Real> WalkRay<F> {
     }
 }
 
+impl<F: Real> WalkRay<F> {
+    /// The step of the authors' code (hagrid's `traverse.cu`, Pérard-Gayot et al.), a reading
+    /// of §5 step d, "find the next virtual base grid position based on the exit distance",
+    /// which the paper leaves open; [`WalkRay::advance`] is the other. Leaving the box of
+    /// voxels `lo..hi` at `t`, the least of the far-plane distances `exits`
+    /// ([`WalkRay::exits`]), from voxel `v`:
+    ///
+    /// - every axis whose far plane lies at `t` (`exits[a] == t`, a tie in the walk's
+    ///   arithmetic) steps to the first layer past the box: a ray leaving through an edge or a
+    ///   corner steps diagonally, past the cells that only touch it there (`advance` steps one
+    ///   axis and visits them);
+    /// - the other axes take the exit point's voxel, not clamped into the box's range (so a
+    ///   rounding past a box's side also steps across it), and never behind `v` (§5's
+    ///   `max`/`min` with the previous position);
+    /// - `None` when a stepped axis leaves the lattice (hagrid tests all three axes after the
+    ///   step).
+    ///
+    /// One difference from hagrid, for the robustness the oracle tests hold every walk to: the
+    /// exit point's voxel is clamped to the lattice ([`Lattice::voxel_scaled`], as in
+    /// `advance`), where hagrid's integer conversion of a point rounded just outside a side
+    /// face would end the walk there, before cells the ray still crosses. Each stepped axis
+    /// moves strictly forward and no axis backwards, so walks end as `advance`'s do. A cell
+    /// skipped by a tie or a rounding is crossed by the ray only within the walk's rounding of
+    /// the visited cell's box, whose references hold every triangle within the margin
+    /// ([`Lattice::delta`]; module doc).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn advance_ties(
+        &self,
+        lat: &Lattice<F>,
+        line: &VoxelLine<F>,
+        t: F,
+        exits: [F; 3],
+        v: [u32; 3],
+        lo: [u32; 3],
+        hi: [u32; 3],
+    ) -> Option<[u32; 3]> {
+        let mut n = v;
+        let mut out = false;
+        for a in 0..3 {
+            let forward = self.d[a] > F::ZERO;
+            let (layer, outside) = if forward {
+                (hi[a], hi[a] >= lat.res[a])
+            } else {
+                (lo[a].wrapping_sub(1), lo[a] == 0)
+            };
+            let along = if self.d[a] == F::ZERO {
+                v[a]
+            } else {
+                let p = lat.voxel_scaled(a, line.base[a] + t * line.slope[a]);
+                if forward {
+                    p.max(v[a])
+                } else {
+                    p.min(v[a])
+                }
+            };
+            // A parallel axis's distance is +inf, never `t` (the walk ended before an
+            // infinite exit).
+            let tie = exits[a] == t;
+            n[a] = select_unpredictable(tie, layer, along);
+            out |= tie & outside;
+        }
+        if out {
+            None
+        } else {
+            Some(n)
+        }
+    }
+}
+
 /// What visiting a cell tells the walk: the cell's box in voxels (`lo..hi`, exclusive; it
 /// holds the visited voxel) and the closest hit distance so far, or `Stop` (an any-hit query
 /// found one).
@@ -257,19 +327,23 @@ pub enum Visit {
 /// Terminates by the monotonicity of `advance`.
 #[inline(always)]
 pub fn walk<F: Real>(w: &WalkRay<F>, lat: &Lattice<F>, visit: impl FnMut([u32; 3]) -> Visit) {
-    walk_by::<F, false>(w, lat, |a, i| lat.plane(a, i), visit)
+    walk_by::<F, false, false>(w, lat, |a, i| lat.plane(a, i), visit)
 }
 
 /// [`walk`] with the planes' positions given by `plane(axis, index)`, equal to
 /// [`Lattice::plane`]'s (a [`Planes`] table), and the exit axis chosen by selection when
 /// `SELECT` ([`argmin3`], [`WalkRay::advance`]; the same cells either way).
 ///
+/// With `TIES` the step is the authors' code's ([`WalkRay::advance_ties`]: every axis tied
+/// for the exit steps, side axes unclamped to the box) instead of [`WalkRay::advance`]; the
+/// end tests are the same.
+///
 /// Selection pays where the exit axis is unpredictable: the irregular and uniform grids'
 /// shadow, AO and random rays trace 0-18 % faster with it, their primary rays -2..+2 %
 /// (Conference, Sibenik, Sponza, one thread, two interleaved runs; docs/PERFORMANCE.md). The
 /// two-level grid's nested walks lost about a fifth with it and keep the branches.
 #[inline(always)]
-pub fn walk_by<F: Real, const SELECT: bool>(
+pub fn walk_by<F: Real, const SELECT: bool, const TIES: bool>(
     w: &WalkRay<F>,
     lat: &Lattice<F>,
     plane: impl Fn(usize, u32) -> F,
@@ -281,11 +355,17 @@ pub fn walk_by<F: Real, const SELECT: bool>(
         let Visit::Continue { lo, hi, best } = visit(v) else {
             return;
         };
-        let (axis, t_exit) = argmin3::<F, SELECT>(w.exits(&plane, lo, hi));
+        let exits = w.exits(&plane, lo, hi);
+        let (axis, t_exit) = argmin3::<F, SELECT>(exits);
         if F::of32(best) <= t_exit || t_exit >= w.t1 {
             return;
         }
-        match w.advance::<SELECT>(lat, &line, t_exit, axis, v, lo, hi) {
+        let next = if TIES {
+            w.advance_ties(lat, &line, t_exit, exits, v, lo, hi)
+        } else {
+            w.advance::<SELECT>(lat, &line, t_exit, axis, v, lo, hi)
+        };
+        match next {
             Some(n) => v = n,
             None => return,
         }
@@ -296,10 +376,10 @@ pub fn walk_by<F: Real, const SELECT: bool>(
 /// the ray entered into `lat` ([`enter`]), then [`walk_by`] over its `planes`, each visited
 /// voxel `v` counted (a cell and a step) and resolved by `cell` to its references (a range of
 /// `refs`) and its box in voxels `lo..hi`, which are tested ([`test_refs`]) before the walk
-/// leaves the box through its far planes.
+/// leaves the box through its far planes; with `TIES`, by the authors' step ([`walk_by`]).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)] // a hot walk: the grids' arrays by reference
-pub fn cell_walk<T: TriTest, C: Counter, const ANY: bool, F: Real>(
+pub fn cell_walk<T: TriTest, C: Counter, const ANY: bool, const TIES: bool, F: Real>(
     ray: &Ray,
     lat: &Lattice<F>,
     planes: &Planes<F>,
@@ -315,7 +395,7 @@ pub fn cell_walk<T: TriTest, C: Counter, const ANY: bool, F: Real>(
     let pre = T::prepare(ray);
     let mut hit = HitRecord::MISS;
     let mut best = ray.tmax;
-    walk_by::<F, true>(
+    walk_by::<F, true, TIES>(
         &w,
         lat,
         |a, i| planes.get(a, i),
@@ -485,6 +565,61 @@ mod tests {
             resolution([1.0; 3], 1, 0.1, Rounding::Truncate, 1024, 1 << 30),
             [1, 1, 1]
         );
+    }
+
+    /// The two readings of §5 step d on a 4³ unit lattice, from voxel 0 whose cell is that
+    /// voxel: at a corner (every far plane at the exit distance) `advance` steps the first
+    /// axis only and `advance_ties` every axis; past a side face by a rounding (the exit
+    /// point's y just beyond the cell) `advance` clamps y into the cell, `advance_ties` does
+    /// not; both stop where a stepped axis leaves the lattice.
+    #[test]
+    fn the_authors_step_takes_ties_and_unclamped_sides() {
+        let lat = Lattice::new(
+            &tb_core::Aabb::new(Vec3::ZERO, Vec3::splat(4.0)),
+            [4; 3],
+            crate::Precision::F64,
+        );
+        let ray = Ray::new(Vec3::ZERO, Vec3::ONE);
+        let w = WalkRay::<f64>::clip(&ray, &lat).expect("inside");
+        let line = w.voxel_line(&lat);
+        let (v, lo, hi) = ([0; 3], [0; 3], [1; 3]);
+        let exits = w.exits(|a, i| lat.plane(a, i), lo, hi);
+        assert_eq!(exits, [1.0; 3]);
+        let (axis, t) = argmin3::<f64, false>(exits);
+        assert_eq!(
+            w.advance::<false>(&lat, &line, t, axis, v, lo, hi),
+            Some([1, 0, 0])
+        );
+        assert_eq!(
+            w.advance_ties(&lat, &line, t, exits, v, lo, hi),
+            Some([1, 1, 1])
+        );
+        // A ray leaving through x whose y at the exit lies a rounding past the cell's face:
+        // its y plane's distance, rounded up, came out behind x's.
+        let ray = Ray::new(Vec3::new(0.0, 0.5, 0.5), Vec3::new(1.0, 0.5 + 1e-6, 0.1));
+        let w = WalkRay::<f64>::clip(&ray, &lat).expect("inside");
+        let line = w.voxel_line(&lat);
+        let mut exits = w.exits(|a, i| lat.plane(a, i), lo, hi);
+        exits[1] = 1.0 + 1e-9;
+        let (axis, t) = argmin3::<f64, false>(exits);
+        assert_eq!((axis, t), (0, 1.0));
+        assert_eq!(
+            w.advance::<false>(&lat, &line, t, axis, v, lo, hi),
+            Some([1, 0, 0])
+        );
+        assert_eq!(
+            w.advance_ties(&lat, &line, t, exits, v, lo, hi),
+            Some([1, 1, 0])
+        );
+        // Leaving the lattice through a corner: both end.
+        let ray = Ray::new(Vec3::splat(3.5), Vec3::ONE);
+        let w = WalkRay::<f64>::clip(&ray, &lat).expect("inside");
+        let line = w.voxel_line(&lat);
+        let (v, lo, hi) = ([3; 3], [3; 3], [4; 3]);
+        let exits = w.exits(|a, i| lat.plane(a, i), lo, hi);
+        let (axis, t) = argmin3::<f64, false>(exits);
+        assert_eq!(w.advance::<false>(&lat, &line, t, axis, v, lo, hi), None);
+        assert_eq!(w.advance_ties(&lat, &line, t, exits, v, lo, hi), None);
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! The GPU programs of the grid traversals (`shaders/grid.wgsl` with `uniform.wgsl`,
 //! `two_level.wgsl` or `irregular.wgsl`, on tb-gpu's prelude; contract in `tb_core::gpu`):
-//! `uniform-grid/dda`, `two-level-grid/dda` and `irregular-grid/walk`. Construction stays on
+//! `uniform-grid/dda`, `two-level-grid/dda`, `irregular-grid/walk` and
+//! `irregular-grid/walk-hagrid` (one source with `TIES` set). Construction stays on
 //! the CPU (the paper builds on the GPU, §4; here the built arrays are uploaded unchanged); the
 //! kernels repeat the CPU walks step for step, with positions and plane distances in the
 //! grid's [`Precision`] (the source begins with `alias real = f32;` or `f64`). In `f32` (the
@@ -71,17 +72,23 @@ fn program<'a>(
     }
 }
 
-/// The two sources of a grid kind: `alias real = f32;` or `f64;`, grid.wgsl, then `$walk`.
+/// The two sources of a grid kind: `alias real = f32;` or `f64;`, the module constants
+/// `$consts` (none by default), grid.wgsl, then `$walk`.
 macro_rules! sources {
     ($walk:literal) => {
+        sources!($walk, "")
+    };
+    ($walk:literal, $consts:literal) => {
         [
             concat!(
                 "alias real = f32;\n",
+                $consts,
                 include_str!("../shaders/grid.wgsl"),
                 include_str!($walk)
             ),
             concat!(
                 "alias real = f64;\n",
+                $consts,
                 include_str!("../shaders/grid.wgsl"),
                 include_str!($walk)
             ),
@@ -172,9 +179,32 @@ impl IrregularGrid {
     /// the cells (lo, begin, hi, end: two 16-byte words for the kernel's vector loads), the
     /// references.
     pub(crate) fn gpu_walk(&self) -> GpuProgram<'_> {
-        program(
+        self.gpu_irregular(
             ["irregular-grid/walk", "irregular-grid/walk-f64"],
-            sources!("../shaders/irregular.wgsl"),
+            sources!("../shaders/irregular.wgsl", "const TIES = false;\n"),
+        )
+    }
+
+    /// `irregular-grid/walk-hagrid`: the same walk with the authors' step (`TIES`,
+    /// `grid.wgsl`'s `advance_ties`), the same buffers.
+    pub(crate) fn gpu_walk_hagrid(&self) -> GpuProgram<'_> {
+        self.gpu_irregular(
+            [
+                "irregular-grid/walk-hagrid",
+                "irregular-grid/walk-hagrid-f64",
+            ],
+            sources!("../shaders/irregular.wgsl", "const TIES = true;\n"),
+        )
+    }
+
+    fn gpu_irregular(
+        &self,
+        names: [&'static str; 2],
+        sources: [&'static str; 2],
+    ) -> GpuProgram<'_> {
+        program(
+            names,
+            sources,
             self.precision,
             &self.tris,
             vec![

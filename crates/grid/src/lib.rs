@@ -14,8 +14,9 @@
 //! - `irregular-grid` ([`IrregularGrid`]): the initial subdivision of §4.1 (`two-level`: a top
 //!   grid of density λ_1 with an octree per top cell from λ_2; or `uniform` at density λ_1, for
 //!   Table 5), SAH merging (§4.2, `merge`, `alpha`), expansion (§4.3, `expansion` passes) and
-//!   the traversal of §5 (`walk`). Every phase combination of Tables 1 and 5 is a parameter
-//!   set of this one structure.
+//!   the traversal of §5 (`walk`; `walk-hagrid`, on request, with the step of the authors'
+//!   code, the other reading of §5 step d). Every phase combination of Tables 1 and 5 is a
+//!   parameter set of this one structure.
 //!
 //! Separate structures rather than one with a `kind` choice: the kinds have different
 //! parameters (λ vs λ_1, λ_2, α), different memory layouts and different traversals, so a
@@ -48,7 +49,7 @@
 //! # GPU (module `gpu`)
 //!
 //! Each traversal has a WGSL kernel of its own (`shaders/`): `uniform-grid/dda`,
-//! `two-level-grid/dda` and `irregular-grid/walk`, the CPU walks step for step in the same
+//! `two-level-grid/dda`, `irregular-grid/walk` and `irregular-grid/walk-hagrid`, the CPU walks step for step in the same
 //! precision: in `f32` on every adapter (a driver contracting into FMAs may move a crossing by
 //! an ulp, which the margin covers), in `f64` as `…-f64` programs on adapters with
 //! `SHADER_F64` (refused elsewhere), hits and counters equal to the CPU's ray for ray.

@@ -107,7 +107,7 @@ impl UniformGrid {
         ray: &Ray,
         c: &mut C,
     ) -> HitRecord {
-        cell_walk::<T, C, ANY, F>(ray, lat, planes, &self.tris, &self.refs, c, |v| {
+        cell_walk::<T, C, ANY, false, F>(ray, lat, planes, &self.tris, &self.refs, c, |v| {
             let i = lat.index(v);
             let r = self.start[i] as usize..self.start[i + 1] as usize;
             if r.is_empty() && !self.macros.is_empty() {

@@ -101,12 +101,38 @@ fn configs() -> Vec<(String, Config)> {
                     walk: f64_walk,
                     ..p
                 }),
+                Config::Hagrid(p) => Config::Hagrid(IrregularParams {
+                    walk: f64_walk,
+                    ..p
+                }),
             };
             (format!("{l}-f64"), c)
         })
         .collect();
     assert_eq!(f64s.len(), 3);
     out.extend(f64s);
+    // The authors' step (traversal `walk-hagrid`) on the initial grid, after merge and
+    // expansion from either initial subdivision, on deep octrees and in f64.
+    let hagrid: Vec<_> = out
+        .iter()
+        .filter_map(|(l, c)| match *c {
+            Config::Irregular(p)
+                if [
+                    "irregular-two-level-m0-e0",
+                    "irregular-two-level-m1-e3",
+                    "irregular-uniform-m1-e3",
+                    "irregular-dense",
+                    "irregular-two-level-m1-e3-f64",
+                ]
+                .contains(&l.as_str()) =>
+            {
+                Some((format!("{l}-hagrid"), Config::Hagrid(p)))
+            }
+            _ => None,
+        })
+        .collect();
+    assert_eq!(hagrid.len(), 5);
+    out.extend(hagrid);
     out
 }
 
@@ -115,12 +141,15 @@ enum Config {
     Uniform(UniformParams),
     TwoLevel(TwoLevelParams),
     Irregular(IrregularParams),
+    /// The irregular grid traced by `walk-hagrid`.
+    Hagrid(IrregularParams),
 }
 
 enum Built {
     Uniform(UniformGrid),
     TwoLevel(TwoLevelGrid),
     Irregular(IrregularGrid),
+    Hagrid(IrregularGrid),
 }
 
 impl Built {
@@ -130,6 +159,7 @@ impl Built {
             Config::Uniform(p) => Built::Uniform(UniformGrid::build(&tris, &p).unwrap()),
             Config::TwoLevel(p) => Built::TwoLevel(TwoLevelGrid::build(&tris, &p).unwrap()),
             Config::Irregular(p) => Built::Irregular(IrregularGrid::build(&tris, &p).unwrap()),
+            Config::Hagrid(p) => Built::Hagrid(IrregularGrid::build(&tris, &p).unwrap()),
         };
         if let Err(e) = b.accel().validate() {
             panic!("validate: {e}");
@@ -140,14 +170,28 @@ impl Built {
         match self {
             Built::Uniform(g) => g,
             Built::TwoLevel(g) => g,
-            Built::Irregular(g) => g,
+            Built::Irregular(g) | Built::Hagrid(g) => g,
         }
+    }
+    /// The traversal under test: the kind's first, or `walk-hagrid`.
+    fn traversal(&self) -> usize {
+        match self {
+            Built::Hagrid(g) => g
+                .traversals()
+                .iter()
+                .position(|t| t.name == "walk-hagrid")
+                .expect("the irregular grid has walk-hagrid"),
+            _ => 0,
+        }
+    }
+    fn trace(&self, batch: Batch<'_>, out: Answers<'_>) {
+        self.accel().trace(self.traversal(), batch, out)
     }
     fn lattice(&self) -> &Lattice {
         match self {
             Built::Uniform(g) => g.lattice(),
             Built::TwoLevel(g) => g.lattice(),
-            Built::Irregular(g) => g.base_lattice(),
+            Built::Irregular(g) | Built::Hagrid(g) => g.base_lattice(),
         }
     }
 }
@@ -177,7 +221,7 @@ impl Accel for All {
     }
     fn prepare(&self, _: usize) {}
     fn trace(&self, t: usize, batch: Batch<'_>, out: Answers<'_>) {
-        self.0[t].accel().trace(0, batch, out)
+        self.0[t].trace(batch, out)
     }
     fn has_gpu_program(&self, _: usize) -> bool {
         false
@@ -235,8 +279,7 @@ fn rays_along_cell_faces_edges_and_corners() {
             let mut got = vec![HitRecord::MISS; rays.len()];
             let mut st = vec![TraversalStats::default(); rays.len()];
             let batch = Batch::new(Query::Closest, TriTestKind::Watertight, &rays);
-            b.accel()
-                .trace(0, batch, Answers::new(&mut got, Some(&mut st)));
+            b.trace(batch, Answers::new(&mut got, Some(&mut st)));
             let top = lat.res.iter().sum::<u32>();
             // A two-level walk also crosses each visited top cell's grid (at most 3 · 255 cells).
             let bound = if matches!(b, Built::TwoLevel(_)) {

@@ -1,7 +1,8 @@
 //! The grids' GPU programs (`shaders/grid.wgsl` with `uniform.wgsl`, `two_level.wgsl`,
-//! `irregular.wgsl`) against their CPU traversals, beyond the default builds that tb-harness's
-//! `gpu_oracle` checks: the uniform grid with and without macro regions, two two-level
-//! densities, and the irregular grid after each phase combination of Tables 1 and 5 (initial
+//! `irregular.wgsl`) against their CPU traversals (the irregular grid's `walk` and
+//! `walk-hagrid`), beyond the default builds that tb-harness's `gpu_oracle` checks: the
+//! uniform grid with and without macro regions, two two-level densities, and the irregular
+//! grid after each phase combination of Tables 1 and 5 (initial
 //! subdivision only, merged, expanded, merged and expanded; two-level and uniform initial
 //! subdivisions), on every conformance-suite scene and ray kind (an even sample of at most
 //! [`MAX_RAYS`] rays per batch, to keep the test short on lavapipe), closest or any hit as the
@@ -249,7 +250,7 @@ fn every_grid_and_phase_matches_the_cpu_ray_for_ray() {
         totals[1],
         totals[2]
     );
-    assert_eq!(checked.len(), 3, "{checked:?}");
+    assert_eq!(checked.len(), 4, "{checked:?}");
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 

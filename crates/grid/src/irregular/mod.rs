@@ -102,25 +102,41 @@ impl IrregularGrid {
         lookup(&self.map, &self.top, self.dmax, v)
     }
 
+    /// Traversal `walk`.
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.walk_with::<T, C, ANY, false>(ray, c)
+    }
+
+    /// The §5 walk in the grid's precision; with `TIES` by the authors' step (traversal
+    /// `walk-hagrid`, [`crate::common::WalkRay::advance_ties`]).
+    #[inline(always)]
+    fn walk_with<T: TriTest, C: Counter, const ANY: bool, const TIES: bool>(
+        &self,
+        ray: &Ray,
+        c: &mut C,
+    ) -> HitRecord {
         match self.precision {
-            Precision::F32 => self.walk_in::<T, C, ANY, f32>(&self.base32, &self.planes32, ray, c),
-            Precision::F64 => self.walk_in::<T, C, ANY, f64>(&self.base, &self.planes64, ray, c),
+            Precision::F32 => {
+                self.walk_in::<T, C, ANY, TIES, f32>(&self.base32, &self.planes32, ray, c)
+            }
+            Precision::F64 => {
+                self.walk_in::<T, C, ANY, TIES, f64>(&self.base, &self.planes64, ray, c)
+            }
         }
     }
 
     /// The §5 walk over `base`, the base lattice in the walk's arithmetic `F`, with its
     /// `planes`.
     #[inline(always)]
-    fn walk_in<T: TriTest, C: Counter, const ANY: bool, F: Real>(
+    fn walk_in<T: TriTest, C: Counter, const ANY: bool, const TIES: bool, F: Real>(
         &self,
         base: &Lattice<F>,
         planes: &Planes<F>,
         ray: &Ray,
         c: &mut C,
     ) -> HitRecord {
-        cell_walk::<T, C, ANY, F>(ray, base, planes, &self.tris, &self.refs, c, |v| {
+        cell_walk::<T, C, ANY, TIES, F>(ray, base, planes, &self.tris, &self.refs, c, |v| {
             let cell = &self.cells[self.lookup(v) as usize];
             (cell.range(), cell.lo, cell.hi)
         })
@@ -140,18 +156,47 @@ fn lookup(map: &[u32], top: &Lattice, dmax: u32, v: [u32; 3]) -> u32 {
 
 tb_core::kernel_by_query!(walk: [] IrregularGrid);
 
+/// Traversal `walk-hagrid`: the §5 walk with the step of the authors' code (hagrid), a
+/// reading of step d the paper leaves open ([`crate::common::WalkRay::advance_ties`]).
+struct HagridWalk<'a>(&'a IrregularGrid);
+
+impl HagridWalk<'_> {
+    #[inline(always)]
+    fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.0.walk_with::<T, C, ANY, true>(ray, c)
+    }
+}
+
+tb_core::kernel_by_query!(walk: [] HagridWalk<'_>);
+
 impl Structure for IrregularGrid {
     const NAME: &'static str = "irregular-grid";
-    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::with_gpu(
-        TraversalInfo::new(
-            "walk",
-            "Pérard-Gayot et al. 2017 §5",
-            "3D-DDA on the virtual base grid with the increment recomputed per cell: voxel-map \
-             look-up, exit through the cell box's three far planes, monotone advance",
+    const TRAVERSALS: &'static [Traversal<Self>] = &[
+        Traversal::with_gpu(
+            TraversalInfo::new(
+                "walk",
+                "Pérard-Gayot et al. 2017 §5",
+                "3D-DDA on the virtual base grid with the increment recomputed per cell: voxel-map \
+                 look-up, exit through the cell box's three far planes, monotone advance",
+            ),
+            tb_core::kernel!(|g: &IrregularGrid, batch, out| { tb_core::dispatch(g, batch, out) }),
+            IrregularGrid::gpu_walk,
         ),
-        tb_core::kernel!(|g: &IrregularGrid, batch, out| { tb_core::dispatch(g, batch, out) }),
-        IrregularGrid::gpu_walk,
-    )];
+        Traversal::with_gpu(
+            TraversalInfo::new(
+                "walk-hagrid",
+                "Pérard-Gayot et al. 2017 §5 (the authors' code, hagrid)",
+                "walk with the authors' step: every axis tied for the exit steps (diagonally \
+                 through edges and corners), the other axes take the exit point's voxel unclamped \
+                 to the cell's box",
+            )
+            .on_request(),
+            tb_core::kernel!(|g: &IrregularGrid, batch, out| {
+                tb_core::dispatch(&HagridWalk(g), batch, out)
+            }),
+            IrregularGrid::gpu_walk_hagrid,
+        ),
+    ];
 
     /// The voxel map, the cells (32 bytes: box and reference range), the references, the
     /// base grid's plane-coordinate tables and the triangles: what the walk reads.
