@@ -191,29 +191,9 @@ impl<F: Real> WalkRay<F> {
         let mut n = v;
         let mut out = false;
         for a in 0..3 {
-            let forward = self.d[a] > F::ZERO;
-            // The first layer past the box on `a`, and whether it lies outside the lattice.
-            let layer = || {
-                if forward {
-                    (hi[a], hi[a] >= lat.res[a])
-                } else {
-                    (lo[a].wrapping_sub(1), lo[a] == 0)
-                }
-            };
+            let layer = || self.layer(lat, a, lo, hi);
             // The exit point's voxel on `a`, in the box and not behind `v`.
-            let along = || {
-                if self.d[a] == F::ZERO {
-                    return v[a];
-                }
-                let p = lat
-                    .voxel_scaled(a, line.base[a] + t * line.slope[a])
-                    .clamp(lo[a], hi[a] - 1);
-                if forward {
-                    p.max(v[a])
-                } else {
-                    p.min(v[a])
-                }
-            };
+            let along = || self.along(lat, line, t, a, v, lo[a], hi[a] - 1);
             if SELECT {
                 let ((l, outside), on_axis) = (layer(), a == axis);
                 n[a] = select_unpredictable(on_axis, l, along());
@@ -237,6 +217,45 @@ impl<F: Real> WalkRay<F> {
 }
 
 impl<F: Real> WalkRay<F> {
+    /// The first layer past the box of voxels `lo..hi` on axis `a` along the ray's direction,
+    /// and whether it lies outside the lattice.
+    #[inline(always)]
+    fn layer(&self, lat: &Lattice<F>, a: usize, lo: [u32; 3], hi: [u32; 3]) -> (u32, bool) {
+        if self.d[a] > F::ZERO {
+            (hi[a], hi[a] >= lat.res[a])
+        } else {
+            (lo[a].wrapping_sub(1), lo[a] == 0)
+        }
+    }
+
+    /// The voxel on axis `a` of the ray's point at `t` (on this walk's `line`), clamped to
+    /// `min..=max` (and the lattice) and never behind `v` along the ray; `v[a]` where the
+    /// ray is parallel to `a`.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn along(
+        &self,
+        lat: &Lattice<F>,
+        line: &VoxelLine<F>,
+        t: F,
+        a: usize,
+        v: [u32; 3],
+        min: u32,
+        max: u32,
+    ) -> u32 {
+        if self.d[a] == F::ZERO {
+            return v[a];
+        }
+        let p = lat
+            .voxel_scaled(a, line.base[a] + t * line.slope[a])
+            .clamp(min, max);
+        if self.d[a] > F::ZERO {
+            p.max(v[a])
+        } else {
+            p.min(v[a])
+        }
+    }
+
     /// The step of the authors' code (hagrid's `traverse.cu`, Pérard-Gayot et al.), a reading
     /// of §5 step d, "find the next virtual base grid position based on the exit distance",
     /// which the paper leaves open; [`WalkRay::advance`] is the other. Leaving the box of
@@ -276,22 +295,10 @@ impl<F: Real> WalkRay<F> {
         let mut n = v;
         let mut out = false;
         for a in 0..3 {
-            let forward = self.d[a] > F::ZERO;
-            let (layer, outside) = if forward {
-                (hi[a], hi[a] >= lat.res[a])
-            } else {
-                (lo[a].wrapping_sub(1), lo[a] == 0)
-            };
-            let along = if self.d[a] == F::ZERO {
-                v[a]
-            } else {
-                let p = lat.voxel_scaled(a, line.base[a] + t * line.slope[a]);
-                if forward {
-                    p.max(v[a])
-                } else {
-                    p.min(v[a])
-                }
-            };
+            let (layer, outside) = self.layer(lat, a, lo, hi);
+            // The exit point's voxel on `a`, in the lattice (not only the box) and not
+            // behind `v`.
+            let along = self.along(lat, line, t, a, v, 0, u32::MAX);
             // A parallel axis's distance is +inf, never `t` (the walk ended before an
             // infinite exit).
             let tie = exits[a] == t;
