@@ -29,7 +29,9 @@
 # sparse boxes 800x600; the costs are estimates, the sustained samples of about 1,300 rows
 # included), GPU_REFERENCE_DEADLINE (default 7m), GPU_REFERENCE_ADAPTER (a substring of the
 # adapter's name).
-# The adapter is named in OUT/REPORT.md and OUT/REPRODUCTION.md. Exit status: reproduce's (1 when
+# The adapter is named in OUT/REPORT.md and OUT/REPRODUCTION.md; OUT/targets.txt holds issue 44's
+# device lines (scripts/gpu-targets.py: the rounds' spread, the SBVH's and the grid's rates; rerun
+# it with --against an earlier folder for the spread between runs). Exit status: reproduce's (1 when
 # a run failed); a run on a software adapter without --smoke is refused (its times are not GPU
 # figures).
 set -euo pipefail
@@ -120,4 +122,10 @@ if [ "$smoke" = 0 ] && grep -q "(software)\|(cpu)" <<<"$adapter"; then
   exit 1
 fi
 rm -rf "$out/scenes"
+# Issue 44's device lines (the rounds' spread, the SBVH's and the grid's rates) from the rows.
+if command -v python3 >/dev/null; then
+  soft=(); [ "$smoke" = 1 ] && soft=(--software)
+  python3 scripts/gpu-targets.py "$out" "${soft[@]}" >"$out/targets.txt" 2>&1 || true
+  cat "$out/targets.txt"
+fi
 exit "$status"

@@ -953,6 +953,86 @@ class Variation(unittest.TestCase):
                       "geometric mean 1.000", out)
 
 
+class GpuTargets(unittest.TestCase):
+    """gpu-targets.py: issue 44's device lines from a reference folder: the spread of each
+    row's rounds, the medians between two folders, the SBVH's rate on the Conference at
+    1024x1024 and the irregular grid's rate against it on Sponza."""
+
+    HEADER = ["scene", "structure", "params", "traversal", "device", "adapter", "ray_kind",
+              "rays", "trace_ms_median", "trace_ms_runs"]
+    SBVH = "builder=sbvh;width=2;max_leaf=8;c_trav=2"
+    GRID = "lambda_1=0.12;lambda_2=2.4;merge=true;expansion=3"
+
+    def rows(self, scale=1.0, adapter="NVIDIA H200"):
+        full = 1024 * 1024
+
+        def r(scene, structure, params, traversal, kind, rays, ms, runs=None):
+            ms *= scale
+            runs = runs or [ms, ms, ms]
+            return {"scene": scene, "structure": structure, "params": params,
+                    "traversal": traversal, "device": "gpu", "adapter": adapter,
+                    "ray_kind": kind, "rays": rays, "trace_ms_median": ms,
+                    "trace_ms_runs": ";".join(str(x) for x in runs)}
+
+        return [
+            # Conference: 2.1 and 1.05 GRays/s primary; AO 600K rays at 2.4 GRays/s.
+            r("conference@a", "bvh", self.SBVH, "while-while-speculative", "primary", full,
+              full / 2.1e6),
+            r("conference@a", "bvh", self.SBVH, "ordered", "primary", full, full / 1.05e6),
+            r("conference@a", "bvh", self.SBVH, "while-while-speculative", "ao", 600000,
+              600000 / 2.4e6),
+            # A 256x256 image is not the target's.
+            r("conference@b", "bvh", self.SBVH, "ordered", "primary", 65536, 0.001),
+            # Sponza: the grid at 1.2x the fastest SBVH; a round 10 % off its median.
+            r("sponza@a", "bvh", self.SBVH, "while-while-speculative", "primary", full,
+              full / 2.0e6, runs=[0.5, 0.5, 0.55]),
+            r("sponza@a", "irregular-grid", self.GRID, "walk", "primary", full, full / 2.4e6),
+            r("sponza@a", "irregular-grid", "lambda_1=5;merge=true;expansion=3", "walk",
+              "primary", full, 0.01),
+        ]
+
+    def folder(self, tmp, name, rows):
+        d = os.path.join(tmp, name, "runs", "paper", "1-table3")
+        os.makedirs(d)
+        write(os.path.join(d, "results.csv"), rows, self.HEADER)
+        return os.path.join(tmp, name)
+
+    def test_the_lines_and_their_verdicts(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            new = self.folder(tmp, "new", self.rows())
+            old = self.folder(tmp, "old", self.rows(scale=1.03)[:-2] + self.rows(2.0)[-2:])
+            out = run("gpu-targets.py", new, "--against", old)
+        self.assertIn("new: 7 GPU rows; adapter: NVIDIA H200", out)
+        self.assertIn("timing within one run: 6 of 7 rows timed in 3 or more rounds within "
+                      "±5% of their median: does not hold", out)
+        self.assertIn("+10.0% at worst: runs/paper/1-table3/results.csv: sponza@a "
+                      "bvh/while-while-speculative primary", out)
+        self.assertIn("timing between runs: 5 of 7 rows found in both within ±5%: "
+                      "does not hold", out)
+        self.assertIn("-50.0%: runs/paper/1-table3/results.csv: sponza@a irregular-grid/walk", out)
+        self.assertIn("Conference primary rays at 1024x1024, fastest traversal >= 2.0 "
+                      "GRays/s: holds", out)
+        self.assertIn("2.10 GRays/s runs/paper/1-table3/results.csv: conference@a "
+                      "bvh/while-while-speculative primary", out)
+        # The 256x256 image is not the target's.
+        self.assertNotIn("conference@b", out[out.index("binary SBVH"):])
+        self.assertNotIn("conference@a", out[:out.index("timing between runs")])
+        self.assertIn("Conference ao rays at 1024x1024, fastest traversal >= 2.5 GRays/s: "
+                      "does not hold", out)
+        self.assertIn(">= 1.0x the fastest binary SBVH: holds", out)
+        self.assertIn("1.20x: runs/paper/1-table3/results.csv: sponza@a irregular-grid/walk "
+                      "primary 2.40 GRays/s; against 1.20x while-while-speculative", out)
+
+    def test_software_rows_are_refused_without_the_flag(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            d = self.folder(tmp, "soft", self.rows(adapter="llvmpipe (LLVM 15)"))
+            p = subprocess.run([sys.executable, os.path.join(HERE, "gpu-targets.py"), d],
+                               capture_output=True, text=True)
+            self.assertNotEqual(p.returncode, 0)
+            self.assertIn("rows of a software adapter (llvmpipe (LLVM 15))", p.stderr)
+            self.assertIn("holds", run("gpu-targets.py", d, "--software"))
+
+
 class WithoutMatplotlib(unittest.TestCase):
     @unittest.skipIf(HAVE_MPL, "matplotlib is installed")
     def test_plot_says_what_it_needs(self):
