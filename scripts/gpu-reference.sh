@@ -20,11 +20,13 @@
 # run still going then (its finished rows kept) and leaves the rest out, so the report is always
 # written within the device's time; REPORT.md says which runs were ended or left out.
 #
-# Environment: TRACE_BENCH (the binary; default target/release/trace-bench, built if missing; on
-# a device machine carry a stripped copy, e.g. `objcopy --strip-debug target/release/trace-bench
-# target/gpu-ref/trace-bench` (21 MB; the binary with its debug info is over the 64 MiB carry
-# limit) and set TRACE_BENCH=target/gpu-ref/trace-bench), TRACE_BENCH_SCENES (the paper scenes;
-# default ../shared/scenes), GPU_REFERENCE_BUDGET (the reproduce budget, default 12m: the GPU
+# On a lent device machine use scripts/gpu-device.sh (`pack` here, then one call of `run` there):
+# it carries a stripped binary, a copy of the scenes and the Vulkan loader, and returns the
+# folder as one archive.
+#
+# Environment: TRACE_BENCH (the binary; default target/release/trace-bench, built if missing;
+# gpu-device.sh sets its stripped copy), TRACE_BENCH_SCENES (the paper scenes; default
+# ../shared/scenes, which does not travel to a device machine), GPU_REFERENCE_BUDGET (the reproduce budget, default 12m: the GPU
 # runs' declared costs, about 630 s, fit it unscaled, so every run keeps its images: 1024x1024,
 # sparse boxes 800x600; the costs are estimates, the sustained samples of about 1,300 rows
 # included), GPU_REFERENCE_DEADLINE (default 7m), GPU_REFERENCE_ADAPTER (a substring of the

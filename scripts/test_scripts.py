@@ -1033,6 +1033,26 @@ class GpuTargets(unittest.TestCase):
             self.assertIn("holds", run("gpu-targets.py", d, "--software"))
 
 
+class GpuDevice(unittest.TestCase):
+    """gpu-device.sh: its usage, and `run` refuses to start without the device's OUT (the
+    whole path, `run --smoke` with OUT set, takes a lavapipe smoke run: checked by hand)."""
+
+    def call(self, *args, env=None):
+        return subprocess.run(["bash", os.path.join(HERE, "gpu-device.sh"), *args],
+                              capture_output=True, text=True, env=env)
+
+    def test_usage(self):
+        p = self.call()
+        self.assertEqual(p.returncode, 2)
+        self.assertIn("usage: scripts/gpu-device.sh pack | run [--smoke]", p.stderr)
+
+    def test_run_needs_out(self):
+        env = {k: v for k, v in os.environ.items() if k != "OUT"}
+        p = self.call("run", env=env)
+        self.assertNotEqual(p.returncode, 0)
+        self.assertIn("OUT, the device tool folder, is not set", p.stderr)
+
+
 class WithoutMatplotlib(unittest.TestCase):
     @unittest.skipIf(HAVE_MPL, "matplotlib is installed")
     def test_plot_says_what_it_needs(self):
