@@ -46,7 +46,19 @@ pack() {
     (cd "$dest/gl" && apt-get "${o[@]}" download -qq libvulkan1 >/dev/null)
     rm -rf "$lists"
   fi
-  echo "gpu-device: $(du -sh "$dest" | cut -f1) in $dest (commit $(git rev-parse --short HEAD))"
+  # What travels: the tracked files, the untracked ones git does not ignore, and the carry; the
+  # device tool refuses a call over 64 MiB.
+  local tree carry limit=$((64 * 1024 * 1024))
+  tree=$( (git ls-files -z; git ls-files -z -o --exclude-standard) | xargs -0 du -cb 2>/dev/null |
+    awk '$2 == "total" {s += $1} END {print s + 0}')
+  carry=$(du -sb "$dest" | cut -f1)
+  echo "gpu-device: $((carry / 1000000)) MB in $dest, $((tree / 1000000)) MB of working tree," \
+    "$(((tree + carry) / 1000000)) MB of the call's $((limit / 1000000)) (commit" \
+    "$(git rev-parse --short HEAD))"
+  if [ $((tree + carry)) -gt "$limit" ]; then
+    echo "gpu-device: over the device call's 64 MiB: leave scenes out of $dest/scenes" >&2
+    exit 1
+  fi
   echo "gpu-device: the device call: run(command=\"scripts/gpu-device.sh run\"," \
     "carry=[\"$dest\"], timeout_s=560)"
 }
