@@ -20,23 +20,21 @@ with its figures and a verdict (`holds`, `does not hold`, or `no rows`):
 Every results.csv under a folder is read; rows of other devices are ignored, and rows of a
 software adapter (lavapipe) are refused unless --software (their times are not GPU figures).
 Exit status 0 whatever the verdicts (they are results); 1 on bad input, with one line naming
-the file (and line) and the problem. Standard library only.
+the file (and line) and the problem. Standard library only (and common.py).
 """
 
 import argparse
-import csv
 import os
 import statistics
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from common import params_of, read_rows  # noqa: E402
 
 TOLERANCE = 0.05
 FULL = 1024 * 1024
 SBVH_PRIMARY, SBVH_AO = 2.0, 2.5
 KEY = ("scene", "structure", "params", "traversal", "ray_kind", "rays")
-
-
-def params(row):
-    return dict(kv.split("=", 1) for kv in row.get("params", "").split(";") if "=" in kv)
 
 
 def is_num(p, k, want):
@@ -67,23 +65,22 @@ def read(folder, allow_software):
         if "results.csv" not in names:
             continue
         path = os.path.join(base, "results.csv")
-        with open(path, newline="") as f:
-            for line, r in enumerate(csv.DictReader(f), start=2):
-                if r.get("device") != "gpu" or not r.get("trace_ms_median"):
-                    continue
-                try:
-                    ok = int(r["rays"]) > 0 and float(r["trace_ms_median"]) > 0
-                    [float(x) for x in (r.get("trace_ms_runs") or "").split(";") if x]
-                except (KeyError, TypeError, ValueError):
-                    ok = False
-                if not ok:
-                    sys.exit(f"error: {path}: line {line}: rays, trace_ms_median or "
-                             "trace_ms_runs is not a positive number")
-                if software(r) and not allow_software:
-                    sys.exit(f"error: {path}: rows of a software adapter ({r.get('adapter')}): "
-                             "their times are not GPU figures (--software to read them)")
-                r["file"] = os.path.relpath(path, folder)
-                rows.append(r)
+        for line, r in enumerate(read_rows(path), start=2):
+            if r.get("device") != "gpu" or not r.get("trace_ms_median"):
+                continue
+            try:
+                ok = int(r["rays"]) > 0 and float(r["trace_ms_median"]) > 0
+                [float(x) for x in (r.get("trace_ms_runs") or "").split(";") if x]
+            except (KeyError, TypeError, ValueError):
+                ok = False
+            if not ok:
+                sys.exit(f"error: {path}: line {line}: rays, trace_ms_median or "
+                         "trace_ms_runs is not a positive number")
+            if software(r) and not allow_software:
+                sys.exit(f"error: {path}: rows of a software adapter ({r.get('adapter')}): "
+                         "their times are not GPU figures (--software to read them)")
+            r["file"] = os.path.relpath(path, folder)
+            rows.append(r)
     return rows
 
 
@@ -127,7 +124,7 @@ def between_runs(rows, older):
 
 
 def binary_sbvh(r):
-    p = params(r)
+    p = params_of(r)
     return r["structure"] == "bvh" and p.get("builder") == "sbvh" and p.get("width") == "2"
 
 
@@ -160,7 +157,7 @@ def sbvh_rate(rows):
 
 
 def paper_grid(r):
-    p = params(r)
+    p = params_of(r)
     return (r["structure"] == "irregular-grid" and is_num(p, "lambda_1", 0.12)
             and is_num(p, "lambda_2", 2.4) and p.get("merge") == "true"
             and p.get("expansion") == "3")
