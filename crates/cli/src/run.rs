@@ -147,13 +147,36 @@ pub(crate) fn cmd_run(
         );
         println!("      and {}", out.join("results.json").display());
     }
+    wrong_rows(&summary.wrong_rows);
     if !summary.failures.is_empty() {
         for f in &summary.failures {
             eprintln!("error: {f}");
         }
         return Ok(1);
     }
-    Ok(0)
+    Ok(if summary.wrong_rows.is_empty() {
+        0
+    } else {
+        tb_results::EXIT_MISMATCHES
+    })
+}
+
+/// Name the rows whose oracle mismatches are wrong answers (`runner::must_conform`), after
+/// everything else a run prints (their rows are written like every other).
+fn wrong_rows(rows: &[String]) {
+    if rows.is_empty() {
+        return;
+    }
+    eprintln!(
+        "error: {} row{} mismatch the brute-force oracle with the watertight test, where every \
+         traversal must answer as it does (exit {}):",
+        rows.len(),
+        if rows.len() == 1 { "" } else { "s" },
+        tb_results::EXIT_MISMATCHES
+    );
+    for r in rows {
+        eprintln!("  {r}");
+    }
 }
 
 impl RunArgs {
@@ -269,6 +292,19 @@ pub(crate) fn cmd_processes(
     println!("      and {}", out.join("results.json").display());
     Ok(if report.processes.iter().any(|p| p.failed.is_some()) {
         1
+    } else if report.processes.iter().any(|p| p.mismatched) {
+        eprintln!(
+            "error: rows of these processes mismatch the brute-force oracle (each named its \
+             rows above): {}",
+            report
+                .processes
+                .iter()
+                .filter(|p| p.mismatched)
+                .map(|p| p.folder.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        tb_results::EXIT_MISMATCHES
     } else {
         0
     })

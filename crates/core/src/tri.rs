@@ -239,7 +239,8 @@ pub const fn gamma(n: f32) -> f32 {
 /// Whether `|det|` lies where the f32 path of [`Watertight`] keeps its precision: the edge
 /// functions are products of two sheared coordinates and the distance `tt` of three, so a
 /// determinant outside `[2⁻⁶⁴, 2⁶⁴]` (a scene at 1e-20 or 1e20, say) means products near f32's
-/// underflow or overflow, and the test is redone in f64 ([`Sheared::in_f64`]).
+/// underflow or overflow, and the test is finished otherwise ([`Sheared::finish`]: scaled by a
+/// power of two, else in f64).
 #[inline(always)]
 fn in_f32_range(det: f32) -> bool {
     let a = det.abs();
@@ -247,6 +248,32 @@ fn in_f32_range(det: f32) -> bool {
 }
 const F32_DET_MIN: f32 = 5.421_011e-20; // 2^-64
 const F32_DET_MAX: f32 = 1.844_674_4e19; // 2^64
+
+/// What [`Sheared::solve`] found: the answer, or that f32's products left their range.
+enum Solved {
+    Done(Option<(f32, f32, f32)>),
+    Wide,
+}
+
+/// The exponent `e` of `x = f · 2^e` with `f` in `[0.5, 1)`, as WGSL's `frexp` (`x` finite and
+/// positive; subnormals included).
+fn frexp_exp(x: f32) -> i32 {
+    let bits = x.to_bits();
+    let biased = ((bits >> 23) & 0xff) as i32;
+    if biased == 0 {
+        // Subnormal: normalise by 2^64 first.
+        return frexp_exp(x * f32::from_bits((127 + 64) << 23)) - 64;
+    }
+    biased - 126
+}
+
+/// `x · 2^k`, as WGSL's `ldexp`: exact wherever the result is a normal f32 (two steps, so that
+/// `2^k` itself need not be one).
+fn ldexp(x: f32, k: i32) -> f32 {
+    let pow2 = |e: i32| f32::from_bits(((127 + e.clamp(-126, 127)) as u32) << 23);
+    let h = k / 2;
+    x * pow2(h) * pow2(k - h)
+}
 
 /// The vertices relative to the ray's origin, permuted (`kz` last) and sheared (Woop et al.
 /// 2013, Listing 1): `x`, `y` sheared, `z` not yet scaled by `sz`.
@@ -283,6 +310,99 @@ impl Sheared {
             cx: rel(&tri.v2, p.kx) - p.sx * cz,
             cy: rel(&tri.v2, p.ky) - p.sy * cz,
             cz,
+        }
+    }
+
+    /// The test from the sheared vertices on, for the ray's interval `[tmin, tmax)`: the edge
+    /// functions (an exactly zero one recomputed in f64, Woop et al. 2013), the signs, the
+    /// determinant, the distance and its rounding-error bound; [`Solved::Wide`] where f32's
+    /// products leave their range (a determinant outside [`in_f32_range`], a distance or bound
+    /// that is not finite).
+    #[inline(always)]
+    fn solve(&self, sz: f32, tmin: f32, tmax: f32) -> Solved {
+        let (ax, ay, bx, by, cx, cy) = (self.ax, self.ay, self.bx, self.by, self.cx, self.cy);
+        let mut u = cx * by - cy * bx;
+        let mut v = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
+        if u == 0.0 || v == 0.0 || w == 0.0 {
+            let (cxd, cyd, bxd, byd, axd, ayd) = (
+                cx as f64, cy as f64, bx as f64, by as f64, ax as f64, ay as f64,
+            );
+            u = (cxd * byd - cyd * bxd) as f32;
+            v = (axd * cyd - ayd * cxd) as f32;
+            w = (bxd * ayd - byd * axd) as f32;
+        }
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return Solved::Done(None);
+        }
+        let det = u + v + w;
+        if !in_f32_range(det) {
+            // Zero (the ray in the triangle's plane, or products under f32's range), or out of
+            // the range where f32 holds the products.
+            return Solved::Wide;
+        }
+        let (az, bz, cz) = (sz * self.az, sz * self.bz, sz * self.cz);
+        let tt = u * az + v * bz + w * cz;
+        if !tt.is_finite() {
+            return Solved::Wide;
+        }
+        // Compare tt/det against [tmin, tmax) without dividing: flip signs so det > 0.
+        let (tt_s, det_s) = if det < 0.0 { (-tt, -det) } else { (tt, det) };
+        if tt_s < tmin * det_s || tt_s >= tmax * det_s {
+            return Solved::Done(None);
+        }
+        let inv = 1.0 / det;
+        let t = tt * inv;
+        // Guard the rounding of the final division against the interval.
+        if t < tmin || t >= tmax {
+            return Solved::Done(None);
+        }
+        let bound = t_error_bound(self, az, bz, cz, u, v, w, inv);
+        if !bound.is_finite() {
+            return Solved::Wide;
+        }
+        if t <= bound {
+            return Solved::Done(None);
+        }
+        // u weighs v0 (edge opposite), v weighs v1, w weighs v2 in Woop et al.'s convention.
+        Solved::Done(Some((t, v * inv, w * inv)))
+    }
+
+    /// Where f32's products leave their range ([`Solved::Wide`]): a scene at 1e-30 or 1e30,
+    /// say. The nine sheared coordinates are scaled by the power of two `2^k` that brings the
+    /// largest to `[0.5, 1)`; scaling by a power of two is exact, so the edge functions
+    /// (`2^2k`), the determinant and the distance (`2^3k`) round as they would for the same
+    /// scene at scale 1, and [`Sheared::solve`] runs on them with the interval scaled by
+    /// `2^k`, its distance scaled back. Where even that leaves f32's range (a triangle under
+    /// `2^-32` of its distance from the origin across), the test finishes in f64
+    /// ([`Sheared::in_f64`]). The GPU's prelude does the same operation for operation
+    /// (`watertight` in tb-gpu's `shaders/prelude.wgsl`), so that both devices answer alike at
+    /// every scale (issue 62, item 1).
+    #[cold]
+    #[inline(never)]
+    fn finish(&self, p: &WatertightPre, ray: &Ray, tmax: f32) -> Option<(f32, f32, f32)> {
+        let big = [self.ax, self.ay, self.az, self.bx, self.by, self.bz, self.cx, self.cy, self.cz]
+            .iter()
+            .fold(0.0f32, |m, x| m.max(x.abs()));
+        if !(big > 0.0) || !big.is_finite() {
+            return None;
+        }
+        let k = -frexp_exp(big);
+        let sc = |x: f32| ldexp(x, k);
+        let scaled = Sheared {
+            ax: sc(self.ax),
+            ay: sc(self.ay),
+            az: sc(self.az),
+            bx: sc(self.bx),
+            by: sc(self.by),
+            bz: sc(self.bz),
+            cx: sc(self.cx),
+            cy: sc(self.cy),
+            cz: sc(self.cz),
+        };
+        match scaled.solve(p.sz, sc(ray.tmin), sc(tmax)) {
+            Solved::Done(h) => h.map(|(t, u, v)| (ldexp(t, -k), u, v)),
+            Solved::Wide => self.in_f64(p, ray, tmax),
         }
     }
 
@@ -398,52 +518,10 @@ impl TriTest for Watertight {
         tmax: f32,
     ) -> Option<(f32, f32, f32)> {
         let s = Sheared::new(p, ray, tri);
-        let (ax, ay, bx, by, cx, cy) = (s.ax, s.ay, s.bx, s.by, s.cx, s.cy);
-        let mut u = cx * by - cy * bx;
-        let mut v = ax * cy - ay * cx;
-        let mut w = bx * ay - by * ax;
-        if u == 0.0 || v == 0.0 || w == 0.0 {
-            let (cxd, cyd, bxd, byd, axd, ayd) = (
-                cx as f64, cy as f64, bx as f64, by as f64, ax as f64, ay as f64,
-            );
-            u = (cxd * byd - cyd * bxd) as f32;
-            v = (axd * cyd - ayd * cxd) as f32;
-            w = (bxd * ayd - byd * axd) as f32;
+        match s.solve(p.sz, ray.tmin, tmax) {
+            Solved::Done(h) => h,
+            Solved::Wide => s.finish(p, ray, tmax),
         }
-        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-            return None;
-        }
-        let det = u + v + w;
-        if !in_f32_range(det) {
-            // Zero (the ray in the triangle's plane, or products under f32's range), or out of
-            // the range where f32 holds the products: the same test in f64.
-            return s.in_f64(p, ray, tmax);
-        }
-        let (az, bz, cz) = (p.sz * s.az, p.sz * s.bz, p.sz * s.cz);
-        let tt = u * az + v * bz + w * cz;
-        if !tt.is_finite() {
-            return s.in_f64(p, ray, tmax);
-        }
-        // Compare tt/det against [tmin, tmax) without dividing: flip signs so det > 0.
-        let (tt_s, det_s) = if det < 0.0 { (-tt, -det) } else { (tt, det) };
-        if tt_s < ray.tmin * det_s || tt_s >= tmax * det_s {
-            return None;
-        }
-        let inv = 1.0 / det;
-        let t = tt * inv;
-        // Guard the rounding of the final division against the interval.
-        if t < ray.tmin || t >= tmax {
-            return None;
-        }
-        let bound = t_error_bound(&s, az, bz, cz, u, v, w, inv);
-        if !bound.is_finite() {
-            return s.in_f64(p, ray, tmax);
-        }
-        if t <= bound {
-            return None;
-        }
-        // u weighs v0 (edge opposite), v weighs v1, w weighs v2 in Woop et al.'s convention.
-        Some((t, v * inv, w * inv))
     }
 
     #[inline(always)]
@@ -897,6 +975,50 @@ mod tests {
         assert!(hits > 1000, "too few hits ({hits}) to mean anything");
     }
 
+    /// Issue 62, item 1: where f32's products leave their range only because the whole scene is
+    /// scaled (by `2^±100`, about 1e±30), the watertight test's finish ([`Sheared::finish`])
+    /// answers bit for bit as the test does at scale 1, the distance scaled alike; the GPU's
+    /// prelude does the same, so both devices agree at every scale.
+    #[test]
+    fn power_of_two_scenes_answer_as_at_scale_one() {
+        let mut rnd = uniform(0x9e3779b97f4a7c15);
+        let (mut hits, mut checked) = (0, 0);
+        for e in [-100, -70, 70, 100] {
+            let s = ldexp(1.0, e);
+            for k in 0..3000 {
+                let c = Vec3::new(rnd(), rnd(), rnd());
+                let tri = Triangle::new(
+                    c,
+                    c + Vec3::new(rnd(), rnd(), rnd()) * 0.3,
+                    c + Vec3::new(rnd(), rnd(), rnd()) * 0.3,
+                );
+                let o = Vec3::new(rnd(), rnd(), rnd()) * 2.0;
+                let d = (tri.v0 * 0.4 + tri.v1 * 0.3 + tri.v2 * 0.3 - o).normalize_or_zero()
+                    + Vec3::new(rnd(), rnd(), rnd()) * 0.01;
+                if d == Vec3::ZERO {
+                    continue;
+                }
+                let ray = if k % 4 == 0 {
+                    Ray::segment(o, d, 0.01, 1.5)
+                } else {
+                    Ray::new(o, d)
+                };
+                let big = Triangle::new(tri.v0 * s, tri.v1 * s, tri.v2 * s);
+                let mut sray = Ray::new(ray.origin * s, ray.dir);
+                sray.tmin = ray.tmin * s;
+                sray.tmax = ray.tmax * s;
+                let want = Watertight::intersect(&Watertight::prepare(&ray), &ray, &tri, ray.tmax);
+                let got = Watertight::intersect(&Watertight::prepare(&sray), &sray, &big, sray.tmax);
+                let scaled = want.map(|(t, u, v)| ((t * s).to_bits(), u.to_bits(), v.to_bits()));
+                let got_bits = got.map(|(t, u, v)| (t.to_bits(), u.to_bits(), v.to_bits()));
+                assert_eq!(scaled, got_bits, "2^{e}: {ray:?} {tri:?}");
+                hits += want.is_some() as usize;
+                checked += 1;
+            }
+        }
+        assert!(hits > checked / 4, "too few hits ({hits} of {checked}) to mean anything");
+    }
+
     /// The plane distance of `r`'s origin to `tri` along `r.dir` in f64 (exact enough to tell
     /// the sign of an f32 test's `t`).
     fn plane_t(tri: &Triangle, r: &Ray) -> f64 {
@@ -908,8 +1030,9 @@ mod tests {
     /// Issue 30 item 1 and item 4 at the triangle test: rays starting on a triangle's plane,
     /// a few ulps in front of or behind it, in every direction, at scales 1e-30 to 1e30. The
     /// watertight test reports no hit whose plane lies behind the origin (conservative `t`;
-    /// Möller–Trumbore neither, with its own bound), hits at every scale (f64 where f32's products would leave its range), and its four-wide
-    /// form equals the scalar one bit for bit.
+    /// Möller–Trumbore neither, with its own bound), hits at every scale (scaled by a power of two,
+    /// else in f64, where f32's products would leave their range), and its four-wide form equals
+    /// the scalar one bit for bit.
     #[test]
     fn no_hit_behind_the_origin_at_any_scale() {
         let mut rnd = uniform(0x2545f4914f6cdd1d);

@@ -4,10 +4,11 @@
 // evaluation order is unspecified), and the entry point, which calls the program's `walk`.
 // The host prepends `const STACK_SIZE` (GpuProgram::stack_size), `const WORKGROUP_SIZE` and
 // `struct Stats` with `fn zero_stats()` (tb_core::stats::wgsl_stats_struct: one u32 per
-// counter, then `capped`), and appends one `edge_fallback` (f64 where the adapter has
-// SHADER_F64, else f32), `fn ray_index` (shaders/unsorted.wgsl, or shaders/arrange.wgsl for a
-// program with a ray key), the program's source and its entry point `main` (shaders/entry.wgsl,
-// or shaders/persistent.wgsl for a persistent program).
+// counter, then `capped`), and appends the watertight test's fallbacks `edge_fallback` and
+// `watertight_f64` (shaders/edge_f64.wgsl where the adapter has SHADER_F64, else
+// edge_f32.wgsl), `fn ray_index` (shaders/unsorted.wgsl, or shaders/arrange.wgsl for a program
+// with a ray key), the program's source and its entry point `main` (shaders/entry.wgsl, or
+// shaders/persistent.wgsl for a persistent program).
 
 struct Ray { origin: vec3<f32>, tmin: f32, dir: vec3<f32>, tmax: f32 }   // tb_core::Ray, 32 B
 struct Hit { t: f32, prim: u32, u: f32, v: f32 }                          // tb_core::HitRecord
@@ -103,20 +104,31 @@ const GAMMA3: f32 = 1.7881396e-7;
 const GAMMA5: f32 = 2.980233e-7;
 const GAMMA9: f32 = 5.364421e-7;
 
-fn watertight(p: Pre, r: Ray, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmax: f32) -> vec4<f32> {
+// The vertices relative to the ray's origin, permuted and sheared (tb_core::tri::Sheared):
+// x, y sheared, z not yet scaled by `Pre.s.z`.
+struct Sheared { a: vec3<f32>, b: vec3<f32>, c: vec3<f32> }
+
+// tb_core::tri::in_f32_range: |det| within [2^-64, 2^64] (bit patterns 0x1f800000 and
+// 0x5f800000; NaN is above), where the f32 products keep their precision.
+fn in_f32_range(det: f32) -> bool {
+    let b = bitcast<u32>(det) & 0x7fffffffu;
+    return b >= 0x1f800000u && b <= 0x5f800000u;
+}
+
+// What `solve` found: the answer `h`, or `wide` where f32's products left their range.
+struct Solved { h: vec4<f32>, wide: bool }
+
+fn done(h: vec4<f32>) -> Solved { return Solved(h, false); }
+
+// tb_core::tri::Sheared::solve: the test from the sheared vertices on, for [tmin, tmax).
+fn solve(sz: f32, s: Sheared, tmin: f32, tmax: f32) -> Solved {
     let none = vec4<f32>(0.0);
-    let a = v0 - r.origin;
-    let b = v1 - r.origin;
-    let c = v2 - r.origin;
-    let az = a[p.kz];
-    let bz = b[p.kz];
-    let cz = c[p.kz];
-    let ax = a[p.kx] - p.s.x * az;
-    let ay = a[p.ky] - p.s.y * az;
-    let bx = b[p.kx] - p.s.x * bz;
-    let by = b[p.ky] - p.s.y * bz;
-    let cx = c[p.kx] - p.s.x * cz;
-    let cy = c[p.ky] - p.s.y * cz;
+    let ax = s.a.x;
+    let ay = s.a.y;
+    let bx = s.b.x;
+    let by = s.b.y;
+    let cx = s.c.x;
+    let cy = s.c.y;
     var u = cx * by - cy * bx;
     var v = ax * cy - ay * cx;
     var w = bx * ay - by * ax;
@@ -127,33 +139,38 @@ fn watertight(p: Pre, r: Ray, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmax:
         w = e.z;
     }
     if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return none;
+        return done(none);
     }
     let det = u + v + w;
-    if det == 0.0 || not_finite(det) {
-        return none;
+    if !in_f32_range(det) {
+        return Solved(none, true);
     }
-    let tt = (u * (p.s.z * az) + v * (p.s.z * bz)) + w * (p.s.z * cz);
+    let az = sz * s.a.z;
+    let bz = sz * s.b.z;
+    let cz = sz * s.c.z;
+    let tt = (u * az + v * bz) + w * cz;
+    if not_finite(tt) {
+        return Solved(none, true);
+    }
     var tt_s = tt;
     var det_s = det;
     if det < 0.0 {
         tt_s = -tt;
         det_s = -det;
     }
-    if tt_s < r.tmin * det_s || tt_s >= tmax * det_s {
-        return none;
+    if tt_s < tmin * det_s || tt_s >= tmax * det_s {
+        return done(none);
     }
     let inv = 1.0 / det;
     let t = tt * inv;
-    if t < r.tmin || t >= tmax {
-        return none;
+    if t < tmin || t >= tmax {
+        return done(none);
     }
     // tb_core::tri::t_error_bound: a t within the rounding-error bound may belong to a plane
-    // behind the origin (PBR 4th ed. §6.8.7). The CPU finishes out-of-range determinants in
-    // f64; here they are misses (no f64 on most adapters), as they were.
+    // behind the origin (PBR 4th ed. §6.8.7).
     let max_x = max(max(abs(ax), abs(bx)), abs(cx));
     let max_y = max(max(abs(ay), abs(by)), abs(cy));
-    let max_z = max(max(abs(p.s.z * az), abs(p.s.z * bz)), abs(p.s.z * cz));
+    let max_z = max(max(abs(az), abs(bz)), abs(cz));
     let delta_z = GAMMA3 * max_z;
     let delta_x = GAMMA5 * (max_x + max_z);
     let delta_y = GAMMA5 * (max_y + max_z);
@@ -161,10 +178,57 @@ fn watertight(p: Pre, r: Ray, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmax:
     let delta_e = 2.0 * ((GAMMA2 * max_x * max_y + delta_y * max_x) + delta_x * max_y);
     let e = max(max(abs(u), abs(v)), abs(w)) * ainv;
     let bound = 3.0 * ((GAMMA3 * max_z * e + (delta_e * ainv) * max_z) + delta_z * e);
+    if not_finite(bound) {
+        return Solved(none, true);
+    }
     if !(t > bound) {
+        return done(none);
+    }
+    return done(vec4<f32>(t, v * inv, w * inv, 1.0));
+}
+
+// tb_core::tri::Sheared::finish, where f32's products leave their range (a scene at 1e-30 or
+// 1e30): the sheared vertices scaled by the power of two 2^k that brings the largest
+// coordinate to [0.5, 1) (exact), `solve` on them with the interval scaled alike and the
+// distance scaled back; where even that leaves f32's range, `watertight_f64` (in f64 on
+// adapters with SHADER_F64, shaders/edge_f64.wgsl; a miss without, edge_f32.wgsl) (issue 62).
+fn finish(p: Pre, r: Ray, sh: Sheared, tmax: f32) -> vec4<f32> {
+    let none = vec4<f32>(0.0);
+    let m = max(max(abs(sh.a), abs(sh.b)), abs(sh.c));
+    let big = max(max(m.x, m.y), m.z);
+    if !(big > 0.0) || not_finite(big) {
         return none;
     }
-    return vec4<f32>(t, v * inv, w * inv, 1.0);
+    let k = -frexp(big).exp;
+    let kv = vec3<i32>(k);
+    let sc = Sheared(ldexp(sh.a, kv), ldexp(sh.b, kv), ldexp(sh.c, kv));
+    let s = solve(p.s.z, sc, ldexp(r.tmin, k), ldexp(tmax, k));
+    if !s.wide {
+        if s.h.w == 0.0 {
+            return none;
+        }
+        return vec4<f32>(ldexp(s.h.x, -k), s.h.y, s.h.z, 1.0);
+    }
+    return watertight_f64(p, r, sh, tmax);
+}
+
+fn watertight(p: Pre, r: Ray, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmax: f32) -> vec4<f32> {
+    let a = v0 - r.origin;
+    let b = v1 - r.origin;
+    let c = v2 - r.origin;
+    let az = a[p.kz];
+    let bz = b[p.kz];
+    let cz = c[p.kz];
+    let sh = Sheared(
+        vec3<f32>(a[p.kx] - p.s.x * az, a[p.ky] - p.s.y * az, az),
+        vec3<f32>(b[p.kx] - p.s.x * bz, b[p.ky] - p.s.y * bz, bz),
+        vec3<f32>(c[p.kx] - p.s.x * cz, c[p.ky] - p.s.y * cz, cz),
+    );
+    let s = solve(p.s.z, sh, r.tmin, tmax);
+    if !s.wide {
+        return s.h;
+    }
+    return finish(p, r, sh, tmax);
 }
 
 fn moller_trumbore(r: Ray, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, tmax: f32) -> vec4<f32> {

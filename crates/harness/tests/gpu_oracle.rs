@@ -90,7 +90,10 @@ struct Diff {
     counter_diffs: usize,
     /// Rays whose GPU hit record is not bit-identical to the CPU traversal's.
     hit_diffs: usize,
+    /// The first rays that differ (at most 3), oracle mismatches first.
     first: Vec<String>,
+    /// How many of `first` mismatch the oracle.
+    shown_mismatches: usize,
 }
 
 fn check_case(
@@ -141,8 +144,10 @@ fn check_case(
         d.counter_diffs += bad_stats as usize;
         d.hit_diffs += bad_hit as usize;
         d.differing += (bad_stats || (!p.own_counts && hits[i].prim != want_hits[i].prim)) as usize;
-        if (bad_oracle || bad_stats || bad_hit) && d.first.len() < 3 {
-            d.first.push(format!(
+        // Oracle mismatches first (before rays that only differ from the CPU in their bits).
+        let shown = d.first.len() < 3 || (bad_oracle && d.shown_mismatches < 3);
+        if (bad_oracle || bad_stats || bad_hit) && shown {
+            let line = format!(
                 "ray {i} {}: oracle {} cpu {:?} gpu {:?} cpu stats {:?} gpu stats {:?}",
                 conformance::format_ray(&rays[i]),
                 oracle[i].map_or("-".to_string(), |o| format!("{o:?}")),
@@ -150,7 +155,14 @@ fn check_case(
                 hits[i],
                 want_stats[i],
                 stats[i]
-            ));
+            );
+            if bad_oracle {
+                d.first.insert(d.shown_mismatches, line);
+                d.shown_mismatches += 1;
+            } else {
+                d.first.push(line);
+            }
+            d.first.truncate(3);
         }
     }
     d
@@ -165,6 +177,19 @@ fn check_scene(
     batches: &[(String, Query, Vec<Ray>)],
     tri: TriTestKind,
     checked: &mut BTreeSet<String>,
+) -> Vec<String> {
+    check_scene_of(gpu, name, tris, batches, tri, checked, &|_| true)
+}
+
+/// [`check_scene`] for the programs whose label (`family/traversal`) `keep` accepts.
+fn check_scene_of(
+    gpu: &Gpu,
+    name: &str,
+    tris: &[Triangle],
+    batches: &[(String, Query, Vec<Ray>)],
+    tri: TriTestKind,
+    checked: &mut BTreeSet<String>,
+    keep: &dyn Fn(&str) -> bool,
 ) -> Vec<String> {
     let shared: Arc<[Triangle]> = tris.into();
     let builds: Vec<(&str, Box<dyn Accel>)> = families()
@@ -182,6 +207,9 @@ fn check_scene(
                 continue;
             };
             let label = format!("{family}/{}", t.name);
+            if !keep(&label) {
+                continue;
+            }
             accel.prepare(i);
             let gs = match gpu.upload(&p) {
                 Ok(gs) => gs,
@@ -241,11 +269,15 @@ fn check_scene(
             // Exact where the kernel can repeat the CPU (see the module doc); else bounded.
             let exact = tri == TriTestKind::Watertight && gpu.adapter().f64;
             let share = (DIFF_SHARE * d.rays as f64) as usize;
-            let bad = if exact {
-                d.mismatches > 0 || d.differing > 0 || d.hit_diffs > 0
-            } else {
-                d.differing > share || d.mismatches > d.cpu_mismatches + share
-            };
+            // The watertight test's answers are the oracle's wherever the CPU's are, whatever
+            // the adapter (issue 62: no lost hit at extreme scales without f64 either).
+            let robust = tri == TriTestKind::Watertight && d.mismatches > d.cpu_mismatches;
+            let bad = robust
+                || if exact {
+                    d.mismatches > 0 || d.differing > 0 || d.hit_diffs > 0
+                } else {
+                    d.differing > share || d.mismatches > d.cpu_mismatches + share
+                };
             if bad {
                 failures.push(format!(
                     "{name} {kind} {} {}: {} mismatches, {} counter diffs, {} hit diffs of {} rays\n  {}",
@@ -275,11 +307,21 @@ fn report(checked: &BTreeSet<String>) {
     );
 }
 
+/// The suite's scenes: the watertight test's are the CPU oracle suite's, `near-surfaces` at
+/// 1e-30 and 1e30 included (its f64 finish, `watertight_wide`, as the CPU's: issue 62);
+/// Möller–Trumbore has no such finish on either device (docs/results.md).
+fn scenes(tri: TriTestKind) -> Vec<tb_scene::Scene> {
+    match tri {
+        TriTestKind::Watertight => conformance::oracle_scenes(),
+        TriTestKind::MollerTrumbore => conformance::suite_scenes(),
+    }
+}
+
 fn suite(tri: TriTestKind) {
     let Some(gpu) = open_or_skip() else { return };
     let mut failures = Vec::new();
     let mut checked = BTreeSet::new();
-    for scene in conformance::suite_scenes() {
+    for scene in scenes(tri) {
         let batches: Vec<_> = conformance::batches(&scene, tri)
             .into_iter()
             .map(|b| (b.kind.name(), b.kind.query(), b.rays))
@@ -301,6 +343,40 @@ fn suite(tri: TriTestKind) {
 #[test]
 fn suite_watertight_matches_cpu() {
     suite(TriTestKind::Watertight);
+}
+
+/// Issue 62, item 1, on an adapter without `SHADER_F64` (acted by [`Gpu::forgo_f64`]): the
+/// watertight test's finish in f32 scaled by a power of two (`shaders/edge_f32.wgsl`) answers
+/// as the oracle does on `near-surfaces` at 1e-30, 1e-20, 1e15, 1e20 and 1e30, through the
+/// brute-force program (the test alone) and the binary BVH's and uniform grid's walks (each
+/// pipeline compiles again without f64, so the other programs, whose triangle test is the
+/// same prelude function, are left to the f64 suite above).
+#[test]
+fn extreme_scales_without_f64() {
+    let Some(mut gpu) = open_or_skip() else { return };
+    gpu.forgo_f64();
+    let keep = |l: &str| ["brute-force/", "bvh/ordered", "uniform-grid/"].iter().any(|p| l.starts_with(p));
+    let mut failures = Vec::new();
+    let mut checked = BTreeSet::new();
+    for scale in ["1e-30", "1e-20", "1e15", "1e20", "1e30"] {
+        let src = format!("builtin:stress/near-surfaces?scale={scale}");
+        let scene = tb_scene::load(&src, std::path::Path::new(".")).unwrap();
+        let batches: Vec<_> = conformance::batches(&scene, TriTestKind::Watertight)
+            .into_iter()
+            .map(|b| (b.kind.name(), b.kind.query(), b.rays))
+            .collect();
+        failures.extend(check_scene_of(
+            &gpu,
+            &format!("near-surfaces@{scale}"),
+            &scene.triangles,
+            &batches,
+            TriTestKind::Watertight,
+            &mut checked,
+            &keep,
+        ));
+    }
+    report(&checked);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
 #[test]

@@ -88,11 +88,20 @@ impl SlabList {
     }
 
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        self.walk_slabs::<T, C, ANY>(&self.slabs, ray, c)
+    }
+
+    fn walk_slabs<T: TriTest, C: Counter, const ANY: bool>(
+        &self,
+        slabs: &[Slab],
+        ray: &Ray,
+        c: &mut C,
+    ) -> HitRecord {
         let pre = T::prepare(ray);
         let inv = ray.inv_dir();
         let mut best = HitRecord::MISS;
         let mut tmax = ray.tmax;
-        for s in &self.slabs {
+        for s in slabs {
             c.boxes(1);
             c.steps(1);
             let b = Aabb::new(Vec3::from_array(s.min), Vec3::from_array(s.max));
@@ -121,6 +130,19 @@ impl SlabList {
 }
 
 tb_core::kernel_by_query!(walk: [] SlabList);
+
+/// A faulty walk, on request only: the last slab is never entered, so its triangles' hits
+/// are lost (the wrong answers `run` must name: issue 62).
+struct SkipLast<'a>(&'a SlabList);
+
+impl SkipLast<'_> {
+    fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        let n = self.0.slabs.len().saturating_sub(1);
+        self.0.walk_slabs::<T, C, ANY>(&self.0.slabs[..n], ray, c)
+    }
+}
+
+tb_core::kernel_by_query!(walk: [] SkipLast<'_>);
 
 /// The GPU program: the same walk, operation for operation, on tb-gpu's prelude.
 const SLABS_WGSL: &str = r#"
@@ -194,6 +216,10 @@ impl Structure for SlabList {
                 .meta([s.slabs.len() as u32, 0, 0])
                 .stack(1)
         },
+    ), Traversal::cpu(
+        TraversalInfo::new("skip-last", "this test", "a faulty walk: the last slab left out")
+            .on_request(),
+        |s, b, out| dispatch(&SkipLast(s), b, out),
     )];
 
     /// Slabs, triangles and ids; `structure_bytes`: the slabs and the ids, not the triangles.
@@ -249,6 +275,13 @@ params = {{ slabs = {slabs} }}
 }
 
 fn run(text: &str) -> Vec<Row> {
+    let summary = run_summary(text);
+    assert!(summary.failures.is_empty(), "{:?}", summary.failures);
+    assert!(summary.wrong_rows.is_empty(), "{:?}", summary.wrong_rows);
+    summary.rows
+}
+
+fn run_summary(text: &str) -> runner::RunSummary {
     let exp = config::parse_with(
         Path::new("seam.toml"),
         text,
@@ -259,9 +292,43 @@ fn run(text: &str) -> Vec<Row> {
     .unwrap_or_else(|e| panic!("{e}"));
     let out = tempfile::tempdir().unwrap();
     let opts = RunOptions::quiet(out.path().join("run"));
-    let summary = runner::run(&exp, &opts).unwrap();
+    runner::run(&exp, &opts).unwrap()
+}
+
+/// Issue 62: a traversal that loses hits is named at the end of the run (`wrong_rows`, which
+/// `run` prints and exits 3 on), each of its watertight rows with mismatches; its
+/// Möller–Trumbore rows, whose misses are that test's documented findings, and the correct
+/// walk's rows are not.
+#[test]
+fn a_walk_that_loses_hits_is_named() {
+    let text = config("\"cpu\"", "4").replace(
+        "params = { slabs = 4 }",
+        "params = { slabs = 4 }\ntraversals = [\"in-order\", \"skip-last\"]",
+    );
+    let summary = run_summary(&text);
     assert!(summary.failures.is_empty(), "{:?}", summary.failures);
-    summary.rows
+    let bad: Vec<&Row> = summary
+        .rows
+        .iter()
+        .filter(|r| r.traversal == "skip-last" && r.triangle_test == "watertight")
+        .filter(|r| r.mismatches.unwrap_or(0) > 0)
+        .collect();
+    assert!(!bad.is_empty(), "the faulty walk loses no hit: the test proves nothing");
+    assert_eq!(summary.wrong_rows.len(), bad.len(), "{:#?}", summary.wrong_rows);
+    for (line, r) in summary.wrong_rows.iter().zip(&bad) {
+        assert!(
+            line.contains("skip-last watertight cpu")
+                && line.contains(&r.ray_kind)
+                && line.contains(&format!("{} of", r.mismatches.unwrap())),
+            "{line}"
+        );
+    }
+    assert!(
+        summary.rows.iter().any(|r| r.traversal == "skip-last"
+            && r.triangle_test == "moller-trumbore"
+            && r.mismatches.unwrap_or(0) > 0),
+        "the Möller–Trumbore rows lose hits too, and are not named"
+    );
 }
 
 #[test]

@@ -139,7 +139,12 @@ pub(super) fn runs_table(r: &PaperReport) -> String {
             },
             p.failed
                 .clone()
-                .or(p.exit.map(|c| c.to_string()))
+                .or(p.exit.map(|c| match c {
+                    tb_results::EXIT_MISMATCHES => format!(
+                        "{c}: complete, with rows that mismatch the oracle (their `mismatches` column)"
+                    ),
+                    c => c.to_string(),
+                }))
                 .unwrap_or_default()
         ));
     }

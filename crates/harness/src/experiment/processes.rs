@@ -105,6 +105,8 @@ pub struct Outcome {
     pub wall_s: Option<f64>,
     /// How it failed (`exit status 1`, `did not start: …`).
     pub failed: Option<String>,
+    /// It completed with rows that mismatch the oracle ([`tb_results::EXIT_MISMATCHES`]).
+    pub mismatched: bool,
 }
 
 /// What `run --processes` did.
@@ -150,6 +152,7 @@ pub fn run(plan: &Plan) -> Result<Report, HarnessError> {
                 reused: true,
                 wall_s: None,
                 failed: None,
+                mismatched: false,
             });
             continue;
         }
@@ -184,10 +187,13 @@ pub fn run(plan: &Plan) -> Result<Report, HarnessError> {
             reused: false,
             wall_s: Some(t.elapsed().as_secs_f64()),
             failed: None,
+            mismatched: false,
         };
         let sig = match ran {
             Ok((st, sig)) => {
-                if !st.success() {
+                if st.code() == Some(tb_results::EXIT_MISMATCHES) {
+                    outcome.mismatched = true;
+                } else if !st.success() {
                     outcome.failed = Some(crate::experiment::child::ended(&st));
                 }
                 sig

@@ -27,7 +27,7 @@ use plan::Combo;
 use std::collections::HashSet;
 use std::path::PathBuf;
 use std::sync::Arc;
-use tb_core::{ParamSet, Triangle};
+use tb_core::{ParamSet, Triangle, TraversalInfo, TriTestKind};
 use tb_results::output::{Row, RowKey, Sink};
 
 /// What the runner does.
@@ -76,6 +76,9 @@ pub struct RunSummary {
     pub failures: Vec<String>,
     /// Human-readable reports of the first mismatching rays.
     pub mismatch_reports: Vec<String>,
+    /// The rows with oracle mismatches that must have none ([`must_conform`]), one line each:
+    /// `run` names them at its end and exits [`tb_results::EXIT_MISMATCHES`].
+    pub wrong_rows: Vec<String>,
     /// Notes about what was left out and why.
     pub notes: Vec<String>,
 }
@@ -485,6 +488,20 @@ impl<'a> Run<'a> {
                 if !checked.first.is_empty() {
                     self.report_mismatches(spec, st, base, &c, b, &checked);
                 }
+                if checked.mismatches > 0 && must_conform(info, c.tri, &row) {
+                    self.summary.wrong_rows.push(format!(
+                        "{} {} [{}] {} {} {} {}: {} of {} rays mismatch the oracle",
+                        row.scene,
+                        row.structure,
+                        row.params,
+                        row.traversal,
+                        row.triangle_test,
+                        row.device,
+                        row.ray_kind,
+                        checked.mismatches,
+                        checked.validated
+                    ));
+                }
             }
             Ok(Outcome::Measured(None)) => {}
             Ok(Outcome::Unsupported(note)) => row.note = note,
@@ -643,6 +660,19 @@ fn base_row(spec: &SceneSpec, tris: &Arc<[Triangle]>, st: &StructureSpec, params
         host: tb_results::meta::host_name(),
         ..Default::default()
     }
+}
+
+/// Whether a row's mismatches are wrong answers (issue 62): every structure and traversal
+/// answers as the oracle does with the watertight test (the conformance suite's rule), so a
+/// mismatch there is a fault, unless the row is documented to differ: Möller–Trumbore (its
+/// own misses at shared edges and in-plane rays, and beyond about 1e12: README, "Results
+/// columns"), a traversal with a triangle test of its own (a peer's,
+/// [`tb_core::TraversalInfo::own_triangle_test`]), or rays ended by a traversal's step cap
+/// (`capped_rays`).
+pub fn must_conform(info: &TraversalInfo, tri: TriTestKind, row: &Row) -> bool {
+    tri == TriTestKind::Watertight
+        && info.own_triangle_test.is_none()
+        && row.capped_rays.unwrap_or(0) == 0
 }
 
 fn row_of(base: &Row, st: &StructureSpec, c: &Combo, b: &Batch) -> Row {
