@@ -12,6 +12,8 @@ use std::sync::OnceLock;
 pub(crate) enum Kind {
     Text,
     Number,
+    /// A count: a whole number at least 0 (`threads`, `rays`, `frame`).
+    Count,
     Bool,
 }
 
@@ -31,7 +33,9 @@ pub(crate) fn known() -> &'static BTreeMap<String, Kind> {
                 o.insert(col.to_owned(), v);
                 serde_json::from_value::<tb_results::output::Row>(o.into()).is_ok()
             };
-            if probe(0.into()) {
+            if probe(0.into()) && !probe((-1).into()) && !probe(0.5.into()) {
+                Kind::Count
+            } else if probe(0.into()) {
                 Kind::Number
             } else if probe(true.into()) {
                 Kind::Bool
@@ -61,6 +65,7 @@ fn add(
     };
     for (c, v) in o {
         let k = match v {
+            serde_json::Value::Number(n) if n.is_u64() => Kind::Count,
             serde_json::Value::Number(_) => Kind::Number,
             serde_json::Value::Bool(_) => Kind::Bool,
             serde_json::Value::Null => null_kind(&c),
@@ -72,9 +77,11 @@ fn add(
 
 fn merge(m: &mut BTreeMap<String, Kind>, c: &str, k: Kind) {
     let e = m.entry(c.to_owned()).or_insert(k);
-    if *e != k {
-        *e = Kind::Text;
-    }
+    *e = match (*e, k) {
+        (a, b) if a == b => a,
+        (Kind::Count | Kind::Number, Kind::Count | Kind::Number) => Kind::Number,
+        _ => Kind::Text,
+    };
 }
 
 /// Check a selector value against its column's kind (numbers for numeric columns, booleans
@@ -84,6 +91,9 @@ pub(crate) fn check_kind(kind: Kind, v: &toml::Value) -> Result<(), String> {
         (Kind::Text, _) => true,
         (Kind::Number, toml::Value::Integer(_) | toml::Value::Float(_)) => true,
         (Kind::Number, toml::Value::String(s)) => s.trim().parse::<f64>().is_ok(),
+        (Kind::Count, toml::Value::Integer(i)) => *i >= 0,
+        (Kind::Count, toml::Value::Float(f)) => *f >= 0.0 && f.fract() == 0.0,
+        (Kind::Count, toml::Value::String(s)) => s.trim().parse::<u64>().is_ok(),
         (Kind::Bool, toml::Value::Boolean(_)) => true,
         (Kind::Bool, toml::Value::String(s)) => s == "true" || s == "false",
         _ => false,
@@ -96,10 +106,10 @@ pub(crate) fn check_kind(kind: Kind, v: &toml::Value) -> Result<(), String> {
         None => Ok(()),
         Some(x) => Err(format!(
             "{x} is not {}",
-            if kind == Kind::Number {
-                "a number (the column is numeric)"
-            } else {
-                "true or false"
+            match kind {
+                Kind::Number => "a number (the column is numeric)",
+                Kind::Count => "a whole number at least 0 (the column counts)",
+                _ => "true or false",
             }
         )),
     }

@@ -78,7 +78,7 @@ impl Measure {
                             "`{c}` is not a column of the CSVs a run writes (see claims/README.md, Measures)"
                         ))
                     }
-                    Some(Kind::Number) => {}
+                    Some(Kind::Number | Kind::Count) => {}
                     Some(_) => return Err(format!("`{c}` is not a numeric column")),
                 }
             }

@@ -190,6 +190,31 @@ impl RowSet {
     }
 }
 
+/// The cells of a row of a CSV trace-bench writes: each numeric column's cell empty or a
+/// finite number, each boolean column's empty, `true` or `false`.
+fn check_cells(f: &Path, line: usize, header: &[String], rec: &csv::StringRecord) -> Result<(), Error> {
+    use super::columns::{known, Kind};
+    for (col, cell) in header.iter().zip(rec.iter()) {
+        let cell = cell.trim();
+        if cell.is_empty() {
+            continue;
+        }
+        let want = match known().get(col) {
+            Some(Kind::Number) if !cell.parse::<f64>().is_ok_and(f64::is_finite) => {
+                "a finite number"
+            }
+            Some(Kind::Count) if cell.parse::<u64>().is_err() => "a whole number at least 0",
+            Some(Kind::Bool) if cell != "true" && cell != "false" => "true or false",
+            _ => continue,
+        };
+        return Err(Error::io(
+            f,
+            format!("row {line}: column {col}: `{cell}` is not {want}"),
+        ));
+    }
+    Ok(())
+}
+
 fn read_csv(f: &Path, origin: &Arc<PathBuf>) -> Result<Vec<Row>, Error> {
     let mut rd = csv::ReaderBuilder::new()
         .flexible(false)
@@ -215,9 +240,17 @@ fn read_csv(f: &Path, origin: &Arc<PathBuf>) -> Result<Vec<Row>, Error> {
             .unwrap_or_default()
     };
     let ours = is_results || super::columns::is_ours(&header);
+    if is_results {
+        // Every cell of its column's type, as `check` reads it (a counter "abc", rays -7, a
+        // NaN: refused naming the row, never read as a missing figure: issue 62).
+        tb_results::output::read_csv(f)?;
+    }
     let mut out = Vec::new();
     for (i, rec) in rd.records().enumerate() {
         let rec = rec.map_err(|e| Error::io(f, format!("row {}: {e}", i + 2)))?;
+        if ours {
+            check_cells(f, i + 2, &header, &rec)?;
+        }
         out.push(Row {
             file: file.clone(),
             origin: origin.clone(),

@@ -12,6 +12,15 @@ pub trait Runs {
     /// Config `text` (of `file`) with `key=value` edits applied as `trace-bench run --set`
     /// applies them (the effective config text), or the error `run` would give.
     fn apply_sets(&self, file: &str, text: &str, sets: &[String]) -> Result<String, Error>;
+    /// Check a `trace-bench run` command line (`args` from `run` on) as far as it can be
+    /// without loading a scene: its config with every edit and filter, the values a run reads
+    /// (reproduce does so for every run before the first starts); the error `run` would give.
+    /// `Ok`: the paths the run writes besides its `--out` folder (a config's convergence
+    /// cache).
+    fn check_run(&self, args: &[String]) -> Result<Vec<std::path::PathBuf>, Error> {
+        let _ = args;
+        Ok(Vec::new())
+    }
     /// From here on catch SIGINT, SIGTERM and SIGHUP: [`Runs::received`] says which came.
     fn catch_signals(&self);
     /// The signal received since [`Runs::catch_signals`], if any.

@@ -546,6 +546,12 @@ impl ClaimsFile {
             if c.devices.is_empty() {
                 return Err(err("devices", "name at least one device".into()));
             }
+            if let Some(d) = c.devices.iter().find(|d| !["cpu", "gpu"].contains(&d.as_str())) {
+                return Err(err(
+                    "devices",
+                    format!("unknown device `{d}` (known: cpu, gpu)"),
+                ));
+            }
         }
         Ok(())
     }

@@ -33,8 +33,20 @@ pub struct Stability {
 impl Stability {
     /// Whether the reports agree as they must (no counter verdict moved, no time verdict
     /// went between agree and disagree).
+    /// The claims every report has (what was compared).
+    pub fn compared(&self) -> usize {
+        self.counter_same
+            + self.counter_moved.len()
+            + self.time_same
+            + self.time_flipped.len()
+            + self.time_decided_once.len()
+    }
+
+    /// The reports agree as the command asks: some claim in common (issue 62: two reports
+    /// with nothing in common compare nothing), no counter claim moved, no time claim between
+    /// agree and disagree.
     pub fn holds(&self) -> bool {
-        self.counter_moved.is_empty() && self.time_flipped.is_empty()
+        self.compared() > 0 && self.counter_moved.is_empty() && self.time_flipped.is_empty()
     }
 }
 
@@ -126,6 +138,19 @@ mod tests {
         std::fs::create_dir_all(&f).unwrap();
         std::fs::write(f.join("verdicts.json"), doc.to_string()).unwrap();
         f
+    }
+
+    /// Issue 62, item 5: reports with no claim in common compare nothing, and do not hold.
+    #[test]
+    fn reports_with_nothing_in_common_do_not_hold() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = report(dir.path(), "a", &[("c1", "agree", false)]);
+        let b = report(dir.path(), "b", &[("c2", "agree", false)]);
+        let s = compare(&[a.clone(), b]).unwrap();
+        assert_eq!((s.compared(), s.missing.len()), (0, 2));
+        assert!(!s.holds());
+        let s = compare(&[a.clone(), a]).unwrap();
+        assert!(s.holds());
     }
 
     #[test]

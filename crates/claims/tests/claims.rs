@@ -586,11 +586,28 @@ fn typos_are_refused_at_load() {
         ),
         (
             ok.replace("[1, 2]", "\"many\""),
-            "x.toml:3: claim c: filter: threads: \"many\" is not a number",
+            "x.toml:3: claim c: filter: threads: \"many\" is not a whole number at least 0",
         ),
         (
             ok.replace("[1, 2]", "[1, \"two\"]"),
-            "x.toml:3: claim c: filter: threads: \"two\" is not a number",
+            "x.toml:3: claim c: filter: threads: \"two\" is not a whole number at least 0",
+        ),
+        // Issue 62, item 6: values no row can hold are refused, not inconclusive for ever.
+        (
+            ok.replace("[1, 2]", "-1"),
+            "x.toml:3: claim c: filter: threads: -1 is not a whole number at least 0",
+        ),
+        (
+            ok.replace("[1, 2]", "1.5"),
+            "x.toml:3: claim c: filter: threads: 1.5 is not a whole number at least 0",
+        ),
+        (
+            ok.replace("filter", "devices = [\"tpu\"]\nfilter"),
+            "x.toml:3: claim c: devices: unknown device `tpu` (known: cpu, gpu)",
+        ),
+        (
+            ok.replace("min = 1", "min = nan"),
+            "x.toml:10: claim.test.min: NaN is not a finite number",
         ),
         (
             ok.replace("filter", "per = [\"scen\"]\nfilter"),

@@ -181,8 +181,8 @@ pub(crate) struct CheckArgs {
     baseline: PathBuf,
     /// The results.csv to check.
     results: PathBuf,
-    /// Relative growth allowed per counter.
-    #[arg(long, default_value_t = 0.01)]
+    /// Relative growth allowed per counter (finite, at least 0).
+    #[arg(long, default_value_t = 0.01, value_parser = parse_tolerance, allow_negative_numbers = true)]
     tolerance: f64,
 }
 
@@ -292,6 +292,11 @@ pub(crate) struct ReproduceArgs {
     /// report are made from what is there (the budget plans; this stops).
     #[arg(long)]
     deadline: Option<String>,
+    /// Let the claims files' runs write outside the report folder (an `exec` run's `--out` or
+    /// `--csv` elsewhere, a config's `[convergence] cache`); refused without it
+    /// (claims/README.md, "What a claims file may do").
+    #[arg(long)]
+    write_anywhere: bool,
     #[arg(long, short)]
     quiet: bool,
 }
@@ -708,4 +713,14 @@ fn parse_device(s: &str) -> std::result::Result<Device, String> {
 fn parse_backend(s: &str) -> std::result::Result<tb_gpu::Backend, String> {
     tb_gpu::Backend::from_name(s)
         .ok_or_else(|| format!("unknown backend `{s}` (known: vulkan, gl, metal, dx12)"))
+}
+
+fn parse_tolerance(s: &str) -> std::result::Result<f64, String> {
+    let t: f64 = s
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number"))?;
+    match tb_results::check::bad_tolerance(t) {
+        Some(why) => Err(format!("{t} {why}")),
+        None => Ok(t),
+    }
 }

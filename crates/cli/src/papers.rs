@@ -59,6 +59,12 @@ impl ClaimsArgs {
             }
         }
         let all_agree = verdicts.iter().all(|v| v.verdict == claims::Verdict::Agree);
+        if verdicts.is_empty() && require_agree {
+            bail!(
+                "{}: --require-agree: the file has no claim, so none can agree",
+                claims.display()
+            );
+        }
         Ok(if require_agree && !all_agree { 1 } else { 0 })
     }
 }
@@ -78,6 +84,7 @@ impl ReproduceArgs {
             adapter,
             heavy,
             deadline,
+            write_anywhere,
             quiet,
         } = self;
         let (paper, budget, claims_dir) = (paper.as_str(), budget.as_str(), claims_dir.as_path());
@@ -118,6 +125,7 @@ impl ReproduceArgs {
             budget_text: budget.to_owned(),
             heavy,
             deadline_s,
+            write_anywhere,
             quiet,
         };
         let reports = reproduce::reproduce(&opts, &HarnessRuns)?;
@@ -179,12 +187,13 @@ impl CompareArgs {
             s.time_flipped.len(),
             s.missing.len()
         );
+        if s.compared() == 0 {
+            eprintln!("error: compare: the reports have no claim in common: nothing was compared");
+        }
         Ok(if s.holds() { 0 } else { 1 })
     }
 }
 
-/// The claims files `reproduce PAPER` names: a paper's key under `claims_dir`, a claims file,
-/// or `all` (every claims file there with runs).
 /// The seconds of duration `text` given to `flag` (`10m`, `90s`, `1h`), more than zero.
 fn seconds(flag: &str, text: &str) -> Result<f64> {
     let s = humantime::parse_duration(text)
@@ -196,8 +205,13 @@ fn seconds(flag: &str, text: &str) -> Result<f64> {
     Ok(s)
 }
 
+/// The claims files `reproduce PAPER` names: a paper's key under `claims_dir`, a claims file,
+/// or `all` (every claims file there with runs); several, comma-separated, in that order.
 fn claims_files(paper: &str, claims_dir: &Path) -> Result<Vec<PathBuf>> {
     use tb_claims::reproduce;
+    if paper.trim().is_empty() {
+        bail!("reproduce: names no paper (give a paper's key, a claims file or all)");
+    }
     if paper.contains(',') {
         // Papers in this order (`all` adds the ones not named yet), each once.
         let mut papers: Vec<PathBuf> = Vec::new();
@@ -207,6 +221,9 @@ fn claims_files(paper: &str, claims_dir: &Path) -> Result<Vec<PathBuf>> {
                     papers.push(p);
                 }
             }
+        }
+        if papers.is_empty() {
+            bail!("reproduce `{paper}`: names no paper (give a paper's key, a claims file or all)");
         }
         return Ok(papers);
     }
@@ -249,6 +266,22 @@ impl tb_claims::reproduce::Runs for HarnessRuns {
     ) -> Result<String, tb_claims::Error> {
         tb_harness::experiment::config::overrides::apply_sets(file, text, sets)
             .map_err(|e| tb_claims::Error::Other(e.to_string()))
+    }
+    fn check_run(&self, args: &[String]) -> Result<Vec<PathBuf>, tb_claims::Error> {
+        let err = |m: String| tb_claims::Error::Other(m);
+        let argv = std::iter::once("trace-bench".to_owned()).chain(args.iter().cloned());
+        let cli = Cli::try_parse_from(argv).map_err(|e| {
+            err(format!(
+                "trace-bench {}: {}",
+                args.join(" "),
+                e.to_string().lines().next().unwrap_or_default()
+            ))
+        })?;
+        let Cmd::Run(a) = cli.cmd else {
+            return Ok(Vec::new());
+        };
+        let ov = a.overrides();
+        config::check_offline(&a.config, &ov).map_err(|e| err(e.to_string()))
     }
     fn catch_signals(&self) {
         child::catch_signals()

@@ -181,18 +181,28 @@ fn wrong_rows(rows: &[String]) {
 
 impl RunArgs {
     /// `trace-bench run`: one process, or several (`--processes`, `run.processes`).
-    pub(crate) fn run(self) -> Result<i32> {
+    /// The config edits and filters of these arguments.
+    pub(crate) fn overrides(&self) -> Overrides {
         let a = self;
-        let ov = Overrides {
-            threads: a.threads,
+        Overrides {
+            threads: a.threads.clone(),
             repeat: a.repeat,
-            devices: a.device,
-            adapter: a.adapter,
+            devices: a.device.clone(),
+            adapter: a.adapter.clone(),
             backend: a.backend,
             shard: a.shard,
             process: a.process,
-            ..a.select.overrides(a.scenes_root)
-        };
+            scenes_root: a.scenes_root.clone(),
+            sets: a.select.sets.clone(),
+            scenes: a.select.scenes.clone(),
+            structures: a.select.structures.clone(),
+            ..Default::default()
+        }
+    }
+
+    pub(crate) fn run(self) -> Result<i32> {
+        let ov = self.overrides();
+        let a = self;
         let (resume, force, quiet) = (a.resume, a.force, a.quiet);
         match several_processes(&a.config, &ov, a.processes)? {
             Some((name, n)) => {

@@ -85,9 +85,26 @@ pub struct Finding {
     pub failed: bool,
 }
 
-/// Compare `current` rows with `baseline` rows. `tolerance` is relative (0.01 = 1 %).
+/// Whether `t` is a relative tolerance [`compare`] takes: finite and at least 0 (`None`), or
+/// why not.
+pub fn bad_tolerance(t: f64) -> Option<&'static str> {
+    if !t.is_finite() {
+        Some("must be a finite number")
+    } else if t < 0.0 {
+        Some("must be at least 0")
+    } else {
+        None
+    }
+}
+
+/// Compare `current` rows with `baseline` rows. `tolerance` is relative (0.01 = 1 %; see
+/// [`bad_tolerance`]: a NaN tolerance would let every growth pass).
 /// Returns all findings (changes and failures); the check passes when none has `failed`.
 pub fn compare(baseline: &[Row], current: &[Row], tolerance: f64) -> Vec<Finding> {
+    assert!(
+        bad_tolerance(tolerance).is_none(),
+        "check::compare: tolerance {tolerance} (callers check it with bad_tolerance)"
+    );
     let mut out = duplicates(current);
     let mut cur: BTreeMap<Key, &Row> = BTreeMap::new();
     for r in current {
@@ -115,10 +132,13 @@ pub fn compare(baseline: &[Row], current: &[Row], tolerance: f64) -> Vec<Finding
             match (bv, cv) {
                 (None, None) => {}
                 (Some(bv), Some(cv)) => {
-                    if bv == cv {
+                    if bv == cv && bv.is_finite() {
                         continue;
                     }
-                    let grew = match rule(name) {
+                    // A counter that is not a number (NaN, ±inf) in either file is no figure a
+                    // run writes: it fails, whatever the rule (issue 62: NaN passed every
+                    // comparison by comparing false).
+                    let grew = !bv.is_finite() || !cv.is_finite() || match rule(name) {
                         Rule::NoGrowth => cv > bv,
                         Rule::Exact => (cv - bv).abs() > 1e-9 * bv.abs().max(1.0),
                         Rule::Tolerance => cv > bv * (1.0 + tolerance) + 1e-9,
@@ -235,6 +255,26 @@ mod tests {
         let mut bad = row(10.0);
         bad.mismatches = Some(1);
         assert!(compare(&base, &[bad], 0.5).iter().any(|f| f.failed));
+    }
+
+    /// Issue 62, item 3: a counter that is not a number, in the results or in the baseline
+    /// (both alike too), fails whatever the tolerance; so does an infinite one.
+    #[test]
+    fn a_counter_that_is_not_a_number_fails() {
+        for (b, c) in [
+            (f64::NAN, 10.0),
+            (10.0, f64::NAN),
+            (f64::NAN, f64::NAN),
+            (f64::INFINITY, f64::INFINITY),
+            (10.0, f64::INFINITY),
+        ] {
+            let found = compare(&[row(b)], &[row(c)], 0.5);
+            assert!(found.iter().any(|f| f.failed), "{b} -> {c}: {found:?}");
+        }
+        assert_eq!(bad_tolerance(f64::NAN), Some("must be a finite number"));
+        assert_eq!(bad_tolerance(f64::INFINITY), Some("must be a finite number"));
+        assert_eq!(bad_tolerance(-1.0), Some("must be at least 0"));
+        assert_eq!(bad_tolerance(0.0), None);
     }
 
     /// The corruptions a hand-edited or twice-written results file shows (issue 30): each

@@ -10,6 +10,7 @@
 
 pub mod check;
 pub mod error;
+pub mod finite;
 pub mod lock;
 pub mod merge;
 pub mod meta;

@@ -21,6 +21,20 @@ pub const MAX_PROCESSES: usize = 64;
 /// file each time, quadratic in the rows.
 pub const JSON_EVERY: Duration = Duration::from_secs(1);
 
+/// A float cell of a row: empty (`None`) or a finite number. A NaN or infinite figure is no
+/// measurement a run writes (rates are guarded, `timing`), and a NaN compares false with every
+/// bound, so `check`, `claims` and `merge` would pass it (issue 62): reading refuses it,
+/// naming the row.
+fn finite<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+    let v = Option::<f64>::deserialize(d)?;
+    match v {
+        Some(x) if !x.is_finite() => Err(serde::de::Error::custom(format!(
+            "{x} is not a finite number"
+        ))),
+        v => Ok(v),
+    }
+}
+
 macro_rules! define_row {
     ($($name:ident, $per:ident, $max:ident, $doc:literal;)*) => {
         /// One result row: one scene x structure x params x traversal x device x threads x
@@ -56,19 +70,25 @@ macro_rules! define_row {
             pub triangle_test: String,
             pub ray_kind: String,
             pub rays: u64,
+            #[serde(deserialize_with = "finite")]
             pub build_ms: Option<f64>,
             /// Every build's ms (`run.build_repeat` of them) in the order they ran,
             /// `;`-separated.
             #[serde(default)]
             pub build_ms_runs: String,
+            #[serde(deserialize_with = "finite")]
             pub trace_ms_min: Option<f64>,
+            #[serde(deserialize_with = "finite")]
             pub trace_ms_median: Option<f64>,
+            #[serde(deserialize_with = "finite")]
             pub trace_ms_max: Option<f64>,
+            #[serde(deserialize_with = "finite")]
             pub mrays_per_s: Option<f64>,
             /// Timed runs of the row (`repeat`, more with `max_repeat`).
             pub timed_runs: Option<u32>,
             /// Half the width of the median's 95 % confidence interval, relative to the
             /// median.
+            #[serde(deserialize_with = "finite")]
             pub trace_ms_ci: Option<f64>,
             /// Every timed run's ms in the order they ran, `;`-separated (rows timed together
             /// pair run for run: see `timing_group`).
@@ -82,41 +102,53 @@ macro_rules! define_row {
             /// idle level during the row.
             pub noisy: Option<bool>,
             /// 1-minute load average when the row finished (Linux).
+            #[serde(deserialize_with = "finite")]
             pub load_avg: Option<f64>,
             /// CPU cores other processes kept busy on average while the row was measured
             /// (Linux `/proc/stat` less this process's own time).
             #[serde(default)]
+            #[serde(deserialize_with = "finite")]
             pub cpu_others: Option<f64>,
             /// GPU rows: host-to-device copy of the structure and rays (median), not in
             /// `trace_ms_*`.
+            #[serde(deserialize_with = "finite")]
             pub upload_ms: Option<f64>,
             /// GPU rows: device-to-host copy of the hits (median), not in `trace_ms_*`.
+            #[serde(deserialize_with = "finite")]
             pub readback_ms: Option<f64>,
             /// GPU rows of a program that sorts its rays by key (`tb_core::GpuArrange`): the
             /// sort passes' time over the batch, ms, median over the timed runs; in
             /// `trace_ms_*` when the sort is timed (multi-kd `-sorted`, "inc."), not otherwise
             /// (`-presorted`, "n.inc."). Empty on other rows.
+            #[serde(deserialize_with = "finite")]
             pub sort_ms: Option<f64>,
             /// GPU rows: the fixed-work probe's ms per pass (`tb_gpu::Gpu::probe_ms`), the
             /// mean of the probes timed just before and just after the row's timed passes.
             #[serde(default)]
+            #[serde(deserialize_with = "finite")]
             pub probe_ms: Option<f64>,
             /// GPU rows: of those two probes, the one farther from the run's first probe,
             /// relative to it (0.03 = 3 % slower); beyond ±5 % the row is `noisy`.
             #[serde(default)]
+            #[serde(deserialize_with = "finite")]
             pub probe_drift: Option<f64>,
             /// GPU rows where the driver exposes the clocks (NVIDIA, `nvidia-smi`): the least
             /// and most SM clock, MHz, sampled while the row was timed (between its probes).
             #[serde(default)]
+            #[serde(deserialize_with = "finite")]
             pub gpu_sm_mhz_min: Option<f64>,
             #[serde(default)]
+            #[serde(deserialize_with = "finite")]
             pub gpu_sm_mhz_max: Option<f64>,
             /// The memory clock, MHz, the mean of the same samples.
             #[serde(default)]
+            #[serde(deserialize_with = "finite")]
             pub gpu_mem_mhz: Option<f64>,
+            #[serde(deserialize_with = "finite")]
             pub hit_rate: Option<f64>,
             $(
                 #[doc = concat!("Mean per ray: ", $doc, ".")]
+                #[serde(deserialize_with = "finite")]
                 pub $per: Option<f64>,
                 #[doc = concat!("Maximum over the rays: ", $doc, ".")]
                 pub $max: Option<u32>,
@@ -134,6 +166,7 @@ macro_rules! define_row {
             pub nodes: Option<u64>,
             pub prim_refs: Option<u64>,
             pub node_bytes: Option<u32>,
+            #[serde(deserialize_with = "finite")]
             pub sah_cost: Option<f64>,
             pub build_stats: String,
             /// The most heap the build held at once above what was live before it, bytes
@@ -217,12 +250,39 @@ pub fn read_csv(path: &Path) -> Result<Vec<Row>, Error> {
 
 fn parse_csv(path: &Path, text: &str) -> Result<Vec<Row>, Error> {
     let mut r = csv::Reader::from_reader(text.as_bytes());
+    let header = r.headers().cloned().unwrap_or_default();
     let mut rows = Vec::new();
-    for (i, row) in r.deserialize().enumerate() {
-        let row: Row = row.map_err(|e| Error::io(path, format!("row {}: {e}", i + 2)))?;
+    for (i, rec) in r.records().enumerate() {
+        let line = i + 2;
+        let rec = rec.map_err(|e| Error::io(path, format!("row {line}: {e}")))?;
+        let row: Row = rec
+            .deserialize(Some(&header))
+            .map_err(|e| Error::io(path, row_error(line, &header, &rec, &e)))?;
         rows.push(row);
     }
     Ok(rows)
+}
+
+/// `row N: column NAME: the problem` for a cell that does not read as its column's type (a
+/// non-finite float, refused by [`finite`], is found by its cell).
+fn row_error(
+    line: usize,
+    header: &csv::StringRecord,
+    rec: &csv::StringRecord,
+    e: &csv::Error,
+) -> String {
+    let csv::ErrorKind::Deserialize { err, .. } = e.kind() else {
+        return format!("row {line}: {e}");
+    };
+    let at = err.field().map(|k| k as usize).or_else(|| {
+        rec.iter()
+            .position(|c| c.trim().parse::<f64>().is_ok_and(|x| !x.is_finite()))
+    });
+    let col = at
+        .and_then(|k| header.get(k))
+        .map(|c| format!("column {c}: "))
+        .unwrap_or_default();
+    format!("row {line}: {col}{}", err.kind())
 }
 
 /// Read the results CSV of an interrupted run. Every row is written with its newline in one

@@ -23,6 +23,7 @@ use std::time::{Duration, Instant};
 
 mod report;
 mod stop;
+mod writes;
 
 use stop::{interrupted, past_deadline};
 
@@ -59,6 +60,8 @@ pub struct Options {
     /// and no further run is started (`--deadline`); the claims and the report are made
     /// either way.
     pub deadline_s: Option<f64>,
+    /// Let the runs write outside the report folder (`--write-anywhere`; module `writes`).
+    pub write_anywhere: bool,
     pub quiet: bool,
 }
 
@@ -76,6 +79,9 @@ pub struct PlannedRun {
     pub paper: String,
     pub label: String,
     pub args: Vec<String>,
+    /// An `exec` run (a command of the claims file's), not a `run` of a config.
+    #[serde(skip)]
+    pub exec: bool,
     pub folder: PathBuf,
     pub cost_s: f64,
     /// The image scale applied (1 = as declared).
@@ -464,6 +470,7 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
                 paper: key.clone(),
                 label,
                 args: run_args(r, &sets, &folder, opts),
+                exec: r.exec.is_some(),
                 folder,
                 cost_s: cost,
                 scale: if scaled.is_some() { scale } else { 1.0 },
@@ -621,7 +628,8 @@ fn say_plan(opts: &Options, planned: &[(PathBuf, ClaimsFile, Vec<PlannedRun>)]) 
 }
 
 /// Before the first run: every `--with` holds trace-bench results, every run's config exists
-/// and parses with its edits, and no other process writes into a run's folder.
+/// and passes the checks that need no scene with its edits ([`Runs::check_run`]), and no other
+/// process writes into a run's folder.
 fn preflight(
     opts: &Options,
     planned: &[(PathBuf, ClaimsFile, Vec<PlannedRun>)],
@@ -656,6 +664,35 @@ fn preflight(
                     ),
                 )
             })?;
+            let extra = runner.check_run(&r.args).map_err(|e| {
+                Error::Other(format!(
+                    "{e} (a [[run]] of {}: checked before the first run)",
+                    path.display()
+                ))
+            })?;
+            if let Some(w) = extra.iter().find(|w| !writes::inside(w, &opts.out)) {
+                if !opts.write_anywhere && !r.exec {
+                    return Err(Error::Other(format!(
+                        "{}: run {}: its config writes {} (the convergence cache), outside the \
+                         report folder {}: set [convergence] cache inside it, or pass \
+                         --write-anywhere",
+                        path.display(),
+                        r.label,
+                        w.display(),
+                        opts.out.display()
+                    )));
+                }
+            }
+        }
+        for r in runs.iter().filter(|r| r.exec && !opts.write_anywhere) {
+            if let Some(why) = writes::exec_outside(&r.args, &r.folder) {
+                return Err(Error::Other(format!(
+                    "{}: run {}: {why}; a claims file's runs write in their run folder (claims/README.md, \
+                     \"What a claims file may do\"): pass --write-anywhere to allow it",
+                    path.display(),
+                    r.label
+                )));
+            }
         }
         for r in runs.iter().filter(|r| r.folder.is_dir()) {
             tb_results::lock::FolderLock::acquire(&r.folder)?;
@@ -809,6 +846,7 @@ mod tests {
             budget_text: String::new(),
             heavy: false,
             deadline_s: None,
+            write_anywhere: false,
             quiet: true,
         }
     }

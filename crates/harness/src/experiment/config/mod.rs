@@ -305,6 +305,8 @@ pub fn parse_with(
     let file = shown.as_path();
     let cx = Ctx { file, text };
     let mut raw: RawConfig = toml::from_str(text).map_err(|e| syntax_error(file, text, &e))?;
+    // No float of the config is NaN or infinite (issue 62), whatever key reads it.
+    tb_results::finite::check_toml(file, text)?;
 
     overrides::filter(&cx, &mut raw, &ov.scenes, &ov.structures)?;
     if let Some(p) = ov.process {
@@ -379,6 +381,53 @@ pub fn parse_with(
     })
 }
 
+/// Everything [`load`] checks that needs no scene loaded (issue 62: `reproduce` checks each
+/// run's config with its edits before the first run starts, not when that run starts): the
+/// syntax, finite numbers, the `--scene`/`--structure` filters, `[run]`, the structures and
+/// their parameters, the images settings, and per scene table its ray kinds, that its file
+/// exists, the AO, path and random settings, and the camera's size and field of view. `Ok`:
+/// the folders the run writes besides its output folder (the `[convergence]` cache).
+pub fn check_offline(file: &Path, ov: &Overrides) -> Result<Vec<PathBuf>, HarnessError> {
+    let text = std::fs::read_to_string(file).map_err(|e| HarnessError::io(file, e))?;
+    let edited;
+    let (text, shown) = if ov.sets.is_empty() {
+        (text.as_str(), file.to_path_buf())
+    } else {
+        edited = overrides::apply_sets(&file.display().to_string(), &text, &ov.sets)?;
+        (
+            edited.as_str(),
+            PathBuf::from(format!("{} (with --set)", file.display())),
+        )
+    };
+    let cx = Ctx { file: &shown, text };
+    let mut raw: RawConfig =
+        toml::from_str(text).map_err(|e| syntax_error(&shown, text, &e))?;
+    tb_results::finite::check_toml(&shown, text)?;
+    overrides::filter(&cx, &mut raw, &ov.scenes, &ov.structures)?;
+    experiment_name(&cx, &raw, file)?;
+    run::check_run(&cx, &raw.run, ov)?;
+    check_structures(&cx, &raw, &Registry::builtin())?;
+    images::check(
+        &cx,
+        raw.run.images,
+        raw.run.heatmap_max.as_ref(),
+        raw.run.heatmap_colormap.as_ref(),
+    )?;
+    if raw.scenes.is_empty() {
+        return Err(cx.err(0..0, "scene", "the config names no [[scene]]"));
+    }
+    let root = scenes_root_of(ov, &raw);
+    for sc in &raw.scenes {
+        scenes::check_offline(&cx, sc, &root)?;
+    }
+    Ok(raw
+        .convergence
+        .as_ref()
+        .map(|c| c.get_ref().cache_dir())
+        .into_iter()
+        .collect())
+}
+
 /// `--process I/K` is refused beside `--shard` (a process runs the whole config) and with
 /// `[dynamic]` (its frames are written to dynamic.csv, not as rows a process tags).
 fn check_process(
@@ -423,6 +472,7 @@ pub fn peek(file: &Path, ov: &Overrides) -> Result<(String, usize), HarnessError
     };
     let cx = Ctx { file: &shown, text };
     let raw: RawConfig = toml::from_str(text).map_err(|e| syntax_error(&shown, text, &e))?;
+    tb_results::finite::check_toml(&shown, text)?;
     let name = experiment_name(&cx, &raw, file)?;
     let processes = run::check_processes(&cx, &raw.run)?;
     if processes > 1 && raw.dynamic.is_some() {

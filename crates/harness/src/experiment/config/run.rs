@@ -91,40 +91,50 @@ pub(super) fn check_processes(cx: &Ctx, run: &RawRun) -> Result<usize, HarnessEr
     }
 }
 
-/// The thread counts: `--threads` (0 = all cores), else `run.threads`, else all cores.
+/// The most threads a row may be timed with (`run.threads`, `--threads`).
+pub const MAX_THREADS: usize = 1024;
+
+/// The thread counts: `--threads` (0 = all cores), else `run.threads`, else all cores; each
+/// at most [`MAX_THREADS`], duplicates dropped.
 fn check_threads(cx: &Ctx, run: &RawRun, ov: &Overrides) -> Result<Vec<usize>, HarnessError> {
     let all = std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1);
-    Ok(match (&ov.threads, &run.threads) {
-        (Some(t), _) => t.iter().map(|&n| if n == 0 { all } else { n }).collect(),
+    let counts = |list: Vec<usize>, bad: &dyn Fn(String) -> HarnessError| {
+        let mut out: Vec<usize> = Vec::new();
+        for n in list {
+            let n = if n == 0 { all } else { n };
+            if n > MAX_THREADS {
+                return Err(bad(format!(
+                    "{n} threads is too many (at most {MAX_THREADS})"
+                )));
+            }
+            if !out.contains(&n) {
+                out.push(n);
+            }
+        }
+        Ok(out)
+    };
+    match (&ov.threads, &run.threads) {
+        (Some(t), _) => {
+            if t.is_empty() {
+                return Err(HarnessError::other("--threads: needs at least one thread count"));
+            }
+            counts(t.clone(), &|m| HarnessError::other(format!("--threads: {m}")))
+        }
         (None, Some(t)) => {
             let span = t.span();
-            let list: Vec<u32> = match t.get_ref() {
-                OneOrMany::One(n) => vec![*n],
-                OneOrMany::Many(v) => v.clone(),
+            let list: Vec<usize> = match t.get_ref() {
+                OneOrMany::One(n) => vec![*n as usize],
+                OneOrMany::Many(v) => v.iter().map(|&n| n as usize).collect(),
             };
             if list.is_empty() {
                 return Err(cx.err(span, "run.threads", "needs at least one thread count"));
             }
-            let mut out: Vec<usize> = Vec::new();
-            for n in list {
-                let n = if n == 0 { all } else { n as usize };
-                if n > 1024 {
-                    return Err(cx.err(
-                        span.clone(),
-                        "run.threads",
-                        format!("{n} threads is too many"),
-                    ));
-                }
-                if !out.contains(&n) {
-                    out.push(n);
-                }
-            }
-            out
+            counts(list, &|m| cx.err(span.clone(), "run.threads", m))
         }
-        (None, None) => vec![all],
-    })
+        (None, None) => Ok(vec![all]),
+    }
 }
 
 /// `run.triangle_test`: one or more triangle tests (watertight when absent).

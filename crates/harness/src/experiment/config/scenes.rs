@@ -97,6 +97,37 @@ pub(super) fn check_scene(
         .collect()))
 }
 
+/// [`check_scene`]'s checks that need no scene loaded (`config::check_offline`): the ray
+/// kinds, the file's existence, the AO, path and random settings, the camera's size and field
+/// of view where the table gives them, and the views' names.
+pub(super) fn check_offline(cx: &Ctx, s: &RawScene, scenes_root: &Path) -> Result<(), HarnessError> {
+    let kinds = check_rays(cx, s)?;
+    if check_file(cx, s, scenes_root)?.is_err() {
+        // Absent and optional: skipped when the run comes.
+        return Ok(());
+    }
+    // The defaults that depend on the scene (its view, its diagonal) are the scene's own
+    // and checked when it loads; what the table gives is checked here.
+    check_settings(cx, s, &kinds, None, 1.0)?;
+    if let Some(c) = &s.camera {
+        let cam = c.get_ref();
+        if cam.width == Some(0) || cam.height == Some(0) {
+            return Err(cx.err(c.span(), "scene.camera", "width and height must be positive"));
+        }
+        if cam.width.unwrap_or(1) as u64 * cam.height.unwrap_or(1) as u64 > 64 << 20 {
+            return Err(cx.err(c.span(), "scene.camera", "more than 64M pixels"));
+        }
+        if let Some(fov) = cam.fov.filter(|f| !(*f > 0.0 && *f < 180.0)) {
+            return Err(cx.err(
+                c.span(),
+                "scene.camera",
+                format!("fov must be in (0, 180) degrees, got {fov}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The table's ray kinds (`rays`, primary when absent), without repeats.
 fn check_rays(cx: &Ctx, s: &RawScene) -> Result<Vec<RayKind>, HarnessError> {
     let mut kinds = Vec::new();

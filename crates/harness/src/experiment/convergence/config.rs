@@ -23,6 +23,16 @@ pub struct RawConvergence {
     cache: Option<String>,
 }
 
+impl RawConvergence {
+    /// Where the reference images are cached (`cache`, default `results/.cache`).
+    pub fn cache_dir(&self) -> PathBuf {
+        PathBuf::from(self.cache.as_deref().unwrap_or(DEFAULT_CACHE))
+    }
+}
+
+/// The reference images' cache folder where `[convergence] cache` is not given.
+pub const DEFAULT_CACHE: &str = "results/.cache";
+
 /// Which integrator a convergence run uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum IntegratorKind {
@@ -141,7 +151,7 @@ pub(crate) fn check(
         max_seconds,
         albedo,
         resolution,
-        cache: PathBuf::from(r.cache.as_deref().unwrap_or("results/.cache")),
+        cache: r.cache_dir(),
         ..spec_tmp
     })
 }
