@@ -1,8 +1,10 @@
 //! The papers' figures drawn from `reproduce`'s runs: each claims file's `[[figure]]`s run a
 //! plotting script of `scripts/` (`plot.py`, `irregular-figure6.py`) on the runs' folders into
 //! the report's `figures/`, linked from REPORT.md. Needs matplotlib: the interpreter is
-//! `TRACE_BENCH_PYTHON` (a venv's `python`) or `python3`; without matplotlib REPORT.md says
-//! how to get it, and a script that fails is reported there, never fatal.
+//! `TRACE_BENCH_PYTHON` (a venv's `python`), else the `.venv` the README's set-up makes
+//! (`.venv/bin/python` in the current directory, where it exists), else `python3`; without
+//! matplotlib REPORT.md says how to get it, and a script that fails is reported there, never
+//! fatal.
 
 use super::schema::{run_refs, FigureSpec};
 use crate::runs::Runs;
@@ -12,10 +14,13 @@ use std::process::Command;
 /// The variable naming the interpreter that draws the figures.
 pub const PYTHON_ENV: &str = "TRACE_BENCH_PYTHON";
 
+/// The virtual environment the README's set-up makes, in the current directory.
+pub const VENV_PYTHON: &str = ".venv/bin/python";
+
 /// How to get matplotlib, said where figures are not drawn.
 pub const HOW_TO: &str = "python3 -m venv .venv && .venv/bin/pip install -r \
-    scripts/requirements.txt, then rerun with TRACE_BENCH_PYTHON=.venv/bin/python (the same \
-    --out reuses the runs)";
+    scripts/requirements.txt, then rerun reproduce from the same directory (it draws with \
+    .venv/bin/python; the same --out reuses the runs)";
 
 /// What became of one figure.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -37,11 +42,22 @@ pub struct Figure {
     pub drawn: Drawn,
 }
 
-/// The interpreter to draw with: `TRACE_BENCH_PYTHON`, else `python3`.
+/// The interpreter to draw with: `TRACE_BENCH_PYTHON`, else [`VENV_PYTHON`] where it exists,
+/// else `python3`.
 pub fn python() -> PathBuf {
-    std::env::var_os(PYTHON_ENV)
-        .filter(|p| !p.is_empty())
-        .map_or_else(|| PathBuf::from("python3"), PathBuf::from)
+    python_in(Path::new("."), std::env::var_os(PYTHON_ENV))
+}
+
+/// [`python`] from folder `dir` with `TRACE_BENCH_PYTHON` = `env`.
+fn python_in(dir: &Path, env: Option<std::ffi::OsString>) -> PathBuf {
+    if let Some(p) = env.filter(|p| !p.is_empty()) {
+        return PathBuf::from(p);
+    }
+    let venv = dir.join(VENV_PYTHON);
+    if venv.is_file() {
+        return venv;
+    }
+    PathBuf::from("python3")
 }
 
 /// `Ok` when `python` imports matplotlib; else why not, in words.
@@ -206,6 +222,25 @@ pub fn markdown(figs: &[Figure], notice: Option<&str>) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 62, item 10: the README's set-up makes `.venv`; reproduce then draws with it,
+    /// without a variable to set; `TRACE_BENCH_PYTHON` still wins.
+    #[test]
+    fn the_set_up_venv_draws_the_figures() {
+        let d = tempfile::tempdir().unwrap();
+        assert_eq!(python_in(d.path(), None), PathBuf::from("python3"));
+        std::fs::create_dir_all(d.path().join(".venv/bin")).unwrap();
+        std::fs::write(d.path().join(VENV_PYTHON), "").unwrap();
+        assert_eq!(python_in(d.path(), None), d.path().join(VENV_PYTHON));
+        assert_eq!(
+            python_in(d.path(), Some("/x/py".into())),
+            PathBuf::from("/x/py")
+        );
+        assert_eq!(
+            python_in(d.path(), Some("".into())),
+            d.path().join(VENV_PYTHON)
+        );
+    }
 
     fn spec(name: &str, args: &[&str]) -> FigureSpec {
         FigureSpec {

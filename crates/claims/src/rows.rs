@@ -127,6 +127,29 @@ fn csv_files(p: &Path) -> Result<Vec<PathBuf>, Error> {
     Ok(v)
 }
 
+/// The CSV files a folder given as a source holds: its own ([`csv_files`]), or where it has
+/// none, those of its subfolders, each taken the same way (a reproduce or reference folder as
+/// committed: `runs/PAPER/N-RUN/results.csv`; issue 62, item 9). A folder with CSVs of its
+/// own is not entered further (a run of several processes: the merged rows, not each
+/// process's again).
+fn source_files(p: &Path, depth: usize) -> Result<Vec<PathBuf>, Error> {
+    let own = csv_files(p)?;
+    if !own.is_empty() || depth == 0 {
+        return Ok(own);
+    }
+    let mut dirs: Vec<PathBuf> = std::fs::read_dir(p)
+        .map_err(|e| Error::io(p, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|d| d.is_dir() && !d.is_symlink())
+        .collect();
+    dirs.sort();
+    let mut out = Vec::new();
+    for d in dirs {
+        out.extend(source_files(&d, depth - 1)?);
+    }
+    Ok(out)
+}
+
 impl RowSet {
     /// Whether folder `p` holds a CSV that [`RowSet::read`] reads (a run that failed before
     /// writing a row leaves none).
@@ -134,15 +157,19 @@ impl RowSet {
         p.is_dir() && csv_files(p).is_ok_and(|v| !v.is_empty())
     }
 
-    /// Read each path: a folder gives every `*.csv` in it but `params.csv`; a file is one CSV.
+    /// Read each path: a folder gives every `*.csv` in it but `params.csv` (where it has none,
+    /// those of the folders under it: [`source_files`]); a file is one CSV.
     pub fn read(paths: &[PathBuf]) -> Result<RowSet, Error> {
         let mut set = RowSet::default();
         let mut index: HashMap<String, usize> = HashMap::new();
         for p in paths {
             let files = if p.is_dir() {
-                let v = csv_files(p)?;
+                let v = source_files(p, 4)?;
                 if v.is_empty() {
-                    return Err(Error::io(p, "no CSV file in this folder"));
+                    return Err(Error::io(
+                        p,
+                        "no CSV file in this folder or the folders under it",
+                    ));
                 }
                 v
             } else if p.exists() {
@@ -192,7 +219,12 @@ impl RowSet {
 
 /// The cells of a row of a CSV trace-bench writes: each numeric column's cell empty or a
 /// finite number, each boolean column's empty, `true` or `false`.
-fn check_cells(f: &Path, line: usize, header: &[String], rec: &csv::StringRecord) -> Result<(), Error> {
+fn check_cells(
+    f: &Path,
+    line: usize,
+    header: &[String],
+    rec: &csv::StringRecord,
+) -> Result<(), Error> {
     use super::columns::{known, Kind};
     for (col, cell) in header.iter().zip(rec.iter()) {
         let cell = cell.trim();

@@ -453,6 +453,38 @@ fn check_value(v: &toml::Value) -> Result<(), String> {
     }
 }
 
+/// A claim's test: the rows it names are defined, its band and margins are sound.
+fn check_test(c: &Claim) -> Result<(), String> {
+    for n in c.test.names() {
+        if !c.rows.contains_key(n) {
+            return Err(format!(
+                "names rows `{n}`, which claim.rows does not define (it has: {})",
+                c.rows.keys().cloned().collect::<Vec<_>>().join(", ")
+            ));
+        }
+    }
+    if let Some((min, max)) = c.test.band() {
+        match (min, max) {
+            (None, None) => return Err("give min, max or both".into()),
+            (Some(a), Some(b)) if a > b => return Err(format!("min {a} is above max {b}")),
+            _ => {}
+        }
+    }
+    match &c.test {
+        Test::Order { rows, margin, .. } if rows.len() < 2 || *margin < 0.0 => {
+            return Err("order needs two rows or more, margin >= 0".into())
+        }
+        Test::Least { of, margin, .. } if of.is_empty() || *margin < 0.0 => {
+            return Err("least needs `of` rows, margin >= 0".into())
+        }
+        Test::Equal { tolerance, .. } if *tolerance < 0.0 => {
+            return Err("tolerance must be >= 0".into())
+        }
+        _ => {}
+    }
+    Ok(())
+}
+
 impl ClaimsFile {
     /// Every claim's ids, selectors, measure, test and groups, before any row is read.
     pub(crate) fn check(&self, path: &Path, text: &str) -> Result<(), Error> {
@@ -491,41 +523,7 @@ impl ClaimsFile {
             for (name, s) in &c.rows {
                 s.check().map_err(|m| err(&format!("rows.{name}"), m))?;
             }
-            for n in c.test.names() {
-                if !c.rows.contains_key(n) {
-                    return Err(err(
-                        "test",
-                        format!(
-                            "names rows `{n}`, which claim.rows does not define (it has: {})",
-                            c.rows.keys().cloned().collect::<Vec<_>>().join(", ")
-                        ),
-                    ));
-                }
-            }
-            if let Some((min, max)) = c.test.band() {
-                match (min, max) {
-                    (None, None) => return Err(err("test", "give min, max or both".into())),
-                    (Some(a), Some(b)) if a > b => {
-                        return Err(err("test", format!("min {a} is above max {b}")))
-                    }
-                    _ => {}
-                }
-            }
-            match &c.test {
-                Test::Order { rows, margin, .. } if rows.len() < 2 || *margin < 0.0 => {
-                    return Err(err(
-                        "test",
-                        "order needs two rows or more, margin >= 0".into(),
-                    ))
-                }
-                Test::Least { of, margin, .. } if of.is_empty() || *margin < 0.0 => {
-                    return Err(err("test", "least needs `of` rows, margin >= 0".into()))
-                }
-                Test::Equal { tolerance, .. } if *tolerance < 0.0 => {
-                    return Err(err("test", "tolerance must be >= 0".into()))
-                }
-                _ => {}
-            }
+            check_test(c).map_err(|m| err("test", m))?;
             let m = super::measure::Measure::parse(&c.measure).map_err(|m| err("measure", m))?;
             m.check_columns().map_err(|m| err("measure", m))?;
             for p in &c.per {
@@ -546,7 +544,11 @@ impl ClaimsFile {
             if c.devices.is_empty() {
                 return Err(err("devices", "name at least one device".into()));
             }
-            if let Some(d) = c.devices.iter().find(|d| !["cpu", "gpu"].contains(&d.as_str())) {
+            if let Some(d) = c
+                .devices
+                .iter()
+                .find(|d| !["cpu", "gpu"].contains(&d.as_str()))
+            {
                 return Err(err(
                     "devices",
                     format!("unknown device `{d}` (known: cpu, gpu)"),

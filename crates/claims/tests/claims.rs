@@ -310,6 +310,38 @@ fn per_build_measures_and_other_files() {
     assert_eq!(eval(&c, &[r])[0].verdict, Verdict::Inconclusive);
 }
 
+/// Issue 62, item 9: a reproduce or reference folder as committed (its rows in `runs/*/*`) is
+/// read whole; a folder with CSVs of its own is not entered further.
+#[test]
+fn a_report_folder_is_read_from_its_runs() {
+    let t = tempfile::tempdir().unwrap();
+    let report = t.path().join("report");
+    let run = results(&report.join("runs/paper"));
+    std::fs::write(report.join("REPORT.md"), "# report\n").unwrap();
+    let set = RowSet::read_results(std::slice::from_ref(&report)).unwrap();
+    assert_eq!(set.rows.len(), 9);
+    // The run folder's own rows only, not a nested copy under it.
+    let nested = run.join("process-0");
+    std::fs::create_dir_all(&nested).unwrap();
+    std::fs::copy(run.join("results.csv"), nested.join("copy.csv")).unwrap();
+    let set = RowSet::read(std::slice::from_ref(&run)).unwrap();
+    assert_eq!((set.rows.len(), set.replaced), (9, 0));
+    // An empty report folder is refused naming it.
+    let empty = t.path().join("empty/runs/paper");
+    std::fs::create_dir_all(&empty).unwrap();
+    let e = RowSet::read(&[t.path().join("empty")])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("empty") && e.contains("no CSV file"), "{e}");
+    // The committed reference folder REPRODUCTION.md's GPU columns come from.
+    let reference =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../results/reference/2026-11-27-677306e");
+    if reference.is_dir() {
+        let set = RowSet::read_results(&[reference]).unwrap();
+        assert!(set.rows.len() > 100, "{} rows", set.rows.len());
+    }
+}
+
 #[test]
 fn a_later_source_replaces_the_same_row() {
     let t = tempfile::tempdir().unwrap();

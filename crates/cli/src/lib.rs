@@ -7,8 +7,10 @@ use std::path::{Path, PathBuf};
 use tb_harness::experiment::config::{self, Device, Overrides};
 use tb_harness::experiment::runner::{self, Mode, RunOptions};
 
+mod env;
 mod papers;
 mod run;
+pub use env::names as env_names;
 use run::*;
 
 #[derive(Parser)]
@@ -70,7 +72,7 @@ struct RunArgs {
     #[arg(long, value_delimiter = ',', value_parser = parse_device)]
     device: Option<Vec<Device>>,
     /// GPU adapter: a substring of its name (case-insensitive), overriding run.gpu_adapter.
-    #[arg(long)]
+    #[arg(long, value_parser = clap::builder::NonEmptyStringValueParser::new())]
     adapter: Option<String>,
     /// GPU backend, overriding run.gpu_backend: vulkan, gl, metal or dx12.
     #[arg(long, value_parser = parse_backend)]
@@ -241,8 +243,8 @@ pub(crate) struct WeightsArgs {
     #[arg(long, value_delimiter = ',')]
     beta: Vec<f64>,
     /// Decimals of the percentages (the paper prints 2, truncated).
-    #[arg(long, default_value_t = 4)]
-    decimals: usize,
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u8).range(0..=12))]
+    decimals: u8,
     /// Also write the tables as rows to this CSV (table, heuristic, beta, patch, axis,
     /// weight_pct), for `trace-bench claims`.
     #[arg(long)]
@@ -280,7 +282,7 @@ pub(crate) struct ReproduceArgs {
     #[arg(long = "set")]
     sets: Vec<String>,
     /// GPU adapter of the GPU runs: a substring of its name (case-insensitive).
-    #[arg(long)]
+    #[arg(long, value_parser = clap::builder::NonEmptyStringValueParser::new())]
     adapter: Option<String>,
     /// Also make the claims files' `heavy = true` runs (the stand-in scenes of millions
     /// of triangles: minutes of builds) whatever the budget; without it they are made
@@ -319,8 +321,8 @@ pub(crate) struct ClaimsArgs {
     /// Exit 1 unless every evaluated claim agrees (CI's guard of the papers' effects).
     #[arg(long)]
     require_agree: bool,
-    /// Width of the text table (default: the terminal's, else 160).
-    #[arg(long)]
+    /// Width of the text table, at least 40 (default: the terminal's, else 160).
+    #[arg(long, value_parser = clap::value_parser!(u16).range(40..))]
     width: Option<u16>,
     /// The least relative uncertainty of a compared time (the variation between runs,
     /// which one run's intervals do not see; claims/README.md).
@@ -345,6 +347,11 @@ pub(crate) struct InfoArgs {
     scenes_root: Option<PathBuf>,
 }
 
+/// The command line's definition (the test of every value walks its flags).
+pub fn command() -> clap::Command {
+    <Cli as clap::CommandFactory>::command()
+}
+
 /// Run the command line `args`; returns the process exit code.
 pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
     let cli = match Cli::try_parse_from(args) {
@@ -354,7 +361,7 @@ pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
             return if e.use_stderr() { 2 } else { 0 };
         }
     };
-    match dispatch(cli) {
+    match env::check().and_then(|()| dispatch(cli)) {
         Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e:#}");
@@ -454,7 +461,7 @@ impl WeightsArgs {
         }
         print!(
             "{}",
-            tb_harness::registry::weights::weight_tables(&betas, decimals.min(12))
+            tb_harness::registry::weights::weight_tables(&betas, decimals as usize)
         );
         if let Some(path) = csv {
             let cols = tb_harness::registry::weights::CSV_COLUMNS.map(|c| c.0);
@@ -592,6 +599,11 @@ impl CheckArgs {
         let (baseline, results) = (baseline.as_path(), results.as_path());
         let base = tb_results::output::read_csv(baseline)?;
         let cur = tb_results::output::read_csv(results)?;
+        for (p, rows) in [(baseline, &base), (results, &cur)] {
+            if rows.is_empty() {
+                bail!("{}: holds no rows: nothing to check", p.display());
+            }
+        }
         let findings = tb_results::check::compare(&base, &cur, tolerance);
         print!("{}", tb_results::check::report(&findings));
         let failed = findings.iter().filter(|f| f.failed).count();
@@ -630,6 +642,18 @@ impl DiffArgs {
             split.as_deref(),
             out.as_path(),
         );
+        if max.is_some_and(|m| !(m > 0.0 && m.is_finite())) {
+            bail!(
+                "--max {}: must be a positive number",
+                max.unwrap_or_default()
+            );
+        }
+        if out.is_dir() {
+            bail!(
+                "--out {}: is a folder; give the PNG file to write",
+                out.display()
+            );
+        }
         let ia = tb_render::Channels::read_exr(a)?;
         let ib = tb_render::Channels::read_exr(b)?;
         if (ia.width, ia.height) != (ib.width, ib.height) {
@@ -656,9 +680,6 @@ impl DiffArgs {
             };
         let get = |img: &tb_render::Channels, p: &Path| get_channel(img, p, channel);
         let (va, vb) = (get(&ia, a)?, get(&ib, b)?);
-        if max.is_some_and(|m| !(m > 0.0 && m.is_finite())) {
-            bail!("--max: must be positive");
-        }
         let stem = |p: &Path| {
             p.file_stem()
                 .map_or_else(|| p.display().to_string(), |s| s.to_string_lossy().into())
@@ -716,9 +737,7 @@ fn parse_backend(s: &str) -> std::result::Result<tb_gpu::Backend, String> {
 }
 
 fn parse_tolerance(s: &str) -> std::result::Result<f64, String> {
-    let t: f64 = s
-        .parse()
-        .map_err(|_| format!("`{s}` is not a number"))?;
+    let t: f64 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
     match tb_results::check::bad_tolerance(t) {
         Some(why) => Err(format!("{t} {why}")),
         None => Ok(t),

@@ -53,6 +53,7 @@ impl ClaimsArgs {
             _ => {
                 let w = width
                     .or_else(|| std::env::var("COLUMNS").ok().and_then(|c| c.parse().ok()))
+                    .map(|w: u16| w.max(40))
                     .unwrap_or(160);
                 println!("{}", file.paper);
                 print!("{}", claims::render::text(&verdicts, w));
@@ -98,6 +99,17 @@ impl ReproduceArgs {
             .map(|d| seconds("--deadline", d))
             .transpose()?;
         let papers = claims_files(paper, claims_dir)?;
+        if let Some(r) = scenes_root.as_deref().filter(|r| !r.is_dir()) {
+            bail!(
+                "--scenes-root {} (or TRACE_BENCH_SCENES): not a folder",
+                r.display()
+            );
+        }
+        // Further results are read before the first run, not after the last (issue 62).
+        for w in &with {
+            tb_claims::RowSet::read_results(std::slice::from_ref(w))
+                .with_context(|| format!("--with {}", w.display()))?;
+        }
         if let Some(o) = &out {
             out_folder(o)?;
         }

@@ -96,15 +96,7 @@ pub(crate) fn cmd_run(
         check_resume(&out, &exp)?;
     }
     if force {
-        // Only what a run writes; anything else in the directory stays.
-        for f in tb_results::output::RUN_OUTPUTS {
-            let p = out.join(f);
-            if p.is_file() {
-                std::fs::remove_file(&p).with_context(|| format!("{}", p.display()))?;
-            } else if p.is_dir() {
-                std::fs::remove_dir_all(&p).with_context(|| format!("{}", p.display()))?;
-            }
-        }
+        remove_outputs(&out)?;
     }
     let opts = RunOptions {
         out: out.clone(),
@@ -161,6 +153,19 @@ pub(crate) fn cmd_run(
     })
 }
 
+/// `--force`: remove what an earlier run wrote in `out`; anything else in the folder stays.
+fn remove_outputs(out: &Path) -> Result<()> {
+    for f in tb_results::output::RUN_OUTPUTS {
+        let p = out.join(f);
+        if p.is_file() {
+            std::fs::remove_file(&p).with_context(|| format!("{}", p.display()))?;
+        } else if p.is_dir() {
+            std::fs::remove_dir_all(&p).with_context(|| format!("{}", p.display()))?;
+        }
+    }
+    Ok(())
+}
+
 /// Name the rows whose oracle mismatches are wrong answers (`runner::must_conform`), after
 /// everything else a run prints (their rows are written like every other).
 fn wrong_rows(rows: &[String]) {
@@ -196,7 +201,6 @@ impl RunArgs {
             sets: a.select.sets.clone(),
             scenes: a.select.scenes.clone(),
             structures: a.select.structures.clone(),
-            ..Default::default()
         }
     }
 

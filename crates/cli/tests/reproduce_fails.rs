@@ -21,6 +21,23 @@ fn config(dir: &Path, structure: &str, repeat: u32) -> PathBuf {
     p
 }
 
+/// A config whose scene file exists but is no OBJ: it passes every check before a run and
+/// fails when its run loads the scene.
+fn corrupt_scene(dir: &Path) -> PathBuf {
+    let obj = dir.join("corrupt.obj");
+    fs::write(&obj, "v 1 2 x\nf 1 2 9\n").unwrap();
+    let p = dir.join("corrupt-scene.toml");
+    fs::write(
+        &p,
+        format!(
+            "name = \"tiny\"\n[run]\nthreads = 1\nrepeat = 3\nwarmup = 0\n\n[[scene]]\nsource = \"{}\"\nrays = [\"primary\"]\n\n[[structure]]\nname = \"kdtree\"\n",
+            obj.display()
+        ),
+    )
+    .unwrap();
+    p
+}
+
 /// A claims file with one run of `cfg` and one counter claim.
 fn claims(dir: &Path, cfg: &Path, width: u32) -> PathBuf {
     let p = dir.join("tiny-paper.toml");
@@ -86,7 +103,9 @@ fn assert_one_run_failed(o: &Output, e: &str) {
 #[test]
 fn a_failed_run_exits_non_zero_in_words() {
     let t = tempfile::tempdir().unwrap();
-    let cfg = config(t.path(), "no-such-structure", 3);
+    // A config that passes the checks before the first run (issue 62) and fails in its run:
+    // a scene file that is there but no OBJ.
+    let cfg = corrupt_scene(t.path());
     let c = claims(t.path(), &cfg, 32);
     let out = t.path().join("out");
     let o = reproduce(&c, &out, &[]);
@@ -105,12 +124,7 @@ fn a_failed_run_exits_non_zero_in_words() {
 #[test]
 fn a_run_of_several_processes_failing_before_a_row_still_gets_its_report() {
     let t = tempfile::tempdir().unwrap();
-    let cfg = t.path().join("missing-scene.toml");
-    fs::write(
-        &cfg,
-        "name = \"tiny\"\n[run]\nthreads = 1\nrepeat = 3\nwarmup = 0\n\n[[scene]]\nsource = \"no-such-scene.obj\"\nrays = [\"primary\"]\n\n[[structure]]\nname = \"kdtree\"\n",
-    )
-    .unwrap();
+    let cfg = corrupt_scene(t.path());
     let c = claims(t.path(), &cfg, 32);
     let text = fs::read_to_string(&c).unwrap();
     fs::write(
@@ -175,6 +189,82 @@ fn configs_and_with_are_checked_before_the_first_run() {
         e.trim().lines().count() == 1 && !t.path().join("out/runs").exists(),
         "{e}"
     );
+}
+
+/// Issue 62, item 7: a later run's `set` values are checked before the first run spends any
+/// of the budget.
+#[test]
+fn a_later_runs_edits_are_checked_before_the_first_run() {
+    let t = tempfile::tempdir().unwrap();
+    let good = config(t.path(), "kdtree", 3);
+    let c = claims(t.path(), &good, 32);
+    let text = fs::read_to_string(&c).unwrap().replacen(
+        "[[claim]]",
+        &format!(
+            "[[run]]\nconfig = \"{}\"\nset = [\"run.repeat=x\"]\ncost_s = 1\n\n[[claim]]",
+            good.display()
+        ),
+        1,
+    );
+    fs::write(&c, text).unwrap();
+    let out = t.path().join("out");
+    let o = reproduce(&c, &out, &[]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("run.repeat") && e.trim().lines().count() == 1,
+        "{e}"
+    );
+    assert!(!out.join("runs").exists(), "nothing ran: {e}");
+}
+
+/// Issue 62, item 5: commands with nothing to do fail in words: `claims --require-agree` of a
+/// file without claims, `reproduce ,`, `compare` of reports with no claim in common.
+#[test]
+fn commands_with_nothing_to_do_fail() {
+    let t = tempfile::tempdir().unwrap();
+    let empty = t.path().join("empty.toml");
+    fs::write(&empty, "paper = \"No claims\"\n").unwrap();
+    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/baselines/ci.csv");
+    let o = Command::new(EXE)
+        .args(["claims", empty.to_str().unwrap(), base.to_str().unwrap()])
+        .arg("--require-agree")
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("the file has no claim"), "{e}");
+    let o = Command::new(EXE)
+        .args(["reproduce", ",", "-q", "--out"])
+        .arg(t.path().join("r"))
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.trim().lines().count() == 1, "{e}");
+    assert!(!t.path().join("r/REPORT.md").exists(), "{e}");
+    let report = |name: &str, id: &str| {
+        let d = t.path().join(name);
+        fs::create_dir_all(&d).unwrap();
+        fs::write(
+            d.join("verdicts.json"),
+            format!(
+                r#"{{"papers": [{{"key": "p", "claims": [{{"id": "{id}", "device": "cpu", "verdict": "agree", "timed": false}}]}}]}}"#
+            ),
+        )
+        .unwrap();
+        d
+    };
+    let (a, b) = (report("a", "one"), report("b", "two"));
+    let o = Command::new(EXE)
+        .arg("compare")
+        .arg(&a)
+        .arg(&b)
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("no claim in common"), "{e}");
 }
 
 #[test]

@@ -381,10 +381,12 @@ impl Sheared {
     #[cold]
     #[inline(never)]
     fn finish(&self, p: &WatertightPre, ray: &Ray, tmax: f32) -> Option<(f32, f32, f32)> {
-        let big = [self.ax, self.ay, self.az, self.bx, self.by, self.bz, self.cx, self.cy, self.cz]
-            .iter()
-            .fold(0.0f32, |m, x| m.max(x.abs()));
-        if !(big > 0.0) || !big.is_finite() {
+        let big = [
+            self.ax, self.ay, self.az, self.bx, self.by, self.bz, self.cx, self.cy, self.cz,
+        ]
+        .iter()
+        .fold(0.0f32, |m, x| m.max(x.abs()));
+        if big == 0.0 || !big.is_finite() {
             return None;
         }
         let k = -frexp_exp(big);
@@ -1008,7 +1010,8 @@ mod tests {
                 sray.tmin = ray.tmin * s;
                 sray.tmax = ray.tmax * s;
                 let want = Watertight::intersect(&Watertight::prepare(&ray), &ray, &tri, ray.tmax);
-                let got = Watertight::intersect(&Watertight::prepare(&sray), &sray, &big, sray.tmax);
+                let got =
+                    Watertight::intersect(&Watertight::prepare(&sray), &sray, &big, sray.tmax);
                 let scaled = want.map(|(t, u, v)| ((t * s).to_bits(), u.to_bits(), v.to_bits()));
                 let got_bits = got.map(|(t, u, v)| (t.to_bits(), u.to_bits(), v.to_bits()));
                 assert_eq!(scaled, got_bits, "2^{e}: {ray:?} {tri:?}");
@@ -1016,7 +1019,10 @@ mod tests {
                 checked += 1;
             }
         }
-        assert!(hits > checked / 4, "too few hits ({hits} of {checked}) to mean anything");
+        assert!(
+            hits > checked / 4,
+            "too few hits ({hits} of {checked}) to mean anything"
+        );
     }
 
     /// The plane distance of `r`'s origin to `tri` along `r.dir` in f64 (exact enough to tell

@@ -353,9 +353,15 @@ fn suite_watertight_matches_cpu() {
 /// same prelude function, are left to the f64 suite above).
 #[test]
 fn extreme_scales_without_f64() {
-    let Some(mut gpu) = open_or_skip() else { return };
+    let Some(mut gpu) = open_or_skip() else {
+        return;
+    };
     gpu.forgo_f64();
-    let keep = |l: &str| ["brute-force/", "bvh/ordered", "uniform-grid/"].iter().any(|p| l.starts_with(p));
+    let keep = |l: &str| {
+        ["brute-force/", "bvh/ordered", "uniform-grid/"]
+            .iter()
+            .any(|p| l.starts_with(p))
+    };
     let mut failures = Vec::new();
     let mut checked = BTreeSet::new();
     for scale in ["1e-30", "1e-20", "1e15", "1e20", "1e30"] {

@@ -186,41 +186,48 @@ fn words(v: &[u32]) -> Vec<u8> {
 
 impl Structure for SlabList {
     const NAME: &'static str = "slab-list";
-    const TRAVERSALS: &'static [Traversal<Self>] = &[Traversal::with_gpu(
-        TraversalInfo::new("in-order", "this test", "every slab box in order"),
-        dispatch,
-        |s| {
-            GpuProgram::new("slab-list/in-order", SLABS_WGSL, &s.tris[..])
-                .buffer(
-                    "the slab array",
-                    Cow::Owned(
-                        s.slabs
-                            .iter()
-                            .flat_map(|b| {
-                                let f = |x: f32| x.to_bits();
-                                words(&[
-                                    f(b.min[0]),
-                                    f(b.min[1]),
-                                    f(b.min[2]),
-                                    b.first,
-                                    f(b.max[0]),
-                                    f(b.max[1]),
-                                    f(b.max[2]),
-                                    b.count,
-                                ])
-                            })
-                            .collect(),
-                    ),
-                )
-                .buffer("the triangle ids", Cow::Owned(words(&s.ids)))
-                .meta([s.slabs.len() as u32, 0, 0])
-                .stack(1)
-        },
-    ), Traversal::cpu(
-        TraversalInfo::new("skip-last", "this test", "a faulty walk: the last slab left out")
+    const TRAVERSALS: &'static [Traversal<Self>] = &[
+        Traversal::with_gpu(
+            TraversalInfo::new("in-order", "this test", "every slab box in order"),
+            dispatch,
+            |s| {
+                GpuProgram::new("slab-list/in-order", SLABS_WGSL, &s.tris[..])
+                    .buffer(
+                        "the slab array",
+                        Cow::Owned(
+                            s.slabs
+                                .iter()
+                                .flat_map(|b| {
+                                    let f = |x: f32| x.to_bits();
+                                    words(&[
+                                        f(b.min[0]),
+                                        f(b.min[1]),
+                                        f(b.min[2]),
+                                        b.first,
+                                        f(b.max[0]),
+                                        f(b.max[1]),
+                                        f(b.max[2]),
+                                        b.count,
+                                    ])
+                                })
+                                .collect(),
+                        ),
+                    )
+                    .buffer("the triangle ids", Cow::Owned(words(&s.ids)))
+                    .meta([s.slabs.len() as u32, 0, 0])
+                    .stack(1)
+            },
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "skip-last",
+                "this test",
+                "a faulty walk: the last slab left out",
+            )
             .on_request(),
-        |s, b, out| dispatch(&SkipLast(s), b, out),
-    )];
+            |s, b, out| dispatch(&SkipLast(s), b, out),
+        ),
+    ];
 
     /// Slabs, triangles and ids; `structure_bytes`: the slabs and the ids, not the triangles.
     fn own_memory(&self) -> MemoryReport {
@@ -313,8 +320,16 @@ fn a_walk_that_loses_hits_is_named() {
         .filter(|r| r.traversal == "skip-last" && r.triangle_test == "watertight")
         .filter(|r| r.mismatches.unwrap_or(0) > 0)
         .collect();
-    assert!(!bad.is_empty(), "the faulty walk loses no hit: the test proves nothing");
-    assert_eq!(summary.wrong_rows.len(), bad.len(), "{:#?}", summary.wrong_rows);
+    assert!(
+        !bad.is_empty(),
+        "the faulty walk loses no hit: the test proves nothing"
+    );
+    assert_eq!(
+        summary.wrong_rows.len(),
+        bad.len(),
+        "{:#?}",
+        summary.wrong_rows
+    );
     for (line, r) in summary.wrong_rows.iter().zip(&bad) {
         assert!(
             line.contains("skip-last watertight cpu")

@@ -138,11 +138,13 @@ pub fn compare(baseline: &[Row], current: &[Row], tolerance: f64) -> Vec<Finding
                     // A counter that is not a number (NaN, ±inf) in either file is no figure a
                     // run writes: it fails, whatever the rule (issue 62: NaN passed every
                     // comparison by comparing false).
-                    let grew = !bv.is_finite() || !cv.is_finite() || match rule(name) {
-                        Rule::NoGrowth => cv > bv,
-                        Rule::Exact => (cv - bv).abs() > 1e-9 * bv.abs().max(1.0),
-                        Rule::Tolerance => cv > bv * (1.0 + tolerance) + 1e-9,
-                    };
+                    let grew = !bv.is_finite()
+                        || !cv.is_finite()
+                        || match rule(name) {
+                            Rule::NoGrowth => cv > bv,
+                            Rule::Exact => (cv - bv).abs() > 1e-9 * bv.abs().max(1.0),
+                            Rule::Tolerance => cv > bv * (1.0 + tolerance) + 1e-9,
+                        };
                     let change = if bv > 0.0 { Some(cv / bv - 1.0) } else { None };
                     out.push(Finding {
                         row: label.clone(),
@@ -272,7 +274,10 @@ mod tests {
             assert!(found.iter().any(|f| f.failed), "{b} -> {c}: {found:?}");
         }
         assert_eq!(bad_tolerance(f64::NAN), Some("must be a finite number"));
-        assert_eq!(bad_tolerance(f64::INFINITY), Some("must be a finite number"));
+        assert_eq!(
+            bad_tolerance(f64::INFINITY),
+            Some("must be a finite number")
+        );
         assert_eq!(bad_tolerance(-1.0), Some("must be at least 0"));
         assert_eq!(bad_tolerance(0.0), None);
     }

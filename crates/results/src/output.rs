@@ -251,6 +251,18 @@ pub fn read_csv(path: &Path) -> Result<Vec<Row>, Error> {
 fn parse_csv(path: &Path, text: &str) -> Result<Vec<Row>, Error> {
     let mut r = csv::Reader::from_reader(text.as_bytes());
     let header = r.headers().cloned().unwrap_or_default();
+    // A file of other columns (a plain text file, another tool's CSV) is no results.csv:
+    // reading it as zero rows would let `check` pass on nothing (issue 62).
+    if !header.is_empty()
+        && !["scene", "structure"]
+            .iter()
+            .all(|c| header.iter().any(|h| h == *c))
+    {
+        return Err(Error::io(
+            path,
+            "not a trace-bench results.csv: its header has no `scene` and `structure` columns",
+        ));
+    }
     let mut rows = Vec::new();
     for (i, rec) in r.records().enumerate() {
         let line = i + 2;

@@ -104,9 +104,18 @@ mod tests {
             assert_eq!(exec_outside(&ok, f), None, "{ok:?}");
         }
         for (bad, why) in [
-            (args(&["weights", "--csv", "/home/u/.bashrc"]), "writes outside"),
-            (args(&["weights", "--csv", "/r/runs/p/0-weights/../../../x.csv"]), "writes outside"),
-            (args(&["run", "c.toml", "--force", "--out", "/tmp/x"]), "writes outside"),
+            (
+                args(&["weights", "--csv", "/home/u/.bashrc"]),
+                "writes outside",
+            ),
+            (
+                args(&["weights", "--csv", "/r/runs/p/0-weights/../../../x.csv"]),
+                "writes outside",
+            ),
+            (
+                args(&["run", "c.toml", "--force", "--out", "/tmp/x"]),
+                "writes outside",
+            ),
             (args(&["run", "c.toml"]), "default folder"),
             (args(&["rm", "-rf"]), "not a trace-bench subcommand"),
         ] {

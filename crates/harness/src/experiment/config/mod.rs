@@ -400,8 +400,7 @@ pub fn check_offline(file: &Path, ov: &Overrides) -> Result<Vec<PathBuf>, Harnes
         )
     };
     let cx = Ctx { file: &shown, text };
-    let mut raw: RawConfig =
-        toml::from_str(text).map_err(|e| syntax_error(&shown, text, &e))?;
+    let mut raw: RawConfig = toml::from_str(text).map_err(|e| syntax_error(&shown, text, &e))?;
     tb_results::finite::check_toml(&shown, text)?;
     overrides::filter(&cx, &mut raw, &ov.scenes, &ov.structures)?;
     experiment_name(&cx, &raw, file)?;
@@ -523,7 +522,10 @@ fn syntax_error(file: &Path, text: &str, e: &toml::de::Error) -> HarnessError {
         m => m,
     };
     // The key of the value at fault, when the error points at a `key = value` line.
-    if let (Some(l), Some(key)) = (line, e.span().and_then(|s| key_at(text, s.start))) {
+    let key = e
+        .span()
+        .and_then(|s| key_at(text, s.start).or_else(|| tb_results::finite::key_at(text, s.start)));
+    if let (Some(l), Some(key)) = (line, key) {
         return HarnessError::File(tb_results::Error::Config {
             file: file.into(),
             line: l,

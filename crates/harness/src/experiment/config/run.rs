@@ -118,9 +118,13 @@ fn check_threads(cx: &Ctx, run: &RawRun, ov: &Overrides) -> Result<Vec<usize>, H
     match (&ov.threads, &run.threads) {
         (Some(t), _) => {
             if t.is_empty() {
-                return Err(HarnessError::other("--threads: needs at least one thread count"));
+                return Err(HarnessError::other(
+                    "--threads: needs at least one thread count",
+                ));
             }
-            counts(t.clone(), &|m| HarnessError::other(format!("--threads: {m}")))
+            counts(t.clone(), &|m| {
+                HarnessError::other(format!("--threads: {m}"))
+            })
         }
         (None, Some(t)) => {
             let span = t.span();

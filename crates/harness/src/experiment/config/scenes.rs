@@ -100,7 +100,11 @@ pub(super) fn check_scene(
 /// [`check_scene`]'s checks that need no scene loaded (`config::check_offline`): the ray
 /// kinds, the file's existence, the AO, path and random settings, the camera's size and field
 /// of view where the table gives them, and the views' names.
-pub(super) fn check_offline(cx: &Ctx, s: &RawScene, scenes_root: &Path) -> Result<(), HarnessError> {
+pub(super) fn check_offline(
+    cx: &Ctx,
+    s: &RawScene,
+    scenes_root: &Path,
+) -> Result<(), HarnessError> {
     let kinds = check_rays(cx, s)?;
     if check_file(cx, s, scenes_root)?.is_err() {
         // Absent and optional: skipped when the run comes.
@@ -112,7 +116,11 @@ pub(super) fn check_offline(cx: &Ctx, s: &RawScene, scenes_root: &Path) -> Resul
     if let Some(c) = &s.camera {
         let cam = c.get_ref();
         if cam.width == Some(0) || cam.height == Some(0) {
-            return Err(cx.err(c.span(), "scene.camera", "width and height must be positive"));
+            return Err(cx.err(
+                c.span(),
+                "scene.camera",
+                "width and height must be positive",
+            ));
         }
         if cam.width.unwrap_or(1) as u64 * cam.height.unwrap_or(1) as u64 > 64 << 20 {
             return Err(cx.err(c.span(), "scene.camera", "more than 64M pixels"));

@@ -27,7 +27,7 @@ use plan::Combo;
 use std::collections::HashSet;
 use std::path::PathBuf;
 use std::sync::Arc;
-use tb_core::{ParamSet, Triangle, TraversalInfo, TriTestKind};
+use tb_core::{ParamSet, TraversalInfo, TriTestKind, Triangle};
 use tb_results::output::{Row, RowKey, Sink};
 
 /// What the runner does.
@@ -489,18 +489,7 @@ impl<'a> Run<'a> {
                     self.report_mismatches(spec, st, base, &c, b, &checked);
                 }
                 if checked.mismatches > 0 && must_conform(info, c.tri, &row) {
-                    self.summary.wrong_rows.push(format!(
-                        "{} {} [{}] {} {} {} {}: {} of {} rays mismatch the oracle",
-                        row.scene,
-                        row.structure,
-                        row.params,
-                        row.traversal,
-                        row.triangle_test,
-                        row.device,
-                        row.ray_kind,
-                        checked.mismatches,
-                        checked.validated
-                    ));
+                    self.summary.wrong_rows.push(wrong_row(&row));
                 }
             }
             Ok(Outcome::Measured(None)) => {}
@@ -511,14 +500,7 @@ impl<'a> Run<'a> {
                 row.note = format!("gpu failed: {e}");
             }
         }
-        // Rays aimed at the geometry (primary, random, stress) that all missed: then
-        // `0 mismatches` proves nothing (a scene at 1e-30 whose rays pass it by).
-        let aimed = ["primary", "random", "stress"].contains(&b.name.as_str());
-        if aimed && row.hit_rate == Some(0.0) && row.note.is_empty() {
-            row.note = "no ray hit anything: these rays were aimed at the scene, so 0 mismatches \
-                        prove nothing here"
-                .into();
-        }
+        note_all_missed(&mut row, &b.name);
         if row.mrays_per_s.is_some() {
             self.note_load(&mut row);
         }
@@ -659,6 +641,33 @@ fn base_row(spec: &SceneSpec, tris: &Arc<[Triangle]>, st: &StructureSpec, params
         params: params_s.to_owned(),
         host: tb_results::meta::host_name(),
         ..Default::default()
+    }
+}
+
+/// The line naming a row that mismatches the oracle where it must not ([`must_conform`]).
+fn wrong_row(row: &Row) -> String {
+    format!(
+        "{} {} [{}] {} {} {} {}: {} of {} rays mismatch the oracle",
+        row.scene,
+        row.structure,
+        row.params,
+        row.traversal,
+        row.triangle_test,
+        row.device,
+        row.ray_kind,
+        row.mismatches.unwrap_or(0),
+        row.validated_rays.unwrap_or(0)
+    )
+}
+
+/// Rays aimed at the geometry (primary, random, stress) that all missed: then `0 mismatches`
+/// proves nothing (a scene at 1e-30 whose rays pass it by), which the row's note says.
+fn note_all_missed(row: &mut Row, batch: &str) {
+    let aimed = ["primary", "random", "stress"].contains(&batch);
+    if aimed && row.hit_rate == Some(0.0) && row.note.is_empty() {
+        row.note = "no ray hit anything: these rays were aimed at the scene, so 0 mismatches \
+                    prove nothing here"
+            .into();
     }
 }
 
