@@ -53,9 +53,10 @@ mod traverse;
 mod while_while;
 mod wide;
 
+use std::sync::Arc;
 use tb_core::{
-    build_with, dispatch, Aabb, AccelError, BuildReport, Family, MemoryReport, Structure,
-    Traversal, TraversalInfo, Triangle,
+    build_with, dispatch, Aabb, AccelError, BuildReport, Family, MemoryReport, ParamError,
+    ParamSet, Structure, Traversal, TraversalInfo, Triangle,
 };
 
 pub use cwbvh::{
@@ -87,7 +88,8 @@ pub static FAMILY: Family = Family::new::<Bvh, BvhParams>(
     "binned SAH BVH or SBVH, binary or 4/8-wide (MacDonald and Booth 1990; Stich et al. 2009; \
      Ylitie et al. 2017)",
 )
-.with_rules::<BvhParams>();
+.with_rules::<BvhParams>()
+.with_persist::<Bvh>();
 
 /// A binned SAH BVH over triangles (see the crate doc for the papers).
 ///
@@ -101,8 +103,9 @@ pub static FAMILY: Family = Family::new::<Bvh, BvhParams>(
 ///
 /// `while-while` counts the same way, without the root's box test (`boxes` is 2 per interior
 /// node visited) and with no entry discarded on pop (module `while_while`).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Bvh {
+    #[serde(with = "tb_core::persist::pod")]
     nodes: Vec<BvhNode>,
     wide: WideNodes,
     /// Wide builds: the leaves' triangles in blocks of four (see [`LeafBlock`]).
@@ -113,6 +116,8 @@ pub struct Bvh {
     prim_ids: Vec<u32>,
     /// Triangles in the scene (`prim_ids` holds each once, or at least once for the SBVH).
     n_scene: usize,
+    /// Not saved by the build cache (its key): given back by [`Persist::attach`].
+    #[serde(skip)]
     params: BvhParams,
     /// SBVH spatial splits refused by the reference allowance
     /// ([`sbvh::MAX_REFS_PER_TRIANGLE`]; 0 on every paper scene).
@@ -120,12 +125,12 @@ pub struct Bvh {
 }
 
 /// The wide nodes of a build with `width` 4 or 8 (collapsed from [`Bvh::nodes`]).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub enum WideNodes {
     /// `width = 2`: the binary nodes are traversed.
     None,
-    W4(Vec<WideNode<4>>),
-    W8(Vec<WideNode<8>>),
+    W4(#[serde(with = "tb_core::persist::pod")] Vec<WideNode<4>>),
+    W8(#[serde(with = "tb_core::persist::pod")] Vec<WideNode<8>>),
 }
 
 impl Bvh {
@@ -247,6 +252,13 @@ impl Bvh {
     /// The parameters it was built with.
     pub fn params(&self) -> &BvhParams {
         &self.params
+    }
+}
+
+impl tb_core::Persist for Bvh {
+    fn attach(&mut self, _tris: &Arc<[Triangle]>, params: &ParamSet) -> Result<(), ParamError> {
+        self.params = tb_core::persist::params_from(params)?;
+        Ok(())
     }
 }
 

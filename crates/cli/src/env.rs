@@ -51,6 +51,16 @@ const VARS: &[(&str, Rule, &str)] = &[
         "tests: abort after this many rows",
     ),
     (
+        "TRACE_BENCH_BUILD_CACHE",
+        Rule::Path,
+        "the build cache's folder, or `off` (run --cache-dir, --no-cache)",
+    ),
+    (
+        "TRACE_BENCH_BUILD_CACHE_MB",
+        Rule::Count,
+        "the most megabytes the build cache keeps",
+    ),
+    (
         "TRACE_BENCH_PYTHON",
         Rule::Path,
         "the interpreter reproduce draws figures with",

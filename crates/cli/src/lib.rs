@@ -116,9 +116,44 @@ struct RunArgs {
     /// Root directory for scene files named in the config.
     #[arg(long, env = "TRACE_BENCH_SCENES")]
     scenes_root: Option<PathBuf>,
+    #[command(flatten)]
+    cache: CacheArgs,
     /// No progress output.
     #[arg(long, short)]
     quiet: bool,
+}
+
+/// The build cache's flags (`run`, `reproduce`; `tb_harness::experiment::cache`).
+#[derive(clap::Args, Clone, Debug)]
+pub(crate) struct CacheArgs {
+    /// Build every structure: neither load one from the build cache nor save one to it
+    /// (sets TRACE_BENCH_BUILD_CACHE=off for this command and the processes it starts).
+    #[arg(long)]
+    no_cache: bool,
+    /// The build cache's folder (default: target/build-cache beside a binary in a cargo
+    /// target folder, else ~/.cache/trace-bench/builds; sets TRACE_BENCH_BUILD_CACHE).
+    #[arg(long, value_name = "DIR", conflicts_with = "no_cache")]
+    cache_dir: Option<PathBuf>,
+}
+
+impl CacheArgs {
+    /// Pass the flags on as the environment variable that this process and every process it
+    /// starts read (before any thread is started).
+    pub(crate) fn apply(&self) -> Result<()> {
+        let var = tb_harness::experiment::cache::ENV;
+        if self.no_cache {
+            std::env::set_var(var, "off");
+        } else if let Some(d) = &self.cache_dir {
+            if d.as_os_str().is_empty() || d.as_os_str() == "off" {
+                bail!("--cache-dir `{}`: not a folder name", d.display());
+            }
+            if d.exists() && !d.is_dir() {
+                bail!("--cache-dir {}: is a file, not a folder", d.display());
+            }
+            std::env::set_var(var, d);
+        }
+        Ok(())
+    }
 }
 
 #[derive(Subcommand)]
@@ -299,6 +334,8 @@ pub(crate) struct ReproduceArgs {
     /// (claims/README.md, "What a claims file may do").
     #[arg(long)]
     write_anywhere: bool,
+    #[command(flatten)]
+    cache: CacheArgs,
     #[arg(long, short)]
     quiet: bool,
 }
@@ -372,13 +409,19 @@ pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
 
 fn dispatch(cli: Cli) -> Result<i32> {
     match cli.cmd {
-        Cmd::Run(a) => a.run(),
+        Cmd::Run(a) => {
+            a.cache.apply()?;
+            a.run()
+        }
         Cmd::Validate(a) => a.run(),
         Cmd::Check(a) => a.run(),
         Cmd::Diff(a) => a.run(),
         Cmd::Merge(a) => a.run(),
         Cmd::List(a) => a.run(),
-        Cmd::Reproduce(a) => a.run(),
+        Cmd::Reproduce(a) => {
+            a.cache.apply()?;
+            a.run()
+        }
         Cmd::Claims(a) => a.run(),
         Cmd::Compare(a) => a.run(),
         Cmd::Weights(a) => a.run(),
@@ -563,6 +606,7 @@ impl ValidateArgs {
             quiet,
             mode: Mode::Validate,
             max_report: show,
+            cache: None,
         };
         let summary = runner::run(&exp, &opts)?;
         println!("{}", runner::table(&summary.rows));

@@ -86,6 +86,7 @@ impl ReproduceArgs {
             heavy,
             deadline,
             write_anywhere,
+            cache: _,
             quiet,
         } = self;
         let (paper, budget, claims_dir) = (paper.as_str(), budget.as_str(), claims_dir.as_path());

@@ -104,6 +104,7 @@ pub(crate) fn cmd_run(
         quiet,
         mode: Mode::Run,
         max_report: 5,
+        cache: tb_harness::experiment::cache::BuildCache::from_env(),
     };
     let summary = runner::run(&exp, &opts)?;
     if !summary.rows.is_empty() {

@@ -333,6 +333,7 @@ fn cases(f: &Files) -> Vec<Case> {
         // run
         c("run", "config", v(&["run"]), &[&f.missing, &f.folder]),
         c("run", "out", run(), &[&f.file]),
+        c("run", "cache_dir", run(), &[&f.file, "", "off"]),
         c("run", "threads", run(), &["x", "-1", "99999", "1,x"]),
         c("run", "repeat", run(), &["x", "-1", "0"]),
         c("run", "device", run(), &["tpu", "cpu,tpu"]),
@@ -454,6 +455,7 @@ fn cases(f: &Files) -> Vec<Case> {
         ),
         c("reproduce", "with", reproduce(), &[&f.missing, &f.file]),
         c("reproduce", "scenes_root", reproduce(), &[&f.file]),
+        c("reproduce", "cache_dir", reproduce(), &[&f.file, "", "off"]),
         c(
             "reproduce",
             "sets",

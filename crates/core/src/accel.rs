@@ -422,6 +422,12 @@ pub trait Accel: Send + Sync {
 
     /// The GPU program of traversal number `traversal`, `None` where it has no GPU kernel.
     fn gpu_program(&self, traversal: usize) -> Option<GpuProgram<'_>>;
+
+    /// The structure itself, for [`Codec::save`]'s downcast; `None` (the
+    /// default) for test wrappers.
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        None
+    }
 }
 
 fn row<S: Structure>(traversal: usize) -> &'static Traversal<S> {
@@ -499,6 +505,10 @@ impl<S: Structure> Accel for S {
     fn gpu_program(&self, traversal: usize) -> Option<GpuProgram<'_>> {
         row::<S>(traversal).gpu.map(|g| g(self))
     }
+
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
+    }
 }
 
 /// The traversal infos of structure `S`, in table order.
@@ -535,6 +545,9 @@ pub struct Family {
     /// Pérard-Gayot et al. 2017 §4.1), where it has them: the capability the dynamic
     /// experiment's automatic density choice needs (§6.1).
     pub densities: Option<[&'static str; 2]>,
+    /// How its builds are saved to and loaded from the build cache, where they can be
+    /// (`Family::with_persist`, [`crate::persist`]).
+    pub codec: Option<Codec>,
 }
 
 impl Family {
@@ -550,6 +563,7 @@ impl Family {
             build,
             rules: crate::params::no_rules,
             densities: None,
+            codec: None,
         }
     }
 
@@ -571,6 +585,18 @@ impl Family {
         self
     }
 }
+
+/// How a family's built structures are written and read back (see `crate::persist::Persist`).
+#[derive(Clone, Copy)]
+pub struct Codec {
+    /// The bytes of a built structure; `Err` where `accel` is not this family's structure.
+    pub save: fn(&dyn Accel) -> Result<Vec<u8>, String>,
+    /// The structure saved in `bytes`, given back its triangles and parameters.
+    pub load: LoadFn,
+}
+
+/// Loads a saved structure (its bytes), given back the scene's triangles and its parameters.
+pub type LoadFn = fn(&[u8], &Arc<[Triangle]>, &ParamSet) -> Result<Box<dyn Accel>, String>;
 
 /// Convert a checked set to `P` and build with `f` (the usual body of a [`BuildFn`]).
 pub fn build_with<P: Params, S: Structure>(

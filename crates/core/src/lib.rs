@@ -8,6 +8,7 @@
 //! - [`params`](mod@params): parameter tables declared next to the fields ([`params!`], [`choice!`]);
 //! - [`gpu`]: the wgpu-free description of a structure's GPU program;
 //! - [`clip`]: conservative boxes of triangles clipped to boxes (kd-tree and SBVH builders);
+//! - [`persist`]: saving a built structure and loading it again (the build cache);
 //! - [`oracle`]: brute force, the ground truth;
 //! - [`par`]: the one way a batch is traced on the CPU (rayon, chunks of rays);
 //! - [`slab`]: the octant-specialised, NaN-safe slab test of the hierarchy traversals;
@@ -22,14 +23,15 @@ pub mod leaves;
 pub mod oracle;
 pub mod par;
 pub mod params;
+pub mod persist;
 pub mod slab;
 pub mod stack;
 pub mod stats;
 pub mod tri;
 
 pub use accel::{
-    build_with, dispatch, Accel, AccelError, Answers, Batch, BuildFn, BuildReport, Family, HintFn,
-    Kernel, MemoryReport, Query, Structure, TraceFn, Traversal, TraversalInfo,
+    build_with, dispatch, Accel, AccelError, Answers, Batch, BuildFn, BuildReport, Codec, Family,
+    HintFn, Kernel, MemoryReport, Query, Structure, TraceFn, Traversal, TraversalInfo,
 };
 pub use compare::{
     compare, compare_any, compare_closest, hex_f32, t_tolerance, Mismatch, MismatchKind, T_REL_TOL,
@@ -41,7 +43,11 @@ pub use oracle::BruteForce;
 pub use params::{
     ParamError, ParamKind, ParamRules, ParamSet, ParamSpec, ParamType, ParamValue, Params,
 };
+pub use persist::Persist;
 pub use stats::{
     Counter, CounterDef, CounterSet, NoStats, StatsSummary, TraversalStats, COUNTERS, N_COUNTERS,
 };
 pub use tri::{Lanes4, MollerTrumbore, Tri4, TriTest, TriTestKind, Watertight};
+
+#[doc(hidden)]
+pub use serde as __serde;

@@ -430,6 +430,24 @@ macro_rules! choice {
             }
         }
 
+        impl $crate::__serde::Serialize for $name {
+            fn serialize<S: $crate::__serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                s.serialize_str(self.name())
+            }
+        }
+
+        impl<'de> $crate::__serde::Deserialize<'de> for $name {
+            fn deserialize<D: $crate::__serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                let s = <String as $crate::__serde::Deserialize>::deserialize(d)?;
+                Self::from_name(&s).ok_or_else(|| {
+                    <D::Error as $crate::__serde::de::Error>::custom(format!(
+                        "`{s}` is not one of {}",
+                        Self::NAMES.join(", ")
+                    ))
+                })
+            }
+        }
+
         impl $crate::params::ParamType for $name {
             fn from_value(v: &$crate::params::ParamValue) -> Result<Self, String> {
                 match v {

@@ -62,7 +62,7 @@ pub trait TriTest: Send + Sync + 'static {
 /// Unused lanes repeat lane 0's triangle: they answer as lane 0 does (and are masked off by the
 /// caller), so a block whose triangles all miss ends early in every lane.
 #[repr(C, align(16))]
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Tri4 {
     pub v: [[[f32; 4]; 3]; 3],
 }

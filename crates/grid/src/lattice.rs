@@ -198,7 +198,7 @@ pub fn scale_res(res: &[[u32; 3]], f: f64) -> Vec<[u32; 3]> {
 /// A regular lattice of `res` voxels over a box: voxel `i` of axis `a` spans
 /// `[min[a] + i·size[a], min[a] + (i+1)·size[a]]`, computed in `F` the same way by the build
 /// (`f64`) and the walks (`F` of the grid's [`Precision`], [`Lattice::cast`]).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Lattice<F: Real = f64> {
     pub min: [F; 3],
     pub size: [F; 3],
@@ -496,7 +496,7 @@ pub fn flatten(runs: Vec<Vec<u64>>, n_cells: usize) -> (Vec<u32>, Vec<u32>) {
 /// converting its index and scaling it, a shorter chain of dependent operations per cell
 /// (the walk is latency-bound: each cell's exit decides the next look-up). Equal values, so
 /// the same walk and counters.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Planes<F> {
     values: Vec<F>,
     at: [usize; 3],

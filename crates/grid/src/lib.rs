@@ -86,7 +86,8 @@ pub static UNIFORM_FAMILY: Family = Family::new::<UniformGrid, UniformParams>(
      (`macro_regions`) (Amanatides and Woo 1987; Devillers 1989)",
     |tris, set| build_with(set, |p: &UniformParams| UniformGrid::build(tris, p)),
 )
-.with_summary("uniform grid, optional macro regions (Amanatides and Woo 1987; Devillers 1989)");
+.with_summary("uniform grid, optional macro regions (Amanatides and Woo 1987; Devillers 1989)")
+.with_persist::<UniformGrid>();
 
 /// The two-level grid in the registry.
 pub static TWO_LEVEL_FAMILY: Family = Family::new::<TwoLevelGrid, TwoLevelParams>(
@@ -94,7 +95,8 @@ pub static TWO_LEVEL_FAMILY: Family = Family::new::<TwoLevelGrid, TwoLevelParams
      et al. 2011)",
     |tris, set| build_with(set, |p: &TwoLevelParams| TwoLevelGrid::build(tris, p)),
 )
-.with_densities(DENSITIES);
+.with_densities(DENSITIES)
+.with_persist::<TwoLevelGrid>();
 
 /// The irregular grid in the registry.
 pub static IRREGULAR_FAMILY: Family = Family::new::<IrregularGrid, IrregularParams>(
@@ -106,4 +108,5 @@ pub static IRREGULAR_FAMILY: Family = Family::new::<IrregularGrid, IrregularPara
 .with_summary(
     "irregular grid: voxelization, SAH cell merging, cell expansion (Pérard-Gayot et al. 2017)",
 )
-.with_densities(DENSITIES);
+.with_densities(DENSITIES)
+.with_persist::<IrregularGrid>();

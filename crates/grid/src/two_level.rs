@@ -22,7 +22,7 @@ const MAX_SUB: u32 = 255;
 
 /// One top-level cell, 8 bytes: its first leaf cell and its resolution (8 bits per axis).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct TopCell {
     pub first_leaf: u32,
     /// `rx | ry << 8 | rz << 16`.
@@ -40,6 +40,7 @@ impl TopCell {
 ///
 /// Per-ray counters of `dda`: `cells` (and `steps`): top and leaf cells visited (N_T);
 /// `interior`: top cells visited; `leaves`: leaf cells visited; `prims`: triangle tests (N_I).
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct TwoLevelGrid {
     pub(crate) top: Lattice,
     /// `top` in `f32`, the walk's top lattice at [`Precision::F32`].
@@ -49,6 +50,9 @@ pub struct TwoLevelGrid {
     /// `start[l]..start[l+1]` indexes `refs` for leaf cell `l`.
     pub(crate) start: Vec<u32>,
     pub(crate) refs: Vec<u32>,
+    /// The scene's triangles: not saved by the build cache, given back by
+    /// [`tb_core::Persist::attach`].
+    #[serde(skip)]
     pub(crate) tris: Arc<[Triangle]>,
     figures: Vec<(String, f64)>,
 }
@@ -280,6 +284,17 @@ impl TwoLevelGrid {
 }
 
 tb_core::kernel_by_query!(dda: [] TwoLevelGrid);
+
+impl tb_core::Persist for TwoLevelGrid {
+    fn attach(
+        &mut self,
+        tris: &Arc<[Triangle]>,
+        _params: &tb_core::ParamSet,
+    ) -> Result<(), tb_core::ParamError> {
+        self.tris = tris.clone();
+        Ok(())
+    }
+}
 
 impl Structure for TwoLevelGrid {
     const NAME: &'static str = "two-level-grid";

@@ -21,6 +21,7 @@ use tb_core::{
 /// Per-ray counters of `dda`: `cells` (and `steps`): cells visited (N_T; a macro region skipped
 /// in one step counts once); `prims`: triangle tests (N_I; a triangle in several visited cells
 /// is tested in each, there is no mailbox); the others stay 0.
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct UniformGrid {
     pub(crate) lat: Lattice,
     /// `lat` in `f32`, the walk's lattice at [`Precision::F32`].
@@ -37,6 +38,9 @@ pub struct UniformGrid {
     /// With macro regions: per cell, the box `[lo, hi)` in voxels that the walk leaves in
     /// one step (the cell itself when it is not empty).
     pub(crate) macros: Vec<[u32; 6]>,
+    /// The scene's triangles: not saved by the build cache, given back by
+    /// [`tb_core::Persist::attach`].
+    #[serde(skip)]
     pub(crate) tris: Arc<[Triangle]>,
     times_ms: [f64; 2],
     /// The factor [`within_budget`] scaled the resolution by (1: the bound did not act).
@@ -245,6 +249,17 @@ fn largest(room: u32, ok: impl Fn(u32) -> bool) -> u32 {
         }
     }
     good
+}
+
+impl tb_core::Persist for UniformGrid {
+    fn attach(
+        &mut self,
+        tris: &Arc<[Triangle]>,
+        _params: &tb_core::ParamSet,
+    ) -> Result<(), tb_core::ParamError> {
+        self.tris = tris.clone();
+        Ok(())
+    }
 }
 
 impl Structure for UniformGrid {

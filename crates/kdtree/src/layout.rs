@@ -144,6 +144,19 @@ impl Nodes {
     }
 }
 
+/// Saved as the plain node sequence, read back into whole lines.
+impl serde::Serialize for Nodes {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.as_slice().serialize(s)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Nodes {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        Ok(Nodes::from_slice(&Vec::<KdNode>::deserialize(d)?))
+    }
+}
+
 impl std::ops::Deref for Nodes {
     type Target = [KdNode];
     fn deref(&self) -> &[KdNode] {

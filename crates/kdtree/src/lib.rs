@@ -114,7 +114,20 @@ pub static FAMILY: Family = Family::new::<KdTree, KdParams>(
 .with_summary(
     "SAH kd-tree with perfect splits and the kd-tree review's traversals (Hapala and Havran 2011)",
 )
-.with_rules::<KdParams>();
+.with_rules::<KdParams>()
+.with_persist::<KdTree>();
+
+impl tb_core::Persist for KdTree {
+    fn attach(
+        &mut self,
+        tris: &Arc<[Triangle]>,
+        params: &tb_core::ParamSet,
+    ) -> Result<(), tb_core::ParamError> {
+        self.tris = tris.clone();
+        self.params = tb_core::persist::params_from(params)?;
+        Ok(())
+    }
+}
 
 /// A kd-tree over triangles (see the crate doc): its nodes, references and triangles (shared:
 /// several trees may index one triangle array), the root cell, its parameters, the start of
@@ -131,15 +144,21 @@ pub static FAMILY: Family = Family::new::<KdTree, KdParams>(
 /// - `boxes`: 1 (the start cell, tested first);
 /// - `steps`: nodes visited (`interior + leaves`);
 /// - `restarts`: 0.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct KdTree {
     nodes: Arc<Nodes>,
     prim_refs: Arc<[u32]>,
+    /// The build cache saves neither the scene's triangles nor the parameters (its key) nor
+    /// the auxiliary arrays: [`tb_core::Persist::attach`] gives the first two back, and the
+    /// arrays are built on first use, as after a build.
+    #[serde(skip)]
     tris: Arc<[Triangle]>,
     bounds: Aabb,
+    #[serde(skip)]
     params: KdParams,
     /// Where every traversal's walks begin.
     start: KdStart,
+    #[serde(skip)]
     aux: Arc<AuxArrays>,
     /// Leaves the builder made because the reference budget was reached
     /// ([`build::MAX_REFS_PER_TRIANGLE`]; 0 on every paper scene).

@@ -11,7 +11,7 @@
 /// default depth-first order the left child is the next node and the link is the right
 /// child's index; in the treelet layout the link is used only on a block's lowest level.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct KdNode {
     pub bits: u32,
     pub data: u32,

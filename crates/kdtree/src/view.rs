@@ -33,7 +33,7 @@ pub struct KdView<'a> {
 /// the ray is clipped to `cell`, restarts begin again at the start node, `backtrack` climbs no
 /// higher, a rope leaving the cell ends the walk, and point location descends from it.
 /// Made by [`KdView::root`] and [`KdView::start_at`], so the cell is the node's.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct KdStart {
     pub node: u32,
     pub cell: Aabb,
@@ -206,7 +206,7 @@ const _: () = assert!(std::mem::size_of::<LeafRopes>() == 48);
 /// The rank of a set of nodes among the indices of a node array: one bit per node and, per 64
 /// nodes, the count of members before them. Records kept per member in node order are found
 /// by the rank of their node (a popcount), with no per-node index.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct NodeRank {
     bits: Box<[u64]>,
     base: Box<[u32]>,

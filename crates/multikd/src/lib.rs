@@ -95,10 +95,23 @@ pub static FAMILY: Family = Family::new::<MultiKdTree, MultiKdParams>(
     "multi-kd-tree: three kd-trees of direction-weighted SAH measures, a tree per ray direction \
      (Torres et al. 2012)",
 )
-.with_rules::<MultiKdParams>();
+.with_rules::<MultiKdParams>()
+.with_persist::<MultiKdTree>();
+
+impl tb_core::Persist for MultiKdTree {
+    fn attach(
+        &mut self,
+        tris: &Arc<[Triangle]>,
+        params: &tb_core::ParamSet,
+    ) -> Result<(), tb_core::ParamError> {
+        self.tris = tris.clone();
+        self.params = tb_core::persist::params_from(params)?;
+        Ok(())
+    }
+}
 
 /// One tree of the node array.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TreeEntry {
     /// The patch whose measure built it (0 = X, 1 = Y, 2 = Z; 0 for SAH).
     pub patch: usize,
@@ -116,18 +129,23 @@ pub struct TreeEntry {
 }
 
 /// A multi-kd-tree (see the module doc).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct MultiKdTree {
     nodes: Arc<Nodes>,
     refs: Arc<[u32]>,
+    /// Not saved by the build cache: the scene's triangles and the parameters (its key) are
+    /// given back by [`tb_core::Persist::attach`], the auxiliary arrays built on first use.
+    #[serde(skip)]
     tris: Arc<[Triangle]>,
     bounds: Aabb,
+    #[serde(skip)]
     params: MultiKdParams,
     /// The rule choosing a ray's patch.
     pick: Heuristic,
     /// Root node per patch (the header array of §6).
     header: [u32; 3],
     trees: Vec<TreeEntry>,
+    #[serde(skip)]
     aux: Arc<AuxArrays>,
     /// Leaves the trees' builds made at the reference budget (tb-kdtree's bound).
     budget_leaves: u64,

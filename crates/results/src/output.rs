@@ -76,6 +76,11 @@ macro_rules! define_row {
             /// `;`-separated.
             #[serde(default)]
             pub build_ms_runs: String,
+            /// Whether the structure was loaded from the build cache (its `build_ms` and heap
+            /// figures then those of the build that made the entry, plus the auxiliary arrays
+            /// prepared in this run; `tb_harness::experiment::cache`).
+            #[serde(default)]
+            pub build_cached: Option<bool>,
             #[serde(deserialize_with = "finite")]
             pub trace_ms_min: Option<f64>,
             #[serde(deserialize_with = "finite")]

@@ -51,7 +51,19 @@ pub static FAMILY: Family = Family::new::<Rtree, RtreeParams>(
 .with_summary(
     "R-tree by insertion (R* and others) or STR, packed level-order layout (Feldmann 2015)",
 )
-.with_rules::<RtreeParams>();
+.with_rules::<RtreeParams>()
+.with_persist::<Rtree>();
+
+impl tb_core::Persist for Rtree {
+    fn attach(
+        &mut self,
+        _tris: &std::sync::Arc<[Triangle]>,
+        params: &tb_core::ParamSet,
+    ) -> Result<(), tb_core::ParamError> {
+        self.params = tb_core::persist::params_from(params)?;
+        Ok(())
+    }
+}
 
 /// Largest `M` supported (node capacity of the builder, size of the per-level stacks).
 pub const MAX_M: usize = 16;
@@ -100,8 +112,9 @@ pub fn layout_limit(n: usize) -> u64 {
 /// - `restarts`: the stackless walks only, climbs to a parent (`n_p`) when no next sibling
 ///   remains;
 /// - `planes`: always 0.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Rtree {
+    #[serde(with = "tb_core::persist::pod")]
     nodes: Vec<RtreeNode>,
     triangles: Vec<Triangle>,
     prim_ids: Vec<u32>,
@@ -109,6 +122,8 @@ pub struct Rtree {
     root_level: u32,
     /// `Δ_L(0)`: first leaf slot.
     first_leaf: u32,
+    /// Not saved by the build cache (its key): given back by [`tb_core::Persist::attach`].
+    #[serde(skip)]
     params: RtreeParams,
     splits: u64,
     reinserts: u64,

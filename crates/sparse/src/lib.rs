@@ -106,12 +106,26 @@ pub static FAMILY: Family = Family::new::<SparseBoxes, SparseParams>(
     "a kd-tree with sparse boxes: augmented nodes, start nodes, BTR and SLTR (Havran and \
      Bittner 2007)",
 )
-.with_rules::<SparseParams>();
+.with_rules::<SparseParams>()
+.with_persist::<SparseBoxes>();
+
+impl tb_core::Persist for SparseBoxes {
+    fn attach(
+        &mut self,
+        tris: &Arc<[Triangle]>,
+        params: &tb_core::ParamSet,
+    ) -> Result<(), tb_core::ParamError> {
+        let p: SparseParams = tb_core::persist::params_from(params)?;
+        tb_core::Persist::attach(&mut self.kd, tris, &tb_core::Params::to_set(&p.kd()))?;
+        self.params = p;
+        Ok(())
+    }
+}
 
 /// An augmented node (§4): the node's cell and the index of its parent augmented node's record
 /// (0, the root's, for the root), and the kd-tree node it belongs to. 32 bytes, `#[repr(C)]`.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct AugNode {
     pub min: [f32; 3],
     pub parent: u32,
@@ -130,9 +144,11 @@ impl AugNode {
 
 /// A kd-tree with sparse boxes (see the crate doc): the kd-tree (shared arrays), its augmented
 /// nodes in node order and their depths.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct SparseBoxes {
     kd: KdTree,
+    /// Not saved by the build cache (its key): given back by [`tb_core::Persist::attach`].
+    #[serde(skip)]
     params: SparseParams,
     aug: Arc<[AugNode]>,
     /// The record of an augmented node in constant time (SLTR's climb from the last augmented

@@ -186,17 +186,32 @@ pub static FAMILY: Family = Family::new::<Cwbvh, CwbvhParams>(
     |tris, set| build_with(set, |p: &CwbvhParams| Cwbvh::try_build(tris, p)),
 )
 .with_summary("compressed 8-wide BVH, 80-byte quantized nodes (Ylitie, Karras and Laine 2017)")
-.with_rules::<CwbvhParams>();
+.with_rules::<CwbvhParams>()
+.with_persist::<Cwbvh>();
+
+impl tb_core::Persist for Cwbvh {
+    fn attach(
+        &mut self,
+        _tris: &std::sync::Arc<[Triangle]>,
+        params: &tb_core::ParamSet,
+    ) -> Result<(), tb_core::ParamError> {
+        self.params = tb_core::persist::params_from(params)?;
+        Ok(())
+    }
+}
 
 /// A compressed wide BVH over triangles (see the module doc for the paper).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Cwbvh {
+    #[serde(with = "tb_core::persist::pod")]
     nodes: Vec<CwNode>,
     /// The triangles in node order (each node's leaves consecutive from its `tri_base`).
     triangles: Vec<Triangle>,
     /// `prim_ids[i]` is the scene index of `triangles[i]`.
     prim_ids: Vec<u32>,
     n_scene: usize,
+    /// Not saved by the build cache (its key): given back by [`tb_core::Persist::attach`].
+    #[serde(skip)]
     params: CwbvhParams,
     /// The wide tree's SAH cost under the parameters' cost model (the boxes before
     /// quantization).

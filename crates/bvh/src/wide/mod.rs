@@ -133,7 +133,7 @@ impl<const N: usize> WideNode<N> {
 /// Four triangles of a wide leaf (lanes past the leaf's end repeat its block's first triangle,
 /// as [`Tri4::new`] pads, with primitive id `u32::MAX`), 160 bytes.
 #[repr(C, align(16))]
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LeafBlock {
     pub tris: Tri4,
     /// The scene index of each lane's triangle.

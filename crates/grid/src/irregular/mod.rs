@@ -23,7 +23,7 @@ mod merge;
 /// One cell, 32 bytes: its box on the virtual base grid (`lo..hi`, exclusive, in base voxels;
 /// grown by expansion) and its range of `IrregularGrid::refs`.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Cell {
     pub lo: [u32; 3],
     pub begin: u32,
@@ -53,6 +53,7 @@ const ABSORBED: u32 = 1 << 31;
 ///
 /// Per-ray counters of `walk`: `cells` (and `steps`): cells visited, N_T; `prims`: triangle
 /// tests, N_I (no mailbox: a triangle referenced by several visited cells is tested in each).
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct IrregularGrid {
     /// The top-level grid.
     top: Lattice,
@@ -71,6 +72,9 @@ pub struct IrregularGrid {
     pub(crate) map: Vec<u32>,
     pub(crate) cells: Vec<Cell>,
     pub(crate) refs: Vec<u32>,
+    /// The scene's triangles: not saved by the build cache, given back by
+    /// [`tb_core::Persist::attach`].
+    #[serde(skip)]
     pub(crate) tris: Arc<[Triangle]>,
     figures: Vec<(String, f64)>,
 }
@@ -168,6 +172,17 @@ impl HagridWalk<'_> {
 }
 
 tb_core::kernel_by_query!(walk: [] HagridWalk<'_>);
+
+impl tb_core::Persist for IrregularGrid {
+    fn attach(
+        &mut self,
+        tris: &Arc<[Triangle]>,
+        _params: &tb_core::ParamSet,
+    ) -> Result<(), tb_core::ParamError> {
+        self.tris = tris.clone();
+        Ok(())
+    }
+}
 
 impl Structure for IrregularGrid {
     const NAME: &'static str = "irregular-grid";

@@ -9,6 +9,7 @@
 //! experiment ([`dynamic`], `[dynamic]`).
 
 pub mod batches;
+pub mod cache;
 pub mod child;
 pub mod config;
 pub mod convergence;

@@ -83,6 +83,7 @@ struct RawRun {
     clock: Option<Spanned<String>>,
     warmup: Option<u32>,
     build_repeat: Option<Spanned<u32>>,
+    time_builds: Option<bool>,
     triangle_test: Option<Spanned<OneOrMany<String>>>,
     devices: Option<Spanned<OneOrMany<String>>>,
     gpu_adapter: Option<String>,

@@ -12,6 +12,9 @@ pub struct RunSettings {
     /// How rows are timed (warmup, repeat, max_repeat, target_ci, max_row_seconds).
     pub timing: crate::experiment::timing::TimingPlan,
     pub build_repeat: usize,
+    /// Every build timed fresh in each process, never loaded from the build cache
+    /// (`run.time_builds`; a `build_repeat` above 1 does the same).
+    pub time_builds: bool,
     pub triangle_tests: Vec<TriTestKind>,
     pub devices: Vec<Device>,
     pub gpu: GpuSpec,
@@ -67,6 +70,7 @@ pub(super) fn check_run(
         threads,
         timing,
         build_repeat,
+        time_builds: run.time_builds.unwrap_or(false),
         triangle_tests,
         devices,
         gpu,

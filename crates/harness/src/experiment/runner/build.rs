@@ -1,6 +1,8 @@
-//! Building one structure x parameter set: timed and repeated, checked with
-//! [`tb_core::Accel::validate`], with the build's columns for its rows.
+//! Building one structure x parameter set: timed and repeated, or loaded from the build cache
+//! ([`crate::experiment::cache`]), checked with [`tb_core::Accel::validate`], with the
+//! build's columns for its rows.
 
+use crate::experiment::cache::{self, BuildCache, BuildFigures, Hit, Lookup};
 use crate::experiment::heap::{self, HeapUse};
 use crate::experiment::timing::median;
 use std::sync::Arc;
@@ -16,6 +18,9 @@ pub struct Built {
     pub build_ms: f64,
     /// Every build's ms in the order they ran (`build_ms_runs`).
     pub build_runs: Vec<f64>,
+    /// Loaded from the build cache: the figures are those of the build that made the entry
+    /// (the structure), plus the auxiliary arrays prepared now.
+    pub cached: bool,
     mem: MemoryReport,
     sah_cost: Option<f64>,
     /// `name=value;…` of the build report's extra figures.
@@ -24,34 +29,172 @@ pub struct Built {
     heap: Option<HeapUse>,
 }
 
-/// Build `family` over `tris` with `params` `repeat` times (at least once; the median time is
+/// How a structure is built: how many times, and whether through the build cache.
+#[derive(Clone, Copy, Debug)]
+pub struct BuildPlan<'a> {
+    /// Builds (at least one; the median time is reported).
+    pub repeat: usize,
+    /// Every build timed fresh (`run.time_builds`, or `repeat` above 1): the cache is not
+    /// read, only written.
+    pub timed: bool,
+    /// The build cache, where it is on and the family can be saved.
+    pub cache: Option<&'a BuildCache>,
+}
+
+/// What the cache did for a run's builds.
+#[derive(Clone, Debug, Default)]
+pub struct CacheUse {
+    /// Structures loaded from the cache.
+    pub loaded: usize,
+    /// Structures built and saved to it.
+    pub saved: usize,
+    /// One line per entry refused (and rebuilt) or not saved.
+    pub notes: Vec<String>,
+}
+
+/// One structure build and its auxiliary arrays: the structure, its time and heap, and the
+/// arrays' time and heap.
+struct Once {
+    accel: Box<dyn Accel>,
+    ms: f64,
+    heap: Option<HeapUse>,
+    prepare_ms: f64,
+    prepare_heap: Option<HeapUse>,
+}
+
+fn build_once(
+    family: &'static Family,
+    tris: &Arc<[Triangle]>,
+    params: &ParamSet,
+    traversals: &[usize],
+) -> Result<Once, AccelError> {
+    let (built, heap) = heap::measure(|| {
+        let t0 = Instant::now();
+        let accel = (family.build)(tris, params)?;
+        Ok::<_, AccelError>((accel, t0.elapsed().as_secs_f64() * 1e3))
+    });
+    let (accel, ms) = built?;
+    let (prepare_ms, prepare_heap) = prepare(accel.as_ref(), traversals);
+    Ok(Once {
+        accel,
+        ms,
+        heap,
+        prepare_ms,
+        prepare_heap,
+    })
+}
+
+/// Build the auxiliary arrays of `traversals`: their time, ms, and heap.
+fn prepare(accel: &dyn Accel, traversals: &[usize]) -> (f64, Option<HeapUse>) {
+    heap::measure(|| {
+        let t0 = Instant::now();
+        for &ti in traversals {
+            accel.prepare(ti);
+        }
+        t0.elapsed().as_secs_f64() * 1e3
+    })
+}
+
+/// The heap of a build followed by its auxiliary arrays, from the two measured apart (each
+/// above what was live before it: the arrays' peak comes on top of what the build kept).
+fn combine(build: Option<HeapUse>, arrays: Option<HeapUse>) -> Option<HeapUse> {
+    let (b, a) = (build?, arrays?);
+    Some(HeapUse {
+        peak: b.peak.max(b.kept + a.peak),
+        kept: b.kept + a.kept,
+    })
+}
+
+/// Build `family` over `tris` with `params` as `plan` says (the median time of its builds is
 /// reported), preparing the auxiliary arrays of `traversals`, then validate the last build.
+/// With a cache, an entry of this build is loaded instead where the plan does not time its
+/// builds (`used` counts it; an entry that cannot be used is rebuilt with a note), and a
+/// fresh build is saved.
 pub fn build(
     family: &'static Family,
     tris: &Arc<[Triangle]>,
     params: &ParamSet,
     traversals: &[usize],
-    repeat: usize,
+    plan: &BuildPlan<'_>,
+    used: &mut CacheUse,
 ) -> Result<Built, AccelError> {
+    let cache = plan
+        .cache
+        .zip(family.codec.as_ref())
+        .map(|(c, codec)| (c, codec, cache::key(family, params, tris)));
+    if let (Some((c, codec, key)), false) = (&cache, plan.timed) {
+        match c.load(key, codec, tris, params) {
+            Lookup::Hit(hit) => match loaded(hit, traversals) {
+                Ok(b) => {
+                    used.loaded += 1;
+                    return Ok(b);
+                }
+                Err(e) => used.notes.push(format!(
+                    "{} [{}]: a cached build fails its check ({e}): rebuilt",
+                    family.name, params
+                )),
+            },
+            Lookup::Miss => {}
+            Lookup::Refused(why) => used.notes.push(format!("{why}: rebuilt")),
+        }
+    }
+    let (built, figures) = fresh(family, tris, params, traversals, plan.repeat)?;
+    if let Some((c, codec, key)) = &cache {
+        match c.store(key, codec, built.accel.as_ref(), figures) {
+            Ok(()) => used.saved += 1,
+            Err(e) => used.notes.push(format!("not saved: {e}")),
+        }
+    }
+    Ok(built)
+}
+
+/// `repeat` fresh builds; the last one validated, with the figures a cache entry keeps.
+fn fresh(
+    family: &'static Family,
+    tris: &Arc<[Triangle]>,
+    params: &ParamSet,
+    traversals: &[usize],
+    repeat: usize,
+) -> Result<(Built, BuildFigures), AccelError> {
     let mut times = Vec::new();
-    let mut last = None;
-    let mut heap_use = None;
+    let mut structure_ms = Vec::new();
+    let mut last: Option<Once> = None;
     for _ in 0..repeat.max(1) {
         drop(last.take());
-        let (built, used) = heap::measure(|| {
-            let t0 = Instant::now();
-            let accel = (family.build)(tris, params)?;
-            for &ti in traversals {
-                accel.prepare(ti);
-            }
-            Ok::<_, AccelError>((accel, t0.elapsed().as_secs_f64() * 1e3))
-        });
-        let (accel, ms) = built?;
-        times.push(ms);
-        heap_use = used;
-        last = Some(accel);
+        let once = build_once(family, tris, params, traversals)?;
+        times.push(once.ms + once.prepare_ms);
+        structure_ms.push(once.ms);
+        last = Some(once);
     }
-    let accel = last.expect("at least one build");
+    let once = last.expect("at least one build");
+    let figures = BuildFigures {
+        runs_ms: structure_ms,
+        heap: once.heap.map(|h| (h.peak, h.kept)),
+    };
+    let heap = combine(once.heap, once.prepare_heap);
+    Ok((finish(once.accel, times, heap, false)?, figures))
+}
+
+/// A structure loaded from the cache, its auxiliary arrays prepared now.
+fn loaded(hit: Hit, traversals: &[usize]) -> Result<Built, AccelError> {
+    let (prepare_ms, prepare_heap) = prepare(hit.accel.as_ref(), traversals);
+    let times = hit
+        .figures
+        .runs_ms
+        .iter()
+        .map(|ms| ms + prepare_ms)
+        .collect();
+    let heap = hit.figures.heap.map(|(peak, kept)| HeapUse { peak, kept });
+    finish(hit.accel, times, combine(heap, prepare_heap), true)
+}
+
+/// Validate `accel` and gather its figures.
+fn finish(
+    accel: Box<dyn Accel>,
+    mut times: Vec<f64>,
+    heap: Option<HeapUse>,
+    cached: bool,
+) -> Result<Built, AccelError> {
     accel.validate()?;
     let report = accel.build_report();
     let build_stats = tb_results::pairs::join(
@@ -64,10 +207,11 @@ pub fn build(
     Ok(Built {
         build_runs,
         build_ms: median(&mut times),
+        cached,
         mem: accel.memory(),
         sah_cost: report.sah_cost,
         build_stats,
-        heap: heap_use,
+        heap,
         accel,
     })
 }
@@ -78,6 +222,7 @@ impl Built {
     pub fn fill(&self, row: &mut Row, ti: usize) {
         row.build_ms = Some(self.build_ms);
         row.build_ms_runs = crate::experiment::timing::ms_list(&self.build_runs);
+        row.build_cached = Some(self.cached);
         let mem = self.accel.memory_for(ti);
         row.memory_bytes = Some(mem.bytes);
         row.structure_bytes = Some(mem.structure_bytes);

@@ -49,6 +49,8 @@ pub struct RunOptions {
     pub mode: Mode,
     /// How many mismatching rays to keep per combination for the report.
     pub max_report: usize,
+    /// The build cache ([`crate::experiment::cache`]), `None` to build every structure.
+    pub cache: Option<crate::experiment::cache::BuildCache>,
 }
 
 impl RunOptions {
@@ -61,6 +63,7 @@ impl RunOptions {
             quiet: true,
             mode: Mode::Run,
             max_report: 4,
+            cache: None,
         }
     }
 }
@@ -103,6 +106,7 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
         }
     }
     r.progress.finish();
+    r.cache_notes();
     if r.loaded_rows > 0 {
         r.summary.notes.push(format!(
             "{} rows were timed while other processes kept more than {} CPU cores busy \
@@ -143,6 +147,8 @@ struct Run<'a> {
     idle_load: Option<f64>,
     /// Rows timed while the load average exceeded the idle level by more than their threads.
     loaded_rows: usize,
+    /// What the build cache did.
+    cache_use: build::CacheUse,
 }
 
 impl<'a> Run<'a> {
@@ -212,7 +218,27 @@ impl<'a> Run<'a> {
             gpu,
             idle_load: crate::experiment::timing::load_average(),
             loaded_rows: 0,
+            cache_use: build::CacheUse::default(),
         })
+    }
+
+    /// The build cache's hits and misses, and every entry it refused, as notes.
+    fn cache_notes(&mut self) {
+        let Some(c) = &self.opts.cache else {
+            return;
+        };
+        let u = std::mem::take(&mut self.cache_use);
+        if u.loaded + u.saved > 0 || !u.notes.is_empty() {
+            self.summary.notes.push(format!(
+                "build cache {}: {} structures loaded, {} built and saved (rows: build_cached)",
+                c.dir().display(),
+                u.loaded,
+                u.saved
+            ));
+        }
+        for n in u.notes {
+            self.summary.notes.push(format!("build cache: {n}"));
+        }
     }
 
     /// Every build and row of one scene table: its views (one spec without `views`) share
@@ -309,12 +335,18 @@ impl<'a> Run<'a> {
             "{}: building {} [{params_s}]",
             first.table, st.family.name
         ));
+        let plan = build::BuildPlan {
+            repeat: self.exp.run.build_repeat,
+            timed: self.exp.run.time_builds || self.exp.run.build_repeat > 1,
+            cache: self.opts.cache.as_ref(),
+        };
         match build::build(
             st.family,
             tris,
             params,
             &st.traversals,
-            self.exp.run.build_repeat,
+            &plan,
+            &mut self.cache_use,
         ) {
             Ok(b) => {
                 self.cpu.begin_build();

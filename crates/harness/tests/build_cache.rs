@@ -1,0 +1,323 @@
+//! The build cache (`tb_harness::experiment::cache`): a loaded structure is the structure a
+//! fresh build makes (the same bytes, the same answers and counters on the stress scenes), a
+//! second run loads every build, and a corrupt, truncated or swapped entry is rebuilt with a
+//! note, never used.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use tb_core::{Accel, Answers, Batch, HitRecord, ParamSet, Query, TraversalStats, Triangle};
+use tb_harness::experiment::cache::{self, BuildCache, Lookup};
+use tb_harness::experiment::config::{self, Overrides};
+use tb_harness::experiment::runner::{self, RunOptions, RunSummary};
+use tb_harness::registry::Registry;
+use tb_results::output::Row;
+
+/// Every family that can be saved, with parameter sets that reach each of its layouts.
+const STRUCTURES: &str = r#"
+[[structure]]
+name = "bvh"
+params = { builder = ["binned", "sbvh"], width = [2, 8] }
+
+[[structure]]
+name = "bvh"
+params = { width = 4, leaf_cost = "linear" }
+
+[[structure]]
+name = "cwbvh"
+
+[[structure]]
+name = "rtree"
+params = { strategy = ["r-star", "str"] }
+
+[[structure]]
+name = "kdtree"
+params = { layout = ["depth-first", "treelet"] }
+
+[[structure]]
+name = "sparse-boxes"
+params = { d_min = 2 }
+
+[[structure]]
+name = "multi-kd"
+params = { measure = ["sphere-orth", "sah"] }
+
+[[structure]]
+name = "uniform-grid"
+params = { macro_regions = [false, true] }
+
+[[structure]]
+name = "two-level-grid"
+
+[[structure]]
+name = "irregular-grid"
+params = { expansion = [0, 2], precision = ["f32", "f64"] }
+"#;
+
+fn config() -> String {
+    format!(
+        "name = \"cache\"\n[run]\nthreads = 1\nrepeat = 1\nwarmup = 0\n\n\
+         [[scene]]\nsource = \"builtin:stress/near-surfaces\"\nrays = [\"primary\", \"random\"]\n\
+         camera = {{ width = 24, height = 24 }}\nrandom = {{ count = 512 }}\n\n\
+         [[scene]]\nsource = \"builtin:soup?count=400&seed=3\"\nrays = [\"random\"]\n\
+         random = {{ count = 512 }}\n{STRUCTURES}"
+    )
+}
+
+fn run(dir: &Path, out: &Path, cache: Option<&Path>) -> RunSummary {
+    let exp = config::parse(
+        &dir.join("cache.toml"),
+        &config(),
+        &Overrides::default(),
+        &mut |_| {},
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let mut opts = RunOptions::quiet(out.to_path_buf());
+    opts.cache = cache.map(|c| BuildCache::new(c.to_path_buf(), 1024));
+    let s = runner::run(&exp, &opts).unwrap();
+    assert!(s.failures.is_empty(), "{:?}", s.failures);
+    assert!(s.wrong_rows.is_empty(), "{:?}", s.wrong_rows);
+    s
+}
+
+/// Everything of a row but what timing and the cache change.
+fn deterministic(r: &Row) -> String {
+    let mut r = r.clone();
+    for f in [
+        &mut r.build_ms,
+        &mut r.trace_ms_min,
+        &mut r.trace_ms_median,
+        &mut r.trace_ms_max,
+        &mut r.mrays_per_s,
+        &mut r.trace_ms_ci,
+        &mut r.load_avg,
+        &mut r.cpu_others,
+    ] {
+        *f = None;
+    }
+    r.build_ms_runs.clear();
+    r.trace_ms_runs.clear();
+    r.noisy = None;
+    r.build_cached = None;
+    r.build_heap_peak_bytes = None;
+    r.build_heap_kept_bytes = None;
+    // `insert_ms`, `pack_ms` and the grids' phase times are build times in build_stats.
+    r.build_stats = r
+        .build_stats
+        .split(';')
+        .filter(|kv| !kv.contains("_ms="))
+        .collect::<Vec<_>>()
+        .join(";");
+    format!("{r:?}")
+}
+
+fn entries(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "tbc"))
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn a_second_run_loads_every_build_and_counts_the_same() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache_dir = dir.path().join("cache");
+    let first = run(dir.path(), &dir.path().join("a"), Some(&cache_dir));
+    let builds = entries(&cache_dir).len();
+    assert!(builds >= 20, "{builds} entries");
+    assert!(first.rows.iter().all(|r| r.build_cached == Some(false)));
+    let second = run(dir.path(), &dir.path().join("b"), Some(&cache_dir));
+    assert!(
+        second.rows.iter().all(|r| r.build_cached == Some(true)),
+        "{:?}",
+        second.notes
+    );
+    let note = second
+        .notes
+        .iter()
+        .find(|n| n.starts_with("build cache "))
+        .expect("the cache's note");
+    assert!(
+        note.contains(&format!("{builds} structures loaded, 0 built")),
+        "{note} ({builds} entries)"
+    );
+    // Without the cache, the same rows.
+    let fresh = run(dir.path(), &dir.path().join("c"), None);
+    assert_eq!(fresh.rows.len(), second.rows.len());
+    for (a, b) in fresh.rows.iter().zip(&second.rows) {
+        assert_eq!(deterministic(a), deterministic(b));
+        assert_eq!(a.build_cached, Some(false));
+    }
+    // A loaded build replays its build's figures, the structure's memory is the same.
+    for (a, b) in first.rows.iter().zip(&second.rows) {
+        assert_eq!(a.build_heap_kept_bytes, b.build_heap_kept_bytes);
+        assert_eq!(a.memory_bytes, b.memory_bytes);
+    }
+}
+
+#[test]
+fn corrupt_truncated_and_swapped_entries_are_rebuilt_with_a_note() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache_dir = dir.path().join("cache");
+    run(dir.path(), &dir.path().join("a"), Some(&cache_dir));
+    let e = entries(&cache_dir);
+    assert!(e.len() >= 6);
+    // One byte flipped in the middle; cut in half; another build's entry under this name.
+    let mut b = std::fs::read(&e[0]).unwrap();
+    let mid = b.len() / 2;
+    b[mid] ^= 0x10;
+    std::fs::write(&e[0], b).unwrap();
+    let b = std::fs::read(&e[1]).unwrap();
+    std::fs::write(&e[1], &b[..b.len() / 2]).unwrap();
+    std::fs::copy(&e[3], &e[2]).unwrap();
+    let s = run(dir.path(), &dir.path().join("b"), Some(&cache_dir));
+    let name = |p: &Path| p.file_name().unwrap().to_string_lossy().into_owned();
+    for (path, why) in [
+        (&e[0], "checksum mismatch"),
+        (&e[1], "checksum mismatch"),
+        (&e[2], "holds another build"),
+    ] {
+        assert!(
+            s.notes
+                .iter()
+                .any(|n| n.contains(&name(path)) && n.contains(why) && n.ends_with("rebuilt")),
+            "{}: {why}: {:#?}",
+            name(path),
+            s.notes
+        );
+    }
+    let rebuilt = s
+        .rows
+        .iter()
+        .filter(|r| r.build_cached == Some(false))
+        .count();
+    assert!(rebuilt > 0 && rebuilt < s.rows.len(), "{rebuilt}");
+    // Rebuilt and saved again: a third run loads everything.
+    let t = run(dir.path(), &dir.path().join("c"), Some(&cache_dir));
+    assert!(t.rows.iter().all(|r| r.build_cached == Some(true)));
+    assert!(
+        !t.notes.iter().any(|n| n.contains("rebuilt")),
+        "{:?}",
+        t.notes
+    );
+}
+
+/// Random rays through the scene's box (a quarter from inside it).
+fn rays(tris: &[Triangle], n: usize) -> Vec<tb_core::Ray> {
+    let b = tris
+        .iter()
+        .fold(tb_core::Aabb::EMPTY, |b, t| b.union(&t.bounds()));
+    let mut x = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x >> 40) as f32 / (1u64 << 24) as f32
+    };
+    (0..n)
+        .map(|i| {
+            let ext = b.max - b.min;
+            let grow = if i % 4 == 0 { 0.5 } else { 2.0 };
+            let c = (b.min + b.max) * 0.5;
+            let o = c + (tb_core::Vec3::new(next(), next(), next()) - 0.5) * ext * grow;
+            let t = b.min + tb_core::Vec3::new(next(), next(), next()) * ext;
+            tb_core::Ray::new(o, (t - o).normalize_or_zero())
+        })
+        .collect()
+}
+
+fn trace(a: &dyn Accel, ti: usize, rays: &[tb_core::Ray]) -> String {
+    let mut hits = vec![HitRecord::MISS; rays.len()];
+    let mut stats = vec![TraversalStats::default(); rays.len()];
+    let batch = Batch::new(Query::Closest, tb_core::TriTestKind::Watertight, rays);
+    let hints = a.batch_hints(ti, Query::Closest, rays);
+    a.trace(
+        ti,
+        batch.with_hints(hints.as_deref()),
+        Answers::new(&mut hits, Some(&mut stats)),
+    );
+    format!("{hits:?}{stats:?}")
+}
+
+/// For every family with a codec, on every stress scene: saved and loaded, a build encodes to
+/// the same bytes and answers every traversal's rays with the same hits and counters.
+#[test]
+fn a_loaded_structure_is_the_fresh_build() {
+    let registry = Registry::builtin();
+    let scenes = tb_scene::conformance::suite_scenes();
+    let mut tried = HashMap::new();
+    for scene in scenes.iter().filter(|s| s.source.contains("stress/")) {
+        let tris: Arc<[Triangle]> = scene.triangles.clone().into();
+        let rays = rays(&tris, 256);
+        for family in registry.families() {
+            let Some(codec) = family.codec else { continue };
+            let params: ParamSet = (family.defaults)();
+            let built = (family.build)(&tris, &params).unwrap();
+            let bytes = (codec.save)(built.as_ref()).unwrap();
+            let loaded = (codec.load)(&bytes, &tris, &params).unwrap();
+            loaded.validate().unwrap();
+            assert_eq!(
+                (codec.save)(loaded.as_ref()).unwrap(),
+                bytes,
+                "{}",
+                family.name
+            );
+            for ti in 0..built.traversals().len() {
+                built.prepare(ti);
+                loaded.prepare(ti);
+                assert_eq!(
+                    trace(built.as_ref(), ti, &rays),
+                    trace(loaded.as_ref(), ti, &rays),
+                    "{} {} on {}",
+                    family.name,
+                    built.traversals()[ti].name,
+                    scene.source
+                );
+            }
+            *tried.entry(family.name).or_insert(0) += 1;
+        }
+    }
+    assert!(tried.len() >= 9, "{tried:?}");
+    // Another family's codec refuses the structure.
+    let tris: Arc<[Triangle]> = scenes[0].triangles.clone().into();
+    let bvh = registry.find("bvh").unwrap();
+    let kd = registry.find("kdtree").unwrap();
+    let built = (bvh.build)(&tris, &(bvh.defaults)()).unwrap();
+    assert!((kd.codec.unwrap().save)(built.as_ref()).is_err());
+}
+
+/// The cache's look-up by key: a miss, a hit, and an entry of another scene's triangles never
+/// found under this scene's key.
+#[test]
+fn the_key_is_the_content() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = BuildCache::new(dir.path().to_path_buf(), 64);
+    let registry = Registry::builtin();
+    let family = registry.find("kdtree").unwrap();
+    let codec = family.codec.unwrap();
+    let scenes = tb_scene::conformance::suite_scenes();
+    let a: Arc<[Triangle]> = scenes[0].triangles.clone().into();
+    let mut moved = scenes[0].triangles.clone();
+    moved[0].v0.x = f32::from_bits(moved[0].v0.x.to_bits() ^ 1);
+    let b: Arc<[Triangle]> = moved.into();
+    let p = (family.defaults)();
+    let ka = cache::key(family, &p, &a);
+    assert!(matches!(c.load(&ka, &codec, &a, &p), Lookup::Miss));
+    let built = (family.build)(&a, &p).unwrap();
+    let figures = cache::BuildFigures {
+        runs_ms: vec![1.0],
+        heap: None,
+    };
+    c.store(&ka, &codec, built.as_ref(), figures.clone())
+        .unwrap();
+    match c.load(&ka, &codec, &a, &p) {
+        Lookup::Hit(h) => assert_eq!(h.figures, figures),
+        _ => panic!("no hit"),
+    }
+    let kb = cache::key(family, &p, &b);
+    assert!(matches!(c.load(&kb, &codec, &b, &p), Lookup::Miss));
+}
