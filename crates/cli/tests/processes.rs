@@ -135,6 +135,22 @@ fn processes_merge_into_one_folder_and_resume() {
     let m = meta(&out);
     assert_eq!(m["status"], "complete");
     assert_eq!(m["processes"]["n"], 3);
+    // The merged folder's phases and build-cache figures are the processes' sums (each
+    // process of the resumed run counts the session that finished it).
+    let each: Vec<serde_json::Value> = (0..3)
+        .map(|p| meta(&tb_harness::experiment::processes::folder(&out, p)))
+        .collect();
+    let total: f64 = each
+        .iter()
+        .map(|e| e["phases"]["total_s"].as_f64().unwrap())
+        .sum();
+    let merged = m["phases"]["total_s"].as_f64().unwrap();
+    assert!((merged - total).abs() < 0.01, "{merged} against {total}");
+    let builds = |v: &serde_json::Value| {
+        v["build_cache"]["built"].as_u64().unwrap() + v["build_cache"]["loaded"].as_u64().unwrap()
+    };
+    assert_eq!(builds(&m), each.iter().map(builds).sum::<u64>());
+    assert!(builds(&m) >= 3, "{}", m["build_cache"]);
     // Rounds pair within a process, never across: no timing group spans two processes.
     for a in &rows {
         for b in rows.iter().filter(|b| b.process != a.process) {
@@ -346,6 +362,12 @@ fn reproduce_makes_a_run_in_processes_and_reports_their_spread() {
         .find(|l| l.starts_with("| `0-processes` | 3 | 2 |"))
         .unwrap_or_else(|| panic!("a spread row for the run's two rows: {report}"));
     assert!(line.contains(" % ("), "{line}");
+    // Each run's time split and build cache, from its results.json.
+    let run = report
+        .lines()
+        .find(|l| l.contains("--processes 3"))
+        .unwrap();
+    assert!(run.contains(" built |") && run.contains(" %"), "{run}");
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("verdicts.json")).unwrap()).unwrap();
     let why = v["papers"][0]["claims"][1]["why"].as_str().unwrap();

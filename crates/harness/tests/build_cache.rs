@@ -145,8 +145,54 @@ fn a_second_run_loads_every_build_and_counts_the_same() {
         note.contains(&format!("{builds} structures loaded, 0 built")),
         "{note} ({builds} entries)"
     );
+    // results.json says what the cache did and where the time went (`meta.build_cache`,
+    // `meta.phases`): every build loaded the second time, none the first; without the
+    // cache every build is made again.
+    let meta = |run: &str| -> serde_json::Value {
+        let t = std::fs::read_to_string(dir.path().join(run).join("results.json")).unwrap();
+        serde_json::from_str::<serde_json::Value>(&t).unwrap()["meta"].clone()
+    };
+    let cache_of = |run: &str| {
+        let c = meta(run)["build_cache"].clone();
+        (
+            c["used"].as_bool(),
+            c["loaded"].as_u64(),
+            c["built"].as_u64(),
+        )
+    };
+    let n = builds as u64;
+    assert_eq!(cache_of("a"), (Some(true), Some(0), Some(n)));
+    assert_eq!(cache_of("b"), (Some(true), Some(n), Some(0)));
+    for run in ["a", "b"] {
+        let p = meta(run)["phases"].clone();
+        let f = |k: &str| {
+            p[k].as_f64()
+                .unwrap_or_else(|| panic!("{run}: no phases.{k}: {p}"))
+        };
+        let named: f64 = [
+            "load_s",
+            "rays_s",
+            "build_s",
+            "oracle_s",
+            "count_s",
+            "validate_s",
+        ]
+        .iter()
+        .chain(&["trace_s", "gpu_s", "other_s"])
+        .map(|k| f(k))
+        .sum();
+        assert!(
+            f("build_s") > 0.0 && f("trace_s") > 0.0 && f("count_s") > 0.0,
+            "{p}"
+        );
+        assert!(
+            (named - f("total_s")).abs() < 0.01,
+            "{run}: {named} against {p}"
+        );
+    }
     // Without the cache, the same rows.
     let fresh = run(dir.path(), &dir.path().join("c"), None);
+    assert_eq!(cache_of("c"), (Some(false), Some(0), Some(n)));
     assert_eq!(fresh.rows.len(), second.rows.len());
     for (a, b) in fresh.rows.iter().zip(&second.rows) {
         assert_eq!(deterministic(a), deterministic(b));

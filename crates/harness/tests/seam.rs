@@ -144,6 +144,20 @@ impl SkipLast<'_> {
 
 tb_core::kernel_by_query!(walk: [] SkipLast<'_>);
 
+/// A faulty walk that is right while it counts: with counters compiled out (the timed
+/// passes) the last slab is never entered. The counting pass then agrees with the oracle, and
+/// only the check of the timed pass against the counting pass can see it.
+struct SkipLastUncounted<'a>(&'a SlabList);
+
+impl SkipLastUncounted<'_> {
+    fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
+        let n = self.0.slabs.len() - usize::from(!C::ENABLED && self.0.slabs.len() > 1);
+        self.0.walk_slabs::<T, C, ANY>(&self.0.slabs[..n], ray, c)
+    }
+}
+
+tb_core::kernel_by_query!(walk: [] SkipLastUncounted<'_>);
+
 /// The GPU program: the same walk, operation for operation, on tb-gpu's prelude.
 const SLABS_WGSL: &str = r#"
 struct Slab { bmin: vec3<f32>, first: u32, bmax: vec3<f32>, count: u32 }
@@ -226,6 +240,15 @@ impl Structure for SlabList {
             )
             .on_request(),
             |s, b, out| dispatch(&SkipLast(s), b, out),
+        ),
+        Traversal::cpu(
+            TraversalInfo::new(
+                "skip-last-uncounted",
+                "this test",
+                "a faulty walk: the last slab left out when not counting",
+            )
+            .on_request(),
+            |s, b, out| dispatch(&SkipLastUncounted(s), b, out),
         ),
     ];
 
@@ -344,6 +367,57 @@ fn a_walk_that_loses_hits_is_named() {
             && r.mismatches.unwrap_or(0) > 0),
         "the Möller–Trumbore rows lose hits too, and are not named"
     );
+}
+
+/// Issue 58: on the CPU the counting pass is validated against the oracle and every timed
+/// pass must give the counting pass's answers, on all the rays it times (`run.timed_rays`):
+/// a walk that loses hits only with counters compiled out is named, with the timed rays that
+/// differ counted as mismatches, in a run of the whole batch and in one timed on a subset.
+#[test]
+fn a_timed_pass_that_differs_from_the_counting_pass_is_named() {
+    let text = config("\"cpu\"", "4").replace(
+        "params = { slabs = 4 }",
+        "params = { slabs = 4 }\ntraversals = [\"in-order\", \"skip-last-uncounted\"]",
+    );
+    for timed in ["", "timed_rays = 100\n"] {
+        let text = text.replace(
+            "validate = \"all\"\n",
+            &format!("validate = \"all\"\n{timed}"),
+        );
+        let summary = run_summary(&text);
+        assert!(summary.failures.is_empty(), "{:?}", summary.failures);
+        let rows = |name: &str| {
+            summary
+                .rows
+                .iter()
+                .filter(|r| r.traversal == name && r.triangle_test == "watertight")
+                .filter(|r| r.timed_runs.is_some())
+                .collect::<Vec<_>>()
+        };
+        let (good, bad) = (rows("in-order"), rows("skip-last-uncounted"));
+        assert_eq!(good.len(), bad.len());
+        for (g, b) in good.iter().zip(&bad) {
+            // The counting passes agree: the same counters and hit rate.
+            assert_eq!((g.hit_rate, g.steps_per_ray), (b.hit_rate, b.steps_per_ray));
+            assert_eq!(g.mismatches, Some(0), "{g:?}");
+            let n = if timed.is_empty() {
+                g.rays
+            } else {
+                g.rays.min(100)
+            };
+            assert_eq!((g.timed_rays, b.timed_rays), (Some(n), Some(n)), "{g:?}");
+        }
+        assert!(
+            bad.iter().any(|r| r.mismatches.unwrap_or(0) > 0),
+            "the uncounted walk loses no timed hit: the test proves nothing"
+        );
+        let named = bad.iter().filter(|r| r.mismatches.unwrap_or(0) > 0).count();
+        assert_eq!(summary.wrong_rows.len(), named, "{:#?}", summary.wrong_rows);
+        assert!(summary
+            .wrong_rows
+            .iter()
+            .all(|l| l.contains("skip-last-uncounted watertight cpu")));
+    }
 }
 
 #[test]

@@ -91,6 +91,11 @@ macro_rules! define_row {
             pub mrays_per_s: Option<f64>,
             /// Timed runs of the row (`repeat`, more with `max_repeat`).
             pub timed_runs: Option<u32>,
+            /// Rays of the batch each timed run traced (`run.timed_rays`; the whole batch,
+            /// `rays`, by default): `mrays_per_s` is over these. The counters and `hit_rate`
+            /// always come from all `rays`.
+            #[serde(default)]
+            pub timed_rays: Option<u64>,
             /// Half the width of the median's 95 % confidence interval, relative to the
             /// median.
             #[serde(deserialize_with = "finite")]
@@ -455,6 +460,11 @@ impl Sink {
     #[cfg(test)]
     fn json_after_every_row(&mut self) {
         self.json_every = Duration::ZERO;
+    }
+
+    /// Set `meta[key]` of `results.json` (written with the next write).
+    pub fn set_meta(&mut self, key: &str, value: serde_json::Value) {
+        self.meta[key] = value;
     }
 
     /// Record the end of the run in the JSON metadata.

@@ -116,14 +116,76 @@ pub(super) fn write_report(
     )
 }
 
+/// The phases of `meta.phases` in REPORT.md's order, with their words.
+const PHASES: [(&str, &str); 9] = [
+    ("load_s", "load"),
+    ("rays_s", "rays"),
+    ("build_s", "build"),
+    ("oracle_s", "oracle"),
+    ("count_s", "count"),
+    ("validate_s", "validate"),
+    ("trace_s", "timed trace"),
+    ("gpu_s", "gpu"),
+    ("other_s", "other"),
+];
+
+/// A run folder's time split and build-cache figures, from its results.json (`meta.phases`,
+/// `meta.build_cache`: `tb_harness::experiment::phases`), in words for REPORT.md: each phase's
+/// share of the run's time (those of at least 0.5 %), and the structures loaded from the cache
+/// and built. Empty where the folder has none (an `exec` run, rows of an older binary).
+pub(super) fn time_split(folder: &Path) -> (String, String) {
+    let meta = std::fs::read_to_string(folder.join("results.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .map(|v| v["meta"].clone())
+        .unwrap_or_default();
+    let p = &meta["phases"];
+    let total = p["total_s"].as_f64().unwrap_or(0.0);
+    let split = if total > 0.0 {
+        PHASES
+            .iter()
+            .filter_map(|(k, w)| {
+                let share = p[*k].as_f64()? / total;
+                (share >= 0.005).then(|| format!("{w} {:.0} %", share * 100.0))
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    } else {
+        String::new()
+    };
+    let c = &meta["build_cache"];
+    let cache = match (
+        c["used"].as_bool(),
+        c["loaded"].as_u64(),
+        c["built"].as_u64(),
+    ) {
+        (Some(false), _, Some(b)) => format!("off, {b} built"),
+        (_, Some(l), Some(b)) => {
+            let refused = c["refused"].as_u64().unwrap_or(0);
+            let refused = if refused > 0 {
+                format!(", {refused} refused")
+            } else {
+                String::new()
+            };
+            format!("{l} loaded, {b} built{refused}")
+        }
+        _ => String::new(),
+    };
+    (split, cache)
+}
+
 /// REPORT.md's table of a paper's runs: the command, its estimate, what was scaled, the wall
-/// time (or reuse) and the exit.
+/// time (or reuse), where that time went, the build cache's hits and misses, and the exit.
 pub(super) fn runs_table(r: &PaperReport) -> String {
     let mut md = String::new();
-    md.push_str("| run | estimate | scaled | wall s | exit |\n|---|---|---|---|---|\n");
+    md.push_str(
+        "| run | estimate | scaled | wall s | time split | build cache | exit |\n\
+         |---|---|---|---|---|---|---|\n",
+    );
     for p in &r.runs {
+        let (split, cache) = time_split(&p.folder);
         md.push_str(&format!(
-            "| `trace-bench {}` | {:.0} s | {} | {} | {} |\n",
+            "| `trace-bench {}` | {:.0} s | {} | {} | {split} | {cache} | {} |\n",
             p.args.join(" ").replace('|', "\\|"),
             p.cost_s,
             p.left_out

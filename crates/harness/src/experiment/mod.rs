@@ -6,7 +6,7 @@
 //! ([`child`]: a run as a child process that ends with its parent). Beside the main runner,
 //! each with its own config section: heat maps of primary rays ([`images`], `[run] images`),
 //! image error against run time ([`convergence`], `[convergence]`) and the dynamic-scene
-//! experiment ([`dynamic`], `[dynamic]`).
+//! experiment ([`dynamic`], `[dynamic]`). Where a run's time went: [`phases`].
 
 pub mod batches;
 pub mod cache;
@@ -18,6 +18,7 @@ pub mod dynamic;
 pub mod heap;
 pub mod images;
 pub mod params;
+pub mod phases;
 pub mod processes;
 pub mod progress;
 pub mod runner;

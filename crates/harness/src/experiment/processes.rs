@@ -239,6 +239,28 @@ pub fn run(plan: &Plan) -> Result<Report, HarnessError> {
     Ok(report)
 }
 
+/// The processes' `meta[key]` objects summed field by field (numbers added, the first
+/// process's other values kept): the phases and build-cache figures of the whole run.
+fn sum_of(list: &[Value], key: &str) -> Value {
+    let mut out = serde_json::Map::new();
+    for p in list {
+        let Some(m) = p[key].as_object() else {
+            continue;
+        };
+        for (k, v) in m {
+            match (out.get(k).and_then(Value::as_f64), v.as_f64()) {
+                (Some(a), Some(b)) if v.is_u64() => {
+                    out.insert(k.clone(), json!(a as u64 + b as u64))
+                }
+                (Some(a), Some(b)) => out.insert(k.clone(), json!(((a + b) * 1e3).round() / 1e3)),
+                (None, _) => out.insert(k.clone(), v.clone()),
+                _ => None,
+            };
+        }
+    }
+    Value::Object(out)
+}
+
 /// Merge the folders of the processes `0..n` of the run in `out` that have begun into `out`:
 /// their rows in process order (each keeps its `process`), `params.csv`, and results.json with
 /// process 0's metadata less `process`, plus `processes` (each process's folder, start,
@@ -288,6 +310,8 @@ pub fn merge(out: &Path, n: usize) -> Result<(usize, String), HarnessError> {
             "resumed": meta["resumed"],
             "structures": meta["process"]["structures"],
             "rows": own.len(),
+            "phases": meta["phases"],
+            "build_cache": meta["build_cache"],
         }));
         statuses.push(status);
         rows.extend(own);
@@ -318,6 +342,8 @@ pub fn merge(out: &Path, n: usize) -> Result<(usize, String), HarnessError> {
         m.insert("end".into(), json!(end));
         m.insert("duration_s".into(), json!((duration * 1e3).round() / 1e3));
         m.insert("status".into(), json!(status));
+        m.insert("phases".into(), sum_of(&list, "phases"));
+        m.insert("build_cache".into(), sum_of(&list, "build_cache"));
         m.insert("processes".into(), json!({ "n": n, "processes": list }));
     }
     tb_results::output::write_all(out, meta, &rows)?;

@@ -18,6 +18,9 @@ pub struct TimingPlan {
     pub max_row_seconds: f64,
     /// What a one-thread CPU row's timed run measures (`run.clock`).
     pub clock: Clock,
+    /// The most rays of a batch a CPU row is timed on (`run.timed_rays`; `None`: all of
+    /// them); the counters always come from the whole batch ([`timed_indices`]).
+    pub timed_rays: Option<usize>,
 }
 
 /// What a timed run of a one-thread CPU row measures (`run.clock`; rows of more threads and
@@ -239,9 +242,6 @@ pub fn load_average() -> Option<f64> {
         .ok()
 }
 
-/// Fill `trace_ms_{min,median,max}`, `mrays_per_s`, `timed_runs`, `trace_ms_ci` and `noisy`
-/// (the confidence interval wider than `target_ci`) from the times (ms) of the timed runs
-/// over `rays` rays.
 /// Times in ms as a `;`-separated list, in order (`trace_ms_runs`, `build_ms_runs`).
 pub fn ms_list(times: &[f64]) -> String {
     times
@@ -251,9 +251,13 @@ pub fn ms_list(times: &[f64]) -> String {
         .join(";")
 }
 
-/// One timed run has no interval: `trace_ms_ci` and `noisy` stay empty ("not measured").
+/// Fill `trace_ms_{min,median,max}`, `mrays_per_s`, `timed_runs`, `timed_rays`,
+/// `trace_ms_ci` and `noisy` (the confidence interval wider than `target_ci`) from the times
+/// (ms) of the timed runs over `rays` rays. One timed run has no interval: `trace_ms_ci` and
+/// `noisy` stay empty ("not measured").
 pub fn fill(row: &mut Row, times: &mut [f64], rays: usize, target_ci: f64) {
     row.timed_runs = Some(times.len() as u32);
+    row.timed_rays = Some(rays as u64);
     row.trace_ms_runs = ms_list(times);
     if times.len() >= 2 {
         let ci = relative_ci(times);
@@ -265,6 +269,31 @@ pub fn fill(row: &mut Row, times: &mut [f64], rays: usize, target_ci: f64) {
     row.trace_ms_max = times.last().copied();
     row.trace_ms_median = Some(med);
     row.mrays_per_s = Some(rays as f64 / (med * 1e3).max(1e-12));
+}
+
+/// The rays of a batch of `n` that a CPU row is timed on under `run.timed_rays = max`, in
+/// batch order; `None` when that is every ray (no `max`, or `max >= n`). They are runs of
+/// consecutive rays (`max / 16`, between 1 and 1,024: one image row at the papers' 1024
+/// wide), evenly spaced over the batch, so that the timed rays keep the coherence their
+/// neighbours give them in the whole batch (an even stride of single rays would not) and
+/// still see every part of the image; exactly `max` of them.
+pub fn timed_indices(n: usize, max: Option<usize>) -> Option<Vec<usize>> {
+    let m = max.filter(|&m| m < n)?;
+    let run = (m / 16).clamp(1, 1024);
+    let runs = n.div_ceil(run);
+    let take = m.div_ceil(run);
+    let mut out = Vec::with_capacity(m + run);
+    for i in 0..take {
+        let start = i * runs / take * run;
+        out.extend(start..(start + run).min(n));
+    }
+    out.truncate(m);
+    Some(out)
+}
+
+/// How many rays [`timed_indices`] times of a batch of `n`.
+pub fn timed_count(n: usize, max: Option<usize>) -> usize {
+    max.map_or(n, |m| m.min(n))
 }
 
 #[cfg(test)]
@@ -285,6 +314,42 @@ mod tests {
         let mut one = Row::default();
         fill(&mut one, &mut [2.0], 1000, 0.05);
         assert_eq!((one.trace_ms_ci, one.noisy), (None, None));
+        assert_eq!(one.timed_rays, Some(1000));
+    }
+
+    #[test]
+    fn timed_rays_are_evenly_spaced_runs_of_neighbours() {
+        assert_eq!(timed_indices(100, None), None);
+        assert_eq!(timed_indices(100, Some(100)), None);
+        assert_eq!(timed_indices(100, Some(1000)), None);
+        assert_eq!(timed_count(100, Some(1000)), 100);
+        // 1024 x 1024 primary rays timed on 65,536: 64 image rows of 1,024, every 16th.
+        let n = 1 << 20;
+        let idx = timed_indices(n, Some(1 << 16)).unwrap();
+        assert_eq!(idx.len(), 1 << 16);
+        assert_eq!(idx.len(), timed_count(n, Some(1 << 16)));
+        assert_eq!(&idx[..3], &[0, 1, 2]);
+        assert_eq!(idx[1024], 16 * 1024);
+        assert_eq!(*idx.last().unwrap(), 63 * 16 * 1024 + 1023);
+        // Every size: exactly `max` distinct rays, increasing, inside the batch.
+        for n in [2usize, 17, 100, 1000, 1030, 4097, 100_003] {
+            for m in [1usize, 2, 15, 16, 17, 99, 999, 1029, 4096, 50_000] {
+                let Some(idx) = timed_indices(n, Some(m)) else {
+                    assert!(m >= n);
+                    continue;
+                };
+                assert_eq!(idx.len(), m, "n {n} max {m}");
+                assert!(idx.windows(2).all(|w| w[0] < w[1]), "n {n} max {m}");
+                assert!(*idx.last().unwrap() < n);
+                // Spread over the batch: from its start into its second half.
+                let run = (m / 16).clamp(1, 1024);
+                assert_eq!(idx[0], 0);
+                assert!(
+                    m < 2 || *idx.last().unwrap() + run >= n / 2,
+                    "n {n} max {m}"
+                );
+            }
+        }
     }
 
     #[test]
@@ -296,6 +361,7 @@ mod tests {
             target_ci: 0.01,
             max_row_seconds: 60.0,
             clock: Clock::Wall,
+            timed_rays: None,
         };
         // Row 1 always takes twice row 0's time, under a drift that changes both alike:
         // the ratio is exact from the first rounds, so the minimum of rounds is enough.
@@ -365,6 +431,7 @@ mod tests {
             target_ci: 0.05,
             max_row_seconds: 60.0,
             clock: Clock::Wall,
+            timed_rays: None,
         };
         // Steady times: stop at the minimum.
         let mut calls = 0;

@@ -78,6 +78,7 @@ struct RawRun {
     max_repeat: Option<u32>,
     target_ci: Option<Spanned<f64>>,
     max_row_seconds: Option<Spanned<f64>>,
+    timed_rays: Option<Spanned<u64>>,
     interleave: Option<bool>,
     processes: Option<Spanned<u32>>,
     clock: Option<Spanned<String>>,
@@ -206,6 +207,9 @@ pub struct Experiment {
     /// ([`crate::experiment::processes`]): its rows carry `process = I`, and for odd `I` the
     /// structure entries run in reverse order.
     pub process: Option<crate::experiment::processes::Process>,
+    /// Seconds spent loading and checking the scenes and the sections that read them
+    /// (`meta.phases.load_s`).
+    pub load_s: f64,
 }
 
 /// Overrides from the command line.
@@ -338,6 +342,7 @@ pub fn parse_with(
     let shard = ov
         .shard
         .map(|sel| plan_shard(sel, &raw, &structures, &run_settings, &scenes_root));
+    let loading = std::time::Instant::now();
     let (scenes, mut skipped_scenes) =
         check_scenes(&cx, &raw, shard.as_ref(), &scenes_root, validate, progress)?;
     if let Some(p) = &shard {
@@ -379,6 +384,7 @@ pub fn parse_with(
         config_hash: config_hash(text, ov),
         dynamic,
         process: ov.process,
+        load_s: loading.elapsed().as_secs_f64(),
     })
 }
 

@@ -238,7 +238,8 @@ fn check_gpu(cx: &Ctx, run: &RawRun, ov: &Overrides) -> Result<GpuSpec, HarnessE
     })
 }
 
-/// `run.max_repeat`, `run.target_ci` and `run.max_row_seconds` with `repeat` and `warmup`.
+/// `run.max_repeat`, `run.target_ci`, `run.max_row_seconds`, `run.timed_rays` and `run.clock`
+/// with `repeat` and `warmup`.
 fn timing_plan(
     cx: &Ctx,
     run: &RawRun,
@@ -256,6 +257,17 @@ fn timing_plan(
         max_repeat: (run.max_repeat.unwrap_or(0) as usize).max(repeat),
         target_ci: positive(&run.target_ci, "run.target_ci", 0.05)?,
         max_row_seconds: positive(&run.max_row_seconds, "run.max_row_seconds", 60.0)?,
+        timed_rays: match &run.timed_rays {
+            None => None,
+            Some(n) if *n.get_ref() == 0 => {
+                return Err(cx.err(
+                    n.span(),
+                    "run.timed_rays",
+                    "must be at least 1 (a timed run traces at least one ray)",
+                ))
+            }
+            Some(n) => Some(usize::try_from(*n.get_ref()).unwrap_or(usize::MAX)),
+        },
         clock: match &run.clock {
             None => crate::experiment::timing::Clock::Wall,
             Some(c) => {

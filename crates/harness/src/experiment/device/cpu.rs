@@ -2,10 +2,12 @@
 //! way a batch is traced on the CPU).
 
 use super::{Device, Job, Outcome};
+use crate::experiment::phases::Phases;
 use crate::experiment::timing::{timed, Clock};
 use crate::experiment::validation::{self, Checked, Sample};
 use std::collections::HashMap;
-use tb_core::{HitRecord, StatsSummary, TriTestKind};
+use std::time::Instant;
+use tb_core::{HitRecord, Ray, StatsSummary, TriTestKind};
 use tb_results::output::Row;
 
 use tb_core::par::trace_into;
@@ -18,10 +20,20 @@ pub struct CpuDevice {
     pools: Vec<(usize, rayon::ThreadPool)>,
     /// Validate only (`trace-bench validate`): no counting, no timing.
     validate_only: bool,
-    /// Per build: counters and hit rate per (traversal, test, batch).
-    counted: HashMap<Key, (StatsSummary, f64)>,
-    /// Per build: validation per (traversal, test, batch).
-    checked: HashMap<Key, Checked>,
+    /// Per build: what the counting pass of each (traversal, test, batch) found.
+    counted: HashMap<Key, Counted>,
+    /// The counting pass's hits on the timed rays of the last key counted.
+    reference: Option<(Key, Vec<HitRecord>)>,
+    /// Where its time went: `count_s`, `trace_s` and `validate_s` (the runner adds the rest).
+    pub phases: Phases,
+}
+
+/// The counting pass of one (traversal, test, batch) of a build.
+struct Counted {
+    stats: StatsSummary,
+    hit_rate: f64,
+    /// Its hits against the oracle's sample (when the batch is validated).
+    checked: Option<Checked>,
 }
 
 /// The clock a row of `threads` is timed by: `run.clock` for one thread (the whole trace
@@ -51,7 +63,8 @@ impl CpuDevice {
             pools,
             validate_only,
             counted: HashMap::new(),
-            checked: HashMap::new(),
+            reference: None,
+            phases: Phases::default(),
         })
     }
 
@@ -78,7 +91,8 @@ impl CpuDevice {
 impl CpuDevice {
     /// Time `jobs` (rows of one batch, triangle test and thread count, of one or several
     /// builds) interleaved under `plan`: [`crate::experiment::timing::TimingPlan::run_interleaved`],
-    /// counters compiled out, each with its own start hints. Each job's times in round order.
+    /// counters compiled out, each with its own start hints, on the timed rays
+    /// (`run.timed_rays`). Each job's times in round order.
     pub fn time_interleaved(
         &self,
         jobs: &[Job],
@@ -93,14 +107,27 @@ impl CpuDevice {
                 })
             })
             .collect();
-        let mut hits: Vec<Vec<HitRecord>> = jobs
+        let subsets: Vec<Timed> = jobs
             .iter()
-            .map(|j| vec![HitRecord::MISS; j.batch.rays.len()])
+            .zip(&hints)
+            .map(|(j, h)| {
+                Timed::of(
+                    j,
+                    &j.batch.rays,
+                    h.as_deref(),
+                    plan.timed_rays,
+                    self.widest(),
+                )
+            })
+            .collect();
+        let mut hits: Vec<Vec<HitRecord>> = subsets
+            .iter()
+            .map(|t| vec![HitRecord::MISS; t.rays().len()])
             .collect();
         let r: Result<_, ()> = plan.run_interleaved(jobs.len(), |i| {
             let j = &jobs[i];
-            let batch =
-                Batch::new(j.batch.query, j.tri, &j.batch.rays).with_hints(hints[i].as_deref());
+            let (rays, hints) = (subsets[i].rays(), subsets[i].hints());
+            let batch = Batch::new(j.batch.query, j.tri, rays).with_hints(hints);
             let pool = self.pool(j.threads);
             let clock = clock_for(plan.clock, j.threads);
             let (ms, ()) = pool.install(|| {
@@ -121,7 +148,7 @@ impl Device for CpuDevice {
 
     fn begin_build(&mut self) {
         self.counted.clear();
-        self.checked.clear();
+        self.reference = None;
     }
 
     fn measure(
@@ -137,7 +164,7 @@ impl Device for CpuDevice {
             )));
         }
         let (accel, ti, tri, b) = (job.accel, job.traversal, job.tri, job.batch);
-        let key = (ti, tri, job.batch_index);
+        let start = Instant::now();
         if self.validate_only {
             let checked = sample.map(|s| {
                 let got = self
@@ -145,6 +172,7 @@ impl Device for CpuDevice {
                     .install(|| tb_core::par::trace_with_hints(accel, ti, b.query, tri, &s.rays));
                 validation::check(b.query, s, &got, job.max_report)
             });
+            self.phases.validate_s += start.elapsed().as_secs_f64();
             return Ok(Outcome::Measured(checked));
         }
         // Start hints (sparse boxes' start nodes): found once per batch, never timed; the
@@ -152,33 +180,28 @@ impl Device for CpuDevice {
         let hints = self
             .widest()
             .install(|| accel.batch_hints(ti, b.query, &b.rays));
-        let batch = Batch::new(b.query, tri, &b.rays).with_hints(hints.as_deref());
-        // Counting pass: a separate pass, never timed.
-        if !self.counted.contains_key(&key) {
-            let (hits, stats) = self.widest().install(|| {
-                let mut hits = vec![HitRecord::MISS; b.rays.len()];
-                let mut stats = vec![tb_core::TraversalStats::default(); b.rays.len()];
-                trace_into(accel, ti, batch, Answers::new(&mut hits, Some(&mut stats)));
-                (hits, stats)
-            });
-            self.counted.insert(
-                key,
-                (
-                    StatsSummary::from_stats(&stats),
-                    validation::hit_rate(&hits),
-                ),
-            );
-        }
-        let (stats, hit_rate) = self.counted[&key];
-        row.hit_rate = Some(hit_rate);
-        row.set_counters(&stats, job.info.counters);
+        let subset = Timed::of(
+            job,
+            &b.rays,
+            hints.as_deref(),
+            job.timing.timed_rays,
+            self.widest(),
+        );
+        let key = (ti, tri, job.batch_index);
+        self.count(job, hints.as_deref(), &subset, sample);
+        let counted = &self.counted[&key];
+        row.hit_rate = Some(counted.hit_rate);
+        row.set_counters(&counted.stats, job.info.counters);
         if job.info.step_cap {
-            row.capped_rays = Some(stats.capped);
+            row.capped_rays = Some(counted.stats.capped);
         }
         // Timing, counters compiled out (one untimed pass of the same code when the row is
-        // timed later, interleaved: its hits are what is validated).
+        // timed later, interleaved), on the timed rays (`run.timed_rays`, all by default).
+        let batch = Batch::new(b.query, tri, subset.rays()).with_hints(subset.hints());
+        self.phases.count_s += start.elapsed().as_secs_f64();
+        let start = Instant::now();
         let pool = self.pool(job.threads);
-        let mut hits = vec![HitRecord::MISS; b.rays.len()];
+        let mut hits = vec![HitRecord::MISS; subset.rays().len()];
         if job.time {
             let mut times = job.timing.run(|| -> Result<f64, String> {
                 let clock = clock_for(job.timing.clock, job.threads);
@@ -189,23 +212,141 @@ impl Device for CpuDevice {
                 });
                 Ok(ms)
             })?;
-            crate::experiment::timing::fill(row, &mut times, b.rays.len(), job.timing.target_ci);
+            let n = subset.rays().len();
+            crate::experiment::timing::fill(row, &mut times, n, job.timing.target_ci);
+            self.phases.trace_s += start.elapsed().as_secs_f64();
         } else {
             pool.install(|| trace_into(accel, ti, batch, Answers::hits(&mut hits)));
+            self.phases.validate_s += start.elapsed().as_secs_f64();
         }
-        // Validation of what was timed (as on the GPU): the timed pass's hits on the oracle's
-        // sample, once per (traversal, test, batch); the report takes the first mismatches
-        // once, later rows of the same key keep the counts.
-        let checked = sample.map(|s| {
-            let c = self.checked.entry(key).or_insert_with(|| {
+        let start = Instant::now();
+        let checked = sample.map(|_| self.checked(job, &subset, &hits));
+        self.phases.validate_s += start.elapsed().as_secs_f64();
+        Ok(Outcome::Measured(checked))
+    }
+}
+
+/// The rays a row is timed on ([`crate::experiment::timing::timed_indices`]): the whole batch,
+/// or a subset copied out with its start hints.
+struct Timed<'a> {
+    all: &'a [Ray],
+    all_hints: Option<&'a [u32]>,
+    subset: Option<Subset>,
+}
+
+/// A subset of a batch: the rays' indices in the batch, the rays and their start hints.
+type Subset = (Vec<usize>, Vec<Ray>, Option<Vec<u32>>);
+
+impl<'a> Timed<'a> {
+    /// The timed rays of `rays` under `max`, with start hints for them: `hints` (the whole
+    /// batch's) when they are every ray, else found again for the subset (hints may belong to
+    /// a batch as a whole, e.g. multi-kd's arrangement of the rays, found once, never timed).
+    fn of(
+        job: &Job,
+        rays: &'a [Ray],
+        hints: Option<&'a [u32]>,
+        max: Option<usize>,
+        pool: &rayon::ThreadPool,
+    ) -> Self {
+        let subset = crate::experiment::timing::timed_indices(rays.len(), max).map(|idx| {
+            let r: Vec<Ray> = idx.iter().map(|&i| rays[i]).collect();
+            let h = hints.and_then(|_| {
+                pool.install(|| job.accel.batch_hints(job.traversal, job.batch.query, &r))
+            });
+            (idx, r, h)
+        });
+        Timed {
+            all: rays,
+            all_hints: hints,
+            subset,
+        }
+    }
+
+    fn rays(&self) -> &[Ray] {
+        self.subset.as_ref().map_or(self.all, |s| &s.1)
+    }
+
+    fn hints(&self) -> Option<&[u32]> {
+        match &self.subset {
+            Some(s) => s.2.as_deref(),
+            None => self.all_hints,
+        }
+    }
+
+    /// The index in the batch of timed ray `k`.
+    fn index(&self, k: usize) -> usize {
+        self.subset.as_ref().map_or(k, |s| s.0[k])
+    }
+
+    /// `all[i]` for each timed ray.
+    fn pick<T: Copy>(&self, all: &[T]) -> Vec<T> {
+        match &self.subset {
+            Some(s) => s.0.iter().map(|&i| all[i]).collect(),
+            None => all.to_vec(),
+        }
+    }
+}
+
+impl CpuDevice {
+    /// The counting pass of `job`'s (traversal, test, batch), over the whole batch, once per
+    /// build: its counters and hit rate, its hits validated against the oracle's `sample`,
+    /// and its hits on the timed rays, which every timed pass of the key must repeat (kept
+    /// for the last key counted: a build's rows of one key come one after another, and a
+    /// key met again is counted again, deterministically the same).
+    fn count(&mut self, job: &Job, hints: Option<&[u32]>, subset: &Timed, sample: Option<&Sample>) {
+        let (accel, ti, tri, b) = (job.accel, job.traversal, job.tri, job.batch);
+        let key = (ti, tri, job.batch_index);
+        if self.counted.contains_key(&key) && self.reference.as_ref().is_some_and(|r| r.0 == key) {
+            return;
+        }
+        let batch = Batch::new(b.query, tri, &b.rays).with_hints(hints);
+        let (hits, stats) = self.widest().install(|| {
+            let mut hits = vec![HitRecord::MISS; b.rays.len()];
+            let mut stats = vec![tb_core::TraversalStats::default(); b.rays.len()];
+            trace_into(accel, ti, batch, Answers::new(&mut hits, Some(&mut stats)));
+            (hits, stats)
+        });
+        self.counted.entry(key).or_insert_with(|| Counted {
+            stats: StatsSummary::from_stats(&stats),
+            hit_rate: validation::hit_rate(&hits),
+            checked: sample.map(|s| {
                 let got: Vec<HitRecord> = s.idx.iter().map(|&i| hits[i]).collect();
                 validation::check(b.query, s, &got, job.max_report)
-            });
-            Checked {
-                first: std::mem::take(&mut c.first),
-                ..c.clone()
-            }
+            }),
         });
-        Ok(Outcome::Measured(checked))
+        self.reference = Some((key, subset.pick(&hits)));
+    }
+
+    /// The row's validation: the counting pass's against the oracle (its first mismatches
+    /// reported by the key's first row, later rows keep the counts), plus every timed ray
+    /// whose answer differs from the counting pass's.
+    fn checked(&mut self, job: &Job, subset: &Timed, hits: &[HitRecord]) -> Checked {
+        let key = (job.traversal, job.tri, job.batch_index);
+        let c = self
+            .counted
+            .get_mut(&key)
+            .and_then(|c| c.checked.as_mut())
+            .expect("a key validated when counted");
+        let mut out = Checked {
+            first: std::mem::take(&mut c.first),
+            ..c.clone()
+        };
+        let reference = &self.reference.as_ref().expect("counted just before").1;
+        for (k, (e, g)) in reference.iter().zip(hits).enumerate() {
+            let ray = &subset.rays()[k];
+            if let Some(kind) = tb_core::compare::compare(job.batch.query, ray, e, g) {
+                out.mismatches += 1;
+                if out.first.len() < job.max_report {
+                    out.first.push(tb_core::compare::Mismatch {
+                        index: subset.index(k),
+                        ray: *ray,
+                        expected: *e,
+                        got: *g,
+                        kind,
+                    });
+                }
+            }
+        }
+        out
     }
 }

@@ -3,9 +3,10 @@
 //! the oracle's sample, so CPU and GPU rows go through the same code in the runner.
 //!
 //! - [`cpu::CpuDevice`]: rayon pools per thread count; counts once per traversal x test x
-//!   batch (a separate pass with [`tb_core::TraversalStats`]), times per thread count with
-//!   counters compiled out ([`tb_core::NoStats`]), and validates the timed pass's own hits
-//!   (once per traversal x test x batch).
+//!   batch over the whole batch (a separate pass with [`tb_core::TraversalStats`]), validates
+//!   that pass's hits against the oracle, times per thread count with counters compiled out
+//!   ([`tb_core::NoStats`]) on the timed rays (`run.timed_rays`, all by default), and checks
+//!   that every timed pass gives the counting pass's answers.
 //! - [`gpu::GpuDevice`]: wgpu through `tb-gpu`; uploads each build's GPU program once and
 //!   each batch once per build, times the timed kernel, validates the hits it read back, then
 //!   runs the counting kernel.

@@ -123,11 +123,14 @@ impl Run<'_> {
                 None => format!("{}-{stamp}-{k}", g.views[0].table),
             };
             let before = crate::experiment::timing::CpuSample::now();
+            let timing = Instant::now();
             if *dev == DeviceKind::Gpu {
                 self.time_gpu_interleaved(&jobs, &plan, idx, rows, before, tg);
+                self.phases.gpu_s += timing.elapsed().as_secs_f64();
                 continue;
             }
             let times = self.cpu.time_interleaved(&jobs, &plan);
+            self.phases.trace_s += timing.elapsed().as_secs_f64();
             let others = before
                 .zip(crate::experiment::timing::CpuSample::now())
                 .and_then(|(a, b)| b.others_since(&a));
@@ -137,7 +140,8 @@ impl Run<'_> {
                 if t.is_empty() {
                     continue;
                 }
-                crate::experiment::timing::fill(row, &mut t, b.rays.len(), plan.target_ci);
+                let n = crate::experiment::timing::timed_count(b.rays.len(), plan.timed_rays);
+                crate::experiment::timing::fill(row, &mut t, n, plan.target_ci);
                 row.timing_group = tg.clone();
                 row.cpu_others = others;
                 self.note_load(row);

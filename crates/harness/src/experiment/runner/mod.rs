@@ -20,6 +20,7 @@ use crate::experiment::config::{
 use crate::experiment::device::cpu::CpuDevice;
 use crate::experiment::device::gpu::GpuDevice;
 use crate::experiment::device::{Device, Job, Outcome};
+use crate::experiment::phases::Phases;
 use crate::experiment::progress::Progress;
 use crate::experiment::validation::{self, Oracle};
 use build::Built;
@@ -27,6 +28,7 @@ use plan::Combo;
 use std::collections::HashSet;
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::time::Instant;
 use tb_core::{ParamSet, TraversalInfo, TriTestKind, Triangle};
 use tb_results::output::{Row, RowKey, Sink};
 
@@ -106,6 +108,7 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
         }
     }
     r.progress.finish();
+    let (phases, cache) = r.account();
     r.cache_notes();
     if r.loaded_rows > 0 {
         r.summary.notes.push(format!(
@@ -124,6 +127,8 @@ pub fn run(exp: &Experiment, opts: &RunOptions) -> Result<RunSummary, HarnessErr
         } else {
             "complete-with-failures"
         };
+        s.set_meta("phases", phases.to_json());
+        s.set_meta("build_cache", cache);
         s.finish(status)?;
     }
     Ok(r.summary)
@@ -149,6 +154,11 @@ struct Run<'a> {
     loaded_rows: usize,
     /// What the build cache did.
     cache_use: build::CacheUse,
+    /// Where the run's time went (the CPU device keeps its own part).
+    phases: Phases,
+    started: Instant,
+    /// Structures built or loaded from the cache.
+    builds: usize,
 }
 
 impl<'a> Run<'a> {
@@ -219,7 +229,30 @@ impl<'a> Run<'a> {
             idle_load: crate::experiment::timing::load_average(),
             loaded_rows: 0,
             cache_use: build::CacheUse::default(),
+            phases: Phases {
+                load_s: exp.load_s,
+                ..Phases::default()
+            },
+            started: Instant::now(),
+            builds: 0,
         })
+    }
+
+    /// The run's phases (its own and the CPU device's, closed at the time since the runner
+    /// opened, plus the scenes' load) and the build cache's figures, as `meta.phases` and
+    /// `meta.build_cache` hold them.
+    fn account(&self) -> (Phases, serde_json::Value) {
+        let mut p = self.phases;
+        p.add(&self.cpu.phases);
+        p.close(self.exp.load_s + self.started.elapsed().as_secs_f64());
+        let u = &self.cache_use;
+        let cache = serde_json::json!({
+            "used": self.opts.cache.is_some(),
+            "loaded": u.loaded,
+            "built": self.builds.saturating_sub(u.loaded),
+            "refused": u.notes.len(),
+        });
+        (p, cache)
     }
 
     /// The build cache's hits and misses, and every entry it refused, as notes.
@@ -247,6 +280,7 @@ impl<'a> Run<'a> {
         let mut batches: Vec<Batch> = Vec::new();
         let mut ranges = Vec::with_capacity(views.len());
         let mut gen = None;
+        let rays_started = Instant::now();
         for (i, spec) in views.iter().enumerate() {
             self.progress
                 .step(&format!("{}: generating rays", spec.label));
@@ -267,6 +301,7 @@ impl<'a> Run<'a> {
             }
         }
         drop(gen);
+        self.phases.rays_s += rays_started.elapsed().as_secs_f64();
         let first = &views[0];
         let tris: Arc<[Triangle]> = first.scene.triangles.as_slice().into();
         // One oracle for the table: its samples are keyed by the batch's index over all views.
@@ -340,14 +375,18 @@ impl<'a> Run<'a> {
             timed: self.exp.run.time_builds || self.exp.run.build_repeat > 1,
             cache: self.opts.cache.as_ref(),
         };
-        match build::build(
+        let building = Instant::now();
+        let made = build::build(
             st.family,
             tris,
             params,
             &st.traversals,
             &plan,
             &mut self.cache_use,
-        ) {
+        );
+        self.phases.build_s += building.elapsed().as_secs_f64();
+        self.builds += 1;
+        match made {
             Ok(b) => {
                 self.cpu.begin_build();
                 if let Some(gpu) = self.gpu.as_mut() {
@@ -480,6 +519,7 @@ impl<'a> Run<'a> {
             b.name,
             c.threads
         ));
+        let oracle_started = Instant::now();
         let sample = (spec.validate != Validate::Off).then(|| {
             let progress = &self.progress;
             let cpu = &self.cpu;
@@ -489,6 +529,7 @@ impl<'a> Run<'a> {
                 })
             })
         });
+        self.phases.oracle_s += oracle_started.elapsed().as_secs_f64();
         let job = Job {
             accel: built.accel.as_ref(),
             traversal: c.ti,
@@ -509,7 +550,11 @@ impl<'a> Run<'a> {
                 .expect("the GPU is opened when a device is gpu"),
         };
         let before = crate::experiment::timing::CpuSample::now();
+        let measuring = Instant::now();
         let measured = device.measure(&job, sample, &mut row);
+        if c.dev == DeviceKind::Gpu {
+            self.phases.gpu_s += measuring.elapsed().as_secs_f64();
+        }
         row.cpu_others = before
             .zip(crate::experiment::timing::CpuSample::now())
             .and_then(|(a, b)| b.others_since(&a));
