@@ -3,6 +3,9 @@
 //! second run loads every build, and a corrupt, truncated or swapped entry is rebuilt with a
 //! note, never used.
 
+mod common;
+
+use common::deterministic;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -11,7 +14,6 @@ use tb_harness::experiment::cache::{self, BuildCache, Lookup};
 use tb_harness::experiment::config::{self, Overrides};
 use tb_harness::experiment::runner::{self, RunOptions, RunSummary};
 use tb_harness::registry::Registry;
-use tb_results::output::Row;
 
 /// Every family that can be saved, with parameter sets that reach each of its layouts.
 const STRUCTURES: &str = r#"
@@ -78,37 +80,6 @@ fn run(dir: &Path, out: &Path, cache: Option<&Path>) -> RunSummary {
     assert!(s.failures.is_empty(), "{:?}", s.failures);
     assert!(s.wrong_rows.is_empty(), "{:?}", s.wrong_rows);
     s
-}
-
-/// Everything of a row but what timing and the cache change.
-fn deterministic(r: &Row) -> String {
-    let mut r = r.clone();
-    for f in [
-        &mut r.build_ms,
-        &mut r.trace_ms_min,
-        &mut r.trace_ms_median,
-        &mut r.trace_ms_max,
-        &mut r.mrays_per_s,
-        &mut r.trace_ms_ci,
-        &mut r.load_avg,
-        &mut r.cpu_others,
-    ] {
-        *f = None;
-    }
-    r.build_ms_runs.clear();
-    r.trace_ms_runs.clear();
-    r.noisy = None;
-    r.build_cached = None;
-    r.build_heap_peak_bytes = None;
-    r.build_heap_kept_bytes = None;
-    // `insert_ms`, `pack_ms` and the grids' phase times are build times in build_stats.
-    r.build_stats = r
-        .build_stats
-        .split(';')
-        .filter(|kv| !kv.contains("_ms="))
-        .collect::<Vec<_>>()
-        .join(";");
-    format!("{r:?}")
 }
 
 fn entries(dir: &Path) -> Vec<PathBuf> {

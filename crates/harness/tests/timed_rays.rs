@@ -4,6 +4,8 @@
 //! timed, and the timed passes give the counting passes' answers on those rays (sparse boxes'
 //! start hints included) — alone and interleaved.
 
+mod common;
+
 use std::path::Path;
 use tb_harness::experiment::config::{self, Overrides};
 use tb_harness::experiment::runner::{self, RunOptions};
@@ -64,37 +66,14 @@ fn run(run_keys: &str) -> (Vec<Row>, Vec<String>) {
     (s.rows, s.wrong_rows)
 }
 
-/// A row without what timing changes.
+/// A row without what timing changes, here also how many runs and rays were timed and the
+/// interleaved rows' group.
 fn counted(r: &Row) -> String {
     let mut r = r.clone();
-    for f in [
-        &mut r.build_ms,
-        &mut r.trace_ms_min,
-        &mut r.trace_ms_median,
-        &mut r.trace_ms_max,
-        &mut r.mrays_per_s,
-        &mut r.trace_ms_ci,
-        &mut r.load_avg,
-        &mut r.cpu_others,
-    ] {
-        *f = None;
-    }
-    r.build_ms_runs.clear();
-    r.trace_ms_runs.clear();
     r.timing_group.clear();
-    r.noisy = None;
     r.timed_rays = None;
     r.timed_runs = None;
-    r.build_cached = None;
-    r.build_heap_peak_bytes = None;
-    r.build_heap_kept_bytes = None;
-    r.build_stats = r
-        .build_stats
-        .split(';')
-        .filter(|kv| !kv.contains("_ms="))
-        .collect::<Vec<_>>()
-        .join(";");
-    format!("{r:?}")
+    common::deterministic(&r)
 }
 
 #[test]
