@@ -82,15 +82,27 @@ fn run(dir: &Path, out: &Path, cache: Option<&Path>) -> RunSummary {
     s
 }
 
-fn entries(dir: &Path) -> Vec<PathBuf> {
+/// The cache's structure entries (`oracle: false`) or oracle answers (`true`).
+fn entries_of(dir: &Path, oracle: bool) -> Vec<PathBuf> {
     let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
         .unwrap()
         .flatten()
         .map(|e| e.path())
         .filter(|p| p.extension().is_some_and(|x| x == "tbc"))
+        .filter(|p| {
+            p.file_name()
+                .unwrap()
+                .to_string_lossy()
+                .starts_with("oracle-")
+                == oracle
+        })
         .collect();
     v.sort();
     v
+}
+
+fn entries(dir: &Path) -> Vec<PathBuf> {
+    entries_of(dir, false)
 }
 
 #[test]
@@ -134,6 +146,16 @@ fn a_second_run_loads_every_build_and_counts_the_same() {
     let n = builds as u64;
     assert_eq!(cache_of("a"), (Some(true), Some(0), Some(n)));
     assert_eq!(cache_of("b"), (Some(true), Some(n), Some(0)));
+    // The oracle's answers too: computed by the first run (one entry per validated batch),
+    // loaded by the second.
+    let oracle_of = |run: &str| {
+        let c = meta(run)["build_cache"].clone();
+        (c["oracle_loaded"].as_u64(), c["oracle_computed"].as_u64())
+    };
+    let samples = entries_of(&cache_dir, true).len() as u64;
+    assert!(samples >= 3, "{samples} oracle entries");
+    assert_eq!(oracle_of("a"), (Some(0), Some(samples)));
+    assert_eq!(oracle_of("b"), (Some(samples), Some(0)));
     for run in ["a", "b"] {
         let p = meta(run)["phases"].clone();
         let f = |k: &str| {
@@ -191,7 +213,33 @@ fn corrupt_truncated_and_swapped_entries_are_rebuilt_with_a_note() {
     let b = std::fs::read(&e[1]).unwrap();
     std::fs::write(&e[1], &b[..b.len() / 2]).unwrap();
     std::fs::copy(&e[3], &e[2]).unwrap();
+    // An oracle entry with a flipped byte, and one holding another sample's answers.
+    let o = entries_of(&cache_dir, true);
+    assert!(o.len() >= 3);
+    let mut b = std::fs::read(&o[0]).unwrap();
+    let mid = b.len() / 2;
+    b[mid] ^= 0x01;
+    std::fs::write(&o[0], b).unwrap();
+    std::fs::copy(&o[2], &o[1]).unwrap();
     let s = run(dir.path(), &dir.path().join("b"), Some(&cache_dir));
+    for (path, why) in [(&o[0], "checksum mismatch"), (&o[1], "holds another build")] {
+        let file = path.file_name().unwrap().to_string_lossy().into_owned();
+        assert!(
+            s.notes
+                .iter()
+                .any(|n| n.contains(&file) && n.contains(why) && n.ends_with("computed again")),
+            "{file}: {why}: {:#?}",
+            s.notes
+        );
+    }
+    // Computed again, the rows' validation is what a fresh oracle gives.
+    let fresh = run(dir.path(), &dir.path().join("fresh"), None);
+    for (a, b) in fresh.rows.iter().zip(&s.rows) {
+        assert_eq!(
+            (a.validated_rays, a.mismatches),
+            (b.validated_rays, b.mismatches)
+        );
+    }
     let name = |p: &Path| p.file_name().unwrap().to_string_lossy().into_owned();
     for (path, why) in [
         (&e[0], "checksum mismatch"),

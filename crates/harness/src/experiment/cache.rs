@@ -27,6 +27,10 @@
 //! prepared now; its rows say `build_cached = true`. A config that times its builds
 //! (`run.build_repeat` above 1, or `run.time_builds`) builds fresh in every process, as
 //! before; the cache still keeps its last build for runs that do not time theirs.
+//!
+//! **The oracle's answers.** Brute force's answers for a batch's validated rays are entries
+//! of the same kind ([`oracle_key`], [`BuildCache::load_answers`]): the oracle of one scene and
+//! ray sample is computed once, not in every process of every run.
 
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
@@ -34,7 +38,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 use std::time::SystemTime;
-use tb_core::{Accel, Codec, Family, ParamSet, Triangle};
+use tb_core::{Accel, Codec, Family, HitRecord, ParamSet, Query, Ray, Triangle};
 
 /// The environment variable naming the cache folder, or `off`.
 pub const ENV: &str = "TRACE_BENCH_BUILD_CACHE";
@@ -161,30 +165,57 @@ impl BuildCache {
         tris: &Arc<[Triangle]>,
         params: &ParamSet,
     ) -> Lookup {
+        self.load_with(key, |payload| (codec.load)(payload, tris, params))
+            .map_or(Lookup::Miss, |r| match r {
+                Ok((accel, figures)) => Lookup::Hit(Hit { accel, figures }),
+                Err(why) => Lookup::Refused(why),
+            })
+    }
+
+    /// The payload of `key`'s entry decoded by `decode`, with the figures of the work that
+    /// made it: `None` without an entry, `Err` (naming the file) for one that cannot be used.
+    fn load_with<T>(
+        &self,
+        key: &Key,
+        decode: impl FnOnce(&[u8]) -> Result<T, String>,
+    ) -> Option<Result<(T, BuildFigures), String>> {
         let path = self.path(key);
         let bytes = match std::fs::read(&path) {
             Ok(b) => b,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Lookup::Miss,
-            Err(e) => return Lookup::Refused(format!("{}: {e}", path.display())),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return None,
+            Err(e) => return Some(Err(format!("{}: {e}", path.display()))),
         };
-        let refuse = |why: String| Lookup::Refused(format!("{}: {why}", path.display()));
-        let (header, payload) = match split(&bytes) {
-            Ok(v) => v,
-            Err(why) => return refuse(why),
-        };
-        if let Err(why) = header_matches(&header, key) {
-            return refuse(why);
+        let decoded = split(&bytes).and_then(|(header, payload)| {
+            header_matches(&header, key)?;
+            Ok((decode(payload)?, header.figures))
+        });
+        if decoded.is_ok() {
+            touch(&path);
         }
-        match (codec.load)(payload, tris, params) {
-            Ok(accel) => {
-                touch(&path);
-                Lookup::Hit(Hit {
-                    accel,
-                    figures: header.figures,
-                })
+        Some(decoded.map_err(|why| format!("{}: {why}", path.display())))
+    }
+
+    /// The brute-force oracle's answers of `key` ([`oracle_key`]), `n` of them: `None`
+    /// without an entry, `Err` for one that cannot be used (it is then made again).
+    pub fn load_answers(&self, key: &Key, n: usize) -> Option<Result<Vec<HitRecord>, String>> {
+        self.load_with(key, |payload| {
+            let v: Vec<HitRecord> = bincode::deserialize(payload).map_err(|e| e.to_string())?;
+            if v.len() != n {
+                return Err(format!("{} answers for {n} rays", v.len()));
             }
-            Err(why) => refuse(why),
-        }
+            Ok(v)
+        })
+        .map(|r| r.map(|(v, _)| v))
+    }
+
+    /// Save the oracle's `answers` under `key`, made in `ms`.
+    pub fn store_answers(&self, key: &Key, answers: &[HitRecord], ms: f64) -> Result<(), String> {
+        let payload = bincode::serialize(answers).map_err(|e| e.to_string())?;
+        let figures = BuildFigures {
+            runs_ms: vec![ms],
+            heap: None,
+        };
+        self.store_bytes(key, payload, figures)
     }
 
     /// Save `accel` under `key` with its build's `figures` (written whole or not at all), then
@@ -196,7 +227,17 @@ impl BuildCache {
         accel: &dyn Accel,
         figures: BuildFigures,
     ) -> Result<(), String> {
-        let payload = (codec.save)(accel)?;
+        self.store_bytes(key, (codec.save)(accel)?, figures)
+    }
+
+    /// Save `payload` under `key` with `figures`, whole or not at all, then keep the folder
+    /// under its cap.
+    fn store_bytes(
+        &self,
+        key: &Key,
+        payload: Vec<u8>,
+        figures: BuildFigures,
+    ) -> Result<(), String> {
         let header = Header {
             format: FORMAT,
             key: key.hex.clone(),
@@ -266,31 +307,73 @@ impl BuildCache {
 /// The key of `family` built with `params` over `tris` by this binary.
 pub fn key(family: &'static Family, params: &ParamSet, tris: &[Triangle]) -> Key {
     let params = params.to_string();
-    let mut h = Sha256::new();
-    h.update(FORMAT.to_le_bytes());
-    h.update(exe_digest().as_bytes());
-    for s in [family.name, params.as_str()] {
-        h.update((s.len() as u64).to_le_bytes());
-        h.update(s.as_bytes());
-    }
-    h.update((tris.len() as u64).to_le_bytes());
-    let mut buf = Vec::with_capacity(36 * 1024);
-    for chunk in tris.chunks(1024) {
-        buf.clear();
-        for t in chunk {
-            for v in [t.v0, t.v1, t.v2] {
-                for c in v.to_array() {
-                    buf.extend_from_slice(&c.to_bits().to_le_bytes());
-                }
-            }
-        }
-        h.update(&buf);
-    }
+    let mut h = key_hasher(family.name, &params);
+    hash_floats(
+        &mut h,
+        tris.iter()
+            .flat_map(|t| [t.v0, t.v1, t.v2])
+            .flat_map(|v| v.to_array()),
+    );
     Key {
         hex: hex(&h.finalize()),
         family: family.name,
         params,
     }
+}
+
+/// The key of the brute-force oracle's answers to `query` for `rays` over `tris` (watertight
+/// test), by this binary: the oracle of one scene and ray sample is computed once, by the
+/// first process of the first run that validates them, and read by the others (entries
+/// `oracle-<key>.tbc` beside the builds, checked as builds are).
+pub fn oracle_key(query: Query, tris: &[Triangle], rays: &[Ray]) -> Key {
+    let params = format!("query={query:?};rays={}", rays.len());
+    let mut h = key_hasher("oracle", &params);
+    hash_floats(
+        &mut h,
+        tris.iter()
+            .flat_map(|t| [t.v0, t.v1, t.v2])
+            .flat_map(|v| v.to_array()),
+    );
+    hash_floats(
+        &mut h,
+        rays.iter().flat_map(|r| {
+            let (o, d) = (r.origin.to_array(), r.dir.to_array());
+            [o[0], o[1], o[2], d[0], d[1], d[2], r.tmin, r.tmax]
+        }),
+    );
+    Key {
+        hex: hex(&h.finalize()),
+        family: "oracle",
+        params,
+    }
+}
+
+/// A hasher with the format, the binary, `name` and `params` in it.
+fn key_hasher(name: &str, params: &str) -> Sha256 {
+    let mut h = Sha256::new();
+    h.update(FORMAT.to_le_bytes());
+    h.update(exe_digest().as_bytes());
+    for s in [name, params] {
+        h.update((s.len() as u64).to_le_bytes());
+        h.update(s.as_bytes());
+    }
+    h
+}
+
+/// Hash `values` bit for bit, with their count after them.
+fn hash_floats(h: &mut Sha256, values: impl Iterator<Item = f32>) {
+    let mut buf = Vec::with_capacity(36 * 1024);
+    let mut n = 0u64;
+    for c in values {
+        buf.extend_from_slice(&c.to_bits().to_le_bytes());
+        n += 1;
+        if buf.len() >= 32 * 1024 {
+            h.update(&buf);
+            buf.clear();
+        }
+    }
+    h.update(&buf);
+    h.update(n.to_le_bytes());
 }
 
 /// The header and the structure's bytes of entry `bytes`, checked (magic, length, checksum).

@@ -3,6 +3,7 @@
 //! row), the comparison of a device's answers ([`tb_core::compare`](mod@tb_core::compare)) and the report of the
 //! first mismatching rays.
 
+use crate::experiment::cache::BuildCache;
 use crate::experiment::config::spec::Validate;
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -25,6 +26,14 @@ pub struct Sample {
 pub struct Oracle {
     brute: BruteForce,
     samples: HashMap<usize, Sample>,
+    /// Where answers computed once are kept for the run's other processes and later runs
+    /// ([`crate::experiment::cache::oracle_key`]); `None`: computed every time.
+    cache: Option<BuildCache>,
+    /// What the cache did: samples whose answers were loaded, computed (and saved), and one
+    /// line per entry refused or not saved.
+    pub loaded: usize,
+    pub computed: usize,
+    pub notes: Vec<String>,
 }
 
 /// Validation outcome of one structure x traversal x triangle test x batch.
@@ -37,10 +46,15 @@ pub struct Checked {
 }
 
 impl Oracle {
-    pub fn new(tris: Arc<[Triangle]>) -> Self {
+    /// The oracle of the scene `tris`, keeping its answers in `cache` where one is given.
+    pub fn new(tris: Arc<[Triangle]>, cache: Option<BuildCache>) -> Self {
         Oracle {
             brute: BruteForce::shared(tris),
             samples: HashMap::new(),
+            cache,
+            loaded: 0,
+            computed: 0,
+            notes: Vec::new(),
         }
     }
 
@@ -54,18 +68,54 @@ impl Oracle {
         validate: Validate,
         on_compute: impl FnOnce(usize),
     ) -> &Sample {
-        let brute = &self.brute;
-        self.samples.entry(bi).or_insert_with(|| {
+        if !self.samples.contains_key(&bi) {
             let idx = sample_indices(validate, rays.len());
             let sub: Vec<Ray> = idx.iter().map(|&i| rays[i]).collect();
-            on_compute(sub.len());
-            let expected = tb_core::par::trace(brute, 0, query, TriTestKind::Watertight, &sub);
-            Sample {
+            let expected = self.answers(query, &sub, on_compute);
+            let s = Sample {
                 idx,
                 rays: sub,
                 expected,
+            };
+            self.samples.insert(bi, s);
+        }
+        &self.samples[&bi]
+    }
+
+    /// Brute force's answers for `rays`: from the cache where it holds them, else computed
+    /// (`on_compute` first) and saved there.
+    fn answers(
+        &mut self,
+        query: Query,
+        rays: &[Ray],
+        on_compute: impl FnOnce(usize),
+    ) -> Vec<HitRecord> {
+        let key = self
+            .cache
+            .as_ref()
+            .filter(|_| !rays.is_empty())
+            .map(|_| crate::experiment::cache::oracle_key(query, self.brute.triangles(), rays));
+        if let (Some(c), Some(k)) = (&self.cache, &key) {
+            match c.load_answers(k, rays.len()) {
+                Some(Ok(v)) => {
+                    self.loaded += 1;
+                    return v;
+                }
+                Some(Err(why)) => self.notes.push(format!("{why}: computed again")),
+                None => {}
             }
-        })
+        }
+        on_compute(rays.len());
+        let t = std::time::Instant::now();
+        let expected = tb_core::par::trace(&self.brute, 0, query, TriTestKind::Watertight, rays);
+        self.computed += 1;
+        if let (Some(c), Some(k)) = (&self.cache, &key) {
+            let ms = t.elapsed().as_secs_f64() * 1e3;
+            if let Err(why) = c.store_answers(k, &expected, ms) {
+                self.notes.push(format!("oracle answers not saved: {why}"));
+            }
+        }
+        expected
     }
 }
 

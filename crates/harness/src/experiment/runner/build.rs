@@ -48,7 +48,10 @@ pub struct CacheUse {
     pub loaded: usize,
     /// Structures built and saved to it.
     pub saved: usize,
-    /// One line per entry refused (and rebuilt) or not saved.
+    /// Ray samples whose oracle answers were loaded from the cache, and computed there.
+    pub oracle_loaded: usize,
+    pub oracle_computed: usize,
+    /// One line per entry refused (and rebuilt or computed again) or not saved.
     pub notes: Vec<String>,
 }
 

@@ -5,6 +5,7 @@
 //! ([`crate::experiment::validation`]) and times the trace with counters compiled out. Each row is written
 //! as soon as it is finished.
 
+mod account;
 pub mod build;
 mod interleave;
 pub mod plan;
@@ -238,42 +239,6 @@ impl<'a> Run<'a> {
         })
     }
 
-    /// The run's phases (its own and the CPU device's, closed at the time since the runner
-    /// opened, plus the scenes' load) and the build cache's figures, as `meta.phases` and
-    /// `meta.build_cache` hold them.
-    fn account(&self) -> (Phases, serde_json::Value) {
-        let mut p = self.phases;
-        p.add(&self.cpu.phases);
-        p.close(self.exp.load_s + self.started.elapsed().as_secs_f64());
-        let u = &self.cache_use;
-        let cache = serde_json::json!({
-            "used": self.opts.cache.is_some(),
-            "loaded": u.loaded,
-            "built": self.builds.saturating_sub(u.loaded),
-            "refused": u.notes.len(),
-        });
-        (p, cache)
-    }
-
-    /// The build cache's hits and misses, and every entry it refused, as notes.
-    fn cache_notes(&mut self) {
-        let Some(c) = &self.opts.cache else {
-            return;
-        };
-        let u = std::mem::take(&mut self.cache_use);
-        if u.loaded + u.saved > 0 || !u.notes.is_empty() {
-            self.summary.notes.push(format!(
-                "build cache {}: {} structures loaded, {} built and saved (rows: build_cached)",
-                c.dir().display(),
-                u.loaded,
-                u.saved
-            ));
-        }
-        for n in u.notes {
-            self.summary.notes.push(format!("build cache: {n}"));
-        }
-    }
-
     /// Every build and row of one scene table: its views (one spec without `views`) share
     /// the scene and each build; their batches are generated once, up front.
     fn scene(&mut self, views: &[SceneSpec]) -> Result<(), HarnessError> {
@@ -305,15 +270,32 @@ impl<'a> Run<'a> {
         let first = &views[0];
         let tris: Arc<[Triangle]> = first.scene.triangles.as_slice().into();
         // One oracle for the table: its samples are keyed by the batch's index over all views.
-        let mut oracle = Oracle::new(tris.clone());
+        let mut oracle = Oracle::new(tris.clone(), self.opts.cache.clone());
         let group = Group {
             views,
             ranges: &ranges,
             batches: &batches,
         };
-        if self.exp.run.interleave && self.opts.mode == Mode::Run {
-            return self.scene_interleaved(&group, &tris, &mut oracle);
-        }
+        let done = if self.exp.run.interleave && self.opts.mode == Mode::Run {
+            self.scene_interleaved(&group, &tris, &mut oracle)
+        } else {
+            self.scene_builds(&group, &tris, &mut oracle)
+        };
+        let u = &mut self.cache_use;
+        u.oracle_loaded += oracle.loaded;
+        u.oracle_computed += oracle.computed;
+        u.notes.append(&mut oracle.notes);
+        done
+    }
+
+    /// Every build of one scene table, one after another, each with its rows.
+    fn scene_builds(
+        &mut self,
+        group: &Group,
+        tris: &Arc<[Triangle]>,
+        oracle: &mut Oracle,
+    ) -> Result<(), HarnessError> {
+        let first = &group.views[0];
         for (si, st) in self.exp.structures.iter().enumerate() {
             for (pi, params) in st.param_sets.iter().enumerate() {
                 if let Some(p) = &self.exp.shard {
@@ -321,7 +303,7 @@ impl<'a> Run<'a> {
                         continue;
                     }
                 }
-                self.structure(&group, &tris, &mut oracle, st, params)?;
+                self.structure(group, tris, oracle, st, params)?;
             }
         }
         Ok(())
