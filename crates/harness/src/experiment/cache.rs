@@ -308,12 +308,7 @@ impl BuildCache {
 pub fn key(family: &'static Family, params: &ParamSet, tris: &[Triangle]) -> Key {
     let params = params.to_string();
     let mut h = key_hasher(family.name, &params);
-    hash_floats(
-        &mut h,
-        tris.iter()
-            .flat_map(|t| [t.v0, t.v1, t.v2])
-            .flat_map(|v| v.to_array()),
-    );
+    hash_triangles(&mut h, tris);
     Key {
         hex: hex(&h.finalize()),
         family: family.name,
@@ -328,12 +323,7 @@ pub fn key(family: &'static Family, params: &ParamSet, tris: &[Triangle]) -> Key
 pub fn oracle_key(query: Query, tris: &[Triangle], rays: &[Ray]) -> Key {
     let params = format!("query={query:?};rays={}", rays.len());
     let mut h = key_hasher("oracle", &params);
-    hash_floats(
-        &mut h,
-        tris.iter()
-            .flat_map(|t| [t.v0, t.v1, t.v2])
-            .flat_map(|v| v.to_array()),
-    );
+    hash_triangles(&mut h, tris);
     hash_floats(
         &mut h,
         rays.iter().flat_map(|r| {
@@ -358,6 +348,16 @@ fn key_hasher(name: &str, params: &str) -> Sha256 {
         h.update(s.as_bytes());
     }
     h
+}
+
+/// Hash the vertices of `tris` bit for bit ([`hash_floats`]).
+fn hash_triangles(h: &mut Sha256, tris: &[Triangle]) {
+    hash_floats(
+        h,
+        tris.iter()
+            .flat_map(|t| [t.v0, t.v1, t.v2])
+            .flat_map(|v| v.to_array()),
+    );
 }
 
 /// Hash `values` bit for bit, with their count after them.
