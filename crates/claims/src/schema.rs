@@ -73,6 +73,12 @@ pub struct RunSpec {
     /// The part of `cost_s` that does not shrink with the image (loading, builds).
     #[serde(default)]
     pub fixed_s: f64,
+    /// The part of `cost_s` that is the CPU rows' timed tracing (`meta.phases`' `timed trace`
+    /// of a run as declared): it shrinks with the image and with the share of each batch the
+    /// rows are timed on (`run.timed_share`, which reproduce sets to fit its budget before it
+    /// shrinks any image); 0 (the default): the run is never timed on a share.
+    #[serde(default)]
+    pub trace_s: f64,
     /// Processes the run is made in (`run --processes`; default 1), for runs whose rows time
     /// claims compare: with three or more their intervals are measured between processes
     /// (`claims::MIN_PROCESSES`) instead of the floor.
@@ -226,6 +232,17 @@ impl RunSpec {
     /// The part of [`RunSpec::total_s`] that does not shrink with the image.
     pub fn total_fixed_s(&self) -> f64 {
         self.fixed_s * self.processes as f64
+    }
+
+    /// Wall seconds of the whole run with its CPU rows timed on `share` of each batch and
+    /// its images at `scale` of their pixels (a run that is not `scalable` keeps them):
+    /// `fixed_s + scale * (share * trace_s + rest)` per process, where the rest (counting,
+    /// validation, the oracle) is `cost_s - fixed_s - trace_s`.
+    pub fn planned_s(&self, share: f64, scale: f64) -> f64 {
+        let scale = if self.scalable { scale } else { 1.0 };
+        let var = (self.cost_s - self.fixed_s).max(0.0);
+        let trace = self.trace_s.clamp(0.0, var);
+        (self.fixed_s + scale * (share * trace + var - trace)) * self.processes as f64
     }
 }
 
@@ -615,6 +632,16 @@ impl ClaimsFile {
             }
             if !(r.cost_s >= 0.0 && r.fixed_s >= 0.0 && r.fixed_s <= r.cost_s.max(r.fixed_s)) {
                 return Err(err("cost_s and fixed_s must be seconds >= 0".into()));
+            }
+            if !(r.trace_s >= 0.0 && r.fixed_s + r.trace_s <= r.cost_s.max(r.fixed_s)) {
+                return Err(err(
+                    "trace_s must be seconds >= 0 and fixed_s + trace_s at most cost_s".into(),
+                ));
+            }
+            if r.trace_s > 0.0 && r.exec.is_some() {
+                return Err(err(
+                    "trace_s: only a `config` run is timed on a share of its rays".into(),
+                ));
             }
             let max = tb_results::output::MAX_PROCESSES;
             if !(1..=max).contains(&r.processes) {

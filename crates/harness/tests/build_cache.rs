@@ -67,9 +67,13 @@ fn config() -> String {
 }
 
 fn run(dir: &Path, out: &Path, cache: Option<&Path>) -> RunSummary {
+    run_config(dir, out, cache, &config())
+}
+
+fn run_config(dir: &Path, out: &Path, cache: Option<&Path>, text: &str) -> RunSummary {
     let exp = config::parse(
         &dir.join("cache.toml"),
-        &config(),
+        text,
         &Overrides::default(),
         &mut |_| {},
     )
@@ -196,6 +200,49 @@ fn a_second_run_loads_every_build_and_counts_the_same() {
         assert_eq!(a.build_heap_kept_bytes, b.build_heap_kept_bytes);
         assert_eq!(a.memory_bytes, b.memory_bytes);
     }
+}
+
+/// A run that times its builds (`run.build_repeat` above 1) builds fresh every time but for
+/// the tables that say `time_builds = false`: those are loaded from the cache, built once.
+#[test]
+fn timed_builds_are_fresh_but_for_the_tables_that_opt_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache_dir = dir.path().join("cache");
+    let text = "name = \"timed\"\n[run]\nthreads = 1\nrepeat = 1\nwarmup = 0\nbuild_repeat = 2\n\n\
+                [[scene]]\nsource = \"builtin:soup?count=300&seed=5\"\nrays = [\"random\"]\n\
+                random = { count = 256 }\n\n\
+                [[structure]]\nname = \"bvh\"\ntime_builds = false\n\n\
+                [[structure]]\nname = \"rtree\"\nparams = { strategy = \"str\" }\n";
+    let cached = |s: &RunSummary, structure: &str| -> Vec<Option<bool>> {
+        s.rows
+            .iter()
+            .filter(|r| r.structure == structure)
+            .map(|r| r.build_cached)
+            .collect()
+    };
+    let first = run_config(dir.path(), &dir.path().join("a"), Some(&cache_dir), text);
+    // Only the untimed table's build is saved (a timed build is saved too, but never loaded).
+    assert!(cached(&first, "bvh").iter().all(|c| *c == Some(false)));
+    let second = run_config(dir.path(), &dir.path().join("b"), Some(&cache_dir), text);
+    let (bvh, rtree) = (cached(&second, "bvh"), cached(&second, "rtree"));
+    assert!(
+        !bvh.is_empty() && bvh.iter().all(|c| *c == Some(true)),
+        "{bvh:?}"
+    );
+    assert!(
+        !rtree.is_empty() && rtree.iter().all(|c| *c == Some(false)),
+        "{rtree:?}"
+    );
+    // The timed table is built build_repeat times, the untimed one once.
+    let runs = |structure: &str| {
+        let r = second
+            .rows
+            .iter()
+            .find(|r| r.structure == structure)
+            .unwrap();
+        r.build_ms_runs.split(';').count()
+    };
+    assert_eq!((runs("bvh"), runs("rtree")), (1, 2));
 }
 
 #[test]

@@ -317,10 +317,10 @@ fn scenes(tri: TriTestKind) -> Vec<tb_scene::Scene> {
     }
 }
 
-fn suite(tri: TriTestKind) {
-    let Some(gpu) = open_or_skip() else { return };
+/// The suite's scenes under `tri` on `gpu`: the failures, and the (family, traversal) pairs
+/// checked added to `checked`.
+fn suite_on(gpu: &Gpu, tri: TriTestKind, checked: &mut BTreeSet<String>) -> Vec<String> {
     let mut failures = Vec::new();
-    let mut checked = BTreeSet::new();
     for scene in scenes(tri) {
         let batches: Vec<_> = conformance::batches(&scene, tri)
             .into_iter()
@@ -328,21 +328,47 @@ fn suite(tri: TriTestKind) {
             .collect();
         let name = scene.source.trim_start_matches("builtin:").to_string();
         failures.extend(check_scene(
-            &gpu,
+            gpu,
             &name,
             &scene.triangles,
             &batches,
             tri,
-            &mut checked,
+            checked,
         ));
     }
+    failures
+}
+
+fn suite(tri: TriTestKind) {
+    let Some(gpu) = open_or_skip() else { return };
+    let mut checked = BTreeSet::new();
+    let failures = suite_on(&gpu, tri, &mut checked);
     report(&checked);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// The watertight suite, then the Stanford Bunny (paper scenes) on the same device: the
+/// Bunny's programs are the suite's (every family's default build, the watertight test), so
+/// that each pipeline is compiled once for both (lavapipe spends most of a GPU test's time
+/// compiling them).
 #[test]
-fn suite_watertight_matches_cpu() {
-    suite(TriTestKind::Watertight);
+fn suite_watertight_and_bunny_match_cpu() {
+    let Some(gpu) = open_or_skip() else { return };
+    let mut checked = BTreeSet::new();
+    let mut failures = suite_on(&gpu, TriTestKind::Watertight, &mut checked);
+    report(&checked);
+    let mut on_bunny = BTreeSet::new();
+    match bunny_on(&gpu, &mut on_bunny) {
+        Some(f) => {
+            report(&on_bunny);
+            failures.extend(f);
+        }
+        None => println!(
+            "skipped the Bunny: {} not found (set TRACE_BENCH_SCENES)",
+            scenes_root().join(BUNNY).display()
+        ),
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
 /// Issue 62, item 1, on an adapter without `SHADER_F64` (acted by [`Gpu::forgo_f64`]): the
@@ -396,19 +422,16 @@ fn scenes_root() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes"))
 }
 
-#[test]
-fn bunny_matches_cpu() {
+const BUNNY: &str = "stanford-bunny/stanford-bunny.obj.gz";
+
+/// The Bunny's random rays and shadow-like segments on `gpu`: its failures, `None` without
+/// the paper scenes.
+fn bunny_on(gpu: &Gpu, checked: &mut BTreeSet<String>) -> Option<Vec<String>> {
     let root = scenes_root();
-    let src = "stanford-bunny/stanford-bunny.obj.gz";
-    if !root.join(src).exists() {
-        println!(
-            "skipped: {} not found (set TRACE_BENCH_SCENES)",
-            root.join(src).display()
-        );
-        return;
+    if !root.join(BUNNY).exists() {
+        return None;
     }
-    let Some(gpu) = open_or_skip() else { return };
-    let scene = tb_scene::load(src, &root).unwrap();
+    let scene = tb_scene::load(BUNNY, &root).unwrap();
     let b = tb_core::Aabb::from_points(scene.triangles.iter().flat_map(|t| [t.v0, t.v1, t.v2]));
     let random = tb_scene::rays::random(&b, 20_000, 7);
     // Shadow-like segments: the same rays cut to a tenth of the diagonal, any hit.
@@ -420,15 +443,12 @@ fn bunny_matches_cpu() {
         ("random".to_string(), Query::Closest, random),
         ("segments".to_string(), Query::Any, segments),
     ];
-    let mut checked = BTreeSet::new();
-    let failures = check_scene(
-        &gpu,
+    Some(check_scene(
+        gpu,
         "stanford-bunny",
         &scene.triangles,
         &batches,
         TriTestKind::Watertight,
-        &mut checked,
-    );
-    report(&checked);
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
+        checked,
+    ))
 }

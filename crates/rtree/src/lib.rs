@@ -114,7 +114,7 @@ pub fn layout_limit(n: usize) -> u64 {
 /// - `planes`: always 0.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Rtree {
-    #[serde(with = "tb_core::persist::pod")]
+    #[serde(with = "tb_core::persist::sparse_pod")]
     nodes: Vec<RtreeNode>,
     triangles: Vec<Triangle>,
     prim_ids: Vec<u32>,

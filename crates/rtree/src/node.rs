@@ -25,6 +25,10 @@ pub struct RtreeNode {
 
 const _: () = assert!(std::mem::size_of::<RtreeNode>() == 32);
 
+impl tb_core::persist::Slot for RtreeNode {
+    const EMPTY: RtreeNode = RtreeNode::EMPTY;
+}
+
 impl RtreeNode {
     /// An empty slot: the empty box, no entries.
     pub const EMPTY: RtreeNode = RtreeNode {

@@ -5,9 +5,9 @@
 //! leaves the others and its own finished rows; rerunning with the same `--out` reuses every
 //! run whose `results.json` says `complete`, and resumes the others). The budget is shared by
 //! the runs' declared costs (`cost_s`, measured on the 2-core reference machine, times the
-//! run's `processes`): when they do not fit, the images of `scalable` runs shrink by one factor
-//! (the variable part of a run's cost is taken as proportional to its pixels), and the report
-//! says so. A run of several processes (`run --processes`) is reported with the spread of its
+//! run's `processes`): when they do not fit, the CPU rows are timed on a smaller share of each
+//! batch first, then the images of `scalable` runs shrink by one factor (module `plan`), and
+//! the report says so. A run of several processes (`run --processes`) is reported with the spread of its
 //! rows' times between them ([`Spread`]).
 
 use super::deviations::{self, Resolved};
@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
+mod plan;
 mod preflight;
 mod report;
 mod stop;
@@ -30,6 +31,7 @@ use preflight::preflight;
 use stop::{interrupted, past_deadline};
 
 pub use crate::runs::Runs;
+pub use plan::{fit, heavy_included, plan, Fit, MIN_SCALE, MIN_SHARE};
 pub use report::*;
 
 /// What to reproduce.
@@ -88,6 +90,8 @@ pub struct PlannedRun {
     pub cost_s: f64,
     /// The image scale applied (1 = as declared).
     pub scale: f64,
+    /// The share of each batch the run's CPU rows are timed on (`run.timed_share`; 1 = all).
+    pub timed_share: f64,
     /// What was scaled, in words.
     pub scaled: Option<String>,
     pub wall_s: Option<f64>,
@@ -233,93 +237,6 @@ fn stem(p: &Path) -> String {
         .unwrap_or_default()
 }
 
-/// Whether the run is made on these devices: a run naming `gpu` only when `gpu` is asked
-/// for, one naming no device (the CPU) only when `cpu` is.
-fn wanted(r: &RunSpec, devices: &[String]) -> bool {
-    let gpu = r
-        .device
-        .as_ref()
-        .is_some_and(|d| d.iter().any(|x| x == "gpu"));
-    if gpu {
-        devices.iter().any(|d| d == "gpu")
-    } else {
-        devices.iter().any(|d| d == "cpu")
-    }
-}
-
-/// The image scale that fits `runs` into `budget_s` (1 when they fit as declared), and the
-/// estimate at that scale; a run of several processes costs each of them
-/// ([`RunSpec::total_s`]).
-pub fn fit(runs: &[&RunSpec], budget_s: f64) -> (f64, f64) {
-    let total: f64 = runs.iter().map(|r| r.total_s()).sum();
-    if total <= budget_s {
-        return (1.0, total);
-    }
-    let fixed: f64 = runs
-        .iter()
-        .map(|r| {
-            if r.scalable {
-                r.total_fixed_s()
-            } else {
-                r.total_s()
-            }
-        })
-        .sum();
-    let var: f64 = runs
-        .iter()
-        .filter(|r| r.scalable)
-        .map(|r| r.total_s() - r.total_fixed_s())
-        .sum();
-    if var <= 0.0 {
-        return (1.0, total);
-    }
-    let f = ((budget_s - fixed) / var).clamp(MIN_SCALE, 1.0);
-    (f, fixed + f * var)
-}
-
-/// Whether the `heavy` runs among `runs` are made: with `--heavy`, or when every run fits the
-/// budget as declared (heavy runs are never shrunk: their cost is their builds).
-pub fn heavy_included(runs: &[&RunSpec], budget_s: f64, heavy: bool) -> bool {
-    heavy || runs.iter().map(|r| r.total_s()).sum::<f64>() <= budget_s
-}
-
-/// The smallest pixel scale reproduce applies (1/64 of the pixels: 1024² → 128²).
-pub const MIN_SCALE: f64 = 1.0 / 64.0;
-
-/// The run's `--set` edits with width and height scaled by `sqrt(f)` (multiples of 8, at
-/// least 32 pixels), and what was scaled.
-fn scaled_sets(r: &RunSpec, f: f64) -> (Vec<String>, Option<String>) {
-    if f >= 1.0 || !r.scalable {
-        return (r.set.clone(), None);
-    }
-    let k = f.sqrt();
-    let mut changed = Vec::new();
-    let sets = r
-        .set
-        .iter()
-        .map(|s| {
-            let Some((key, val)) = s.split_once('=') else {
-                return s.clone();
-            };
-            let is_size = key.ends_with(".width") || key.ends_with(".height");
-            match (is_size, val.trim().parse::<f64>()) {
-                (true, Ok(v)) => {
-                    let n = (((v * k) / 8.0).round() * 8.0).max(32.0) as u64;
-                    changed.push(format!("{key} {v} → {n}"));
-                    format!("{key}={n}")
-                }
-                _ => s.clone(),
-            }
-        })
-        .collect();
-    let note = if changed.is_empty() {
-        Some("not scaled: the run sets no width/height".to_owned())
-    } else {
-        Some(changed.join(", "))
-    };
-    (sets, note)
-}
-
 /// The trace-bench arguments of a run into `folder`.
 fn run_args(r: &RunSpec, sets: &[String], folder: &Path, opts: &Options) -> Vec<String> {
     let out = folder.display().to_string();
@@ -415,81 +332,6 @@ fn this_build() -> String {
         ""
     };
     format!("{}{dirty}", tb_results::meta::commit())
-}
-
-/// Plan every paper's runs within the budget.
-pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)>, Error> {
-    let mut files = Vec::new();
-    for p in &opts.papers {
-        files.push((p.clone(), super::load(p)?));
-    }
-    let all: Vec<&RunSpec> = files
-        .iter()
-        .flat_map(|(_, f)| f.runs.iter())
-        .filter(|r| wanted(r, &opts.devices))
-        .collect();
-    let with_heavy = heavy_included(&all, opts.budget_s, opts.heavy);
-    let made: Vec<&RunSpec> = all
-        .iter()
-        .copied()
-        .filter(|r| with_heavy || !r.heavy)
-        .collect();
-    let (scale, _) = fit(&made, opts.budget_s);
-    let all_cost: f64 = all.iter().map(|r| r.total_s()).sum();
-    let mut out = Vec::new();
-    for (path, file) in files {
-        let key = stem(&path);
-        let mut runs = Vec::new();
-        for (i, r) in file.runs.iter().enumerate() {
-            if !wanted(r, &opts.devices) {
-                continue;
-            }
-            let label = match (&r.config, &r.exec) {
-                (Some(c), _) => stem(Path::new(c)),
-                (None, Some(e)) => e.first().cloned().unwrap_or_default(),
-                _ => String::new(),
-            };
-            let folder = opts
-                .out
-                .join("runs")
-                .join(&key)
-                .join(format!("{i}-{label}"));
-            let left_out = (r.heavy && !with_heavy).then(|| {
-                format!(
-                    "left out (heavy, {:.0} s): --heavy or a budget of {:.0} s makes it",
-                    r.total_s(),
-                    (all_cost / RUNS_SHARE).ceil()
-                )
-            });
-            let scale = if r.heavy { 1.0 } else { scale };
-            let (sets, scaled) = scaled_sets(r, scale);
-            let cost = if r.scalable && scaled.as_deref().is_some_and(|s| !s.starts_with("not")) {
-                r.total_fixed_s() + scale * (r.total_s() - r.total_fixed_s())
-            } else {
-                r.total_s()
-            };
-            runs.push(PlannedRun {
-                paper: key.clone(),
-                label,
-                args: run_args(r, &sets, &folder, opts),
-                exec: r.exec.is_some(),
-                folder,
-                cost_s: cost,
-                scale: if scaled.is_some() { scale } else { 1.0 },
-                scaled,
-                wall_s: None,
-                exit: None,
-                failed: None,
-                reused: false,
-                reused_from: None,
-                left_out,
-                processes: r.processes,
-                spread: None,
-            });
-        }
-        out.push((path, file, runs));
-    }
-    Ok(out)
 }
 
 /// Make the planned runs, evaluate the claims, write the report folder. Everything that can
@@ -742,7 +584,7 @@ fn make_run(
 mod tests {
     use super::*;
 
-    fn spec(cost: f64, fixed: f64, scalable: bool) -> RunSpec {
+    pub(super) fn spec(cost: f64, fixed: f64, scalable: bool) -> RunSpec {
         RunSpec {
             config: Some("configs/x.toml".into()),
             exec: None,
@@ -756,6 +598,7 @@ mod tests {
             device: None,
             cost_s: cost,
             fixed_s: fixed,
+            trace_s: 0.0,
             processes: 1,
             scalable,
             interleave: true,
@@ -765,7 +608,7 @@ mod tests {
     }
 
     /// Options of a quiet reproduce on the CPU into `o`, no paper yet.
-    fn options() -> Options {
+    pub(super) fn options() -> Options {
         Options {
             papers: vec![],
             budget_s: 0.0,
@@ -782,85 +625,6 @@ mod tests {
             write_anywhere: false,
             quiet: true,
         }
-    }
-
-    /// Heavy runs are made with `--heavy`, or when the budget covers every run as declared.
-    #[test]
-    fn heavy_runs_need_the_flag_or_the_whole_budget() {
-        let light = spec(100.0, 20.0, true);
-        let heavy = RunSpec {
-            heavy: true,
-            ..spec(300.0, 300.0, false)
-        };
-        let runs = [&light, &heavy];
-        assert!(!heavy_included(&runs, 399.0, false));
-        assert!(heavy_included(&runs, 400.0, false));
-        assert!(heavy_included(&runs, 10.0, true));
-    }
-
-    /// A left-out heavy run is planned (and reported) but not made, and the light runs are
-    /// fitted without it.
-    #[test]
-    fn plans_leave_heavy_runs_out_within_small_budgets() {
-        let dir = tempfile::tempdir().unwrap();
-        let file = dir.path().join("p.toml");
-        std::fs::write(
-            &file,
-            "paper = \"P\"\n\
-             [[run]]\nconfig = \"configs/a.toml\"\nset = [\"scene.camera.width=256\", \"scene.camera.height=256\"]\ncost_s = 100\nfixed_s = 20\nscalable = true\n\
-             [[run]]\nconfig = \"configs/b.toml\"\ncost_s = 300\nfixed_s = 300\nheavy = true\n",
-        )
-        .unwrap();
-        let opts = |budget_s: f64, heavy: bool| Options {
-            papers: vec![file.clone()],
-            budget_s,
-            out: dir.path().join("out"),
-            heavy,
-            ..options()
-        };
-        let runs = |o: &Options| plan(o).unwrap().remove(0).2;
-        let small = runs(&opts(100.0, false));
-        assert!(small[0].left_out.is_none() && small[0].scaled.is_none());
-        let why = small[1].left_out.as_deref().expect("left out");
-        assert!(why.contains("--heavy") && why.contains("300 s"), "{why}");
-        // With the flag the heavy run is made and the light one shrinks to make room.
-        let flagged = runs(&opts(100.0, true));
-        assert!(flagged[1].left_out.is_none());
-        assert!(flagged[0].scale < 1.0 && flagged[1].scale == 1.0);
-        assert!(runs(&opts(400.0, false))[1].left_out.is_none());
-    }
-
-    #[test]
-    fn fitting_scales_only_the_variable_part() {
-        let (a, b) = (spec(100.0, 20.0, true), spec(50.0, 50.0, false));
-        assert_eq!(fit(&[&a, &b], 200.0), (1.0, 150.0));
-        // 20 + 50 fixed, 80 variable: 110 s leaves 40 s, half the pixels.
-        let (f, est) = fit(&[&a, &b], 110.0);
-        assert!((f - 0.5).abs() < 1e-12 && (est - 110.0).abs() < 1e-9);
-        // Never below the smallest scale.
-        assert_eq!(fit(&[&a, &b], 10.0).0, MIN_SCALE);
-    }
-
-    /// A run of three processes costs three times its declared process, fixed part too.
-    #[test]
-    fn fitting_counts_every_process() {
-        let a = RunSpec {
-            processes: 3,
-            ..spec(100.0, 20.0, true)
-        };
-        let b = spec(50.0, 50.0, false);
-        assert_eq!(fit(&[&a, &b], 350.0), (1.0, 350.0));
-        // 60 + 50 fixed, 240 variable: 230 s leaves 120 s, half the pixels.
-        let (f, est) = fit(&[&a, &b], 230.0);
-        assert!((f - 0.5).abs() < 1e-12 && (est - 230.0).abs() < 1e-9);
-        assert!(!heavy_included(&[&a, &b], 349.0, false));
-        let opts = options();
-        let args = run_args(&a, &a.set, Path::new("o/r"), &opts);
-        assert!(
-            args.windows(2).any(|w| w == ["--processes", "3"]),
-            "{args:?}"
-        );
-        assert!(!run_args(&b, &b.set, Path::new("o/r"), &opts).contains(&"--processes".into()));
     }
 
     /// The spread of a run's rows between its processes: per row `(max − min) / median`, the
@@ -898,16 +662,6 @@ mod tests {
         );
         write_all(dir.path(), serde_json::json!({}), &rows[6..]).unwrap();
         assert!(spread(dir.path()).is_none());
-    }
-
-    #[test]
-    fn scaled_sizes_keep_multiples_of_eight() {
-        let (sets, note) = scaled_sets(&spec(1.0, 0.0, true), 0.25);
-        assert_eq!(sets, ["scene.camera.width=128", "scene.camera.height=96"]);
-        assert!(note.unwrap().contains("256 → 128"));
-        let (sets, note) = scaled_sets(&spec(1.0, 0.0, false), 0.25);
-        assert_eq!(sets[0], "scene.camera.width=256");
-        assert!(note.is_none());
     }
 
     /// A reused folder names the build its rows were made by, so a stale `--out` is said.

@@ -21,6 +21,9 @@ pub struct TimingPlan {
     /// The most rays of a batch a CPU row is timed on (`run.timed_rays`; `None`: all of
     /// them); the counters always come from the whole batch ([`timed_indices`]).
     pub timed_rays: Option<usize>,
+    /// The share of each batch a CPU row is timed on (`run.timed_share`, in (0, 1]; `None`:
+    /// all of it); with `timed_rays` the smaller of the two counts ([`TimingPlan::timed_max`]).
+    pub timed_share: Option<f64>,
 }
 
 /// What a timed run of a one-thread CPU row measures (`run.clock`; rows of more threads and
@@ -81,6 +84,19 @@ pub fn timed<T>(clock: Clock, f: impl FnOnce() -> T) -> (f64, T) {
 }
 
 impl TimingPlan {
+    /// The most rays of a batch of `n` a CPU row is timed on: the smaller of `run.timed_rays`
+    /// and `run.timed_share` of `n` (rounded up, so at least one ray); `None` when neither is
+    /// set.
+    pub fn timed_max(&self, n: usize) -> Option<usize> {
+        let by_share = self
+            .timed_share
+            .map(|s| ((s * n as f64).ceil() as usize).clamp(1, n.max(1)));
+        match (self.timed_rays, by_share) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
     /// Time `once` (one pass, returning its ms) under this plan; the timed runs' ms.
     pub fn run<E>(&self, mut once: impl FnMut() -> Result<f64, E>) -> Result<Vec<f64>, E> {
         for _ in 0..self.warmup {
@@ -318,6 +334,30 @@ mod tests {
     }
 
     #[test]
+    fn the_timed_share_and_the_timed_rays_cap_together() {
+        let plan = |rays: Option<usize>, share: Option<f64>| TimingPlan {
+            warmup: 0,
+            repeat: 1,
+            max_repeat: 1,
+            target_ci: 0.05,
+            max_row_seconds: 1.0,
+            clock: Clock::Wall,
+            timed_rays: rays,
+            timed_share: share,
+        };
+        assert_eq!(plan(None, None).timed_max(1000), None);
+        assert_eq!(plan(Some(300), None).timed_max(1000), Some(300));
+        assert_eq!(plan(None, Some(0.25)).timed_max(1000), Some(250));
+        // Rounded up, never below one ray, never above the batch.
+        assert_eq!(plan(None, Some(0.25)).timed_max(1001), Some(251));
+        assert_eq!(plan(None, Some(1e-9)).timed_max(1000), Some(1));
+        assert_eq!(plan(None, Some(1.0)).timed_max(7), Some(7));
+        // Both set: the smaller count.
+        assert_eq!(plan(Some(300), Some(0.25)).timed_max(1000), Some(250));
+        assert_eq!(plan(Some(200), Some(0.25)).timed_max(1000), Some(200));
+    }
+
+    #[test]
     fn timed_rays_are_evenly_spaced_runs_of_neighbours() {
         assert_eq!(timed_indices(100, None), None);
         assert_eq!(timed_indices(100, Some(100)), None);
@@ -362,6 +402,7 @@ mod tests {
             max_row_seconds: 60.0,
             clock: Clock::Wall,
             timed_rays: None,
+            timed_share: None,
         };
         // Row 1 always takes twice row 0's time, under a drift that changes both alike:
         // the ratio is exact from the first rounds, so the minimum of rounds is enough.
@@ -432,6 +473,7 @@ mod tests {
             max_row_seconds: 60.0,
             clock: Clock::Wall,
             timed_rays: None,
+            timed_share: None,
         };
         // Steady times: stop at the minimum.
         let mut calls = 0;

@@ -79,6 +79,7 @@ struct RawRun {
     target_ci: Option<Spanned<f64>>,
     max_row_seconds: Option<Spanned<f64>>,
     timed_rays: Option<Spanned<u64>>,
+    timed_share: Option<Spanned<f64>>,
     interleave: Option<bool>,
     processes: Option<Spanned<u32>>,
     clock: Option<Spanned<String>>,
@@ -174,6 +175,7 @@ struct RawStructure {
     name: Spanned<String>,
     traversals: Option<Spanned<Vec<String>>>,
     params: Option<Spanned<toml::Table>>,
+    time_builds: Option<bool>,
 }
 
 /// A checked experiment: everything needed to run, nothing left to fail on the config.

@@ -238,8 +238,8 @@ fn check_gpu(cx: &Ctx, run: &RawRun, ov: &Overrides) -> Result<GpuSpec, HarnessE
     })
 }
 
-/// `run.max_repeat`, `run.target_ci`, `run.max_row_seconds`, `run.timed_rays` and `run.clock`
-/// with `repeat` and `warmup`.
+/// `run.max_repeat`, `run.target_ci`, `run.max_row_seconds`, `run.timed_rays`,
+/// `run.timed_share` and `run.clock` with `repeat` and `warmup`.
 fn timing_plan(
     cx: &Ctx,
     run: &RawRun,
@@ -267,6 +267,17 @@ fn timing_plan(
                 ))
             }
             Some(n) => Some(usize::try_from(*n.get_ref()).unwrap_or(usize::MAX)),
+        },
+        timed_share: match &run.timed_share {
+            None => None,
+            Some(s) if *s.get_ref() > 0.0 && *s.get_ref() <= 1.0 => Some(*s.get_ref()),
+            Some(s) => {
+                return Err(cx.err(
+                    s.span(),
+                    "run.timed_share",
+                    "must be in (0, 1] (the share of each batch a CPU row is timed on)",
+                ))
+            }
         },
         clock: match &run.clock {
             None => crate::experiment::timing::Clock::Wall,

@@ -97,4 +97,19 @@ pub struct StructureSpec {
     /// The traversals to run: indices into `infos`.
     pub traversals: Vec<usize>,
     pub param_sets: Vec<ParamSet>,
+    /// `time_builds` of the table: `Some(false)`, its builds are untimed and loaded from the
+    /// build cache where they can be, though the run times its builds (no claim reads these
+    /// builds' times); `Some(true)`, timed though the run does not; `None`, as the run says
+    /// ([`StructureSpec::builds_timed`]).
+    pub time_builds: Option<bool>,
+}
+
+impl StructureSpec {
+    /// Whether this table's builds are timed (built fresh `run.build_repeat` times, never
+    /// loaded from the cache): its own `time_builds`, else the run's (`run.time_builds`, or
+    /// `run.build_repeat` above 1).
+    pub fn builds_timed(&self, run: &super::RunSettings) -> bool {
+        self.time_builds
+            .unwrap_or(run.time_builds || run.build_repeat > 1)
+    }
 }

@@ -84,5 +84,6 @@ pub(super) fn check_structure(
         infos,
         traversals,
         param_sets,
+        time_builds: s.time_builds,
     })
 }

@@ -17,7 +17,13 @@ type Key = (usize, TriTestKind, usize);
 
 /// The CPU: one rayon pool per thread count of the run.
 pub struct CpuDevice {
+    /// One pool per thread count the rows are timed on.
     pools: Vec<(usize, rayon::ThreadPool)>,
+    /// The pool of the untimed passes (counting, validation, the oracle, start hints): every
+    /// core (rayon's default: `RAYON_NUM_THREADS` or the machine's cores), or the widest
+    /// timed pool where that is wider. Their answers and counters are the same on any number
+    /// of threads (each ray is traced alone, in chunks of a fixed size).
+    untimed: rayon::ThreadPool,
     /// Validate only (`trace-bench validate`): no counting, no timing.
     validate_only: bool,
     /// Per build: what the counting pass of each (traversal, test, batch) found.
@@ -58,9 +64,15 @@ impl CpuDevice {
                     .map(|p| (n, p))
                     .map_err(|e| format!("cannot start {n} threads: {e}"))
             })
-            .collect::<Result<_, _>>()?;
+            .collect::<Result<Vec<_>, _>>()?;
+        let widest = threads.iter().copied().max().unwrap_or(1);
+        let untimed = rayon::ThreadPoolBuilder::new()
+            .num_threads(widest.max(rayon::current_num_threads()))
+            .build()
+            .map_err(|e| format!("cannot start the untimed passes' threads: {e}"))?;
         Ok(CpuDevice {
             pools,
+            untimed,
             validate_only,
             counted: HashMap::new(),
             reference: None,
@@ -68,14 +80,10 @@ impl CpuDevice {
         })
     }
 
-    /// The pool with the most threads (counting, validation and oracle passes run there).
-    pub fn widest(&self) -> &rayon::ThreadPool {
-        &self
-            .pools
-            .iter()
-            .max_by_key(|(n, _)| *n)
-            .expect("at least one pool")
-            .1
+    /// The pool the untimed passes run on (counting, validation, the oracle, start hints):
+    /// every core, whatever thread counts the rows are timed on.
+    pub fn untimed(&self) -> &rayon::ThreadPool {
+        &self.untimed
     }
 
     fn pool(&self, threads: usize) -> &rayon::ThreadPool {
@@ -101,7 +109,7 @@ impl CpuDevice {
         let hints: Vec<_> = jobs
             .iter()
             .map(|j| {
-                self.widest().install(|| {
+                self.untimed().install(|| {
                     j.accel
                         .batch_hints(j.traversal, j.batch.query, &j.batch.rays)
                 })
@@ -115,8 +123,8 @@ impl CpuDevice {
                     j,
                     &j.batch.rays,
                     h.as_deref(),
-                    plan.timed_rays,
-                    self.widest(),
+                    plan.timed_max(j.batch.rays.len()),
+                    self.untimed(),
                 )
             })
             .collect();
@@ -168,7 +176,7 @@ impl Device for CpuDevice {
         if self.validate_only {
             let checked = sample.map(|s| {
                 let got = self
-                    .widest()
+                    .untimed()
                     .install(|| tb_core::par::trace_with_hints(accel, ti, b.query, tri, &s.rays));
                 validation::check(b.query, s, &got, job.max_report)
             });
@@ -178,14 +186,14 @@ impl Device for CpuDevice {
         // Start hints (sparse boxes' start nodes): found once per batch, never timed; the
         // counting and the timed passes read the same ones.
         let hints = self
-            .widest()
+            .untimed()
             .install(|| accel.batch_hints(ti, b.query, &b.rays));
         let subset = Timed::of(
             job,
             &b.rays,
             hints.as_deref(),
-            job.timing.timed_rays,
-            self.widest(),
+            job.timing.timed_max(b.rays.len()),
+            self.untimed(),
         );
         let key = (ti, tri, job.batch_index);
         self.count(job, hints.as_deref(), &subset, sample);
@@ -300,7 +308,7 @@ impl CpuDevice {
             return;
         }
         let batch = Batch::new(b.query, tri, &b.rays).with_hints(hints);
-        let (hits, stats) = self.widest().install(|| {
+        let (hits, stats) = self.untimed().install(|| {
             let mut hits = vec![HitRecord::MISS; b.rays.len()];
             let mut stats = vec![tb_core::TraversalStats::default(); b.rays.len()];
             trace_into(accel, ti, batch, Answers::new(&mut hits, Some(&mut stats)));

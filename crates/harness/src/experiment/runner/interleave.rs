@@ -140,7 +140,10 @@ impl Run<'_> {
                 if t.is_empty() {
                     continue;
                 }
-                let n = crate::experiment::timing::timed_count(b.rays.len(), plan.timed_rays);
+                let n = crate::experiment::timing::timed_count(
+                    b.rays.len(),
+                    plan.timed_max(b.rays.len()),
+                );
                 crate::experiment::timing::fill(row, &mut t, n, plan.target_ci);
                 row.timing_group = tg.clone();
                 row.cpu_others = others;

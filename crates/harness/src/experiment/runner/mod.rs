@@ -352,9 +352,10 @@ impl<'a> Run<'a> {
             "{}: building {} [{params_s}]",
             first.table, st.family.name
         ));
+        let timed = st.builds_timed(&self.exp.run);
         let plan = build::BuildPlan {
-            repeat: self.exp.run.build_repeat,
-            timed: self.exp.run.time_builds || self.exp.run.build_repeat > 1,
+            repeat: if timed { self.exp.run.build_repeat } else { 1 },
+            timed,
             cache: self.opts.cache.as_ref(),
         };
         let building = Instant::now();
@@ -505,7 +506,7 @@ impl<'a> Run<'a> {
         let sample = (spec.validate != Validate::Off).then(|| {
             let progress = &self.progress;
             let cpu = &self.cpu;
-            cpu.widest().install(|| {
+            cpu.untimed().install(|| {
                 oracle.sample(c.bi, &b.rays, b.query, spec.validate, |n| {
                     progress.step(&format!("{}: oracle for {} ({n} rays)", spec.label, b.name))
                 })
