@@ -350,9 +350,10 @@ fn suite(tri: TriTestKind) {
 /// The watertight suite, then the Stanford Bunny (paper scenes) on the same device: the
 /// Bunny's programs are the suite's (every family's default build, the watertight test), so
 /// that each pipeline is compiled once for both (lavapipe spends most of a GPU test's time
-/// compiling them).
+/// compiling them). The two suites' names sort first, so that the test harness starts them
+/// (the longest tests) together.
 #[test]
-fn suite_watertight_and_bunny_match_cpu() {
+fn all_programs_watertight_and_on_the_bunny_match_cpu() {
     let Some(gpu) = open_or_skip() else { return };
     let mut checked = BTreeSet::new();
     let mut failures = suite_on(&gpu, TriTestKind::Watertight, &mut checked);
@@ -412,7 +413,7 @@ fn extreme_scales_without_f64() {
 }
 
 #[test]
-fn suite_moller_trumbore_matches_cpu() {
+fn all_programs_moller_trumbore_match_cpu() {
     suite(TriTestKind::MollerTrumbore);
 }
 

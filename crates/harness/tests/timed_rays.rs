@@ -1,4 +1,5 @@
-//! `run.timed_rays` (issue 58: count once at full size, time on as many rays as needed):
+//! `run.timed_rays` and `run.timed_share` (issue 58: count once at full size, time on as many
+//! rays as needed):
 //! every family's rows timed on a subset of each batch have the counters, hit rates and
 //! validation of the rows timed on the whole batch, `timed_rays` says how many rays were
 //! timed, and the timed passes give the counting passes' answers on those rays (sparse boxes'
@@ -84,10 +85,25 @@ fn rows_timed_on_a_subset_count_and_validate_the_whole_batch() {
         wrong.iter().all(|w| w.contains("recursive-origin")),
         "{wrong:#?}"
     );
-    for (keys, label) in [
-        ("timed_rays = 150\n", "alone"),
-        ("timed_rays = 150\ninterleave = true\n", "interleaved"),
-    ] {
+    fn capped(n: u64) -> u64 {
+        n.min(150)
+    }
+    // `run.timed_share` with `run.timed_rays`: the smaller count, the share rounded up.
+    fn shared(n: u64) -> u64 {
+        n.min(150).min(n.div_ceil(4))
+    }
+    /// The run's keys, a label, and the rays a row of `n` is timed on.
+    type Case = (&'static str, &'static str, fn(u64) -> u64);
+    let cases: [Case; 3] = [
+        ("timed_rays = 150\n", "alone", capped),
+        (
+            "timed_rays = 150\ninterleave = true\n",
+            "interleaved",
+            capped,
+        ),
+        ("timed_rays = 150\ntimed_share = 0.25\n", "a share", shared),
+    ];
+    for (keys, label, timed) in cases {
         let (sub, sub_wrong) = run(keys);
         assert_eq!(sub.len(), all.len(), "{label}");
         assert_eq!(sub_wrong, wrong, "{label}");
@@ -98,18 +114,19 @@ fn rows_timed_on_a_subset_count_and_validate_the_whole_batch() {
                 continue;
             }
             assert_eq!(a.timed_rays, Some(a.rays), "{a:?}");
-            assert_eq!(s.timed_rays, Some(s.rays.min(150)), "{label} {s:?}");
+            assert_eq!(s.timed_rays, Some(timed(s.rays)), "{label} {s:?}");
             assert!(s.mrays_per_s.is_some_and(|m| m > 0.0));
             assert_eq!(s.mismatches, a.mismatches, "{label} {s:?}");
-            subset_rows += usize::from(s.rays > 150);
+            subset_rows += usize::from(timed(s.rays) < s.rays);
         }
         assert!(
             subset_rows > 50,
             "{label}: {subset_rows} rows timed on a subset"
         );
         assert!(
-            sub.iter()
-                .any(|r| r.structure == "sparse-boxes" && r.rays > 150 && r.timed_runs.is_some()),
+            sub.iter().any(|r| r.structure == "sparse-boxes"
+                && r.timed_rays < Some(r.rays)
+                && r.timed_runs.is_some()),
             "the start hints' subset is not exercised"
         );
     }
