@@ -15,7 +15,7 @@ use super::eval::{evaluate, ClaimResult, Verdict};
 use super::figures::{self, Figure};
 use super::render::{self, Kinds, Tally};
 use super::rows::RowSet;
-use super::schema::{ClaimKind, ClaimsFile, RunSpec};
+use super::schema::{ClaimKind, RunSpec};
 use crate::Error;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -31,7 +31,7 @@ use preflight::preflight;
 use stop::{interrupted, past_deadline};
 
 pub use crate::runs::Runs;
-pub use plan::{fit, heavy_included, plan, Fit, MIN_SCALE, MIN_SHARE};
+pub use plan::{fit, heavy_included, plan, Fit, PaperPlan, MIN_SCALE, MIN_SHARE};
 pub use report::*;
 
 /// What to reproduce.
@@ -80,6 +80,9 @@ pub const RUNS_SHARE: f64 = 0.95;
 /// One planned (and then made) run.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct PlannedRun {
+    /// The run's index in its claims file's `[[run]]`s.
+    #[serde(skip)]
+    pub spec: usize,
     pub paper: String,
     pub label: String,
     pub args: Vec<String>,
@@ -338,7 +341,7 @@ fn this_build() -> String {
 /// be known wrong is checked before the first run (`preflight`); a signal ends the run in
 /// progress and returns an error (the finished rows stay for a rerun to resume).
 pub fn reproduce(opts: &Options, runner: &dyn Runs) -> Result<Vec<PaperReport>, Error> {
-    let planned = plan(opts)?;
+    let mut planned = plan(opts)?;
     preflight(opts, &planned, runner)?;
     let mut devs = planned
         .iter()
@@ -365,7 +368,9 @@ pub fn reproduce(opts: &Options, runner: &dyn Runs) -> Result<Vec<PaperReport>, 
     let deadline = opts
         .deadline_s
         .map(|s| started + Duration::from_secs_f64(s));
-    for (path, file, mut runs) in planned {
+    while !planned.is_empty() {
+        refit(&mut planned, opts, started);
+        let (path, file, mut runs) = planned.remove(0);
         for r in &mut runs {
             make_run(r, opts, runner, deadline)?;
             r.spread = spread(&r.folder);
@@ -437,8 +442,25 @@ pub fn reproduce(opts: &Options, runner: &dyn Runs) -> Result<Vec<PaperReport>, 
     Ok(reports)
 }
 
+/// Before a paper's runs: the timed share fitted again to the budget left (`plan::refit`),
+/// and said where it changed.
+fn refit(rest: &mut [PaperPlan], opts: &Options, started: Instant) {
+    let left = opts.budget_s - started.elapsed().as_secs_f64();
+    if let Some((old, new)) = plan::refit(rest, opts, left) {
+        if !opts.quiet {
+            eprintln!(
+                "reproduce: {:.0} s of the budget left for the runs still to be made: CPU rows \
+                 timed on {} % of each batch (was {} %)",
+                left.max(0.0),
+                (new * 1e4).round() / 1e2,
+                (old * 1e4).round() / 1e2
+            );
+        }
+    }
+}
+
 /// Before the runs: the heavy runs left out and a budget below the runs' smallest cost, said.
-fn say_plan(opts: &Options, planned: &[(PathBuf, ClaimsFile, Vec<PlannedRun>)]) {
+fn say_plan(opts: &Options, planned: &[PaperPlan]) {
     let estimate: f64 = planned
         .iter()
         .flat_map(|p| &p.2)

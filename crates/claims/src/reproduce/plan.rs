@@ -8,6 +8,12 @@
 //! down to [`MIN_SHARE`], since the counters and the validation then still cover the
 //! declared images; only then do the images of `scalable` runs shrink, by one factor for
 //! all of them, down to [`MIN_SCALE`] of their pixels.
+//!
+//! The declared costs are of builds made from nothing; a warm build cache (or a faster
+//! machine) makes runs cheaper than declared, a busy machine dearer. So before each paper the
+//! share is fitted again ([`refit`]) to what is left of the budget for the runs still to be
+//! made, their images as first planned: what the cache saves goes to timed rays, and a run
+//! slower than declared costs the later papers' timed share, not the budget.
 
 use super::{run_args, stem, Options, PlannedRun, RUNS_SHARE};
 use crate::schema::{ClaimsFile, RunSpec};
@@ -213,6 +219,7 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
             };
             let (sets, scaled, scale, share) = fitted_sets(r, &this_fit);
             runs.push(PlannedRun {
+                spec: i,
                 paper: key.clone(),
                 label,
                 args: run_args(r, &sets, &folder, opts),
@@ -235,6 +242,66 @@ pub fn plan(opts: &Options) -> Result<Vec<(PathBuf, ClaimsFile, Vec<PlannedRun>)
         out.push((path, file, runs));
     }
     Ok(out)
+}
+
+/// A paper's planned runs, in order, with its claims file.
+pub type PaperPlan = (PathBuf, ClaimsFile, Vec<PlannedRun>);
+
+/// Fit the timed share again for the runs of `rest` still to be made, with `left_s` seconds
+/// of the budget left ([`Fit`] at the images as planned, the share within [`MIN_SHARE`] and
+/// 1, a thousandth down as [`fit`] rounds it): their `--set`, cost and note follow. Runs
+/// complete in their folders (reused), left out, heavy or `exec` keep theirs (heavy and
+/// `exec` runs' costs are taken from the budget first). Returns the old and the new share
+/// where it changed; `None` where no run still to be made is timed on a share of its batch.
+pub(super) fn refit(rest: &mut [PaperPlan], opts: &Options, left_s: f64) -> Option<(f64, f64)> {
+    let mut fixed = 0.0;
+    let mut trace = 0.0;
+    let mut old = None;
+    for (_, file, runs) in rest.iter() {
+        for r in runs.iter().filter(|r| to_make(r)) {
+            let spec = &file.runs[r.spec];
+            if spec.heavy || r.exec {
+                fixed += r.cost_s;
+                continue;
+            }
+            let at0 = spec.planned_s(0.0, r.scale);
+            fixed += at0;
+            let t = spec.planned_s(1.0, r.scale) - at0;
+            if t > 0.0 {
+                trace += t;
+                old.get_or_insert(r.timed_share);
+            }
+        }
+    }
+    let old = old?;
+    let share = (((left_s - fixed) / trace * 1e3).floor() / 1e3).clamp(MIN_SHARE, 1.0);
+    if share == old {
+        return None;
+    }
+    for (_, file, runs) in rest.iter_mut() {
+        for r in runs.iter_mut().filter(|r| to_make(r)) {
+            let spec = &file.runs[r.spec];
+            if spec.heavy || r.exec {
+                continue;
+            }
+            let this = Fit {
+                share,
+                scale: r.scale,
+                estimate_s: 0.0,
+            };
+            let (sets, note, scale, applied) = fitted_sets(spec, &this);
+            r.args = run_args(spec, &sets, &r.folder, opts);
+            r.cost_s = spec.planned_s(applied, scale);
+            r.timed_share = applied;
+            r.scaled = note;
+        }
+    }
+    Some((old, share))
+}
+
+/// Whether a planned run is still to be made: not left out, not complete in its folder.
+fn to_make(r: &PlannedRun) -> bool {
+    r.left_out.is_none() && super::status(&r.folder).as_deref() != Some("complete")
 }
 
 #[cfg(test)]
@@ -286,6 +353,62 @@ mod tests {
         assert!(flagged[1].left_out.is_none());
         assert!(flagged[0].scale < 1.0 && flagged[1].scale == 1.0);
         assert!(runs(&opts(400.0, false))[1].left_out.is_none());
+    }
+
+    /// Before each paper the timed share is fitted again to the budget left: up when runs
+    /// came in under their estimates, down when over, never below MIN_SHARE; the runs' edits,
+    /// costs and notes follow, and complete runs are not counted.
+    #[test]
+    fn the_share_is_refitted_to_the_budget_left() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("p.toml");
+        std::fs::write(
+            &file,
+            "paper = \"P\"\n\
+             [[run]]\nconfig = \"configs/a.toml\"\ncost_s = 100\nfixed_s = 20\ntrace_s = 60\n\
+             [[run]]\nconfig = \"configs/b.toml\"\ncost_s = 50\nfixed_s = 50\n",
+        )
+        .unwrap();
+        let opts = Options {
+            papers: vec![file.clone()],
+            budget_s: 120.0,
+            out: dir.path().join("out"),
+            ..options()
+        };
+        let mut planned = plan(&opts).unwrap();
+        let share_of = |p: &[PaperPlan]| p[0].2[0].timed_share;
+        assert!((share_of(&planned) - 0.5).abs() < 1e-12);
+        let sets = |p: &[PaperPlan]| -> Vec<String> {
+            p[0].2[0]
+                .args
+                .iter()
+                .filter(|a| a.starts_with("run.timed_share"))
+                .cloned()
+                .collect()
+        };
+        assert_eq!(sets(&planned), ["run.timed_share=0.5"]);
+        // 150 s left: everything as declared.
+        assert_eq!(refit(&mut planned, &opts, 150.0), Some((0.5, 1.0)));
+        assert!(sets(&planned).is_empty() && planned[0].2[0].scaled.is_none());
+        assert_eq!(planned[0].2[0].cost_s, 100.0);
+        assert_eq!(refit(&mut planned, &opts, 150.0), None);
+        // 105 s left: 15 of the 60 s of timed tracing, a quarter.
+        assert_eq!(refit(&mut planned, &opts, 105.0), Some((1.0, 0.25)));
+        assert_eq!(sets(&planned), ["run.timed_share=0.25"]);
+        assert_eq!(planned[0].2[0].cost_s, 20.0 + 15.0 + 20.0);
+        let note = planned[0].2[0].scaled.clone().unwrap();
+        assert!(note.contains("25 % of each batch"), "{note}");
+        // Less than the rest costs: the smallest share.
+        assert_eq!(refit(&mut planned, &opts, 10.0), Some((0.25, MIN_SHARE)));
+        // A run complete in its folder is not made again: nothing left to refit.
+        let folder = &planned[0].2[0].folder;
+        std::fs::create_dir_all(folder).unwrap();
+        std::fs::write(
+            folder.join("results.json"),
+            r#"{"meta": {"status": "complete"}, "rows": []}"#,
+        )
+        .unwrap();
+        assert_eq!(refit(&mut planned, &opts, 150.0), None);
     }
 
     #[test]

@@ -1,18 +1,17 @@
 //! What `reproduce` checks before the first run (issue 62): every `--with`, every run's config
 //! with its edits, where the runs write, and that no other process writes into a run's folder.
 
-use super::{writes, Options, PlannedRun, Runs};
+use super::{writes, Options, PaperPlan, Runs};
 use crate::rows::RowSet;
-use crate::schema::ClaimsFile;
 use crate::Error;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Before the first run: every `--with` holds trace-bench results, every run's config exists
 /// and passes the checks that need no scene with its edits ([`Runs::check_run`]), and no other
 /// process writes into a run's folder.
 pub(super) fn preflight(
     opts: &Options,
-    planned: &[(PathBuf, ClaimsFile, Vec<PlannedRun>)],
+    planned: &[PaperPlan],
     runner: &dyn Runs,
 ) -> Result<(), Error> {
     for w in &opts.with {

@@ -68,7 +68,8 @@ pub(super) fn write_report(
     );
     // REPORT.md: per paper the runs (what was scaled) and the verdicts beside the paper's.
     let mut md = format!(
-        "# trace-bench reproduce\n\n{head}\nVerdicts: {}.\n",
+        "# trace-bench reproduce\n\n{head}{}\nVerdicts: {}.\n",
+        overall_split(reports),
         kinds_line(&Kinds::of(&all))
     );
     let below = all
@@ -134,27 +135,76 @@ const PHASES: [(&str, &str); 9] = [
 /// share of the run's time (those of at least 0.5 %), and the structures loaded from the cache
 /// and built. Empty where the folder has none (an `exec` run, rows of an older binary).
 pub(super) fn time_split(folder: &Path) -> (String, String) {
-    let meta = std::fs::read_to_string(folder.join("results.json"))
+    let meta = run_meta(folder);
+    (
+        split_words(&meta["phases"]),
+        cache_words(&meta["build_cache"]),
+    )
+}
+
+/// A run folder's `meta` (results.json); null where there is none.
+fn run_meta(folder: &Path) -> serde_json::Value {
+    std::fs::read_to_string(folder.join("results.json"))
         .ok()
         .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
         .map(|v| v["meta"].clone())
-        .unwrap_or_default();
-    let p = &meta["phases"];
+        .unwrap_or_default()
+}
+
+/// `meta.phases` in words: each phase's share of `total_s` (those of at least 0.5 %).
+fn split_words(p: &serde_json::Value) -> String {
     let total = p["total_s"].as_f64().unwrap_or(0.0);
-    let split = if total > 0.0 {
-        PHASES
-            .iter()
-            .filter_map(|(k, w)| {
-                let share = p[*k].as_f64()? / total;
-                (share >= 0.005).then(|| format!("{w} {:.0} %", share * 100.0))
-            })
-            .collect::<Vec<_>>()
-            .join(", ")
-    } else {
-        String::new()
-    };
-    let c = &meta["build_cache"];
-    let cache = match (
+    if total <= 0.0 {
+        return String::new();
+    }
+    PHASES
+        .iter()
+        .filter_map(|(k, w)| {
+            let share = p[*k].as_f64()? / total;
+            (share >= 0.005).then(|| format!("{w} {:.0} %", share * 100.0))
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Where the time of the runs made by this reproduce went (not those reused): their
+/// `meta.phases` and build-cache counts summed, in one line for REPORT.md's head; empty
+/// where no run made here wrote them.
+pub(super) fn overall_split(reports: &[PaperReport]) -> String {
+    let mut sum = serde_json::Map::new();
+    let (mut runs, mut loaded, mut built) = (0, 0, 0);
+    for p in reports.iter().flat_map(|r| &r.runs) {
+        if p.reused || p.wall_s.is_none() {
+            continue;
+        }
+        let meta = run_meta(&p.folder);
+        let Some(phases) = meta["phases"].as_object() else {
+            continue;
+        };
+        runs += 1;
+        for (k, v) in phases {
+            let add = v.as_f64().unwrap_or(0.0);
+            let e = sum.entry(k.clone()).or_insert(0.0.into());
+            *e = (e.as_f64().unwrap_or(0.0) + add).into();
+        }
+        loaded += meta["build_cache"]["loaded"].as_u64().unwrap_or(0);
+        built += meta["build_cache"]["built"].as_u64().unwrap_or(0);
+    }
+    if runs == 0 {
+        return String::new();
+    }
+    let sum = serde_json::Value::Object(sum);
+    format!(
+        "\nWhere the time of the {runs} runs made here went ({:.0} s in their processes): {}; \
+         structures {loaded} loaded from the build cache, {built} built.\n",
+        sum["total_s"].as_f64().unwrap_or(0.0),
+        split_words(&sum)
+    )
+}
+
+/// `meta.build_cache` in words: loaded, built (and refused) structures, or the cache off.
+fn cache_words(c: &serde_json::Value) -> String {
+    match (
         c["used"].as_bool(),
         c["loaded"].as_u64(),
         c["built"].as_u64(),
@@ -170,8 +220,7 @@ pub(super) fn time_split(folder: &Path) -> (String, String) {
             format!("{l} loaded, {b} built{refused}")
         }
         _ => String::new(),
-    };
-    (split, cache)
+    }
 }
 
 /// REPORT.md's table of a paper's runs: the command, its estimate, what was scaled, the wall
