@@ -354,16 +354,7 @@ pub fn reproduce(opts: &Options, runner: &dyn Runs) -> Result<Vec<PaperReport>, 
     runner.catch_signals();
     let started = Instant::now();
     let start_time = tb_results::meta::now_rfc3339();
-    // The interpreter for the figures, or why there are none.
-    let plot = planned.iter().any(|p| !p.1.figures.is_empty()).then(|| {
-        let py = figures::python();
-        if !Path::new(SCRIPTS).is_dir() {
-            return Err(format!(
-                "no {SCRIPTS}/ folder here (reproduce runs from the repository root)"
-            ));
-        }
-        figures::check(&py).map(|()| py)
-    });
+    let plot = plotter(&planned);
     let mut reports = Vec::new();
     let deadline = opts
         .deadline_s
@@ -440,6 +431,19 @@ pub fn reproduce(opts: &Options, runner: &dyn Runs) -> Result<Vec<PaperReport>, 
     let notice = plot.and_then(Result::err);
     write_report(opts, &reports, &start_time, wall, notice.as_deref())?;
     Ok(reports)
+}
+
+/// The interpreter for the figures, or why there are none (`None`: no paper has figures).
+fn plotter(planned: &[PaperPlan]) -> Option<Result<PathBuf, String>> {
+    planned.iter().any(|p| !p.1.figures.is_empty()).then(|| {
+        let py = figures::python();
+        if !Path::new(SCRIPTS).is_dir() {
+            return Err(format!(
+                "no {SCRIPTS}/ folder here (reproduce runs from the repository root)"
+            ));
+        }
+        figures::check(&py).map(|()| py)
+    })
 }
 
 /// Before a paper's runs: the timed share fitted again to the budget left (`plan::refit`),
