@@ -548,7 +548,29 @@ pub struct Family {
     /// How its builds are saved to and loaded from the build cache, where they can be
     /// (`Family::with_persist`, [`crate::persist`]).
     pub codec: Option<Codec>,
+    /// Where its build is another family's whole build and a step after it
+    /// ([`Family::with_stage`]): the build cache then keeps the first stage under that
+    /// family's own key, so structures that share it build it once.
+    pub stage: Option<Stage>,
 }
+
+/// A build in two stages: first the whole structure of family `base` with the parameters
+/// `params` names, then `finish` over it (sparse boxes: the kd-tree, then its augmented nodes,
+/// Havran and Bittner 2007 §4). `finish(base(params(p)), p)` is the family's `build(p)`, bit
+/// for bit: the stage only lets a build cache share the first stage between parameter sets
+/// (every `d_min` of one kd-tree) and with the base family's own rows.
+#[derive(Clone, Copy)]
+pub struct Stage {
+    /// The family whose structure is the first stage.
+    pub base: &'static Family,
+    /// The base family's full parameter set for this family's checked set.
+    pub params: fn(&ParamSet) -> Result<ParamSet, AccelError>,
+    /// The structure built over the first stage (`base`, validated) with this family's set.
+    pub finish: FinishFn,
+}
+
+/// The second stage of a [`Stage`]: the structure over a first stage, with the family's set.
+pub type FinishFn = fn(&dyn Accel, &ParamSet) -> Result<Box<dyn Accel>, AccelError>;
 
 impl Family {
     /// The family of structure `S` with params `P`, built by `build`.
@@ -564,7 +586,14 @@ impl Family {
             rules: crate::params::no_rules,
             densities: None,
             codec: None,
+            stage: None,
         }
+    }
+
+    /// This family built in two stages, the first another family's structure ([`Stage`]).
+    pub const fn with_stage(mut self, stage: Stage) -> Family {
+        self.stage = Some(stage);
+        self
     }
 
     /// This family with a short `summary` of its `doc` (the README's structure table).

@@ -31,7 +31,8 @@ pub mod tri;
 
 pub use accel::{
     build_with, dispatch, Accel, AccelError, Answers, Batch, BuildFn, BuildReport, Codec, Family,
-    HintFn, Kernel, MemoryReport, Query, Structure, TraceFn, Traversal, TraversalInfo,
+    FinishFn, HintFn, Kernel, MemoryReport, Query, Stage, Structure, TraceFn, Traversal,
+    TraversalInfo,
 };
 pub use compare::{
     compare, compare_any, compare_closest, hex_f32, t_tolerance, Mismatch, MismatchKind, T_REL_TOL,

@@ -116,7 +116,12 @@ fn a_second_run_loads_every_build_and_counts_the_same() {
     let first = run(dir.path(), &dir.path().join("a"), Some(&cache_dir));
     let builds = entries(&cache_dir).len();
     assert!(builds >= 20, "{builds} entries");
-    assert!(first.rows.iter().all(|r| r.build_cached == Some(false)));
+    // Fresh the first time, but for the sparse boxes: their kd-tree (the first stage) is the
+    // kdtree table's depth-first build, loaded from the cache.
+    assert!(first
+        .rows
+        .iter()
+        .all(|r| r.build_cached == Some(r.structure == "sparse-boxes")));
     let second = run(dir.path(), &dir.path().join("b"), Some(&cache_dir));
     assert!(
         second.rows.iter().all(|r| r.build_cached == Some(true)),
@@ -243,6 +248,60 @@ fn timed_builds_are_fresh_but_for_the_tables_that_opt_out() {
         r.build_ms_runs.split(';').count()
     };
     assert_eq!((runs("bvh"), runs("rtree")), (1, 2));
+}
+
+/// A structure built in two stages ([`tb_core::Stage`]: sparse boxes over a kd-tree) builds
+/// its first stage once for every parameter set that shares it, and makes the rows a run
+/// without the cache makes.
+#[test]
+fn a_first_stage_is_built_once_for_the_builds_that_share_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache_dir = dir.path().join("cache");
+    let text = "name = \"staged\"\n[run]\nthreads = 1\nrepeat = 1\nwarmup = 0\n\n\
+                [[scene]]\nsource = \"builtin:stress/near-surfaces\"\nrays = [\"primary\", \"random\"]\n\
+                camera = { width = 16, height = 16 }\nrandom = { count = 256 }\n\n\
+                [[structure]]\nname = \"sparse-boxes\"\nparams = { d_min = [1, 3, 6] }\n";
+    let staged = run_config(dir.path(), &dir.path().join("a"), Some(&cache_dir), text);
+    let meta = |run: &str| -> serde_json::Value {
+        let t = std::fs::read_to_string(dir.path().join(run).join("results.json")).unwrap();
+        serde_json::from_str::<serde_json::Value>(&t).unwrap()["meta"]["build_cache"].clone()
+    };
+    // Three sparse-boxes entries and one kd-tree: built for d_min = 1, loaded for 3 and 6.
+    let names: Vec<String> = entries(&cache_dir)
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    let count = |f: &str| names.iter().filter(|n| n.starts_with(f)).count();
+    assert_eq!(
+        (count("sparse-boxes-"), count("kdtree-")),
+        (3, 1),
+        "{names:?}"
+    );
+    assert_eq!(meta("a")["stages_loaded"].as_u64(), Some(2));
+    let by_d = |s: &RunSummary, d: &str| -> Vec<Option<bool>> {
+        s.rows
+            .iter()
+            .filter(|r| r.params.contains(&format!("d_min={d};")))
+            .map(|r| r.build_cached)
+            .collect()
+    };
+    assert!(by_d(&staged, "1").iter().all(|c| *c == Some(false)));
+    for d in ["3", "6"] {
+        let v = by_d(&staged, d);
+        assert!(
+            !v.is_empty() && v.iter().all(|c| *c == Some(true)),
+            "{d}: {v:?}"
+        );
+    }
+    // Without the cache every build is whole (no stage), and the rows are the same.
+    let whole = run_config(dir.path(), &dir.path().join("b"), None, text);
+    assert_eq!(meta("b")["stages_loaded"].as_u64(), Some(0));
+    assert_eq!(whole.rows.len(), staged.rows.len());
+    for (a, b) in whole.rows.iter().zip(&staged.rows) {
+        assert_eq!(deterministic(a), deterministic(b));
+        assert_eq!(a.build_stats, b.build_stats);
+        assert_eq!(a.memory_bytes, b.memory_bytes);
+    }
 }
 
 #[test]

@@ -1,7 +1,9 @@
 //! The build of a multi-kd-tree (Torres et al. 2012 §3-4): one tb-kdtree build per patch under
-//! its direction-weighted measure, the trees in one node array.
+//! its direction-weighted measure, the trees in one node array. The trees are built in
+//! parallel where the rayon pool has threads (the harness's untimed builds: all cores).
 
 use super::*;
+use rayon::prelude::*;
 
 impl MultiKdTree {
     /// Build the trees over shared triangles; `Err` for parameters out of range or 2^30 or
@@ -16,8 +18,10 @@ impl MultiKdTree {
             (false, Trees::Y) => vec![1],
             (false, Trees::Z) => vec![2],
         };
+        // The trees are independent: built side by side on the current rayon pool (one
+        // thread: one after another), the same trees in the same order on any pool.
         let built: Vec<(usize, [f64; 3], KdTree)> = patches
-            .iter()
+            .par_iter()
             .map(|&i| {
                 let w = p.measure.weights(i, p.beta as f64);
                 let m = WeightedArea([w[0] as f32, w[1] as f32, w[2] as f32]);

@@ -11,6 +11,13 @@ impl SparseBoxes {
         Ok(Self::augment(kd, p))
     }
 
+    /// Sparse boxes over `kd`, a kd-tree built with `p.kd()` (the family's second stage,
+    /// [`tb_core::Stage`]: the same structure as [`SparseBoxes::try_build`] when `kd` is that
+    /// build's tree). Panics where `kd` is not laid out depth-first.
+    pub fn over(kd: KdTree, p: &SparseParams) -> SparseBoxes {
+        Self::augment(kd, p)
+    }
+
     /// Build over a copy of `tris`; panics on bad parameters.
     pub fn build(tris: &[Triangle], p: &SparseParams) -> SparseBoxes {
         Self::try_build(tris.into(), p).unwrap_or_else(|e| panic!("sparse-boxes: {e}"))

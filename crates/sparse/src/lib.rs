@@ -107,7 +107,23 @@ pub static FAMILY: Family = Family::new::<SparseBoxes, SparseParams>(
      Bittner 2007)",
 )
 .with_rules::<SparseParams>()
-.with_persist::<SparseBoxes>();
+.with_persist::<SparseBoxes>()
+.with_stage(tb_core::Stage {
+    base: &tb_kdtree::FAMILY,
+    params: |set| {
+        let p: SparseParams = tb_core::Params::from_set(set)?;
+        Ok(tb_core::Params::to_set(&p.kd()))
+    },
+    finish: |base, set| {
+        let kd = base
+            .as_any()
+            .and_then(|a| a.downcast_ref::<KdTree>())
+            .ok_or_else(|| {
+                AccelError::Unsupported("sparse boxes: the first stage is not a kd-tree".into())
+            })?;
+        build_with(set, |p: &SparseParams| Ok(SparseBoxes::over(kd.clone(), p)))
+    },
+});
 
 impl tb_core::Persist for SparseBoxes {
     fn attach(

@@ -28,6 +28,13 @@
 //! (`run.build_repeat` above 1, or `run.time_builds`) builds fresh in every process, as
 //! before; the cache still keeps its last build for runs that do not time theirs.
 //!
+//! **Stages.** A family built over another family's whole structure ([`tb_core::Stage`]:
+//! sparse boxes over a kd-tree) finds that first stage here under the base family's own key,
+//! so the sparse boxes of every `d_min`, and the kd-tree table over the same tree, build the
+//! kd-tree once (`meta.build_cache.stages_loaded`); the build's time is the first stage's,
+//! as measured where it was built, plus the second's. Timed builds and runs without the
+//! cache build whole, as the family's `build` does.
+//!
 //! **The oracle's answers.** Brute force's answers for a batch's validated rays are entries
 //! of the same kind ([`oracle_key`], [`BuildCache::load_answers`]): the oracle of one scene and
 //! ray sample is computed once, not in every process of every run.

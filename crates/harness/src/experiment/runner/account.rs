@@ -17,6 +17,7 @@ impl Run<'_> {
             "loaded": u.loaded,
             "built": self.builds.saturating_sub(u.loaded),
             "refused": u.notes.len(),
+            "stages_loaded": u.stages_loaded,
             "oracle_loaded": u.oracle_loaded,
             "oracle_computed": u.oracle_computed,
         });
@@ -30,8 +31,17 @@ impl Run<'_> {
         };
         let u = std::mem::take(&mut self.cache_use);
         if u.loaded + u.saved > 0 || !u.notes.is_empty() {
+            let stages = if u.stages_loaded > 0 {
+                format!(
+                    ", {} built over a first stage loaded from it (the kd-tree under sparse boxes)",
+                    u.stages_loaded
+                )
+            } else {
+                String::new()
+            };
             self.summary.notes.push(format!(
-                "build cache {}: {} structures loaded, {} built and saved (rows: build_cached)",
+                "build cache {}: {} structures loaded, {} built and saved{stages} (rows: \
+                 build_cached)",
                 c.dir().display(),
                 u.loaded,
                 u.saved
