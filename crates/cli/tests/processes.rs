@@ -174,6 +174,77 @@ fn processes_merge_into_one_folder_and_resume() {
     assert_eq!(o.status.code(), Some(2), "{o:?}");
 }
 
+/// Count once: the later processes copy the first one's counters and hit rates (same binary,
+/// same config), check their own oracle samples and time as before; a first process made by
+/// another binary is not trusted, and they count again.
+#[test]
+fn later_processes_copy_the_first_ones_counters() {
+    let (_one, t, cfg) = start();
+    let out = t.path().join("run");
+    let o = trace_bench(
+        &["run", s(&cfg), "--processes", "3", "--out", s(&out), "-q"],
+        &[],
+    );
+    assert!(o.status.success(), "{o:?}");
+    let folder = |p: usize| tb_harness::experiment::processes::folder(&out, p);
+    let copied = |p: usize| meta(&folder(p))["build_cache"]["counters_copied"].as_u64();
+    assert_eq!(
+        (copied(0), copied(1), copied(2)),
+        (Some(0), Some(2), Some(2))
+    );
+    let rows = read_csv(&out.join("results.csv")).unwrap();
+    let of = |p: u32| -> Vec<_> {
+        let mut v: Vec<_> = rows
+            .iter()
+            .filter(|r| r.process == Some(p))
+            .map(|r| {
+                (
+                    r.structure.clone(),
+                    r.hit_rate,
+                    r.steps_per_ray,
+                    r.prims_per_ray,
+                    r.validated_rays,
+                    r.mismatches,
+                )
+            })
+            .collect();
+        v.sort_by(|a, b| a.0.cmp(&b.0));
+        v
+    };
+    assert!(
+        of(0).iter().all(|r| r.1.is_some() && r.4 == Some(64)),
+        "{:?}",
+        of(0)
+    );
+    assert_eq!(of(1), of(0));
+    assert_eq!(of(2), of(0));
+    assert!(rows.iter().all(|r| r.trace_ms_median.is_some()));
+    // The first process's binary digest altered: the later processes count again.
+    let json = folder(0).join("results.json");
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    v["meta"]["binary_digest"] = "another binary".into();
+    std::fs::write(&json, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+    for p in [1, 2] {
+        std::fs::remove_dir_all(folder(p)).unwrap();
+    }
+    let o = trace_bench(
+        &[
+            "run",
+            s(&cfg),
+            "--processes",
+            "3",
+            "--out",
+            s(&out),
+            "--resume",
+            "-q",
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{o:?}");
+    assert_eq!((copied(1), copied(2)), (Some(0), Some(0)));
+}
+
 /// Spin `threads` threads until the returned flag is set.
 fn busy(threads: usize) -> (Arc<AtomicBool>, Vec<std::thread::JoinHandle<u64>>) {
     let stop = Arc::new(AtomicBool::new(false));

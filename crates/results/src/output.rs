@@ -205,6 +205,18 @@ macro_rules! define_row {
                 let _ = i;
             }
 
+            /// The counted columns of `from` (`hit_rate`, every counter, `capped_rays`): a row
+            /// of the same traversal, test and rays counted in another process (counters are
+            /// deterministic).
+            pub fn copy_counters(&mut self, from: &Row) {
+                self.hit_rate = from.hit_rate;
+                $(
+                    self.$per = from.$per;
+                    self.$max = from.$max;
+                )*
+                self.capped_rays = from.capped_rays;
+            }
+
             /// The value of counter column `column` (`<counter>_per_ray` or `<counter>_max`).
             pub fn counter(&self, column: &str) -> Option<f64> {
                 match column {

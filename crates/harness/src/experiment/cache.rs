@@ -432,7 +432,8 @@ fn header_matches(h: &Header, key: &Key) -> Result<(), String> {
 
 /// The SHA-256 of the running binary (hex), read once; "unknown" where it cannot be read
 /// (then every key of the process is its own: no entry of another binary matches).
-fn exe_digest() -> &'static str {
+/// The SHA-256 of the running binary, hex (part of every key; `meta.binary_digest`).
+pub fn exe_digest() -> &'static str {
     static D: OnceLock<String> = OnceLock::new();
     D.get_or_init(|| {
         let read = std::env::current_exe().and_then(std::fs::read);

@@ -14,6 +14,11 @@
 //! shard's does (`run --shard`, [`tb_results::merge`]); `--resume` reuses the complete
 //! processes and resumes the others. The claims evaluator compares times between processes
 //! (tb-claims: the spread of the per-process values).
+//!
+//! **Count once.** Counters are deterministic: a later process copies the counters and hit
+//! rates of the first process's rows ([`first_rows`]) where that process finished with the
+//! same binary and config, instead of counting its whole batches again; it still checks its
+//! oracle samples with the timed code and times as before.
 
 use crate::error::HarnessError;
 use serde_json::{json, Value};
@@ -136,6 +141,30 @@ fn finished(dir: &Path) -> bool {
         status(dir).as_deref(),
         Some("complete" | "complete-with-failures")
     )
+}
+
+/// The rows of the first process of the run whose process `process` is, into `out`
+/// (`OUT/process-I`, I ≥ 1), where that first process finished with this binary and this
+/// config (`config_hash`): the later processes copy its
+/// counters (count once, [`crate::experiment::device::cpu::CpuDevice::count_once`]). `None`
+/// for the first process, a run of one process, or a first process that cannot be trusted.
+pub fn first_rows(process: Option<Process>, config_hash: &str, out: &Path) -> Option<Vec<Row>> {
+    let p = process.filter(|p| p.index > 0)?;
+    let parent = out.parent()?;
+    if out != folder(parent, p.index) {
+        return None;
+    }
+    let first = folder(parent, 0);
+    let meta = meta_of(&first)?;
+    let same = finished(&first)
+        && meta["config_hash"].as_str() == Some(config_hash)
+        && meta["binary_digest"].as_str() == Some(crate::experiment::cache::exe_digest());
+    if !same {
+        return None;
+    }
+    read_csv_resume(&first.join("results.csv"))
+        .ok()
+        .map(|(rows, _)| rows)
 }
 
 /// Make the plan's processes one after another, merging after each; a signal ends the process

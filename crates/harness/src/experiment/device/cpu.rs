@@ -15,6 +15,21 @@ use tb_core::{Answers, Batch};
 
 type Key = (usize, TriTestKind, usize);
 
+/// A row's counted identity across the processes of a run: scene (view), structure, params,
+/// traversal, triangle test, ray batch (not the device's threads, nor the process).
+type CountKey = (String, String, String, String, String, String);
+
+fn count_key(r: &Row) -> CountKey {
+    (
+        r.scene.clone(),
+        r.structure.clone(),
+        r.params.clone(),
+        r.traversal.clone(),
+        r.triangle_test.clone(),
+        r.ray_kind.clone(),
+    )
+}
+
 /// The CPU: one rayon pool per thread count of the run.
 pub struct CpuDevice {
     /// One pool per thread count the rows are timed on.
@@ -30,6 +45,11 @@ pub struct CpuDevice {
     counted: HashMap<Key, Counted>,
     /// The counting pass's hits on the timed rays of the last key counted.
     reference: Option<(Key, Vec<HitRecord>)>,
+    /// The CPU rows of the run's first process (`run --processes`), whose counters the later
+    /// processes copy instead of counting again ([`CpuDevice::count_once`]).
+    first: HashMap<CountKey, Row>,
+    /// Rows whose counters were copied from the first process.
+    pub copied: usize,
     /// Where its time went: `count_s`, `trace_s` and `validate_s` (the runner adds the rest).
     pub phases: Phases,
 }
@@ -76,6 +96,8 @@ impl CpuDevice {
             validate_only,
             counted: HashMap::new(),
             reference: None,
+            first: HashMap::new(),
+            copied: 0,
             phases: Phases::default(),
         })
     }
@@ -84,6 +106,18 @@ impl CpuDevice {
     /// every core, whatever thread counts the rows are timed on.
     pub fn untimed(&self) -> &rayon::ThreadPool {
         &self.untimed
+    }
+
+    /// Count once across a run's processes: `rows`, the CPU rows of its first process (same
+    /// binary, same config: the counters are deterministic), give the later processes'
+    /// counters and hit rates. Such a row is not counted again over its whole batch; its
+    /// oracle sample is traced (by the timed code) and checked, and it is timed as before.
+    pub fn count_once(&mut self, rows: Vec<Row>) {
+        self.first = rows
+            .into_iter()
+            .filter(|r| r.device == "cpu" && r.hit_rate.is_some())
+            .map(|r| (count_key(&r), r))
+            .collect();
     }
 
     fn pool(&self, threads: usize) -> &rayon::ThreadPool {
@@ -183,6 +217,11 @@ impl Device for CpuDevice {
             self.phases.validate_s += start.elapsed().as_secs_f64();
             return Ok(Outcome::Measured(checked));
         }
+        if let Some(first) = self.first.get(&count_key(row)) {
+            row.copy_counters(first);
+            self.copied += 1;
+            return self.measure_copied(job, sample, row);
+        }
         // Start hints (sparse boxes' start nodes): found once per batch, never timed; the
         // counting and the timed passes read the same ones.
         let hints = self
@@ -233,6 +272,59 @@ impl Device for CpuDevice {
         let start = Instant::now();
         let checked = sample.map(|_| self.checked(job, &subset, &hits));
         self.phases.validate_s += start.elapsed().as_secs_f64();
+        Ok(Outcome::Measured(checked))
+    }
+}
+
+impl CpuDevice {
+    /// [`Device::measure`] of a row whose counters came from the run's first process: its
+    /// oracle sample traced by the timed code and checked, then timed on its timed rays (when
+    /// the row is timed here; interleaved rows are timed later).
+    fn measure_copied(
+        &mut self,
+        job: &Job,
+        sample: Option<&Sample>,
+        row: &mut Row,
+    ) -> Result<Outcome, String> {
+        let (accel, ti, tri, b) = (job.accel, job.traversal, job.tri, job.batch);
+        let start = Instant::now();
+        let checked = sample.map(|s| {
+            let got = self
+                .untimed()
+                .install(|| tb_core::par::trace_with_hints(accel, ti, b.query, tri, &s.rays));
+            validation::check(b.query, s, &got, job.max_report)
+        });
+        self.phases.validate_s += start.elapsed().as_secs_f64();
+        if !job.time {
+            return Ok(Outcome::Measured(checked));
+        }
+        let start = Instant::now();
+        let hints = self
+            .untimed()
+            .install(|| accel.batch_hints(ti, b.query, &b.rays));
+        let subset = Timed::of(
+            job,
+            &b.rays,
+            hints.as_deref(),
+            job.timing.timed_max(b.rays.len()),
+            self.untimed(),
+        );
+        let batch = Batch::new(b.query, tri, subset.rays()).with_hints(subset.hints());
+        self.phases.count_s += start.elapsed().as_secs_f64();
+        let start = Instant::now();
+        let pool = self.pool(job.threads);
+        let mut hits = vec![HitRecord::MISS; subset.rays().len()];
+        let mut times = job.timing.run(|| -> Result<f64, String> {
+            let clock = clock_for(job.timing.clock, job.threads);
+            let (ms, ()) = pool.install(|| {
+                timed(clock, || {
+                    trace_into(accel, ti, batch, Answers::hits(&mut hits))
+                })
+            });
+            Ok(ms)
+        })?;
+        crate::experiment::timing::fill(row, &mut times, subset.rays().len(), job.timing.target_ci);
+        self.phases.trace_s += start.elapsed().as_secs_f64();
         Ok(Outcome::Measured(checked))
     }
 }

@@ -18,6 +18,7 @@ impl Run<'_> {
             "built": self.builds.saturating_sub(u.loaded),
             "refused": u.notes.len(),
             "stages_loaded": u.stages_loaded,
+            "counters_copied": self.cpu.copied,
             "oracle_loaded": u.oracle_loaded,
             "oracle_computed": u.oracle_computed,
         });
@@ -26,6 +27,14 @@ impl Run<'_> {
 
     /// The build cache's hits and misses, and every entry it refused, as notes.
     pub(super) fn cache_notes(&mut self) {
+        if self.cpu.copied > 0 {
+            self.summary.notes.push(format!(
+                "count once: the counters and hit rates of {} rows copied from the run's first \
+                 process (same binary and config; counters are deterministic), their oracle \
+                 samples checked here",
+                self.cpu.copied
+            ));
+        }
         let Some(c) = &self.opts.cache else {
             return;
         };

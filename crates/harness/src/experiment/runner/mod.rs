@@ -192,6 +192,7 @@ impl<'a> Run<'a> {
                 if let Some(p) = &exp.process {
                     meta["process"] = p.meta();
                 }
+                meta["binary_digest"] = crate::experiment::cache::exe_digest().into();
                 Some(Sink::open(&opts.out, meta, opts.resume)?)
             }
             Mode::Validate => None,
@@ -206,7 +207,14 @@ impl<'a> Run<'a> {
             }
             Mode::Validate => vec![(DeviceKind::Cpu, vec![0])],
         };
-        let cpu = CpuDevice::new(&exp.run.threads, !running).map_err(HarnessError::other)?;
+        let mut cpu = CpuDevice::new(&exp.run.threads, !running).map_err(HarnessError::other)?;
+        if running {
+            let first =
+                crate::experiment::processes::first_rows(exp.process, &exp.config_hash, &opts.out);
+            if let Some(rows) = first {
+                cpu.count_once(rows);
+            }
+        }
         let total = match &exp.shard {
             Some(p) if opts.mode == Mode::Run => p.rows(),
             _ => plan::total_rows(exp, &devices),
