@@ -171,13 +171,21 @@ fn split_words(p: &serde_json::Value) -> String {
 /// `meta.phases` and build-cache counts summed, in one line for REPORT.md's head; empty
 /// where no run made here wrote them.
 pub(super) fn overall_split(reports: &[PaperReport]) -> String {
+    let made = reports
+        .iter()
+        .flat_map(|r| &r.runs)
+        .filter(|p| !p.reused && p.wall_s.is_some())
+        .map(|p| run_meta(&p.folder));
+    split_of(made)
+}
+
+/// [`overall_split`] over the runs' `meta`s (null ones, runs without results.json, skipped).
+fn split_of(metas: impl Iterator<Item = serde_json::Value>) -> String {
+    const CACHE: [&str; 4] = ["loaded", "built", "stages_loaded", "counters_copied"];
     let mut sum = serde_json::Map::new();
-    let (mut runs, mut loaded, mut built) = (0, 0, 0);
-    for p in reports.iter().flat_map(|r| &r.runs) {
-        if p.reused || p.wall_s.is_none() {
-            continue;
-        }
-        let meta = run_meta(&p.folder);
+    let mut runs = 0;
+    let mut cache = [0u64; 4];
+    for meta in metas {
         let Some(phases) = meta["phases"].as_object() else {
             continue;
         };
@@ -187,16 +195,25 @@ pub(super) fn overall_split(reports: &[PaperReport]) -> String {
             let e = sum.entry(k.clone()).or_insert(0.0.into());
             *e = (e.as_f64().unwrap_or(0.0) + add).into();
         }
-        loaded += meta["build_cache"]["loaded"].as_u64().unwrap_or(0);
-        built += meta["build_cache"]["built"].as_u64().unwrap_or(0);
+        for (n, k) in cache.iter_mut().zip(CACHE) {
+            *n += meta["build_cache"][k].as_u64().unwrap_or(0);
+        }
     }
     if runs == 0 {
         return String::new();
     }
+    let [loaded, built, stages, copied] = cache;
+    let mut extra = String::new();
+    if stages > 0 {
+        extra += &format!(" ({stages} of them over a kd-tree loaded from it)");
+    }
+    if copied > 0 {
+        extra += &format!("; {copied} rows' counters copied from their run's first process");
+    }
     let sum = serde_json::Value::Object(sum);
     format!(
         "\nWhere the time of the {runs} runs made here went ({:.0} s in their processes): {}; \
-         structures {loaded} loaded from the build cache, {built} built.\n",
+         structures {loaded} loaded from the build cache, {built} built{extra}.\n",
         sum["total_s"].as_f64().unwrap_or(0.0),
         split_words(&sum)
     )
@@ -548,4 +565,37 @@ pub(super) fn reasons_table(r: &PaperReport, kind: ClaimKind) -> String {
         ));
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// REPORT.md's head sums the runs' phases and cache figures; a run without results.json
+    /// is left out, and nothing is said without any run.
+    #[test]
+    fn the_overall_split_sums_the_runs_made() {
+        let meta = |build: f64, trace: f64, cache: serde_json::Value| {
+            serde_json::json!({
+                "phases": {"build_s": build, "trace_s": trace, "total_s": build + trace},
+                "build_cache": cache,
+            })
+        };
+        let copied = serde_json::json!({
+            "loaded": 0, "built": 5, "stages_loaded": 4, "counters_copied": 7
+        });
+        let metas = vec![
+            meta(1.0, 3.0, serde_json::json!({"loaded": 2, "built": 1})),
+            serde_json::Value::Null,
+            meta(3.0, 1.0, copied),
+        ];
+        let line = split_of(metas.into_iter());
+        assert_eq!(
+            line,
+            "\nWhere the time of the 2 runs made here went (8 s in their processes): build 50 %, \
+             timed trace 50 %; structures 2 loaded from the build cache, 6 built (4 of them over \
+             a kd-tree loaded from it); 7 rows' counters copied from their run's first process.\n"
+        );
+        assert_eq!(split_of(std::iter::empty()), "");
+    }
 }
