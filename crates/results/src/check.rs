@@ -10,7 +10,7 @@
 //! and thread count are ignored (counters do not depend on them), so a baseline taken with one
 //! thread checks a run with many.
 
-use crate::output::Row;
+use crate::output::{CountedKey, Row};
 use std::collections::BTreeMap;
 
 /// Columns compared, by name: the mean and the maximum per ray of every counter
@@ -60,19 +60,6 @@ fn counter(r: &Row, name: &str) -> Option<f64> {
     }
 }
 
-type Key = (String, String, String, String, String, String);
-
-fn key(r: &Row) -> Key {
-    (
-        r.scene.clone(),
-        r.structure.clone(),
-        r.params.clone(),
-        r.traversal.clone(),
-        r.triangle_test.clone(),
-        r.ray_kind.clone(),
-    )
-}
-
 /// One finding of a check.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Finding {
@@ -106,13 +93,13 @@ pub fn compare(baseline: &[Row], current: &[Row], tolerance: f64) -> Vec<Finding
         "check::compare: tolerance {tolerance} (callers check it with bad_tolerance)"
     );
     let mut out = duplicates(current);
-    let mut cur: BTreeMap<Key, &Row> = BTreeMap::new();
+    let mut cur: BTreeMap<CountedKey, &Row> = BTreeMap::new();
     for r in current {
-        cur.entry(key(r)).or_insert(r);
+        cur.entry(r.counted_key()).or_insert(r);
     }
-    let mut base: BTreeMap<Key, &Row> = BTreeMap::new();
+    let mut base: BTreeMap<CountedKey, &Row> = BTreeMap::new();
     for r in baseline {
-        base.entry(key(r)).or_insert(r);
+        base.entry(r.counted_key()).or_insert(r);
     }
     for (k, b) in &base {
         let label = format!("{} {} [{}] {} {} {}", k.0, k.1, k.2, k.3, k.4, k.5);

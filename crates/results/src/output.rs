@@ -233,6 +233,11 @@ macro_rules! define_row {
 
 tb_core::for_each_counter!(define_row! {});
 
+/// What a row's counters are of: scene (view), structure, params, traversal, triangle test,
+/// ray batch; not the device's threads nor the process (counters are the same for all of
+/// them: `check` compares by it, and the later processes of a run copy the first's).
+pub type CountedKey = (String, String, String, String, String, String);
+
 /// The columns that identify a row (for `--resume` and `check`).
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct RowKey {
@@ -249,6 +254,18 @@ pub struct RowKey {
 }
 
 impl Row {
+    /// The row's [`CountedKey`].
+    pub fn counted_key(&self) -> CountedKey {
+        (
+            self.scene.clone(),
+            self.structure.clone(),
+            self.params.clone(),
+            self.traversal.clone(),
+            self.triangle_test.clone(),
+            self.ray_kind.clone(),
+        )
+    }
+
     pub fn key(&self) -> RowKey {
         RowKey {
             scene: self.scene.clone(),

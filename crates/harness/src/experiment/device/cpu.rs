@@ -8,27 +8,12 @@ use crate::experiment::validation::{self, Checked, Sample};
 use std::collections::HashMap;
 use std::time::Instant;
 use tb_core::{HitRecord, Ray, StatsSummary, TriTestKind};
-use tb_results::output::Row;
+use tb_results::output::{CountedKey, Row};
 
 use tb_core::par::trace_into;
 use tb_core::{Answers, Batch};
 
 type Key = (usize, TriTestKind, usize);
-
-/// A row's counted identity across the processes of a run: scene (view), structure, params,
-/// traversal, triangle test, ray batch (not the device's threads, nor the process).
-type CountKey = (String, String, String, String, String, String);
-
-fn count_key(r: &Row) -> CountKey {
-    (
-        r.scene.clone(),
-        r.structure.clone(),
-        r.params.clone(),
-        r.traversal.clone(),
-        r.triangle_test.clone(),
-        r.ray_kind.clone(),
-    )
-}
 
 /// The CPU: one rayon pool per thread count of the run.
 pub struct CpuDevice {
@@ -47,7 +32,7 @@ pub struct CpuDevice {
     reference: Option<(Key, Vec<HitRecord>)>,
     /// The CPU rows of the run's first process (`run --processes`), whose counters the later
     /// processes copy instead of counting again ([`CpuDevice::count_once`]).
-    first: HashMap<CountKey, Row>,
+    first: HashMap<CountedKey, Row>,
     /// Rows whose counters were copied from the first process.
     pub copied: usize,
     /// Where its time went: `count_s`, `trace_s` and `validate_s` (the runner adds the rest).
@@ -116,7 +101,7 @@ impl CpuDevice {
         self.first = rows
             .into_iter()
             .filter(|r| r.device == "cpu" && r.hit_rate.is_some())
-            .map(|r| (count_key(&r), r))
+            .map(|r| (r.counted_key(), r))
             .collect();
     }
 
@@ -208,16 +193,11 @@ impl Device for CpuDevice {
         let (accel, ti, tri, b) = (job.accel, job.traversal, job.tri, job.batch);
         let start = Instant::now();
         if self.validate_only {
-            let checked = sample.map(|s| {
-                let got = self
-                    .untimed()
-                    .install(|| tb_core::par::trace_with_hints(accel, ti, b.query, tri, &s.rays));
-                validation::check(b.query, s, &got, job.max_report)
-            });
+            let checked = sample.map(|s| self.check_sample(job, s));
             self.phases.validate_s += start.elapsed().as_secs_f64();
             return Ok(Outcome::Measured(checked));
         }
-        if let Some(first) = self.first.get(&count_key(row)) {
+        if let Some(first) = self.first.get(&row.counted_key()) {
             row.copy_counters(first);
             self.copied += 1;
             return self.measure_copied(job, sample, row);
@@ -247,20 +227,9 @@ impl Device for CpuDevice {
         let batch = Batch::new(b.query, tri, subset.rays()).with_hints(subset.hints());
         self.phases.count_s += start.elapsed().as_secs_f64();
         let start = Instant::now();
-        let pool = self.pool(job.threads);
         let mut hits = vec![HitRecord::MISS; subset.rays().len()];
         if job.time {
-            let mut times = job.timing.run(|| -> Result<f64, String> {
-                let clock = clock_for(job.timing.clock, job.threads);
-                let (ms, ()) = pool.install(|| {
-                    timed(clock, || {
-                        trace_into(accel, ti, batch, Answers::hits(&mut hits))
-                    })
-                });
-                Ok(ms)
-            })?;
-            let n = subset.rays().len();
-            crate::experiment::timing::fill(row, &mut times, n, job.timing.target_ci);
+            self.time_on(job, batch, &mut hits, row)?;
             self.phases.trace_s += start.elapsed().as_secs_f64();
         } else {
             // Untimed: the timed code's answers, checked below, on every core (the answers do
@@ -286,14 +255,9 @@ impl CpuDevice {
         sample: Option<&Sample>,
         row: &mut Row,
     ) -> Result<Outcome, String> {
-        let (accel, ti, tri, b) = (job.accel, job.traversal, job.tri, job.batch);
+        let b = job.batch;
         let start = Instant::now();
-        let checked = sample.map(|s| {
-            let got = self
-                .untimed()
-                .install(|| tb_core::par::trace_with_hints(accel, ti, b.query, tri, &s.rays));
-            validation::check(b.query, s, &got, job.max_report)
-        });
+        let checked = sample.map(|s| self.check_sample(job, s));
         self.phases.validate_s += start.elapsed().as_secs_f64();
         if !job.time {
             return Ok(Outcome::Measured(checked));
@@ -301,7 +265,7 @@ impl CpuDevice {
         let start = Instant::now();
         let hints = self
             .untimed()
-            .install(|| accel.batch_hints(ti, b.query, &b.rays));
+            .install(|| job.accel.batch_hints(job.traversal, b.query, &b.rays));
         let subset = Timed::of(
             job,
             &b.rays,
@@ -309,23 +273,47 @@ impl CpuDevice {
             job.timing.timed_max(b.rays.len()),
             self.untimed(),
         );
-        let batch = Batch::new(b.query, tri, subset.rays()).with_hints(subset.hints());
+        let batch = Batch::new(b.query, job.tri, subset.rays()).with_hints(subset.hints());
         self.phases.count_s += start.elapsed().as_secs_f64();
         let start = Instant::now();
-        let pool = self.pool(job.threads);
         let mut hits = vec![HitRecord::MISS; subset.rays().len()];
+        self.time_on(job, batch, &mut hits, row)?;
+        self.phases.trace_s += start.elapsed().as_secs_f64();
+        Ok(Outcome::Measured(checked))
+    }
+
+    /// The oracle sample `s` traced by the timed code (counters compiled out) on every core,
+    /// checked against the oracle's answers.
+    fn check_sample(&self, job: &Job, s: &Sample) -> Checked {
+        let (accel, ti, q) = (job.accel, job.traversal, job.batch.query);
+        let got = self
+            .untimed()
+            .install(|| tb_core::par::trace_with_hints(accel, ti, q, job.tri, &s.rays));
+        validation::check(q, s, &got, job.max_report)
+    }
+
+    /// Time `batch` (the row's timed rays) as `job.timing` says, counters compiled out, on the
+    /// row's pool and clock; its hits in `hits`, its times in `row`.
+    fn time_on(
+        &self,
+        job: &Job,
+        batch: Batch<'_>,
+        hits: &mut [HitRecord],
+        row: &mut Row,
+    ) -> Result<(), String> {
+        let pool = self.pool(job.threads);
+        let clock = clock_for(job.timing.clock, job.threads);
         let mut times = job.timing.run(|| -> Result<f64, String> {
-            let clock = clock_for(job.timing.clock, job.threads);
             let (ms, ()) = pool.install(|| {
                 timed(clock, || {
-                    trace_into(accel, ti, batch, Answers::hits(&mut hits))
+                    trace_into(job.accel, job.traversal, batch, Answers::hits(hits))
                 })
             });
             Ok(ms)
         })?;
-        crate::experiment::timing::fill(row, &mut times, subset.rays().len(), job.timing.target_ci);
-        self.phases.trace_s += start.elapsed().as_secs_f64();
-        Ok(Outcome::Measured(checked))
+        let n = batch.rays.len();
+        crate::experiment::timing::fill(row, &mut times, n, job.timing.target_ci);
+        Ok(())
     }
 }
 
