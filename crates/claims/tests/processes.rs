@@ -156,3 +156,57 @@ fn unpaired_rows_compare_per_process_and_partial_processes_are_left_out() {
     let x = derived(&v);
     assert!((x[1] - 3.0).abs() < 1e-9, "{x:?}");
 }
+
+/// Build times timed once in each process (`build_repeat = 1`, `run --processes 3`): a row
+/// alone gives no interval, three processes' builds do, and the claim is decided between
+/// them; with two processes the rows' too few builds leave it inconclusive.
+#[test]
+fn one_build_per_process_is_decided_between_three_processes() {
+    const BHEAD: &str = "scene,structure,params,traversal,device,adapter,threads,triangle_test,ray_kind,rays,build_ms,build_ms_runs,process";
+    let t = tempfile::tempdir().unwrap();
+    let folder = |name: &str, scales: &[f64]| {
+        let d = t.path().join(name);
+        std::fs::create_dir_all(&d).unwrap();
+        let mut text = format!("{BHEAD}\n");
+        for (p, k) in scales.iter().enumerate() {
+            for (tr, ms) in [("a", 10.0 * k), ("b", 40.0 * k)] {
+                text.push_str(&format!(
+                    "s,{tr}tree,k=1,{tr},cpu,,1,watertight,primary,100,{ms},{ms},{p}\n"
+                ));
+            }
+        }
+        std::fs::write(d.join("results.csv"), text).unwrap();
+        d
+    };
+    let test = "{ kind = \"ratio\", num = \"b\", den = \"a\", min = 3, max = 5 }";
+    let c = format!(
+        "paper = \"t\"\n[[claim]]\nid = \"c\"\nwhere = \"T5\"\ntext = \"t\"\npaper = \"p\"\nmeasure = \"build_ms\"\nrows.a = {{ structure = \"atree\" }}\nrows.b = {{ structure = \"btree\" }}\ntest = {test}\n"
+    );
+    let file = claims::parse(Path::new("t.toml"), &c).expect("claims parse");
+    let eval = |d: &Path| claims::evaluate(&file, &RowSet::read(&[d.to_path_buf()]).unwrap());
+    let three = eval(&folder("three", &[1.0, 1.1, 0.95]));
+    assert_eq!(three[0].verdict, Verdict::Agree, "{three:?}");
+    assert!(
+        three[0].why.contains("interval between 3 processes")
+            && !three[0].why.contains("fewer than"),
+        "{}",
+        three[0].why
+    );
+    // Rows whose builds were not timed (untimed on all cores, or loaded from the cache) are
+    // refused by a build-time claim.
+    let untimed = folder("untimed", &[1.0, 1.1, 0.95]);
+    let csv = untimed.join("results.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let text: Vec<String> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| format!("{l},{}", if i == 0 { "build_timed" } else { "false" }))
+        .collect();
+    std::fs::write(&csv, text.join("\n") + "\n").unwrap();
+    let v = eval(&untimed);
+    assert_eq!(v[0].verdict, Verdict::Inconclusive, "{v:?}");
+    assert!(v[0].why.contains("build_timed = false"), "{}", v[0].why);
+    let two = eval(&folder("two", &[1.0, 1.1]));
+    assert_eq!(two[0].verdict, Verdict::Inconclusive, "{two:?}");
+    assert!(two[0].why.contains("fewer than 3 timed runs"), "{}", two[0].why);
+}

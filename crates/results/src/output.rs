@@ -81,6 +81,13 @@ macro_rules! define_row {
             /// prepared in this run; `tb_harness::experiment::cache`).
             #[serde(default)]
             pub build_cached: Option<bool>,
+            /// Whether `build_ms` comes from builds timed fresh in this process, one thread
+            /// each (`run.time_builds`, a `build_repeat` above 1 or the table's
+            /// `time_builds`); `false`: an untimed build (all cores, or loaded from the
+            /// cache), whose time no build-time claim reads. Empty in rows made before the
+            /// column (their builds were all timed).
+            #[serde(default)]
+            pub build_timed: Option<bool>,
             #[serde(deserialize_with = "finite")]
             pub trace_ms_min: Option<f64>,
             #[serde(deserialize_with = "finite")]

@@ -325,7 +325,9 @@ fn mixed_configs(rows: &[&Row]) -> Option<String> {
 /// The test's verdict and why, with the caveats of the timed values: too few runs, a
 /// software GPU adapter or noisy rows make it inconclusive (noisy rows are only a note where
 /// they were timed interleaved, or where the interval was measured between processes
-/// (`between`): their disturbance is then in the spread it measures).
+/// (`between`): their disturbance is then in the spread it measures). Too few runs in a row
+/// matter only where its own spread would give the interval: measured between processes, one
+/// timed run (one build) per process is a sample of that spread like any other.
 fn timing_caveats(
     vals: &BTreeMap<String, Value>,
     mut verdict: Verdict,
@@ -337,7 +339,7 @@ fn timing_caveats(
     let few: usize = vals.values().map(|v| v.few_runs).sum();
     let timed: Vec<&Value> = vals.values().filter(|v| v.timed).collect();
     let paired = timed.len() >= 2 && timed.windows(2).all(|w| w[0].paired(w[1]));
-    if few > 0 {
+    if few > 0 && !between {
         why = format!(
             "{few} timed rows have fewer than {MIN_TIMED_RUNS} timed runs (no interval); {why}"
         );

@@ -272,7 +272,8 @@ pub(super) fn term_name(t: &Term) -> String {
 
 /// Build time: per distinct build its median and the range of its builds (`build_ms_runs`;
 /// fewer than [`MIN_TIMED_RUNS`] builds give no interval), then the mean (or `pool`) over the
-/// builds.
+/// builds. A row whose build was not timed (`build_timed = false`) is refused: its time is of
+/// an untimed build (all cores) or of the build that made a cache entry.
 pub(super) fn pool_build_time(
     name: &str,
     rows: &[&Row],
@@ -284,6 +285,13 @@ pub(super) fn pool_build_time(
         let Some(m) = r.num("build_ms") else {
             return Err(format!("`{name}`: a row has no build_ms"));
         };
+        if r.get("build_timed") == Some("false") {
+            return Err(format!(
+                "`{name}`: a row's build was not timed (build_timed = false: built untimed or \
+                 loaded from the build cache); its run must time its builds (run.time_builds, \
+                 or build_repeat above 1)"
+            ));
+        }
         let runs = r.nums("build_ms_runs");
         few += usize::from((runs.len() as f64) < MIN_TIMED_RUNS);
         v.push(m);

@@ -21,6 +21,8 @@ pub struct Built {
     /// Loaded from the build cache: the figures are those of the build that made the entry
     /// (the structure), plus the auxiliary arrays prepared now.
     pub cached: bool,
+    /// Built fresh and timed in this process ([`BuildPlan::timed`]): `build_timed`.
+    pub timed: bool,
     mem: MemoryReport,
     sah_cost: Option<f64>,
     /// `name=value;…` of the build report's extra figures.
@@ -145,10 +147,11 @@ pub fn build(
         }
     }
     let staged = family.stage.filter(|_| cache.is_some() && !plan.timed);
-    let (built, figures) = match staged {
+    let (mut built, figures) = match staged {
         Some(stage) => over_stage(&stage, tris, params, traversals, plan, used)?,
         None => fresh(family, tris, params, traversals, plan.repeat)?,
     };
+    built.timed = plan.timed;
     if let Some((c, codec, key)) = &cache {
         match c.store(key, codec, built.accel.as_ref(), figures) {
             Ok(()) => used.saved += 1,
@@ -257,6 +260,7 @@ fn finish(
         build_runs,
         build_ms: median(&mut times),
         cached,
+        timed: false,
         mem: accel.memory(),
         sah_cost: report.sah_cost,
         build_stats,
@@ -270,6 +274,7 @@ impl Built {
     /// alone, counts the auxiliary arrays that traversal reads).
     pub fn fill(&self, row: &mut Row, ti: usize) {
         row.build_ms = Some(self.build_ms);
+        row.build_timed = Some(self.timed);
         row.build_ms_runs = crate::experiment::timing::ms_list(&self.build_runs);
         row.build_cached = Some(self.cached);
         let mem = self.accel.memory_for(ti);
