@@ -208,5 +208,9 @@ fn one_build_per_process_is_decided_between_three_processes() {
     assert!(v[0].why.contains("build_timed = false"), "{}", v[0].why);
     let two = eval(&folder("two", &[1.0, 1.1]));
     assert_eq!(two[0].verdict, Verdict::Inconclusive, "{two:?}");
-    assert!(two[0].why.contains("fewer than 3 timed runs"), "{}", two[0].why);
+    assert!(
+        two[0].why.contains("fewer than 3 timed runs"),
+        "{}",
+        two[0].why
+    );
 }

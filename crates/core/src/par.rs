@@ -77,3 +77,28 @@ pub fn count(
     );
     (hits, stats)
 }
+
+thread_local! {
+    static UNTIMED_BUILD: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Run `f` as an untimed build (one whose time no claim reads, [`untimed_build_running`] true
+/// on this thread meanwhile): a builder whose algorithm allows it may then split its work over
+/// the current rayon pool, its output identical to its serial build's. Timed builds run
+/// outside it and keep the paper's single-threaded builder.
+pub fn as_untimed_build<R>(f: impl FnOnce() -> R) -> R {
+    /// Puts the flag back as it was, also when `f` unwinds.
+    struct Restore(bool);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            UNTIMED_BUILD.with(|c| c.set(self.0));
+        }
+    }
+    let _restore = Restore(UNTIMED_BUILD.with(|c| c.replace(true)));
+    f()
+}
+
+/// Whether this thread is in [`as_untimed_build`].
+pub fn untimed_build_running() -> bool {
+    UNTIMED_BUILD.with(|c| c.get())
+}

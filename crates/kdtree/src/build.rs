@@ -27,6 +27,7 @@
 //! touches. Should clipping leave nothing (rounding), the cut-back box is kept.
 
 use crate::{split_cell, BoxMeasure, KdBuilder, KdNode, KdParams};
+use std::sync::atomic::{AtomicU64, Ordering};
 use tb_core::{Aabb, Triangle};
 
 pub struct Output {
@@ -131,6 +132,10 @@ struct Builder<'a, M: BoxMeasure> {
     extra: u64,
     /// Leaves made because a split would have gone over the budget.
     budget_leaves: u64,
+    /// Build the children of large nodes as rayon tasks ([`Builder::children`]).
+    parallel: bool,
+    /// A parallel build's charges to the budget, shared by its tasks ([`build`]).
+    shared: Option<&'a AtomicU64>,
     nodes: Vec<KdNode>,
     refs: Vec<u32>,
     events: Vec<u64>,
@@ -166,11 +171,29 @@ fn scaled_measure<M: BoxMeasure>(m: &M, scale: f32, cell: &Aabb) -> f32 {
 impl<M: BoxMeasure> Builder<'_, M> {
     /// Whether splitting `n` references at `s` stays within the reference budget (charged
     /// with the children's references the SAH counted, so no further pass over them).
+    /// A parallel build charges its tasks' splits in whatever order they come, to the counter
+    /// they share.
     fn within_budget(&mut self, n: usize, s: &Split) -> bool {
         let added = (s.refs as u64).saturating_sub(n as u64);
-        let ok = self.extra + added <= self.extra_budget;
+        let ok = match self.shared {
+            None => self.extra + added <= self.extra_budget,
+            Some(total) => total.fetch_add(added, Ordering::Relaxed) + added <= self.extra_budget,
+        };
         self.budget_leaves += u64::from(!ok);
         ok
+    }
+
+    /// Charge a split of `n` references into children of `children` references in all, the
+    /// SAH having counted `counted` ([`Split::refs`]). A parallel build's shared counter takes
+    /// the larger of the two, so that it bounds what the serial build checks at every split
+    /// ([`build`]).
+    fn charge(&mut self, n: u64, counted: u32, children: usize) {
+        let added = (children as u64).saturating_sub(n);
+        self.extra += added;
+        if let Some(total) = self.shared {
+            let more = added.saturating_sub((counted as u64).saturating_sub(n));
+            total.fetch_add(more, Ordering::Relaxed);
+        }
     }
 
     fn find_split(
@@ -356,16 +379,85 @@ impl<M: BoxMeasure> Builder<'_, M> {
                 }
             }
         }
-        self.extra += (left.len() + right.len()) as u64 - n.min((left.len() + right.len()) as u64);
+        self.charge(n, s.refs, left.len() + right.len());
+        self.children(
+            a,
+            s.pos,
+            n as usize,
+            move |b| b.node(left, lc, depth + 1),
+            move |b| b.node(right, rc, depth + 1),
+        );
+    }
+
+    /// An interior node splitting `axis` at `pos` over `n` references, then its left subtree
+    /// (`left`) and its right one (`right`), in depth-first order. With `parallel` and at least
+    /// [`PARALLEL_MIN`] references the two subtrees are built as rayon tasks, each into a
+    /// builder of its own, and appended in the same order, their links and reference offsets
+    /// moved to where they land: the same nodes and references as one builder makes.
+    fn children(
+        &mut self,
+        axis: usize,
+        pos: f32,
+        n: usize,
+        left: impl FnOnce(&mut Self) + Send,
+        right: impl FnOnce(&mut Self) + Send,
+    ) {
         let idx = self.nodes.len();
         self.nodes.push(KdNode::leaf(0, 0));
-        self.node(left, lc, depth + 1);
+        if self.parallel && n >= PARALLEL_MIN {
+            let (mut lb, mut rb) = (self.fresh(), self.fresh());
+            rayon::join(|| left(&mut lb), || right(&mut rb));
+            self.append(lb);
+            self.link(idx, axis, pos);
+            self.append(rb);
+        } else {
+            left(self);
+            self.link(idx, axis, pos);
+            right(self);
+        }
+    }
+
+    /// Node `idx` becomes the interior node whose right child is the next node made.
+    fn link(&mut self, idx: usize, axis: usize, pos: f32) {
         let right_idx = self.nodes.len();
         assert!(right_idx < 1 << 30, "kd-tree: too many nodes");
-        self.nodes[idx] = KdNode::interior(a, s.pos, right_idx as u32);
-        self.node(right, rc, depth + 1);
+        self.nodes[idx] = KdNode::interior(axis, pos, right_idx as u32);
+    }
+
+    /// A builder of the same scene and parameters with nothing built yet.
+    fn fresh(&self) -> Self {
+        Builder {
+            extra: 0,
+            budget_leaves: 0,
+            nodes: Vec::new(),
+            refs: Vec::new(),
+            events: Vec::new(),
+            bins: vec![0; self.bins.len()],
+            bin_bounds: vec![0.0; self.bin_bounds.len()],
+            ..*self
+        }
+    }
+
+    /// Append the subtree `b` built: its links and leaves' offsets moved by the nodes and
+    /// references already here.
+    fn append(&mut self, b: Self) {
+        let (base, refs) = (self.nodes.len() as u32, self.refs.len() as u32);
+        self.nodes.extend(b.nodes.iter().map(|n| {
+            if n.is_leaf() {
+                KdNode::leaf(n.offset() as u32 + refs, n.count())
+            } else {
+                KdNode::interior(n.axis(), n.split(), n.link() as u32 + base)
+            }
+        }));
+        self.refs.extend_from_slice(&b.refs);
+        self.extra += b.extra;
+        self.budget_leaves += b.budget_leaves;
     }
 }
+
+/// The fewest references of a node whose two subtrees [`Builder::children`] builds as rayon
+/// tasks: below it a task costs more than it saves.
+const PARALLEL_MIN: usize = 4096;
 
 /// Nodes with at most this many references are built by [`Builder::node`] (sorting their
 /// events) even by the O(N log N) sweep: the tree is the same, the lists cost more there.
@@ -513,14 +605,14 @@ impl<M: BoxMeasure> Builder<'_, M> {
             ev_r[axis] = Events::merge(kr, Events::of(&right, new_r.iter().copied(), axis));
         }
         drop((map_l, map_r));
-        self.extra += (left.len() + right.len()) as u64 - n.min((left.len() + right.len()) as u64);
-        let idx = self.nodes.len();
-        self.nodes.push(KdNode::leaf(0, 0));
-        self.node_sweep(left, ev_l, lc, depth + 1);
-        let right_idx = self.nodes.len();
-        assert!(right_idx < 1 << 30, "kd-tree: too many nodes");
-        self.nodes[idx] = KdNode::interior(a, s.pos, right_idx as u32);
-        self.node_sweep(right, ev_r, rc, depth + 1);
+        self.charge(n, s.refs, left.len() + right.len());
+        self.children(
+            a,
+            s.pos,
+            n as usize,
+            move |b| b.node_sweep(left, ev_l, lc, depth + 1),
+            move |b| b.node_sweep(right, ev_r, rc, depth + 1),
+        );
     }
 }
 
@@ -536,15 +628,47 @@ pub fn build<M: BoxMeasure>(tris: &[Triangle], p: &KdParams, m: &M) -> Output {
         })
         .collect();
     let bounds = refs.iter().fold(Aabb::EMPTY, |b, r| b.union(&r.b));
+    let budget = (MAX_REFS_PER_TRIANGLE - 1) * refs.len() as u64;
+    // An untimed build may use the pool ([`tb_core::par::as_untimed_build`]). The serial build
+    // checks each split against the budget with the references added before it in depth-first
+    // order; the parallel one's tasks cannot know that order, so they charge every split
+    // (the larger of what the SAH counted and what the split made) to one shared counter. Where
+    // no split was refused and the whole charge stays within the budget, every check of the
+    // serial build passes too, and its tree is this one; else the serial build runs (soon: a
+    // task stops splitting once the counter passes the budget).
+    let parallel = tb_core::par::untimed_build_running() && rayon::current_num_threads() > 1;
+    if parallel {
+        let total = AtomicU64::new(0);
+        let b = run(tris, p, m, refs.clone(), bounds, budget, Some(&total));
+        if b.budget_leaves == 0 && total.load(Ordering::Relaxed) <= budget {
+            return output(b, bounds);
+        }
+    }
+    output(run(tris, p, m, refs, bounds, budget, None), bounds)
+}
+
+/// Build over `refs` in `bounds` with `extra_budget` ([`MAX_REFS_PER_TRIANGLE`]): with a
+/// `shared` counter the subtrees of large nodes as rayon tasks charging it.
+fn run<'a, M: BoxMeasure>(
+    tris: &'a [Triangle],
+    p: &'a KdParams,
+    m: &'a M,
+    refs: Vec<Ref>,
+    bounds: Aabb,
+    extra_budget: u64,
+    shared: Option<&'a AtomicU64>,
+) -> Builder<'a, M> {
     let mut b = Builder {
         tris,
         p,
         m,
         scale: measure_scale(&bounds),
         depth_limit: p.depth_limit(tris.len()),
-        extra_budget: (MAX_REFS_PER_TRIANGLE - 1) * refs.len() as u64,
+        extra_budget,
         extra: 0,
         budget_leaves: 0,
+        parallel: shared.is_some(),
+        shared,
         nodes: Vec::new(),
         refs: Vec::new(),
         events: Vec::new(),
@@ -559,6 +683,10 @@ pub fn build<M: BoxMeasure>(tris: &[Triangle], p: &KdParams, m: &M) -> Output {
             b.node(refs, bounds, 0);
         }
     }
+    b
+}
+
+fn output<M: BoxMeasure>(b: Builder<'_, M>, bounds: Aabb) -> Output {
     Output {
         nodes: b.nodes,
         prim_refs: b.refs,

@@ -149,7 +149,11 @@ pub fn build(
     let staged = family.stage.filter(|_| cache.is_some() && !plan.timed);
     let (mut built, figures) = match staged {
         Some(stage) => over_stage(&stage, tris, params, traversals, plan, used)?,
-        None => fresh(family, tris, params, traversals, plan.repeat)?,
+        None if plan.timed => fresh(family, tris, params, traversals, plan.repeat)?,
+        // No claim reads this build's time: its builder may use every core.
+        None => {
+            tb_core::par::as_untimed_build(|| fresh(family, tris, params, traversals, plan.repeat))?
+        }
     };
     built.timed = plan.timed;
     if let Some((c, codec, key)) = &cache {
