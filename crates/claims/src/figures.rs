@@ -223,7 +223,7 @@ pub fn markdown(figs: &[Figure], notice: Option<&str>) -> String {
 mod tests {
     use super::*;
 
-    /// Issue 62, item 10: the README's set-up makes `.venv`; reproduce then draws with it,
+    /// The README's set-up makes `.venv`; reproduce then draws with it,
     /// without a variable to set; `TRACE_BENCH_PYTHON` still wins.
     #[test]
     fn the_set_up_venv_draws_the_figures() {

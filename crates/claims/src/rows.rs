@@ -129,7 +129,7 @@ fn csv_files(p: &Path) -> Result<Vec<PathBuf>, Error> {
 
 /// The CSV files a folder given as a source holds: its own ([`csv_files`]), or where it has
 /// none, those of its subfolders, each taken the same way (a reproduce or reference folder as
-/// committed: `runs/PAPER/N-RUN/results.csv`; issue 62, item 9). A folder with CSVs of its
+/// committed: `runs/PAPER/N-RUN/results.csv`). A folder with CSVs of its
 /// own is not entered further (a run of several processes: the merged rows, not each
 /// process's again).
 fn source_files(p: &Path, depth: usize) -> Result<Vec<PathBuf>, Error> {
@@ -274,7 +274,7 @@ fn read_csv(f: &Path, origin: &Arc<PathBuf>) -> Result<Vec<Row>, Error> {
     let ours = is_results || super::columns::is_ours(&header);
     if is_results {
         // Every cell of its column's type, as `check` reads it (a counter "abc", rays -7, a
-        // NaN: refused naming the row, never read as a missing figure: issue 62).
+        // NaN: refused naming the row, never read as a missing figure).
         tb_results::output::read_csv(f)?;
     }
     let mut out = Vec::new();

@@ -42,7 +42,7 @@ impl Stability {
             + self.time_decided_once.len()
     }
 
-    /// The reports agree as the command asks: some claim in common (issue 62: two reports
+    /// The reports agree as the command asks: some claim in common (two reports
     /// with nothing in common compare nothing), no counter claim moved, no time claim between
     /// agree and disagree.
     pub fn holds(&self) -> bool {
@@ -140,7 +140,7 @@ mod tests {
         f
     }
 
-    /// Issue 62, item 5: reports with no claim in common compare nothing, and do not hold.
+    /// Reports with no claim in common compare nothing, and do not hold.
     #[test]
     fn reports_with_nothing_in_common_do_not_hold() {
         let dir = tempfile::tempdir().unwrap();

@@ -1,4 +1,4 @@
-//! The environment variables trace-bench reads, each checked before any work (issue 62: every
+//! The environment variables trace-bench reads, each checked before any work (every
 //! value a user gives is checked where it is read, with one line naming it). The readers keep
 //! their own parsing (the allocator reads its two flags without allocating); this refuses a
 //! value none of them would take, instead of its silent default.

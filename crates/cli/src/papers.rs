@@ -106,7 +106,7 @@ impl ReproduceArgs {
                 r.display()
             );
         }
-        // Further results are read before the first run, not after the last (issue 62).
+        // Further results are read before the first run, not after the last.
         for w in &with {
             tb_claims::RowSet::read_results(std::slice::from_ref(w))
                 .with_context(|| format!("--with {}", w.display()))?;

@@ -26,8 +26,8 @@ pub fn length(v: Vec3) -> f32 {
 /// `v.normalize_or_zero()`, also where the sum of squares leaves f32's range (the direction
 /// between two points at 1e30 or 1e-30 apart): there `v` is first divided by its largest
 /// component. Zero for a zero or non-finite `v`. Where the squares are in range the result is
-/// `v.normalize_or_zero()` bit for bit (issue 30 item 4: cameras, aimed rays and normals at
-/// extreme scales).
+/// `v.normalize_or_zero()` bit for bit (for cameras, aimed rays and normals at extreme
+/// scales).
 pub fn unit(v: Vec3) -> Vec3 {
     let l2 = v.length_squared();
     if l2.is_normal() && l2.is_finite() {

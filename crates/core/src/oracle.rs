@@ -17,7 +17,7 @@ const GPU_UNROLL: u32 = 8;
 ///
 /// Every triangle is given to the very test the structures call, with nothing in front of it:
 /// a box test culling triangles first would hide a false hit of the triangle test from the
-/// comparison (issue 30 item 1: a hit 1.6e-8 behind a shadow ray's origin that every kd, grid
+/// comparison (it once hid one: a hit 1.6e-8 behind a shadow ray's origin that every kd, grid
 /// and R-tree traversal reported and the oracle's box culling rejected). Hits behind the
 /// origin are the triangle test's to reject ([`crate::tri::Watertight`]'s conservative `t`).
 pub struct BruteForce {

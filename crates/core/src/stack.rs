@@ -1,4 +1,4 @@
-//! The traversal stack every CPU walk keeps (issue 45: one traversal vocabulary): the kd-tree
+//! The traversal stack every CPU walk keeps (one traversal vocabulary): the kd-tree
 //! walks of the review (Hapala & Havran 2011 §3.2, §5), the BVH walks (pbrt-v3 §4.3.5; the
 //! wide walk), the R-tree's `ordered` and `stack` (Feldmann 2015 §4.2, §5.2) and sparse
 //! boxes' BTR (Havran & Bittner 2007 §5.2). Short stacks with their own rule (the kd

@@ -377,7 +377,7 @@ impl Sheared {
     /// `2^-32` of its distance from the origin across), the test finishes in f64
     /// ([`Sheared::in_f64`]). The GPU's prelude does the same operation for operation
     /// (`watertight` in tb-gpu's `shaders/prelude.wgsl`), so that both devices answer alike at
-    /// every scale (issue 62, item 1).
+    /// every scale.
     #[cold]
     #[inline(never)]
     fn finish(&self, p: &WatertightPre, ray: &Ray, tmax: f32) -> Option<(f32, f32, f32)> {
@@ -411,7 +411,7 @@ impl Sheared {
     /// The rest of the test in f64 from the f32 sheared vertices: edge functions, determinant,
     /// distance and the error bound of `t` cannot leave f64's range for any f32 input, so a
     /// scene at 1e-30 or 1e30 is hit where the f32 products would underflow to zero or
-    /// overflow (issue 30, item 4). The bound keeps f32's `γ` (it bounds the f32 shear's
+    /// overflow. The bound keeps f32's `γ` (it bounds the f32 shear's
     /// error, the larger one).
     #[cold]
     #[inline(never)]
@@ -461,7 +461,7 @@ impl Sheared {
 
 /// The rounding-error bound of the watertight test's `t` (Pharr, Jakob and Humphreys, PBR
 /// 4th ed., §6.8.7, "Conservative Ray–Triangle t Values"): a computed `t` at or below it may
-/// belong to a plane behind the ray's origin, so it is no hit. Issue 30 item 1: a shadow ray
+/// belong to a plane behind the ray's origin, so it is no hit. Without it, a shadow ray
 /// starting one ulp in front of a box face got `t = 3.6e-8` from that face, whose plane is
 /// 1.6e-8 behind the origin. `az`, `bz`, `cz` are scaled by `sz`; `inv = 1 / det`. The
 /// products are grouped so that a determinant in [`in_f32_range`] cannot overflow them
@@ -977,7 +977,7 @@ mod tests {
         assert!(hits > 1000, "too few hits ({hits}) to mean anything");
     }
 
-    /// Issue 62, item 1: where f32's products leave their range only because the whole scene is
+    /// Where f32's products leave their range only because the whole scene is
     /// scaled (by `2^±100`, about 1e±30), the watertight test's finish ([`Sheared::finish`])
     /// answers bit for bit as the test does at scale 1, the distance scaled alike; the GPU's
     /// prelude does the same, so both devices agree at every scale.
@@ -1033,12 +1033,12 @@ mod tests {
         n.dot(d(tri.v0) - d(r.origin)) / n.dot(d(r.dir))
     }
 
-    /// Issue 30 item 1 and item 4 at the triangle test: rays starting on a triangle's plane,
-    /// a few ulps in front of or behind it, in every direction, at scales 1e-30 to 1e30. The
-    /// watertight test reports no hit whose plane lies behind the origin (conservative `t`;
-    /// Möller–Trumbore neither, with its own bound), hits at every scale (scaled by a power of two,
-    /// else in f64, where f32's products would leave their range), and its four-wide form equals
-    /// the scalar one bit for bit.
+    /// Hits behind the origin and extreme scales at the triangle test: rays starting on a
+    /// triangle's plane, a few ulps in front of or behind it, in every direction, at scales
+    /// 1e-30 to 1e30. The watertight test reports no hit whose plane lies behind the origin
+    /// (conservative `t`; Möller–Trumbore neither, with its own bound), hits at every scale
+    /// (scaled by a power of two, else in f64, where f32's products would leave their range),
+    /// and its four-wide form equals the scalar one bit for bit.
     #[test]
     fn no_hit_behind_the_origin_at_any_scale() {
         let mut rnd = uniform(0x2545f4914f6cdd1d);

@@ -6,7 +6,7 @@
 //! Each program is compiled twice from the same source: with wgpu's runtime checks (bounds
 //! checks on every access, a bound on every loop) for the counting variant, and as a trusted
 //! module without them ([`wgpu::ShaderRuntimeChecks::unchecked`]) for the timed variant and
-//! the sort passes, so that timed kernels run as written (issue 44). The trusted module is
+//! the sort passes, so that timed kernels run as written. The trusted module is
 //! the same WGSL, validated by naga as the checked one; every program's timed variant is
 //! tested ray for ray against its counting (checked) variant and the CPU (tb-harness's
 //! `gpu_oracle`, the structure crates' GPU tests). A program may keep the loop bound

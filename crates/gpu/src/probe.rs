@@ -1,5 +1,5 @@
-//! The fixed-work probe (issue 44: "a fixed-work probe kernel timed beside every row, and a
-//! row flagged when the probe moves"): a compute-bound kernel of fixed size (4096 workgroups
+//! The fixed-work probe, timed beside every row so that a row is flagged when the probe
+//! moves: a compute-bound kernel of fixed size (4096 workgroups
 //! of 64 invocations, each 128 steps of two dependent FMAs, enough invocations to fill a
 //! large GPU), timed as a sample of back-to-back passes like a trace. The number of passes is
 //! fixed at the first probe of a device (as many as last [`PROBE_MIN_MS`], at most

@@ -129,9 +129,10 @@ pub struct Timing {
 
 /// A timed trace ([`Gpu::trace`] of the timed variant) is a sample of back-to-back passes over
 /// the batch in one compute pass, as many as make it last at least this long (measured by a
-/// first, untimed pass; at most [`MAX_PASSES`]; [`Gpu::set_timed_sample`]), so that short batches time the GPU at a
-/// steady state rather than one launch between host work (issue 44: the same SBVH pass
-/// timed 0.34 ms and 1.8 ms in one run). Repeated passes write the same hits.
+/// first, untimed pass; at most [`MAX_PASSES`]; [`Gpu::set_timed_sample`]), so that short
+/// batches time the GPU at a steady state rather than one launch between host work (timed one
+/// launch at a time, the same SBVH pass took 0.34 ms and 1.8 ms in one run). Repeated passes
+/// write the same hits.
 pub const MIN_SAMPLE_MS: f64 = 20.0;
 
 /// The most passes in one timed sample.
@@ -362,7 +363,7 @@ impl Gpu {
     ///
     /// The first pass of a pipeline variant (program, query, triangle test, counting) runs
     /// twice and returns the second's times: a driver may compile the shader at its first
-    /// dispatch (issue 46: 567 ms for the first batch against 0.8 ms for the next), which is
+    /// dispatch (a first batch took 567 ms against 0.8 ms for the next, once measured), which is
     /// no part of a trace's time, whatever warm-up the caller asked for.
     ///
     /// The timed variant (`count == false`) then times a sample of back-to-back passes lasting

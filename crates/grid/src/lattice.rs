@@ -138,9 +138,9 @@ pub fn resolution(
 
 /// References a grid may hold per triangle (counted as the voxels each triangle's box covers,
 /// an upper bound of the exact references) before its resolution is lowered: the bound of
-/// every grid's memory for any input (issue 30 item 2). The paper scenes hold at most 9
+/// every grid's memory for any input. The paper scenes hold at most 9
 /// exact references per triangle at the papers' densities and never reach it; 2,000
-/// overlapping coplanar triangles held 60,000 each in the two-level grid (1.5 GB) before.
+/// overlapping coplanar triangles held 60,000 each in the two-level grid (1.5 GB) without it.
 pub const MAX_REFS_PER_TRIANGLE: u64 = 64;
 
 /// The voxels of `lat` that the boxes of `tris[ids]` cover (as [`Lattice::range`] finds them,

@@ -147,8 +147,8 @@ struct Builder<'a, M: BoxMeasure> {
 
 /// The power of two [`scaled_measure`] scales cells by: 1 where the scene's extent lies in
 /// `[2⁻³², 2³²]` (every cell's area then stays in f32's range and the scaling would change
-/// nothing), else the power of two that brings the largest extent to about 1 (issue 30
-/// item 4: at 1e30 every area overflowed, at 1e-30 every area was 0, and the builds stopped
+/// nothing), else the power of two that brings the largest extent to about 1 (without it,
+/// at 1e30 every area overflowed, at 1e-30 every area was 0, and the builds stopped
 /// at the root).
 fn measure_scale(bounds: &Aabb) -> f32 {
     let e = bounds.extent().max_element();
@@ -701,7 +701,7 @@ mod tests {
     use crate::SurfaceArea;
     use tb_core::Vec3;
 
-    /// Issue 30 item 4: the same triangles at 1e-30 and 1e30 are split as at 1 (every area
+    /// The same triangles at 1e-30 and 1e30 are split as at 1 (every area
     /// once overflowed or vanished and the build stopped at the root), and at 1 the scaling
     /// does not act.
     #[test]

@@ -108,8 +108,8 @@ pub(crate) const MAX_ON_CHIP_SHORT_STACK: usize = 16;
 /// 16 bytes, 32 registers, shifted on push and pop with constant indices).
 pub(crate) const MAX_REGISTER_SHORT_STACK: usize = 8;
 
-/// [`SOURCE`] with the short stack in registers (issue 44: "the kd kernels' short stack in
-/// registers"): `shaders/kdtree.wgsl`'s `reg_push` and `reg_pop`.
+/// [`SOURCE`] with the short stack in registers: `shaders/kdtree.wgsl`'s `reg_push` and
+/// `reg_pop`.
 const SOURCE_IN_REGISTERS: &str = concat!(
     "const SHORT_IN_REGISTERS: bool = true;\nconst SHORT_ON_CHIP: bool = false;\nconst SHORT_SLOTS: u32 = 1u;\nconst LOCAL_SLOTS: u32 = 1u;\n",
     include_str!("../shaders/kdtree.wgsl")

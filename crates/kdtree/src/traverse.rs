@@ -289,7 +289,7 @@ pub fn decide<L: Layout>(l: L, n: KdNode, idx: usize, s: &Setup, tn: f32, tf: f3
 /// same machine code in every kernel. Left to itself the compiler chose moves in some kernels
 /// and a branch in others (`stack-spilling`): with equal counters, the branch ran coherent
 /// rays (predicted: the next node's load issues early) 20-28 % faster and random rays 5-9 %
-/// slower, so the time column compared code generation rather than algorithms (issue 31).
+/// slower, so the time column compared code generation rather than algorithms.
 #[inline(always)]
 // Over clippy's seven: the interior step's scalars, inlined into every kd kernel: a struct would be one more thing between the compiler and its registers.
 #[allow(clippy::too_many_arguments)]

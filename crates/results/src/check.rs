@@ -123,7 +123,7 @@ pub fn compare(baseline: &[Row], current: &[Row], tolerance: f64) -> Vec<Finding
                         continue;
                     }
                     // A counter that is not a number (NaN, ±inf) in either file is no figure a
-                    // run writes: it fails, whatever the rule (issue 62: NaN passed every
+                    // run writes: it fails, whatever the rule (a NaN would pass every
                     // comparison by comparing false).
                     let grew = !bv.is_finite()
                         || !cv.is_finite()
@@ -246,7 +246,7 @@ mod tests {
         assert!(compare(&base, &[bad], 0.5).iter().any(|f| f.failed));
     }
 
-    /// Issue 62, item 3: a counter that is not a number, in the results or in the baseline
+    /// A counter that is not a number, in the results or in the baseline
     /// (both alike too), fails whatever the tolerance; so does an infinite one.
     #[test]
     fn a_counter_that_is_not_a_number_fails() {
@@ -269,7 +269,7 @@ mod tests {
         assert_eq!(bad_tolerance(0.0), None);
     }
 
-    /// The corruptions a hand-edited or twice-written results file shows (issue 30): each
+    /// The corruptions a hand-edited or twice-written results file shows: each
     /// fails the check whatever the tolerance, and the untouched file passes.
     #[test]
     fn corrupted_rows_fail() {

@@ -1,6 +1,6 @@
-//! No number that is not a number: every float a config or claims file gives is finite
-//! (issue 62). TOML writes `nan` and `inf`, which serde then takes as any other float, and a
-//! NaN compares false with every bound, so a check written `if x < lo || x > hi` lets it
+//! No number that is not a number: every float a config or claims file gives is finite.
+//! TOML writes `nan` and `inf`, which serde then takes as any other float, and a NaN compares
+//! false with every bound, so a check written `if x < lo || x > hi` lets it
 //! through. [`check_toml`] refuses such a value anywhere in a file, naming its key and line,
 //! before the file's own checks read it: no value of trace-bench's files means "infinite" or
 //! "not a number".

@@ -22,7 +22,7 @@ pub mod tables;
 pub use error::Error;
 
 /// The exit status of a `trace-bench run` that completed every row (all written) but found
-/// rows with oracle mismatches where the traversal must have none (issue 62): named at the
+/// rows with oracle mismatches where the traversal must have none: named at the
 /// run's end. `run --processes` and `reproduce` take it from a child as a completed run,
 /// not a failed one, and pass it on (`run`) or say so in the report (`reproduce`).
 pub const EXIT_MISMATCHES: i32 = 3;

@@ -23,7 +23,7 @@ pub const JSON_EVERY: Duration = Duration::from_secs(1);
 
 /// A float cell of a row: empty (`None`) or a finite number. A NaN or infinite figure is no
 /// measurement a run writes (rates are guarded, `timing`), and a NaN compares false with every
-/// bound, so `check`, `claims` and `merge` would pass it (issue 62): reading refuses it,
+/// bound, so `check`, `claims` and `merge` would pass it: reading refuses it,
 /// naming the row.
 fn finite<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
     let v = Option::<f64>::deserialize(d)?;
@@ -298,7 +298,7 @@ fn parse_csv(path: &Path, text: &str) -> Result<Vec<Row>, Error> {
     let mut r = csv::Reader::from_reader(text.as_bytes());
     let header = r.headers().cloned().unwrap_or_default();
     // A file of other columns (a plain text file, another tool's CSV) is no results.csv:
-    // reading it as zero rows would let `check` pass on nothing (issue 62).
+    // reading it as zero rows would let `check` pass on nothing.
     if !header.is_empty()
         && !["scene", "structure"]
             .iter()

@@ -416,7 +416,7 @@ mod tests {
         assert!(e.contains("m must be in 2..=M/2"), "{e}");
     }
 
-    /// Issue 46 item 5: identical triangles build a tree of poorly filled nodes (every key
+    /// Identical triangles build a tree of poorly filled nodes (every key
     /// ties, every split takes the first distribution), whose complete layout grows a level
     /// early. Under a lowered limit the insertion build refuses as soon as the tree grows a
     /// level over it, long before the last triangle, and says why; the default limit is

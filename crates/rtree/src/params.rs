@@ -15,7 +15,7 @@ tb_core::choice! {
     /// `r-star`, `r-star-srfc`) split overflowing nodes by Beckmann's rule with his ties
     /// (section 5.1: "we thus relied on the original approach"): least overlap, then least
     /// volume sum, then the first distribution. The `…-surface-ties` and
-    /// `min-overlap-enlargement` variants are ours (the rules before issue 42): they also
+    /// `min-overlap-enlargement` variants are ours (the rules used earlier): they also
     /// break the split's remaining ties by least surface sum.
     #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
     pub enum Strategy {
@@ -43,7 +43,7 @@ tb_core::choice! {
         /// configs (`configs/rtree*.toml`, `claims/feldmann-rtrees.toml`) use this reading.
         MinOverlap = "min-overlap",
         /// `min-overlap-enlargement`: the other reading of "minimize the mutual overlap", and
-        /// our rule before issue 42: least overlap *enlargement* at every level (Beckmann et
+        /// our earlier rule: least overlap *enlargement* at every level (Beckmann et
         /// al. 1990's leaf rule applied everywhere), ties by least volume enlargement, least
         /// volume, least surface enlargement; split ties by surface too.
         MinOverlapEnlargement = "min-overlap-enlargement",
@@ -54,7 +54,7 @@ tb_core::choice! {
         RStar = "r-star",
         /// `r-star-surface-ties`: ours, not the paper's: `r-star` whose remaining ties (flat
         /// boxes) go to least surface enlargement, then least surface; split ties by surface
-        /// too (our `r-star` before issue 42).
+        /// too (our earlier `r-star`).
         RStarSurfaceTies = "r-star-surface-ties",
         /// `r-star-srfc`: the paper's R*-treeSrfc: least surface enlargement at intermediate
         /// levels (ties by least surface, then least volume enlargement), the R*-tree's rule

@@ -104,7 +104,7 @@ pub fn morton2(x: u32, y: u32) -> u64 {
 mod tests {
     use super::*;
 
-    /// Issue 30 item 4: a camera at 1e30 or 1e-30 passes the check (no false "parallel" or
+    /// A camera at 1e30 or 1e-30 passes the check (no false "parallel" or
     /// "must differ") and makes the directions of the same camera at 1, and where the squares
     /// are in range its directions are `normalize()`'s bit for bit.
     #[test]

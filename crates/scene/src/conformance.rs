@@ -66,9 +66,9 @@ const PROCEDURAL: &[&str] = &[
 ];
 
 /// The CPU oracle suite's scenes ([`check`], [`assert_conforms`]): [`suite_scenes`] and
-/// `near-surfaces` at scales 1e-30 and 1e30 (issue 30's property test at the extremes; scale 1
+/// `near-surfaces` at scales 1e-30 and 1e30 (the property test at the extremes; scale 1
 /// is among the stress scenes). The GPU checks use them too with the watertight test (its
-/// finish where f32's products leave their range, `watertight_wide`: issue 62), and
+/// finish where f32's products leave their range, `watertight_wide`), and
 /// [`suite_scenes`] with Möller–Trumbore, which has no such finish on either device
 /// (docs/results.md, "Numerical notes").
 pub fn oracle_scenes() -> Vec<Scene> {

@@ -31,7 +31,7 @@
 //!   from the last augmented node, or from the first parent augmented node holding it, each
 //!   parent's `ComputeMaxT` one box test; a ray lying in a split plane walked once per side
 //!   of it, as `seq` walks it); `sltr-handover` the same but such a ray handed to `sltr-mask`
-//!   (the reading before issue 42); `sltr-mask` / `sltr-mask-root` our variant of it
+//!   (`sltr`'s earlier reading); `sltr-mask` / `sltr-mask-root` our variant of it
 //!   (no shift and no point location: the next leaf from a per-depth mask, exactly HTR's
 //!   leaves). The paper's configs and claims read `sltr`. See module `traverse` for the
 //!   kernels and how Algorithm 3's epsilon is made exact.
@@ -334,8 +334,8 @@ impl Structure for SparseBoxes {
                 "Havran & Bittner 2007 §5.3, Alg. 3",
                 "SLTR (Alg. 3) as `sltr`, but a ray lying in a split plane handed to \
                  `sltr-mask` from the root (keeping its closest hit) instead of walked once per \
-                 side of the plane as `seq` walks it: `sltr`'s reading before issue 42's \
-                 fidelity item; `handovers` counts the rays handed over",
+                 side of the plane as `seq` walks it: `sltr`'s earlier, less faithful \
+                 reading; `handovers` counts the rays handed over",
             )
             .capped()
             .reads(&[BOXES_AUX]),

@@ -1,4 +1,4 @@
-//! What `reproduce` checks before the first run (issue 62): every `--with`, every run's config
+//! What `reproduce` checks before the first run: every `--with`, every run's config
 //! with its edits, where the runs write, and that no other process writes into a run's folder.
 
 use super::{writes, Options, PaperPlan, Runs};

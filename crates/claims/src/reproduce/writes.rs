@@ -1,4 +1,4 @@
-//! Where a claims file's runs may write (issue 62, item 8; the trust model is claims/README.md's
+//! Where a claims file's runs may write (the trust model is claims/README.md's
 //! "What a claims file may do"). A run is a trace-bench subcommand of the same binary, never
 //! another program; each run writes its run folder under the report folder. An `exec` run's
 //! written paths (`--out`, `--csv`) must lie in its folder (`{out}`, no `..` climbing out of

@@ -361,7 +361,7 @@ mod tests {
         assert!(merged_somewhere, "no scene of the suite merged a cell");
     }
 
-    /// Issue 42: a cap that lowers an octree below equation 1's depth says so in the build
+    /// A cap that lowers an octree below equation 1's depth says so in the build
     /// figures (`depth_cap`, `depth_capped_cells`); a build it does not touch has neither.
     #[test]
     fn depth_caps_are_reported_where_they_act() {
@@ -392,7 +392,7 @@ mod tests {
         assert!(figure(&capped, "depth_capped_cells").is_some_and(|n| n >= 1.0));
     }
 
-    /// Issue 42 (§6.1, Figure 5: the expansion's share of the build): the build reports its
+    /// §6.1, Figure 5 (the expansion's share of the build): the build reports its
     /// whole time beside its phases', measured in the same build, the phases within it.
     #[test]
     fn build_total_holds_the_phases() {

@@ -22,7 +22,7 @@
 //! | `ray-limits` | origins on surfaces with `tmin = 0`, `tmax` exactly at a hit, huge and empty intervals, denormal, signed-zero and scaled directions |
 //! | `duplicates` | identical, permuted, coplanar-overlapping and co-centred triangles (ties, unsplittable clusters) |
 //! | `plane-origins` | a lattice of boxes whose faces are split planes; origins exactly in those planes, on their edges and corners, directions with and without a normal component, the normal component at every binary scale down to the smallest subnormal (both signs) |
-//! | `near-surfaces` | rays starting on, a few ulps off and inside triangles, on box faces and in the axis planes through vertices, in all directions, at `scale` 1e-30 to 1e30 (issue 30's property test) |
+//! | `near-surfaces` | rays starting on, a few ulps off and inside triangles, on box faces and in the axis planes through vertices, in all directions, at `scale` 1e-30 to 1e30 (the property test) |
 //! | `thin-layers` | coplanar layers one ulp apart at coordinates ~1e6; rays crossing many one-ulp cells, grazing them and lying in them |
 //!
 //! Each scene has its own file (its [`BuiltinInfo`], parameter checks and generator); what they

@@ -1,7 +1,7 @@
 //! `stress/near-surfaces`: rays that start on, a few ulps beside and inside the mesh's
 //! triangles, on its boxes' faces and in the axis planes through its vertices (where kd-trees
 //! and grids put their split planes and cell walls), in every direction, at scale `scale`
-//! (1e-30 to 1e30). The property test of issue 30: every structure x traversal, with both
+//! (1e-30 to 1e30). The property test on them: every structure x traversal, with both
 //! triangle tests, answers these as the oracle does, and no answer is a hit behind the origin
 //! (the triangle tests' conservative `t`).
 

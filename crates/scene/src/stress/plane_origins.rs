@@ -22,10 +22,10 @@ pub(super) const INFO: BuiltinInfo = BuiltinInfo {
 /// `t = 0`), in the gap between boxes, on a cell edge or corner (two or three planes), with a
 /// random direction whose normal component is non-zero (either sign, also tiny), exactly `±0`
 /// (the ray lies in the plane: review §3.1's zero-extent case), or axis-parallel along the
-/// normal or along the plane (along cell faces and edges). Then, for issue 46's finding (a
-/// direction component below the normal range: `1/d` overflows to `±inf` and `0 · inf` is
-/// NaN at the plane), rays from the same kinds of origins whose normal component is `±2^-e`
-/// for every `e` from 0 to 149 (the smallest subnormal) and the issue's `1e-38` and `1e-40`,
+/// normal or along the plane (along cell faces and edges). Then, for a direction component
+/// below the normal range (`1/d` overflows to `±inf` and `0 · inf` is NaN at the plane),
+/// rays from the same kinds of origins whose normal component is `±2^-e` for every `e` from
+/// 0 to 149 (the smallest subnormal) and `1e-38` and `1e-40` (the values the fault was found at),
 /// the rest of the direction in the plane: unnormalised, so the tiny component is exact.
 pub(super) fn generate(seed: u64) -> Generated {
     let mut r = rng(seed, 9);
@@ -84,7 +84,7 @@ pub(super) fn generate(seed: u64) -> Generated {
     (tris, rays, view_from(Vec3::new(-0.7, 0.5, 1.0)))
 }
 
-/// Issue 46: origins in a lattice plane (on a face, in a gap, on an edge or a corner) and a
+/// Origins in a lattice plane (on a face, in a gap, on an edge or a corner) and a
 /// direction whose normal component is tiny, at every binary scale down to the smallest
 /// subnormal (`2^-149`), of both signs: the ray leaves the plane to the side of its sign, so
 /// a traversal must treat the plane's distance as `0`, not as "the ray lies in the plane".

@@ -52,8 +52,8 @@
 //!   leaves too. A ray through a cell edge or corner within rounding cannot be placed by one
 //!   point either, and is handed to `sltr-mask` from the root keeping its closest hit (one
 //!   restart, one `handovers`), as `sequential` hands it to kd-restart; on those rays the two
-//!   can differ (the share is the `handovers` column). `sltr-handover` is the reading before
-//!   issue 42: a ray lying in a split plane handed over as well. Where the paper is silent:
+//!   can differ (the share is the `handovers` column). `sltr-handover` is `sltr`'s
+//!   earlier reading: a ray lying in a split plane handed over as well. Where the paper is silent:
 //!   the start node's `tentry` is the ray's entry into the root box (the origin for a start
 //!   node below the root), a climb stops at the root, the step cap is a guard.
 //! - **`sltr-mask`** (our variant; the GPU kernel's walk): down to a leaf choosing the first

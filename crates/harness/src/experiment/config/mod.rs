@@ -312,7 +312,7 @@ pub fn parse_with(
     let file = shown.as_path();
     let cx = Ctx { file, text };
     let mut raw: RawConfig = toml::from_str(text).map_err(|e| syntax_error(file, text, &e))?;
-    // No float of the config is NaN or infinite (issue 62), whatever key reads it.
+    // No float of the config is NaN or infinite, whatever key reads it.
     tb_results::finite::check_toml(file, text)?;
 
     overrides::filter(&cx, &mut raw, &ov.scenes, &ov.structures)?;
@@ -390,7 +390,7 @@ pub fn parse_with(
     })
 }
 
-/// Everything [`load`] checks that needs no scene loaded (issue 62: `reproduce` checks each
+/// Everything [`load`] checks that needs no scene loaded (so that `reproduce` checks each
 /// run's config with its edits before the first run starts, not when that run starts): the
 /// syntax, finite numbers, the `--scene`/`--structure` filters, `[run]`, the structures and
 /// their parameters, the images settings, and per scene table its ray kinds, that its file

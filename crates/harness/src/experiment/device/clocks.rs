@@ -1,5 +1,5 @@
-//! The GPU's clocks beside its rows (issue 44: "the adapter's clocks recorded in the row where
-//! the driver exposes them"). NVIDIA's driver exposes them through `nvidia-smi`: on an NVIDIA
+//! The GPU's clocks beside its rows: the adapter's clocks recorded in the row where the
+//! driver exposes them. NVIDIA's driver exposes them through `nvidia-smi`: on an NVIDIA
 //! adapter the run starts it once, in loop mode (`--query-gpu=pci.device_id,clocks.sm,
 //! clocks.mem --loop-ms=100`), and a thread keeps its samples of the adapter's SM and memory clocks;
 //! a GPU row takes those sampled while its rows were timed (between the probes before and

@@ -1,6 +1,6 @@
 //! `run.interleave`: a view's builds made first and kept, then their rows timed together round
 //! by round (CPU rows per view x batch x triangle test x thread count, GPU rows per batch),
-//! so that a slow spell of the machine falls on every row of a round alike (issue 43).
+//! so that a slow spell of the machine falls on every row of a round alike.
 
 use super::*;
 

@@ -739,7 +739,7 @@ fn note_all_missed(row: &mut Row, batch: &str) {
     }
 }
 
-/// Whether a row's mismatches are wrong answers (issue 62): every structure and traversal
+/// Whether a row's mismatches are wrong answers: every structure and traversal
 /// answers as the oracle does with the watertight test (the conformance suite's rule), so a
 /// mismatch there is a fault, unless the row is documented to differ: Möller–Trumbore (its
 /// own misses at shared edges and in-plane rays, and beyond about 1e12: README, "Results
