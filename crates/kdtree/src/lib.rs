@@ -60,18 +60,17 @@ mod report;
 pub mod stackless;
 pub mod traverse;
 pub mod view;
+mod walks;
 
 #[cfg(test)]
 mod start_tests;
 
-use stackless::Stackless;
 use std::sync::{Arc, OnceLock};
 use tb_core::{
     build_with, dispatch, Aabb, AccelError, BuildReport, Family, MemoryReport, Structure,
     Traversal, TraversalInfo, Triangle,
 };
 use traverse::Tree;
-use view::Aux;
 
 pub use check::{check_trees, intersect, split_cell};
 pub use gpu::{gpu_header, KD_WGSL};
@@ -361,153 +360,40 @@ macro_rules! per_layout {
     };
 }
 
+/// The kd table from [`kd_walks!`]'s entries: each one's [`TraversalInfo`], its kernel
+/// compiled per layout ([`per_layout!`]) and its GPU program where it has one.
+macro_rules! kd_table {
+    ($(
+        $name:literal, $paper:literal, $doc:literal, [$($info:tt)*], gpu [$($gpu:path)?],
+        |$t:ident, $w:ident| $k:expr;
+    )*) => {
+        &[$(
+            kd_row!(
+                TraversalInfo::new($name, $paper, $doc) $($info)*,
+                per_layout!(|$t, $w| $k)
+                $(, $gpu)?
+            )
+        ),*]
+    };
+}
+
+/// One row of [`kd_table!`]: CPU only, or with its GPU program.
+macro_rules! kd_row {
+    ($info:expr, $trace:expr) => {
+        Traversal::cpu($info, $trace)
+    };
+    ($info:expr, $trace:expr, $gpu:path) => {
+        Traversal::with_gpu($info, $trace, $gpu)
+    };
+}
+
 impl Structure for KdTree {
     const NAME: &'static str = "kdtree";
 
-    /// The traversals every [`KdTree`] offers; the restart-type ones end a ray after
-    /// [`KdParams::step_cap`] steps, `backtrack` and `ropes` read auxiliary arrays.
-    const TRAVERSALS: &'static [Traversal<Self>] = &[
-        Traversal::with_gpu(
-            TraversalInfo::new(
-                "recursive-direction",
-                "Hapala & Havran 2011 §3.2, Alg. 2",
-                "stack-based, near/far child by the sign of the ray direction, entry/exit \
-                 distances on the stack (Keller 1997, Wald 2004; Hapala & Havran 2011 §3.2, \
-                 Alg. 2); zero direction components handled by the sign of the zero (no \
-                 epsilon)",
-            ),
-            per_layout!(|kd, w| traverse::RecursiveDirection(w)),
-            KdTree::gpu_recursive,
-        ),
-        Traversal::cpu(
-            TraversalInfo::new(
-                "havran",
-                "Hapala & Havran 2011 §3.2; Havran 2000 App. C",
-                "Havran's robust TA^B_rec: entry/exit points on the stack, near/far decided by \
-                 comparing point coordinates with the split (Havran 2000; Hapala & Havran 2011 \
-                 §3.2); rays lying in a split plane visit both children",
-            ),
-            per_layout!(|kd, w| traverse::Havran(w)),
-        ),
-        Traversal::cpu(
-            TraversalInfo::new(
-                "recursive-origin",
-                "Hapala & Havran 2011 §3.2, Alg. 2",
-                "stack-based, near/far child by the side of the split plane holding the ray \
-                 origin (Jansen 1986, Arvo 1988; Hapala & Havran 2011 §3.2, Alg. 2): \
-                 inherently not robust for origins in a split plane (Havran et al. 1997)",
-            ),
-            per_layout!(|kd, w| traverse::RecursiveOrigin(w)),
-        ),
-        Traversal::with_gpu(
-            TraversalInfo::new(
-                "restart",
-                "Hapala & Havran 2011 §5.1",
-                "stackless kd-restart: after each leaf restart at the root with the entry \
-                 distance set to the leaf's exit (Foley & Sugerman 2005; Hapala & Havran 2011 \
-                 §5.1), t-intervals and exact comparisons, no epsilon step",
-            )
-            .capped(),
-            per_layout!(|kd, w| Stackless::<_, { stackless::RESTART }>(w, Aux::default())),
-            KdTree::gpu_restart,
-        ),
-        Traversal::with_gpu(
-            TraversalInfo::new(
-                "push-down",
-                "Hapala & Havran 2011 §5.2, Alg. 4",
-                "kd-push-down: restart at the deepest node holding the whole remaining segment \
-                 (Horn et al. 2007; Hapala & Havran 2011 §5.2, Alg. 4)",
-            )
-            .capped(),
-            per_layout!(|kd, w| Stackless::<_, { stackless::PUSH_DOWN }>(w, Aux::default())),
-            KdTree::gpu_push_down,
-        ),
-        Traversal::with_gpu(
-            TraversalInfo::new(
-                "short-stack",
-                "Hapala & Havran 2011 §5.2",
-                "push-down with a circular short stack of `short_stack` far children, \
-                 restarting from the pushed-down node when it runs dry (Horn et al. 2007; \
-                 Hapala & Havran 2011 §5.2)",
-            )
-            .capped(),
-            per_layout!(|kd, w| Stackless::<_, { stackless::SHORT_STACK }>(w, Aux::default())),
-            KdTree::gpu_short_stack,
-        ),
-        Traversal::with_gpu(
-            TraversalInfo::new(
-                "sequential",
-                "Hapala & Havran 2011 §3.1, Alg. 1",
-                "Kaplan's sequential traversal: locate the leaf holding the ray point at the \
-                 entry distance from the root, leave it through its cell's exit (Kaplan 1985; \
-                 Hapala & Havran 2011 §3.1, Alg. 1), no epsilon step: crossed faces' \
-                 coordinates exact, rays a point cannot decide (edges, corners) handed to \
-                 `restart`",
-            )
-            .capped(),
-            per_layout!(|kd, w| Stackless::<_, { stackless::SEQUENTIAL }>(w, Aux::default())),
-            KdTree::gpu_sequential,
-        ),
-        Traversal::with_gpu(
-            TraversalInfo::new(
-                "backtrack",
-                "Hapala & Havran 2011 §5.1.1, Alg. 3",
-                "kd-backtrack: parent links and node cells in an auxiliary array; from a leaf \
-                 climb until a cell extends beyond the leaf's exit, then descend (Foley & \
-                 Sugerman 2005; Hapala & Havran 2011 §5.1.1, Alg. 3)",
-            )
-            .capped()
-            .reads(&[BACKTRACK_AUX]),
-            per_layout!(|kd, w| Stackless::<_, { stackless::BACKTRACK }>(
-                w,
-                Aux {
-                    back: kd.back_nodes(),
-                    ropes: None,
-                }
-            )),
-            KdTree::gpu_backtrack,
-        ),
-        Traversal::with_gpu(
-            TraversalInfo::new(
-                "ropes",
-                "Hapala & Havran 2011 §3.3",
-                "neighbour links: from a leaf follow the pushed-down rope of its exit face \
-                 (cell and six ropes per leaf in an auxiliary array) and locate the next \
-                 leaf below it (MacDonald & Booth 1990, Havran et al. 1998, Popov et al. 2007; \
-                 Hapala & Havran 2011 §3.3)",
-            )
-            .capped()
-            .reads(&[ROPES_AUX]),
-            per_layout!(|kd, w| Stackless::<_, { stackless::ROPES }>(
-                w,
-                Aux {
-                    back: &[],
-                    ropes: Some(kd.ropes()),
-                }
-            )),
-            KdTree::gpu_ropes,
-        ),
-        Traversal::cpu(
-            TraversalInfo::new(
-                "branchless",
-                "Hapala & Havran 2011 §5.5, Alg. 5",
-                "recursive-direction with a branchless node step: far and near written to the \
-                 stack, the pointer moved by the two comparisons (Hapala 2009; Hapala & Havran \
-                 2011 §5.5, Alg. 5)",
-            ),
-            per_layout!(|kd, w| traverse::Branchless(w)),
-        ),
-        Traversal::cpu(
-            TraversalInfo::new(
-                "stack-spilling",
-                "Hapala & Havran 2011 §5.2, Fig. 8",
-                "short circular stack of `short_stack` entries whose oldest entry is spilled to \
-                 a full memory stack on overflow and refilled on underflow, never restarting \
-                 (Novák 2009; Hapala & Havran 2011 §5.2, Fig. 8)",
-            ),
-            per_layout!(|kd, w| traverse::StackSpilling(w)),
-        ),
-    ];
+    /// The traversals every [`KdTree`] offers, from [`kd_walks!`]'s list; the restart-type
+    /// ones end a ray after [`KdParams::step_cap`] steps, `backtrack` and `ropes` read
+    /// auxiliary arrays.
+    const TRAVERSALS: &'static [Traversal<Self>] = crate::kd_walks!(kd_table);
 
     /// Nodes, references and triangles: what every traversal reads. `backtrack` adds the
     /// [`BACKTRACK_AUX`] array, `ropes` the [`ROPES_AUX`] array

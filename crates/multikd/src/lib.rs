@@ -58,7 +58,6 @@ mod gpu;
 pub mod measure;
 mod params;
 mod report;
-#[macro_use]
 mod traverse;
 
 pub use params::{MultiKdParams, Trees};
@@ -72,8 +71,7 @@ use tb_core::{
     HitRecord, Kernel, MemoryReport, MollerTrumbore, NoStats, Query, Ray, Structure, Traversal,
     TraversalInfo, TraversalStats, TriTest, TriTestKind, Triangle, Watertight,
 };
-use tb_kdtree::stackless::{self, Stackless};
-use tb_kdtree::view::{self, Aux};
+use tb_kdtree::view;
 use tb_kdtree::{
     layout, BackNode, DepthFirst, KdLayout, KdNode, KdStart, KdTree, KdView, Layout, Nodes, Ropes,
     Treelet, BACKTRACK_AUX, ROPES_AUX,
@@ -232,61 +230,9 @@ impl Structure for MultiKdTree {
     const NAME: &'static str = "multi-kd";
 
     /// The kd-tree's traversals (same names, same kernels) with the per-ray tree choice, then
-    /// each as `NAME-sorted`, then each as `NAME-presorted` (see the module doc).
-    const TRAVERSALS: &'static [Traversal<Self>] = &[
-        Traversal::with_gpu(
-            kd_info(0),
-            row_kernel!(plain, 0),
-            MultiKdTree::gpu_recursive_direction,
-        ),
-        Traversal::cpu(kd_info(1), row_kernel!(plain, 1)),
-        Traversal::cpu(kd_info(2), row_kernel!(plain, 2)),
-        Traversal::cpu(kd_info(3), row_kernel!(plain, 3)),
-        Traversal::cpu(kd_info(4), row_kernel!(plain, 4)),
-        Traversal::cpu(kd_info(5), row_kernel!(plain, 5)),
-        Traversal::cpu(kd_info(6), row_kernel!(plain, 6)),
-        Traversal::cpu(kd_info(7), row_kernel!(plain, 7)),
-        Traversal::cpu(kd_info(8), row_kernel!(plain, 8)),
-        Traversal::cpu(kd_info(9), row_kernel!(plain, 9)),
-        Traversal::cpu(kd_info(10), row_kernel!(plain, 10)),
-        Traversal::with_gpu(
-            sorted_info(0, "recursive-direction-sorted"),
-            row_kernel!(sorted, 0),
-            MultiKdTree::gpu_sorted,
-        ),
-        Traversal::cpu(sorted_info(1, "havran-sorted"), row_kernel!(sorted, 1)),
-        Traversal::cpu(
-            sorted_info(2, "recursive-origin-sorted"),
-            row_kernel!(sorted, 2),
-        ),
-        Traversal::cpu(sorted_info(3, "restart-sorted"), row_kernel!(sorted, 3)),
-        Traversal::cpu(sorted_info(4, "push-down-sorted"), row_kernel!(sorted, 4)),
-        Traversal::cpu(sorted_info(5, "short-stack-sorted"), row_kernel!(sorted, 5)),
-        Traversal::cpu(sorted_info(6, "sequential-sorted"), row_kernel!(sorted, 6)),
-        Traversal::cpu(sorted_info(7, "backtrack-sorted"), row_kernel!(sorted, 7)),
-        Traversal::cpu(sorted_info(8, "ropes-sorted"), row_kernel!(sorted, 8)),
-        Traversal::cpu(sorted_info(9, "branchless-sorted"), row_kernel!(sorted, 9)),
-        Traversal::cpu(
-            sorted_info(10, "stack-spilling-sorted"),
-            row_kernel!(sorted, 10),
-        ),
-        Traversal::with_gpu(
-            presorted_info(0, "recursive-direction-presorted"),
-            row_kernel!(presorted, 0),
-            MultiKdTree::gpu_presorted,
-        )
-        .with_hints(arrangement),
-        presorted_row!(1, "havran-presorted"),
-        presorted_row!(2, "recursive-origin-presorted"),
-        presorted_row!(3, "restart-presorted"),
-        presorted_row!(4, "push-down-presorted"),
-        presorted_row!(5, "short-stack-presorted"),
-        presorted_row!(6, "sequential-presorted"),
-        presorted_row!(7, "backtrack-presorted"),
-        presorted_row!(8, "ropes-presorted"),
-        presorted_row!(9, "branchless-presorted"),
-        presorted_row!(10, "stack-spilling-presorted"),
-    ];
+    /// each as `NAME-sorted`, then each as `NAME-presorted` (see the module doc), generated
+    /// from [`tb_kdtree::kd_walks!`]'s list.
+    const TRAVERSALS: &'static [Traversal<Self>] = rows::TABLE;
 
     /// Nodes (8 bytes each, unused treelet slots and block padding included), references,
     /// triangles and the 12-byte header.
@@ -361,6 +307,61 @@ mod tests {
                 Triangle::new(p, p + q, p + Vec3::Y * 0.8 + Vec3::Z * 0.3)
             })
             .collect()
+    }
+
+    /// The table and dispatch generated from tb-kdtree's list with one more kd traversal
+    /// (`recursive-direction`'s kernel under another name), as a traversal added there.
+    mod with_dummy {
+        use super::*;
+        tb_kdtree::kd_walks!(
+            multikd_walks;
+            "dummy-walk", "a test", "recursive-direction's kernel under another name", [],
+            gpu [],
+            |t, w| tb_kdtree::traverse::RecursiveDirection(w);
+        );
+    }
+
+    /// A kd traversal added to tb-kdtree's list ([`tb_kdtree::kd_walks!`]) is offered by
+    /// multi-kd, per ray, `-sorted` and `-presorted`, with no edit here, and its rows trace
+    /// with its kernel.
+    #[test]
+    fn a_kd_walk_added_to_the_list_is_offered_without_edits() {
+        let t = with_dummy::TABLE;
+        assert_eq!(t.len(), 3 * (PLAIN + 1));
+        let names: Vec<&str> = t.iter().map(|r| r.info.name).collect();
+        let at = |n: &str| names.iter().position(|x| *x == n).expect(n);
+        let rows = [
+            at("dummy-walk"),
+            at("dummy-walk-sorted"),
+            at("dummy-walk-presorted"),
+        ];
+        assert_eq!(rows, [PLAIN, 2 * PLAIN + 1, 3 * PLAIN + 2]);
+        assert!(t[rows[2]].hints.is_some() && t[rows[0]].hints.is_none());
+        // The other rows are multi-kd's own, in its order.
+        let own: Vec<&str> = MultiKdTree::TRAVERSALS
+            .iter()
+            .map(|r| r.info.name)
+            .collect();
+        let rest: Vec<&str> = names
+            .iter()
+            .copied()
+            .filter(|n| !n.starts_with("dummy-walk"))
+            .collect();
+        assert_eq!(rest, own);
+        // Each dummy row answers and counts as `recursive-direction`'s row of that form.
+        let m = MultiKdTree::build(&grid(), &MultiKdParams::default());
+        let rays = random_rays(ARRANGE_BLOCK + 100);
+        let trace = |f: tb_core::TraceFn<MultiKdTree>| {
+            let n = rays.len();
+            let (mut h, mut st) = (vec![HitRecord::MISS; n], vec![TraversalStats::default(); n]);
+            let b = tb_core::Batch::new(Query::Closest, TriTestKind::Watertight, &rays);
+            f(&m, b, tb_core::Answers::new(&mut h, Some(&mut st)));
+            (h, st)
+        };
+        for (row, kd_row) in rows.into_iter().zip([0, PLAIN, 2 * PLAIN]) {
+            let mine = MultiKdTree::TRAVERSALS[kd_row].trace;
+            assert!(trace(t[row].trace) == trace(mine), "{}", t[row].info.name);
+        }
     }
 
     #[test]

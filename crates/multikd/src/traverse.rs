@@ -3,7 +3,8 @@
 //! `-presorted` rows).
 
 use super::*;
-use tb_kdtree::traverse::{self as kd_traverse, Tree};
+use tb_core::accel::GpuFn;
+use tb_kdtree::traverse::Tree;
 
 impl MultiKdTree {
     /// The per-ray kernel: `make` applied to the walk input of each header entry.
@@ -78,61 +79,9 @@ impl<K: Kernel> Kernel for PerRay<K> {
     }
 }
 
-/// Trace batch `b` into `out` with plain row `row`'s kernel, in the arrangement `order`
-/// ([`MultiKdTree::arrange`]) or, with `None`, in the rays' order with the tree picked per ray
-/// in the walk: the one call of the plain, `-sorted` and `-presorted` rows.
-pub(crate) fn trace_row(
-    m: &MultiKdTree,
-    row: usize,
-    b: Batch<'_>,
-    order: Option<&[u32]>,
-    out: Answers<'_>,
-) {
-    match m.params.kd.layout {
-        KdLayout::DepthFirst => trace_in(m, DepthFirst, row, (b, order, out)),
-        KdLayout::Treelet => {
-            let l = Treelet::new(m.params.kd.treelet_height);
-            trace_in(m, l, row, (b, order, out))
-        }
-    }
-}
-
-/// A chunk as [`trace_row`] passes it on: the batch, its arrangement, its answers.
-type Chunk<'a, 'o> = (Batch<'a>, Option<&'a [u32]>, Answers<'o>);
-
-/// [`trace_row`] in layout `l`: the kd-tree's kernel of row `row` per header entry (the
-/// kd-tree's table order; a row added there fails [`PLAIN`]'s check and the table test).
-pub(crate) fn trace_in<L: Layout>(m: &MultiKdTree, l: L, row: usize, c: Chunk<'_, '_>) {
-    macro_rules! go {
-        (|$w:ident| $kernel:expr) => {
-            walk(&m.per_ray(l, |$w| $kernel), c)
-        };
-    }
-    let ropes = || Aux {
-        back: &[],
-        ropes: Some(m.ropes()),
-    };
-    match row {
-        0 => go!(|w| kd_traverse::RecursiveDirection(w)),
-        1 => go!(|w| kd_traverse::Havran(w)),
-        2 => go!(|w| kd_traverse::RecursiveOrigin(w)),
-        3 => go!(|w| Stackless::<_, { stackless::RESTART }>(w, Aux::default())),
-        4 => go!(|w| Stackless::<_, { stackless::PUSH_DOWN }>(w, Aux::default())),
-        5 => go!(|w| Stackless::<_, { stackless::SHORT_STACK }>(w, Aux::default())),
-        6 => go!(|w| Stackless::<_, { stackless::SEQUENTIAL }>(w, Aux::default())),
-        7 => go!(|w| Stackless::<_, { stackless::BACKTRACK }>(
-            w,
-            Aux {
-                back: m.back_nodes(),
-                ropes: None,
-            }
-        )),
-        8 => go!(|w| Stackless::<_, { stackless::ROPES }>(w, ropes())),
-        9 => go!(|w| kd_traverse::Branchless(w)),
-        10 => go!(|w| kd_traverse::StackSpilling(w)),
-        _ => unreachable!("multi-kd: no plain traversal {row}"),
-    }
-}
+/// A chunk as the generated `trace_row` passes it on: the batch, its arrangement, its
+/// answers.
+pub(crate) type Chunk<'a, 'o> = (Batch<'a>, Option<&'a [u32]>, Answers<'o>);
 
 /// Run the per-tree kernels `k` over a chunk: [`dispatch`] of the per-ray choice, or the
 /// walk of its arrangement; monomorphised per triangle test and for counting or timing.
@@ -197,50 +146,16 @@ pub(crate) fn one<K: Kernel, T: TriTest, C: Counter>(
     }
 }
 
-/// The kd-tree's row `i` (name, paper, doc, counters): the kernels are the same.
-pub(crate) const fn kd_info(i: usize) -> TraversalInfo {
-    KdTree::TRAVERSALS[i].info
-}
+/// The doc of a `NAME-sorted` row.
+pub(crate) const SORTED_DOC: &str =
+    "the traversal named without `-sorted`, the rays of each traced \
+    chunk first counting-sorted by tree index (2-bit key) and walked in that order (Torres et \
+    al. 2012 §6); the sort is timed with the traversal (the paper's \"inc.\")";
 
-/// Row `i` of the kd-tree's table as `NAME-sorted`.
-pub(crate) const fn sorted_info(i: usize, name: &'static str) -> TraversalInfo {
-    TraversalInfo {
-        name,
-        doc: "the traversal named without `-sorted`, the rays of each traced chunk first \
-              counting-sorted by tree index (2-bit key) and walked in that order (Torres et \
-              al. 2012 §6); the sort is timed with the traversal (the paper's \"inc.\")",
-        ..KdTree::TRAVERSALS[i].info
-    }
-}
-
-/// Row `i` of the kd-tree's table as `NAME-presorted`.
-pub(crate) const fn presorted_info(i: usize, name: &'static str) -> TraversalInfo {
-    TraversalInfo {
-        name,
-        doc: "the traversal named without `-presorted`, walking the `-sorted` rows' \
-              arrangement by tree index computed per batch by the untimed hint pass (Torres \
-              et al. 2012 §6, the paper's \"n.inc.\"); without hints it sorts as `-sorted`",
-        ..KdTree::TRAVERSALS[i].info
-    }
-}
-
-/// Plain traversals in the kd-tree's order, then their `-sorted` and `-presorted` forms (the
-/// table below lists every kd traversal: a new one there fails this).
-pub(crate) const PLAIN: usize = 11;
-const _: () = assert!(KdTree::TRAVERSALS.len() == PLAIN);
-
-/// Plain row `I`: the tree picked per ray, rays in the order given.
-pub(crate) fn plain<const I: usize>(m: &MultiKdTree, b: Batch<'_>, out: Answers<'_>) {
-    trace_row(m, I, b, None, out)
-}
-
-/// `-sorted` row: arrange the chunk by tree ([`MultiKdTree::arrange`]) and walk it, both in
-/// this (timed) call.
-pub(crate) fn sorted<const I: usize>(m: &MultiKdTree, b: Batch<'_>, out: Answers<'_>) {
-    let mut order = Vec::new();
-    m.arrange(b.rays, &mut order);
-    trace_row(m, I, b, Some(&order), out)
-}
+/// The doc of a `NAME-presorted` row.
+pub(crate) const PRESORTED_DOC: &str = "the traversal named without `-presorted`, walking the \
+    `-sorted` rows' arrangement by tree index computed per batch by the untimed hint pass \
+    (Torres et al. 2012 §6, the paper's \"n.inc.\"); without hints it sorts as `-sorted`";
 
 /// The hints of the `-presorted` rows: the batch's arrangement ([`MultiKdTree::arrange`]).
 pub(crate) fn arrangement(m: &MultiKdTree, _: Query, rays: &[Ray]) -> Vec<u32> {
@@ -249,27 +164,133 @@ pub(crate) fn arrangement(m: &MultiKdTree, _: Query, rays: &[Ray]) -> Vec<u32> {
     order
 }
 
-/// `-presorted` row: walk the arrangement the hint pass found (no hints: arrange here, as
-/// `-sorted`).
-pub(crate) fn presorted<const I: usize>(m: &MultiKdTree, b: Batch<'_>, out: Answers<'_>) {
-    match b.hints {
-        Some(order) => trace_row(m, I, b, Some(order), out),
-        None => sorted::<I>(m, b, out),
+/// Whether two names are the same (in a constant).
+const fn same(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
+/// The GPU programs of the rows of kd traversal `name`: plain, `-sorted`, `-presorted`
+/// (`recursive-direction` only, the one kernel of the paper's GPU column).
+pub(crate) const fn gpu_of(name: &str) -> [Option<GpuFn<MultiKdTree>>; 3] {
+    if same(name, "recursive-direction") {
+        [
+            Some(MultiKdTree::gpu_recursive_direction),
+            Some(MultiKdTree::gpu_sorted),
+            Some(MultiKdTree::gpu_presorted),
+        ]
+    } else {
+        [None, None, None]
     }
 }
 
-/// Row `I`'s kernel `$f::<I>` ([`plain`], [`sorted`], [`presorted`]) as a table's named
-/// kernel ([`tb_core::kernel!`]: compiled here, not again in every crate using the tree).
-macro_rules! row_kernel {
-    ($f:ident, $i:literal) => {
-        tb_core::kernel!(|m: &MultiKdTree, batch, out| $f::<$i>(m, batch, out))
+/// Multi-kd's traversal table and per-ray dispatch from [`tb_kdtree::kd_walks!`]'s list:
+/// every kd traversal with the tree picked per ray (the same name, info and kernel), then each
+/// as `NAME-sorted`, then each as `NAME-presorted`; `trace_row` traces a batch with the kernel
+/// of the traversal named. A kd traversal added to the list is offered here without edits.
+macro_rules! multikd_walks {
+    ($(
+        $name:literal, $paper:literal, $doc:literal, [$($info:tt)*], gpu [$($gpu:path)?],
+        |$t:ident, $w:ident| $k:expr;
+    )*) => {
+        /// Trace batch `b` into `out` with the kernel of kd traversal `name`, in the
+        /// arrangement `order` ([`MultiKdTree::arrange`]) or, with `None`, in the rays' order
+        /// with the tree picked per ray in the walk.
+        pub(crate) fn trace_row(
+            m: &MultiKdTree,
+            name: &str,
+            b: Batch<'_>,
+            order: Option<&[u32]>,
+            out: Answers<'_>,
+        ) {
+            match m.params.kd.layout {
+                KdLayout::DepthFirst => trace_in(m, DepthFirst, name, (b, order, out)),
+                KdLayout::Treelet => {
+                    let l = Treelet::new(m.params.kd.treelet_height);
+                    trace_in(m, l, name, (b, order, out))
+                }
+            }
+        }
+
+        /// `trace_row` in layout `l`: the kd kernel named `name` per header entry.
+        fn trace_in<L: Layout>(m: &MultiKdTree, l: L, name: &str, c: $crate::traverse::Chunk<'_, '_>) {
+            match name {
+                $($name => {
+                    #[allow(unused_variables)]
+                    let $t = m;
+                    $crate::traverse::walk(&m.per_ray(l, |$w| $k), c)
+                })*
+                _ => unreachable!("multi-kd: no kd traversal {name}"),
+            }
+        }
+
+        /// The table: plain rows, `-sorted` rows, `-presorted` rows, each in the list's order.
+        pub(crate) const TABLE: &[Traversal<MultiKdTree>] = &[
+            $(Traversal {
+                info: TraversalInfo::new($name, $paper, $doc) $($info)*,
+                trace: tb_core::kernel!(|m: &MultiKdTree, batch, out| {
+                    trace_row(m, $name, batch, None, out)
+                }),
+                gpu: $crate::traverse::gpu_of($name)[0],
+                hints: None,
+            },)*
+            $(Traversal {
+                info: TraversalInfo {
+                    name: concat!($name, "-sorted"),
+                    doc: $crate::traverse::SORTED_DOC,
+                    ..TraversalInfo::new($name, $paper, $doc) $($info)*
+                },
+                trace: tb_core::kernel!(|m: &MultiKdTree, batch, out| {
+                    let mut order = Vec::new();
+                    m.arrange(batch.rays, &mut order);
+                    trace_row(m, $name, batch, Some(&order), out)
+                }),
+                gpu: $crate::traverse::gpu_of($name)[1],
+                hints: None,
+            },)*
+            $(Traversal {
+                info: TraversalInfo {
+                    name: concat!($name, "-presorted"),
+                    doc: $crate::traverse::PRESORTED_DOC,
+                    ..TraversalInfo::new($name, $paper, $doc) $($info)*
+                },
+                // Traced without hints it sorts, as `-sorted`.
+                trace: tb_core::kernel!(|m: &MultiKdTree, batch, out| {
+                    match batch.hints {
+                        Some(order) => trace_row(m, $name, batch, Some(order), out),
+                        None => {
+                            let mut order = Vec::new();
+                            m.arrange(batch.rays, &mut order);
+                            trace_row(m, $name, batch, Some(&order), out)
+                        }
+                    }
+                }),
+                gpu: $crate::traverse::gpu_of($name)[2],
+                hints: Some($crate::traverse::arrangement),
+            },)*
+        ];
     };
 }
 
-/// Row `I` as `-presorted`: traced without hints it sorts (as `-sorted`).
-macro_rules! presorted_row {
-    ($i:literal, $name:literal) => {
-        Traversal::cpu(presorted_info($i, $name), row_kernel!(presorted, $i))
-            .with_hints(arrangement)
-    };
+/// Plain traversals (the kd-tree's), then their `-sorted` and `-presorted` forms.
+#[cfg(test)]
+pub(crate) const PLAIN: usize = KdTree::TRAVERSALS.len();
+
+/// The table and dispatch of the kd list.
+pub(crate) mod rows {
+    use super::*;
+    tb_kdtree::kd_walks!(multikd_walks);
 }
+
+#[cfg(test)]
+pub(crate) use multikd_walks;
