@@ -1,6 +1,6 @@
 //! Kaplan's point location (review §3.1) as `sequential` and `ropes` walk with it (see the
 //! module doc above): the located point ([`Located`], also sparse boxes' SLTR), the walk state
-//! ([`PointWalk`]) and its named steps: [`PointWalk::locate`] a leaf, [`PointWalk::leaf`],
+//! ([`PointWalk`]) and its named steps: `PointWalk::locate` a leaf, [`PointWalk::leaf`],
 //! [`PointWalk::leave`] through the exit face; [`point_walk`] runs the passes of a ray and
 //! hands it to `restart` where a point cannot decide.
 
@@ -78,7 +78,7 @@ where
 }
 
 /// The point of Kaplan's point location (review §3.1) as `sequential` and `ropes` place it
-/// (see [`PointWalk::locate`]), and sparse boxes' SLTR after them: the point at distance `tn`,
+/// (see `PointWalk::locate`), and sparse boxes' SLTR after them: the point at distance `tn`,
 /// whose coordinate on an axis whose exit face was crossed is that face's (`floor`) exactly.
 #[derive(Clone, Copy, Debug)]
 pub struct Located {
@@ -177,7 +177,7 @@ pub(super) struct PointWalk<'t, 'a, L> {
 }
 
 impl<L: Layout> PointWalk<'_, '_, L> {
-    /// [`PointWalk::locate`] from the start node.
+    /// `PointWalk::locate` from the start node.
     #[inline(always)]
     pub(super) fn locate_start<C: Counter>(&mut self, tn: f32, c: &mut C) -> Cell {
         let f = self.w.from;

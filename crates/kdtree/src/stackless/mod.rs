@@ -3,7 +3,7 @@
 //!
 //! Robustness (review §3.1 and §8): no epsilon step along the ray. `restart`, `push-down`,
 //! `short-stack` and `backtrack` visit exactly the leaves of `recursive-direction`, in the same
-//! order, with the same decisions ([`decide`]: rounding slack at cell edges and corners, both
+//! order, with the same decisions ([`decide`](crate::traverse::decide): rounding slack at cell edges and corners, both
 //! children for rays in a split plane): the state kept between leaves is the *last leaf
 //! visited* instead of a distance: the depth of each node on its path that sent the ray both
 //! ways with the walk in the near child (one bit per depth), and which child the path takes
@@ -15,7 +15,7 @@
 //! root's path to the *next* leaf, as Foley and Sugerman's restart with `t_min` set to the
 //! exit does, not those above the last one (a test checks `restart` and `sequential` visit the
 //! same nodes). A node's interval is the slab interval of its cell whatever the path (see
-//! [`decide`]), so `backtrack` recomputes it from the cell stored with the parent links. Every
+//! [`decide`](crate::traverse::decide)), so `backtrack` recomputes it from the cell stored with the parent links. Every
 //! restart moves strictly forward in the depth-first order of the tree, so a walk ends;
 //! [`STEP_CAP`] steps end a ray anyway (defensive; the ray keeps its closest hit so far).
 //!
@@ -28,14 +28,14 @@
 //! the located point's coordinate on each axis whose exit face was crossed is that face's
 //! coordinate exactly (`PointWalk`'s floor: planes at or before it are behind, compared
 //! as coordinates), and every other plane is behind only when its distance is below `t` by more
-//! than the rounding [`SLACK`]. Each step crosses one exit face strictly beyond the last on
+//! than the rounding [`SLACK`](crate::SLACK). Each step crosses one exit face strictly beyond the last on
 //! its axis, so a walk ends. The point at `t = 0` is the ray origin itself, exact on every
 //! axis (review §3.1's ray origin in a splitting plane, e.g. a camera eye at `z = 0`): there
 //! planes are compared with the origin's coordinates, and a plane through the origin puts the
 //! origin in the near cell (which the ray touches there: a hit at `t = 0` counts), whose exit
 //! is that plane at `t = 0`; the next point location finds the plane at the floor, so the ray
 //! leaves it to the side its direction points to, without the fallback. Where a single point
-//! cannot decide (a plane distance within [`SLACK`] of a located point other than the origin,
+//! cannot decide (a plane distance within [`SLACK`](crate::SLACK) of a located point other than the origin,
 //! or two exit faces tied: a ray through a cell edge or corner), the walk stops and the ray is
 //! handed to `restart` from the root, keeping its closest hit (counted as one restart and in
 //! `handovers`): the answer is then exactly the robust one. Rays lying in a split plane (`t = NaN`) take the
@@ -51,9 +51,9 @@
 
 //!
 //! One file per algorithm, each composing the named steps of a shared walk state:
-//! [`restarts`] for `restart` ([`restart`]), `push-down` ([`push_down`]), `short-stack`
-//! ([`short_stack`]) and `backtrack` ([`backtrack`]); [`locate`] for `sequential`
-//! ([`sequential`]) and `ropes` ([`ropes`]).
+//! `restarts` for `restart` (`restart`), `push-down` (`push_down`), `short-stack`
+//! (`short_stack`) and `backtrack` (`backtrack`); `locate` for `sequential`
+//! (`sequential`) and `ropes` (`ropes`).
 
 mod backtrack;
 mod locate;
@@ -80,7 +80,7 @@ pub const STEP_CAP: u32 = 100_000;
 pub const MAX_SHORT_STACK: usize = 32;
 
 /// The interval of the node with cell `b`: the slab interval with the plane distances of
-/// [`decide`], the faces of the start cell `r` counting as the start interval `[t0, t1]`.
+/// [`decide`](crate::traverse::decide), the faces of the start cell `r` counting as the start interval `[t0, t1]`.
 #[inline(always)]
 fn cell_interval(r: &tb_core::Aabb, s: &Setup, b: &BackNode) -> (f32, f32) {
     let (mut tn, mut tf) = (s.t0, s.t1);
@@ -125,8 +125,8 @@ pub const BACKTRACK: u8 = 4;
 pub const ROPES: u8 = 5;
 
 /// The restart-type kernels, one struct with the walk chosen by the const parameter `M`
-/// (each walk in its file: [`restart`], [`push_down`], [`short_stack`], [`backtrack`],
-/// [`sequential`], [`ropes`]); the auxiliary arrays it reads (`backtrack`: cells and parents;
+/// (each walk in its file: `restart`, `push_down`, `short_stack`, `backtrack`,
+/// `sequential`, `ropes`); the auxiliary arrays it reads (`backtrack`: cells and parents;
 /// `ropes`: those and the ropes) are given with it, empty for the others.
 ///
 /// Counters: `interior`, `leaves`, `planes` as the stack traversals, nodes revisited by a
