@@ -205,3 +205,48 @@ fn recursive(r: Ray, root: u32, st: ptr<function, Stats>) -> Hit {
     }
     return answer(best);
 }
+
+// ---- 64-bit masks as vec2<u32> (x: bits 0..31, y: bits 32..63): the depth and path bits of
+// the restart-type walks, sparse boxes' SLTR masks ----
+
+fn bit_set(v: vec2<u32>, k: u32) -> vec2<u32> {
+    if k < 32u {
+        return v | vec2<u32>(1u << k, 0u);
+    }
+    return v | vec2<u32>(0u, 1u << (k - 32u));
+}
+
+fn bit_get(v: vec2<u32>, k: u32) -> bool {
+    if k < 32u {
+        return ((v.x >> k) & 1u) == 1u;
+    }
+    return ((v.y >> (k - 32u)) & 1u) == 1u;
+}
+
+// The bits below `k` (k <= 64).
+fn keep_below(v: vec2<u32>, k: u32) -> vec2<u32> {
+    if k >= 64u {
+        return v;
+    }
+    if k >= 32u {
+        return vec2<u32>(v.x, v.y & ((1u << (k - 32u)) - 1u));
+    }
+    return vec2<u32>(v.x & ((1u << k) - 1u), 0u);
+}
+
+// Index of the highest set bit of a non-zero mask.
+fn highest(v: vec2<u32>) -> u32 {
+    if v.y != 0u {
+        return 32u + firstLeadingBit(v.y);
+    }
+    return firstLeadingBit(v.x);
+}
+
+// The bits at and above `k`.
+fn keep_from(v: vec2<u32>, k: u32) -> vec2<u32> {
+    if k >= 64u {
+        return vec2<u32>(0u, 0u);
+    }
+    let below = keep_below(v, k);
+    return vec2<u32>(v.x & ~below.x, v.y & ~below.y);
+}

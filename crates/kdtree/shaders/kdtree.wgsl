@@ -15,42 +15,7 @@ const K_SEQUENTIAL: u32 = 5u;  // sequential, §3.1 Alg. 1 (Kaplan 1985)
 const K_BACKTRACK: u32 = 6u;   // backtrack, §5.1.1 Alg. 3 (Foley and Sugerman 2005)
 override KERNEL: u32 = 0u;
 
-// ---- 64-bit depth masks as vec2<u32> (x: bits 0..31, y: bits 32..63) ----
-
-fn bit_set(v: vec2<u32>, k: u32) -> vec2<u32> {
-    if k < 32u {
-        return v | vec2<u32>(1u << k, 0u);
-    }
-    return v | vec2<u32>(0u, 1u << (k - 32u));
-}
-
-fn bit_get(v: vec2<u32>, k: u32) -> bool {
-    if k < 32u {
-        return ((v.x >> k) & 1u) == 1u;
-    }
-    return ((v.y >> (k - 32u)) & 1u) == 1u;
-}
-
-// The bits below `k` (k <= 64).
-fn keep_below(v: vec2<u32>, k: u32) -> vec2<u32> {
-    if k >= 64u {
-        return v;
-    }
-    if k >= 32u {
-        return vec2<u32>(v.x, v.y & ((1u << (k - 32u)) - 1u));
-    }
-    return vec2<u32>(v.x & ((1u << k) - 1u), 0u);
-}
-
-// Index of the highest set bit of a non-zero mask.
-fn highest(v: vec2<u32>) -> u32 {
-    if v.y != 0u {
-        return 32u + firstLeadingBit(v.y);
-    }
-    return firstLeadingBit(v.x);
-}
-
-// ---- restart, push-down, short-stack, backtrack (stackless.rs `Stackless::stackless`) ----
+// ---- restart, push-down, short-stack, backtrack (stackless/restarts.rs `Restarts`) ----
 
 // buffers[3]: `backtrack`: per node its cell and parent (8 words: min xyz, parent, max xyz, 0;
 // the BACKTRACK_AUX array); `ropes`: the leaves' rank (per 64 nodes the bits' low and high

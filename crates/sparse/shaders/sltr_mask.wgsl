@@ -142,42 +142,6 @@ fn interval(rb: RayBox, r0: f32, r1: f32, k: u32) -> vec2<f32> {
     return vec2<f32>(tn, tf);
 }
 
-// 64 bits as (low, high) words.
-fn set_bit(b: vec2<u32>, k: u32) -> vec2<u32> {
-    if k < 32u {
-        return vec2<u32>(b.x | (1u << k), b.y);
-    }
-    return vec2<u32>(b.x, b.y | (1u << (k - 32u)));
-}
-
-// Bits below `k` only.
-fn keep_below(b: vec2<u32>, k: u32) -> vec2<u32> {
-    if k >= 64u {
-        return b;
-    }
-    if k >= 32u {
-        return vec2<u32>(b.x, b.y & ((1u << (k - 32u)) - 1u));
-    }
-    return vec2<u32>(b.x & ((1u << k) - 1u), 0u);
-}
-
-// Bits at and above `k` only.
-fn keep_from(b: vec2<u32>, k: u32) -> vec2<u32> {
-    if k >= 64u {
-        return vec2<u32>(0u, 0u);
-    }
-    let below = keep_below(b, k);
-    return vec2<u32>(b.x & ~below.x, b.y & ~below.y);
-}
-
-// Index of the highest set bit (the words are not both zero).
-fn highest(b: vec2<u32>) -> u32 {
-    if b.y != 0u {
-        return 32u + firstLeadingBit(b.y);
-    }
-    return firstLeadingBit(b.x);
-}
-
 fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     if meta_.counts.y == 0u {
         return miss();
@@ -244,7 +208,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                 idx = d.far;
             } else {
                 in_plane = in_plane || d.far_tn < d.near_tf;
-                both = set_bit(both, depth);
+                both = bit_set(both, depth);
                 idx = d.near;
                 tf = d.near_tf;
             }
@@ -359,7 +323,7 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
                 if d.kind == BOTH {
                     in_plane = in_plane || d.far_tn < d.near_tf;
                     if toward == d.near {
-                        both = set_bit(both, xd);
+                        both = bit_set(both, xd);
                         has = true;
                         c_idx = d.far;
                         c = vec3<f32>(d.far_tn, xf, 0.0);
