@@ -41,6 +41,8 @@
 //!   SAH-optimal collapse, children in octant slots, and their node-group traversal; the
 //!   state of the art GPU row beside the papers' baselines.
 
+#![deny(missing_docs)]
+
 mod build;
 mod check;
 mod cwbvh;
@@ -129,7 +131,9 @@ pub struct Bvh {
 pub enum WideNodes {
     /// `width = 2`: the binary nodes are traversed.
     None,
+    /// `width = 4`: nodes of four child slots.
     W4(#[serde(with = "tb_core::persist::pod")] Vec<WideNode<4>>),
+    /// `width = 8`: nodes of eight child slots.
     W8(#[serde(with = "tb_core::persist::pod")] Vec<WideNode<8>>),
 }
 

@@ -18,9 +18,11 @@ use tb_core::{Aabb, Vec3};
     Clone, Copy, Debug, PartialEq, Serialize, Deserialize, bytemuck::Pod, bytemuck::Zeroable,
 )]
 pub struct BvhNode {
+    /// Lower corner of the node's box.
     pub min: [f32; 3],
     /// Interior: index of the left child (right child = `index + 1`). Leaf: first triangle.
     pub index: u32,
+    /// Upper corner of the node's box.
     pub max: [f32; 3],
     /// 0 for an interior node, the number of triangles (> 0) for a leaf.
     pub count: u32,
@@ -38,6 +40,7 @@ impl BvhNode {
         count: 0,
     };
 
+    /// Whether the node is a leaf (`count > 0`).
     #[inline(always)]
     pub fn is_leaf(&self) -> bool {
         self.count > 0

@@ -21,6 +21,7 @@ struct DeviationsFile {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Deviation {
+    /// What the deviation changes: a method, a measure, a view or the hardware.
     pub kind: DeviationKind,
     /// What differs (ours against the paper's).
     pub what: String,
@@ -47,6 +48,7 @@ pub enum DeviationKind {
 }
 
 impl DeviationKind {
+    /// The kind as the report names it (`method`, `measure`, `scene or view`, `hardware`).
     pub fn as_str(self) -> &'static str {
         match self {
             DeviationKind::Method => "method",
@@ -60,6 +62,7 @@ impl DeviationKind {
 /// A deviation with the ids of the claims it touches.
 #[derive(Clone, Debug, Serialize)]
 pub struct Resolved {
+    /// The deviation as its file states it.
     #[serde(flatten)]
     pub deviation: Deviation,
     /// Every claim id its `claims` match, in the file's order.

@@ -36,9 +36,13 @@ pub enum Drawn {
 /// One figure's outcome.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Figure {
+    /// The paper's key (its claims file's stem).
     pub paper: String,
+    /// The figure's name (the PNG is `PAPER-NAME.png`).
     pub name: String,
+    /// What the figure shows.
     pub title: String,
+    /// Whether and where it was drawn.
     pub drawn: Drawn,
 }
 

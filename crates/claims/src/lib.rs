@@ -16,6 +16,8 @@
 //! its runs through [`reproduce::Runs`], which the CLI hands in (the runner's child processes
 //! and config edits, from tb-harness). Errors are tb-results' ([`Error`]), one line each.
 
+#![deny(missing_docs)]
+
 mod columns;
 pub mod deviations;
 pub mod effect;

@@ -9,9 +9,13 @@ use serde::Serialize;
 /// Counts of each verdict among the results of one kind.
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq, Eq)]
 pub struct Tally {
+    /// Results whose verdict is `agree`.
     pub agree: usize,
+    /// Results whose verdict is `disagree`.
     pub disagree: usize,
+    /// Results whose verdict is `inconclusive`.
     pub inconclusive: usize,
+    /// Results whose verdict is `undecidable`.
     pub undecidable: usize,
 }
 
@@ -59,12 +63,16 @@ impl std::fmt::Display for Tally {
 /// The counts of every kind: the claims' tally, and the observations' and invariants' apart.
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq, Eq)]
 pub struct Kinds {
+    /// The paper's claims (kind `claim`): the tally.
     pub claims: Tally,
+    /// The observations, counted apart.
     pub observations: Tally,
+    /// The invariants, counted apart.
     pub invariants: Tally,
 }
 
 impl Kinds {
+    /// The counts of every kind among `rs`.
     pub fn of(rs: &[ClaimResult]) -> Kinds {
         Kinds {
             claims: Tally::of_kind(rs, ClaimKind::Claim),

@@ -9,6 +9,7 @@ use std::sync::Arc;
 /// One CSV row: its file stem, and the cells by column.
 #[derive(Clone, Debug)]
 pub struct Row {
+    /// The stem of the CSV file it was read from (`results`, `dynamic`, `weights`, …).
     pub file: String,
     /// Where it was read from (folder or file), for messages.
     pub origin: Arc<PathBuf>,
@@ -106,6 +107,7 @@ pub(crate) fn kv(s: &str) -> BTreeMap<&str, &str> {
 /// with the same identity.
 #[derive(Clone, Debug, Default)]
 pub struct RowSet {
+    /// The rows, in read order.
     pub rows: Vec<Row>,
     /// Rows replaced by a later source's row of the same identity.
     pub replaced: usize,

@@ -17,6 +17,7 @@ pub struct ClaimsFile {
     /// What `trace-bench reproduce` runs for this paper, in order.
     #[serde(default, rename = "run")]
     pub runs: Vec<RunSpec>,
+    /// The paper's claims, in file order.
     #[serde(default, rename = "claim")]
     pub claims: Vec<Claim>,
     /// The paper's figures drawn from the runs' folders by a plotting script (`reproduce`,
@@ -97,6 +98,7 @@ pub struct RunSpec {
     /// shrunk to fit (`claims/README.md`).
     #[serde(default)]
     pub heavy: bool,
+    /// A remark for readers of the claims file (e.g. how `cost_s` was estimated).
     #[serde(default)]
     pub note: Option<String>,
 }
@@ -132,6 +134,7 @@ pub(crate) fn run_refs(arg: &str) -> Vec<&str> {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Claim {
+    /// Unique in the file; `[a-z0-9-]`.
     pub id: String,
     /// Where it stands in the paper (table, row, column or section).
     #[serde(rename = "where")]
@@ -158,6 +161,7 @@ pub struct Claim {
     pub undecidable: Option<String>,
     /// A column, a sum of columns (`a + b`), `time`, `mrays_per_s`, `build:KEY`, `heap_ratio`.
     pub measure: String,
+    /// How the rows of a selector pool in a group (default: by the measure).
     #[serde(default)]
     pub pool: Option<Pool>,
     /// A selector every row of the claim matches.
@@ -166,6 +170,7 @@ pub struct Claim {
     /// Group keys; the test runs per group.
     #[serde(default)]
     pub per: Vec<String>,
+    /// How the groups' verdicts combine into the claim's (default `all`).
     #[serde(default)]
     pub need: Need,
     /// Devices the claim is evaluated on, once each (default `cpu`).
@@ -173,6 +178,7 @@ pub struct Claim {
     pub devices: Vec<String>,
     /// Named selectors the test compares.
     pub rows: BTreeMap<String, Selector>,
+    /// The test over the named selectors, with its band.
     pub test: Test,
 }
 
@@ -200,12 +206,14 @@ pub enum ClaimKind {
 }
 
 impl ClaimKind {
+    /// Every kind, in report order.
     pub const ALL: [ClaimKind; 3] = [
         ClaimKind::Claim,
         ClaimKind::Observation,
         ClaimKind::Invariant,
     ];
 
+    /// The kind as a claims file writes it.
     pub fn as_str(self) -> &'static str {
         match self {
             ClaimKind::Claim => "claim",
@@ -256,9 +264,13 @@ fn default_devices() -> Vec<String> {
 pub enum Pool {
     /// `Σ v·rays / Σ rays`: the per-ray mean over all the rows' rays.
     Rays,
+    /// The sum of the rows' values.
     Sum,
+    /// The mean of the rows' values.
     Mean,
+    /// The largest of the rows' values.
     Max,
+    /// The smallest of the rows' values.
     Min,
 }
 
@@ -266,17 +278,23 @@ pub enum Pool {
 #[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum Need {
+    /// `agree` if every group agrees, `disagree` if any disagrees.
     #[default]
     All,
+    /// `agree` if one group agrees, `disagree` if every group disagrees.
     Any,
+    /// `agree` if more than half agree, `disagree` if half or more disagree.
     Most,
 }
 
+/// Which way a `least` test's best row must stand from the others.
 #[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum Direction {
+    /// `best` is below every other by the margin.
     #[default]
     Lowest,
+    /// `best` is above every other by the margin.
     Highest,
 }
 
@@ -286,52 +304,77 @@ pub enum Direction {
 pub enum Test {
     /// `min <= v(of) <= max`.
     Value {
+        /// The selector whose value is tested.
         of: String,
+        /// Lower bound (inclusive), if any.
         min: Option<f64>,
+        /// Upper bound (inclusive), if any.
         max: Option<f64>,
     },
     /// `min <= v(num) / v(den) <= max`.
     Ratio {
+        /// The numerator's selector.
         num: String,
+        /// The denominator's selector.
         den: String,
+        /// Lower bound of the ratio (inclusive), if any.
         min: Option<f64>,
+        /// Upper bound of the ratio (inclusive), if any.
         max: Option<f64>,
     },
     /// `min <= 100 (1 − v(of) / v(base)) <= max` (percent; less is better).
     Gain {
+        /// The selector measured.
         of: String,
+        /// The selector it is compared against.
         base: String,
+        /// Lower bound of the gain, percent (inclusive), if any.
         min: Option<f64>,
+        /// Upper bound of the gain, percent (inclusive), if any.
         max: Option<f64>,
     },
     /// `min <= v(base) / v(of) <= max`.
     Speedup {
+        /// The selector measured.
         of: String,
+        /// The selector it is compared against.
         base: String,
+        /// Lower bound of the speedup (inclusive), if any.
         min: Option<f64>,
+        /// Upper bound of the speedup (inclusive), if any.
         max: Option<f64>,
     },
     /// `v(a) <= v(b) <= …` (strict: `v(a) < v(b)·(1 − margin)`).
     Order {
+        /// The selectors, in ascending order of value.
         rows: Vec<String>,
+        /// `v(a) < v(b)·(1 − margin)` for each neighbour pair instead of `v(a) <= v(b)`.
         #[serde(default)]
         strict: bool,
+        /// Relative margin of a strict order (unused unless `strict`; default 0).
         #[serde(default)]
         margin: f64,
     },
     /// `v(best)` below (above) every `v(o)` by the margin.
     Least {
+        /// The selector that must be the extreme.
         best: String,
+        /// The selectors it is compared against.
         of: Vec<String>,
+        /// Relative margin by which `best` must beat each (default 0).
         #[serde(default)]
         margin: f64,
+        /// Whether `best` must be the lowest (default) or the highest.
         #[serde(default)]
         direction: Direction,
     },
     /// `|v(a) − v(b)| <= tolerance · max(|v(a)|, |v(b)|)`.
     Equal {
+        /// One of the two selectors compared.
         a: String,
+        /// The other selector compared.
         b: String,
+        /// Allowed difference relative to the larger magnitude (default 0).
         #[serde(default)]
         tolerance: f64,
     },

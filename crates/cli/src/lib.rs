@@ -1,5 +1,7 @@
 //! Command-line front end of trace-bench (thin: every piece of work lives in `tb-harness`).
 
+#![deny(missing_docs)]
+
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use std::ffi::OsString;

@@ -133,8 +133,11 @@ impl TraversalInfo {
 /// [`TraceFn`], [`dispatch`]); its outputs are an [`Answers`].
 #[derive(Clone, Copy, Debug)]
 pub struct Batch<'a> {
+    /// Whether each ray asks for the closest hit or any hit.
     pub query: Query,
+    /// The ray-triangle test the kernel runs.
     pub tri: TriTestKind,
+    /// The rays to trace.
     pub rays: &'a [Ray],
     /// One start hint per ray, or `None`: the kernel finds its starts itself.
     pub hints: Option<&'a [u32]>,
@@ -179,7 +182,9 @@ impl<'a> Batch<'a> {
 /// record per ray (`None`: counters compiled out, the timed pass).
 #[derive(Debug)]
 pub struct Answers<'a> {
+    /// One hit record per ray, written by the kernel.
     pub hits: &'a mut [HitRecord],
+    /// One counter record per ray when counting; `None` in the timed pass.
     pub stats: Option<&'a mut [TraversalStats]>,
 }
 
@@ -244,8 +249,11 @@ macro_rules! kernel {
 /// one, the GPU program and the start hints. Listing, dispatch, memory and GPU support all
 /// derive from the table.
 pub struct Traversal<S> {
+    /// The traversal's facts: name, doc, paper, counters, auxiliary arrays.
     pub info: TraversalInfo,
+    /// Its CPU kernel (written with [`kernel!`](crate::kernel)).
     pub trace: TraceFn<S>,
+    /// Its GPU program, where the traversal has one.
     pub gpu: Option<GpuFn<S>>,
     /// Per-ray start hints computed once per batch by the caller, untimed (`None`: the
     /// traversal takes none, and its kernel gets batches without).
@@ -322,8 +330,11 @@ pub enum AccelError {
     /// The scene exceeds what the structure can index.
     #[error("{what}: {count} is over the limit of {limit}")]
     TooLarge {
+        /// What is over the limit (e.g. `BVH triangles`).
         what: &'static str,
+        /// How many the scene needs.
         count: u64,
+        /// The most the structure can index.
         limit: u64,
     },
     /// The structure cannot be built for this input with these parameters (the message says
@@ -336,7 +347,9 @@ pub enum AccelError {
     /// An external library (a peer) refused.
     #[error("{library}: {message}")]
     Library {
+        /// The peer library that refused.
         library: &'static str,
+        /// The library's error message.
         message: String,
     },
 }

@@ -55,10 +55,15 @@ pub enum MismatchKind {
 /// One ray whose answer differs from the oracle's.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct Mismatch {
+    /// Index of the ray in its batch.
     pub index: usize,
+    /// The ray as it was traced.
     pub ray: Ray,
+    /// The oracle's answer.
     pub expected: HitRecord,
+    /// The structure's answer.
     pub got: HitRecord,
+    /// How the two answers differ.
     pub kind: MismatchKind,
 }
 

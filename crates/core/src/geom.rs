@@ -47,9 +47,13 @@ pub fn unit(v: Vec3) -> Vec3 {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Ray {
+    /// Start point of the ray.
     pub origin: Vec3,
+    /// Start of the accepted interval of `t` (inclusive).
     pub tmin: f32,
+    /// Direction (normalised by every generator, so `t` is a distance).
     pub dir: Vec3,
+    /// End of the accepted interval of `t` (exclusive).
     pub tmax: f32,
 }
 
@@ -99,7 +103,9 @@ pub const fn gamma(n: i32) -> f32 {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Aabb {
+    /// Lower corner (`+inf` on every axis for the empty box).
     pub min: Vec3,
+    /// Upper corner (`-inf` on every axis for the empty box).
     pub max: Vec3,
 }
 
@@ -116,6 +122,7 @@ impl Aabb {
         max: Vec3::splat(f32::NEG_INFINITY),
     };
 
+    /// The box with corners `min` and `max` (not checked: `min > max` is empty).
     pub fn new(min: Vec3, max: Vec3) -> Self {
         Self { min, max }
     }
@@ -129,12 +136,14 @@ impl Aabb {
         b
     }
 
+    /// Extend the box to hold the point `p`.
     #[inline(always)]
     pub fn grow(&mut self, p: Vec3) {
         self.min = self.min.min(p);
         self.max = self.max.max(p);
     }
 
+    /// Smallest box holding both `self` and `o`.
     #[inline(always)]
     pub fn union(&self, o: &Aabb) -> Aabb {
         Aabb {
@@ -143,16 +152,19 @@ impl Aabb {
         }
     }
 
+    /// True when `min > max` on some axis (the box holds no point).
     #[inline(always)]
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }
 
+    /// Size along each axis, `max - min`.
     #[inline(always)]
     pub fn extent(&self) -> Vec3 {
         self.max - self.min
     }
 
+    /// Centre point, halfway between `min` and `max`.
     #[inline(always)]
     pub fn center(&self) -> Vec3 {
         0.5 * (self.min + self.max)
@@ -188,6 +200,7 @@ impl Aabb {
         e.x * e.y + e.y * e.z + e.z * e.x
     }
 
+    /// Volume; 0 for the empty box.
     pub fn volume(&self) -> f32 {
         if self.is_empty() {
             return 0.0;
@@ -208,6 +221,7 @@ impl Aabb {
         }
     }
 
+    /// Whether `o` lies inside this box (faces included); an empty `o` always does.
     pub fn contains_box(&self, o: &Aabb) -> bool {
         o.is_empty() || (self.min.cmple(o.min).all() && o.max.cmple(self.max).all())
     }
@@ -268,16 +282,21 @@ impl Aabb {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Triangle {
+    /// First vertex (the origin of the barycentrics `u`, `v`).
     pub v0: Vec3,
+    /// Second vertex (barycentric `u`).
     pub v1: Vec3,
+    /// Third vertex (barycentric `v`).
     pub v2: Vec3,
 }
 
 impl Triangle {
+    /// The triangle with vertices `v0`, `v1`, `v2`.
     pub fn new(v0: Vec3, v1: Vec3, v2: Vec3) -> Self {
         Self { v0, v1, v2 }
     }
 
+    /// Smallest box holding the three vertices.
     pub fn bounds(&self) -> Aabb {
         Aabb {
             min: self.v0.min(self.v1).min(self.v2),
@@ -285,6 +304,7 @@ impl Triangle {
         }
     }
 
+    /// Mean of the three vertices.
     pub fn centroid(&self) -> Vec3 {
         (self.v0 + self.v1 + self.v2) * (1.0 / 3.0)
     }
@@ -311,6 +331,7 @@ impl Triangle {
         unit((e1 / m).cross(e2 / m))
     }
 
+    /// Area (half the length of [`Triangle::normal`]).
     pub fn area(&self) -> f32 {
         0.5 * self.normal().length()
     }
@@ -341,9 +362,13 @@ impl Triangle {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct HitRecord {
+    /// Distance along the ray to the hit (`+inf` on a miss).
     pub t: f32,
+    /// Index of the hit triangle in the scene's array (`u32::MAX` on a miss).
     pub prim: u32,
+    /// Barycentric coordinate of `v1` at the hit point.
     pub u: f32,
+    /// Barycentric coordinate of `v2` at the hit point.
     pub v: f32,
 }
 
@@ -354,6 +379,7 @@ impl Default for HitRecord {
 }
 
 impl HitRecord {
+    /// The answer of a ray that hits nothing: `t = +inf`, `prim = u32::MAX`.
     pub const MISS: HitRecord = HitRecord {
         t: f32::INFINITY,
         prim: u32::MAX,
@@ -361,6 +387,7 @@ impl HitRecord {
         v: 0.0,
     };
 
+    /// Whether this record names a triangle (`prim != u32::MAX`).
     #[inline(always)]
     pub fn is_hit(&self) -> bool {
         self.prim != u32::MAX

@@ -9,6 +9,7 @@ use crate::{Counter, HitRecord, Ray, TriTest, Triangle};
 /// (`usize::MAX`: none yet), `u`, `v`.
 #[derive(Clone, Copy, Debug)]
 pub struct Best {
+    /// Distance of the closest hit so far (`tmax` before any hit).
     pub t: f32,
     slot: usize,
     u: f32,

@@ -14,6 +14,8 @@
 //! - [`slab`]: the octant-specialised, NaN-safe slab test of the hierarchy traversals;
 //! - [`compare`](mod@compare): the documented rule deciding whether a structure's answer matches the oracle.
 
+#![deny(missing_docs)]
+
 pub mod accel;
 pub mod clip;
 pub mod compare;

@@ -17,9 +17,19 @@ use std::fmt;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ParamKind {
     /// An integer in `min..=max`.
-    Int { min: i64, max: i64 },
+    Int {
+        /// Smallest allowed value.
+        min: i64,
+        /// Largest allowed value.
+        max: i64,
+    },
     /// A number in `min..=max`.
-    Float { min: f64, max: f64 },
+    Float {
+        /// Smallest allowed value.
+        min: f64,
+        /// Largest allowed value.
+        max: f64,
+    },
     /// `true` or `false`.
     Bool,
     /// One of the listed names.
@@ -31,6 +41,7 @@ pub enum ParamKind {
 pub struct ParamSpec {
     /// Config key (the field name).
     pub name: &'static str,
+    /// Its type and range, against which config values are checked.
     pub kind: ParamKind,
     /// One line (the field's doc comment): meaning, paper symbol and section.
     pub doc: &'static str,
@@ -82,9 +93,13 @@ impl ParamKind {
 /// A parameter value.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ParamValue {
+    /// An integer (`Int` parameters).
     Int(i64),
+    /// A number (`Float` parameters).
     Float(f64),
+    /// `true` or `false` (`Bool` parameters).
     Bool(bool),
+    /// A name (`Choice` parameters).
     Str(String),
 }
 
@@ -107,7 +122,12 @@ pub enum ParamError {
     Missing(&'static str),
     /// A value of the wrong type or out of its range.
     #[error("parameter `{name}`: {message}")]
-    Invalid { name: &'static str, message: String },
+    Invalid {
+        /// The parameter's config name.
+        name: &'static str,
+        /// What is wrong with its value.
+        message: String,
+    },
 }
 
 /// A full set of parameter values, in spec order.

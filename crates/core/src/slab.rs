@@ -19,7 +19,9 @@ pub const EXIT_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 /// Per-ray data of the octant-specialised slab test.
 #[derive(Clone, Copy, Debug)]
 pub struct RayBox {
+    /// The ray's origin.
     pub org: [f32; 3],
+    /// The reciprocal of the ray's direction, per axis (`±inf` for a zero component).
     pub inv: [f32; 3],
 }
 

@@ -23,6 +23,7 @@ impl<E: Copy, const N: usize> Default for Stack<E, N> {
 }
 
 impl<E: Copy, const N: usize> Stack<E, N> {
+    /// An empty stack.
     #[inline(always)]
     pub const fn new() -> Self {
         Stack {
@@ -92,11 +93,13 @@ impl<E: Copy, const N: usize> Stack<E, N> {
         self.len = 0;
     }
 
+    /// Whether the stack holds no entry.
     #[inline(always)]
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }
 
+    /// Number of entries on the stack.
     #[inline(always)]
     pub fn len(&self) -> usize {
         self.len

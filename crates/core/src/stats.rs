@@ -16,12 +16,19 @@ use serde::{Deserialize, Serialize};
 pub trait Counter: Default + Send {
     /// Whether this counter records anything (lets kernels skip bookkeeping entirely).
     const ENABLED: bool;
+    /// An interior node was visited (`interior`).
     fn interior(&mut self);
+    /// A leaf was visited, empty ones included (`leaves`).
     fn leaf(&mut self);
+    /// `n` ray-primitive tests were performed (`prims`).
     fn prims(&mut self, n: u32);
+    /// `n` ray-box (slab) tests were performed (`boxes`).
     fn boxes(&mut self, n: u32);
+    /// `n` ray-splitting-plane distances were computed (`planes`).
     fn planes(&mut self, n: u32);
+    /// A restart from the root or a pushed-down node, or a backtrack up the tree (`restarts`).
     fn restart(&mut self);
+    /// `n` traversal steps, as the structure defines them (`steps`).
     fn steps(&mut self, n: u32);
     /// A grid cell was visited (N_T of the grid papers).
     fn cell(&mut self);
@@ -254,14 +261,18 @@ impl CounterSet {
 /// Mean and maximum per ray of each counter over a batch.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct StatsSummary {
+    /// Number of rays summarised.
     pub rays: u64,
+    /// Mean per ray of each counter, in the order of [`COUNTERS`].
     pub mean: [f64; N_COUNTERS],
+    /// Maximum over the rays of each counter, in the order of [`COUNTERS`].
     pub max: [u32; N_COUNTERS],
     /// Rays ended by a step cap.
     pub capped: u64,
 }
 
 impl StatsSummary {
+    /// The summary of one batch's per-ray records.
     pub fn from_stats(stats: &[TraversalStats]) -> Self {
         let mut sum = [0u64; N_COUNTERS];
         let mut max = [0u32; N_COUNTERS];

@@ -55,6 +55,8 @@
 //! and `max_uniform_buffer_binding_size`. A program that computes in `f64` ([`GpuProgram::needs_f64`]) is
 //! refused ([`GpuError::Unsupported`], one line) on an adapter without `SHADER_F64`.
 
+#![deny(missing_docs)]
+
 mod admit;
 mod device;
 mod kernels;

@@ -200,10 +200,13 @@ pub fn scale_res(res: &[[u32; 3]], f: f64) -> Vec<[u32; 3]> {
 /// (`f64`) and the walks (`F` of the grid's [`Precision`], [`Lattice::cast`]).
 #[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Lattice<F: Real = f64> {
+    /// Lower corner of the lattice's box.
     pub min: [F; 3],
+    /// Edge length of one voxel, per axis.
     pub size: [F; 3],
     /// `1 / size`.
     pub inv_size: [F; 3],
+    /// Number of voxels per axis.
     pub res: [u32; 3],
     /// Growth of cell boxes for reference assignment, per axis (see the module doc).
     pub delta: [f64; 3],

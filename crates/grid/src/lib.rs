@@ -61,6 +61,8 @@
 //! scenes (Table 4), the λ_1 × λ_2 sweep (Figure 6) and the SBVH comparison (the binned `bvh`
 //! stands in, see `configs/irregular-grid.toml`).
 
+#![deny(missing_docs)]
+
 mod common;
 mod gpu;
 mod irregular;

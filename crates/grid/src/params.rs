@@ -80,6 +80,7 @@ tb_core::params! {
         macro_regions: bool = false, ParamKind::Bool;
         /// largest number of cells (the resolution is scaled down to stay under it)
         max_cells: u32 = 1 << 26, ParamKind::Int { min: 1, max: 1 << 30 };
+        /// how the cells are walked ([`Walk`]: the arithmetic of the cell walk)
         @flatten
         walk: Walk = Walk::default();
     }
@@ -89,10 +90,12 @@ tb_core::params! {
     /// Build parameters of [`TwoLevelGrid`] (Kalojanov et al. 2011 §3).
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct TwoLevelParams {
+        /// the two densities λ_1, λ_2 and their rounding ([`Densities`])
         @flatten
         densities: Densities = Densities::default();
         /// largest number of top-level cells
         max_cells: u32 = 1 << 24, ParamKind::Int { min: 1, max: 1 << 28 };
+        /// how the cells are walked ([`Walk`]: the arithmetic of the cell walk)
         @flatten
         walk: Walk = Walk::default();
     }
@@ -113,6 +116,7 @@ tb_core::params! {
     /// Build parameters of [`IrregularGrid`] (Pérard-Gayot et al. 2017 §4).
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct IrregularParams {
+        /// the two densities λ_1, λ_2 and their rounding ([`Densities`])
         @flatten
         densities: Densities = Densities::default();
         /// initial subdivision: `two-level` (octree per top cell, §4.1) or `uniform`
@@ -131,6 +135,7 @@ tb_core::params! {
         /// largest number of voxel-map entries, the finest voxels of every top cell's octree
         /// (octree depths are lowered to stay under it; the initial cells are at most as many)
         max_cells: u32 = 1 << 25, ParamKind::Int { min: 1, max: 1 << 27 };
+        /// how the cells are walked ([`Walk`]: the arithmetic of the cell walk)
         @flatten
         walk: Walk = Walk::default();
     }

@@ -24,6 +24,7 @@ const MAX_SUB: u32 = 255;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct TopCell {
+    /// Index of the top cell's first leaf cell; its leaf cells follow in order.
     pub first_leaf: u32,
     /// `rx | ry << 8 | rz << 16`.
     pub res: u32,

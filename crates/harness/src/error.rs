@@ -4,12 +4,14 @@
 
 use std::path::PathBuf;
 
+/// An error of the harness, one line naming the file, key or line and the problem.
 #[derive(Debug, thiserror::Error)]
 pub enum HarnessError {
     /// A config problem found before any work starts, a file that cannot be read or
     /// written, or another problem in one line (tb-results' error).
     #[error(transparent)]
     File(#[from] tb_results::Error),
+    /// A scene that could not be loaded.
     #[error("{0}")]
     Scene(#[from] tb_scene::SceneError),
 }

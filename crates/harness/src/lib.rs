@@ -11,6 +11,8 @@
 //! [`experiment::convergence`] and [`experiment::dynamic`] make their own tables; [`tb_results::check`] compares the deterministic counters of a results file with a
 //! baseline; [`cluster`] splits a run into shards. The claims (tb-claims) turn rows into verdicts.
 
+#![deny(missing_docs)]
+
 pub mod cluster;
 pub mod error;
 pub mod experiment;

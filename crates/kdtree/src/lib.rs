@@ -50,6 +50,8 @@
 //! early. Clipped triangle boxes are made conservative (see `build`), so every triangle is
 //! referenced in every leaf cell it touches.
 
+#![warn(missing_docs)]
+
 mod build;
 mod check;
 mod gpu;
@@ -65,7 +67,7 @@ mod walks;
 #[cfg(test)]
 mod start_tests;
 
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 use tb_core::{
     build_with, dispatch, Aabb, AccelError, BuildReport, Family, MemoryReport, Structure,
     Traversal, TraversalInfo, Triangle,
@@ -79,7 +81,7 @@ pub use node::KdNode;
 pub use params::{BoxMeasure, KdBuilder, KdParams, SahParams, SurfaceArea};
 pub use stackless::{Located, MAX_SHORT_STACK, STEP_CAP};
 pub use traverse::{split_decision, Best, Decision, Kind, SLACK, STACK_SIZE};
-pub use view::{BackNode, KdStart, KdView, LeafRopes, NodeRank, Ropes};
+pub use view::{AuxArrays, BackNode, KdStart, KdView, LeafRopes, NodeRank, Ropes};
 
 /// Bytes of auxiliary array `aux` over `nodes` (the node array, unused treelet slots
 /// included) of which `leaves` are leaves ([`BACKTRACK_AUX`]: cell and parent per node;
@@ -162,15 +164,6 @@ pub struct KdTree {
     /// Leaves the builder made because the reference budget was reached
     /// ([`build::MAX_REFS_PER_TRIANGLE`]; 0 on every paper scene).
     budget_leaves: u64,
-}
-
-/// The auxiliary arrays, each built on first use.
-#[derive(Debug, Default)]
-struct AuxArrays {
-    /// Per node: its cell and its parent ([`BACKTRACK_AUX`]).
-    back: OnceLock<Vec<BackNode>>,
-    /// Per leaf: its cell and six ropes ([`ROPES_AUX`]).
-    ropes: OnceLock<Ropes>,
 }
 
 impl KdTree {
@@ -271,17 +264,13 @@ impl KdTree {
     /// The [`BACKTRACK_AUX`] array (cell and parent per node, read by `backtrack`), built on
     /// first use.
     pub fn back_nodes(&self) -> &[BackNode] {
-        self.aux
-            .back
-            .get_or_init(|| view::back_nodes(&self.view(), &[0]))
+        self.aux.back_nodes(&self.view(), &[0])
     }
 
     /// The [`ROPES_AUX`] array (cell and six ropes per leaf, read by `ropes`; `u32::MAX`: the
     /// face is on the root cell), built on first use.
     pub fn ropes(&self) -> &Ropes {
-        self.aux
-            .ropes
-            .get_or_init(|| view::ropes(&self.view(), &[0]))
+        self.aux.ropes(&self.view(), &[0])
     }
 
     /// The tree's leaves.
@@ -291,11 +280,7 @@ impl KdTree {
 
     /// Whether auxiliary array `aux` ([`BACKTRACK_AUX`], [`ROPES_AUX`]) has been built.
     pub fn aux_built(&self, aux: &str) -> bool {
-        match aux {
-            BACKTRACK_AUX => self.aux.back.get().is_some(),
-            ROPES_AUX => self.aux.ropes.get().is_some(),
-            _ => false,
-        }
+        self.aux.built(aux)
     }
 
     /// The flattened nodes, root first (see [`KdNode`]). Empty when no triangle is finite.
@@ -421,15 +406,7 @@ impl Structure for KdTree {
     }
 
     fn prepare_aux(&self, aux: &str) {
-        match aux {
-            BACKTRACK_AUX => {
-                self.back_nodes();
-            }
-            ROPES_AUX => {
-                self.ropes();
-            }
-            _ => {}
-        }
+        self.aux.prepare(aux, &self.view(), &[0]);
     }
 
     /// The build report: see `report.rs`.

@@ -382,3 +382,48 @@ pub struct Aux<'a> {
     /// Cell and six ropes per leaf (`ropes`).
     pub ropes: Option<&'a Ropes>,
 }
+
+/// The auxiliary arrays of the trees of one node array, each built on first use from their
+/// view and roots: `backtrack`'s cells and parent links ([`crate::BACKTRACK_AUX`]) and
+/// `ropes`' leaf records ([`crate::ROPES_AUX`]). The kd-tree keeps one over its tree,
+/// multi-kd one over its three.
+#[derive(Debug, Default)]
+pub struct AuxArrays {
+    back: std::sync::OnceLock<Vec<BackNode>>,
+    ropes: std::sync::OnceLock<Ropes>,
+}
+
+impl AuxArrays {
+    /// The [`crate::BACKTRACK_AUX`] array of the trees of `v` at `roots`.
+    pub fn back_nodes(&self, v: &KdView, roots: &[u32]) -> &[BackNode] {
+        self.back.get_or_init(|| back_nodes(v, roots))
+    }
+
+    /// The [`crate::ROPES_AUX`] array of the trees of `v` at `roots`.
+    pub fn ropes(&self, v: &KdView, roots: &[u32]) -> &Ropes {
+        self.ropes.get_or_init(|| ropes(v, roots))
+    }
+
+    /// Build the array named `aux` (an auxiliary array of a traversal table row); others are
+    /// not this structure's.
+    pub fn prepare(&self, aux: &str, v: &KdView, roots: &[u32]) {
+        match aux {
+            crate::BACKTRACK_AUX => {
+                self.back_nodes(v, roots);
+            }
+            crate::ROPES_AUX => {
+                self.ropes(v, roots);
+            }
+            _ => {}
+        }
+    }
+
+    /// Whether the array named `aux` is built.
+    pub fn built(&self, aux: &str) -> bool {
+        match aux {
+            crate::BACKTRACK_AUX => self.back.get().is_some(),
+            crate::ROPES_AUX => self.ropes.get().is_some(),
+            _ => false,
+        }
+    }
+}

@@ -53,6 +53,8 @@
 //! 4-byte references, the triangles, the header) and, in the build report, the paper's
 //! Table 3 figure (`paper_bytes`: 16 bytes a node, 4 a reference).
 
+#![warn(missing_docs)]
+
 mod build;
 mod gpu;
 pub mod measure;
@@ -65,7 +67,7 @@ use traverse::*;
 pub use traverse::{ARRANGE_BLOCK, TREE_SHIFT};
 
 use measure::{Heuristic, WeightedArea};
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 use tb_core::{
     build_with, dispatch, Aabb, AccelError, Answers, Batch, BuildReport, Counter, Family,
     HitRecord, Kernel, MemoryReport, MollerTrumbore, NoStats, Query, Ray, Structure, Traversal,
@@ -73,8 +75,8 @@ use tb_core::{
 };
 use tb_kdtree::view;
 use tb_kdtree::{
-    layout, BackNode, DepthFirst, KdLayout, KdNode, KdStart, KdTree, KdView, Layout, Nodes, Ropes,
-    Treelet, BACKTRACK_AUX, ROPES_AUX,
+    layout, AuxArrays, BackNode, DepthFirst, KdLayout, KdNode, KdStart, KdTree, KdView, Layout,
+    Nodes, Ropes, Treelet,
 };
 
 /// The multi-kd-tree in the registry.
@@ -149,12 +151,6 @@ pub struct MultiKdTree {
     budget_leaves: u64,
 }
 
-#[derive(Debug, Default)]
-struct AuxArrays {
-    back: OnceLock<Vec<BackNode>>,
-    ropes: OnceLock<Ropes>,
-}
-
 impl MultiKdTree {
     /// The view of the whole node array (walks begin at a header entry).
     pub fn view(&self) -> KdView<'_> {
@@ -213,16 +209,12 @@ impl MultiKdTree {
 
     /// [`BACKTRACK_AUX`] over every tree, built on first use.
     pub fn back_nodes(&self) -> &[BackNode] {
-        self.aux
-            .back
-            .get_or_init(|| view::back_nodes(&self.view(), &self.roots()))
+        self.aux.back_nodes(&self.view(), &self.roots())
     }
 
     /// [`ROPES_AUX`] over every tree, built on first use.
     pub fn ropes(&self) -> &Ropes {
-        self.aux
-            .ropes
-            .get_or_init(|| view::ropes(&self.view(), &self.roots()))
+        self.aux.ropes(&self.view(), &self.roots())
     }
 }
 
@@ -263,15 +255,7 @@ impl Structure for MultiKdTree {
     }
 
     fn prepare_aux(&self, aux: &str) {
-        match aux {
-            BACKTRACK_AUX => {
-                self.back_nodes();
-            }
-            ROPES_AUX => {
-                self.ropes();
-            }
-            _ => {}
-        }
+        self.aux.prepare(aux, &self.view(), &self.roots());
     }
 
     /// The build report: see `report.rs`.

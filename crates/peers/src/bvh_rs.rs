@@ -47,6 +47,7 @@ pub struct BvhRsPeer {
 }
 
 impl BvhRsPeer {
+    /// Build the crate's BVH over `tris` (its SAH-bucketed builder).
     pub fn build(tris: &[Triangle]) -> Self {
         let mut shapes: Vec<Shape> = tris
             .iter()

@@ -12,6 +12,8 @@
 //! leave the counter columns empty). obvhs and bvh call our triangle test on their candidates, so they honour the
 //! experiment's `triangle_test`; Embree uses its own intersector.
 
+#![deny(missing_docs)]
+
 #[cfg(feature = "bvh")]
 pub mod bvh_rs;
 #[cfg(feature = "embree")]

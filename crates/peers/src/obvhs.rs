@@ -22,10 +22,15 @@ tb_core::choice! {
     /// obvhs build presets (`BvhBuildParams::*_build`).
     #[derive(Clone, Copy, Debug, PartialEq, Eq)]
     pub enum Preset {
+        /// The fastest build and lowest tree quality (`BvhBuildParams::very_fast_build()`).
         VeryFast = "very-fast",
+        /// A faster build than `medium` (`BvhBuildParams::fast_build()`).
         Fast = "fast",
+        /// The default trade of build time for quality (`BvhBuildParams::medium_build()`).
         Medium = "medium",
+        /// A better tree than `medium`, built slower (`BvhBuildParams::slow_build()`).
         Slow = "slow",
+        /// The slowest build and best tree quality (`BvhBuildParams::very_slow_build()`).
         VerySlow = "very-slow",
     }
 }

@@ -60,7 +60,9 @@ pub fn reference_path(dir: &Path, integrator: &Integrator, key: &str) -> PathBuf
 /// Whether the reference came from the cache or was rendered now.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Origin {
+    /// Read from the cache file.
     Cached,
+    /// Rendered now and written to the cache.
     Rendered,
 }
 

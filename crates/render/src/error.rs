@@ -7,7 +7,12 @@ use std::path::PathBuf;
 pub enum RenderError {
     /// An I/O, PNG or EXR error on a file.
     #[error("{path}: {message}")]
-    File { path: PathBuf, message: String },
+    File {
+        /// The image file read or written.
+        path: PathBuf,
+        /// What went wrong with it.
+        message: String,
+    },
     /// Two images (or an image and what was asked of it) do not fit together.
     #[error("{0}")]
     Mismatch(String),

@@ -10,7 +10,9 @@ use std::path::Path;
 /// Named `f32` channels of one resolution (an EXR layer): raw counter values, radiance, …
 #[derive(Clone, Debug, PartialEq)]
 pub struct Channels {
+    /// Pixels per row.
     pub width: u32,
+    /// Number of rows.
     pub height: u32,
     /// `(name, values)`, each `width · height` long, row-major.
     pub channels: Vec<(String, Vec<f32>)>,
@@ -98,7 +100,9 @@ impl Channels {
 /// An 8-bit RGB image.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Rgb8 {
+    /// Pixels per row.
     pub width: u32,
+    /// Number of rows.
     pub height: u32,
     /// `3 · width · height` bytes, row-major.
     pub data: Vec<u8>,

@@ -34,9 +34,17 @@ const TAG_INTEGRATOR: u64 = 0x494e_5445_4752;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Integrator {
     /// Ambient-occlusion visibility within `distance` (scene units).
-    Ao { distance: f32 },
+    Ao {
+        /// Largest distance at which an occluder counts (scene units).
+        distance: f32,
+    },
     /// Diffuse path tracing with `bounces` bounces, grey albedo `albedo`, white environment.
-    Path { bounces: u32, albedo: f32 },
+    Path {
+        /// Number of diffuse bounces after the primary hit.
+        bounces: u32,
+        /// Grey reflectance of every surface.
+        albedo: f32,
+    },
 }
 
 impl Integrator {

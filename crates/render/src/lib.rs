@@ -12,6 +12,8 @@
 //! - [`metrics`]: RMSE and relative MSE against a reference;
 //! - [`cache`]: the content-hashed cache of reference images.
 
+#![deny(missing_docs)]
+
 pub mod cache;
 pub mod colormap;
 pub mod error;

@@ -22,8 +22,11 @@ where
 /// A CPU tracer: traversal `traversal` of `accel` with triangle test `tri`, the batch traced by
 /// [`tb_core::par`] over the current rayon pool (install a pool to pick the threads).
 pub struct AccelTracer<'a> {
+    /// The structure traced.
     pub accel: &'a dyn Accel,
+    /// Index of the traversal in the structure's traversal table.
     pub traversal: usize,
+    /// The ray-triangle test used.
     pub tri: TriTestKind,
 }
 

@@ -63,12 +63,17 @@ fn counter(r: &Row, name: &str) -> Option<f64> {
 /// One finding of a check.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Finding {
+    /// The row compared: scene, structure, `[params]`, traversal, triangle test, ray kind.
     pub row: String,
+    /// The counter column, or `(row)` for a baseline row the run lacks.
     pub counter: String,
+    /// The baseline's value (`None`: not measured there).
     pub baseline: Option<f64>,
+    /// The run's value (`None`: not measured there).
     pub current: Option<f64>,
     /// Relative change (current / baseline − 1), when both exist and baseline > 0.
     pub change: Option<f64>,
+    /// Whether this finding fails the check.
     pub failed: bool,
 }
 

@@ -8,6 +8,8 @@
 //! ([`lock`]). The harness (tb-harness) writes results with it, the claims (tb-claims) read
 //! them; errors are one line each ([`Error`]).
 
+#![deny(missing_docs)]
+
 pub mod check;
 pub mod error;
 pub mod finite;

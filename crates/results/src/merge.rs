@@ -19,6 +19,7 @@ use std::path::{Path, PathBuf};
 /// What a merge did.
 #[derive(Debug, Default)]
 pub struct MergeReport {
+    /// Rows in the merged results.
     pub rows: usize,
     /// Work units no shard completed: `shard K/N: scene structure [params]: R of E rows`.
     pub missing: Vec<String>,

@@ -44,12 +44,19 @@ macro_rules! define_row {
         #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
         #[serde(default)]
         pub struct Row {
+            /// Row label: the scene, or `TABLE@VIEW` for a view of a table with `views`.
             pub scene: String,
+            /// The scene's source (`builtin:…` or a file path).
             pub source: String,
+            /// Triangles in the scene.
             pub triangles: u64,
+            /// The structure's registry name.
             pub structure: String,
+            /// The full parameter set, `k=v;k=v`.
             pub params: String,
+            /// The traversal algorithm's name.
             pub traversal: String,
+            /// `cpu` or `gpu`.
             pub device: String,
             /// GPU rows: adapter name, backend and driver; empty on the CPU.
             pub adapter: String,
@@ -66,10 +73,15 @@ macro_rules! define_row {
             /// process. The same row of several processes is one measurement each.
             #[serde(default)]
             pub process: Option<u32>,
+            /// Thread count of the timed runs (CPU); 0 on GPU rows.
             pub threads: u32,
+            /// `watertight` or `moller-trumbore`.
             pub triangle_test: String,
+            /// `primary`, `shadow`, `ao`, `path1`…, `random` or `stress`.
             pub ray_kind: String,
+            /// Rays in the batch.
             pub rays: u64,
+            /// Median build time, ms (of the `build_ms_runs`).
             #[serde(deserialize_with = "finite")]
             pub build_ms: Option<f64>,
             /// Every build's ms (`run.build_repeat` of them) in the order they ran,
@@ -88,12 +100,16 @@ macro_rules! define_row {
             /// column (their builds were all timed).
             #[serde(default)]
             pub build_timed: Option<bool>,
+            /// Fastest timed pass over the batch, ms, counters compiled out.
             #[serde(deserialize_with = "finite")]
             pub trace_ms_min: Option<f64>,
+            /// Median timed pass over the batch, ms, counters compiled out.
             #[serde(deserialize_with = "finite")]
             pub trace_ms_median: Option<f64>,
+            /// Slowest timed pass over the batch, ms, counters compiled out.
             #[serde(deserialize_with = "finite")]
             pub trace_ms_max: Option<f64>,
+            /// `timed_rays / trace_ms_median`, million rays per second.
             #[serde(deserialize_with = "finite")]
             pub mrays_per_s: Option<f64>,
             /// Timed runs of the row (`repeat`, more with `max_repeat`).
@@ -154,6 +170,7 @@ macro_rules! define_row {
             #[serde(default)]
             #[serde(deserialize_with = "finite")]
             pub gpu_sm_mhz_min: Option<f64>,
+            /// The most SM clock sampled, MHz (see `gpu_sm_mhz_min`).
             #[serde(default)]
             #[serde(deserialize_with = "finite")]
             pub gpu_sm_mhz_max: Option<f64>,
@@ -161,6 +178,7 @@ macro_rules! define_row {
             #[serde(default)]
             #[serde(deserialize_with = "finite")]
             pub gpu_mem_mhz: Option<f64>,
+            /// Share of rays that hit (any hit for shadow and AO rays).
             #[serde(deserialize_with = "finite")]
             pub hit_rate: Option<f64>,
             $(
@@ -180,11 +198,16 @@ macro_rules! define_row {
             /// (`tb_core::MemoryReport::structure_bytes`).
             #[serde(default)]
             pub structure_bytes: Option<u64>,
+            /// Node count (kd-tree treelet layout: slots, empty ones included).
             pub nodes: Option<u64>,
+            /// Leaf references to triangles.
             pub prim_refs: Option<u64>,
+            /// Bytes per node.
             pub node_bytes: Option<u32>,
+            /// SAH cost of the build.
             #[serde(deserialize_with = "finite")]
             pub sah_cost: Option<f64>,
+            /// Further build figures, `k=v;…` (leaves, depth, …).
             pub build_stats: String,
             /// The most heap the build held at once above what was live before it, bytes
             /// (measured by the binary's counting allocator, `tb_harness::experiment::heap`; empty where it
@@ -192,8 +215,11 @@ macro_rules! define_row {
             pub build_heap_peak_bytes: Option<u64>,
             /// The heap the build still held when it returned (the structure), bytes.
             pub build_heap_kept_bytes: Option<u64>,
+            /// Rays compared with the brute-force oracle (watertight test).
             pub validated_rays: Option<u64>,
+            /// How many of the validated rays differ from the oracle.
             pub mismatches: Option<u64>,
+            /// Why the row has no measurement, or what it should be read with.
             pub note: String,
         }
 
@@ -248,13 +274,21 @@ pub type CountedKey = (String, String, String, String, String, String);
 /// The columns that identify a row (for `--resume` and `check`).
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct RowKey {
+    /// Row label (the row's `scene`).
     pub scene: String,
+    /// The structure's registry name.
     pub structure: String,
+    /// The full parameter set, `k=v;k=v`.
     pub params: String,
+    /// The traversal algorithm's name.
     pub traversal: String,
+    /// `cpu` or `gpu`.
     pub device: String,
+    /// Thread count of the timed runs (0 on GPU rows).
     pub threads: u32,
+    /// `watertight` or `moller-trumbore`.
     pub triangle_test: String,
+    /// The ray batch's kind name.
     pub ray_kind: String,
     /// The run's process (`run --processes K`), `None` for a run of one process.
     pub process: Option<u32>,
@@ -273,6 +307,7 @@ impl Row {
         )
     }
 
+    /// The row's [`RowKey`].
     pub fn key(&self) -> RowKey {
         RowKey {
             scene: self.scene.clone(),

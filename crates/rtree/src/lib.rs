@@ -22,6 +22,8 @@
 //!   packed array (the paper's CUDA tracer ran `stackless` and `ordered`, Tables 1-3), with
 //!   the per-ray counters of the CPU walks.
 
+#![deny(missing_docs)]
+
 mod build;
 mod check;
 mod gpu;
@@ -253,6 +255,7 @@ impl Rtree {
         self.first_leaf
     }
 
+    /// The parameters the tree was built with.
     pub fn params(&self) -> &RtreeParams {
         &self.params
     }

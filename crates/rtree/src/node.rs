@@ -17,9 +17,13 @@ use tb_core::{Aabb, Vec3};
     Clone, Copy, Debug, PartialEq, Serialize, Deserialize, bytemuck::Pod, bytemuck::Zeroable,
 )]
 pub struct RtreeNode {
+    /// Lower corner of the slot's box (`+inf` for an empty slot).
     pub min: [f32; 3],
+    /// Leaf: its first triangle in [`Rtree::triangles`](crate::Rtree::triangles); else 0.
     pub index: u32,
+    /// Upper corner of the slot's box (`−inf` for an empty slot).
     pub max: [f32; 3],
+    /// Intermediate node: its entries; leaf: its triangles; empty slot: 0.
     pub count: u32,
 }
 
@@ -44,6 +48,7 @@ impl RtreeNode {
         self.count == 0
     }
 
+    /// The slot's box.
     #[inline(always)]
     pub fn bounds(&self) -> Aabb {
         Aabb::new(Vec3::from_array(self.min), Vec3::from_array(self.max))

@@ -18,13 +18,19 @@ pub enum PixelOrder {
 /// Pinhole camera: eye, target, up, vertical field of view in degrees, resolution.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Camera {
+    /// Position of the pinhole.
     pub eye: Vec3,
+    /// Point the camera looks at (the image centre).
     pub target: Vec3,
+    /// Up direction of the image (need not be orthogonal to the view direction).
     pub up: Vec3,
     /// Vertical field of view, degrees.
     pub fov: f32,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// Order in which [`Camera::pixels`] visits the pixels (and primary rays come).
     #[serde(default)]
     pub order: PixelOrder,
 }

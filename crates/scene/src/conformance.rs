@@ -28,7 +28,9 @@ pub const AO_SAMPLES: u32 = 4;
 pub const RANDOM_RAYS: usize = 2000;
 /// Seeds of the generated kinds (AO; path bounce `k` uses `PATH_SEED + k`; random).
 pub const AO_SEED: u64 = 0xA0;
+/// Seed of the path bounces: bounce `k` uses `PATH_SEED + k`.
 pub const PATH_SEED: u64 = 0x9A7B;
+/// Seed of the random rays.
 pub const RANDOM_SEED: u64 = 0x5EED;
 /// Procedural scenes' cameras are scaled down to about this many pixels in the suite.
 pub const MAX_SUITE_PIXELS: u32 = 32 * 32;
@@ -38,11 +40,17 @@ pub const MAX_SUITE_TRIANGLES: usize = 5000;
 /// The outcome of one (scene, ray kind, traversal, triangle test) case.
 #[derive(Clone, Debug)]
 pub struct CaseResult {
+    /// Name of the scene.
     pub scene: String,
+    /// Name of the ray kind ([`crate::rays::RayKind::name`]).
     pub ray_kind: String,
+    /// Name of the traversal.
     pub traversal: String,
+    /// The ray-triangle test used.
     pub tri: TriTestKind,
+    /// Number of rays traced.
     pub rays: usize,
+    /// Number of rays whose answer differs from the oracle's.
     pub mismatches: usize,
     /// The first (up to 5) mismatching rays.
     pub first: Vec<Mismatch>,

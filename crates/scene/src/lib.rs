@@ -7,6 +7,8 @@
 //!   random), generated once per scene and kind with fixed seeds;
 //! - [`conformance`]: the shared oracle suite every structure x traversal must pass.
 
+#![deny(missing_docs)]
+
 pub mod builtin;
 pub mod camera;
 pub mod conformance;

@@ -33,13 +33,17 @@ use tb_core::{Aabb, Accel, HitRecord, Query, Ray, TriTestKind, Triangle, Vec3};
 /// the project: configs, the runner's batches, the conformance suite).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum RayKind {
+    /// One ray per pixel from the camera, through the pixel centre.
     Primary,
+    /// From the primary hits towards the scene's point light (any hit).
     Shadow,
+    /// Ambient-occlusion rays from the primary hits, within the AO distance (any hit).
     Ao,
     /// Path-tracing bounce number (1-based): `Path(1)` continues the primary hits. A config's
     /// `path` is [`RayKind::PATH`], the first bounce; the runner makes the bounces after it
     /// up to the scene's `path.bounces`.
     Path(u32),
+    /// Origins uniform in the scene's bounds, directions uniform on the sphere.
     Random,
     /// A stress scene's own rays (named `stress`).
     Stress,
@@ -91,7 +95,9 @@ impl RayKind {
 /// A batch of rays of one kind.
 #[derive(Clone, Debug)]
 pub struct RayBatch {
+    /// What the rays are.
     pub kind: RayKind,
+    /// The rays, in generation order.
     pub rays: Vec<Ray>,
 }
 

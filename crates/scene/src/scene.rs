@@ -6,6 +6,7 @@ use tb_core::{Aabb, Ray, Triangle, Vec3};
 /// A default view for a scene: camera, optional point light, AO distance.
 #[derive(Clone, Debug, PartialEq)]
 pub struct View {
+    /// The camera of the default view.
     pub camera: Camera,
     /// Point light for shadow rays; `None` means the scene has no light (shadow rays skipped).
     pub light: Option<Vec3>,

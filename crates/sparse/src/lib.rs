@@ -54,6 +54,8 @@
 //! 4-byte parent link: 28 bytes); `paper_bytes` as Table 1's M_KD does (40 bytes, see
 //! [`PAPER_BOX_BYTES`]); `aug_bytes` and `structure_bytes` are what we allocate.
 
+#![deny(missing_docs)]
+
 mod build;
 mod check;
 mod gpu;
@@ -143,9 +145,13 @@ impl tb_core::Persist for SparseBoxes {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct AugNode {
+    /// Lower corner of the node's cell.
     pub min: [f32; 3],
+    /// Index of the parent augmented node's record (0 for the root).
     pub parent: u32,
+    /// Upper corner of the node's cell.
     pub max: [f32; 3],
+    /// The kd-tree node this record belongs to.
     pub node: u32,
 }
 

@@ -11,6 +11,7 @@ tb_core::params! {
         /// d_min: an interior node is augmented when its depth distance to the nearest
         /// augmented ancestor exceeds d_min (Havran and Bittner 2007 §4; the root always is).
         d_min: u32 = 2, ParamKind::Int { min: 1, max: 16 };
+        /// the kd-tree's SAH split search (tb-kdtree's [`SahParams`])
         @flatten
         sah: SahParams = SahParams::default();
         /// Per-ray step cap of SLTR and SEQ (a guard; capped rays are counted).

@@ -72,13 +72,21 @@ pub const CW_STACK_SIZE: usize = crate::STACK_SIZE;
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct CwNode {
+    /// Origin of the quantisation grid: the low corner of the node's box.
     pub p: [f32; 3],
+    /// Per axis, the biased `f32` exponent of the quantisation scale.
     pub e: [u8; 3],
+    /// Bit `s` set where slot `s` holds an interior child.
     pub imask: u8,
+    /// Node index of the first interior child; the others follow in slot order.
     pub child_base: u32,
+    /// Index of the first triangle of the node's leaves; its leaves' triangles follow.
     pub tri_base: u32,
+    /// Per slot: empty, interior child or leaf (the encoding above).
     pub meta: [u8; 8],
+    /// Per axis and slot: the quantised low plane of the slot's box.
     pub q_lo: [[u8; 8]; 3],
+    /// Per axis and slot: the quantised high plane of the slot's box.
     pub q_hi: [[u8; 8]; 3],
 }
 

@@ -87,9 +87,13 @@ pub const WIDE_STACK_SIZE: usize = 7 * MAX_DEPTH + 1;
 #[repr(C, align(32))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WideNode<const N: usize> {
+    /// Lower corners of the children's boxes, `min[axis][slot]`.
     pub min: [[f32; N]; 3],
+    /// Upper corners of the children's boxes, `max[axis][slot]`.
     pub max: [[f32; N]; 3],
+    /// Per slot: the child's node index, or a leaf's first [`LeafBlock`].
     pub child: [u32; N],
+    /// Per slot: 0 for an interior child, a leaf's triangle count, or [`EMPTY_SLOT`].
     pub count: [u32; N],
 }
 
@@ -135,6 +139,7 @@ impl<const N: usize> WideNode<N> {
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LeafBlock {
+    /// The four triangles, in the SIMD test's layout.
     pub tris: Tri4,
     /// The scene index of each lane's triangle.
     pub prim: [u32; 4],

@@ -7,8 +7,12 @@ use super::*;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Verdict {
+    /// The rows bear the claim out: its test holds.
     Agree,
+    /// The rows contradict the claim: its test fails.
     Disagree,
+    /// Cannot be told from these rows (rows missing, a time interval across a bound, noisy
+    /// or software-rendered timings).
     Inconclusive,
     /// Cannot be decided by construction (the claim's `undecidable`, or a time band narrower
     /// than the floor between runs): shown instead of `inconclusive`, not tallied with it.
@@ -16,6 +20,7 @@ pub enum Verdict {
 }
 
 impl Verdict {
+    /// The verdict as reports write it (`agree`, `disagree`, `inconclusive`, `undecidable`).
     pub fn as_str(self) -> &'static str {
         match self {
             Verdict::Agree => "agree",
@@ -29,8 +34,11 @@ impl Verdict {
 /// One pooled value: `v` with its 95 % interval `[lo, hi]` (a point for counters).
 #[derive(Clone, Debug, Serialize)]
 pub struct Value {
+    /// The pooled value.
     pub v: f64,
+    /// Lower end of its 95 % interval (`v` for a counter).
     pub lo: f64,
+    /// Upper end of its 95 % interval (`v` for a counter).
     pub hi: f64,
     /// A timing (interval, noise) rather than a deterministic counter.
     pub timed: bool,
@@ -189,11 +197,13 @@ impl Value {
 pub struct GroupResult {
     /// The group key (`per` values joined by ` · `; empty without `per`).
     pub group: String,
+    /// The group's verdict on the claim's test.
     pub verdict: Verdict,
     /// The compared quantity as shown (`0.93`, `+7.2 %`, `a 1.2 <= b 3.4`).
     pub shown: String,
     /// The compared quantity (band tests), with its interval.
     pub derived: Option<[f64; 3]>,
+    /// Why that verdict, in words.
     pub why: String,
     /// A timed comparison's interval: `Some(n)` when it was measured between `n` processes
     /// (`MIN_PROCESSES` or more), `None` when the floor gave it (or nothing is timed).
@@ -208,31 +218,43 @@ pub struct GroupResult {
 /// One claim on one device.
 #[derive(Clone, Debug, Serialize)]
 pub struct ClaimResult {
+    /// The claim's id in its claims file.
     pub id: String,
+    /// Where the claim stands in the paper (table, row, column or section).
     #[serde(rename = "where")]
     pub place: String,
+    /// The claim in words.
     pub text: String,
+    /// The paper's figure(s), as printed.
     pub paper: String,
     /// The paper's figure in a few words, where the claims file gives it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub paper_figure: Option<String>,
+    /// The device the claim was evaluated on (`cpu`, `gpu`).
     pub device: String,
     /// A claim of the paper (tallied), an observation or an invariant (shown apart).
     pub kind: ClaimKind,
+    /// The claim's measure (a column, a sum of columns, `time`, …).
     pub measure: String,
     /// Whether the measure (or a selector's own) is a timing ([`crate::stability`]: time
     /// verdicts may move between runs, counter verdicts may not).
     pub timed: bool,
+    /// The groups' verdicts combined by the claim's `need`.
     pub verdict: Verdict,
     /// Why the claim cannot be decided by construction, where it cannot.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub undecidable: Option<String>,
+    /// Our value: one group's, or `min..max (n groups)` for several.
     pub ours: String,
+    /// Why the verdict: the groups that decided it.
     pub why: String,
+    /// The claims file's note on this test and tolerance.
     pub note: Option<String>,
+    /// The claim's test, as its file states it.
     pub test: Test,
     /// A timed claim's smallest decidable effect beside the effect its test asks for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub effect: Option<ClaimEffect>,
+    /// Every group's outcome.
     pub groups: Vec<GroupResult>,
 }

@@ -66,6 +66,7 @@ pub struct Options {
     pub deadline_s: Option<f64>,
     /// Let the runs write outside the report folder (`--write-anywhere`; module `writes`).
     pub write_anywhere: bool,
+    /// Print no progress on stderr (failures are still said).
     pub quiet: bool,
 }
 
@@ -83,13 +84,18 @@ pub struct PlannedRun {
     /// The run's index in its claims file's `[[run]]`s.
     #[serde(skip)]
     pub spec: usize,
+    /// The paper's key (its claims file's stem).
     pub paper: String,
+    /// The run's label (the config's file stem, or the command's first word).
     pub label: String,
+    /// The trace-bench arguments the run is made with.
     pub args: Vec<String>,
     /// An `exec` run (a command of the claims file's), not a `run` of a config.
     #[serde(skip)]
     pub exec: bool,
+    /// The run's folder, where its rows are written.
     pub folder: PathBuf,
+    /// Planned wall seconds on the reference machine, at its scale and timed share.
     pub cost_s: f64,
     /// The image scale applied (1 = as declared).
     pub scale: f64,
@@ -97,10 +103,13 @@ pub struct PlannedRun {
     pub timed_share: f64,
     /// What was scaled, in words.
     pub scaled: Option<String>,
+    /// Measured wall seconds (`None`: not made).
     pub wall_s: Option<f64>,
+    /// The run's exit code (`None`: not made, or ended by a signal).
     pub exit: Option<i32>,
     /// How the run failed (`exit status 1`, `killed by signal 9`, `did not start: …`).
     pub failed: Option<String>,
+    /// Whether the complete folder of an earlier reproduce was reused instead of a run.
     pub reused: bool,
     /// Where the reused rows were made by another build: `commit` (`+dirty`) of their
     /// results.json, said beside the run in REPORT.md.
@@ -123,6 +132,7 @@ pub struct Spread {
     pub rows: usize,
     /// The median and the largest of the rows' spreads (fractions).
     pub median: f64,
+    /// The largest of the rows' spreads (fraction).
     pub max: f64,
     /// The row of the largest (`scene structure traversal ray_kind threads`).
     pub worst: String,
@@ -183,9 +193,13 @@ pub fn spread(folder: &Path) -> Option<Spread> {
 /// One paper's outcome.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct PaperReport {
+    /// The paper's key (its claims file's stem).
     pub key: String,
+    /// The paper, as its claims file names it.
     pub paper: String,
+    /// Its runs, as planned and as made.
     pub runs: Vec<PlannedRun>,
+    /// Every claim's result, per device.
     pub claims: Vec<ClaimResult>,
     /// The paper's claims' verdicts (kind `claim`).
     pub tally: Tally,

@@ -31,8 +31,11 @@ pub const MIN_SHARE: f64 = 1.0 / 16.0;
 /// on, the pixel scale of the scalable runs' images, and the estimate at both.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fit {
+    /// The share of each batch the CPU rows are timed on (1 = all).
     pub share: f64,
+    /// The pixel scale of the scalable runs' images (1 = as declared).
     pub scale: f64,
+    /// The runs' estimated wall seconds at that share and scale.
     pub estimate_s: f64,
 }
 

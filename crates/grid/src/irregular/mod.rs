@@ -25,9 +25,13 @@ mod merge;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Cell {
+    /// Lower corner of the cell's box on the base grid, in base voxels (inclusive).
     pub lo: [u32; 3],
+    /// First index of the cell's range of references.
     pub begin: u32,
+    /// Upper corner of the cell's box on the base grid, in base voxels (exclusive).
     pub hi: [u32; 3],
+    /// One past the last index of the cell's range of references.
     pub end: u32,
 }
 

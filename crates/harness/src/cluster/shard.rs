@@ -31,7 +31,9 @@ use std::path::Path;
 /// Which shard of how many a run is: `K/N`, `1 <= K <= N`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Shard {
+    /// This shard's number, 1-based.
     pub k: usize,
+    /// How many shards the run is split into.
     pub n: usize,
 }
 
@@ -111,6 +113,7 @@ impl std::fmt::Display for Shard {
 /// What the estimate knows of a scene before loading it.
 #[derive(Clone, Debug)]
 pub struct SceneEstimate {
+    /// The scene table's label, as the rows name it.
     pub label: String,
     /// Estimated triangles (from a scan, see the module doc).
     pub triangles: u64,
@@ -125,8 +128,11 @@ pub struct SceneEstimate {
 pub struct BuildEstimate {
     /// Index of the `[[structure]]` entry and of the parameter set.
     pub structure: usize,
+    /// Index of the parameter set in the entry's sweep (with `structure`).
     pub param_set: usize,
+    /// The structure's registry name.
     pub name: &'static str,
+    /// The parameter set, `k=v;k=v`.
     pub params: String,
     /// Traversals x triangle tests of the build's rows per batch and device row.
     pub variants: usize,
@@ -139,16 +145,22 @@ pub struct RunEstimate {
     pub device_rows: Vec<usize>,
     /// Passes over the rays per row: warm-up, timed repeats and the counting pass.
     pub passes: u64,
+    /// Builds per structure x parameter set (`run.build_repeat`).
     pub build_repeat: u64,
 }
 
 /// One work unit of the plan.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Unit {
+    /// The scene table's label.
     pub scene: String,
+    /// Index of the `[[structure]]` entry.
     pub structure: usize,
+    /// Index of the parameter set in the entry's sweep.
     pub param_set: usize,
+    /// The structure's registry name.
     pub name: &'static str,
+    /// The parameter set, `k=v;k=v`.
     pub params: String,
     /// Rows the unit writes.
     pub rows: usize,
@@ -168,7 +180,9 @@ impl Unit {
 /// The partition of a run: every unit in run order (the unsharded order) with its shard.
 #[derive(Clone, Debug)]
 pub struct ShardPlan {
+    /// The shard this plan is for.
     pub shard: Shard,
+    /// Every unit of the run, in run order, each with its shard.
     pub units: Vec<Unit>,
     /// Per scene label: its own cost (load, rays, oracle), ns.
     pub scene_cost: BTreeMap<String, u64>,

@@ -7,8 +7,11 @@ use tb_scene::rays::{self, RayKind};
 
 /// One ray batch of a scene: a kind and its rays (or why there are none).
 pub struct Batch {
+    /// The ray kind's name in results (`primary`, `path1`, …).
     pub name: String,
+    /// Closest or any hit, as the kind asks.
     pub query: Query,
+    /// The rays (empty for a skipped batch).
     pub rays: Vec<Ray>,
     /// Set when the batch was skipped (no rays traced); the row's note.
     pub skipped: Option<String>,

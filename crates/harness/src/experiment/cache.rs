@@ -97,12 +97,15 @@ struct Header {
 
 /// A loaded entry.
 pub struct Hit {
+    /// The structure, loaded and attached to the scene's triangles.
     pub accel: Box<dyn Accel>,
+    /// What the build that made the entry measured.
     pub figures: BuildFigures,
 }
 
 /// What a look-up found.
 pub enum Lookup {
+    /// A usable entry, loaded.
     Hit(Hit),
     /// No entry for the key.
     Miss,

@@ -33,7 +33,9 @@ pub const MAX: usize = tb_results::output::MAX_PROCESSES;
 /// One process of a run of `of`: `index` in `0..of`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Process {
+    /// This process's index, 0-based.
     pub index: usize,
+    /// How many processes the run is made in.
     pub of: usize,
 }
 
@@ -93,20 +95,24 @@ pub struct Plan {
     pub args: Vec<String>,
     /// The run's folder: the merged rows, and each process's folder in it.
     pub out: PathBuf,
+    /// Processes to make, one after another.
     pub n: usize,
     /// Reuse the complete processes' folders, resume the others.
     pub resume: bool,
     /// Replace the processes' results (`run --force` for each).
     pub force: bool,
+    /// No progress lines on stderr (each process gets `--quiet`).
     pub quiet: bool,
 }
 
 /// How one process went.
 #[derive(Clone, Debug)]
 pub struct Outcome {
+    /// The process's folder (`OUT/process-I`).
     pub folder: PathBuf,
     /// Complete from an earlier session (`--resume`): not run again.
     pub reused: bool,
+    /// Its wall seconds (`None`: not run in this session).
     pub wall_s: Option<f64>,
     /// How it failed (`exit status 1`, `did not start: …`).
     pub failed: Option<String>,
@@ -117,6 +123,7 @@ pub struct Outcome {
 /// What `run --processes` did.
 #[derive(Clone, Debug, Default)]
 pub struct Report {
+    /// How each process went, in order.
     pub processes: Vec<Outcome>,
     /// Rows in the merged `results.csv`.
     pub rows: usize,

@@ -55,12 +55,14 @@ impl Progress {
         }
     }
 
+    /// Count one row done (written or skipped) on the bar.
     pub fn inc(&self) {
         if let Some(b) = &self.bar {
             b.inc(1);
         }
     }
 
+    /// Clear the bar from the terminal (the run is over).
     pub fn finish(&self) {
         if let Some(b) = &self.bar {
             b.finish_and_clear();

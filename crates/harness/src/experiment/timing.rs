@@ -11,10 +11,15 @@ pub use tb_results::stats::{median, median_ci};
 /// above `target_ci` and the row has run for less than `max_row_seconds`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TimingPlan {
+    /// Untimed runs before the timed ones.
     pub warmup: usize,
+    /// Timed runs at least.
     pub repeat: usize,
+    /// Timed runs at most.
     pub max_repeat: usize,
+    /// Relative half-width of the median's 95 % CI that ends the repeats.
     pub target_ci: f64,
+    /// No further timed run once a row has run this long (beyond `repeat`).
     pub max_row_seconds: f64,
     /// What a one-thread CPU row's timed run measures (`run.clock`).
     pub clock: Clock,
@@ -43,6 +48,7 @@ pub enum Clock {
 }
 
 impl Clock {
+    /// The clock `run.clock` names (`wall`, `thread`).
     pub fn from_name(s: &str) -> Option<Clock> {
         match s {
             "wall" => Some(Clock::Wall),

@@ -32,14 +32,18 @@ pub struct Oracle {
     /// What the cache did: samples whose answers were loaded, computed (and saved), and one
     /// line per entry refused or not saved.
     pub loaded: usize,
+    /// Samples whose answers were computed (and saved to the cache).
     pub computed: usize,
+    /// One line per cache entry refused or not saved.
     pub notes: Vec<String>,
 }
 
 /// Validation outcome of one structure x traversal x triangle test x batch.
 #[derive(Clone, Debug)]
 pub struct Checked {
+    /// Rays compared with the oracle.
     pub validated: u64,
+    /// Of them, rays whose answer differs from the oracle's.
     pub mismatches: u64,
     /// The first mismatching rays (at most the run's `max_report`).
     pub first: Vec<Mismatch>,

@@ -180,14 +180,19 @@ struct RawStructure {
 
 /// A checked experiment: everything needed to run, nothing left to fail on the config.
 pub struct Experiment {
+    /// The experiment's name: the config's `name`, else the file's stem.
     pub name: String,
+    /// The config file.
     pub file: PathBuf,
     /// The config text as read (stored in results.json).
     pub text: String,
+    /// Where file scenes are looked up (`scenes_root`, or `--scenes-root`).
     pub scenes_root: PathBuf,
     /// The checked `[run]` table with the command-line overrides.
     pub run: RunSettings,
+    /// The checked scene entries, one per table or per view.
     pub scenes: Vec<SceneSpec>,
+    /// The checked `[[structure]]` entries, in config order.
     pub structures: Vec<StructureSpec>,
     /// Why scenes marked `optional = true` were left out (file not under the scenes root).
     /// (Also the loaders' notes on what they left out of a file, and the shard's part.)
@@ -217,8 +222,11 @@ pub struct Experiment {
 /// Overrides from the command line.
 #[derive(Clone, Debug, Default)]
 pub struct Overrides {
+    /// `--scenes-root` (or `TRACE_BENCH_SCENES`): replaces the config's `scenes_root`.
     pub scenes_root: Option<PathBuf>,
+    /// `--threads`: replaces run.threads.
     pub threads: Option<Vec<usize>>,
+    /// `--repeat`: replaces run.repeat.
     pub repeat: Option<usize>,
     /// `--device`: replaces run.devices; listing `gpu` makes the GPU required.
     pub devices: Option<Vec<Device>>,

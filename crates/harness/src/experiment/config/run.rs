@@ -11,14 +11,20 @@ pub struct RunSettings {
     pub threads: Vec<usize>,
     /// How rows are timed (warmup, repeat, max_repeat, target_ci, max_row_seconds).
     pub timing: crate::experiment::timing::TimingPlan,
+    /// Builds per structure (`run.build_repeat`; the median is reported).
     pub build_repeat: usize,
     /// Every build timed fresh in each process, never loaded from the build cache
     /// (`run.time_builds`; a `build_repeat` above 1 does the same).
     pub time_builds: bool,
+    /// The triangle tests every row is run with (`run.triangle_test`).
     pub triangle_tests: Vec<TriTestKind>,
+    /// The devices rows run on (`run.devices`, `--device`).
     pub devices: Vec<Device>,
+    /// The GPU adapter to use and whether the GPU is required.
     pub gpu: GpuSpec,
+    /// Default oracle validation of every scene (`run.validate`).
     pub validate: Validate,
+    /// Seed of every random ray batch (`run.seed`, default 1).
     pub seed: u64,
     /// Time the rows of a scene view that trace the same batch (triangle test, thread count,
     /// device: CPU rows together, GPU rows together) interleaved, round by round, over every

@@ -77,13 +77,21 @@ pub struct SceneSpec {
     /// The scene table's label: equal to `label` without views; the views of one table share
     /// it, their scene and their builds (and form one shard unit with each build).
     pub table: String,
+    /// The loaded scene (shared by the views of one table).
     pub scene: Arc<Scene>,
+    /// The ray kinds the scene asks for (`rays`).
     pub rays: Vec<RayKind>,
+    /// The view's camera; `None` without one (no primary or secondary rays then).
     pub camera: Option<Camera>,
+    /// Point light of the shadow rays; `None`: shadow batches are skipped.
     pub light: Option<Vec3>,
+    /// AO rays per primary hit (`ao.samples`).
     pub ao_samples: u32,
+    /// Longest AO ray (`ao.distance`).
     pub ao_distance: f32,
+    /// Diffuse path-tracing bounces, one batch each (`path.bounces`).
     pub bounces: u32,
+    /// Random rays in the batch (`random.count`).
     pub random_count: usize,
     /// Oracle validation for this scene (the scene's `validate`, else `run.validate`).
     pub validate: Validate,
@@ -91,11 +99,13 @@ pub struct SceneSpec {
 
 /// A checked structure entry.
 pub struct StructureSpec {
+    /// The registry family the entry names.
     pub family: &'static Family,
     /// The family's traversals (index = position in its table).
     pub infos: Vec<&'static TraversalInfo>,
     /// The traversals to run: indices into `infos`.
     pub traversals: Vec<usize>,
+    /// The parameter sets to build, the `params` sweep expanded.
     pub param_sets: Vec<ParamSet>,
     /// `time_builds` of the table: `Some(false)`, its builds are untimed and loaded from the
     /// build cache where they can be, though the run times its builds (no claim reads these

@@ -45,6 +45,7 @@ pub enum IntegratorKind {
 /// A checked `[convergence]` section.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ConvergenceSpec {
+    /// The integrators rendered (`integrators`, default both).
     pub integrators: Vec<IntegratorKind>,
     /// Passes per render.
     pub passes: u32,
@@ -52,6 +53,7 @@ pub struct ConvergenceSpec {
     pub spp_per_pass: u32,
     /// Whether each pass doubles the samples so far (else adds `spp_per_pass`).
     pub doubling: bool,
+    /// Samples per pixel of the reference image.
     pub reference_spp: u32,
     /// Frame budgets, ms (build time included).
     pub frame_budget_ms: Vec<f64>,

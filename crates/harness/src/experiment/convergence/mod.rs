@@ -42,16 +42,25 @@ use tb_render::{AccelTracer, Tracer};
 /// One row of `convergence.csv`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ConvergenceRow {
+    /// Row label of the scene.
     pub scene: String,
+    /// The structure's registry name.
     pub structure: String,
+    /// The full parameter set, `k=v;k=v`.
     pub params: String,
+    /// The traversal's name.
     pub traversal: String,
+    /// `watertight` or `moller-trumbore`.
     pub triangle_test: String,
+    /// `cpu` or `gpu`.
     pub device: String,
+    /// Threads of the render: the largest of `run.threads`.
     pub threads: u32,
     /// `ao` or `path`.
     pub integrator: String,
+    /// Image width, pixels.
     pub width: u32,
+    /// Image height, pixels.
     pub height: u32,
     /// Passes done (for a budget row: passes that fit).
     pub pass: u32,
@@ -59,13 +68,16 @@ pub struct ConvergenceRow {
     pub spp: u32,
     /// Render time so far, ms (budget rows: build time included).
     pub elapsed_ms: f64,
+    /// Build time of the structure, ms.
     pub build_ms: f64,
     /// Empty for a budget row with no sample within the budget (the build, or the build and
     /// the first sample, took longer).
     pub rmse: Option<f64>,
+    /// Relative mean squared error against the reference; empty as `rmse` is.
     pub rel_mse: Option<f64>,
     /// The frame budget of a budget row; empty for the progressive rows.
     pub budget_ms: Option<f64>,
+    /// Samples per pixel of the reference image.
     pub reference_spp: u32,
     /// Content hash of the reference (its file is `<cache>/<integrator>-<key>.exr`).
     pub reference_key: String,

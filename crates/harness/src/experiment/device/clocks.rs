@@ -29,8 +29,11 @@ struct Sample {
 /// clock, MHz.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Window {
+    /// The least SM clock sampled, MHz.
     pub sm_min: f64,
+    /// The most SM clock sampled, MHz.
     pub sm_max: f64,
+    /// The mean memory clock, MHz.
     pub mem: f64,
 }
 

@@ -23,13 +23,17 @@ use tb_results::output::Row;
 /// One row's work: which build, traversal, test and batch, with how many threads and
 /// repeats.
 pub struct Job<'a> {
+    /// The build traced.
     pub accel: &'a dyn Accel,
     /// Index of the traversal in the build's table.
     pub traversal: usize,
+    /// The traversal's facts (name, counters, step cap, …).
     pub info: &'static TraversalInfo,
+    /// The ray-triangle test.
     pub tri: TriTestKind,
     /// Index of the batch in the scene's batches (device caches are keyed by it).
     pub batch_index: usize,
+    /// The ray batch traced.
     pub batch: &'a Batch,
     /// Worker threads of the row (CPU), 0 on the GPU.
     pub threads: usize,

@@ -19,7 +19,9 @@ pub enum HeatMax {
 /// What `[run] images = true` asks for.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ImageSpec {
+    /// The top of the heat maps' colour scale (`run.heatmap_max`).
     pub max: HeatMax,
+    /// The heat maps' colour map (`run.heatmap_colormap`).
     pub colormap: ColorMap,
 }
 

@@ -12,6 +12,7 @@ use tb_results::output::Row;
 
 /// A validated build and its figures.
 pub struct Built {
+    /// The structure, validated.
     pub accel: Box<dyn Accel>,
     /// Median build time, ms: the structure and the auxiliary arrays the config's traversals
     /// read ([`tb_core::Accel::prepare`]).
@@ -55,6 +56,7 @@ pub struct CacheUse {
     pub stages_loaded: usize,
     /// Ray samples whose oracle answers were loaded from the cache, and computed there.
     pub oracle_loaded: usize,
+    /// Ray samples whose oracle answers were computed (and saved to the cache).
     pub oracle_computed: usize,
     /// One line per entry refused (and rebuilt or computed again) or not saved.
     pub notes: Vec<String>,

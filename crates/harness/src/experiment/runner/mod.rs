@@ -47,8 +47,11 @@ pub enum Mode {
 pub struct RunOptions {
     /// Output directory (results.csv, results.json); unused in [`Mode::Validate`].
     pub out: PathBuf,
+    /// Continue an interrupted run in `out`, skipping the rows already written.
     pub resume: bool,
+    /// No progress output.
     pub quiet: bool,
+    /// Run (time and write) or only validate.
     pub mode: Mode,
     /// How many mismatching rays to keep per combination for the report.
     pub max_report: usize,
@@ -74,9 +77,13 @@ impl RunOptions {
 /// What a run did.
 #[derive(Debug, Default)]
 pub struct RunSummary {
+    /// The rows made in this session, in the order they were written.
     pub rows: Vec<Row>,
+    /// How many rows were written in this session.
     pub written: usize,
+    /// Rows skipped because an earlier session wrote them (`--resume`).
     pub skipped: usize,
+    /// Mismatching rays over all rows made.
     pub mismatches: u64,
     /// Combinations that could not be completed (build failure, invalid structure).
     pub failures: Vec<String>,

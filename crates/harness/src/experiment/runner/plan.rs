@@ -13,10 +13,13 @@ use tb_scene::rays::RayKind;
 pub struct Combo {
     /// Index of the traversal in the structure's table.
     pub ti: usize,
+    /// The triangle test.
     pub tri: TriTestKind,
     /// Index of the batch in the scene's batches.
     pub bi: usize,
+    /// The device the row runs on.
     pub dev: Device,
+    /// Worker threads (CPU), 0 on the GPU.
     pub threads: usize,
 }
 
