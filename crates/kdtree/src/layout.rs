@@ -61,6 +61,7 @@ pub struct Treelet {
 }
 
 impl Treelet {
+    /// Addressing of blocks of `height` levels (`2^height` slots); `height` in `1..=16`.
     pub fn new(height: u32) -> Treelet {
         debug_assert!((1..=16).contains(&height));
         Treelet {
@@ -114,6 +115,7 @@ pub struct Nodes {
 }
 
 impl Nodes {
+    /// Copy the nodes `v` into whole lines, the last line's tail filled with [`EMPTY_SLOT`].
     pub fn from_slice(v: &[KdNode]) -> Nodes {
         let mut lines = vec![Line([EMPTY_SLOT; 8]); v.len().div_ceil(8)];
         for (i, n) in v.iter().enumerate() {
@@ -125,12 +127,14 @@ impl Nodes {
         }
     }
 
+    /// The nodes as one contiguous slice (the padding of the last line left out).
     pub fn as_slice(&self) -> &[KdNode] {
         // SAFETY: `Line` is `repr(C)` around `[KdNode; 8]` with no padding (size 64 = 8 × 8),
         // so the lines are `8 · lines.len() >= len` contiguous, initialised nodes.
         unsafe { std::slice::from_raw_parts(self.lines.as_ptr().cast::<KdNode>(), self.len) }
     }
 
+    /// The nodes as one contiguous mutable slice (the padding of the last line left out).
     pub fn as_mut_slice(&mut self) -> &mut [KdNode] {
         // SAFETY: as in `as_slice`, through the unique borrow.
         unsafe {

@@ -50,7 +50,7 @@
 //! early. Clipped triangle boxes are made conservative (see `build`), so every triangle is
 //! referenced in every leaf cell it touches.
 
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 mod build;
 mod check;

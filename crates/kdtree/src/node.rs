@@ -13,7 +13,9 @@
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct KdNode {
+    /// Interior: `link << 2 | axis`; leaf: `count << 2 | 3` (the low two bits tell which).
     pub bits: u32,
+    /// Interior: the split position's `f32` bits; leaf: the offset of its first reference.
     pub data: u32,
 }
 
@@ -38,6 +40,7 @@ impl KdNode {
         }
     }
 
+    /// Whether this is a leaf (the low two bits of `bits` are 3).
     #[inline(always)]
     pub fn is_leaf(&self) -> bool {
         self.bits & 3 == 3

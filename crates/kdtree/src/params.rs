@@ -68,6 +68,7 @@ tb_core::params! {
     /// parameter table ([`Params::SPECS`](tb_core::Params::SPECS)).
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct KdParams {
+        /// The SAH split search ([`SahParams`]), its entries first in the table.
         @flatten
         sah: SahParams = SahParams::default();
         /// Entries of the short stack (`short-stack` traversal, Horn et al. 2007;
@@ -114,6 +115,7 @@ impl SahParams {
 /// The measure of a cell used by the SAH: the probability that a ray hitting a node's cell
 /// hits a child cell is taken as `measure(child) / measure(node)`.
 pub trait BoxMeasure: Sync {
+    /// The measure of cell `b` (non-negative; only ratios between cells matter).
     fn measure(&self, b: &Aabb) -> f32;
 }
 

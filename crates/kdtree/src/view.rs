@@ -35,7 +35,9 @@ pub struct KdView<'a> {
 /// Made by [`KdView::root`] and [`KdView::start_at`], so the cell is the node's.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct KdStart {
+    /// Index of the start node in the node array.
     pub node: u32,
+    /// The start node's cell, to which every ray is clipped first.
     pub cell: Aabb,
 }
 
@@ -130,9 +132,13 @@ impl<'a> KdView<'a> {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BackNode {
+    /// Lower corner of the node's cell.
     pub min: [f32; 3],
+    /// Index of the node's parent (a root is its own parent).
     pub parent: u32,
+    /// Upper corner of the node's cell.
     pub max: [f32; 3],
+    /// Unused (0): pads the record to 32 bytes.
     pub pad: u32,
 }
 
@@ -196,8 +202,11 @@ pub const NO_ROPE: u32 = u32::MAX;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LeafRopes {
+    /// Lower corner of the leaf's cell.
     pub min: [f32; 3],
+    /// Upper corner of the leaf's cell.
     pub max: [f32; 3],
+    /// Per face `2·axis + side`, the neighbour node across it ([`NO_ROPE`]: on the root cell).
     pub ropes: [u32; 6],
 }
 
@@ -271,7 +280,9 @@ impl NodeRank {
 /// [`LeafRopes`], found by the leaf's [`NodeRank`].
 #[derive(Clone, Debug, Default)]
 pub struct Ropes {
+    /// One record per leaf, in node order.
     pub leaves: Vec<LeafRopes>,
+    /// The leaves among the node indices: a leaf's record is `leaves[rank.rank(node)]`.
     pub rank: NodeRank,
 }
 

@@ -53,7 +53,7 @@
 //! 4-byte references, the triangles, the header) and, in the build report, the paper's
 //! Table 3 figure (`paper_bytes`: 16 bytes a node, 4 a reference).
 
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 mod build;
 mod gpu;
@@ -119,10 +119,13 @@ pub struct TreeEntry {
     pub weights: [f64; 3],
     /// Its root (first node) in the node array, and its node slots.
     pub root: u32,
+    /// Entries it takes in the node array (unused treelet slots included).
     pub slots: u32,
     /// Nodes (interior and leaves, unused treelet slots not counted) and references.
     pub nodes: u64,
+    /// Its leaf references, contiguous in the shared reference array.
     pub refs: u64,
+    /// Its leaves, empty ones included.
     pub leaves: u64,
     /// Its SAH cost under its own measure, relative to the root.
     pub cost: f64,

@@ -133,8 +133,11 @@ where
 /// start of every walk.
 #[derive(Clone, Copy)]
 pub struct Tree<'a, L> {
+    /// The tree's nodes, references, triangles and walk parameters.
     pub v: KdView<'a>,
+    /// The node layout, giving the children of a node.
     pub l: L,
+    /// Where every walk begins: the start node and its cell.
     pub from: KdStart,
 }
 
@@ -155,12 +158,17 @@ impl<'a, L> Tree<'a, L> {
 /// cell.
 #[derive(Clone, Copy)]
 pub struct Setup {
+    /// The ray's origin.
     pub org: [f32; 3],
+    /// The ray's direction.
     pub dir: [f32; 3],
+    /// Per axis `1 / dir`: plane distances are `(split − org)·inv`.
     pub inv: [f32; 3],
     /// `inv[a] < 0` (a negative direction, or −0 giving −inf): the upper child is near.
     pub neg: [bool; 3],
+    /// Entry distance of the ray's interval in the start cell.
     pub t0: f32,
+    /// Exit distance of the ray's interval in the start cell.
     pub t1: f32,
 }
 
@@ -198,13 +206,18 @@ fn setup<L>(w: &Tree<'_, L>, ray: &Ray) -> Option<Setup> {
 /// The closest hit so far of one ray: distance, primitive (`u32::MAX`: none yet) and
 /// barycentrics; shared with the kernels built on the kd-tree (sparse boxes).
 pub struct Best {
+    /// Distance of the closest hit so far (`tmax` while there is none).
     pub t: f32,
+    /// Triangle index of the closest hit (`u32::MAX`: none yet).
     pub prim: u32,
+    /// First barycentric coordinate of the closest hit.
     pub u: f32,
+    /// Second barycentric coordinate of the closest hit.
     pub v: f32,
 }
 
 impl Best {
+    /// No hit yet, the closest distance so far `tmax` (the ray's end).
     #[inline(always)]
     pub fn new(tmax: f32) -> Self {
         Best {
@@ -215,6 +228,7 @@ impl Best {
         }
     }
 
+    /// The hit as a [`HitRecord`]; [`HitRecord::MISS`] while no triangle was hit.
     #[inline(always)]
     pub fn record(&self) -> HitRecord {
         if self.prim == u32::MAX {
@@ -268,8 +282,11 @@ pub fn leaf<T: TriTest, C: Counter, const ANY: bool>(
 /// What to visit at an interior node.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
+    /// The split lies beyond the interval's exit: only the near child.
     NearOnly,
+    /// The split lies before the interval's entry: only the far child.
     FarOnly,
+    /// The interval crosses the split: the near child, then the far one.
     Both,
 }
 
@@ -281,8 +298,11 @@ pub enum Kind {
 /// recompute it from a cell and reproduce exactly these decisions.
 #[derive(Clone, Copy, Debug)]
 pub struct Decision {
+    /// Which children the ray visits.
     pub kind: Kind,
+    /// Index of the child the ray crosses first (by its direction's sign on the split axis).
     pub near: usize,
+    /// Index of the other child, entered after the near one.
     pub far: usize,
     /// End of the near child's interval.
     pub near_tf: f32,
@@ -290,6 +310,7 @@ pub struct Decision {
     pub far_tn: f32,
 }
 
+/// [`split_decision`] for the ray of `s` at interior node `n` (index `idx`) over `[tn, tf]`.
 #[inline(always)]
 pub fn decide<L: Layout>(l: L, n: KdNode, idx: usize, s: &Setup, tn: f32, tf: f32) -> Decision {
     split_decision(l, n, idx, &s.org, &s.inv, &s.neg, tn, tf)
