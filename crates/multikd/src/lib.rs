@@ -210,12 +210,12 @@ impl MultiKdTree {
         self.trees.iter().map(|t| t.root).collect()
     }
 
-    /// [`BACKTRACK_AUX`] over every tree, built on first use.
+    /// [`tb_kdtree::BACKTRACK_AUX`] over every tree, built on first use.
     pub fn back_nodes(&self) -> &[BackNode] {
         self.aux.back_nodes(&self.view(), &self.roots())
     }
 
-    /// [`ROPES_AUX`] over every tree, built on first use.
+    /// [`tb_kdtree::ROPES_AUX`] over every tree, built on first use.
     pub fn ropes(&self) -> &Ropes {
         self.aux.ropes(&self.view(), &self.roots())
     }
