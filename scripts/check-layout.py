@@ -61,10 +61,6 @@ ALLOW_ARGS = {
     "crates/core/src/tri.rs": 1,
     "crates/grid/src/common.rs": 4,
     "crates/grid/src/irregular/build.rs": 1,
-    "crates/harness/src/experiment/convergence/mod.rs": 2,
-    "crates/harness/src/experiment/images/mod.rs": 1,
-    "crates/harness/src/experiment/runner/mod.rs": 1,
-    "crates/harness/src/experiment/runner/plan.rs": 1,
     "crates/kdtree/src/traverse/mod.rs": 1,
     "crates/sparse/src/traverse/sltr.rs": 2,
 }

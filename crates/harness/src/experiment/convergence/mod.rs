@@ -29,6 +29,7 @@ use crate::error::HarnessError;
 use crate::experiment::config::{Device, Experiment, SceneSpec};
 use crate::experiment::convergence::config::{ConvergenceSpec, IntegratorKind};
 use crate::experiment::progress::Progress;
+use crate::experiment::runner::build::BuildDone;
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -137,6 +138,16 @@ pub struct Runner {
     refs: HashMap<(String, String), (Vec<f32>, String)>,
 }
 
+/// The image one combination renders: the scene's triangles, the camera, the integrator
+/// and the reference it is compared with.
+#[derive(Clone, Copy)]
+struct Image<'a> {
+    tris: &'a [tb_core::Triangle],
+    camera: tb_scene::Camera,
+    integrator: Integrator,
+    reference: &'a [f32],
+}
+
 impl Runner {
     /// Open `<out>/convergence.csv` (and `convergence-budget.csv` with frame budgets) when the
     /// experiment has a `[convergence]` section; with `resume`, keep their rows and skip their
@@ -212,22 +223,24 @@ impl Runner {
         }
     }
 
-    /// The convergence renders of one built structure: every traversal x triangle test x
-    /// device x integrator. Returns notes (references rendered or reused, renders cut short).
-    // Over clippy's seven: what the runner hands each build's renders.
-    #[allow(clippy::too_many_arguments)]
+    /// The convergence renders of one built structure (`done`): every traversal x triangle
+    /// test x device x integrator. Returns notes (references rendered or reused, renders cut
+    /// short).
     pub fn build_done(
         &mut self,
-        scene: &SceneSpec,
-        accel: &dyn Accel,
-        params: &str,
-        build_ms: f64,
-        traversals: &[usize],
-        tests: &[TriTestKind],
+        done: &BuildDone<'_>,
         devices: &[Device],
         gpu: Option<&crate::experiment::device::gpu::GpuDevice>,
         progress: &Progress,
     ) -> Result<Vec<String>, HarnessError> {
+        let BuildDone {
+            scene,
+            accel,
+            params,
+            build_ms,
+            traversals,
+            tests,
+        } = *done;
         let mut notes = Vec::new();
         let mut camera = scene.camera.expect("checked: every scene has a camera");
         if let Some((w, h)) = self.spec.resolution {
@@ -282,15 +295,13 @@ impl Runner {
                                 continue;
                             }
                         };
-                        let rows = self.measure(
+                        let image = Image {
                             tris,
                             camera,
                             integrator,
-                            tracer.as_ref(),
-                            &reference,
-                            &base,
-                            &mut notes,
-                        );
+                            reference: &reference,
+                        };
+                        let rows = self.measure(&image, tracer.as_ref(), &base, &mut notes);
                         // Budget rows first: the progressive rows mark the combination done.
                         let (budget, passes): (Vec<_>, Vec<_>) =
                             rows.into_iter().partition(|r| r.budget_ms.is_some());
@@ -352,19 +363,21 @@ impl Runner {
         Ok(self.refs[&ref_key].clone())
     }
 
-    /// The progressive render and the budget renders of one combination.
-    // Over clippy's seven: one combination's render inputs.
-    #[allow(clippy::too_many_arguments)]
+    /// The progressive render and the budget renders of one combination: `image` traced
+    /// with `tracer`.
     fn measure(
         &self,
-        tris: &[tb_core::Triangle],
-        camera: tb_scene::Camera,
-        integrator: Integrator,
+        image: &Image<'_>,
         tracer: &dyn Tracer,
-        reference: &[f32],
         base: &ConvergenceRow,
         notes: &mut Vec<String>,
     ) -> Vec<ConvergenceRow> {
+        let Image {
+            tris,
+            camera,
+            integrator,
+            reference,
+        } = *image;
         let mut rows = Vec::new();
         let mut r = Progressive::new(tris, camera, integrator, self.seed);
         let mut elapsed = 0.0f64;

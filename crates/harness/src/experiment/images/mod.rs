@@ -19,6 +19,7 @@ pub mod config;
 use crate::error::HarnessError;
 use crate::experiment::config::SceneSpec;
 use crate::experiment::images::config::{HeatMax, ImageSpec};
+use crate::experiment::runner::build::BuildDone;
 use std::fs::OpenOptions;
 use std::path::{Path, PathBuf};
 use tb_core::{Accel, Query, Ray, TriTestKind};
@@ -185,21 +186,24 @@ struct BuildMaps<'a> {
     name: String,
 }
 
-/// One built structure's heat maps: for each traversal and triangle test, count over the
-/// primary rays and write the EXR and the PNGs. `tag` is [`varying_tag`] of its parameters.
-/// Returns a note when nothing is written (no camera, or a structure without counters).
-// Over clippy's seven: what the runner hands each build's heat maps.
-#[allow(clippy::too_many_arguments)]
+/// One built structure's heat maps (`done`): for each traversal and triangle test, count over
+/// the primary rays and write the EXR and the PNGs. `tag` is [`varying_tag`] of its
+/// parameters. Returns a note when nothing is written (no camera, or a structure without
+/// counters).
 pub fn write_build(
-    spec: &SceneSpec,
+    done: &BuildDone<'_>,
     images: &ImageSpec,
     out: &Path,
-    accel: &dyn Accel,
     tag: &str,
-    params: &str,
-    traversals: &[usize],
-    tests: &[TriTestKind],
 ) -> Result<Option<String>, HarnessError> {
+    let BuildDone {
+        scene: spec,
+        accel,
+        params,
+        traversals,
+        tests,
+        ..
+    } = *done;
     let Some(cam) = spec.camera else {
         return Ok(None);
     };

@@ -10,6 +10,24 @@ use std::time::Instant;
 use tb_core::{Accel, AccelError, Family, MemoryReport, ParamSet, Triangle};
 use tb_results::output::Row;
 
+/// One build as the passes after it see it (heat maps, convergence renders): the scene table
+/// and view, the structure with its parameter set and build time, and the traversals and
+/// triangle tests the config runs on it.
+pub struct BuildDone<'a> {
+    /// The scene table and view it was built over.
+    pub scene: &'a crate::experiment::config::SceneSpec,
+    /// The structure.
+    pub accel: &'a dyn Accel,
+    /// Its parameter set, `k=v;…`.
+    pub params: &'a str,
+    /// Its median build time, ms.
+    pub build_ms: f64,
+    /// The traversals the config runs on it (indices into its table).
+    pub traversals: &'a [usize],
+    /// The triangle tests the config runs.
+    pub tests: &'a [tb_core::TriTestKind],
+}
+
 /// A validated build and its figures.
 pub struct Built {
     /// The structure, validated.

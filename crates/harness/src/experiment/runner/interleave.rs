@@ -45,9 +45,15 @@ impl Run<'_> {
                     }
                     let base = base_row(spec, tris, st, &params_s);
                     self.after_build(spec, st, &built, &params_s)?;
+                    let src = RowSource {
+                        spec,
+                        batches: g.batches,
+                        st,
+                        built: &built,
+                        base: &base,
+                    };
                     for c in t {
-                        let row =
-                            self.measure_row(spec, g.batches, oracle, st, &built, &base, c, false)?;
+                        let row = self.measure_row(&src, oracle, c, false)?;
                         let awaits = row.hit_rate.is_some();
                         rows.push((row, awaits.then_some((builds.len(), vi, c))));
                     }

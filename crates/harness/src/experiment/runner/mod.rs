@@ -8,8 +8,11 @@
 mod account;
 pub mod build;
 mod interleave;
+mod measure;
 pub mod plan;
 pub mod table;
+
+use measure::RowSource;
 
 pub use table::table;
 
@@ -329,11 +332,14 @@ impl<'a> Run<'a> {
     fn todo(&mut self, g: &Group, st: &StructureSpec, params_s: &str) -> Vec<Vec<Combo>> {
         let mut todo: Vec<Vec<Combo>> = Vec::with_capacity(g.views.len());
         for (spec, range) in g.views.iter().zip(g.ranges) {
-            let (mut t, skipped) = plan::todo(
-                self.exp.process.map(|p| p.index as u32),
-                &spec.label,
+            let rows = plan::BuildRows {
+                scene: &spec.label,
                 st,
-                params_s,
+                params: params_s,
+                process: self.exp.process.map(|p| p.index as u32),
+            };
+            let (mut t, skipped) = plan::todo(
+                &rows,
                 &self.exp.run.triangle_tests,
                 &g.batches[range.clone()],
                 &self.devices,
@@ -432,8 +438,15 @@ impl<'a> Run<'a> {
             }
             let base = base_row(spec, tris, st, &params_s);
             self.after_build(spec, st, &built, &params_s)?;
+            let src = RowSource {
+                spec,
+                batches: g.batches,
+                st,
+                built: &built,
+                base: &base,
+            };
             for c in t {
-                let row = self.measure_row(spec, g.batches, oracle, st, &built, &base, c, true)?;
+                let row = self.measure_row(&src, oracle, c, true)?;
                 self.emit(row)?;
             }
         }
@@ -448,166 +461,37 @@ impl<'a> Run<'a> {
         built: &Built,
         params_s: &str,
     ) -> Result<(), HarnessError> {
-        let accel = built.accel.as_ref();
+        let done = build::BuildDone {
+            scene: spec,
+            accel: built.accel.as_ref(),
+            params: params_s,
+            build_ms: built.build_ms,
+            traversals: &st.traversals,
+            tests: &self.exp.run.triangle_tests,
+        };
         if let (Some(img), Mode::Run) = (&self.exp.images, self.opts.mode) {
             let sweep: Vec<String> = st.param_sets.iter().map(|p| p.to_string()).collect();
             self.progress
                 .step(&format!("{}: heat maps {}", spec.label, st.family.name));
+            let tag = crate::experiment::images::varying_tag(&sweep, params_s);
             self.summary
                 .notes
                 .extend(crate::experiment::images::write_build(
-                    spec,
+                    &done,
                     img,
                     &self.opts.out,
-                    accel,
-                    &crate::experiment::images::varying_tag(&sweep, params_s),
-                    params_s,
-                    &st.traversals,
-                    &self.exp.run.triangle_tests,
+                    &tag,
                 )?);
         }
         if let Some(c) = self.conv.as_mut() {
             self.summary.notes.extend(c.build_done(
-                spec,
-                accel,
-                params_s,
-                built.build_ms,
-                &st.traversals,
-                &self.exp.run.triangle_tests,
+                &done,
                 &self.exp.run.devices,
                 self.gpu.as_ref(),
                 &self.progress,
             )?);
         }
         Ok(())
-    }
-
-    /// Measure one row (`time`: time it too; else count and validate only, for
-    /// [`Run::time_interleaved`]).
-    // Over clippy's seven: one row's inputs from the runner's loop.
-    #[allow(clippy::too_many_arguments)]
-    fn measure_row(
-        &mut self,
-        spec: &SceneSpec,
-        batches: &[Batch],
-        oracle: &mut Oracle,
-        st: &StructureSpec,
-        built: &Built,
-        base: &Row,
-        c: Combo,
-        time: bool,
-    ) -> Result<Row, HarnessError> {
-        let b = &batches[c.bi];
-        let info = st.infos[c.ti];
-        let mut row = row_of(base, st, &c, b);
-        built.fill(&mut row, c.ti);
-        if let Some(own) = info.own_triangle_test {
-            row.note = format!("uses its own triangle test ({own})");
-        }
-        if let Some(why) = &b.skipped {
-            row.note = why.clone();
-            return Ok(row);
-        }
-        self.progress.step(&format!(
-            "{} {} {} {} {} {}t",
-            spec.label,
-            st.family.name,
-            info.name,
-            c.tri.name(),
-            b.name,
-            c.threads
-        ));
-        let oracle_started = Instant::now();
-        let sample = (spec.validate != Validate::Off).then(|| {
-            let progress = &self.progress;
-            let cpu = &self.cpu;
-            cpu.untimed().install(|| {
-                oracle.sample(c.bi, &b.rays, b.query, spec.validate, |n| {
-                    progress.step(&format!("{}: oracle for {} ({n} rays)", spec.label, b.name))
-                })
-            })
-        });
-        self.phases.oracle_s += oracle_started.elapsed().as_secs_f64();
-        let job = Job {
-            accel: built.accel.as_ref(),
-            traversal: c.ti,
-            info,
-            tri: c.tri,
-            batch_index: c.bi,
-            batch: b,
-            threads: c.threads,
-            timing: self.exp.run.timing,
-            time,
-            max_report: self.opts.max_report,
-        };
-        let device: &mut dyn Device = match c.dev {
-            DeviceKind::Cpu => &mut self.cpu,
-            DeviceKind::Gpu => self
-                .gpu
-                .as_mut()
-                .expect("the GPU is opened when a device is gpu"),
-        };
-        let before = crate::experiment::timing::CpuSample::now();
-        let measuring = Instant::now();
-        let measured = device.measure(&job, sample, &mut row);
-        if c.dev == DeviceKind::Gpu {
-            self.phases.gpu_s += measuring.elapsed().as_secs_f64();
-        }
-        row.cpu_others = before
-            .zip(crate::experiment::timing::CpuSample::now())
-            .and_then(|(a, b)| b.others_since(&a));
-        match measured {
-            Ok(Outcome::Measured(Some(checked))) => {
-                row.validated_rays = Some(checked.validated);
-                row.mismatches = Some(checked.mismatches);
-                if !checked.first.is_empty() {
-                    self.report_mismatches(spec, st, base, &c, b, &checked);
-                }
-                if checked.mismatches > 0 && must_conform(info, c.tri, &row) {
-                    self.summary.wrong_rows.push(wrong_row(&row));
-                }
-            }
-            Ok(Outcome::Measured(None)) => {}
-            Ok(Outcome::Unsupported(note)) => row.note = note,
-            Err(e) => {
-                self.gpu_failure(&e);
-                row = row_of(base, st, &c, b);
-                row.note = format!("gpu failed: {e}");
-            }
-        }
-        note_all_missed(&mut row, &b.name);
-        if row.mrays_per_s.is_some() {
-            self.note_load(&mut row);
-        }
-        Ok(row)
-    }
-
-    /// Keep a report of the first rays of a row that mismatch the oracle.
-    fn report_mismatches(
-        &mut self,
-        spec: &SceneSpec,
-        st: &StructureSpec,
-        base: &Row,
-        c: &Combo,
-        b: &Batch,
-        checked: &validation::Checked,
-    ) {
-        let info = st.infos[c.ti];
-        let on = if c.dev == DeviceKind::Gpu { " gpu" } else { "" };
-        let head = format!(
-            "{} {} [{}] {} {} {}{on}: {} of {} rays mismatch",
-            spec.label,
-            st.family.name,
-            base.params,
-            info.name,
-            c.tri.name(),
-            b.name,
-            checked.mismatches,
-            checked.validated
-        );
-        self.summary
-            .mismatch_reports
-            .push(validation::report(head, &checked.first));
     }
 
     /// A GPU failure `e`: said once (a line, and the summary's failure or note).

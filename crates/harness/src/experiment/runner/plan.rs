@@ -52,37 +52,38 @@ pub fn total_rows(exp: &Experiment, devices: &[(Device, Vec<usize>)]) -> usize {
     per_batch * batches
 }
 
-/// The identity of a row (for `--resume`) of the run's process `process` (`--processes`).
-pub fn key(
-    scene: &str,
-    st: &StructureSpec,
-    params: &str,
-    c: &Combo,
-    batch: &Batch,
-    process: Option<u32>,
-) -> RowKey {
+/// The rows of one build of a scene view: the view's label, the structure table, the
+/// parameter set and the run's process (`--processes`; part of each row's identity).
+#[derive(Clone, Copy)]
+pub struct BuildRows<'a> {
+    /// The row label of the scene view.
+    pub scene: &'a str,
+    /// The structure table.
+    pub st: &'a StructureSpec,
+    /// The parameter set, `k=v;…`.
+    pub params: &'a str,
+    /// The run's process, where it has several.
+    pub process: Option<u32>,
+}
+
+/// The identity of a row (for `--resume`) of build `b`.
+pub fn key(b: &BuildRows<'_>, c: &Combo, batch: &Batch) -> RowKey {
     RowKey {
-        scene: scene.to_string(),
-        structure: st.family.name.to_string(),
-        params: params.to_string(),
-        traversal: st.infos[c.ti].name.to_string(),
+        scene: b.scene.to_string(),
+        structure: b.st.family.name.to_string(),
+        params: b.params.to_string(),
+        traversal: b.st.infos[c.ti].name.to_string(),
         device: c.dev.name().to_string(),
         threads: c.threads as u32,
         triangle_test: c.tri.name().to_string(),
         ray_kind: batch.name.clone(),
-        process,
+        process: b.process,
     }
 }
 
-/// The rows of one build still to do, in output order, and how many are already done
-/// (`process`: the run's process, part of each row's identity).
-// Over clippy's seven: a build's rows: its identity and what is already done.
-#[allow(clippy::too_many_arguments)]
+/// The rows of build `b` still to do, in output order, and how many are already done.
 pub fn todo(
-    process: Option<u32>,
-    scene: &str,
-    st: &StructureSpec,
-    params: &str,
+    b: &BuildRows<'_>,
     tests: &[TriTestKind],
     batches: &[Batch],
     devices: &[(Device, Vec<usize>)],
@@ -90,9 +91,9 @@ pub fn todo(
 ) -> (Vec<Combo>, usize) {
     let mut out = Vec::new();
     let mut skipped = 0;
-    for &ti in &st.traversals {
+    for &ti in &b.st.traversals {
         for &tri in tests {
-            for (bi, b) in batches.iter().enumerate() {
+            for (bi, batch) in batches.iter().enumerate() {
                 for (dev, threads) in devices {
                     for &threads in threads {
                         let c = Combo {
@@ -102,7 +103,7 @@ pub fn todo(
                             dev: *dev,
                             threads,
                         };
-                        if done.contains(&key(scene, st, params, &c, b, process)) {
+                        if done.contains(&key(b, &c, batch)) {
                             skipped += 1;
                         } else {
                             out.push(c);
