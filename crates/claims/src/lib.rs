@@ -53,7 +53,8 @@ pub fn load(path: &Path) -> Result<ClaimsFile, Error> {
 
 /// [`load`] on text already read.
 pub fn parse(path: &Path, text: &str) -> Result<ClaimsFile, Error> {
-    let file: ClaimsFile = toml::from_str(text).map_err(|e| syntax_error(path, text, &e))?;
+    let mut file: ClaimsFile = toml::from_str(text).map_err(|e| syntax_error(path, text, &e))?;
+    file.share_notes(path, text)?;
     // No bound, margin, cost or selector value is NaN or infinite.
     tb_results::finite::check_toml(path, text)?;
     file.check(path, text)?;

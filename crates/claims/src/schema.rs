@@ -17,6 +17,10 @@ pub struct ClaimsFile {
     /// What `trace-bench reproduce` runs for this paper, in order.
     #[serde(default, rename = "run")]
     pub runs: Vec<RunSpec>,
+    /// Notes that several claims share, by name (`[notes]`, `name = "text"`): a claim names
+    /// them in its `notes`, and its note reads them, in that order, after its own `note`.
+    #[serde(default)]
+    pub notes: BTreeMap<String, String>,
     /// The paper's claims, in file order.
     #[serde(default, rename = "claim")]
     pub claims: Vec<Claim>,
@@ -147,9 +151,13 @@ pub struct Claim {
     /// where `paper` is longer; the full `paper` stays in the reasons.
     #[serde(default)]
     pub paper_figure: Option<String>,
-    /// Why this test and this tolerance.
+    /// Why this test and this tolerance: once the file is loaded, its own note, then
+    /// the texts of the shared `notes` it names.
     #[serde(default)]
     pub note: Option<String>,
+    /// Names of the file's shared notes (`[notes]`) that this claim's note ends with.
+    #[serde(default)]
+    pub notes: Vec<String>,
     /// What the claim is: a statement of the paper (tallied), an observation or an invariant
     /// (shown apart, not tallied); claims/README.md, "Kinds".
     #[serde(default)]
@@ -546,6 +554,45 @@ fn check_test(c: &Claim) -> Result<(), String> {
 }
 
 impl ClaimsFile {
+    /// Add the shared notes each claim names after its own note (joined by `; `); an unknown
+    /// name is an error naming the claim's line.
+    pub(crate) fn share_notes(&mut self, path: &Path, text: &str) -> Result<(), Error> {
+        for c in &mut self.claims {
+            if c.notes.is_empty() {
+                continue;
+            }
+            let mut parts = Vec::with_capacity(c.notes.len() + 1);
+            for name in &c.notes {
+                let Some(shared) = self.notes.get(name) else {
+                    let known: Vec<&str> = self.notes.keys().map(String::as_str).collect();
+                    return Err(Error::Config {
+                        file: path.into(),
+                        line: find_line(text, &format!("id = \"{}\"", c.id), 0),
+                        key: format!("claim {}: notes", c.id),
+                        message: format!(
+                            "no shared note `{name}` in [notes] (it has: {})",
+                            if known.is_empty() {
+                                "none".to_string()
+                            } else {
+                                known.join(", ")
+                            }
+                        ),
+                    });
+                };
+                parts.push(shared.clone());
+            }
+            c.note = Some(
+                c.note
+                    .take()
+                    .into_iter()
+                    .chain(parts)
+                    .collect::<Vec<_>>()
+                    .join("; "),
+            );
+        }
+        Ok(())
+    }
+
     /// Every claim's ids, selectors, measure, test and groups, before any row is read.
     pub(crate) fn check(&self, path: &Path, text: &str) -> Result<(), Error> {
         self.check_runs(path, text)?;

@@ -388,6 +388,47 @@ fn bad_files_name_the_line_and_key() {
     assert!(e.contains("give min, max or both"), "{e}");
 }
 
+/// A claim's note reads its own note, then the shared notes it names, in its order; a name
+/// missing from `[notes]` is an error naming the claim's line; the project's files keep no
+/// note pasted into three claims or more.
+#[test]
+fn shared_notes_are_written_once() {
+    let test = "measure = \"interior_per_ray\"\nrows.a = { traversal = \"a\" }\ntest = { kind = \"value\", of = \"a\", min = 1 }";
+    let text = format!(
+        "{BASE}[notes]\nx = \"shared x\"\ny = \"shared y\"\n[[claim]]\nid = \"c\"\nwhere = \"T1\"\ntext = \"t\"\npaper = \"p\"\nnote = \"own\"\nnotes = [\"y\", \"x\"]\n{test}\n[[claim]]\nid = \"d\"\nwhere = \"T1\"\ntext = \"t\"\npaper = \"p\"\nnotes = [\"x\"]\n{test}\n"
+    );
+    let f = claims::parse(Path::new("x.toml"), &text).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(f.claims[0].note.as_deref(), Some("own; shared y; shared x"));
+    assert_eq!(f.claims[1].note.as_deref(), Some("shared x"));
+    let bad = claim(&format!("notes = [\"z\"]\n{test}"));
+    let e = claims::parse(Path::new("x.toml"), &bad)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("x.toml:3: claim c: notes: no shared note `z`"),
+        "{e}"
+    );
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../claims");
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_none_or(|x| x != "toml") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&p).unwrap();
+        let mut seen = std::collections::BTreeMap::<&str, usize>::new();
+        for line in text.lines().filter(|l| l.starts_with("note = ")) {
+            *seen.entry(line).or_default() += 1;
+        }
+        for (line, n) in seen {
+            assert!(
+                n < 3,
+                "{}: {n} claims paste {line}: write it once in [notes]",
+                p.display()
+            );
+        }
+    }
+}
+
 /// Every claims file of the project parses and checks, and so do its deviations.
 #[test]
 fn the_projects_claims_files_load() {
