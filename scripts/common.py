@@ -128,8 +128,8 @@ def number(s):
 
 def memory_column(rows):
     """The memory column the papers' tables read: `structure_bytes` (the structure alone, as
-    the papers count memory; issue 42) where any row has it, else `memory_bytes` (results
-    written before that column existed)."""
+    the papers count memory) where any row has it, else `memory_bytes` (results written
+    before that column existed)."""
     has = any(number(r.get("structure_bytes")) is not None for r in rows)
     return "structure_bytes" if has else "memory_bytes"
 

@@ -14,7 +14,7 @@
 #                                           on the paper scenes took most of its minutes),
 #                                           small generated stand-ins under OUT/scenes
 #
-# The papers are made in the order of what the issues ask of a device first: the irregular grids
+# The papers are made in order of how much their claims need a device: the irregular grids
 # (the SBVH's and the grid's rates), multi-kd Table 5, the kd review, the R-trees, then sparse
 # boxes' GPU rows (for the record). A hard deadline (`reproduce --deadline`, default 7m) ends a
 # run still going then (its finished rows kept) and leaves the rest out, so the report is always
@@ -31,8 +31,8 @@
 # sparse boxes 800x600; the costs are estimates, the sustained samples of about 1,300 rows
 # included), GPU_REFERENCE_DEADLINE (default 7m), GPU_REFERENCE_ADAPTER (a substring of the
 # adapter's name).
-# The adapter is named in OUT/REPORT.md and OUT/REPRODUCTION.md; OUT/targets.txt holds issue 44's
-# device lines (scripts/gpu-targets.py: the rounds' spread, the SBVH's and the grid's rates; rerun
+# The adapter is named in OUT/REPORT.md and OUT/REPRODUCTION.md; OUT/targets.txt holds the GPU
+# targets' verdicts (scripts/gpu-targets.py: the rounds' spread, the SBVH's and the grid's rates; rerun
 # it with --against an earlier folder for the spread between runs). Exit status: reproduce's (1 when
 # a run failed); a run on a software adapter without --smoke is refused (its times are not GPU
 # figures).
@@ -124,7 +124,7 @@ if [ "$smoke" = 0 ] && grep -q "(software)\|(cpu)" <<<"$adapter"; then
   exit 1
 fi
 rm -rf "$out/scenes"
-# Issue 44's device lines (the rounds' spread, the SBVH's and the grid's rates) from the rows.
+# The GPU targets' verdicts (the rounds' spread, the SBVH's and the grid's rates) from the rows.
 if command -v python3 >/dev/null; then
   soft=(); [ "$smoke" = 1 ] && soft=(--software)
   python3 scripts/gpu-targets.py "$out" "${soft[@]}" >"$out/targets.txt" 2>&1 || true

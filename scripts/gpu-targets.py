@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Issue 44's device lines from a GPU reference folder (scripts/gpu-reference.sh's OUT), each
-with its figures and a verdict (`holds`, `does not hold`, or `no rows`):
+"""The GPU targets' verdicts from a GPU reference folder (scripts/gpu-reference.sh's OUT), each
+line with its figures and a verdict (`holds`, `does not hold`, or `no rows`):
 
     python3 scripts/gpu-targets.py results/reference/DATE [--against results/reference/OLDER]
 

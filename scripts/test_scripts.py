@@ -513,7 +513,7 @@ class Irregular(unittest.TestCase):
         # M + E against macro regions: 9.9 / 8.0 MRays/s, less memory than E.
         self.assertIn("sponza +24 %, memory M + E 2.5 MB vs E 9.0 MB -> agree", out)
         self.assertIn("memory: memory_bytes", out)
-        # With the structure alone (issue 42), Table 5's memory reads it.
+        # With the structure alone (`structure_bytes`), Table 5's memory reads it.
         rows = irregular_rows()
         for r in rows:
             r["structure_bytes"] = 0.4 * r["memory_bytes"]
@@ -683,7 +683,7 @@ class SeveralRuns(unittest.TestCase):
         self.assertIn("note: 1 row(s) of", err)
         self.assertIn("1e+03]", out)  # the newer row's 1000 MRays/s is the max
         self.assertIn("Memory: memory_bytes", out)  # rows without structure_bytes
-        # With the structure alone (issue 42) the memory column reads it.
+        # With the structure alone (`structure_bytes`) the memory column reads it.
         for r in rows:
             r["structure_bytes"] = 4e5
         p = os.path.join(self.tmp.name, "f6s.csv")
@@ -954,7 +954,7 @@ class Variation(unittest.TestCase):
 
 
 class GpuTargets(unittest.TestCase):
-    """gpu-targets.py: issue 44's device lines from a reference folder: the spread of each
+    """gpu-targets.py: the GPU targets' verdicts from a reference folder: the spread of each
     row's rounds, the medians between two folders, the SBVH's rate on the Conference at
     1024x1024 and the irregular grid's rate against it on Sponza."""
 
@@ -1089,7 +1089,7 @@ class CheckDocs(unittest.TestCase):
         self.assertEqual(self.m.main([]), 0)
 
     def test_stale_names_fail(self):
-        # Each was cited once while the code said otherwise (issue 45).
+        # Each was cited once in the docs while the code said otherwise.
         for stale, why in [
             ("`registry::generator_params`", "`generator_params` is not in registry"),
             ("`multi::ARRANGE_BLOCK`", "`multi` is no crate, module or type"),

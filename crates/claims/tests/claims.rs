@@ -310,7 +310,7 @@ fn per_build_measures_and_other_files() {
     assert_eq!(eval(&c, &[r])[0].verdict, Verdict::Inconclusive);
 }
 
-/// Issue 62, item 9: a reproduce or reference folder as committed (its rows in `runs/*/*`) is
+/// A reproduce or reference folder as committed (its rows in `runs/*/*`) is
 /// read whole; a folder with CSVs of its own is not entered further.
 #[test]
 fn a_report_folder_is_read_from_its_runs() {
@@ -665,7 +665,7 @@ fn typos_are_refused_at_load() {
             ok.replace("[1, 2]", "[1, \"two\"]"),
             "x.toml:3: claim c: filter: threads: \"two\" is not a whole number at least 0",
         ),
-        // Issue 62, item 6: values no row can hold are refused, not inconclusive for ever.
+        // Values no row can hold are refused, not inconclusive for ever.
         (
             ok.replace("[1, 2]", "-1"),
             "x.toml:3: claim c: filter: threads: -1 is not a whole number at least 0",
@@ -1093,7 +1093,7 @@ fn a_deviation_naming_an_unknown_claim_is_refused() {
     );
 }
 
-/// Issue 42: a measure may divide two measures of the same rows; each side pools as it would
+/// A measure may divide two measures of the same rows; each side pools as it would
 /// alone. Counter ratios are points; a ratio with a time side is a timing (the floor between
 /// runs widens it); trace times and ambiguous sums are refused at load.
 #[test]
@@ -1192,7 +1192,7 @@ fn ratio_measures_divide_the_same_rows() {
     }
 }
 
-/// Issue 42: `pick = "max"` / `"min"` lets a selector span a sweep's variants and stand for
+/// `pick = "max"` / `"min"` lets a selector span a sweep's variants and stand for
 /// its extreme (Table 2's strong form: the slowest of one sweep before the fastest of another).
 #[test]
 fn picking_selectors_stand_for_a_sweeps_extreme() {
@@ -1274,7 +1274,7 @@ fn picking_selectors_stand_for_a_sweeps_extreme() {
     );
 }
 
-/// Issue 42: a named selector may name its own `measure` (one reading of a claim whose sides
+/// A named selector may name its own `measure` (one reading of a claim whose sides
 /// are measured differently: Feldmann's Table 5 as the kd-tree's whole build against the
 /// R-tree's insertion alone). Its rows pool by it, the others by the claim's; a timing on
 /// either side gets the floor; reports show both; a bad measure, a measure in the filter or

@@ -1,4 +1,4 @@
-//! Issue 62: every value a user gives is checked where it is read, with one line naming it.
+//! Every value a user gives is checked where it is read, with one line naming it.
 //! This walks what a user can give and tries bad values of each:
 //!
 //! - **The config reference** (README.md's TOML block, "Config reference"): every key it

@@ -313,7 +313,7 @@ name = "rtree"
     }
 }
 
-/// Issue 62, item 1: `near-surfaces` at 1e-20, 1e15 and 1e20 (f32's products under or over
+/// `near-surfaces` at 1e-20, 1e15 and 1e20 (f32's products under or over
 /// their range) on the GPU with the binary BVH and the uniform grid: every GPU row answers as
 /// the oracle does (it lost 785 of 1,500 hits at 1e20 before the prelude's `finish`), and the
 /// run exits 0. Skipped without an adapter unless `TRACE_BENCH_REQUIRE_GPU=1`.

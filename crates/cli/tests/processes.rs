@@ -1,4 +1,4 @@
-//! `trace-bench run --processes K` end to end (issue 43): K processes into one folder, their
+//! `trace-bench run --processes K` end to end: K processes into one folder, their
 //! rows tagged and merged, an interrupted run resumed; and a process slowed by a busy loop
 //! beside it widens the interval of an absolute time between processes while the paired
 //! ratio's verdict survives.

@@ -1,7 +1,7 @@
 //! `trace-bench reproduce` and `claims` when work does not complete or the input is wrong:
 //! a failed run exits non-zero in words, what can be checked is checked before the first run,
 //! a folder another process writes to is refused, junk results are refused, and a signal to
-//! reproduce ends its run (issue 46).
+//! reproduce ends its run.
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -103,7 +103,7 @@ fn assert_one_run_failed(o: &Output, e: &str) {
 #[test]
 fn a_failed_run_exits_non_zero_in_words() {
     let t = tempfile::tempdir().unwrap();
-    // A config that passes the checks before the first run (issue 62) and fails in its run:
+    // A config that passes the checks before the first run and fails in its run:
     // a scene file that is there but no OBJ.
     let cfg = corrupt_scene(t.path());
     let c = claims(t.path(), &cfg, 32);
@@ -191,7 +191,7 @@ fn configs_and_with_are_checked_before_the_first_run() {
     );
 }
 
-/// Issue 62, item 7: a later run's `set` values are checked before the first run spends any
+/// A later run's `set` values are checked before the first run spends any
 /// of the budget.
 #[test]
 fn a_later_runs_edits_are_checked_before_the_first_run() {
@@ -218,7 +218,7 @@ fn a_later_runs_edits_are_checked_before_the_first_run() {
     assert!(!out.join("runs").exists(), "nothing ran: {e}");
 }
 
-/// Issue 62, item 5: commands with nothing to do fail in words: `claims --require-agree` of a
+/// Commands with nothing to do fail in words: `claims --require-agree` of a
 /// file without claims, `reproduce ,`, `compare` of reports with no claim in common.
 #[test]
 fn commands_with_nothing_to_do_fail() {

@@ -1,4 +1,4 @@
-//! Sharded runs (issue 20): `configs/ci.toml` run whole and as three shards (one of them killed
+//! Sharded runs: `configs/ci.toml` run whole and as three shards (one of them killed
 //! midway and resumed), merged; the merged folder carries the unsharded run's rows, in its
 //! order, with identical counters, and `check` passes both ways; no build runs in two shards;
 //! shards of another config or binary are refused.

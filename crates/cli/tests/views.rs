@@ -1,4 +1,4 @@
-//! Several views per scene table (`views = [...]`, issue 14): one load and one build per
+//! Several views per scene table (`views = [...]`): one load and one build per
 //! structure for all the views, rows per view labelled `TABLE@VIEW` with the counters a table
 //! of that one camera gives; sharding keeps a table's views in one unit and merges them back;
 //! bad views are refused with one line naming the key.

@@ -34,7 +34,7 @@ fn miss() -> Hit {
     return Hit(bitcast<f32>(0x7f800000u), MISS_PRIM, 0.0, 0.0);
 }
 
-// One 16-byte load per vertex (issue 44: vector loads), not three scalar ones.
+// One 16-byte (vector) load per vertex, not three scalar ones.
 fn vertex(i: u32, k: u32) -> vec3<f32> {
     return tris[3u * i + k].xyz;
 }
@@ -191,7 +191,7 @@ fn solve(sz: f32, s: Sheared, tmin: f32, tmax: f32) -> Solved {
 // 1e30): the sheared vertices scaled by the power of two 2^k that brings the largest
 // coordinate to [0.5, 1) (exact), `solve` on them with the interval scaled alike and the
 // distance scaled back; where even that leaves f32's range, `watertight_f64` (in f64 on
-// adapters with SHADER_F64, shaders/edge_f64.wgsl; a miss without, edge_f32.wgsl) (issue 62).
+// adapters with SHADER_F64, shaders/edge_f64.wgsl; a miss without, edge_f32.wgsl).
 fn finish(p: Pre, r: Ray, sh: Sheared, tmax: f32) -> vec4<f32> {
     let none = vec4<f32>(0.0);
     let m = max(max(abs(sh.a), abs(sh.b)), abs(sh.c));

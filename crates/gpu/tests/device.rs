@@ -375,7 +375,7 @@ fn programs_without_a_key_have_no_sort() {
     }
 }
 
-/// Issue 46: a new pipeline's first dispatch may include the driver's shader compilation
+/// A new pipeline's first dispatch may include the driver's shader compilation
 /// (567 ms against 0.8 ms on lavapipe), so the first trace of each variant runs one untimed
 /// pass first, whatever warm-up the caller asked for; later traces do not.
 #[test]
@@ -402,7 +402,7 @@ fn first_trace_of_a_variant_is_warmed_up() {
     assert!(times[0] <= 20.0 * later + 50.0, "{times:?}");
 }
 
-/// Issue 44: a timed trace is a sample of back-to-back passes lasting at least the sample's
+/// A timed trace is a sample of back-to-back passes lasting at least the sample's
 /// minimum (at most its maximum of passes), `kernel_ms` per pass; the counting trace and
 /// `trace_once` run one pass. With a minimum no pass reaches, the sample holds exactly the
 /// maximum (no timing is asserted: the count is sized by a measured pass).

@@ -1,4 +1,4 @@
-//! Issue 30 item 1, the reported case, against every registered structure x traversal: one
+//! A reported false hit, against every registered structure x traversal: one
 //! triangle `(0,0,0) (1,0,0) (0,1,0)` enclosed in its box (`enclose = true`, the eye
 //! `(0.3,0.3,2)` and the light `(0.3,0.3,1)` inside), and the 32x32 view's shadow ray 806,
 //! which starts one ulp in front of the box's `x = lo` face. The face's plane lies 1.6e-8

@@ -270,7 +270,7 @@ fn check_scene_of(
             let exact = tri == TriTestKind::Watertight && gpu.adapter().f64;
             let share = (DIFF_SHARE * d.rays as f64) as usize;
             // The watertight test's answers are the oracle's wherever the CPU's are, whatever
-            // the adapter (issue 62: no lost hit at extreme scales without f64 either).
+            // the adapter (no lost hit at extreme scales without f64 either).
             let robust = tri == TriTestKind::Watertight && d.mismatches > d.cpu_mismatches;
             let bad = robust
                 || if exact {
@@ -308,7 +308,7 @@ fn report(checked: &BTreeSet<String>) {
 }
 
 /// The suite's scenes: the watertight test's are the CPU oracle suite's, `near-surfaces` at
-/// 1e-30 and 1e30 included (its f64 finish, `watertight_wide`, as the CPU's: issue 62);
+/// 1e-30 and 1e30 included (its f64 finish, `watertight_wide`, as the CPU's);
 /// Möller–Trumbore has no such finish on either device (docs/results.md).
 fn scenes(tri: TriTestKind) -> Vec<tb_scene::Scene> {
     match tri {
@@ -372,7 +372,7 @@ fn all_programs_watertight_and_on_the_bunny_match_cpu() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
-/// Issue 62, item 1, on an adapter without `SHADER_F64` (acted by [`Gpu::forgo_f64`]): the
+/// On an adapter without `SHADER_F64` (acted by [`Gpu::forgo_f64`]): the
 /// watertight test's finish in f32 scaled by a power of two (`shaders/edge_f32.wgsl`) answers
 /// as the oracle does on `near-surfaces` at 1e-30, 1e-20, 1e15, 1e20 and 1e30, through the
 /// brute-force program (the test alone) and the binary BVH's and uniform grid's walks (each

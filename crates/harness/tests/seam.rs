@@ -132,7 +132,7 @@ impl SlabList {
 tb_core::kernel_by_query!(walk: [] SlabList);
 
 /// A faulty walk, on request only: the last slab is never entered, so its triangles' hits
-/// are lost (the wrong answers `run` must name: issue 62).
+/// are lost (the wrong answers `run` must name).
 struct SkipLast<'a>(&'a SlabList);
 
 impl SkipLast<'_> {
@@ -325,7 +325,7 @@ fn run_summary(text: &str) -> runner::RunSummary {
     runner::run(&exp, &opts).unwrap()
 }
 
-/// Issue 62: a traversal that loses hits is named at the end of the run (`wrong_rows`, which
+/// A traversal that loses hits is named at the end of the run (`wrong_rows`, which
 /// `run` prints and exits 3 on), each of its watertight rows with mismatches; its
 /// Möller–Trumbore rows, whose misses are that test's documented findings, and the correct
 /// walk's rows are not.
@@ -369,7 +369,7 @@ fn a_walk_that_loses_hits_is_named() {
     );
 }
 
-/// Issue 58: on the CPU the counting pass is validated against the oracle and every timed
+/// On the CPU the counting pass is validated against the oracle and every timed
 /// pass must give the counting pass's answers, on all the rays it times (`run.timed_rays`):
 /// a walk that loses hits only with counters compiled out is named, with the timed rays that
 /// differ counted as mismatches, in a run of the whole batch and in one timed on a subset.

@@ -1,5 +1,5 @@
-//! `run.timed_rays` and `run.timed_share` (issue 58: count once at full size, time on as many
-//! rays as needed):
+//! `run.timed_rays` and `run.timed_share` (count once at full size, time on as many rays as
+//! needed):
 //! every family's rows timed on a subset of each batch have the counters, hit rates and
 //! validation of the rows timed on the whole batch, `timed_rays` says how many rays were
 //! timed, and the timed passes give the counting passes' answers on those rays (sparse boxes'

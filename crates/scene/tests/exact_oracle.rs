@@ -1,4 +1,4 @@
-//! The oracle against an independent one in f64 (issue 30 item 1): on the Cornell box's
+//! The oracle against an independent one in f64: on the Cornell box's
 //! primary, shadow, AO and path rays, brute force with the watertight test reports no hit the
 //! f64 computation puts behind the origin or outside the triangle, and where it reports a
 //! miss although f64 finds a hit well inside a triangle, that hit is within the conservative
