@@ -1125,6 +1125,8 @@ fn cases(dir: &Path) -> Cases {
         .collect();
     names.sort();
     assert!(!names.is_empty(), "no configs in {}", configs.display());
+    // The configs' named views, beside the mutated copies as beside the configs.
+    std::fs::copy(configs.join("views.toml"), c.dir.join("views.toml")).unwrap();
     const TOML_LINES: &[&str] = &[
         "[run]",
         "[[scene]]",

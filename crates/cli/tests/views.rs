@@ -221,3 +221,127 @@ fn bad_views_are_refused_with_one_line() {
         "{e}"
     );
 }
+
+/// Named views (`views_file`, `view = NAME`): a table or a `views` entry naming a view gets
+/// its eye, target, up, fov and light, under what the table or entry gives itself; the
+/// project's configs read `configs/views.toml`; unknown names, a missing file and a view
+/// without `views_file` are refused with one line naming the key.
+#[test]
+fn named_views_fill_the_camera_under_the_tables_own_keys() {
+    use tb_harness::experiment::config::{self, Overrides};
+    let t = tempfile::tempdir().unwrap();
+    fs::write(
+        t.path().join("v.toml"),
+        "[far]\neye = [0, 1, 9]\ntarget = [0, 1, 0]\nfov = 30\nlight = [1, 2, 3]\n\
+         [near]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\nup = [1, 0, 0]\nfov = 50\n",
+    )
+    .unwrap();
+    let cfg = t.path().join("c.toml");
+    let text = "name = \"v\"\nviews_file = \"v.toml\"\n[[scene]]\nsource = \"builtin:cornell\"\n\
+                view = \"far\"\ncamera = { width = 8, height = 6, fov = 40 }\n\
+                views = [{ view = \"near\" }, { name = \"b\", view = \"near\", light = [4, 5, 6] }, { name = \"c\" }]\n\
+                [[structure]]\nname = \"bvh\"\n";
+    let exp = config::parse(&cfg, text, &Overrides::default(), &mut |_| {})
+        .unwrap_or_else(|e| panic!("{e}"));
+    let got: Vec<_> = exp
+        .scenes
+        .iter()
+        .map(|s| {
+            let c = s.camera.unwrap();
+            let l = s.light.map(|l| l.to_array());
+            (
+                s.label.clone(),
+                c.eye.to_array(),
+                c.up.to_array(),
+                c.fov,
+                c.width,
+                c.height,
+                l,
+            )
+        })
+        .collect();
+    assert_eq!(
+        got,
+        vec![
+            (
+                "cornell@near".into(),
+                [0.0, 1.0, 3.0],
+                [1.0, 0.0, 0.0],
+                50.0,
+                8,
+                6,
+                Some([1.0, 2.0, 3.0])
+            ),
+            (
+                "cornell@b".into(),
+                [0.0, 1.0, 3.0],
+                [1.0, 0.0, 0.0],
+                50.0,
+                8,
+                6,
+                Some([4.0, 5.0, 6.0])
+            ),
+            // An entry without a view: the table's camera, its view `far` under the table's fov.
+            (
+                "cornell@c".into(),
+                [0.0, 1.0, 9.0],
+                [0.0, 1.0, 0.0],
+                40.0,
+                8,
+                6,
+                Some([1.0, 2.0, 3.0])
+            ),
+        ]
+    );
+    assert!(exp
+        .views
+        .as_ref()
+        .is_some_and(|v| v.text.contains("[near]")));
+    for (edit, want) in [
+        (
+            ("view = \"far\"", "view = \"nowhere\""),
+            "scene.view: no view `nowhere` in the views file (it has: far, near)",
+        ),
+        (
+            ("{ view = \"near\" }", "{ view = \"x\" }"),
+            "scene.views.view: no view `x`",
+        ),
+        (
+            ("views_file = \"v.toml\"", "views_file = \"none.toml\""),
+            "views_file: cannot read",
+        ),
+        (
+            ("views_file = \"v.toml\"", ""),
+            "scene.view: names a view, but the config has no `views_file`",
+        ),
+    ] {
+        let e = config::parse(
+            &cfg,
+            &text.replace(edit.0, edit.1),
+            &Overrides::default(),
+            &mut |_| {},
+        )
+        .err()
+        .unwrap_or_else(|| panic!("{edit:?} should be refused"))
+        .to_string();
+        assert!(e.contains(want), "{edit:?}: {e}");
+        assert_eq!(e.trim().lines().count(), 1, "{edit:?}: one line: {e}");
+    }
+    // A views file with an unknown key names that file and its line.
+    fs::write(
+        t.path().join("v.toml"),
+        "[far]\neye = [0, 1, 9]\ntarget = [0, 1, 0]\nfov = 30\nzoom = 2\n",
+    )
+    .unwrap();
+    let e = config::parse(&cfg, text, &Overrides::default(), &mut |_| {})
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("v.toml") && e.contains("zoom"), "{e}");
+    // The project's configs name their paper scenes' views from configs/views.toml.
+    let views = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/views.toml");
+    let named: toml::Table = toml::from_str(&fs::read_to_string(views).unwrap()).unwrap();
+    assert!(["bunny", "sibenik", "conference", "sponza"]
+        .iter()
+        .all(|v| named.contains_key(*v)));
+}

@@ -12,6 +12,7 @@ mod run;
 mod scenes;
 pub(crate) mod spec;
 mod structures;
+pub mod views;
 
 pub use ctx::line_of;
 pub(crate) use ctx::Ctx;
@@ -60,6 +61,7 @@ impl<'de, T: serde::de::DeserializeOwned> Deserialize<'de> for OneOrMany<T> {
 struct RawConfig {
     name: Option<String>,
     scenes_root: Option<String>,
+    views_file: Option<Spanned<String>>,
     #[serde(default)]
     run: RawRun,
     #[serde(default, rename = "scene")]
@@ -103,6 +105,7 @@ struct RawRun {
 struct RawScene {
     source: Spanned<String>,
     name: Option<String>,
+    view: Option<Spanned<String>>,
     rays: Option<Spanned<Vec<String>>>,
     camera: Option<Spanned<RawCamera>>,
     light: Option<[f32; 3]>,
@@ -122,6 +125,7 @@ struct RawScene {
 #[serde(deny_unknown_fields)]
 struct RawView {
     name: Option<String>,
+    view: Option<String>,
     eye: Option<[f32; 3]>,
     target: Option<[f32; 3]>,
     up: Option<[f32; 3]>,
@@ -138,7 +142,7 @@ struct RawInset {
     at: Option<[f32; 3]>,
 }
 
-#[derive(Deserialize)]
+#[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct RawCamera {
     eye: Option<[f32; 3]>,
@@ -214,6 +218,8 @@ pub struct Experiment {
     /// ([`crate::experiment::processes`]): its rows carry `process = I`, and for odd `I` the
     /// structure entries run in reverse order.
     pub process: Option<crate::experiment::processes::Process>,
+    /// The views file the config's named views come from (`views_file`).
+    pub views: Option<views::ViewsFile>,
     /// Seconds spent loading and checking the scenes and the sections that read them
     /// (`meta.phases.load_s`).
     pub load_s: f64,
@@ -264,14 +270,57 @@ impl Overrides {
     }
 }
 
-/// SHA-256 of the effective config text and the hashed overrides, hex.
-fn config_hash(text: &str, ov: &Overrides) -> String {
+/// SHA-256 of the effective config text, the views file's text and the hashed overrides, hex.
+fn config_hash(text: &str, views: Option<&views::ViewsFile>, ov: &Overrides) -> String {
     use sha2::Digest;
     let mut h = sha2::Sha256::new();
     h.update(text.as_bytes());
     h.update([0u8]);
+    if let Some(v) = views {
+        h.update(v.text.as_bytes());
+        h.update([0u8]);
+    }
     h.update(ov.hashed().as_bytes());
     h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// A config as every reader of it starts: the effective text (after `--set`, recorded in
+/// results.json), the name its errors give the file ("with --set" where edited: their lines
+/// are the edited text's), its tables with the named views filled in, and the views file.
+struct Source {
+    text: String,
+    shown: PathBuf,
+    raw: RawConfig,
+    views: Option<views::ViewsFile>,
+}
+
+impl Source {
+    /// Apply `ov`'s `--set` edits to `text` (read from `file`), parse it, check that no float
+    /// is NaN or infinite (whatever key reads it), and fill in the named views.
+    fn read(file: &Path, text: &str, ov: &Overrides) -> Result<Source, HarnessError> {
+        let (text, shown) = if ov.sets.is_empty() {
+            (text.to_owned(), file.to_path_buf())
+        } else {
+            (
+                overrides::apply_sets(&file.display().to_string(), text, &ov.sets)?,
+                PathBuf::from(format!("{} (with --set)", file.display())),
+            )
+        };
+        let mut raw: RawConfig =
+            toml::from_str(&text).map_err(|e| syntax_error(&shown, &text, &e))?;
+        tb_results::finite::check_toml(&shown, &text)?;
+        let cx = Ctx {
+            file: &shown,
+            text: &text,
+        };
+        let views = views::resolve(&cx, &mut raw, file)?;
+        Ok(Source {
+            text,
+            shown,
+            raw,
+            views,
+        })
+    }
 }
 
 /// Parse and check `file` against the built-in registry; loads every scene. `progress` is
@@ -304,25 +353,14 @@ pub fn parse_with(
     registry: &Registry,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Experiment, HarnessError> {
-    // `--set`: the effective config (recorded in results.json) is the edited one; its errors
-    // name the file "with --set" and the line in the edited text.
-    let edited;
-    let (text, shown) = if ov.sets.is_empty() {
-        (text, file.to_path_buf())
-    } else {
-        edited = overrides::apply_sets(&file.display().to_string(), text, &ov.sets)?;
-        (
-            edited.as_str(),
-            PathBuf::from(format!("{} (with --set)", file.display())),
-        )
-    };
-    let file_arg = file;
-    let file = shown.as_path();
+    let Source {
+        text,
+        shown,
+        mut raw,
+        views,
+    } = Source::read(file, text, ov)?;
+    let (text, file_arg, file) = (text.as_str(), file, shown.as_path());
     let cx = Ctx { file, text };
-    let mut raw: RawConfig = toml::from_str(text).map_err(|e| syntax_error(file, text, &e))?;
-    // No float of the config is NaN or infinite, whatever key reads it.
-    tb_results::finite::check_toml(file, text)?;
-
     overrides::filter(&cx, &mut raw, &ov.scenes, &ov.structures)?;
     if let Some(p) = ov.process {
         check_process(&cx, &raw, ov, p)?;
@@ -391,7 +429,8 @@ pub fn parse_with(
         images,
         convergence,
         shard,
-        config_hash: config_hash(text, ov),
+        config_hash: config_hash(text, views.as_ref(), ov),
+        views,
         dynamic,
         process: ov.process,
         load_s: loading.elapsed().as_secs_f64(),
@@ -406,19 +445,16 @@ pub fn parse_with(
 /// the folders the run writes besides its output folder (the `[convergence]` cache).
 pub fn check_offline(file: &Path, ov: &Overrides) -> Result<Vec<PathBuf>, HarnessError> {
     let text = std::fs::read_to_string(file).map_err(|e| HarnessError::io(file, e))?;
-    let edited;
-    let (text, shown) = if ov.sets.is_empty() {
-        (text.as_str(), file.to_path_buf())
-    } else {
-        edited = overrides::apply_sets(&file.display().to_string(), &text, &ov.sets)?;
-        (
-            edited.as_str(),
-            PathBuf::from(format!("{} (with --set)", file.display())),
-        )
+    let Source {
+        text,
+        shown,
+        mut raw,
+        ..
+    } = Source::read(file, &text, ov)?;
+    let cx = Ctx {
+        file: &shown,
+        text: &text,
     };
-    let cx = Ctx { file: &shown, text };
-    let mut raw: RawConfig = toml::from_str(text).map_err(|e| syntax_error(&shown, text, &e))?;
-    tb_results::finite::check_toml(&shown, text)?;
     overrides::filter(&cx, &mut raw, &ov.scenes, &ov.structures)?;
     experiment_name(&cx, &raw, file)?;
     run::check_run(&cx, &raw.run, ov)?;
@@ -476,19 +512,13 @@ fn check_process(
 /// checks them; everything else is checked by each process.
 pub fn peek(file: &Path, ov: &Overrides) -> Result<(String, usize), HarnessError> {
     let text = std::fs::read_to_string(file).map_err(|e| HarnessError::io(file, e))?;
-    let edited;
-    let (text, shown) = if ov.sets.is_empty() {
-        (text.as_str(), file.to_path_buf())
-    } else {
-        edited = overrides::apply_sets(&file.display().to_string(), &text, &ov.sets)?;
-        (
-            edited.as_str(),
-            PathBuf::from(format!("{} (with --set)", file.display())),
-        )
+    let Source {
+        text, shown, raw, ..
+    } = Source::read(file, &text, ov)?;
+    let cx = Ctx {
+        file: &shown,
+        text: &text,
     };
-    let cx = Ctx { file: &shown, text };
-    let raw: RawConfig = toml::from_str(text).map_err(|e| syntax_error(&shown, text, &e))?;
-    tb_results::finite::check_toml(&shown, text)?;
     let name = experiment_name(&cx, &raw, file)?;
     let processes = run::check_processes(&cx, &raw.run)?;
     if processes > 1 && raw.dynamic.is_some() {

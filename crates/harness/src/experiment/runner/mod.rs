@@ -196,6 +196,13 @@ impl<'a> Run<'a> {
                     meta["adapter"] = g.meta();
                 }
                 meta["config_hash"] = exp.config_hash.clone().into();
+                if let Some(v) = &exp.views {
+                    // The named views the config read: with `config`, what reruns it.
+                    meta["views_file"] = serde_json::json!({
+                        "path": v.path.display().to_string(),
+                        "text": v.text,
+                    });
+                }
                 if let Some(p) = &exp.shard {
                     meta["shard"] = p.meta();
                 }
