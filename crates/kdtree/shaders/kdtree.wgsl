@@ -2,7 +2,7 @@
 // traversal algorithms for ray tracing", CGF 30(1)): shaders/kd.wgsl (nodes, references,
 // header, the split decision, the leaf test, `recursive`) then this file, on tb-gpu's prelude
 // (tb_core::gpu). One program per traversal (`kdtree/NAME`), the kernel chosen by the override
-// constant KERNEL; each repeats its CPU kernel (traverse.rs, stackless.rs) decision for
+// constant KERNEL; each repeats its CPU kernel (traverse/, stackless/) decision for
 // decision, in the CPU's order, so the counters agree ray for ray. One thread per ray.
 
 // Which traversal (GpuProgram::constants).
@@ -24,7 +24,7 @@ override KERNEL: u32 = 0u;
 // word for the programs that read neither.
 @group(0) @binding(8) var<storage, read> aux: array<u32>;
 
-// The short stack on chip (see `stackless`): SHORT_SLOTS and SHORT_ON_CHIP come from the
+// The short stack on chip (see `Restarts`): SHORT_SLOTS and SHORT_ON_CHIP come from the
 // program's source (kdtree/src/gpu.rs), one slot where it is unused.
 var<workgroup> short_stack: array<vec4<u32>, SHORT_SLOTS>;
 
@@ -35,26 +35,26 @@ var<workgroup> short_stack: array<vec4<u32>, SHORT_SLOTS>;
 // the first and shifts the rest up. The same entries come back in the same order.
 const REG_SLOTS: u32 = 8u;
 
-fn reg_push(s: ptr<function, array<vec4<u32>, REG_SLOTS>>, e: vec4<u32>) {
-    if STACK_SIZE > 7u { (*s)[7] = (*s)[6]; }
-    if STACK_SIZE > 6u { (*s)[6] = (*s)[5]; }
-    if STACK_SIZE > 5u { (*s)[5] = (*s)[4]; }
-    if STACK_SIZE > 4u { (*s)[4] = (*s)[3]; }
-    if STACK_SIZE > 3u { (*s)[3] = (*s)[2]; }
-    if STACK_SIZE > 2u { (*s)[2] = (*s)[1]; }
-    if STACK_SIZE > 1u { (*s)[1] = (*s)[0]; }
-    (*s)[0] = e;
+fn reg_push(w: ptr<function, Restarts>, e: vec4<u32>) {
+    if STACK_SIZE > 7u { (*w).regs[7] = (*w).regs[6]; }
+    if STACK_SIZE > 6u { (*w).regs[6] = (*w).regs[5]; }
+    if STACK_SIZE > 5u { (*w).regs[5] = (*w).regs[4]; }
+    if STACK_SIZE > 4u { (*w).regs[4] = (*w).regs[3]; }
+    if STACK_SIZE > 3u { (*w).regs[3] = (*w).regs[2]; }
+    if STACK_SIZE > 2u { (*w).regs[2] = (*w).regs[1]; }
+    if STACK_SIZE > 1u { (*w).regs[1] = (*w).regs[0]; }
+    (*w).regs[0] = e;
 }
 
-fn reg_pop(s: ptr<function, array<vec4<u32>, REG_SLOTS>>) -> vec4<u32> {
-    let e = (*s)[0];
-    if STACK_SIZE > 1u { (*s)[0] = (*s)[1]; }
-    if STACK_SIZE > 2u { (*s)[1] = (*s)[2]; }
-    if STACK_SIZE > 3u { (*s)[2] = (*s)[3]; }
-    if STACK_SIZE > 4u { (*s)[3] = (*s)[4]; }
-    if STACK_SIZE > 5u { (*s)[4] = (*s)[5]; }
-    if STACK_SIZE > 6u { (*s)[5] = (*s)[6]; }
-    if STACK_SIZE > 7u { (*s)[6] = (*s)[7]; }
+fn reg_pop(w: ptr<function, Restarts>) -> vec4<u32> {
+    let e = (*w).regs[0];
+    if STACK_SIZE > 1u { (*w).regs[0] = (*w).regs[1]; }
+    if STACK_SIZE > 2u { (*w).regs[1] = (*w).regs[2]; }
+    if STACK_SIZE > 3u { (*w).regs[2] = (*w).regs[3]; }
+    if STACK_SIZE > 4u { (*w).regs[3] = (*w).regs[4]; }
+    if STACK_SIZE > 5u { (*w).regs[4] = (*w).regs[5]; }
+    if STACK_SIZE > 6u { (*w).regs[5] = (*w).regs[6]; }
+    if STACK_SIZE > 7u { (*w).regs[6] = (*w).regs[7]; }
     return e;
 }
 
@@ -70,7 +70,7 @@ fn aux_parent(i: u32) -> u32 {
     return aux[8u * i + 3u];
 }
 
-// stackless.rs `cell_interval`: the interval of the node with cell `lo..hi`, the slab interval
+// stackless/mod.rs `cell_interval`: the interval of the node with cell `lo..hi`, the slab interval
 // with the plane distances of `decide`, the start cell's faces counting as `[t0, t1]`.
 fn cell_interval(rb: RayBox, lo: vec3<f32>, hi: vec3<f32>, t0: f32, t1: f32) -> vec2<f32> {
     let rlo = cell_min();
@@ -98,7 +98,7 @@ fn cell_interval(rb: RayBox, lo: vec3<f32>, hi: vec3<f32>, t0: f32, t1: f32) -> 
 // (bit k: the walk went right at depth k; treelet layout only).
 struct Track { depth: u32, both: vec2<u32>, path: vec2<u32> }
 
-// stackless.rs `below`: the track of the far child of the node at depth `at >> 1` (`at & 1`:
+// stackless/mod.rs `below`: the track of the far child of the node at depth `at >> 1` (`at & 1`:
 // the right child), bits from that depth on cleared.
 fn below(t: Track, at: u32) -> Track {
     let pd = at >> 1u;
@@ -109,9 +109,12 @@ fn below(t: Track, at: u32) -> Track {
     return Track(pd + 1u, keep_below(t.both, pd), path);
 }
 
-// One restart-type walk `k` (K_RESTART, K_PUSH_DOWN, K_SHORT_STACK, K_BACKTRACK) of a ray clipped to
-// `[t0, t1]` from the start node, with the closest hit `best` and `steps0` steps taken; the
-// step cap (header word 11) ends it as on the CPU. The short stack is a circular array of
+// The restart-type walks (K_RESTART, K_PUSH_DOWN, K_SHORT_STACK, K_BACKTRACK) of a ray clipped
+// to `[t0, t1]` from the start node, with the closest hit `best` and `steps0` steps taken, as
+// one walk state (`Restarts`) and its named steps (`restarts_descend`, `_leaf`, `_pop`,
+// `_at_start`, `_restart`, `_climb`, `_enter`), the names of stackless/restarts.rs, and one
+// function per traversal (`restart_walk`, `short_stack_walk`, `backtrack_walk`) reading as its
+// CPU twin; the step cap (header word 11) ends a walk as on the CPU. The short stack is a circular array of
 // STACK_SIZE entries (the program's stack size: KdParams::short_stack, as the CPU kernel's),
 // kept on chip as Horn et al.'s is (review §5.2: the short stack in fast memory, the full stack
 // of `recursive-direction` in the invocation's memory, Novák's contrast): in registers up to
@@ -132,227 +135,341 @@ fn below(t: Track, at: u32) -> Track {
 //   climb the parent links, recomputing each node's interval from its cell (the auxiliary
 //   array), up to the first node where the walk went both ways from the near child, then
 //   descend into its far child.
-fn stackless(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, steps0: u32,
-             st: ptr<function, Stats>) -> Hit {
-    var best = best0;
-    var steps = steps0;
+// One restart-type walk's state between its steps (stackless/restarts.rs `Restarts`): the
+// traversal `k`, the steps taken (against the step cap, header word 11), the current node and
+// its interval, its track (`Track`; not kept by `backtrack`), whether the ray lies in a split
+// plane it met (its children overlap in `t`), the pushed-down node with its interval and depth
+// and whether it may still be pushed down (`push-down`, `short-stack`; the start node for the
+// others), the last leaf, and `short-stack`'s circular stack: far child, its interval (f32
+// bits), its parent's depth << 1 | whether it is the right child; `count` entries, the newest
+// at `top - 1` (mod STACK_SIZE), in `regs` (SHORT_IN_REGISTERS), `short_stack`
+// (SHORT_ON_CHIP) or `stack`.
+struct Restarts {
+    k: u32,
+    steps: u32,
+    idx: u32,
+    tn: f32,
+    tf: f32,
+    tr: Track,
+    in_plane: bool,
+    pd: u32,
+    pd_tn: f32,
+    pd_tf: f32,
+    pd_depth: u32,
+    push: bool,
+    last: u32,
+    top: u32,
+    count: u32,
+    stack: array<vec4<u32>, LOCAL_SLOTS>,
+    regs: array<vec4<u32>, REG_SLOTS>,
+}
+
+// The next subtree (restarts.rs `Next`): node, interval (f32 bits) and parent's depth << 1 |
+// right-child bit; `only`: the only one pending (`push-down` may push down to it); `found`:
+// there is one.
+struct Next { e: vec4<u32>, only: bool, found: bool }
+
+// restarts.rs `Restarts::new`: a walk of `k` over `[t0, t1]` from the start node, `steps0`
+// steps already taken.
+fn restarts_new(w: ptr<function, Restarts>, k: u32, t0: f32, t1: f32, steps0: u32) {
     let root = hw(0u);
-    let cap = hw(11u);
-    let size = STACK_SIZE;
+    (*w).k = k;
+    (*w).steps = steps0;
+    (*w).idx = root;
+    (*w).tn = t0;
+    (*w).tf = t1;
+    (*w).pd = root;
+    (*w).pd_tn = t0;
+    (*w).pd_tf = t1;
+    (*w).push = k == K_PUSH_DOWN || k == K_SHORT_STACK;
+}
+
+// `short-stack`: keep far child entry `e` on the circular stack, the oldest overwritten when full.
+fn restarts_keep(w: ptr<function, Restarts>, e: vec4<u32>) {
+    if SHORT_IN_REGISTERS {
+        reg_push(w, e);
+    } else if SHORT_ON_CHIP {
+        short_stack[LANE * STACK_SIZE + (*w).top] = e;
+    } else {
+        (*w).stack[(*w).top] = e;
+    }
+    (*w).top = select((*w).top + 1u, 0u, (*w).top + 1u == STACK_SIZE);
+    (*w).count = min((*w).count + 1u, STACK_SIZE);
+}
+
+// restarts.rs `Restarts::descend`: to the first leaf of the current subtree, near child first;
+// `short-stack` keeps the far children, and the pushed-down node follows while the walk visits
+// one child only.
+fn restarts_descend(w: ptr<function, Restarts>, rb: RayBox, st: ptr<function, Stats>) {
+    let track = (*w).k != K_BACKTRACK;
     let df = depth_first();
-    let track = k != K_BACKTRACK;
-    // Far child, its interval (f32 bits), and its parent's depth << 1 | whether it is the right
-    // child; `count` entries, the newest at `top - 1` (mod `size`).
-    var stack: array<vec4<u32>, LOCAL_SLOTS>;
-    var regs: array<vec4<u32>, REG_SLOTS>;
-    var top = 0u;
-    var count = 0u;
-    // The pushed-down node, its interval and depth, and whether it may still be pushed down.
-    var pd = root;
-    var pd_tn = t0;
-    var pd_tf = t1;
-    var pd_depth = 0u;
-    var push = k == K_PUSH_DOWN || k == K_SHORT_STACK;
-    var idx = root;
-    var tn = t0;
-    var tf = t1;
-    var tr = Track(0u, vec2<u32>(0u), vec2<u32>(0u));
-    // The ray lies in a split plane it met (its children overlap in `t`).
-    var in_plane = false;
     loop {
-        // Descend to the first leaf of the subtree, near first.
-        loop {
-            let n = nodes[idx];
-            if is_leaf(n) {
-                break;
+        let idx = (*w).idx;
+        let n = nodes[idx];
+        if is_leaf(n) {
+            break;
+        }
+        (*w).steps += 1u;
+        let d = counted_decide(idx, n, rb, (*w).tn, (*w).tf, st);
+        let near_right = rb.neg[n.x & 3u];
+        var go_right = near_right;
+        if d.kind == NEAR_ONLY {
+            (*w).idx = d.near;
+        } else if d.kind == FAR_ONLY {
+            (*w).idx = d.far;
+            go_right = !near_right;
+        } else {
+            // `far_tn < near_tf` only for `t = NaN` (see `decide`).
+            (*w).in_plane = (*w).in_plane || d.far_tn < d.near_tf;
+            if (*w).k == K_SHORT_STACK {
+                restarts_keep(w, vec4<u32>(d.far, bitcast<u32>(d.far_tn), bitcast<u32>((*w).tf),
+                                           ((*w).tr.depth << 1u) | select(1u, 0u, near_right)));
             }
-            steps += 1u;
-            let d = counted_decide(idx, n, rb, tn, tf, st);
-            let near_right = rb.neg[n.x & 3u];
-            var go_right = near_right;
-            if d.kind == NEAR_ONLY {
-                idx = d.near;
-            } else if d.kind == FAR_ONLY {
-                idx = d.far;
-                go_right = !near_right;
-            } else {
-                // `far_tn < near_tf` only for `t = NaN` (see `decide`).
-                in_plane = in_plane || d.far_tn < d.near_tf;
-                if k == K_SHORT_STACK {
-                    let e = vec4<u32>(d.far, bitcast<u32>(d.far_tn), bitcast<u32>(tf),
-                                      (tr.depth << 1u) | select(1u, 0u, near_right));
-                    if SHORT_IN_REGISTERS {
-                        reg_push(&regs, e);
-                    } else if SHORT_ON_CHIP {
-                        short_stack[LANE * STACK_SIZE + top] = e;
-                    } else {
-                        stack[top] = e;
-                    }
-                    top = select(top + 1u, 0u, top + 1u == size);
-                    count = min(count + 1u, size);
-                }
-                push = false;
-                idx = d.near;
-                tf = d.near_tf;
-                if track {
-                    tr.both = bit_set(tr.both, tr.depth);
-                }
-            }
+            (*w).push = false;
+            (*w).idx = d.near;
+            (*w).tf = d.near_tf;
             if track {
-                if !df && go_right {
-                    tr.path = bit_set(tr.path, tr.depth);
+                (*w).tr.both = bit_set((*w).tr.both, (*w).tr.depth);
+            }
+        }
+        if track {
+            if !df && go_right {
+                (*w).tr.path = bit_set((*w).tr.path, (*w).tr.depth);
+            }
+            (*w).tr.depth += 1u;
+        }
+        if (*w).push {
+            (*w).pd = (*w).idx;
+            (*w).pd_tn = (*w).tn;
+            (*w).pd_tf = (*w).tf;
+            (*w).pd_depth = (*w).tr.depth;
+        }
+    }
+}
+
+// restarts.rs `Restarts::leaf`: test the leaf reached (one step); true when the ray is done: an
+// any-hit found, a hit before the end of the leaf's interval (Foley and Sugerman's early exit;
+// not for a ray lying in a split plane), or the step cap reached.
+fn restarts_leaf(w: ptr<function, Restarts>, p: Pre, r: Ray, best: ptr<function, Hit>,
+                 st: ptr<function, Stats>) -> bool {
+    (*w).steps += 1u;
+    if leaf(nodes[(*w).idx], p, r, best, st) {
+        return true;
+    }
+    if (*best).t < (*w).tf && !(*w).in_plane {
+        return true;
+    }
+    if (*w).steps >= hw(11u) {
+        (*st).capped = 1u;
+        return true;
+    }
+    (*w).last = (*w).idx;
+    return false;
+}
+
+// restarts.rs `Restarts::pop`: `short-stack` continues in the newest kept far child that starts
+// before the closest hit `best_t` (any-hit queries: the newest); false when the stack runs dry.
+fn restarts_pop(w: ptr<function, Restarts>, best_t: f32) -> bool {
+    loop {
+        if (*w).count == 0u {
+            return false;
+        }
+        (*w).top = select((*w).top - 1u, STACK_SIZE - 1u, (*w).top == 0u);
+        (*w).count -= 1u;
+        var e = (*w).stack[0];
+        if SHORT_IN_REGISTERS {
+            e = reg_pop(w);
+        } else if SHORT_ON_CHIP {
+            e = short_stack[LANE * STACK_SIZE + (*w).top];
+        } else {
+            e = (*w).stack[(*w).top];
+        }
+        if ANY || bitcast<f32>(e.y) <= best_t {
+            (*w).idx = e.x;
+            (*w).tn = bitcast<f32>(e.y);
+            (*w).tf = bitcast<f32>(e.z);
+            (*w).tr = below((*w).tr, e.w);
+            return true;
+        }
+    }
+    return false;
+}
+
+// restarts.rs `Restarts::at_start`: the last leaf is the start node (nothing to climb to).
+fn restarts_at_start(w: ptr<function, Restarts>) -> bool {
+    return (*w).last == hw(0u);
+}
+
+// restarts.rs `Restarts::restart`: descend from the pushed-down node toward the last leaf, down
+// to the deepest node that sent the ray both ways; the next subtree is the far child of the
+// deepest one whose far side starts before the closest hit `best_t`. None below the
+// pushed-down node: the ray is done.
+fn restarts_restart(w: ptr<function, Restarts>, rb: RayBox, best_t: f32,
+                    st: ptr<function, Stats>) -> Next {
+    var next = Next(vec4<u32>(0u), false, false);
+    let tr = (*w).tr;
+    let live = tr.both ^ keep_below(tr.both, (*w).pd_depth);
+    if all(live == vec2<u32>(0u)) {
+        return next;
+    }
+    let df = depth_first();
+    let last = (*w).last;
+    let deepest = highest(live);
+    var pending = 0u;
+    var x = (*w).pd;
+    var xn = (*w).pd_tn;
+    var xf = (*w).pd_tf;
+    var xd = (*w).pd_depth;
+    loop {
+        if xd > deepest {
+            break;
+        }
+        let n = nodes[x];
+        (*w).steps += 1u;
+        let d = counted_decide(x, n, rb, xn, xf, st);
+        var toward: u32;
+        if df {
+            // The left subtree of `x` is `x + 1 .. link`.
+            let link = n.x >> 2u;
+            toward = select(link, x + 1u, last < link);
+        } else {
+            let c = children(x, n);
+            toward = select(c.x, c.y, bit_get(tr.path, xd));
+        }
+        if d.kind == BOTH {
+            if toward == d.near {
+                if ANY || d.far_tn <= best_t {
+                    let far_right = !rb.neg[n.x & 3u];
+                    next.e = vec4<u32>(d.far, bitcast<u32>(d.far_tn), bitcast<u32>(xf),
+                                       (xd << 1u) | select(0u, 1u, far_right));
+                    next.found = true;
+                    pending += 1u;
                 }
-                tr.depth += 1u;
-            }
-            if push {
-                pd = idx;
-                pd_tn = tn;
-                pd_tf = tf;
-                pd_depth = tr.depth;
+                xf = d.near_tf;
+            } else {
+                xn = d.far_tn;
             }
         }
-        steps += 1u;
-        if leaf(nodes[idx], p, r, &best, st) {
-            return best;
+        x = toward;
+        xd += 1u;
+    }
+    next.only = pending == 1u;
+    return next;
+}
+
+// restarts.rs `Restarts::climb`: `backtrack` climbs the parent links from the last leaf,
+// recomputing each node's interval from its cell (one node, plane, box and step each), up to the
+// first node where the walk went both ways from the near child and whose far side starts before
+// the closest hit `best_t`: its far child is next. None above the start node.
+fn restarts_climb(w: ptr<function, Restarts>, rb: RayBox, t0: f32, t1: f32, best_t: f32,
+                  st: ptr<function, Stats>) -> Next {
+    let root = hw(0u);
+    var child = (*w).last;
+    var x = aux_parent(child);
+    loop {
+        (*st).interior += 1u;
+        (*st).steps += 1u;
+        (*st).planes += 1u;
+        (*st).boxes += 1u;
+        (*w).steps += 1u;
+        let xi = cell_interval(rb, aux_min(x), aux_max(x), t0, t1);
+        let d = decide(x, nodes[x], rb, xi.x, xi.y);
+        if d.kind == BOTH && child == d.near && (ANY || d.far_tn <= best_t) {
+            return Next(vec4<u32>(d.far, bitcast<u32>(d.far_tn), bitcast<u32>(xi.y), 0u), false,
+                        true);
         }
-        // A hit before the end of the leaf's interval ends the ray (Foley and Sugerman's early
-        // exit), unless the ray lies in a split plane.
-        if best.t < tf && !in_plane {
+        if x == root {
+            return Next(vec4<u32>(0u), false, false);
+        }
+        child = x;
+        x = aux_parent(x);
+    }
+    return Next(vec4<u32>(0u), false, false);
+}
+
+// restarts.rs `Restarts::enter`: continue in `next`, its track from its parent's, and the
+// pushed-down node there where it is the only subtree pending (`push-down`, `short-stack`).
+fn restarts_enter(w: ptr<function, Restarts>, next: Next) {
+    (*w).idx = next.e.x;
+    (*w).tn = bitcast<f32>(next.e.y);
+    (*w).tf = bitcast<f32>(next.e.z);
+    if (*w).k == K_BACKTRACK {
+        return;
+    }
+    (*w).tr = below((*w).tr, next.e.w);
+    (*w).push = next.only && ((*w).k == K_PUSH_DOWN || (*w).k == K_SHORT_STACK);
+    if (*w).push {
+        (*w).pd = (*w).idx;
+        (*w).pd_tn = (*w).tn;
+        (*w).pd_tf = (*w).tf;
+        (*w).pd_depth = (*w).tr.depth;
+    }
+}
+
+// `restart` and `push-down` (stackless/restart.rs, push_down.rs): after each leaf, restart
+// from the pushed-down node (the start node for `restart`).
+fn restart_walk(k: u32, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit, steps0: u32,
+                st: ptr<function, Stats>) -> Hit {
+    var best = best0;
+    var w: Restarts;
+    restarts_new(&w, k, t0, t1, steps0);
+    loop {
+        restarts_descend(&w, rb, st);
+        if restarts_leaf(&w, p, r, &best, st) {
             return answer(best);
         }
-        if steps >= cap {
-            (*st).capped = 1u;
+        (*st).restarts += 1u;
+        let next = restarts_restart(&w, rb, best.t, st);
+        if !next.found {
             return answer(best);
         }
-        let last = idx;
-        if k == K_SHORT_STACK {
-            var popped = false;
-            loop {
-                if count == 0u {
-                    break;
-                }
-                top = select(top - 1u, size - 1u, top == 0u);
-                count -= 1u;
-                var e = stack[0];
-                if SHORT_IN_REGISTERS {
-                    e = reg_pop(&regs);
-                } else if SHORT_ON_CHIP {
-                    e = short_stack[LANE * STACK_SIZE + top];
-                } else {
-                    e = stack[top];
-                }
-                if ANY || bitcast<f32>(e.y) <= best.t {
-                    idx = e.x;
-                    tn = bitcast<f32>(e.y);
-                    tf = bitcast<f32>(e.z);
-                    tr = below(tr, e.w);
-                    popped = true;
-                    break;
-                }
-            }
-            if popped {
-                continue;
-            }
+        restarts_enter(&w, next);
+    }
+    return answer(best);
+}
+
+// `short-stack` (stackless/short_stack.rs): the newest kept far child after each leaf, a
+// restart from the pushed-down node only when the stack runs dry.
+fn short_stack_walk(r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit,
+                    st: ptr<function, Stats>) -> Hit {
+    var best = best0;
+    var w: Restarts;
+    restarts_new(&w, K_SHORT_STACK, t0, t1, 0u);
+    loop {
+        restarts_descend(&w, rb, st);
+        if restarts_leaf(&w, p, r, &best, st) {
+            return answer(best);
         }
-        if k == K_BACKTRACK {
-            if last == root {
-                // The start node is a leaf: there is nothing to climb to.
-                return answer(best);
-            }
-            (*st).restarts += 1u;
-            // Climb from the leaf.
-            var child = last;
-            var x = aux_parent(last);
-            var found_up = false;
-            loop {
-                (*st).interior += 1u;
-                (*st).steps += 1u;
-                (*st).planes += 1u;
-                (*st).boxes += 1u;
-                steps += 1u;
-                let xi = cell_interval(rb, aux_min(x), aux_max(x), t0, t1);
-                let d = decide(x, nodes[x], rb, xi.x, xi.y);
-                if d.kind == BOTH && child == d.near && (ANY || d.far_tn <= best.t) {
-                    idx = d.far;
-                    tn = d.far_tn;
-                    tf = xi.y;
-                    found_up = true;
-                    break;
-                }
-                if x == root {
-                    break;
-                }
-                child = x;
-                x = aux_parent(x);
-            }
-            if !found_up {
-                return answer(best);
-            }
+        if restarts_pop(&w, best.t) {
             continue;
         }
         (*st).restarts += 1u;
-        // Descend from the pushed-down node toward the last leaf, down to the deepest node that
-        // sent the ray both ways; continue in the far child of the deepest one whose far side
-        // starts before the closest hit. None below the pushed-down node: the ray is done.
-        let live = tr.both ^ keep_below(tr.both, pd_depth);
-        var found = false;
-        var cand = vec4<u32>(0u);
-        var pending = 0u;
-        if any(live != vec2<u32>(0u)) {
-            let deepest = highest(live);
-            var x = pd;
-            var xn = pd_tn;
-            var xf = pd_tf;
-            var xd = pd_depth;
-            loop {
-                if xd > deepest {
-                    break;
-                }
-                let n = nodes[x];
-                steps += 1u;
-                let d = counted_decide(x, n, rb, xn, xf, st);
-                var toward: u32;
-                if df {
-                    // The left subtree of `x` is `x + 1 .. link`.
-                    let link = n.x >> 2u;
-                    let in_left = last < link;
-                    toward = select(link, x + 1u, in_left);
-                } else {
-                    let c = children(x, n);
-                    toward = select(c.x, c.y, bit_get(tr.path, xd));
-                }
-                if d.kind == BOTH {
-                    if toward == d.near {
-                        if ANY || d.far_tn <= best.t {
-                            let far_right = !rb.neg[n.x & 3u];
-                            cand = vec4<u32>(d.far, bitcast<u32>(d.far_tn), bitcast<u32>(xf),
-                                             (xd << 1u) | select(0u, 1u, far_right));
-                            found = true;
-                            pending += 1u;
-                        }
-                        xf = d.near_tf;
-                    } else {
-                        xn = d.far_tn;
-                    }
-                }
-                x = toward;
-                xd += 1u;
-            }
-        }
-        if !found {
+        let next = restarts_restart(&w, rb, best.t, st);
+        if !next.found {
             return answer(best);
         }
-        idx = cand.x;
-        tn = bitcast<f32>(cand.y);
-        tf = bitcast<f32>(cand.z);
-        tr = below(tr, cand.w);
-        push = pending == 1u && (k == K_PUSH_DOWN || k == K_SHORT_STACK);
-        if push {
-            pd = idx;
-            pd_tn = tn;
-            pd_tf = tf;
-            pd_depth = tr.depth;
+        restarts_enter(&w, next);
+    }
+    return answer(best);
+}
+
+// `backtrack` (stackless/backtrack.rs): after each leaf, climb the parent links.
+fn backtrack_walk(r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit,
+                  st: ptr<function, Stats>) -> Hit {
+    var best = best0;
+    var w: Restarts;
+    restarts_new(&w, K_BACKTRACK, t0, t1, 0u);
+    loop {
+        restarts_descend(&w, rb, st);
+        if restarts_leaf(&w, p, r, &best, st) || restarts_at_start(&w) {
+            return answer(best);
         }
+        (*st).restarts += 1u;
+        let next = restarts_climb(&w, rb, t0, t1, best.t, st);
+        if !next.found {
+            return answer(best);
+        }
+        restarts_enter(&w, next);
     }
     return answer(best);
 }
@@ -569,7 +686,7 @@ fn crawl_passes(rope_walk: bool, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, b
     }
     (*st).restarts += 1u;
     (*st).handovers += 1u;
-    return stackless(K_RESTART, r, rb, p, t0, t1, best, steps, st);
+    return restart_walk(K_RESTART, r, rb, p, t0, t1, best, steps, st);
 }
 
 fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
@@ -586,5 +703,11 @@ fn walk(r: Ray, st: ptr<function, Stats>) -> Hit {
     if KERNEL == K_SEQUENTIAL || KERNEL == K_ROPES {
         return crawl_passes(KERNEL == K_ROPES, r, rb, p, s.x, s.y, best, st);
     }
-    return stackless(KERNEL, r, rb, p, s.x, s.y, best, 0u, st);
+    if KERNEL == K_SHORT_STACK {
+        return short_stack_walk(r, rb, p, s.x, s.y, best, st);
+    }
+    if KERNEL == K_BACKTRACK {
+        return backtrack_walk(r, rb, p, s.x, s.y, best, st);
+    }
+    return restart_walk(KERNEL, r, rb, p, s.x, s.y, best, 0u, st);
 }
