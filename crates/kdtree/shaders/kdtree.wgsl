@@ -474,7 +474,7 @@ fn backtrack_walk(r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, best0: Hit,
     return answer(best);
 }
 
-// ---- sequential and ropes (stackless.rs `crawl`, `Walk::locate`) ----
+// ---- sequential and ropes (stackless/locate.rs `PointWalk`: locate, leaf, leave) ----
 
 const NO_ROPE: u32 = 0xffffffffu;
 // SLACK − 1 = 8·2^-23.
@@ -484,8 +484,8 @@ fn is_nan(x: f32) -> bool {
     return (bitcast<u32>(x) & 0x7fffffffu) > 0x7f800000u;
 }
 
-// The state of one sequential or ropes walk (stackless.rs `Walk`).
-struct Walk {
+// The state of one pass of a `sequential` or `ropes` walk (stackless/locate.rs `PointWalk`).
+struct PointWalk {
     // Per axis, the coordinate of the last exit face crossed on that axis (initially the start
     // cell's entry face).
     floor: vec3<f32>,
@@ -499,8 +499,22 @@ struct Walk {
     ambiguous: bool,
 }
 
-// A located leaf and its cell.
+// A located leaf and its cell (locate.rs `Cell`).
 struct Loc { idx: u32, lo: vec3<f32>, hi: vec3<f32> }
+
+// Where a walk goes from a leaf's cell (locate.rs `Exit`): EXIT_DONE (it leaves the start cell,
+// or the closest hit lies before the exit), EXIT_AMBIGUOUS (two exit faces tied within
+// rounding), EXIT_FACE (through `face` at distance `t`).
+const EXIT_DONE: u32 = 0u;
+const EXIT_AMBIGUOUS: u32 = 1u;
+const EXIT_FACE: u32 = 2u;
+struct Exit { kind: u32, face: u32, t: f32 }
+
+// What one pass ends with (locate.rs `point_walk`'s `crawl`): the ray is done with no stop,
+// stopped (an any-hit found or the step cap reached), or ambiguous (handed to restart).
+const PASS_DONE: u32 = 0u;
+const PASS_STOP: u32 = 1u;
+const PASS_AMBIGUOUS: u32 = 2u;
 
 // view.rs `Ropes::leaf`: the first word of leaf `node`'s record (the leaves before it, by the
 // rank at the start of `aux`).
@@ -522,10 +536,10 @@ fn rec_vec(k: u32) -> vec3<f32> {
     return vec3<f32>(bitcast<f32>(aux[k]), bitcast<f32>(aux[k + 1u]), bitcast<f32>(aux[k + 2u]));
 }
 
-// Kaplan's point location (review §3.1; `Walk::locate`) below node `idx0` with cell
+// Kaplan's point location (review §3.1; `PointWalk::locate`) below node `idx0` with cell
 // `lo0..hi0` of the ray point at distance `tn`, exact on the axes of crossed exit faces.
-fn locate(w: ptr<function, Walk>, rb: RayBox, idx0: u32, lo0: vec3<f32>, hi0: vec3<f32>, tn: f32,
-          st: ptr<function, Stats>) -> Loc {
+fn point_locate(w: ptr<function, PointWalk>, rb: RayBox, idx0: u32, lo0: vec3<f32>,
+                hi0: vec3<f32>, tn: f32, st: ptr<function, Stats>) -> Loc {
     var idx = idx0;
     var lo = lo0;
     var hi = hi0;
@@ -577,85 +591,129 @@ fn locate(w: ptr<function, Walk>, rb: RayBox, idx0: u32, lo0: vec3<f32>, hi0: ve
     return Loc(idx, lo, hi);
 }
 
-// One walk of `sequential` (`rope` false) or `ropes` (stackless.rs `crawl`): locate the entry
-// leaf, then leave each leaf through its exit face and locate the next leaf, from the start
-// node or below the exit face's rope. 0: the ray is done with no stop; 1: stop (any hit found
-// or the step cap reached); 2: ambiguous (handed to restart).
-fn crawl(w: ptr<function, Walk>, rope_walk: bool, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32,
-         best: ptr<function, Hit>, st: ptr<function, Stats>) -> u32 {
+// `PointWalk::locate_start`: point location from the start node.
+fn point_locate_start(w: ptr<function, PointWalk>, rb: RayBox, tn: f32,
+                      st: ptr<function, Stats>) -> Loc {
+    return point_locate(w, rb, hw(0u), cell_min(), cell_max(), tn, st);
+}
+
+// `PointWalk::leaf`: test leaf `idx` (one step); true when the ray is done (an any-hit found, or
+// the step cap reached).
+fn point_leaf(w: ptr<function, PointWalk>, idx: u32, p: Pre, r: Ray, best: ptr<function, Hit>,
+              st: ptr<function, Stats>) -> bool {
+    (*w).steps += 1u;
+    if leaf(nodes[idx], p, r, best, st) {
+        return true;
+    }
+    if (*w).steps >= hw(11u) {
+        (*st).capped = 1u;
+        return true;
+    }
+    return false;
+}
+
+// `PointWalk::leave`: leave the cell `lo..hi` (one box) through the nearest far plane that is
+// not a start-cell face, which becomes the floor of its axis and the exact axis of the next
+// point; another far plane within rounding of it (a ray through a cell edge or corner) is an
+// ambiguity.
+fn point_leave(w: ptr<function, PointWalk>, rb: RayBox, lo: vec3<f32>, hi: vec3<f32>,
+               best_t: f32, t1: f32, st: ptr<function, Stats>) -> Exit {
     let lo_c = cell_min();
     let hi_c = cell_max();
-    let cap = hw(11u);
-    let n_nodes = meta_.counts.y;
-    var loc = locate(w, rb, hw(0u), lo_c, hi_c, t0, st);
-    var tn = t0;
-    loop {
-        if (*w).ambiguous {
-            return 2u;
-        }
-        // `ropes`: the leaf's record, its cell (the one located) and its ropes.
-        var rec = 0u;
-        if rope_walk {
-            rec = leaf_record(loc.idx, n_nodes);
-            loc.lo = rec_vec(rec);
-            loc.hi = rec_vec(rec + 3u);
-        }
-        (*w).steps += 1u;
-        if leaf(nodes[loc.idx], p, r, best, st) {
-            return 1u;
-        }
-        if (*w).steps >= cap {
-            (*st).capped = 1u;
-            return 1u;
-        }
-        // The exit: the nearest far plane that is not a start-cell face; another far plane
-        // within rounding of it (a ray through a cell edge or corner) is an ambiguity.
-        (*st).boxes += 1u;
-        var ts = vec3<f32>(bitcast<f32>(0x7f800000u));
-        var tf = bitcast<f32>(0x7f800000u);
-        var face = 3u;
-        for (var a = 0u; a < 3u; a++) {
-            let far = select(loc.hi[a], loc.lo[a], rb.neg[a]);
-            let rootf = select(hi_c[a], lo_c[a], rb.neg[a]);
-            if far != rootf {
-                let t = (far - rb.org[a]) * rb.inv[a];
-                ts[a] = t;
-                if t < tf {
-                    tf = t;
-                    face = a;
-                }
+    (*st).boxes += 1u;
+    var ts = vec3<f32>(bitcast<f32>(0x7f800000u));
+    var tf = bitcast<f32>(0x7f800000u);
+    var face = 3u;
+    for (var a = 0u; a < 3u; a++) {
+        let far = select(hi[a], lo[a], rb.neg[a]);
+        let rootf = select(hi_c[a], lo_c[a], rb.neg[a]);
+        if far != rootf {
+            let t = (far - rb.org[a]) * rb.inv[a];
+            ts[a] = t;
+            if t < tf {
+                tf = t;
+                face = a;
             }
-        }
-        if face == 3u || (*best).t <= tf || tf > t1 * SLACK {
-            return 0u;
-        }
-        let reach = tf + SLACK_EPS * abs(tf);
-        for (var a = 0u; a < 3u; a++) {
-            if a != face && ts[a] <= reach {
-                return 2u;
-            }
-        }
-        (*w).floor[face] = select(loc.hi[face], loc.lo[face], rb.neg[face]);
-        (*w).exact = face;
-        tn = max_num(tn, tf);
-        if rope_walk {
-            let side = select(1u, 0u, rb.neg[face]);
-            let rope = aux[rec + 6u + 2u * face + side];
-            if rope == NO_ROPE {
-                return 0u;
-            }
-            // The cell tracked below the rope is not needed: the next leaf's record has it.
-            loc = locate(w, rb, rope, loc.lo, loc.hi, tn, st);
-        } else {
-            (*st).restarts += 1u;
-            loc = locate(w, rb, hw(0u), lo_c, hi_c, tn, st);
         }
     }
-    return 0u;
+    if face == 3u || best_t <= tf || tf > t1 * SLACK {
+        return Exit(EXIT_DONE, 3u, tf);
+    }
+    let reach = tf + SLACK_EPS * abs(tf);
+    for (var a = 0u; a < 3u; a++) {
+        if a != face && ts[a] <= reach {
+            return Exit(EXIT_AMBIGUOUS, 3u, tf);
+        }
+    }
+    (*w).floor[face] = select(hi[face], lo[face], rb.neg[face]);
+    (*w).exact = face;
+    return Exit(EXIT_FACE, face, tf);
+}
+
+// One pass of `sequential` (stackless/sequential.rs `crawl`): locate the entry leaf, then leave
+// each leaf through its exit face and locate the next leaf from the start node (a restart).
+fn sequential_pass(w: ptr<function, PointWalk>, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32,
+                   best: ptr<function, Hit>, st: ptr<function, Stats>) -> u32 {
+    var tn = t0;
+    var loc = point_locate_start(w, rb, tn, st);
+    loop {
+        if (*w).ambiguous {
+            return PASS_AMBIGUOUS;
+        }
+        if point_leaf(w, loc.idx, p, r, best, st) {
+            return PASS_STOP;
+        }
+        let x = point_leave(w, rb, loc.lo, loc.hi, (*best).t, t1, st);
+        if x.kind == EXIT_DONE {
+            return PASS_DONE;
+        }
+        if x.kind == EXIT_AMBIGUOUS {
+            return PASS_AMBIGUOUS;
+        }
+        tn = max_num(tn, x.t);
+        (*st).restarts += 1u;
+        loc = point_locate_start(w, rb, tn, st);
+    }
+    return PASS_DONE;
+}
+
+// One pass of `ropes` (stackless/ropes.rs `crawl`): as `sequential_pass`, but each leaf's cell
+// and ropes come from its record, and the next leaf is located below the exit face's rope.
+fn ropes_pass(w: ptr<function, PointWalk>, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32,
+              best: ptr<function, Hit>, st: ptr<function, Stats>) -> u32 {
+    let n_nodes = meta_.counts.y;
+    var tn = t0;
+    var loc = point_locate_start(w, rb, tn, st);
+    loop {
+        if (*w).ambiguous {
+            return PASS_AMBIGUOUS;
+        }
+        let rec = leaf_record(loc.idx, n_nodes);
+        loc.lo = rec_vec(rec);
+        loc.hi = rec_vec(rec + 3u);
+        if point_leaf(w, loc.idx, p, r, best, st) {
+            return PASS_STOP;
+        }
+        let x = point_leave(w, rb, loc.lo, loc.hi, (*best).t, t1, st);
+        if x.kind == EXIT_DONE {
+            return PASS_DONE;
+        }
+        if x.kind == EXIT_AMBIGUOUS {
+            return PASS_AMBIGUOUS;
+        }
+        tn = max_num(tn, x.t);
+        let rope = aux[rec + 6u + 2u * x.face + select(1u, 0u, rb.neg[x.face])];
+        if rope == NO_ROPE {
+            return PASS_DONE;
+        }
+        // The cell tracked below the rope is not needed: the next leaf's record has it.
+        loc = point_locate(w, rb, rope, loc.lo, loc.hi, tn, st);
+    }
+    return PASS_DONE;
 }
 
 // `sequential` (Kaplan 1985; review §3.1, Alg. 1) and `ropes` (MacDonald and Booth 1990,
-// Havran et al. 1998, Popov et al. 2007; review §3.3) as stackless.rs runs them: a walk per
+// Havran et al. 1998, Popov et al. 2007; review §3.3) as locate.rs `point_walk` runs them: a walk per
 // combination of sides on the zero-direction axes where the ray lay in a split plane (`passes`),
 // and a ray whose point location was ambiguous within rounding handed to `restart` with its
 // closest hit and steps (one restart counted).
@@ -663,7 +721,7 @@ fn crawl_passes(rope_walk: bool, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, b
                 st: ptr<function, Stats>) -> Hit {
     var best = best0;
     let floor0 = select(cell_min(), cell_max(), rb.neg);
-    // Zero-direction axes: 1/d infinite (a zero or a subnormal component; stackless.rs).
+    // Zero-direction axes: 1/d infinite (a zero or a subnormal component; locate.rs `passes`).
     let zero = select(0u, 1u, not_finite(rb.inv.x)) | select(0u, 2u, not_finite(rb.inv.y))
         | select(0u, 4u, not_finite(rb.inv.z));
     var steps = 0u;
@@ -672,11 +730,16 @@ fn crawl_passes(rope_walk: bool, r: Ray, rb: RayBox, p: Pre, t0: f32, t1: f32, b
         if m != 0u && (m & ~zero) != 0u {
             continue;
         }
-        var w = Walk(floor0, 3u, m, 0u, steps, false);
-        let res = crawl(&w, rope_walk, r, rb, p, t0, t1, &best, st);
+        var w = PointWalk(floor0, 3u, m, 0u, steps, false);
+        var res: u32;
+        if rope_walk {
+            res = ropes_pass(&w, r, rb, p, t0, t1, &best, st);
+        } else {
+            res = sequential_pass(&w, r, rb, p, t0, t1, &best, st);
+        }
         steps = w.steps;
-        ambiguous = res == 2u;
-        let stop = res != 0u;
+        ambiguous = res == PASS_AMBIGUOUS;
+        let stop = res != PASS_DONE;
         if stop || (m == 0u && w.seen == 0u) {
             break;
         }
