@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use tb_harness::experiment::config::{self, Device, Overrides};
+use tb_harness::experiment::folder::{self, Policy, RunFolder};
 use tb_harness::experiment::runner::{self, Mode, RunOptions};
 
 mod env;
@@ -432,20 +433,12 @@ fn dispatch(cli: Cli) -> Result<i32> {
     }
 }
 
-/// `--out` must be a folder (or not exist yet).
-fn out_folder(out: &Path) -> Result<()> {
-    if out.exists() && !out.is_dir() {
-        bail!("--out {}: is a file, not a folder", out.display());
-    }
-    Ok(())
-}
-
 impl MergeArgs {
     /// `trace-bench merge`: merge the shards' folders and print what is missing.
     pub(crate) fn run(self) -> Result<i32> {
         let MergeArgs { dirs, out } = self;
         let (dirs, out) = (&dirs[..], out.as_path());
-        out_folder(out)?;
+        folder::check_out(out)?;
         let r = tb_results::merge::merge(dirs, out)?;
         for n in &r.notes {
             eprintln!("note: {n}");

@@ -112,7 +112,7 @@ impl ReproduceArgs {
                 .with_context(|| format!("--with {}", w.display()))?;
         }
         if let Some(o) = &out {
-            out_folder(o)?;
+            folder::check_out(o)?;
         }
         let default_folder = out.is_none();
         let out = out.unwrap_or_else(|| {
@@ -123,7 +123,7 @@ impl ReproduceArgs {
             )
         });
         if default_folder {
-            link_latest(&out);
+            folder::link_latest(&out);
         }
         let opts = reproduce::Options {
             papers,

@@ -1,6 +1,6 @@
-//! `trace-bench run`: the config loaded with its overrides, the output folder (a new timestamped
-//! one, or the one resumed after checking it holds this config's run), the run in one process or
-//! in several (`--processes K`: child processes, merged), and `validate`'s oracle-only pass.
+//! `trace-bench run`: the config loaded with its overrides, its output folder opened by the
+//! harness's policy ([`tb_harness::experiment::folder`]), the run in one process or in several
+//! (`--processes K`: child processes, merged), and what it prints.
 
 use super::*;
 
@@ -13,50 +13,6 @@ pub(crate) fn load(config: &Path, ov: &Overrides, quiet: bool) -> Result<config:
     Ok(exp)
 }
 
-pub(crate) fn default_out(name: &str, resume: bool) -> Result<PathBuf> {
-    let base = PathBuf::from("results").join(name);
-    if resume {
-        // The newest run directory of this experiment.
-        let mut dirs: Vec<PathBuf> = std::fs::read_dir(&base)
-            .with_context(|| format!("{}: no earlier run to resume", base.display()))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.join("results.csv").is_file() && !p.is_symlink())
-            .collect();
-        dirs.sort();
-        return dirs
-            .pop()
-            .with_context(|| format!("{}: no earlier run to resume", base.display()));
-    }
-    let stamp = tb_results::meta::now_rfc3339().replace(':', "-");
-    Ok(base.join(stamp.trim_end_matches('Z')))
-}
-
-/// Point `LATEST` beside a new default run folder at it (`results/NAME/LATEST`), so scripts
-/// and docs can name the newest run. Best effort: a failure is a note.
-pub(crate) fn link_latest(out: &Path) {
-    let (Some(parent), Some(name)) = (out.parent(), out.file_name()) else {
-        return;
-    };
-    let result = std::fs::create_dir_all(out).and_then(|_| {
-        let link = parent.join("LATEST");
-        if link.is_symlink() || link.exists() {
-            std::fs::remove_file(&link)?;
-        }
-        #[cfg(unix)]
-        {
-            std::os::unix::fs::symlink(name, &link)
-        }
-        #[cfg(not(unix))]
-        {
-            let _ = name;
-            Ok(())
-        }
-    });
-    if let Err(e) = result {
-        eprintln!("note: {}: cannot link LATEST: {e}", parent.display());
-    }
-}
-
 pub(crate) fn cmd_run(
     config: &Path,
     out: Option<PathBuf>,
@@ -66,38 +22,8 @@ pub(crate) fn cmd_run(
     quiet: bool,
 ) -> Result<i32> {
     let exp = load(config, &ov, quiet)?;
-    let out = match (out, ov.shard) {
-        (Some(o), _) => o,
-        (None, Some(s)) => PathBuf::from("results")
-            .join(&exp.name)
-            .join(format!("shard-{}-of-{}", s.k, s.n)),
-        (None, None) => {
-            let o = default_out(&exp.name, resume)?;
-            if !resume {
-                link_latest(&o);
-            }
-            o
-        }
-    };
-    out_folder(&out)?;
-    if resume
-        && !["results.csv", "results.json"]
-            .iter()
-            .any(|f| out.join(f).is_file())
-    {
-        bail!(
-            "{}: nothing to resume (no results.csv or results.json there): run without --resume",
-            out.display()
-        );
-    }
-    // One writer per folder, from here until this process ends (before --force touches it).
-    let _lock = tb_results::lock::FolderLock::acquire(&out)?;
-    if resume {
-        check_resume(&out, &exp)?;
-    }
-    if force {
-        remove_outputs(&out)?;
-    }
+    let folder = RunFolder::open(out, &exp, Policy { resume, force })?;
+    let out = folder.path.clone();
     let opts = RunOptions {
         out: out.clone(),
         resume,
@@ -152,19 +78,6 @@ pub(crate) fn cmd_run(
     } else {
         tb_results::EXIT_MISMATCHES
     })
-}
-
-/// `--force`: remove what an earlier run wrote in `out`; anything else in the folder stays.
-fn remove_outputs(out: &Path) -> Result<()> {
-    for f in tb_results::output::RUN_OUTPUTS {
-        let p = out.join(f);
-        if p.is_file() {
-            std::fs::remove_file(&p).with_context(|| format!("{}", p.display()))?;
-        } else if p.is_dir() {
-            std::fs::remove_dir_all(&p).with_context(|| format!("{}", p.display()))?;
-        }
-    }
-    Ok(())
 }
 
 /// Name the rows whose oracle mismatches are wrong answers (`runner::must_conform`), after
@@ -252,34 +165,8 @@ pub(crate) fn cmd_processes(
     quiet: bool,
 ) -> Result<i32> {
     use tb_harness::experiment::processes;
-    let out = match out {
-        Some(o) => o,
-        None => {
-            let o = default_out(name, resume)?;
-            if !resume {
-                link_latest(&o);
-            }
-            o
-        }
-    };
-    out_folder(&out)?;
-    let begun = (0..n).any(|i| processes::folder(&out, i).join("results.json").is_file())
-        || out.join("results.csv").is_file();
-    if resume && !begun {
-        bail!(
-            "{}: nothing to resume (no process folder with results there): run without --resume",
-            out.display()
-        );
-    }
-    if begun && !resume && !force {
-        bail!(
-            "{}: holds the results of a run already: pass --resume to continue that run, --force \
-             to replace it, or choose another --out",
-            out.display()
-        );
-    }
-    // One writer per folder; each process locks its own.
-    let _lock = tb_results::lock::FolderLock::acquire(&out)?;
+    let folder = RunFolder::open_processes(out, name, n, Policy { resume, force })?;
+    let out = folder.path.clone();
     let plan = processes::Plan {
         exe: std::env::current_exe().context("cannot find the trace-bench executable")?,
         args: process_args(config, ov),
@@ -363,50 +250,4 @@ pub(crate) fn process_args(config: &Path, ov: &Overrides) -> Vec<String> {
         a.extend(["--scenes-root".into(), r.display().to_string()]);
     }
     a
-}
-
-/// `--resume` continues the same run: the same config, the same shard and the same process.
-pub(crate) fn check_resume(out: &Path, exp: &config::Experiment) -> Result<()> {
-    let p = out.join("results.json");
-    let Some(meta) = std::fs::read_to_string(&p)
-        .ok()
-        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        .map(|d| d["meta"].clone())
-    else {
-        return Ok(());
-    };
-    if let Some(h) = meta["config_hash"].as_str() {
-        if h != exp.config_hash {
-            bail!(
-                "{}: --resume of a run of another config (hash {h}, this one {}): choose another --out",
-                p.display(),
-                exp.config_hash
-            );
-        }
-    }
-    let was = meta["shard"]["k"]
-        .as_u64()
-        .map(|k| format!("{k}/{}", meta["shard"]["n"]));
-    let now = exp.shard.as_ref().map(|p| p.shard.to_string());
-    if was != now {
-        bail!(
-            "{}: --resume of {} but this run is {}",
-            p.display(),
-            was.map_or("an unsharded run".into(), |s| format!("shard {s}")),
-            now.map_or("unsharded".into(), |s| format!("shard {s}"))
-        );
-    }
-    let was = meta["process"]["index"]
-        .as_u64()
-        .map(|i| format!("{i}/{}", meta["process"]["of"]));
-    let now = exp.process.map(|p| p.to_string());
-    if was != now {
-        bail!(
-            "{}: --resume of {} but this run is {}",
-            p.display(),
-            was.map_or("a run of one process".into(), |s| format!("process {s}")),
-            now.map_or("a run of one process".into(), |s| format!("process {s}"))
-        );
-    }
-    Ok(())
 }

@@ -15,6 +15,7 @@ pub mod config;
 pub mod convergence;
 pub mod device;
 pub mod dynamic;
+pub mod folder;
 pub mod heap;
 pub mod images;
 pub mod params;
