@@ -44,7 +44,7 @@ macro_rules! kd_walks {
              distance set to the leaf's exit (Foley & Sugerman 2005; Hapala & Havran 2011 \
              §5.1), t-intervals and exact comparisons, no epsilon step",
             [.capped()], gpu [$crate::KdTree::gpu_restart],
-            |t, w| $crate::stackless::Stackless::<_, { $crate::stackless::RESTART }>(
+            |t, w| $crate::stackless::StacklessKernel::<_, { $crate::stackless::RESTART }>(
                 w,
                 $crate::view::Aux::default(),
             );
@@ -52,7 +52,7 @@ macro_rules! kd_walks {
             "kd-push-down: restart at the deepest node holding the whole remaining segment \
              (Horn et al. 2007; Hapala & Havran 2011 §5.2, Alg. 4)",
             [.capped()], gpu [$crate::KdTree::gpu_push_down],
-            |t, w| $crate::stackless::Stackless::<_, { $crate::stackless::PUSH_DOWN }>(
+            |t, w| $crate::stackless::StacklessKernel::<_, { $crate::stackless::PUSH_DOWN }>(
                 w,
                 $crate::view::Aux::default(),
             );
@@ -61,7 +61,7 @@ macro_rules! kd_walks {
              restarting from the pushed-down node when it runs dry (Horn et al. 2007; \
              Hapala & Havran 2011 §5.2)",
             [.capped()], gpu [$crate::KdTree::gpu_short_stack],
-            |t, w| $crate::stackless::Stackless::<_, { $crate::stackless::SHORT_STACK }>(
+            |t, w| $crate::stackless::StacklessKernel::<_, { $crate::stackless::SHORT_STACK }>(
                 w,
                 $crate::view::Aux::default(),
             );
@@ -72,7 +72,7 @@ macro_rules! kd_walks {
              coordinates exact, rays a point cannot decide (edges, corners) handed to \
              `restart`",
             [.capped()], gpu [$crate::KdTree::gpu_sequential],
-            |t, w| $crate::stackless::Stackless::<_, { $crate::stackless::SEQUENTIAL }>(
+            |t, w| $crate::stackless::StacklessKernel::<_, { $crate::stackless::SEQUENTIAL }>(
                 w,
                 $crate::view::Aux::default(),
             );
@@ -81,7 +81,7 @@ macro_rules! kd_walks {
              climb until a cell extends beyond the leaf's exit, then descend (Foley & \
              Sugerman 2005; Hapala & Havran 2011 §5.1.1, Alg. 3)",
             [.capped() .reads(&[$crate::BACKTRACK_AUX])], gpu [$crate::KdTree::gpu_backtrack],
-            |t, w| $crate::stackless::Stackless::<_, { $crate::stackless::BACKTRACK }>(
+            |t, w| $crate::stackless::StacklessKernel::<_, { $crate::stackless::BACKTRACK }>(
                 w,
                 $crate::view::Aux { back: t.back_nodes(), ropes: None },
             );
@@ -91,7 +91,7 @@ macro_rules! kd_walks {
              leaf below it (MacDonald & Booth 1990, Havran et al. 1998, Popov et al. 2007; \
              Hapala & Havran 2011 §3.3)",
             [.capped() .reads(&[$crate::ROPES_AUX])], gpu [$crate::KdTree::gpu_ropes],
-            |t, w| $crate::stackless::Stackless::<_, { $crate::stackless::ROPES }>(
+            |t, w| $crate::stackless::StacklessKernel::<_, { $crate::stackless::ROPES }>(
                 w,
                 $crate::view::Aux { back: &[], ropes: Some(t.ropes()) },
             );

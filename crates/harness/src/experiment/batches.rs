@@ -6,7 +6,7 @@ use tb_core::{HitRecord, Query, Ray, TriTestKind};
 use tb_scene::rays::{self, RayKind};
 
 /// One ray batch of a scene: a kind and its rays (or why there are none).
-pub struct Batch {
+pub struct RayBatch {
     /// The ray kind's name in results (`primary`, `path1`, …).
     pub name: String,
     /// Closest or any hit, as the kind asks.
@@ -28,7 +28,7 @@ pub fn generate_batches(
     gen: &mut Option<Box<dyn tb_core::Accel>>,
     first_view: bool,
     notes: &mut Vec<String>,
-) -> Vec<Batch> {
+) -> Vec<RayBatch> {
     let tris = &spec.scene.triangles;
     let wants = |k: RayKind| {
         spec.rays.contains(&k) && (first_view || !matches!(k, RayKind::Random | RayKind::Stress))
@@ -40,7 +40,7 @@ pub fn generate_batches(
         _ => Vec::new(),
     };
     if wants(RayKind::Primary) {
-        out.push(Batch {
+        out.push(RayBatch {
             name: RayKind::Primary.name(),
             query: Query::Closest,
             rays: primary.clone(),
@@ -76,7 +76,7 @@ pub fn generate_batches(
                 seed,
             );
             let skipped = if nhit == 0 { no_hits("ao") } else { None };
-            out.push(Batch {
+            out.push(RayBatch {
                 name: RayKind::Ao.name(),
                 query: Query::Any,
                 rays: r,
@@ -89,7 +89,7 @@ pub fn generate_batches(
     }
     if wants(RayKind::Random) {
         let r = rays::random(&spec.scene.bounds, spec.random_count, seed);
-        out.push(Batch {
+        out.push(RayBatch {
             name: RayKind::Random.name(),
             query: Query::Closest,
             rays: r,
@@ -97,7 +97,7 @@ pub fn generate_batches(
         });
     }
     if wants(RayKind::Stress) {
-        out.push(Batch {
+        out.push(RayBatch {
             name: RayKind::Stress.name(),
             query: Query::Closest,
             rays: spec.scene.own_rays.clone(),
@@ -119,7 +119,7 @@ fn shadow_batch(
     primary: &[Ray],
     hits: &[HitRecord],
     notes: &mut Vec<String>,
-) -> Batch {
+) -> RayBatch {
     match spec.light {
         Some(light) => {
             let r = rays::shadow(&spec.scene.triangles, primary, hits, light);
@@ -128,7 +128,7 @@ fn shadow_batch(
             } else {
                 None
             };
-            Batch {
+            RayBatch {
                 name: RayKind::Shadow.name(),
                 query: Query::Any,
                 rays: r,
@@ -139,7 +139,7 @@ fn shadow_batch(
             let why =
                 "skipped: the scene has no light (set `light` in the scene table)".to_string();
             notes.push(format!("{}: shadow rays {why}", spec.label));
-            Batch {
+            RayBatch {
                 name: RayKind::Shadow.name(),
                 query: Query::Any,
                 rays: Vec::new(),
@@ -156,7 +156,7 @@ fn path_batches(
     primary: &[Ray],
     hits: Vec<HitRecord>,
     seed: u64,
-) -> Vec<Batch> {
+) -> Vec<RayBatch> {
     let tris = &spec.scene.triangles;
     let mut out = Vec::new();
     let (mut prev_rays, mut prev_hits) = (primary.to_vec(), hits);
@@ -168,7 +168,7 @@ fn path_batches(
             None
         };
         let h = tb_core::par::trace(gen, 0, Query::Closest, TriTestKind::Watertight, &r);
-        out.push(Batch {
+        out.push(RayBatch {
             name: RayKind::Path(b).name(),
             query: Query::Closest,
             rays: r.clone(),

@@ -110,7 +110,7 @@ fn below(both: u64, path: u64, at: u32) -> (u32, u64, u64) {
     (pd + 1, both & keep, path & keep | ((at & 1) as u64) << pd)
 }
 
-/// The walks of [`Stackless`]: its const parameter.
+/// The walks of [`StacklessKernel`]: its const parameter.
 /// `restart`.
 pub const RESTART: u8 = 0;
 /// `push-down`.
@@ -136,9 +136,9 @@ pub const ROPES: u8 = 5;
 /// for the root plus one per cell interval or exit computed (`sequential`, `backtrack`,
 /// `ropes`); `steps`:
 /// nodes visited, `interior + leaves`.
-pub struct Stackless<'a, L, const M: u8>(pub Tree<'a, L>, pub Aux<'a>);
+pub struct StacklessKernel<'a, L, const M: u8>(pub Tree<'a, L>, pub Aux<'a>);
 
-impl<L: Layout, const M: u8> Stackless<'_, L, M> {
+impl<L: Layout, const M: u8> StacklessKernel<'_, L, M> {
     #[inline(always)]
     fn walk<T: TriTest, C: Counter, const ANY: bool>(&self, ray: &Ray, c: &mut C) -> HitRecord {
         let w = &self.0;
@@ -165,4 +165,4 @@ impl<L: Layout, const M: u8> Stackless<'_, L, M> {
     }
 }
 
-tb_core::kernel_by_query!(walk: [L: Layout, const M: u8] Stackless<'_, L, M>);
+tb_core::kernel_by_query!(walk: [L: Layout, const M: u8] StacklessKernel<'_, L, M>);

@@ -15,7 +15,7 @@ pub mod clocks;
 pub mod cpu;
 pub mod gpu;
 
-use crate::experiment::batches::Batch;
+use crate::experiment::batches::RayBatch;
 use crate::experiment::validation::{Checked, Sample};
 use tb_core::{Accel, TraversalInfo, TriTestKind};
 use tb_results::output::Row;
@@ -34,7 +34,7 @@ pub struct Job<'a> {
     /// Index of the batch in the scene's batches (device caches are keyed by it).
     pub batch_index: usize,
     /// The ray batch traced.
-    pub batch: &'a Batch,
+    pub batch: &'a RayBatch,
     /// Worker threads of the row (CPU), 0 on the GPU.
     pub threads: usize,
     /// How to time it.

@@ -8,7 +8,7 @@ use super::*;
 #[derive(Clone, Copy)]
 pub(super) struct RowSource<'a> {
     pub(super) spec: &'a SceneSpec,
-    pub(super) batches: &'a [Batch],
+    pub(super) batches: &'a [RayBatch],
     pub(super) st: &'a StructureSpec,
     pub(super) built: &'a Built,
     pub(super) base: &'a Row,
@@ -123,7 +123,7 @@ impl Run<'_> {
         st: &StructureSpec,
         base: &Row,
         c: &Combo,
-        b: &Batch,
+        b: &RayBatch,
         checked: &validation::Checked,
     ) {
         let info = st.infos[c.ti];

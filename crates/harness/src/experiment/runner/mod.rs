@@ -17,7 +17,7 @@ use measure::RowSource;
 pub use table::table;
 
 use crate::error::HarnessError;
-use crate::experiment::batches::{generate_batches, Batch};
+use crate::experiment::batches::{generate_batches, RayBatch};
 use crate::experiment::config::{
     Device as DeviceKind, Experiment, SceneSpec, StructureSpec, Validate,
 };
@@ -267,7 +267,7 @@ impl<'a> Run<'a> {
     /// Every build and row of one scene table: its views (one spec without `views`) share
     /// the scene and each build; their batches are generated once, up front.
     fn scene(&mut self, views: &[SceneSpec]) -> Result<(), HarnessError> {
-        let mut batches: Vec<Batch> = Vec::new();
+        let mut batches: Vec<RayBatch> = Vec::new();
         let mut ranges = Vec::with_capacity(views.len());
         let mut gen = None;
         let rays_started = Instant::now();
@@ -575,7 +575,7 @@ impl<'a> Run<'a> {
 struct Group<'g> {
     views: &'g [SceneSpec],
     ranges: &'g [std::ops::Range<usize>],
-    batches: &'g [Batch],
+    batches: &'g [RayBatch],
 }
 
 /// Fault injection for the tests of `--resume`: with `TRACE_BENCH_ABORT_AFTER_ROWS=N` in the
@@ -650,7 +650,7 @@ pub fn must_conform(info: &TraversalInfo, tri: TriTestKind, row: &Row) -> bool {
         && row.capped_rays.unwrap_or(0) == 0
 }
 
-fn row_of(base: &Row, st: &StructureSpec, c: &Combo, b: &Batch) -> Row {
+fn row_of(base: &Row, st: &StructureSpec, c: &Combo, b: &RayBatch) -> Row {
     Row {
         traversal: st.infos[c.ti].name.to_string(),
         device: c.dev.name().into(),

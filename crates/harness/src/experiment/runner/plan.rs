@@ -1,7 +1,7 @@
 //! The combinations a run measures: per scene and build, traversal x triangle test x batch x
 //! device x thread count, less the rows an interrupted run already wrote (`--resume`).
 
-use crate::experiment::batches::Batch;
+use crate::experiment::batches::RayBatch;
 use crate::experiment::config::{Device, Experiment, StructureSpec};
 use std::collections::HashSet;
 use tb_core::TriTestKind;
@@ -67,7 +67,7 @@ pub struct BuildRows<'a> {
 }
 
 /// The identity of a row (for `--resume`) of build `b`.
-pub fn key(b: &BuildRows<'_>, c: &Combo, batch: &Batch) -> RowKey {
+pub fn key(b: &BuildRows<'_>, c: &Combo, batch: &RayBatch) -> RowKey {
     RowKey {
         scene: b.scene.to_string(),
         structure: b.st.family.name.to_string(),
@@ -85,7 +85,7 @@ pub fn key(b: &BuildRows<'_>, c: &Combo, batch: &Batch) -> RowKey {
 pub fn todo(
     b: &BuildRows<'_>,
     tests: &[TriTestKind],
-    batches: &[Batch],
+    batches: &[RayBatch],
     devices: &[(Device, Vec<usize>)],
     done: &HashSet<RowKey>,
 ) -> (Vec<Combo>, usize) {
