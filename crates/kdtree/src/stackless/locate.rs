@@ -12,7 +12,7 @@ use tb_core::{Counter, HitRecord, Ray, TriTest};
 /// Run `pass(mask)` (returns `(stop, seen)`) for mask 0, then, if some walk met a split plane
 /// containing the ray, for every other combination of sides on the zero-direction axes.
 #[inline(always)]
-fn passes(s: &Setup, mut pass: impl FnMut(u8) -> (bool, u8)) {
+pub fn passes(s: &Setup, mut pass: impl FnMut(u8) -> (bool, u8)) {
     let (stop, seen) = pass(0);
     if stop || seen == 0 {
         return;
@@ -144,10 +144,10 @@ impl Located {
 }
 
 /// A leaf and its cell, as point location finds them.
-pub(super) type Cell = (usize, [f32; 3], [f32; 3]);
+pub type Cell = (usize, [f32; 3], [f32; 3]);
 
 /// Where a walk goes from a leaf's cell ([`PointWalk::leave`]).
-pub(super) enum Exit {
+pub enum Exit {
     /// The ray is done here: it leaves the start cell, or the closest hit lies before the
     /// exit.
     Done,

@@ -76,11 +76,18 @@
 //!   moves strictly forward in the depth-first order, so a walk ends; the step cap is a guard.
 //!
 //! Counters: `interior`, `leaves`, `prims`, `planes`, `steps` as the kd-tree's (nodes revisited
-//! counted again), and every parent link followed counted in `interior` too ([`climb`]: the
+//! counted again), and every parent link followed counted in `interior` too ([`parent_link`]: the
 //! paper's N_I; `interior - ups` is N_I without the climbs); `boxes`: the start or root cell,
 //! every stored box read and (SLTR) every leaf exit computed; `ups`: parent links followed;
 //! `restarts`: continuations after a dry stack (BTR) or a leaf (SLTR), and a hand-over to
 //! `sltr-mask`, which `handovers` counts alone (0 or 1 a ray).
+//!
+//! One file per algorithm, each composing the named steps of its walk state, laid out as
+//! tb-kdtree's `stackless` walks so they read side by side: `btr` ([`btr`]'s `BtrWalk`:
+//! `enter`, `descend`, `leaf`, `pop`, `climb`; beside `recursive-direction` and `backtrack`),
+//! `sltr` for `sltr` and `sltr-handover` (`SltrWalk`: `locate`, `leaf`, `leave`, `climb`, the
+//! passes by tb-kdtree's [`passes`]; beside `sequential`) and `sltr_mask` (`MaskWalk`:
+//! `descend`, `leaf`, `restart`, `climb`, `enter`; beside `restart`).
 
 use crate::{AugNode, SparseBoxes};
 use tb_core::slab::{max_num, min_num};
@@ -89,7 +96,8 @@ use tb_core::{
     Aabb, Answers, Batch, Counter, HitRecord, MollerTrumbore, NoStats, Query, Ray, TraversalStats,
     TriTest, TriTestKind, Vec3, Watertight,
 };
-use tb_kdtree::traverse::leaf;
+use tb_kdtree::stackless::{passes, Cell, Exit};
+use tb_kdtree::traverse::{leaf, Setup};
 use tb_kdtree::NodeRank;
 use tb_kdtree::{
     split_decision, Best, Decision, DepthFirst, KdNode, KdView, Kind, Located, SLACK, STACK_SIZE,
@@ -97,6 +105,7 @@ use tb_kdtree::{
 
 mod btr;
 mod sltr;
+mod sltr_mask;
 
 pub(crate) const BTR: u8 = 0;
 pub(crate) const SLTR: u8 = 1;
@@ -149,52 +158,6 @@ struct Ctx<'a> {
     cap: u32,
 }
 
-/// The point SLTR locates (Alg. 3's shifted origin, `tentry`) and its walk's state.
-struct Point {
-    /// Per axis, the coordinate of the last exit face crossed on that axis (first the root's
-    /// entry face): planes at or before it in the direction of travel are behind the point.
-    floor: [f32; 3],
-    /// The axis of the face just crossed (3 before the first): there the point's coordinate
-    /// is `floor` exactly.
-    exact: usize,
-    /// The point's distance along the ray.
-    tn: f32,
-    /// Steps taken (the cap's count).
-    steps: u32,
-    /// A plane the point cannot be placed against was met.
-    ambiguous: bool,
-    /// Per axis, the side of a split plane holding the ray this walk takes (bit set: the upper
-    /// one), as tb-kdtree's `sequential` walks such a ray once per side.
-    mask: u8,
-    /// The axes where a split plane holding the ray was met.
-    seen: u8,
-}
-
-/// How one walk of SLTR ended.
-enum Pass {
-    /// Done: `stop` when the ray is finished (an any-hit found, the step cap reached), `seen`
-    /// the axes where a split plane holding the ray was met.
-    Done { stop: bool, seen: u8 },
-    /// A point could not be placed: the ray goes to `sltr-mask`.
-    Ambiguous,
-}
-
-/// SLTR's `lastAugmentedNode`: its record (`NONE`: not looked up yet), node, depth and cell.
-struct Last {
-    rec: u32,
-    node: usize,
-    depth: u32,
-    min: [f32; 3],
-    max: [f32; 3],
-}
-
-/// Per-ray data.
-struct Setup {
-    org: [f32; 3],
-    inv: [f32; 3],
-    neg: [bool; 3],
-}
-
 /// The decision at an interior node: the kd-tree's own rule ([`split_decision`], that of
 /// `recursive-direction`), children in the depth-first layout.
 #[inline(always)]
@@ -239,11 +202,11 @@ impl<'a> Ctx<'a> {
     }
 
     /// The slab interval of augmented node `a`'s cell with the plane distances of [`decide`]
-    /// and the root cell's faces standing for the root interval `[r0, r1]`: the interval a
-    /// descent from the root computes at that node.
+    /// and the root cell's faces standing for the root interval `[s.t0, s.t1]`: the interval
+    /// a descent from the root computes at that node.
     #[inline(always)]
-    fn interval(&self, s: &Setup, r0: f32, r1: f32, a: &AugNode) -> (f32, f32) {
-        let (mut tn, mut tf) = (r0, r1);
+    fn interval(&self, s: &Setup, a: &AugNode) -> (f32, f32) {
+        let (mut tn, mut tf) = (s.t0, s.t1);
         let (rmin, rmax) = (self.root.min.to_array(), self.root.max.to_array());
         for ax in 0..3 {
             let (np, fp, rn, rf) = if s.neg[ax] {
@@ -261,15 +224,42 @@ impl<'a> Ctx<'a> {
         (tn, tf)
     }
 
-    /// The distance at which the ray leaves box `a` (its far planes, unscaled, and `tmax`).
+    /// The distance at which the ray leaves box `a` (its far planes, unscaled, and the end of
+    /// `s`'s segment).
     #[inline(always)]
-    fn exit(&self, s: &Setup, tmax: f32, a: &AugNode) -> f32 {
-        let mut tf = tmax;
+    fn exit(&self, s: &Setup, a: &AugNode) -> f32 {
+        let mut tf = s.t1;
         for ax in 0..3 {
             let fp = if s.neg[ax] { a.min[ax] } else { a.max[ax] };
             tf = min_num(tf, (fp - s.org[ax]) * s.inv[ax]);
         }
         tf
+    }
+
+    /// The record of augmented node `node`: `rec`, or looked up by rank where it is [`NONE`]
+    /// (a walk records an augmented node passed on the way down by its node only).
+    #[inline(always)]
+    fn record(&self, rec: u32, node: usize) -> u32 {
+        if rec == NONE {
+            self.rank.find(node as u32).expect("augmented node") as u32
+        } else {
+            rec
+        }
+    }
+
+    /// The set-up both SLTR walks share: the ray's set-up clipped to the root box (one box
+    /// test counted), `None` for an empty tree or a ray missing the root.
+    #[inline(always)]
+    fn clip_root<C: Counter>(&self, ray: &Ray, c: &mut C) -> Option<Setup> {
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let mut s = setup(ray);
+        c.boxes(1);
+        (s.t0, s.t1) = self
+            .root
+            .intersect(ray.origin, ray.inv_dir(), ray.tmin, ray.tmax)?;
+        Some(s)
     }
 }
 
@@ -279,18 +269,24 @@ impl<'a> Ctx<'a> {
 /// only the down-links between nodes and parent links between augmented nodes") and in `ups`,
 /// so N_I without the climbs is `interior - ups`.
 #[inline(always)]
-fn climb<C: Counter>(c: &mut C) {
+fn parent_link<C: Counter>(c: &mut C) {
     c.up();
     c.interior();
 }
 
+/// The ray's set-up as the kd-tree's kernels have it, over the ray's own segment
+/// (`t0 = tmin`, `t1 = tmax`): BTR clips the ray to each augmented node's box, SLTR's walks
+/// to the root box ([`Ctx::clip_root`]).
 #[inline(always)]
 fn setup(ray: &Ray) -> Setup {
     let inv = ray.inv_dir().to_array();
     Setup {
         org: ray.origin.to_array(),
+        dir: ray.dir.to_array(),
         inv,
         neg: [inv[0] < 0.0, inv[1] < 0.0, inv[2] < 0.0],
+        t0: ray.tmin,
+        t1: ray.tmax,
     }
 }
 

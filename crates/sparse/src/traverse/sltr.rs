@@ -1,7 +1,13 @@
-//! SLTR (Havran and Bittner 2007 §5.3, Alg. 3) and its variants `sltr-handover` and
-//! `sltr-mask`: the sequential walk from leaf to leaf by point location from the last augmented
-//! node (the module doc of `traverse` gives the whole rule).
+//! SLTR (Havran and Bittner 2007 §5.3, Alg. 3) and its variant `sltr-handover`: the
+//! sequential walk from leaf to leaf by point location from the last augmented node (the
+//! module doc of `traverse` gives the whole rule). Laid out as tb-kdtree's `sequential`: the
+//! passes of a ray (tb-kdtree's [`passes`]), one pass ([`crawl`]) composing the named steps of
+//! the walk state [`SltrWalk`]: [`SltrWalk::locate`] a leaf from the last augmented node,
+//! [`SltrWalk::leaf`], [`SltrWalk::leave`] through the exit face, [`SltrWalk::climb`] the
+//! parent links (`TraverseUp`) to a box holding the shifted point. A point that cannot be
+//! placed hands the ray to `sltr-mask` ([`super::sltr_mask`]).
 
+use super::sltr_mask::{self, MaskWalk};
 use super::*;
 
 impl Ctx<'_> {
@@ -18,7 +24,7 @@ impl Ctx<'_> {
         hint: u32,
         c: &mut C,
     ) -> HitRecord {
-        let Some((s, (r0, r1))) = self.clip_root(ray, c) else {
+        let Some(s) = self.clip_root(ray, c) else {
             return HitRecord::MISS;
         };
         let pre = T::prepare(ray);
@@ -28,207 +34,157 @@ impl Ctx<'_> {
             // ComputeMinMaxT(ray, startNode).
             c.boxes(1);
         }
-        let mut steps = 0u32;
-        // The walk per side of the split planes the ray lies in, as tb-kdtree's `sequential`
-        // (its `passes`): first every such plane's lower side; when one was met, every other
-        // combination of sides on the axes where the direction is zero (1/d infinite).
-        let zero = (0..3).fold(0u8, |m, a| m | ((!s.inv[a].is_finite()) as u8) << a);
-        for mask in 0..8u8 {
-            if mask != 0 && mask & !zero != 0 {
-                continue;
-            }
-            match self.sltr_pass::<T, C, ANY, HAND>(
-                ray,
-                &s,
-                (r0, r1),
-                &pre,
-                &mut best,
-                st,
-                mask,
-                &mut steps,
-                c,
-            ) {
-                Pass::Done { stop, seen } => {
-                    if stop || (mask == 0 && seen == 0) {
-                        break;
-                    }
-                }
-                Pass::Ambiguous => {
-                    // A point the rounding cannot place (or, `HAND`, a ray lying in a split
-                    // plane): the ray goes to `sltr-mask` from the root, keeping its closest
-                    // hit (as SEQ hands the former to kd-restart).
-                    c.restart();
-                    c.handover();
-                    return self.mask_walk::<T, C, ANY>(ray, &s, (r0, r1), &pre, best, 0, steps, c);
-                }
-            }
+        // The walk per side of the split planes the ray lies in, as tb-kdtree's `sequential`,
+        // the steps carried between the walks for the cap.
+        let (mut steps, mut handover) = (0u32, false);
+        passes(&s, |mask| {
+            let mut w = SltrWalk::new(self, &s, st, mask, steps);
+            let done = crawl::<T, C, ANY, HAND>(&mut w, ray, &pre, &mut best, c);
+            steps = w.steps;
+            handover = done.is_none();
+            (done.unwrap_or(true), w.seen)
+        });
+        if !handover {
+            return best.record();
         }
-        best.record()
+        // A point the rounding cannot place (or, `HAND`, a ray lying in a split plane): the
+        // ray goes to `sltr-mask` from the root, keeping its closest hit (as SEQ hands the
+        // former to kd-restart).
+        c.restart();
+        c.handover();
+        let k = MaskWalk::new(self, &s, 0, steps, c);
+        sltr_mask::walk::<T, C, ANY>(k, ray, &pre, best, c)
     }
+}
 
-    /// One walk of SLTR (Algorithm 3) from record `st`, split planes holding the ray taken to
-    /// the side `mask` gives per axis (bit set: the upper side); `steps` carried between the
-    /// walks for the cap.
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    pub(super) fn sltr_pass<T: TriTest, C: Counter, const ANY: bool, const HAND: bool>(
-        &self,
-        ray: &Ray,
-        s: &Setup,
-        (r0, r1): (f32, f32),
-        pre: &T::Pre,
-        best: &mut Best,
-        st: usize,
-        mask: u8,
-        steps: &mut u32,
-        c: &mut C,
-    ) -> Pass {
-        let aug = self.aug;
-        let (rmin, rmax) = (self.root.min.to_array(), self.root.max.to_array());
-        let mut w = Point {
-            floor: std::array::from_fn(|a| if s.neg[a] { rmax[a] } else { rmin[a] }),
-            exact: 3,
-            tn: r0,
-            steps: *steps,
-            ambiguous: false,
-            mask,
-            seen: 0,
+/// One walk of SLTR (Algorithm 3) from the walk's start record: `Some(true)` when the ray is
+/// done (an any-hit found, the step cap reached), `Some(false)` when it left the root or hit
+/// before a leaf's exit, `None` where a point could not be placed.
+#[inline(always)]
+fn crawl<T: TriTest, C: Counter, const ANY: bool, const HAND: bool>(
+    w: &mut SltrWalk,
+    ray: &Ray,
+    pre: &T::Pre,
+    best: &mut Best,
+    c: &mut C,
+) -> Option<bool> {
+    let (mut idx, mut min, mut max) = w.locate::<C, HAND>(c);
+    loop {
+        if w.ambiguous {
+            return None;
+        }
+        if w.leaf::<T, C, ANY>(idx, pre, ray, best, c) {
+            return Some(true);
+        }
+        let face = match w.leave(&min, &max, best, c) {
+            Exit::Done => return Some(false),
+            Exit::Ambiguous => return None,
+            Exit::Face(face, _) => face,
         };
-        let a = &aug[st];
-        let mut last = Last {
-            rec: st as u32,
+        c.restart();
+        w.climb(face, c);
+        (idx, min, max) = w.locate::<C, HAND>(c);
+    }
+}
+
+/// SLTR's `lastAugmentedNode`: its record ([`NONE`]: not looked up yet), node, depth and cell.
+struct Last {
+    rec: u32,
+    node: usize,
+    depth: u32,
+    min: [f32; 3],
+    max: [f32; 3],
+}
+
+impl Last {
+    /// The augmented node of record `rec`.
+    #[inline(always)]
+    fn of(cx: &Ctx, rec: u32) -> Self {
+        let a = &cx.aug[rec as usize];
+        Last {
+            rec,
             node: a.node as usize,
-            depth: self.depth[st] as u32,
+            depth: cx.depth[rec as usize] as u32,
             min: a.min,
             max: a.max,
-        };
-        let (mut idx, mut min, mut max) = self.locate::<C, HAND>(s, &mut w, &mut last, c);
-        let done = |w: &Point, steps: &mut u32, stop: bool| {
-            *steps = w.steps;
-            Pass::Done { stop, seen: w.seen }
-        };
-        loop {
-            if w.ambiguous {
-                *steps = w.steps;
-                return Pass::Ambiguous;
-            }
-            w.steps += 1;
-            if leaf::<T, C, ANY>(&self.kd, self.nodes[idx], pre, ray, best, c) {
-                return done(&w, steps, true);
-            }
-            if w.steps >= self.cap {
-                c.capped();
-                return done(&w, steps, true);
-            }
-            // The leaf's exit `texit`: its nearest far plane that is not a root face; another
-            // far plane within rounding of it (a cell edge or corner) is an ambiguity. A far
-            // plane on an axis the ray does not move along (`0 · inf`: NaN, or `inf`) is none.
-            c.boxes(1);
-            let mut ts = [f32::INFINITY; 3];
-            let (mut tf, mut face) = (f32::INFINITY, 3usize);
-            for a in 0..3 {
-                let (far, root) = if s.neg[a] {
-                    (min[a], rmin[a])
-                } else {
-                    (max[a], rmax[a])
-                };
-                if far != root {
-                    let t = (far - s.org[a]) * s.inv[a];
-                    ts[a] = t;
-                    if t < tf {
-                        tf = t;
-                        face = a;
-                    }
-                }
-            }
-            // ComputeIntersections found a hit in the leaf (or an earlier walk's lies before
-            // its exit).
-            if best.prim != u32::MAX && best.t <= tf {
-                return done(&w, steps, false);
-            }
-            if face == 3 || tf > r1 * SLACK {
-                // The shifted origin leaves the root box: TraverseUp climbs every parent link
-                // from the last augmented node, none holds it, and the walk is done.
-                for _ in 0..last.depth / self.period {
-                    climb(c);
-                    c.boxes(1);
-                }
-                return done(&w, steps, false);
-            }
-            let reach = tf + (SLACK - 1.0) * tf.abs();
-            if (0..3).any(|a| a != face && ts[a] <= reach) {
-                w.ambiguous = true;
-                continue;
-            }
-            // `tentry = texit + eps`: the point just past the exit face, exact on its axis.
-            let fc = if s.neg[face] { min[face] } else { max[face] };
-            w.floor[face] = fc;
-            w.exact = face;
-            w.tn = max_num(w.tn, tf);
-            c.restart();
-            // RestartTraversal: `tentry < tup` holds when the last augmented node's box
-            // extends beyond the exit face on its axis (the point is inside it); else
-            // TraverseUp: parent links, `ComputeMaxT` of each, to the first box that does.
-            let beyond = |lo: &[f32; 3], hi: &[f32; 3]| {
-                (if s.neg[face] { lo[face] } else { hi[face] }) != fc
-            };
-            if !beyond(&last.min, &last.max) {
-                let mut rec = if last.rec == NONE {
-                    self.rank.find(last.node as u32).expect("augmented node") as u32
-                } else {
-                    last.rec
-                };
-                // The root holds the point: the exit face is not a root face.
-                while rec != 0 {
-                    rec = aug[rec as usize].parent;
-                    climb(c);
-                    c.boxes(1);
-                    let r = &aug[rec as usize];
-                    if beyond(&r.min, &r.max) {
-                        break;
-                    }
-                }
-                let r = &aug[rec as usize];
-                last = Last {
-                    rec,
-                    node: r.node as usize,
-                    depth: self.depth[rec as usize] as u32,
-                    min: r.min,
-                    max: r.max,
-                };
-            }
-            (idx, min, max) = self.locate::<C, HAND>(s, &mut w, &mut last, c);
+        }
+    }
+}
+
+/// One walk of SLTR: the point it locates (Alg. 3's shifted origin, `tentry`) and the last
+/// augmented node passed.
+struct SltrWalk<'c, 'a> {
+    cx: &'c Ctx<'a>,
+    s: &'c Setup,
+    /// Per axis, the coordinate of the last exit face crossed on that axis (first the root's
+    /// entry face): planes at or before it in the direction of travel are behind the point.
+    floor: [f32; 3],
+    /// The axis of the face just crossed (3 before the first): there the point's coordinate
+    /// is `floor` exactly.
+    exact: usize,
+    /// The point's distance along the ray.
+    tn: f32,
+    /// Per axis, the side of a split plane holding the ray this walk takes (bit set: the upper
+    /// one), as tb-kdtree's `sequential` walks such a ray once per side; and the axes where
+    /// such a plane was met.
+    mask: u8,
+    seen: u8,
+    /// Steps taken (the cap's count).
+    steps: u32,
+    /// A plane the point cannot be placed against was met.
+    ambiguous: bool,
+    /// `lastAugmentedNode`.
+    last: Last,
+}
+
+impl<'c, 'a> SltrWalk<'c, 'a> {
+    /// A walk over `s`'s root interval from record `st`, split planes holding the ray taken to
+    /// the side `mask` gives per axis, `steps` steps already taken.
+    #[inline(always)]
+    fn new(cx: &'c Ctx<'a>, s: &'c Setup, st: usize, mask: u8, steps: u32) -> Self {
+        let r = &cx.root;
+        SltrWalk {
+            cx,
+            s,
+            floor: std::array::from_fn(|a| if s.neg[a] { r.max[a] } else { r.min[a] }),
+            exact: 3,
+            tn: s.t0,
+            mask,
+            seen: 0,
+            steps,
+            ambiguous: false,
+            last: Last::of(cx, st as u32),
         }
     }
 
-    /// Algorithm 3's down traversal from the last augmented node `last` to the leaf holding
-    /// the point at `w.tn` (Kaplan's point location with the rule of tb-kdtree's `sequential`:
-    /// on the axis of the face just crossed the point's coordinate is that face's exactly,
-    /// other planes behind it only by more than the rounding [`SLACK`], the origin itself at
-    /// `tn = 0`; a plane within rounding sets `w.ambiguous`; a plane holding the ray is
-    /// passed on the side `w.mask` gives, or, `HAND`, sets `w.ambiguous`). Every augmented
-    /// node passed becomes `last` (`lastAugmentedNode`, its record looked up only when a climb
-    /// needs it). Returns the leaf and its cell.
+    /// Algorithm 3's down traversal from the last augmented node to the leaf holding the point
+    /// at `tn` (Kaplan's point location with the rule of tb-kdtree's `sequential`: on the axis
+    /// of the face just crossed the point's coordinate is that face's exactly, other planes
+    /// behind it only by more than the rounding [`SLACK`], the origin itself at `tn = 0`; a
+    /// plane within rounding sets `ambiguous`; a plane holding the ray is passed on the side
+    /// `mask` gives, or, `HAND`, sets `ambiguous`). Every augmented node passed becomes `last`
+    /// (`lastAugmentedNode`, its record looked up only when a climb needs it). Returns the
+    /// leaf and its cell.
+    ///
+    /// The descent of tb-kdtree's `PointWalk::locate` with the same counts, which sparse boxes
+    /// cannot call: it also records each augmented node passed, and `sltr-handover` stops at a
+    /// plane holding the ray.
     #[inline(always)]
-    pub(super) fn locate<C: Counter, const HAND: bool>(
-        &self,
-        s: &Setup,
-        w: &mut Point,
-        last: &mut Last,
-        c: &mut C,
-    ) -> (usize, [f32; 3], [f32; 3]) {
-        let nodes = self.nodes;
-        let (mut idx, mut min, mut max, mut depth) = (last.node, last.min, last.max, last.depth);
-        let mut phase = depth % self.period;
-        let at = Located::new(w.tn, w.floor, w.exact);
+    fn locate<C: Counter, const HAND: bool>(&mut self, c: &mut C) -> Cell {
+        let (s, nodes, period) = (self.s, self.cx.nodes, self.cx.period);
+        let l = &self.last;
+        let (mut idx, mut min, mut max, mut depth) = (l.node, l.min, l.max, l.depth);
+        let mut phase = depth % period;
+        let at = Located::new(self.tn, self.floor, self.exact);
         loop {
             let n = nodes[idx];
             if n.is_leaf() {
                 return (idx, min, max);
             }
-            if phase == 0 && idx != last.node {
-                *last = Last {
-                    rec: NONE,
+            if phase == 0 && idx != self.last.node {
+                let rec = NONE;
+                self.last = Last {
+                    rec,
                     node: idx,
                     depth,
                     min,
@@ -238,23 +194,22 @@ impl Ctx<'_> {
             c.interior();
             c.steps(1);
             c.planes(1);
-            w.steps += 1;
-            let a = n.axis();
-            let sp = n.split();
+            self.steps += 1;
+            let (a, sp) = (n.axis(), n.split());
             let t = (sp - s.org[a]) * s.inv[a];
             let left = if t.is_nan() {
                 // The ray lies in the plane: no single point decides. `sltr` takes the side
                 // the walk's mask gives (as `seq`: one walk per side), `sltr-handover` hands
                 // the ray over.
                 if HAND {
-                    w.ambiguous = true;
+                    self.ambiguous = true;
                     return (idx, min, max);
                 }
-                w.seen |= 1 << a;
-                w.mask >> a & 1 == 0
+                self.seen |= 1 << a;
+                self.mask >> a & 1 == 0
             } else {
                 let (lower, ambiguous) = at.lower(&s.org, &s.neg, a, sp, t);
-                w.ambiguous |= ambiguous;
+                self.ambiguous |= ambiguous;
                 lower
             };
             if left {
@@ -266,230 +221,117 @@ impl Ctx<'_> {
             }
             depth += 1;
             phase += 1;
-            if phase == self.period {
+            if phase == period {
                 phase = 0;
             }
         }
     }
 
-    /// The set-up both SLTR walks share: the ray's precomputed set-up and its interval in the
-    /// root box (one box test counted), `None` for an empty tree or a ray missing the root.
+    /// Test leaf `idx` (one step); `true` when the ray is done (an any-hit found, or the step
+    /// cap reached).
     #[inline(always)]
-    pub(super) fn clip_root<C: Counter>(
-        &self,
-        ray: &Ray,
-        c: &mut C,
-    ) -> Option<(Setup, (f32, f32))> {
-        if self.nodes.is_empty() {
-            return None;
-        }
-        let s = setup(ray);
-        c.boxes(1);
-        let r = self
-            .root
-            .intersect(ray.origin, ray.inv_dir(), ray.tmin, ray.tmax)?;
-        Some((s, r))
-    }
-
-    /// `sltr-mask` from record `hint` (see the module doc).
-    #[inline(always)]
-    pub(super) fn sltr_mask<T: TriTest, C: Counter, const ANY: bool>(
-        &self,
-        ray: &Ray,
-        hint: u32,
-        c: &mut C,
-    ) -> HitRecord {
-        let Some((s, (r0, r1))) = self.clip_root(ray, c) else {
-            return HitRecord::MISS;
-        };
-        let pre = T::prepare(ray);
-        let st = self.start(ray, hint);
-        self.mask_walk::<T, C, ANY>(ray, &s, (r0, r1), &pre, Best::new(ray.tmax), st, 0, c)
-    }
-
-    /// The walk of `sltr-mask` from record `st`, with the closest hit so far `best` and `steps`
-    /// steps already taken (the paper's `sltr` hands it a ray whose point location cannot
-    /// decide, from the root).
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    pub(super) fn mask_walk<T: TriTest, C: Counter, const ANY: bool>(
-        &self,
-        ray: &Ray,
-        s: &Setup,
-        (r0, r1): (f32, f32),
+    fn leaf<T: TriTest, C: Counter, const ANY: bool>(
+        &mut self,
+        idx: usize,
         pre: &T::Pre,
-        mut best: Best,
-        st: usize,
-        mut steps: u32,
+        ray: &Ray,
+        best: &mut Best,
         c: &mut C,
-    ) -> HitRecord {
-        let (nodes, aug, p) = (self.nodes, self.aug, self.period);
-        // The record whose subtree the walk knows: the bits are valid at depths >= `dtop`.
-        let mut top = st;
-        let mut dtop = self.depth[st] as u32;
-        let (sn, sf) = if st == 0 {
-            (r0, r1)
-        } else {
-            c.boxes(1);
-            self.interval(s, r0, r1, &aug[st])
-        };
-        // The last augmented node passed: node, record (NONE: not looked up), depth, interval.
-        let mut last = (aug[st].node as usize, st as u32, dtop, sn, sf);
-        let (mut idx, mut tn, mut tf, mut depth) = (aug[st].node as usize, sn, sf, dtop);
-        // `depth % p`, kept by the descent (a division per step was the walk's costliest
-        // instruction: 20 % slower than SEQ on Sponza before; one per restart remains).
-        let mut phase = depth % p;
-        // Bit `k`: the node at depth `k` on the way to the current leaf sent the ray both ways
-        // and the walk is in its near child.
-        let mut both = 0u64;
-        // The ray lies in a split plane it met (children's intervals overlap).
-        let mut in_plane = false;
-        loop {
-            // TraverseDown to a leaf.
-            loop {
-                let n = nodes[idx];
-                if n.is_leaf() {
-                    break;
-                }
-                if phase == 0 && idx != last.0 {
-                    last = (idx, NONE, depth, tn, tf);
-                }
-                c.interior();
-                c.steps(1);
-                c.planes(1);
-                steps += 1;
-                let d = decide(n, idx, s, tn, tf);
-                match d.kind {
-                    Kind::NearOnly => idx = d.near,
-                    Kind::FarOnly => idx = d.far,
-                    Kind::Both => {
-                        in_plane |= d.far_tn < d.near_tf;
-                        both |= 1 << depth;
-                        idx = d.near;
-                        tf = d.near_tf;
-                    }
-                }
-                depth += 1;
-                phase += 1;
-                if phase == p {
-                    phase = 0;
-                }
-            }
-            steps += 1;
-            if leaf::<T, C, ANY>(&self.kd, nodes[idx], pre, ray, &mut best, c) {
-                return best.record();
-            }
-            // A hit before the leaf's exit: every cell still to visit starts at or beyond it
-            // (not for a ray lying in a split plane, whose both children span the interval).
-            if best.t < tf && !in_plane {
-                return best.record();
-            }
-            if steps >= self.cap {
-                c.capped();
-                return best.record();
-            }
-            let lf = idx;
-            c.restart();
-            // RestartTraversal: the far child of the deepest node still to come back to.
-            let (next, at) = loop {
-                let live = if dtop >= 64 { 0 } else { both >> dtop << dtop };
-                if live != 0 {
-                    let k = 63 - live.leading_zeros();
-                    both &= (1u64 << k) - 1;
-                    let dr = k / p * p;
-                    if dr != last.2 {
-                        // TraverseUp from the last augmented node to the one above depth `k`.
-                        let mut rec = if last.1 == NONE {
-                            self.rank.find(last.0 as u32).expect("augmented node") as u32
-                        } else {
-                            last.1
-                        };
-                        let mut dd = last.2;
-                        while dd > dr {
-                            rec = aug[rec as usize].parent;
-                            dd -= p;
-                            climb(c);
-                        }
-                        c.boxes(1);
-                        let r = &aug[rec as usize];
-                        let (an, af) = self.interval(s, r0, r1, r);
-                        last = (r.node as usize, rec, dr, an, af);
-                    }
-                    // Down toward the last leaf to depth `k`.
-                    let (mut x, mut xn, mut xf, mut xd) = (last.0, last.3, last.4, last.2);
-                    let found = loop {
-                        let n = nodes[x];
-                        c.interior();
-                        c.steps(1);
-                        c.planes(1);
-                        steps += 1;
-                        let d = decide(n, x, s, xn, xf);
-                        let toward = if lf < n.link() { x + 1 } else { n.link() };
-                        if xd == k {
-                            break (d.kind == Kind::Both && toward == d.near)
-                                .then_some((d.far, d.far_tn, xf));
-                        }
-                        if d.kind == Kind::Both {
-                            if toward == d.near {
-                                xf = d.near_tf;
-                            } else {
-                                xn = d.far_tn;
-                            }
-                        }
-                        x = toward;
-                        xd += 1;
-                    };
-                    match found {
-                        Some(f) if ANY || f.1 <= best.t => break (f, k + 1),
-                        _ => continue,
-                    }
-                }
-                if top == 0 {
-                    return best.record();
-                }
-                // TraverseUp above the known part: the parent augmented node, then down from
-                // it toward the last leaf to the known depth, recording the bits.
-                let pr = aug[top].parent as usize;
-                climb(c);
-                c.boxes(1);
-                let dp = dtop - p;
-                let (pn, pf) = self.interval(s, r0, r1, &aug[pr]);
-                let (mut x, mut xn, mut xf, mut xd) = (aug[pr].node as usize, pn, pf, dp);
-                let mut cand = None;
-                while xd < dtop {
-                    let n = nodes[x];
-                    c.interior();
-                    c.steps(1);
-                    c.planes(1);
-                    steps += 1;
-                    let d = decide(n, x, s, xn, xf);
-                    let toward = if lf < n.link() { x + 1 } else { n.link() };
-                    if d.kind == Kind::Both {
-                        in_plane |= d.far_tn < d.near_tf;
-                        if toward == d.near {
-                            both |= 1 << xd;
-                            cand = Some((d.far, d.far_tn, xf, xd));
-                            xf = d.near_tf;
-                        } else {
-                            xn = d.far_tn;
-                        }
-                    }
-                    x = toward;
-                    xd += 1;
-                }
-                top = pr;
-                dtop = dp;
-                last = (aug[pr].node as usize, pr as u32, dp, pn, pf);
-                if let Some((f, fa, fb, k)) = cand {
-                    if ANY || fa <= best.t {
-                        both &= (1u64 << k) - 1;
-                        break ((f, fa, fb), k + 1);
-                    }
-                }
-            };
-            (idx, tn, tf) = next;
-            depth = at;
-            phase = depth % p;
+    ) -> bool {
+        let cx = self.cx;
+        self.steps += 1;
+        if leaf::<T, C, ANY>(&cx.kd, cx.nodes[idx], pre, ray, best, c) {
+            return true;
         }
+        if self.steps >= cx.cap {
+            c.capped();
+            return true;
+        }
+        false
+    }
+
+    /// Leave the leaf's cell `min..max` (one box, its exit `texit`): through its nearest far
+    /// plane that is not a root face, which becomes the floor of its axis and the exact axis of
+    /// the next point (`tentry = texit + eps`, exact on its axis). Another far plane within
+    /// rounding of it (a cell edge or corner) is an ambiguity; a far plane on an axis the ray
+    /// does not move along (`0 · inf`: NaN, or `inf`) is none. Done when a hit lies before the
+    /// exit (`ComputeIntersections` found one in the leaf, or an earlier walk's lies there),
+    /// or when the point leaves the root box: then `TraverseUp` climbs every parent link from
+    /// the last augmented node and none holds it.
+    ///
+    /// tb-kdtree's `PointWalk::leave` but for what ends the walk: that one ends it at
+    /// `best.t <= texit` also without a hit (the segment's end) and climbs nothing, so the
+    /// counts would differ.
+    #[inline(always)]
+    fn leave<C: Counter>(
+        &mut self,
+        min: &[f32; 3],
+        max: &[f32; 3],
+        best: &Best,
+        c: &mut C,
+    ) -> Exit {
+        let (s, r) = (self.s, &self.cx.root);
+        c.boxes(1);
+        let mut ts = [f32::INFINITY; 3];
+        let (mut tf, mut face) = (f32::INFINITY, 3usize);
+        for a in 0..3 {
+            let (far, root) = if s.neg[a] {
+                (min[a], r.min[a])
+            } else {
+                (max[a], r.max[a])
+            };
+            if far != root {
+                let t = (far - s.org[a]) * s.inv[a];
+                ts[a] = t;
+                if t < tf {
+                    tf = t;
+                    face = a;
+                }
+            }
+        }
+        if best.prim != u32::MAX && best.t <= tf {
+            return Exit::Done;
+        }
+        if face == 3 || tf > s.t1 * SLACK {
+            for _ in 0..self.last.depth / self.cx.period {
+                parent_link(c);
+                c.boxes(1);
+            }
+            return Exit::Done;
+        }
+        let reach = tf + (SLACK - 1.0) * tf.abs();
+        if (0..3).any(|a| a != face && ts[a] <= reach) {
+            return Exit::Ambiguous;
+        }
+        self.floor[face] = if s.neg[face] { min[face] } else { max[face] };
+        self.exact = face;
+        self.tn = max_num(self.tn, tf);
+        Exit::Face(face, tf)
+    }
+
+    /// Before `RestartTraversal` from the last augmented node: `tentry < tup` holds when its
+    /// box extends beyond the exit face just crossed on axis `face` (the point is inside it);
+    /// else `TraverseUp`: parent links, `ComputeMaxT` of each (one box), to the first box that
+    /// does, which becomes the last augmented node. The root holds the point: the exit face is
+    /// not a root face.
+    #[inline(always)]
+    fn climb<C: Counter>(&mut self, face: usize, c: &mut C) {
+        let (s, aug, fc) = (self.s, self.cx.aug, self.floor[face]);
+        let beyond =
+            |lo: &[f32; 3], hi: &[f32; 3]| (if s.neg[face] { lo[face] } else { hi[face] }) != fc;
+        if beyond(&self.last.min, &self.last.max) {
+            return;
+        }
+        let mut rec = self.cx.record(self.last.rec, self.last.node);
+        while rec != 0 {
+            rec = aug[rec as usize].parent;
+            parent_link(c);
+            c.boxes(1);
+            let r = &aug[rec as usize];
+            if beyond(&r.min, &r.max) {
+                break;
+            }
+        }
+        self.last = Last::of(self.cx, rec);
     }
 }
