@@ -61,6 +61,22 @@ impl Bin {
     };
 }
 
+/// Partition `part` in place by bin: the references whose centroid falls in bins `0..=k` of
+/// `axis` first; returns their count.
+#[inline]
+fn partition_by_bin(part: &mut [PrimRef], map: &BinMap, axis: usize, k: usize) -> usize {
+    let (mut i, mut j) = (0, part.len());
+    while i < j {
+        if map.bin(part[i].c2(), axis) <= k {
+            i += 1;
+        } else {
+            j -= 1;
+            part.swap(i, j);
+        }
+    }
+    i
+}
+
 /// Maps a centroid coordinate to its bin: `floor((c - min)·scale)` clamped to `bins - 1`.
 /// The binning pass and the partition use this one function, so they agree exactly.
 #[derive(Clone, Copy)]
@@ -288,8 +304,36 @@ impl Builder<'_> {
             ),
             last: nb - 1,
         };
+        self.bin_centroids(&refs[start..end], &map);
+        let (best_cost, best) = self.sweep(ext, nb);
+
+        let Some((axis, k)) = best else {
+            // Every centroid fell into one bin on every axis (rounding): median split.
+            return (n > max_leaf).then(|| self.median(refs, start, end, cb.largest_axis()));
+        };
+        if n <= max_leaf {
+            let split_cost = p.c_trav * area + p.c_isect * best_cost;
+            let leaf_cost = p.c_isect * area * p.leaf_cost.units(n);
+            if leaf_cost <= split_cost {
+                return None;
+            }
+        }
+
+        let part = &mut refs[start..end];
+        let i = partition_by_bin(part, &map, axis, k);
+        if i == 0 || i == part.len() {
+            // Cannot happen (the bins counted both sides), but never make an empty child.
+            return Some(self.median(refs, start, end, axis));
+        }
+        Some(start + i)
+    }
+
+    /// Bin the centroids of `refs` on all three axes in one pass (the bins' bounds and counts).
+    #[inline]
+    fn bin_centroids(&mut self, refs: &[PrimRef], map: &BinMap) {
+        let nb = self.params.bins as usize;
         self.bins.fill(Bin::EMPTY);
-        for r in &refs[start..end] {
+        for r in refs {
             let c = r.c2();
             for axis in 0..3 {
                 let bin = &mut self.bins[axis * nb + map.bin(c, axis)];
@@ -298,8 +342,14 @@ impl Builder<'_> {
                 bin.count += 1;
             }
         }
+    }
 
-        // Sweep: best boundary `k` puts bins 0..=k left, k+1.. right.
+    /// The SAH sweep over the `nb` bins of every axis with a non-zero centroid extent `ext`:
+    /// the lowest cost and its boundary `(axis, k)` (bins `0..=k` left, `k+1..` right), `None`
+    /// when no boundary has primitives on both sides.
+    #[inline]
+    fn sweep(&mut self, ext: Vec3, nb: usize) -> (f32, Option<(usize, usize)>) {
+        let p = self.params;
         let mut best_cost = f32::INFINITY;
         let mut best: Option<(usize, usize)> = None;
         for axis in 0..3 {
@@ -331,35 +381,7 @@ impl Builder<'_> {
                 }
             }
         }
-
-        let Some((axis, k)) = best else {
-            // Every centroid fell into one bin on every axis (rounding): median split.
-            return (n > max_leaf).then(|| self.median(refs, start, end, cb.largest_axis()));
-        };
-        if n <= max_leaf {
-            let split_cost = p.c_trav * area + p.c_isect * best_cost;
-            let leaf_cost = p.c_isect * area * p.leaf_cost.units(n);
-            if leaf_cost <= split_cost {
-                return None;
-            }
-        }
-
-        // In-place partition by bin.
-        let part = &mut refs[start..end];
-        let (mut i, mut j) = (0, part.len());
-        while i < j {
-            if map.bin(part[i].c2(), axis) <= k {
-                i += 1;
-            } else {
-                j -= 1;
-                part.swap(i, j);
-            }
-        }
-        if i == 0 || i == part.len() {
-            // Cannot happen (the bins counted both sides), but never make an empty child.
-            return Some(self.median(refs, start, end, axis));
-        }
-        Some(start + i)
+        (best_cost, best)
     }
 
     /// Object-median split along `axis`: the lower half of the centroids goes left.

@@ -56,6 +56,8 @@ impl Bvh {
         t
     }
 
+    /// Check the tree: the triangle permutation, every node reached once, every slot in one
+    /// leaf, children inside their parents, then SBVH coverage and the wide nodes.
     pub(crate) fn check_invariants(&self) -> Result<(), String> {
         let nodes = self.nodes();
         let n_tris = self.triangles.len();
@@ -97,27 +99,7 @@ impl Bvh {
             let n = &nodes[i];
             let b = n.bounds();
             if n.is_leaf() {
-                let r = n.prim_range();
-                if r.end > n_tris {
-                    return Err(format!("leaf {i}: triangles {r:?} out of range ({n_tris})"));
-                }
-                for k in r.clone() {
-                    if std::mem::replace(&mut owned[k], true) {
-                        return Err(format!("triangle slot {k} in two leaves"));
-                    }
-                    if !sbvh && !b.contains_box(&self.triangles[k].bounds()) {
-                        return Err(format!("leaf {i}: triangle slot {k} outside the leaf box"));
-                    }
-                }
-                if n.count > self.params.max_leaf && !sbvh {
-                    let c0 = self.triangles[r.start].bounds().center();
-                    if r.clone().any(|k| self.triangles[k].bounds().center() != c0) {
-                        return Err(format!(
-                            "leaf {i} holds {} > max_leaf = {} triangles whose centroids differ",
-                            n.count, self.params.max_leaf
-                        ));
-                    }
-                }
+                self.check_leaf(i, &mut owned)?;
             } else {
                 let l = n.index as usize;
                 if l <= i || l + 1 >= nodes.len() {
@@ -156,6 +138,38 @@ impl Bvh {
                 self.params.width
             )),
         }
+    }
+
+    /// Check leaf `i`: its triangle slots in range and owned by no other leaf (marked in
+    /// `owned`), inside its box (but in the SBVH, whose references are clipped), and no more
+    /// than `max_leaf` of them unless their centroids coincide (no SBVH).
+    fn check_leaf(&self, i: usize, owned: &mut [bool]) -> Result<(), String> {
+        let n_tris = self.triangles.len();
+        let sbvh = self.params.builder == Builder::Sbvh;
+        let n = &self.nodes()[i];
+        let b = n.bounds();
+        let r = n.prim_range();
+        if r.end > n_tris {
+            return Err(format!("leaf {i}: triangles {r:?} out of range ({n_tris})"));
+        }
+        for k in r.clone() {
+            if std::mem::replace(&mut owned[k], true) {
+                return Err(format!("triangle slot {k} in two leaves"));
+            }
+            if !sbvh && !b.contains_box(&self.triangles[k].bounds()) {
+                return Err(format!("leaf {i}: triangle slot {k} outside the leaf box"));
+            }
+        }
+        if n.count > self.params.max_leaf && !sbvh {
+            let c0 = self.triangles[r.start].bounds().center();
+            if r.clone().any(|k| self.triangles[k].bounds().center() != c0) {
+                return Err(format!(
+                    "leaf {i} holds {} > max_leaf = {} triangles whose centroids differ",
+                    n.count, self.params.max_leaf
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// SBVH coverage: every scene triangle is referenced, all its copies are equal, and every

@@ -364,7 +364,7 @@ impl Sheared {
         if t < tmin || t >= tmax {
             return Solved::Done(None);
         }
-        let bound = t_error_bound(self, az, bz, cz, u, v, w, inv);
+        let bound = t_error_bound(self, [az, bz, cz], [u, v, w], inv);
         if !bound.is_finite() {
             return Solved::Wide;
         }
@@ -470,12 +470,12 @@ impl Sheared {
 /// 4th ed., §6.8.7, "Conservative Ray–Triangle t Values"): a computed `t` at or below it may
 /// belong to a plane behind the ray's origin, so it is no hit. Without it, a shadow ray
 /// starting one ulp in front of a box face got `t = 3.6e-8` from that face, whose plane is
-/// 1.6e-8 behind the origin. `az`, `bz`, `cz` are scaled by `sz`; `inv = 1 / det`. The
-/// products are grouped so that a determinant in [`in_f32_range`] cannot overflow them
-/// (`max_e · |inv| ≤ 1`); a non-finite bound sends the test to f64.
-#[allow(clippy::too_many_arguments)]
+/// 1.6e-8 behind the origin. `[az, bz, cz]`: the vertices' `z` scaled by `sz`; `[u, v, w]`:
+/// the edge functions; `inv = 1 / det`. The products are grouped so that a determinant in
+/// [`in_f32_range`] cannot overflow them (`max_e · |inv| ≤ 1`); a non-finite bound sends the
+/// test to f64.
 #[inline(always)]
-fn t_error_bound(s: &Sheared, az: f32, bz: f32, cz: f32, u: f32, v: f32, w: f32, inv: f32) -> f32 {
+fn t_error_bound(s: &Sheared, [az, bz, cz]: [f32; 3], [u, v, w]: [f32; 3], inv: f32) -> f32 {
     let max_x = s.ax.abs().max(s.bx.abs()).max(s.cx.abs());
     let max_y = s.ay.abs().max(s.by.abs()).max(s.cy.abs());
     let max_z = az.abs().max(bz.abs()).max(cz.abs());

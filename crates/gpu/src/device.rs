@@ -146,55 +146,83 @@ fn type_rank(t: wgpu::DeviceType) -> u8 {
     }
 }
 
+/// Where the device's callbacks leave the first error they see.
+type ErrorSlot = Arc<Mutex<Option<GpuError>>>;
+
+/// The adapter `choice` selects (see [`Gpu::new`] for the order).
+fn choose_adapter(choice: &AdapterChoice) -> Result<wgpu::Adapter, GpuError> {
+    let primary = wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
+    let enumerate = |backends: wgpu::Backends| {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = backends;
+        let instance = wgpu::Instance::new(desc);
+        pollster::block_on(instance.enumerate_adapters(backends))
+    };
+    let mut adapters = match choice.backend {
+        Some(b) => enumerate(b.wgpu()),
+        None => enumerate(primary),
+    };
+    // GL only when asked for or when no native backend has an adapter (probing EGL
+    // prints warnings on headless machines).
+    if choice.backend.is_none() && adapters.is_empty() {
+        adapters = enumerate(wgpu::Backends::GL);
+    }
+    let all: Vec<String> = adapters
+        .iter()
+        .map(|a| {
+            let i = a.get_info();
+            format!("{} ({})", i.name, i.backend.to_str())
+        })
+        .collect();
+    if let Some(name) = &choice.name {
+        let needle = name.to_lowercase();
+        adapters.retain(|a| a.get_info().name.to_lowercase().contains(&needle));
+    }
+    adapters.sort_by_key(|a| {
+        let i = a.get_info();
+        (type_rank(i.device_type), i.backend == wgpu::Backend::Gl)
+    });
+    adapters.into_iter().next().ok_or_else(|| {
+        let backend = choice.backend.map_or("any backend", Backend::name);
+        let filter = choice
+            .name
+            .as_deref()
+            .map_or(String::new(), |n| format!(", name containing `{n}`"));
+        let seen = if all.is_empty() {
+            "none present".to_string()
+        } else {
+            format!("present: {}", all.join(", "))
+        };
+        GpuError::NoAdapter(format!("{backend}{filter}; {seen}"))
+    })
+}
+
+/// Install the device's error and device-lost callbacks: the first uncaptured error or loss
+/// (but the `Destroyed` of dropping it) goes into the returned slot.
+fn watch_errors(device: &wgpu::Device) -> ErrorSlot {
+    let errors: ErrorSlot = Arc::new(Mutex::new(None));
+    let sink = errors.clone();
+    device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+        let mut slot = sink.lock().unwrap_or_else(|p| p.into_inner());
+        slot.get_or_insert(GpuError::Wgpu(one_line(&e.to_string())));
+    }));
+    let sink = errors.clone();
+    device.set_device_lost_callback(move |reason, msg| {
+        // Dropping the device at the end of a run reports `Destroyed`: not an error.
+        if reason != wgpu::DeviceLostReason::Destroyed {
+            let mut slot = sink.lock().unwrap_or_else(|p| p.into_inner());
+            slot.get_or_insert(GpuError::Lost(one_line(&format!("{reason:?}: {msg}"))));
+        }
+    });
+    errors
+}
+
 impl Gpu {
     /// Open the adapter `choice` selects. Among matching adapters, discrete GPUs come first,
     /// then integrated, virtual, other and CPU (software) adapters; GL is tried only when no
     /// backend is named and Vulkan, Metal and DX12 offer no adapter.
     pub fn new(choice: &AdapterChoice) -> Result<Gpu, GpuError> {
-        let primary = wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
-        let enumerate = |backends: wgpu::Backends| {
-            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-            desc.backends = backends;
-            let instance = wgpu::Instance::new(desc);
-            pollster::block_on(instance.enumerate_adapters(backends))
-        };
-        let mut adapters = match choice.backend {
-            Some(b) => enumerate(b.wgpu()),
-            None => enumerate(primary),
-        };
-        // GL only when asked for or when no native backend has an adapter (probing EGL
-        // prints warnings on headless machines).
-        if choice.backend.is_none() && adapters.is_empty() {
-            adapters = enumerate(wgpu::Backends::GL);
-        }
-        let all: Vec<String> = adapters
-            .iter()
-            .map(|a| {
-                let i = a.get_info();
-                format!("{} ({})", i.name, i.backend.to_str())
-            })
-            .collect();
-        if let Some(name) = &choice.name {
-            let needle = name.to_lowercase();
-            adapters.retain(|a| a.get_info().name.to_lowercase().contains(&needle));
-        }
-        adapters.sort_by_key(|a| {
-            let i = a.get_info();
-            (type_rank(i.device_type), i.backend == wgpu::Backend::Gl)
-        });
-        let Some(adapter) = adapters.into_iter().next() else {
-            let backend = choice.backend.map_or("any backend", Backend::name);
-            let filter = choice
-                .name
-                .as_deref()
-                .map_or(String::new(), |n| format!(", name containing `{n}`"));
-            let seen = if all.is_empty() {
-                "none present".to_string()
-            } else {
-                format!("present: {}", all.join(", "))
-            };
-            return Err(GpuError::NoAdapter(format!("{backend}{filter}; {seen}")));
-        };
+        let adapter = choose_adapter(choice)?;
         let info = adapter.get_info();
         let features = adapter.features();
         let timestamps = features.contains(wgpu::Features::TIMESTAMP_QUERY);
@@ -221,20 +249,7 @@ impl Gpu {
             adapter: info.name.clone(),
             message: one_line(&e.to_string()),
         })?;
-        let errors = Arc::new(Mutex::new(None));
-        let sink = errors.clone();
-        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
-            let mut slot = sink.lock().unwrap_or_else(|p| p.into_inner());
-            slot.get_or_insert(GpuError::Wgpu(one_line(&e.to_string())));
-        }));
-        let sink = errors.clone();
-        device.set_device_lost_callback(move |reason, msg| {
-            // Dropping the device at the end of a run reports `Destroyed`: not an error.
-            if reason != wgpu::DeviceLostReason::Destroyed {
-                let mut slot = sink.lock().unwrap_or_else(|p| p.into_inner());
-                slot.get_or_insert(GpuError::Lost(one_line(&format!("{reason:?}: {msg}"))));
-            }
-        });
+        let errors = watch_errors(&device);
         let kernels = crate::kernels::Kernels::new(f64);
         let gpu = Gpu {
             device,

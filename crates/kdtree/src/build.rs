@@ -117,6 +117,44 @@ fn keep_cheaper(
 /// holds for any input: references ≤ 16·N, and the build's memory with them.
 pub const MAX_REFS_PER_TRIANGLE: u64 = 16;
 
+/// The SAH of a cell's candidate planes: the children's shares of the cell's measure and
+/// the cost of a split.
+struct Pricing<'c, M: BoxMeasure> {
+    m: &'c M,
+    scale: f32,
+    cell: &'c Aabb,
+    /// `1 / measure(cell)`.
+    inv_area: f32,
+    ct: f32,
+    ci: f32,
+    /// `1 − empty_bonus`: the factor of a split with an empty side.
+    lambda: f32,
+}
+
+impl<M: BoxMeasure> Pricing<'_, M> {
+    /// The children's shares of the cell's measure at plane `pos` on `axis`.
+    #[inline(always)]
+    fn shares(&self, axis: usize, pos: f32) -> (f32, f32) {
+        let (lc, rc) = split_cell(self.cell, axis, pos);
+        (
+            scaled_measure(self.m, self.scale, &lc) * self.inv_area,
+            scaled_measure(self.m, self.scale, &rc) * self.inv_area,
+        )
+    }
+
+    /// The SAH of `l` and `r` references on the two sides of shares `(pl, pr)` (the empty
+    /// bonus where a side is empty).
+    #[inline(always)]
+    fn sah(&self, (pl, pr): (f32, f32), l: u32, r: u32) -> f32 {
+        let c = self.ct + self.ci * (pl * l as f32 + pr * r as f32);
+        if l == 0 || r == 0 {
+            c * self.lambda
+        } else {
+            c
+        }
+    }
+}
+
 struct Builder<'a, M: BoxMeasure> {
     tris: &'a [Triangle],
     p: &'a KdParams,
@@ -196,6 +234,10 @@ impl<M: BoxMeasure> Builder<'_, M> {
         }
     }
 
+    /// The cheapest split of the cell `cell` holding `refs` by the SAH, if it costs less than
+    /// a leaf: min-max binning (Shevtsov et al. 2007) for the binned builder on nodes of more
+    /// references than bins, else the exact event sweep (Wald and Havran 2006; the events
+    /// `sorted` per axis when given, else sorted here).
     fn find_split(
         &mut self,
         refs: &[Ref],
@@ -203,138 +245,159 @@ impl<M: BoxMeasure> Builder<'_, M> {
         sorted: Option<&[Events; 3]>,
     ) -> Option<Split> {
         let (m, scale) = (self.m, self.scale);
-        let measure = |c: &Aabb| scaled_measure(m, scale, c);
-        let area = measure(cell);
+        let area = scaled_measure(m, scale, cell);
         if !(area > 0.0 && area.is_finite()) {
             return None;
         }
-        let inv_area = 1.0 / area;
-        let (ct, ci) = (self.p.sah.c_trav, self.p.sah.c_isect);
-        let lambda = 1.0 - self.p.sah.empty_bonus;
+        let ci = self.p.sah.c_isect;
+        let price = Pricing {
+            m,
+            scale,
+            cell,
+            inv_area: 1.0 / area,
+            ct: self.p.sah.c_trav,
+            ci,
+            lambda: 1.0 - self.p.sah.empty_bonus,
+        };
         let n = refs.len() as u32;
-        // The children's shares of the cell's measure at plane `pos` on `axis`, and the SAH of
-        // `l` and `r` references on the two sides (the empty bonus where a side is empty).
-        let shares = |axis: usize, pos: f32| {
-            let (lc, rc) = split_cell(cell, axis, pos);
-            (measure(&lc) * inv_area, measure(&rc) * inv_area)
-        };
-        let sah = |(pl, pr): (f32, f32), l: u32, r: u32| {
-            let c = ct + ci * (pl * l as f32 + pr * r as f32);
-            if l == 0 || r == 0 {
-                c * lambda
-            } else {
-                c
-            }
-        };
         let mut best: Option<Split> = None;
         // Min-max binning for nodes of more references than bins; at most that many, the
         // exact sweep, as Shevtsov et al. 2007 switch (binning there would evaluate more
         // candidates than the sweep's 2n, and worse ones).
         if self.p.sah.builder == KdBuilder::Binned && refs.len() > self.p.sah.bins as usize {
-            let (bins, snap) = (self.p.sah.bins as usize, self.p.sah.snap);
             for axis in 0..3 {
-                let (lo, hi) = (cell.min[axis], cell.max[axis]);
-                if lo >= hi {
-                    continue;
-                }
-                let scale = bins as f32 / (hi - lo);
-                let bin = |x: f32| (((x - lo) * scale) as usize).min(bins - 1);
-                let (starts, ends) = self.bins.split_at_mut(bins);
-                starts.fill(0);
-                ends.fill(0);
-                // Per bin the least start and the greatest end in it (the snapped candidates).
-                let (first, last) = self.bin_bounds.split_at_mut(bins);
-                first.fill(f32::INFINITY);
-                last.fill(f32::NEG_INFINITY);
-                for r in refs {
-                    let (a, z) = (r.b.min[axis], r.b.max[axis]);
-                    let (ba, bz) = (bin(a), bin(z));
-                    starts[ba] += 1;
-                    ends[bz] += 1;
-                    first[ba] = first[ba].min(a);
-                    last[bz] = last[bz].max(z);
-                }
-                // Boundary b: N_L = starts in bins < b, N_R = ends in bins >= b. With `snap`,
-                // the same counts also price the greatest end below the boundary (planar
-                // triangles there go left) and the least start above it (they go right): both
-                // counts hold there or over-count, and a plane on a triangle's bound cuts no
-                // triangle that ends there, as the sweep's planes.
-                let (mut nl, mut nr) = (0u32, n);
-                for b in 1..bins {
-                    nl += starts[b - 1];
-                    nr -= ends[b - 1];
-                    let boundary = lo + (hi - lo) * (b as f32 / bins as f32);
-                    let candidates = [
-                        (boundary, true),
-                        (if snap { last[b - 1] } else { f32::NAN }, true),
-                        (if snap { first[b] } else { f32::NAN }, false),
-                    ];
-                    for (pos, planar_left) in candidates {
-                        // (Also false for the NaN of a candidate left out or an empty bin's
-                        // infinity.)
-                        if !(lo < pos && pos < hi) {
-                            continue;
-                        }
-                        let cost = sah(shares(axis, pos), nl, nr);
-                        keep_cheaper(&mut best, axis, pos, cost, planar_left, nl + nr);
-                    }
-                }
+                self.binned_axis(refs, &price, axis, &mut best);
             }
             return best.filter(|b| b.cost < ci * n as f32);
         }
         for axis in 0..3 {
-            let (lo, hi) = (cell.min[axis], cell.max[axis]);
-            if lo >= hi {
-                continue;
-            }
-            let mut own = std::mem::take(&mut self.events);
-            let ev: &[u64] = match sorted {
-                Some(e) => &e[axis].keys,
-                None => {
-                    own.clear();
-                    for r in refs {
-                        let (a, b) = (r.b.min[axis], r.b.max[axis]);
-                        if a == b {
-                            own.push(key(a, PLANAR));
-                        } else {
-                            own.push(key(a, START));
-                            own.push(key(b, END));
-                        }
-                    }
-                    own.sort_unstable();
-                    &own
-                }
-            };
-            let (mut nl, mut nr) = (0u32, n);
-            let mut i = 0;
-            while i < ev.len() {
-                let k = ev[i] >> 2;
-                let (mut pe, mut pp, mut ps) = (0u32, 0u32, 0u32);
-                while i < ev.len() && ev[i] >> 2 == k {
-                    match ev[i] & 3 {
-                        END => pe += 1,
-                        PLANAR => pp += 1,
-                        _ => ps += 1,
-                    }
-                    i += 1;
-                }
-                let pos = key_pos(ev[i - 1]);
-                nr -= pp + pe;
-                if lo < pos && pos < hi {
-                    let p = shares(axis, pos);
-                    let (c_left, c_right) = (sah(p, nl + pp, nr), sah(p, nl, nr + pp));
-                    let (c, planar_left) = if c_left <= c_right {
-                        (c_left, true)
-                    } else {
-                        (c_right, false)
-                    };
-                    keep_cheaper(&mut best, axis, pos, c, planar_left, nl + nr + pp);
-                }
-                nl += ps + pp;
-            }
-            self.events = own;
+            self.sweep_axis(refs, &price, axis, sorted, &mut best);
         }
         best.filter(|b| b.cost < ci * n as f32)
+    }
+
+    /// The binned candidates on `axis` (boundaries and, with `snap`, the extreme bounds in
+    /// the bins beside them), each kept in `best` if cheaper.
+    #[inline]
+    fn binned_axis(
+        &mut self,
+        refs: &[Ref],
+        price: &Pricing<'_, M>,
+        axis: usize,
+        best: &mut Option<Split>,
+    ) {
+        let n = refs.len() as u32;
+        let (bins, snap) = (self.p.sah.bins as usize, self.p.sah.snap);
+        let (lo, hi) = (price.cell.min[axis], price.cell.max[axis]);
+        if lo >= hi {
+            return;
+        }
+        let scale = bins as f32 / (hi - lo);
+        let bin = |x: f32| (((x - lo) * scale) as usize).min(bins - 1);
+        let (starts, ends) = self.bins.split_at_mut(bins);
+        starts.fill(0);
+        ends.fill(0);
+        // Per bin the least start and the greatest end in it (the snapped candidates).
+        let (first, last) = self.bin_bounds.split_at_mut(bins);
+        first.fill(f32::INFINITY);
+        last.fill(f32::NEG_INFINITY);
+        for r in refs {
+            let (a, z) = (r.b.min[axis], r.b.max[axis]);
+            let (ba, bz) = (bin(a), bin(z));
+            starts[ba] += 1;
+            ends[bz] += 1;
+            first[ba] = first[ba].min(a);
+            last[bz] = last[bz].max(z);
+        }
+        // Boundary b: N_L = starts in bins < b, N_R = ends in bins >= b. With `snap`,
+        // the same counts also price the greatest end below the boundary (planar
+        // triangles there go left) and the least start above it (they go right): both
+        // counts hold there or over-count, and a plane on a triangle's bound cuts no
+        // triangle that ends there, as the sweep's planes.
+        let (mut nl, mut nr) = (0u32, n);
+        for b in 1..bins {
+            nl += starts[b - 1];
+            nr -= ends[b - 1];
+            let boundary = lo + (hi - lo) * (b as f32 / bins as f32);
+            let candidates = [
+                (boundary, true),
+                (if snap { last[b - 1] } else { f32::NAN }, true),
+                (if snap { first[b] } else { f32::NAN }, false),
+            ];
+            for (pos, planar_left) in candidates {
+                // (Also false for the NaN of a candidate left out or an empty bin's
+                // infinity.)
+                if !(lo < pos && pos < hi) {
+                    continue;
+                }
+                let cost = price.sah(price.shares(axis, pos), nl, nr);
+                keep_cheaper(best, axis, pos, cost, planar_left, nl + nr);
+            }
+        }
+    }
+
+    /// The exact sweep's candidates on `axis` (every distinct event position, planar
+    /// triangles priced on either side), each kept in `best` if cheaper.
+    #[inline]
+    fn sweep_axis(
+        &mut self,
+        refs: &[Ref],
+        price: &Pricing<'_, M>,
+        axis: usize,
+        sorted: Option<&[Events; 3]>,
+        best: &mut Option<Split>,
+    ) {
+        let n = refs.len() as u32;
+        let (lo, hi) = (price.cell.min[axis], price.cell.max[axis]);
+        if lo >= hi {
+            return;
+        }
+        let mut own = std::mem::take(&mut self.events);
+        let ev: &[u64] = match sorted {
+            Some(e) => &e[axis].keys,
+            None => {
+                own.clear();
+                for r in refs {
+                    let (a, b) = (r.b.min[axis], r.b.max[axis]);
+                    if a == b {
+                        own.push(key(a, PLANAR));
+                    } else {
+                        own.push(key(a, START));
+                        own.push(key(b, END));
+                    }
+                }
+                own.sort_unstable();
+                &own
+            }
+        };
+        let (mut nl, mut nr) = (0u32, n);
+        let mut i = 0;
+        while i < ev.len() {
+            let k = ev[i] >> 2;
+            let (mut pe, mut pp, mut ps) = (0u32, 0u32, 0u32);
+            while i < ev.len() && ev[i] >> 2 == k {
+                match ev[i] & 3 {
+                    END => pe += 1,
+                    PLANAR => pp += 1,
+                    _ => ps += 1,
+                }
+                i += 1;
+            }
+            let pos = key_pos(ev[i - 1]);
+            nr -= pp + pe;
+            if lo < pos && pos < hi {
+                let p = price.shares(axis, pos);
+                let (c_left, c_right) = (price.sah(p, nl + pp, nr), price.sah(p, nl, nr + pp));
+                let (c, planar_left) = if c_left <= c_right {
+                    (c_left, true)
+                } else {
+                    (c_right, false)
+                };
+                keep_cheaper(best, axis, pos, c, planar_left, nl + nr + pp);
+            }
+            nl += ps + pp;
+        }
+        self.events = own;
     }
 
     fn node(&mut self, refs: Vec<Ref>, cell: Aabb, depth: u32) {

@@ -14,6 +14,8 @@ pub(crate) struct Figures {
 }
 
 impl Rtree {
+    /// Check the tree: the triangle permutation, the complete `M`-ary slot layout, every
+    /// non-empty slot's entry count and minimal box, every triangle slot in one leaf.
     pub(crate) fn check_invariants(&self) -> Result<(), String> {
         let n_tris = self.triangles.len();
         let nodes = &self.nodes;
@@ -80,32 +82,7 @@ impl Rtree {
                     if is_leaf { "leaf" } else { "intermediate" }
                 ));
             }
-            let bb = if is_leaf {
-                let r = n.index as usize..n.index as usize + count;
-                if r.end > n_tris {
-                    return Err(format!("leaf {i}: triangles {r:?} out of range"));
-                }
-                let mut bb = Aabb::EMPTY;
-                for k in r {
-                    if std::mem::replace(&mut owned[k], true) {
-                        return Err(format!("triangle slot {k} in two leaves"));
-                    }
-                    bb = bb.union(&self.triangles[k].bounds());
-                }
-                bb
-            } else {
-                let c = i * m + 1;
-                let ch = &nodes[c..c + m];
-                if let Some(k) = (0..count).find(|&k| ch[k].is_empty()) {
-                    return Err(format!("node {i}: entry {k} of {count} is empty"));
-                }
-                if let Some(k) = (count..m).find(|&k| !ch[k].is_empty()) {
-                    return Err(format!("node {i}: slot {k} beyond {count} entries is used"));
-                }
-                ch[..count]
-                    .iter()
-                    .fold(Aabb::EMPTY, |b, c| b.union(&c.bounds()))
-            };
+            let bb = self.entries_box(i, count, &mut owned)?;
             if !same_box(&bb, &n.bounds()) {
                 return Err(format!(
                     "node {i}: box {:?} is not the minimal box {bb:?} of its entries",
@@ -117,6 +94,40 @@ impl Rtree {
             return Err(format!("triangle slot {k} is in no leaf"));
         }
         Ok(())
+    }
+
+    /// The minimal box of the `count` entries of non-empty slot `i`: of its triangles for a
+    /// leaf (each marked in `owned`, which must not have it yet), of its child slots (the first
+    /// `count` used, the rest empty) for an intermediate node.
+    fn entries_box(&self, i: usize, count: usize, owned: &mut [bool]) -> Result<Aabb, String> {
+        let (nodes, n_tris, m) = (&self.nodes, self.triangles.len(), self.big_m());
+        let n = &nodes[i];
+        if i as u32 >= self.first_leaf {
+            let r = n.index as usize..n.index as usize + count;
+            if r.end > n_tris {
+                return Err(format!("leaf {i}: triangles {r:?} out of range"));
+            }
+            let mut bb = Aabb::EMPTY;
+            for k in r {
+                if std::mem::replace(&mut owned[k], true) {
+                    return Err(format!("triangle slot {k} in two leaves"));
+                }
+                bb = bb.union(&self.triangles[k].bounds());
+            }
+            Ok(bb)
+        } else {
+            let c = i * m + 1;
+            let ch = &nodes[c..c + m];
+            if let Some(k) = (0..count).find(|&k| ch[k].is_empty()) {
+                return Err(format!("node {i}: entry {k} of {count} is empty"));
+            }
+            if let Some(k) = (count..m).find(|&k| !ch[k].is_empty()) {
+                return Err(format!("node {i}: slot {k} beyond {count} entries is used"));
+            }
+            Ok(ch[..count]
+                .iter()
+                .fold(Aabb::EMPTY, |b, c| b.union(&c.bounds())))
+        }
     }
 
     /// Tree figures over non-empty slots.

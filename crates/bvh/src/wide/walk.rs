@@ -300,17 +300,20 @@ impl<const N: usize> Wide<'_, N> {
             return HitRecord::MISS;
         }
         let tmin = ray.tmin;
-        let mut best_t = ray.tmax;
         c.boxes(1);
         let r = WideRay::new::<N>(ray);
-        let (tn, tf) = r.root_slab(root, tmin, best_t);
+        let (tn, tf) = r.root_slab(root, tmin, ray.tmax);
         let root_hit = tn <= tf;
         if !root_hit {
             return HitRecord::MISS;
         }
         let pre = T::prepare(ray);
-        let mut hit_prim: Option<u32> = None;
-        let (mut hit_u, mut hit_v) = (0.0f32, 0.0f32);
+        let mut best = Closest {
+            t: ray.tmax,
+            prim: None,
+            u: 0.0,
+            v: 0.0,
+        };
         let mut stack = Stack::<Entry, WIDE_STACK_SIZE>::new();
         let mut cur = Entry {
             index: 0,
@@ -328,61 +331,9 @@ impl<const N: usize> Wide<'_, N> {
                     c.boxes(node.children() as u32);
                 }
                 // SAFETY: the caller guarantees `B`'s instruction set.
-                let (mut mask, tn) = unsafe { B::test(node, &r, tmin, best_t) };
+                let (mask, tn) = unsafe { B::test(node, &r, tmin, best.t) };
                 if mask != 0 {
-                    let first = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    if mask == 0 {
-                        cur = Entry {
-                            index: node.child[first],
-                            count: node.count[first],
-                            t: tn[first],
-                        };
-                        continue 'walk;
-                    }
-                    if ANY {
-                        // Any hit: order does not decide the answer; push the others as found.
-                        while mask != 0 {
-                            let i = mask.trailing_zeros() as usize;
-                            mask &= mask - 1;
-                            stack.push(Entry {
-                                index: node.child[i],
-                                count: node.count[i],
-                                t: tn[i],
-                            });
-                        }
-                        cur = Entry {
-                            index: node.child[first],
-                            count: node.count[first],
-                            t: tn[first],
-                        };
-                        continue 'walk;
-                    }
-                    // Several hit: sort by entry distance (insertion sort, ≤ 8, the farthest
-                    // on top), push all but the nearest, farthest first.
-                    let mut hit = Stack::<(f32, usize), N>::new();
-                    hit.push((tn[first], first));
-                    while mask != 0 {
-                        let i = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        hit.insert_by((tn[i], i), |e, x| x.0 > e.0);
-                    }
-                    let sorted = hit.as_slice();
-                    for &(t, i) in sorted[1..].iter().rev() {
-                        // At most N − 1 entries per level and a depth of at most MAX_DEPTH
-                        // (checked by `validate`): in range.
-                        stack.push(Entry {
-                            index: node.child[i],
-                            count: node.count[i],
-                            t,
-                        });
-                    }
-                    let (t, i) = sorted[0];
-                    cur = Entry {
-                        index: node.child[i],
-                        count: node.count[i],
-                        t,
-                    };
+                    cur = descend::<N, ANY>(node, mask, &tn, &mut stack);
                     continue 'walk;
                 }
             } else {
@@ -394,74 +345,176 @@ impl<const N: usize> Wide<'_, N> {
                 // `validate`).
                 let leaf = unsafe { blocks.get_unchecked(first..first + count.div_ceil(4)) };
                 if ANY {
-                    // The first hit in triangle order ends the ray; the triangles before it
-                    // and it are the ones tested.
-                    for (j, b) in leaf.iter().enumerate() {
-                        let lanes = (count - 4 * j).min(4);
-                        if let Some((i, (t, u, v))) =
-                            first_hit::<B, T, N>(&pre, ray, b, lanes, best_t)
-                        {
-                            c.prims(i as u32 + 1);
-                            return HitRecord {
-                                t,
-                                prim: b.prim[i],
-                                u,
-                                v,
-                            };
-                        }
-                        c.prims(lanes as u32);
+                    if let Some(h) = any_hit_leaf::<B, T, C, N>(&pre, ray, leaf, count, best.t, c) {
+                        return h;
                     }
                 } else {
                     c.prims(cur.count);
-                    for (j, b) in leaf.iter().enumerate() {
-                        let lanes = (count - 4 * j).min(4);
-                        if B::SIMD_LEAVES {
-                            let l = T::intersect4(&pre, ray, &b.tris, best_t);
-                            let mut cand = (l.hit | l.redo) & ((1 << lanes) - 1);
-                            while cand != 0 {
-                                let i = cand.trailing_zeros() as usize;
-                                cand &= cand - 1;
-                                let h = if l.redo & (1 << i) != 0 {
-                                    T::intersect(&pre, ray, &b.tris.lane(i), best_t)
-                                } else if T::still_hits(&l, i, best_t) {
-                                    Some((l.t[i], l.u[i], l.v[i]))
-                                } else {
-                                    None
-                                };
-                                if let Some((t, u, v)) = h {
-                                    best_t = t;
-                                    hit_prim = Some(b.prim[i]);
-                                    hit_u = u;
-                                    hit_v = v;
-                                }
-                            }
-                        } else {
-                            for i in 0..lanes {
-                                let tri = b.tris.lane(i);
-                                if let Some((t, u, v)) = T::intersect(&pre, ray, &tri, best_t) {
-                                    best_t = t;
-                                    hit_prim = Some(b.prim[i]);
-                                    hit_u = u;
-                                    hit_v = v;
-                                }
-                            }
-                        }
-                    }
+                    closest_hit_leaf::<B, T, N>(&pre, ray, leaf, count, &mut best);
                 }
             }
-            let Some(e) = stack.pop_until(|e| ANY || e.t <= best_t * EXIT_SCALE) else {
+            let Some(e) = stack.pop_until(|e| ANY || e.t <= best.t * EXIT_SCALE) else {
                 break 'walk;
             };
             cur = e;
         }
-        match hit_prim {
+        match best.prim {
             None => HitRecord::MISS,
             Some(prim) => HitRecord {
-                t: best_t,
+                t: best.t,
                 prim,
-                u: hit_u,
-                v: hit_v,
+                u: best.u,
+                v: best.v,
             },
+        }
+    }
+}
+
+/// The closest hit so far: its distance (the ray's `tmax` before any) and, once there is
+/// one, its triangle and barycentrics.
+struct Closest {
+    t: f32,
+    prim: Option<u32>,
+    u: f32,
+    v: f32,
+}
+
+/// The next entry after a node whose children `mask` were hit (at entry distances `tn`;
+/// `mask != 0`): the nearest hit child, the others pushed on `stack` farthest first (with
+/// `ANY`, in slot order: order does not decide an any-hit answer).
+#[inline(always)]
+fn descend<const N: usize, const ANY: bool>(
+    node: &WideNode<N>,
+    mut mask: u32,
+    tn: &[f32; N],
+    stack: &mut Stack<Entry, WIDE_STACK_SIZE>,
+) -> Entry {
+    let first = mask.trailing_zeros() as usize;
+    mask &= mask - 1;
+    if mask == 0 {
+        return Entry {
+            index: node.child[first],
+            count: node.count[first],
+            t: tn[first],
+        };
+    }
+    if ANY {
+        // Any hit: order does not decide the answer; push the others as found.
+        while mask != 0 {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            stack.push(Entry {
+                index: node.child[i],
+                count: node.count[i],
+                t: tn[i],
+            });
+        }
+        return Entry {
+            index: node.child[first],
+            count: node.count[first],
+            t: tn[first],
+        };
+    }
+    // Several hit: sort by entry distance (insertion sort, ≤ 8, the farthest on top), push
+    // all but the nearest, farthest first.
+    let mut hit = Stack::<(f32, usize), N>::new();
+    hit.push((tn[first], first));
+    while mask != 0 {
+        let i = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        hit.insert_by((tn[i], i), |e, x| x.0 > e.0);
+    }
+    let sorted = hit.as_slice();
+    for &(t, i) in sorted[1..].iter().rev() {
+        // At most N − 1 entries per level and a depth of at most MAX_DEPTH (checked by
+        // `validate`): in range.
+        stack.push(Entry {
+            index: node.child[i],
+            count: node.count[i],
+            t,
+        });
+    }
+    let (t, i) = sorted[0];
+    Entry {
+        index: node.child[i],
+        count: node.count[i],
+        t,
+    }
+}
+
+/// Any hit in the `count` triangles of `leaf` within `[tmin, best_t)`: the first in triangle
+/// order ends the ray; the triangles before it and it are the ones counted as tested.
+#[inline(always)]
+fn any_hit_leaf<B: BoxTest<N>, T: TriTest, C: Counter, const N: usize>(
+    pre: &T::Pre,
+    ray: &Ray,
+    leaf: &[LeafBlock],
+    count: usize,
+    best_t: f32,
+    c: &mut C,
+) -> Option<HitRecord> {
+    for (j, b) in leaf.iter().enumerate() {
+        let lanes = (count - 4 * j).min(4);
+        if let Some((i, (t, u, v))) = first_hit::<B, T, N>(pre, ray, b, lanes, best_t) {
+            c.prims(i as u32 + 1);
+            return Some(HitRecord {
+                t,
+                prim: b.prim[i],
+                u,
+                v,
+            });
+        }
+        c.prims(lanes as u32);
+    }
+    None
+}
+
+/// Test the `count` triangles of `leaf` (four at once with SIMD leaves), keeping the closest
+/// hit in `best`.
+#[inline(always)]
+fn closest_hit_leaf<B: BoxTest<N>, T: TriTest, const N: usize>(
+    pre: &T::Pre,
+    ray: &Ray,
+    leaf: &[LeafBlock],
+    count: usize,
+    best: &mut Closest,
+) {
+    for (j, b) in leaf.iter().enumerate() {
+        let lanes = (count - 4 * j).min(4);
+        if B::SIMD_LEAVES {
+            let l = T::intersect4(pre, ray, &b.tris, best.t);
+            let mut cand = (l.hit | l.redo) & ((1 << lanes) - 1);
+            while cand != 0 {
+                let i = cand.trailing_zeros() as usize;
+                cand &= cand - 1;
+                let h = if l.redo & (1 << i) != 0 {
+                    T::intersect(pre, ray, &b.tris.lane(i), best.t)
+                } else if T::still_hits(&l, i, best.t) {
+                    Some((l.t[i], l.u[i], l.v[i]))
+                } else {
+                    None
+                };
+                if let Some((t, u, v)) = h {
+                    *best = Closest {
+                        t,
+                        prim: Some(b.prim[i]),
+                        u,
+                        v,
+                    };
+                }
+            }
+        } else {
+            for i in 0..lanes {
+                let tri = b.tris.lane(i);
+                if let Some((t, u, v)) = T::intersect(pre, ray, &tri, best.t) {
+                    *best = Closest {
+                        t,
+                        prim: Some(b.prim[i]),
+                        u,
+                        v,
+                    };
+                }
+            }
         }
     }
 }

@@ -36,15 +36,20 @@ unsafe fn not_finite(x: __m128) -> __m128 {
     unsafe { _mm_cmpnlt_ps(abs(x), _mm_set1_ps(f32::INFINITY)) }
 }
 
-/// [`super::Watertight::intersect`] on four lanes.
+/// The triangles' vertices relative to the ray origin, permuted (`kx`, `ky`, `kz`) and sheared
+/// into the ray's space: `x` and `y` of vertices a, b, c, and their unscaled `z`.
 #[inline(always)]
-pub(super) unsafe fn watertight4(p: &WatertightPre, ray: &Ray, b: &Tri4, tmax: f32) -> Lanes4 {
+unsafe fn sheared4(
+    p: &WatertightPre,
+    ray: &Ray,
+    b: &Tri4,
+) -> ([__m128; 3], [__m128; 3], [__m128; 3]) {
     // SAFETY: aligned loads of the block's rows; SSE/SSE2 only.
     unsafe {
         let o = ray.origin.to_array();
         let rel =
             |k: usize, a: usize| _mm_sub_ps(_mm_load_ps(b.v[k][a].as_ptr()), _mm_set1_ps(o[a]));
-        let (sx, sy, sz) = (_mm_set1_ps(p.sx), _mm_set1_ps(p.sy), _mm_set1_ps(p.sz));
+        let (sx, sy) = (_mm_set1_ps(p.sx), _mm_set1_ps(p.sy));
         let (az, bz, cz) = (rel(0, p.kz), rel(1, p.kz), rel(2, p.kz));
         let ax = _mm_sub_ps(rel(0, p.kx), _mm_mul_ps(sx, az));
         let ay = _mm_sub_ps(rel(0, p.ky), _mm_mul_ps(sy, az));
@@ -52,11 +57,17 @@ pub(super) unsafe fn watertight4(p: &WatertightPre, ray: &Ray, b: &Tri4, tmax: f
         let by = _mm_sub_ps(rel(1, p.ky), _mm_mul_ps(sy, bz));
         let cx = _mm_sub_ps(rel(2, p.kx), _mm_mul_ps(sx, cz));
         let cy = _mm_sub_ps(rel(2, p.ky), _mm_mul_ps(sy, cz));
-        let u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
-        let v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
-        let w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
+        ([ax, bx, cx], [ay, by, cy], [az, bz, cz])
+    }
+}
+
+/// The masks of the edge functions `u`, `v`, `w`: an exactly zero one (the scalar test
+/// recomputes in f64), and signs that disagree (a negative and a positive one).
+#[inline(always)]
+unsafe fn edge_signs(u: __m128, v: __m128, w: __m128) -> (__m128, __m128) {
+    // SAFETY: SSE/SSE2 only (x86-64's baseline).
+    unsafe {
         let zero = _mm_setzero_ps();
-        // An exactly zero edge function: the scalar test recomputes in f64.
         let zero_edge = _mm_or_ps(
             _mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)),
             _mm_cmpeq_ps(w, zero),
@@ -69,10 +80,68 @@ pub(super) unsafe fn watertight4(p: &WatertightPre, ray: &Ray, b: &Tri4, tmax: f
             _mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)),
             _mm_cmpgt_ps(w, zero),
         );
+        (zero_edge, _mm_and_ps(neg, pos))
+    }
+}
+
+/// [`super::t_error_bound`] on four lanes, operation by operation: the sheared `x` and `y` of
+/// the vertices, their scaled `z`, the edge functions `u, v, w` and `1 / det`.
+#[inline(always)]
+unsafe fn t_error_bound4(
+    [ax, bx, cx]: [__m128; 3],
+    [ay, by, cy]: [__m128; 3],
+    [azs, bzs, czs]: [__m128; 3],
+    [u, v, w]: [__m128; 3],
+    inv: __m128,
+) -> __m128 {
+    // SAFETY: SSE/SSE2 only (x86-64's baseline).
+    unsafe {
+        let max3 = |a: __m128, b: __m128, c: __m128| _mm_max_ps(_mm_max_ps(abs(a), abs(b)), abs(c));
+        let (max_x, max_y, max_z) = (max3(ax, bx, cx), max3(ay, by, cy), max3(azs, bzs, czs));
+        let g = |n: f32| _mm_set1_ps(super::gamma(n));
+        let delta_z = _mm_mul_ps(g(3.0), max_z);
+        let delta_x = _mm_mul_ps(g(5.0), _mm_add_ps(max_x, max_z));
+        let delta_y = _mm_mul_ps(g(5.0), _mm_add_ps(max_y, max_z));
+        let ainv = abs(inv);
+        let delta_e = _mm_mul_ps(
+            _mm_set1_ps(2.0),
+            _mm_add_ps(
+                _mm_add_ps(
+                    _mm_mul_ps(_mm_mul_ps(g(2.0), max_x), max_y),
+                    _mm_mul_ps(delta_y, max_x),
+                ),
+                _mm_mul_ps(delta_x, max_y),
+            ),
+        );
+        let e = _mm_mul_ps(max3(u, v, w), ainv);
+        _mm_mul_ps(
+            _mm_set1_ps(3.0),
+            _mm_add_ps(
+                _mm_add_ps(
+                    _mm_mul_ps(_mm_mul_ps(g(3.0), max_z), e),
+                    _mm_mul_ps(_mm_mul_ps(delta_e, ainv), max_z),
+                ),
+                _mm_mul_ps(delta_z, e),
+            ),
+        )
+    }
+}
+
+/// [`super::Watertight::intersect`] on four lanes.
+#[inline(always)]
+pub(super) unsafe fn watertight4(p: &WatertightPre, ray: &Ray, b: &Tri4, tmax: f32) -> Lanes4 {
+    // SAFETY: aligned loads of the block's rows; SSE/SSE2 only.
+    unsafe {
+        let ([ax, bx, cx], [ay, by, cy], [az, bz, cz]) = sheared4(p, ray, b);
+        let sz = _mm_set1_ps(p.sz);
+        let u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
+        let v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
+        let w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
+        let zero = _mm_setzero_ps();
         // Lanes whose edge functions disagree in sign miss (the scalar test's first
         // rejection); most triangles a ray reaches are such misses, so a block without any
         // other lane ends here (as Embree's tests end when no lane is left).
-        let mixed = _mm_and_ps(neg, pos);
+        let (zero_edge, mixed) = edge_signs(u, v, w);
         let miss = _mm_andnot_ps(zero_edge, mixed);
         if _mm_movemask_ps(miss) == 0b1111 {
             return Lanes4::NONE;
@@ -110,34 +179,7 @@ pub(super) unsafe fn watertight4(p: &WatertightPre, ray: &Ray, b: &Tri4, tmax: f
         let t = _mm_mul_ps(tt, inv);
         let out2 = _mm_or_ps(_mm_cmplt_ps(t, tmin_v), _mm_cmpge_ps(t, tmax_v));
         // The error bound of `t` (`super::t_error_bound`, operation by operation).
-        let max3 = |a: __m128, b: __m128, c: __m128| _mm_max_ps(_mm_max_ps(abs(a), abs(b)), abs(c));
-        let (max_x, max_y, max_z) = (max3(ax, bx, cx), max3(ay, by, cy), max3(azs, bzs, czs));
-        let g = |n: f32| _mm_set1_ps(super::gamma(n));
-        let delta_z = _mm_mul_ps(g(3.0), max_z);
-        let delta_x = _mm_mul_ps(g(5.0), _mm_add_ps(max_x, max_z));
-        let delta_y = _mm_mul_ps(g(5.0), _mm_add_ps(max_y, max_z));
-        let ainv = abs(inv);
-        let delta_e = _mm_mul_ps(
-            _mm_set1_ps(2.0),
-            _mm_add_ps(
-                _mm_add_ps(
-                    _mm_mul_ps(_mm_mul_ps(g(2.0), max_x), max_y),
-                    _mm_mul_ps(delta_y, max_x),
-                ),
-                _mm_mul_ps(delta_x, max_y),
-            ),
-        );
-        let e = _mm_mul_ps(max3(u, v, w), ainv);
-        let bound = _mm_mul_ps(
-            _mm_set1_ps(3.0),
-            _mm_add_ps(
-                _mm_add_ps(
-                    _mm_mul_ps(_mm_mul_ps(g(3.0), max_z), e),
-                    _mm_mul_ps(_mm_mul_ps(delta_e, ainv), max_z),
-                ),
-                _mm_mul_ps(delta_z, e),
-            ),
-        );
+        let bound = t_error_bound4([ax, bx, cx], [ay, by, cy], [azs, bzs, czs], [u, v, w], inv);
         let behind = _mm_cmple_ps(t, bound);
         // Lanes the scalar test finishes in f64 (`Sheared::in_f64`): a determinant out of
         // the f32 range, a non-finite distance or bound (among lanes with consistent signs).

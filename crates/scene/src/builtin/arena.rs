@@ -57,11 +57,6 @@ pub(super) fn arena(params: &Params) -> Result<Scene, SceneError> {
     )?;
 
     let mut tris = Vec::with_capacity(count as usize);
-    // The ellipse of tier `k` (its front edge), at angle `a`.
-    let ring = |k: f32, a: f32, y: f32| {
-        let (sn, cs) = a.sin_cos();
-        Vec3::new((PITCH.0 + k * TIER.0) * cs, y, (PITCH.1 + k * TIER.0) * sn)
-    };
     let (pa, pb) = (PITCH.0, PITCH.1);
     quad(
         &mut tris,
@@ -70,6 +65,31 @@ pub(super) fn arena(params: &Params) -> Result<Scene, SceneError> {
         Vec3::new(pa, 0.0, pb),
         Vec3::new(pa, 0.0, -pb),
     );
+    stands(&mut tris, rows, seats);
+    let top = rows as f32 * TIER.1 + 6.0;
+    roof_trusses(&mut tris, rows, roof, top);
+    debug_assert_eq!(tris.len() as u64, count);
+    // In the stands, a third of the way up, looking along the rows and across the bowl.
+    let k = rows as f32 / 3.0;
+    let eye = ring(k + 0.4, 0.3, k * TIER.1 + 1.6);
+    let target = ring(k - 2.0, 1.2, k * TIER.1 - 2.0);
+    let light = Vec3::new(0.0, top + 40.0, 0.0);
+    Ok(scene(
+        "arena",
+        tris,
+        camera(eye, target, Vec3::Y, 60.0),
+        Some(light),
+    ))
+}
+
+/// The ellipse of tier `k` (its front edge), at angle `a`, at height `y`.
+fn ring(k: f32, a: f32, y: f32) -> Vec3 {
+    let (sn, cs) = a.sin_cos();
+    Vec3::new((PITCH.0 + k * TIER.0) * cs, y, (PITCH.1 + k * TIER.0) * sn)
+}
+
+/// The stands: `rows` tiers of `seats` steps (riser and tread), a seat on every step.
+fn stands(tris: &mut Vec<Triangle>, rows: u32, seats: u32) {
     let step = std::f32::consts::TAU / seats as f32;
     for k in 0..rows {
         let (kf, y0, y1) = (k as f32, k as f32 * TIER.1, (k + 1) as f32 * TIER.1);
@@ -77,64 +97,41 @@ pub(super) fn arena(params: &Params) -> Result<Scene, SceneError> {
             let (a0, a1) = (j as f32 * step, ((j + 1) % seats) as f32 * step);
             // Riser (front of the tier) and tread.
             quad(
-                &mut tris,
+                tris,
                 ring(kf, a0, y0),
                 ring(kf, a1, y0),
                 ring(kf, a1, y1),
                 ring(kf, a0, y1),
             );
             quad(
-                &mut tris,
+                tris,
                 ring(kf, a0, y1),
                 ring(kf, a1, y1),
                 ring(kf + 1.0, a1, y1),
                 ring(kf + 1.0, a0, y1),
             );
-            // The seat: 80 % of the step's width, pan 0.45 m up and 0.4 deep, backrest behind.
-            let (s0, s1) = (a0 + 0.1 * step, a0 + 0.9 * step);
-            let (yp, yb) = (y1 + 0.45, y1 + 0.95);
-            let (f, m, b) = (kf + 0.15, kf + 0.65, kf + 0.75);
-            let p = |d: f32, a: f32, y: f32| ring(d, a, y);
-            quad(
-                &mut tris,
-                p(f, s0, yp),
-                p(f, s1, yp),
-                p(m, s1, yp),
-                p(m, s0, yp),
-            );
-            quad(
-                &mut tris,
-                p(f, s0, y1),
-                p(f, s1, y1),
-                p(f, s1, yp),
-                p(f, s0, yp),
-            );
-            quad(
-                &mut tris,
-                p(m, s0, yp),
-                p(m, s1, yp),
-                p(m, s1, yb),
-                p(m, s0, yb),
-            );
-            quad(
-                &mut tris,
-                p(b, s0, y1),
-                p(b, s1, y1),
-                p(b, s1, yb),
-                p(b, s0, yb),
-            );
-            quad(
-                &mut tris,
-                p(m, s0, yb),
-                p(m, s1, yb),
-                p(b, s1, yb),
-                p(b, s0, yb),
-            );
+            seat(tris, kf, a0, step, y1);
         }
     }
-    // Roof: trusses from the top of the stands inward over the stands, rising, with braces
-    // and a panel between each truss and the next.
-    let top = rows as f32 * TIER.1 + 6.0;
+}
+
+/// The seat on the step of tier `kf` from angle `a0` (`step` wide) whose tread is at height
+/// `y1`: 80 % of the step's width, pan 0.45 m up and 0.4 deep, backrest behind (5 quads).
+fn seat(tris: &mut Vec<Triangle>, kf: f32, a0: f32, step: f32, y1: f32) {
+    let (s0, s1) = (a0 + 0.1 * step, a0 + 0.9 * step);
+    let (yp, yb) = (y1 + 0.45, y1 + 0.95);
+    let (f, m, b) = (kf + 0.15, kf + 0.65, kf + 0.75);
+    let p = |d: f32, a: f32, y: f32| ring(d, a, y);
+    quad(tris, p(f, s0, yp), p(f, s1, yp), p(m, s1, yp), p(m, s0, yp));
+    quad(tris, p(f, s0, y1), p(f, s1, y1), p(f, s1, yp), p(f, s0, yp));
+    quad(tris, p(m, s0, yp), p(m, s1, yp), p(m, s1, yb), p(m, s0, yb));
+    quad(tris, p(b, s0, y1), p(b, s1, y1), p(b, s1, yb), p(b, s0, yb));
+    quad(tris, p(m, s0, yb), p(m, s1, yb), p(b, s1, yb), p(b, s0, yb));
+}
+
+/// Roof: `roof` trusses from the top of the stands (height `top`) inward over the stands,
+/// rising, with braces and a panel between each truss and the next.
+fn roof_trusses(tris: &mut Vec<Triangle>, rows: u32, roof: u32, top: f32) {
     let (outer, inner) = (rows as f32 + 1.0, -0.3 * rows as f32);
     let rstep = std::f32::consts::TAU / roof as f32;
     for i in 0..roof {
@@ -159,10 +156,10 @@ pub(super) fn arena(params: &Params) -> Result<Scene, SceneError> {
                     ring(d1, a - w, y1 + dy + h),
                 ]
             };
-            block(&mut tris, beam(0.6, 0.0));
-            block(&mut tris, beam(0.3, -1.5));
+            block(tris, beam(0.6, 0.0));
+            block(tris, beam(0.3, -1.5));
             quad(
-                &mut tris,
+                tris,
                 ring(d0, a, y0 + 0.7),
                 ring(d0, an, y0 + 0.7),
                 ring(d1, an, y1 + 0.7),
@@ -170,16 +167,4 @@ pub(super) fn arena(params: &Params) -> Result<Scene, SceneError> {
             );
         }
     }
-    debug_assert_eq!(tris.len() as u64, count);
-    // In the stands, a third of the way up, looking along the rows and across the bowl.
-    let k = rows as f32 / 3.0;
-    let eye = ring(k + 0.4, 0.3, k * TIER.1 + 1.6);
-    let target = ring(k - 2.0, 1.2, k * TIER.1 - 2.0);
-    let light = Vec3::new(0.0, top + 40.0, 0.0);
-    Ok(scene(
-        "arena",
-        tris,
-        camera(eye, target, Vec3::Y, 60.0),
-        Some(light),
-    ))
 }

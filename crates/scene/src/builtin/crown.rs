@@ -54,6 +54,57 @@ pub(super) fn crown(params: &Params) -> Result<Scene, SceneError> {
         count,
         &format!("crown: 16384*{tess}^2 + 512*{tess} + 20*4^{gem_tess}*({gems} + {points})"),
     )?;
+    let mut tris = band(tess, points);
+    // Gems: half set into the outer surface, in rows; one on each tooth tip.
+    let unit = unit_icosphere(gem_tess);
+    let centres = gem_centres(gems, points);
+    let gem_tris: Vec<Triangle> = centres
+        .par_iter()
+        .flat_map_iter(|&(c, r)| {
+            unit.iter()
+                .map(move |[a, b, d]| tri(c + r * *a, c + r * *b, c + r * *d))
+        })
+        .collect();
+    tris.extend(gem_tris);
+    debug_assert_eq!(tris.len() as u64, count);
+    let cam = camera(
+        Vec3::new(0.0, 1.5, 2.7),
+        Vec3::new(0.0, 0.3, 0.0),
+        Vec3::Y,
+        45.0,
+    );
+    Ok(scene("crown", tris, cam, Some(Vec3::new(2.0, 4.0, 3.0))))
+}
+
+fn tri(a: DVec3, b: DVec3, c: DVec3) -> Triangle {
+    Triangle::new(a.as_vec3(), b.as_vec3(), c.as_vec3())
+}
+
+/// The gems' centres and radii: `gems` half set into the outer surface in [`GEM_ROWS`], then
+/// one on each of the `points` tooth tips.
+fn gem_centres(gems: u32, points: u32) -> Vec<(DVec3, f64)> {
+    let mut centres: Vec<(DVec3, f64)> = Vec::new();
+    let per_row = (gems as usize).div_ceil(GEM_ROWS.len());
+    for g in 0..gems as usize {
+        let (row, n) = (g / per_row, g % per_row);
+        let u = TAU * (n as f64 + 0.5 * row as f64) / per_row as f64;
+        let y = GEM_ROWS[row] * HEIGHT;
+        centres.push((DVec3::new(RADIUS * u.cos(), y, RADIUS * u.sin()), GEM));
+    }
+    for p in 0..points as usize {
+        let u = TAU * (p as f64 + 0.5) / points as f64;
+        let r = RADIUS - 0.5 * THICK;
+        centres.push((
+            DVec3::new(r * u.cos(), HEIGHT + TOOTH + 0.6 * GEM, r * u.sin()),
+            1.2 * GEM,
+        ));
+    }
+    centres
+}
+
+/// The band: `128·tess x 32·tess` quads per surface (outer with relief, inner plain) under
+/// the top edge with `points` teeth, then the rim strips joining them (bottom, top).
+fn band(tess: u32, points: u32) -> Vec<Triangle> {
     let (nu, nv) = (128 * tess as usize, 32 * tess as usize);
     // Height of the top edge at angle u: the band plus a tooth (a pointed arch).
     let top = |u: f64| {
@@ -102,42 +153,5 @@ pub(super) fn crown(params: &Params) -> Result<Scene, SceneError> {
             tris.extend([tri(a, b, c), tri(a, c, d)]);
         }
     }
-    // Gems: half set into the outer surface, in rows; one on each tooth tip.
-    let unit = unit_icosphere(gem_tess);
-    let mut centres: Vec<(DVec3, f64)> = Vec::new();
-    let per_row = (gems as usize).div_ceil(GEM_ROWS.len());
-    for g in 0..gems as usize {
-        let (row, n) = (g / per_row, g % per_row);
-        let u = TAU * (n as f64 + 0.5 * row as f64) / per_row as f64;
-        let y = GEM_ROWS[row] * HEIGHT;
-        centres.push((DVec3::new(RADIUS * u.cos(), y, RADIUS * u.sin()), GEM));
-    }
-    for p in 0..points as usize {
-        let u = TAU * (p as f64 + 0.5) / points as f64;
-        let r = RADIUS - 0.5 * THICK;
-        centres.push((
-            DVec3::new(r * u.cos(), HEIGHT + TOOTH + 0.6 * GEM, r * u.sin()),
-            1.2 * GEM,
-        ));
-    }
-    let gem_tris: Vec<Triangle> = centres
-        .par_iter()
-        .flat_map_iter(|&(c, r)| {
-            unit.iter()
-                .map(move |[a, b, d]| tri(c + r * *a, c + r * *b, c + r * *d))
-        })
-        .collect();
-    tris.extend(gem_tris);
-    debug_assert_eq!(tris.len() as u64, count);
-    let cam = camera(
-        Vec3::new(0.0, 1.5, 2.7),
-        Vec3::new(0.0, 0.3, 0.0),
-        Vec3::Y,
-        45.0,
-    );
-    Ok(scene("crown", tris, cam, Some(Vec3::new(2.0, 4.0, 3.0))))
-}
-
-fn tri(a: DVec3, b: DVec3, c: DVec3) -> Triangle {
-    Triangle::new(a.as_vec3(), b.as_vec3(), c.as_vec3())
+    tris
 }

@@ -319,24 +319,13 @@ pub(super) fn check_accessor(
     Ok(())
 }
 
+/// The triangles of a glTF document (`bytes`; external buffers relative to `base`): every
+/// mesh reached from the default scene (or the first), in world coordinates, depth first.
 pub(super) fn gltf_triangles_inner(
     base: Option<&Path>,
     bytes: &[u8],
 ) -> Result<Vec<Triangle>, String> {
-    use gltf::accessor::{DataType, Dimensions};
-    use gltf::mesh::Mode;
-
-    check_glb_header(bytes)?;
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes)
-        .map_err(|e| format!("invalid glTF: {e}"))?;
-    let root = document.into_json();
-    check_references(&root)?;
-    // (Its message lists every problem, each ending in `;`.)
-    let document = gltf::Document::from_json(root)
-        .map_err(|e| e.to_string().trim_end_matches(';').to_string())?;
-    check_buffer_uris(&document, base)?;
-    let buffers = gltf::import_buffers(&document, base, blob)
-        .map_err(|e| format!("invalid glTF: cannot load buffers: {e}"))?;
+    let (document, buffers) = gltf_document(base, bytes)?;
     let scene = document
         .default_scene()
         .or_else(|| document.scenes().next())
@@ -371,123 +360,181 @@ pub(super) fn gltf_triangles_inner(
         };
         for (pi, prim) in mesh.primitives().enumerate() {
             let what = format!("{mesh_name} primitive {pi}");
-            let mode = prim.mode();
-            if !matches!(
-                mode,
-                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
-            ) {
-                return Err(format!(
-                    "{what}: mode {mode:?} is not supported (only Triangles, TriangleStrip, TriangleFan)"
-                ));
-            }
-            let acc = prim
-                .get(&gltf::Semantic::Positions)
-                .ok_or_else(|| format!("{what}: no POSITION attribute"))?;
-            if acc.data_type() != DataType::F32 || acc.dimensions() != Dimensions::Vec3 {
-                return Err(format!(
-                    "{what}: POSITION must be float VEC3, is {:?} {:?}",
-                    acc.data_type(),
-                    acc.dimensions()
-                ));
-            }
-            if acc.count() == 0 {
-                continue;
-            }
-            check_accessor(&acc, &buffers, 12).map_err(|e| format!("{what}: POSITION {e}"))?;
-            let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-            let positions: Vec<Vec3> = reader
-                .read_positions()
-                .ok_or_else(|| format!("{what}: POSITION data lies outside its buffer"))?
-                .map(|p| world.transform_point3(Vec3::from(p)))
-                .collect();
-            if positions.len() != acc.count() {
-                return Err(format!(
-                    "{what}: POSITION has {} of {} elements in its buffer",
-                    positions.len(),
-                    acc.count()
-                ));
-            }
-            if let Some(bad) = positions.iter().position(|p| !p.is_finite()) {
-                return Err(format!(
-                    "{what}: vertex {bad} is not finite (after the node transform)"
-                ));
-            }
-            let indices: Vec<u32> = match prim.indices() {
-                None => (0..positions.len() as u32).collect(),
-                Some(iacc) => {
-                    if !matches!(
-                        iacc.data_type(),
-                        DataType::U8 | DataType::U16 | DataType::U32
-                    ) || iacc.dimensions() != Dimensions::Scalar
-                    {
-                        return Err(format!(
-                            "{what}: indices must be unsigned integer scalars, are {:?} {:?}",
-                            iacc.data_type(),
-                            iacc.dimensions()
-                        ));
-                    }
-                    if iacc.count() == 0 {
-                        Vec::new()
-                    } else {
-                        check_accessor(&iacc, &buffers, iacc.size())
-                            .map_err(|e| format!("{what}: indices {e}"))?;
-                        let v: Vec<u32> = reader
-                            .read_indices()
-                            .ok_or_else(|| format!("{what}: index data lies outside its buffer"))?
-                            .into_u32()
-                            .collect();
-                        if v.len() != iacc.count() {
-                            return Err(format!(
-                                "{what}: indices have {} of {} elements in their buffer",
-                                v.len(),
-                                iacc.count()
-                            ));
-                        }
-                        v
-                    }
-                }
-            };
-            if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
-                return Err(format!(
-                    "{what}: index {bad} out of range ({} vertices)",
-                    positions.len()
-                ));
-            }
-            let p = |i: u32| positions[i as usize];
-            match mode {
-                Mode::Triangles => {
-                    let faces = indices.chunks_exact(3);
-                    if !faces.remainder().is_empty() {
-                        return Err(format!(
-                            "{what}: {} vertices/indices is not a multiple of 3",
-                            indices.len()
-                        ));
-                    }
-                    tris.extend(faces.map(|f| Triangle::new(p(f[0]), p(f[1]), p(f[2]))));
-                }
-                Mode::TriangleStrip => {
-                    for k in 0..indices.len().saturating_sub(2) {
-                        let (a, b, c) = (indices[k], indices[k + 1], indices[k + 2]);
-                        // Every other triangle is flipped to keep a consistent winding.
-                        tris.push(if k & 1 == 0 {
-                            Triangle::new(p(a), p(b), p(c))
-                        } else {
-                            Triangle::new(p(b), p(a), p(c))
-                        });
-                    }
-                }
-                _ => {
-                    // TriangleFan
-                    for k in 1..indices.len().saturating_sub(1) {
-                        tris.push(Triangle::new(
-                            p(indices[0]),
-                            p(indices[k]),
-                            p(indices[k + 1]),
-                        ));
-                    }
-                }
-            }
+            primitive_triangles(&prim, &what, world, &buffers, &mut tris)?;
         }
     }
     Ok(tris)
+}
+
+/// Parse and check the document (header, references, validation, buffer URIs) and load its
+/// buffers.
+fn gltf_document(
+    base: Option<&Path>,
+    bytes: &[u8],
+) -> Result<(gltf::Document, Vec<gltf::buffer::Data>), String> {
+    check_glb_header(bytes)?;
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| format!("invalid glTF: {e}"))?;
+    let root = document.into_json();
+    check_references(&root)?;
+    // (Its message lists every problem, each ending in `;`.)
+    let document = gltf::Document::from_json(root)
+        .map_err(|e| e.to_string().trim_end_matches(';').to_string())?;
+    check_buffer_uris(&document, base)?;
+    let buffers = gltf::import_buffers(&document, base, blob)
+        .map_err(|e| format!("invalid glTF: cannot load buffers: {e}"))?;
+    Ok((document, buffers))
+}
+
+/// Append the triangles of primitive `prim` (named `what` in errors), its positions moved by
+/// `world`.
+fn primitive_triangles(
+    prim: &gltf::Primitive,
+    what: &str,
+    world: glam::Mat4,
+    buffers: &[gltf::buffer::Data],
+    tris: &mut Vec<Triangle>,
+) -> Result<(), String> {
+    use gltf::mesh::Mode;
+    let mode = prim.mode();
+    if !matches!(
+        mode,
+        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+    ) {
+        return Err(format!(
+            "{what}: mode {mode:?} is not supported (only Triangles, TriangleStrip, TriangleFan)"
+        ));
+    }
+    let Some(positions) = primitive_positions(prim, what, world, buffers)? else {
+        return Ok(());
+    };
+    let indices = primitive_indices(prim, what, positions.len(), buffers)?;
+    if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+        return Err(format!(
+            "{what}: index {bad} out of range ({} vertices)",
+            positions.len()
+        ));
+    }
+    let p = |i: u32| positions[i as usize];
+    match mode {
+        Mode::Triangles => {
+            let faces = indices.chunks_exact(3);
+            if !faces.remainder().is_empty() {
+                return Err(format!(
+                    "{what}: {} vertices/indices is not a multiple of 3",
+                    indices.len()
+                ));
+            }
+            tris.extend(faces.map(|f| Triangle::new(p(f[0]), p(f[1]), p(f[2]))));
+        }
+        Mode::TriangleStrip => {
+            for k in 0..indices.len().saturating_sub(2) {
+                let (a, b, c) = (indices[k], indices[k + 1], indices[k + 2]);
+                // Every other triangle is flipped to keep a consistent winding.
+                tris.push(if k & 1 == 0 {
+                    Triangle::new(p(a), p(b), p(c))
+                } else {
+                    Triangle::new(p(b), p(a), p(c))
+                });
+            }
+        }
+        _ => {
+            // TriangleFan
+            for k in 1..indices.len().saturating_sub(1) {
+                tris.push(Triangle::new(
+                    p(indices[0]),
+                    p(indices[k]),
+                    p(indices[k + 1]),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The primitive's POSITION data moved by `world`, checked (float VEC3, inside its buffer,
+/// finite); `None` when it has no elements.
+fn primitive_positions(
+    prim: &gltf::Primitive,
+    what: &str,
+    world: glam::Mat4,
+    buffers: &[gltf::buffer::Data],
+) -> Result<Option<Vec<Vec3>>, String> {
+    use gltf::accessor::{DataType, Dimensions};
+    let acc = prim
+        .get(&gltf::Semantic::Positions)
+        .ok_or_else(|| format!("{what}: no POSITION attribute"))?;
+    if acc.data_type() != DataType::F32 || acc.dimensions() != Dimensions::Vec3 {
+        return Err(format!(
+            "{what}: POSITION must be float VEC3, is {:?} {:?}",
+            acc.data_type(),
+            acc.dimensions()
+        ));
+    }
+    if acc.count() == 0 {
+        return Ok(None);
+    }
+    check_accessor(&acc, buffers, 12).map_err(|e| format!("{what}: POSITION {e}"))?;
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+    let positions: Vec<Vec3> = reader
+        .read_positions()
+        .ok_or_else(|| format!("{what}: POSITION data lies outside its buffer"))?
+        .map(|p| world.transform_point3(Vec3::from(p)))
+        .collect();
+    if positions.len() != acc.count() {
+        return Err(format!(
+            "{what}: POSITION has {} of {} elements in its buffer",
+            positions.len(),
+            acc.count()
+        ));
+    }
+    if let Some(bad) = positions.iter().position(|p| !p.is_finite()) {
+        return Err(format!(
+            "{what}: vertex {bad} is not finite (after the node transform)"
+        ));
+    }
+    Ok(Some(positions))
+}
+
+/// The primitive's indices, checked (unsigned integer scalars inside their buffer), or
+/// `0..vertices` when it has none.
+fn primitive_indices(
+    prim: &gltf::Primitive,
+    what: &str,
+    vertices: usize,
+    buffers: &[gltf::buffer::Data],
+) -> Result<Vec<u32>, String> {
+    use gltf::accessor::{DataType, Dimensions};
+    let Some(iacc) = prim.indices() else {
+        return Ok((0..vertices as u32).collect());
+    };
+    if !matches!(
+        iacc.data_type(),
+        DataType::U8 | DataType::U16 | DataType::U32
+    ) || iacc.dimensions() != Dimensions::Scalar
+    {
+        return Err(format!(
+            "{what}: indices must be unsigned integer scalars, are {:?} {:?}",
+            iacc.data_type(),
+            iacc.dimensions()
+        ));
+    }
+    if iacc.count() == 0 {
+        return Ok(Vec::new());
+    }
+    check_accessor(&iacc, buffers, iacc.size()).map_err(|e| format!("{what}: indices {e}"))?;
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+    let v: Vec<u32> = reader
+        .read_indices()
+        .ok_or_else(|| format!("{what}: index data lies outside its buffer"))?
+        .into_u32()
+        .collect();
+    if v.len() != iacc.count() {
+        return Err(format!(
+            "{what}: indices have {} of {} elements in their buffer",
+            v.len(),
+            iacc.count()
+        ));
+    }
+    Ok(v)
 }

@@ -5,7 +5,8 @@ use super::common::{axis_dir, in_box, in_plane_dir, rng, view_from, Generated};
 use super::mesh::{grid_box, quad_grid, Mesh};
 use crate::procedural::BuiltinInfo;
 use rand::Rng;
-use tb_core::{Aabb, Ray, Vec3};
+use rand_pcg::Pcg64;
+use tb_core::{Aabb, Ray, Triangle, Vec3};
 
 /// The listing entry of `builtin:stress/axis-planes`.
 pub(super) const INFO: BuiltinInfo = BuiltinInfo {
@@ -39,17 +40,24 @@ pub(super) fn generate(seed: u64) -> Generated {
     let tris = m.tris();
     let (lo, hi) = (Vec3::splat(-1.0), Vec3::splat(9.0));
     let mut rays = Vec::new();
+    wall_rays(&mut r, &walls, (lo, hi), &mut rays);
+    split_plane_rays(&mut r, &tris, (lo, hi), &mut rays);
+    box_rays(&boxes, &mut rays);
+    (tris, rays, view_from(Vec3::new(-0.6, 0.45, 1.0)))
+}
 
-    // 1. Rays lying exactly in the wall planes (origin on the plane, that component of the
-    //    direction ±0), and exact axis-parallel rays through the walls' grid vertices.
-    for &(a, c) in &walls {
+/// Rays lying exactly in the wall planes (origin on the plane, that component of the
+/// direction ±0), and exact axis-parallel rays through the walls' grid vertices; origins in
+/// the box `lo..hi`.
+fn wall_rays(r: &mut Pcg64, walls: &[(usize, f32)], (lo, hi): (Vec3, Vec3), rays: &mut Vec<Ray>) {
+    for &(a, c) in walls {
         for k in 0..24 {
-            let mut o = in_box(&mut r, lo, hi);
+            let mut o = in_box(r, lo, hi);
             o[a] = c;
             let d = if k < 4 {
                 axis_dir((a + 1 + k % 2) % 3, if k < 2 { 1.0 } else { -1.0 })
             } else {
-                in_plane_dir(&mut r, a)
+                in_plane_dir(r, a)
             };
             rays.push(Ray::new(o, d));
         }
@@ -63,9 +71,12 @@ pub(super) fn generate(seed: u64) -> Generated {
             rays.push(Ray::new(o, axis_dir(a, s)));
         }
     }
+}
 
-    // 2. Future split planes: every distinct vertex coordinate (where SAH builders split), the
-    //    centre (spatial median) and bin boundaries of 8, 16 and 32 bins (binned builders).
+/// Future split planes: every distinct vertex coordinate (where SAH builders split), the
+/// centre (spatial median) and bin boundaries of 8, 16 and 32 bins (binned builders); rays
+/// lying in them from origins in the box `lo..hi`.
+fn split_plane_rays(r: &mut Pcg64, tris: &[Triangle], (lo, hi): (Vec3, Vec3), rays: &mut Vec<Ray>) {
     let bounds = tris.iter().fold(Aabb::EMPTY, |b, t| b.union(&t.bounds()));
     for a in 0..3 {
         let mut planes: Vec<f32> = tris
@@ -81,15 +92,17 @@ pub(super) fn generate(seed: u64) -> Generated {
         planes.dedup();
         for c in planes {
             for _ in 0..3 {
-                let mut o = in_box(&mut r, lo, hi);
+                let mut o = in_box(r, lo, hi);
                 o[a] = c;
-                rays.push(Ray::new(o, in_plane_dir(&mut r, a)));
+                rays.push(Ray::new(o, in_plane_dir(r, a)));
             }
         }
     }
+}
 
-    // 3. Axis-parallel rays through box edges and corners.
-    for &(blo, bhi) in &boxes {
+/// Axis-parallel rays through box edges and corners.
+fn box_rays(boxes: &[(Vec3, Vec3)], rays: &mut Vec<Ray>) {
+    for &(blo, bhi) in boxes {
         let corner = |bits: u32| {
             Vec3::new(
                 if bits & 1 == 0 { blo.x } else { bhi.x },
@@ -125,5 +138,4 @@ pub(super) fn generate(seed: u64) -> Generated {
             rays.push(Ray::new(p + 2.0 * s, -s));
         }
     }
-    (tris, rays, view_from(Vec3::new(-0.6, 0.45, 1.0)))
 }
