@@ -43,28 +43,27 @@ impl Best {
     }
 }
 
-/// Test the triangles `first .. first + count` of the leaf-ordered `tris`: `prims` counted per
+/// Test the triangles `leaf` (a range of slots) of the leaf-ordered `tris`: `prims` counted per
 /// leaf for the closest hit (kept in `best`), per test for any hit, whose first hit is returned
 /// (the walk ends). The caller counts the leaf (and its step) as its walk does.
 ///
 /// # Safety
 ///
-/// `first + count <= tris.len()`, and `prim_ids` has an entry for every slot of `tris`: the
+/// `leaf.end <= tris.len()`, and `prim_ids` has an entry for every slot of `tris`: the
 /// structures' builders make such leaves and their `validate` checks them.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)] // a hot helper of the walks: the leaf, the ray, the record
 pub unsafe fn test_range<T: TriTest, C: Counter, const ANY: bool>(
     tris: &[Triangle],
     prim_ids: &[u32],
-    first: usize,
-    count: u32,
+    leaf: std::ops::Range<usize>,
     pre: &T::Pre,
     ray: &Ray,
     best: &mut Best,
     c: &mut C,
 ) -> Option<HitRecord> {
     // SAFETY: the caller's contract.
-    let leaf = unsafe { tris.get_unchecked(first..first + count as usize) };
+    let (first, count) = (leaf.start, leaf.len() as u32);
+    let leaf = unsafe { tris.get_unchecked(leaf) };
     if ANY {
         for (k, tri) in leaf.iter().enumerate() {
             c.prims(1);

@@ -31,8 +31,10 @@ fn leaf<T: TriTest, C: Counter, const ANY: bool>(
         test_range::<T, C, ANY>(
             tris,
             ids,
-            node.index as usize,
-            node.count,
+            {
+                let first = node.index as usize;
+                first..first + node.count as usize
+            },
             pre,
             ray,
             best,

@@ -93,8 +93,10 @@ impl NodeGroups<'_> {
                     test_range::<T, C, ANY>(
                         &cw.triangles,
                         &cw.prim_ids,
-                        (node.tri_base + k) as usize,
-                        1,
+                        {
+                            let first = (node.tri_base + k) as usize;
+                            first..first + 1
+                        },
                         &pre,
                         ray,
                         &mut best,
