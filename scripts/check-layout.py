@@ -44,7 +44,6 @@ LONG = {
 ALLOW_ARGS = {
     "crates/grid/src/common.rs": 4,
     "crates/grid/src/irregular/build.rs": 1,
-    "crates/kdtree/src/traverse/mod.rs": 1,
 }
 # Rule 6: what a crate may not depend on.
 STRUCTURE_PACKAGES = ["tb-bvh", "tb-kdtree", "tb-multikd", "tb-sparse", "tb-rtree", "tb-grid", "tb-peers"]

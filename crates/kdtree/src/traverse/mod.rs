@@ -313,7 +313,7 @@ pub struct Decision {
 /// [`split_decision`] for the ray of `s` at interior node `n` (index `idx`) over `[tn, tf]`.
 #[inline(always)]
 pub fn decide<L: Layout>(l: L, n: KdNode, idx: usize, s: &Setup, tn: f32, tf: f32) -> Decision {
-    split_decision(l, n, idx, &s.org, &s.inv, &s.neg, tn, tf)
+    split_decision(l, n, idx, s, tn, tf)
 }
 
 /// [`Decision`] at interior node `n` (index `idx`, children by layout `l`) for a ray with
@@ -328,18 +328,15 @@ pub fn decide<L: Layout>(l: L, n: KdNode, idx: usize, s: &Setup, tn: f32, tf: f3
 /// rays (predicted: the next node's load issues early) 20-28 % faster and random rays 5-9 %
 /// slower, so the time column compared code generation rather than algorithms.
 #[inline(always)]
-// Over clippy's seven: the interior step's scalars, inlined into every kd kernel: a struct would be one more thing between the compiler and its registers.
-#[allow(clippy::too_many_arguments)]
 pub fn split_decision<L: Layout>(
     l: L,
     n: KdNode,
     idx: usize,
-    org: &[f32; 3],
-    inv: &[f32; 3],
-    neg: &[bool; 3],
+    s: &Setup,
     tn: f32,
     tf: f32,
 ) -> Decision {
+    let (org, inv, neg) = (&s.org, &s.inv, &s.neg);
     let a = n.axis();
     let t = (n.split() - org[a]) * inv[a];
     let (left, right) = l.children(idx, n);

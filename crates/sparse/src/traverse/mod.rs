@@ -162,7 +162,7 @@ struct Ctx<'a> {
 /// `recursive-direction`), children in the depth-first layout.
 #[inline(always)]
 fn decide(n: KdNode, idx: usize, s: &Setup, tn: f32, tf: f32) -> Decision {
-    split_decision(DepthFirst, n, idx, &s.org, &s.inv, &s.neg, tn, tf)
+    split_decision(DepthFirst, n, idx, s, tn, tf)
 }
 
 impl<'a> Ctx<'a> {
