@@ -157,6 +157,55 @@ pub enum Exit {
     Face(usize, f32),
 }
 
+/// The exit faces of a cell `min..max` inside the start cell `root`, for the ray of `s`: per
+/// axis the distance of the far plane (infinite where it is a start-cell face), the nearest of
+/// them and its axis (3: none, the ray leaves the start cell). Shared by the point walks here
+/// and sparse boxes' SLTR, which end a walk by other rules.
+#[derive(Clone, Copy, Debug)]
+pub struct ExitFaces {
+    /// Per axis, the far plane's distance (infinite for a start-cell face).
+    pub ts: [f32; 3],
+    /// The nearest far plane's distance.
+    pub tf: f32,
+    /// The nearest far plane's axis (3: none).
+    pub face: usize,
+}
+
+impl ExitFaces {
+    /// The exit faces of `min..max` (see the type).
+    #[inline(always)]
+    pub fn of(s: &Setup, root: &tb_core::Aabb, min: &[f32; 3], max: &[f32; 3]) -> Self {
+        let mut x = ExitFaces {
+            ts: [f32::INFINITY; 3],
+            tf: f32::INFINITY,
+            face: 3,
+        };
+        for a in 0..3 {
+            let (far, r) = if s.neg[a] {
+                (min[a], root.min[a])
+            } else {
+                (max[a], root.max[a])
+            };
+            if far != r {
+                let t = (far - s.org[a]) * s.inv[a];
+                x.ts[a] = t;
+                if t < x.tf {
+                    x.tf = t;
+                    x.face = a;
+                }
+            }
+        }
+        x
+    }
+
+    /// Another far plane within rounding of the nearest (a ray through a cell edge or corner).
+    #[inline(always)]
+    pub fn tied(&self) -> bool {
+        let reach = self.tf + (SLACK - 1.0) * self.tf.abs();
+        (0..3).any(|a| a != self.face && self.ts[a] <= reach)
+    }
+}
+
 /// One pass of a `sequential` or `ropes` walk (see the module doc).
 pub(super) struct PointWalk<'t, 'a, L> {
     w: &'t Tree<'a, L>,
@@ -274,28 +323,12 @@ impl<L: Layout> PointWalk<'_, '_, L> {
     ) -> Exit {
         let (s, r) = (self.s, &self.w.from.cell);
         c.boxes(1);
-        let mut ts = [f32::INFINITY; 3];
-        let (mut tf, mut face) = (f32::INFINITY, 3usize);
-        for a in 0..3 {
-            let (far, root) = if s.neg[a] {
-                (min[a], r.min[a])
-            } else {
-                (max[a], r.max[a])
-            };
-            if far != root {
-                let t = (far - s.org[a]) * s.inv[a];
-                ts[a] = t;
-                if t < tf {
-                    tf = t;
-                    face = a;
-                }
-            }
-        }
+        let x = ExitFaces::of(s, r, min, max);
+        let (tf, face) = (x.tf, x.face);
         if face == 3 || best_t <= tf || tf > s.t1 * SLACK {
             return Exit::Done;
         }
-        let reach = tf + (SLACK - 1.0) * tf.abs();
-        if (0..3).any(|a| a != face && ts[a] <= reach) {
+        if x.tied() {
             return Exit::Ambiguous;
         }
         self.floor[face] = if s.neg[face] { min[face] } else { max[face] };

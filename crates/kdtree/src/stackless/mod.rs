@@ -64,7 +64,7 @@ mod ropes;
 mod sequential;
 mod short_stack;
 
-pub use locate::{passes, Cell, Exit, Located};
+pub use locate::{passes, Cell, Exit, ExitFaces, Located};
 
 use crate::traverse::{start, Setup, Tree};
 use crate::view::{Aux, BackNode};

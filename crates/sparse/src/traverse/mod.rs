@@ -96,7 +96,7 @@ use tb_core::{
     Aabb, Answers, Batch, Counter, HitRecord, MollerTrumbore, NoStats, Query, Ray, TraversalStats,
     TriTest, TriTestKind, Vec3, Watertight,
 };
-use tb_kdtree::stackless::{passes, Cell, Exit};
+use tb_kdtree::stackless::{passes, Cell, Exit, ExitFaces};
 use tb_kdtree::traverse::{leaf, Setup};
 use tb_kdtree::NodeRank;
 use tb_kdtree::{

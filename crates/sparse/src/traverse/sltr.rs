@@ -272,23 +272,8 @@ impl<'c, 'a> SltrWalk<'c, 'a> {
     ) -> Exit {
         let (s, r) = (self.s, &self.cx.root);
         c.boxes(1);
-        let mut ts = [f32::INFINITY; 3];
-        let (mut tf, mut face) = (f32::INFINITY, 3usize);
-        for a in 0..3 {
-            let (far, root) = if s.neg[a] {
-                (min[a], r.min[a])
-            } else {
-                (max[a], r.max[a])
-            };
-            if far != root {
-                let t = (far - s.org[a]) * s.inv[a];
-                ts[a] = t;
-                if t < tf {
-                    tf = t;
-                    face = a;
-                }
-            }
-        }
+        let x = ExitFaces::of(s, r, min, max);
+        let (tf, face) = (x.tf, x.face);
         if best.prim != u32::MAX && best.t <= tf {
             return Exit::Done;
         }
@@ -299,8 +284,7 @@ impl<'c, 'a> SltrWalk<'c, 'a> {
             }
             return Exit::Done;
         }
-        let reach = tf + (SLACK - 1.0) * tf.abs();
-        if (0..3).any(|a| a != face && ts[a] <= reach) {
+        if x.tied() {
             return Exit::Ambiguous;
         }
         self.floor[face] = if s.neg[face] { min[face] } else { max[face] };

@@ -152,13 +152,12 @@ impl<'c, 'a> MaskWalk<'c, 'a> {
                 return;
             }
             if self.phase == 0 && self.idx != self.last.node {
-                let (node, rec, depth, tn, tf) = (self.idx, NONE, self.depth, self.tn, self.tf);
                 self.last = LastBox {
-                    node,
-                    rec,
-                    depth,
-                    tn,
-                    tf,
+                    node: self.idx,
+                    rec: NONE,
+                    depth: self.depth,
+                    tn: self.tn,
+                    tf: self.tf,
                 };
             }
             c.interior();
@@ -263,11 +262,10 @@ impl<'c, 'a> MaskWalk<'c, 'a> {
         c.boxes(1);
         let r = &aug[rec as usize];
         let (tn, tf) = self.cx.interval(self.s, r);
-        let (node, depth) = (r.node as usize, dr);
         self.last = LastBox {
-            node,
+            node: r.node as usize,
             rec,
-            depth,
+            depth: dr,
             tn,
             tf,
         };
