@@ -1,4 +1,4 @@
-//! `structure_bytes` (issue 42): each grid's structure alone, as Pérard-Gayot et al.'s
+//! `structure_bytes`: each grid's structure alone, as Pérard-Gayot et al.'s
 //! Tables 2 and 5 and Figure 8 count it, is the sum of its own arrays as the build report
 //! lists them; `bytes` adds exactly the plane-coordinate tables and the triangle array. The
 //! figures are computed apart (the build's report, the memory report), so a drift in either
