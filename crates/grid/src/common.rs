@@ -63,6 +63,16 @@ pub struct WalkRay<F: Real> {
     pub t1: F,
 }
 
+/// Where a walk leaves a cell: the box of voxels `lo..hi` (exclusive) that it leaves at
+/// distance `t` (the least of its far planes' distances), from voxel `v` inside the box.
+#[derive(Clone, Copy, Debug)]
+pub struct Exit<F: Real> {
+    pub t: F,
+    pub v: [u32; 3],
+    pub lo: [u32; 3],
+    pub hi: [u32; 3],
+}
+
 impl<F: Real> WalkRay<F> {
     /// The ray clipped to the lattice's box (closed), or `None` when it misses it.
     #[inline(always)]
@@ -158,9 +168,9 @@ impl<F: Real> WalkRay<F> {
         })
     }
 
-    /// The monotone advance of the section-5 walk (Pérard-Gayot et al. 2017 §5): leaving the
-    /// box of voxels `lo..hi` (exclusive) at `t` through the far plane of axis `axis`, from
-    /// voxel `v` (inside the box), the next voxel: on `axis` the first layer past the box; on
+    /// The monotone advance of the section-5 walk (Pérard-Gayot et al. 2017 §5): at `exit`,
+    /// leaving the box of voxels `lo..hi` (exclusive) at `t` through the far plane of axis
+    /// `axis`, from voxel `v` (inside the box), the next voxel: on `axis` the first layer past the box; on
     /// the other axes the voxel of the exit point (from `line`, this walk's
     /// [`WalkRay::voxel_line`] of `lat`), clamped into the box's range and never
     /// behind `v` along the ray's direction (the paper's `max`/`min` with the previous
@@ -177,23 +187,19 @@ impl<F: Real> WalkRay<F> {
     /// cell's look-up begun behind it; the branches left then depend on the ray's direction
     /// only ([`walk_by`] says where each pays).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     pub fn advance<const SELECT: bool>(
         &self,
         lat: &Lattice<F>,
         line: &VoxelLine<F>,
-        t: F,
+        exit: &Exit<F>,
         axis: usize,
-        v: [u32; 3],
-        lo: [u32; 3],
-        hi: [u32; 3],
     ) -> Option<[u32; 3]> {
-        let mut n = v;
+        let mut n = exit.v;
         let mut out = false;
         for a in 0..3 {
-            let layer = || self.layer(lat, a, lo, hi);
+            let layer = || self.layer(lat, a, exit.lo, exit.hi);
             // The exit point's voxel on `a`, in the box and not behind `v`.
-            let along = || self.along(lat, line, t, a, v, lo[a], hi[a] - 1);
+            let along = || self.along(lat, line, exit, a, exit.lo[a], exit.hi[a] - 1);
             if SELECT {
                 let ((l, outside), on_axis) = (layer(), a == axis);
                 n[a] = select_unpredictable(on_axis, l, along());
@@ -228,21 +234,20 @@ impl<F: Real> WalkRay<F> {
         }
     }
 
-    /// The voxel on axis `a` of the ray's point at `t` (on this walk's `line`), clamped to
-    /// `min..=max` (and the lattice) and never behind `v` along the ray; `v[a]` where the
-    /// ray is parallel to `a`.
+    /// The voxel on axis `a` of the ray's point at the `exit` distance `t` (on this walk's
+    /// `line`), clamped to `min..=max` (and the lattice) and never behind the exit's voxel `v`
+    /// along the ray; `v[a]` where the ray is parallel to `a`.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     fn along(
         &self,
         lat: &Lattice<F>,
         line: &VoxelLine<F>,
-        t: F,
+        exit: &Exit<F>,
         a: usize,
-        v: [u32; 3],
         min: u32,
         max: u32,
     ) -> u32 {
+        let (t, v) = (exit.t, exit.v);
         if self.d[a] == F::ZERO {
             return v[a];
         }
@@ -258,8 +263,8 @@ impl<F: Real> WalkRay<F> {
 
     /// The step of the authors' code (hagrid's `traverse.cu`, Pérard-Gayot et al.), a reading
     /// of §5 step d, "find the next virtual base grid position based on the exit distance",
-    /// which the paper leaves open; [`WalkRay::advance`] is the other. Leaving the box of
-    /// voxels `lo..hi` at `t`, the least of the far-plane distances `exits`
+    /// which the paper leaves open; [`WalkRay::advance`] is the other. At `exit`, leaving the
+    /// box of voxels `lo..hi` at `t`, the least of the far-plane distances `exits`
     /// ([`WalkRay::exits`]), from voxel `v`:
     ///
     /// - every axis whose far plane lies at `t` (`exits[a] == t`, a tie in the walk's
@@ -281,27 +286,23 @@ impl<F: Real> WalkRay<F> {
     /// the visited cell's box, whose references hold every triangle within the margin
     /// ([`Lattice::delta`]; module doc).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     pub fn advance_ties(
         &self,
         lat: &Lattice<F>,
         line: &VoxelLine<F>,
-        t: F,
+        exit: &Exit<F>,
         exits: [F; 3],
-        v: [u32; 3],
-        lo: [u32; 3],
-        hi: [u32; 3],
     ) -> Option<[u32; 3]> {
-        let mut n = v;
+        let mut n = exit.v;
         let mut out = false;
         for a in 0..3 {
-            let (layer, outside) = self.layer(lat, a, lo, hi);
+            let (layer, outside) = self.layer(lat, a, exit.lo, exit.hi);
             // The exit point's voxel on `a`, in the lattice (not only the box) and not
             // behind `v`.
-            let along = self.along(lat, line, t, a, v, 0, u32::MAX);
+            let along = self.along(lat, line, exit, a, 0, u32::MAX);
             // A parallel axis's distance is +inf, never `t` (the walk ended before an
             // infinite exit).
-            let tie = exits[a] == t;
+            let tie = exits[a] == exit.t;
             n[a] = select_unpredictable(tie, layer, along);
             out |= tie & outside;
         }
@@ -367,10 +368,16 @@ pub fn walk_by<F: Real, const SELECT: bool, const TIES: bool>(
         if F::of32(best) <= t_exit || t_exit >= w.t1 {
             return;
         }
+        let exit = Exit {
+            t: t_exit,
+            v,
+            lo,
+            hi,
+        };
         let next = if TIES {
-            w.advance_ties(lat, &line, t_exit, exits, v, lo, hi)
+            w.advance_ties(lat, &line, &exit, exits)
         } else {
-            w.advance::<SELECT>(lat, &line, t_exit, axis, v, lo, hi)
+            w.advance::<SELECT>(lat, &line, &exit, axis)
         };
         match next {
             Some(n) => v = n,
@@ -379,22 +386,36 @@ pub fn walk_by<F: Real, const SELECT: bool, const TIES: bool>(
     }
 }
 
-/// The walk of the one-level grids (the uniform grid's `dda`, the irregular grid's `walk`):
-/// the ray entered into `lat` ([`enter`]), then [`walk_by`] over its `planes`, each visited
-/// voxel `v` counted (a cell and a step) and resolved by `cell` to its references (a range of
-/// `refs`) and its box in voxels `lo..hi`, which are tested ([`test_refs`]) before the walk
-/// leaves the box through its far planes; with `TIES`, by the authors' step ([`walk_by`]).
+/// The arrays a one-level grid's walk reads, borrowed ([`cell_walk`]): the grid's lattice in
+/// the walk's arithmetic `F`, that lattice's plane table, the scene's triangles and the
+/// grid's references.
+#[derive(Clone, Copy)]
+pub struct GridView<'a, F: Real> {
+    pub lat: &'a Lattice<F>,
+    pub planes: &'a Planes<F>,
+    pub tris: &'a [Triangle],
+    pub refs: &'a [u32],
+}
+
+/// The walk of the one-level grids (the uniform grid's `dda`, the irregular grid's `walk`)
+/// over the `grid`'s arrays: the ray entered into `lat` ([`enter`]), then [`walk_by`] over
+/// its `planes`, each visited voxel `v` counted (a cell and a step) and resolved by `cell` to
+/// its references (a range of `refs`) and its box in voxels `lo..hi`, which are tested
+/// ([`test_refs`]) before the walk leaves the box through its far planes; with `TIES`, by the
+/// authors' step ([`walk_by`]).
 #[inline(always)]
-#[allow(clippy::too_many_arguments)] // a hot walk: the grids' arrays by reference
 pub fn cell_walk<T: TriTest, C: Counter, const ANY: bool, const TIES: bool, F: Real>(
     ray: &Ray,
-    lat: &Lattice<F>,
-    planes: &Planes<F>,
-    tris: &[Triangle],
-    refs: &[u32],
+    grid: &GridView<F>,
     c: &mut C,
     cell: impl Fn([u32; 3]) -> (Range<usize>, [u32; 3], [u32; 3]),
 ) -> HitRecord {
+    let GridView {
+        lat,
+        planes,
+        tris,
+        refs,
+    } = *grid;
     let w = match enter::<T, C, ANY, F>(ray, lat, tris, c) {
         Ok(w) => w,
         Err(h) => return h,
@@ -594,11 +615,11 @@ mod tests {
         assert_eq!(exits, [1.0; 3]);
         let (axis, t) = argmin3::<f64, false>(exits);
         assert_eq!(
-            w.advance::<false>(&lat, &line, t, axis, v, lo, hi),
+            w.advance::<false>(&lat, &line, &Exit { t, v, lo, hi }, axis),
             Some([1, 0, 0])
         );
         assert_eq!(
-            w.advance_ties(&lat, &line, t, exits, v, lo, hi),
+            w.advance_ties(&lat, &line, &Exit { t, v, lo, hi }, exits),
             Some([1, 1, 1])
         );
         // A ray leaving through x whose y at the exit lies a rounding past the cell's face:
@@ -611,11 +632,11 @@ mod tests {
         let (axis, t) = argmin3::<f64, false>(exits);
         assert_eq!((axis, t), (0, 1.0));
         assert_eq!(
-            w.advance::<false>(&lat, &line, t, axis, v, lo, hi),
+            w.advance::<false>(&lat, &line, &Exit { t, v, lo, hi }, axis),
             Some([1, 0, 0])
         );
         assert_eq!(
-            w.advance_ties(&lat, &line, t, exits, v, lo, hi),
+            w.advance_ties(&lat, &line, &Exit { t, v, lo, hi }, exits),
             Some([1, 1, 0])
         );
         // Leaving the lattice through a corner: both end.
@@ -625,8 +646,14 @@ mod tests {
         let (v, lo, hi) = ([3; 3], [3; 3], [4; 3]);
         let exits = w.exits(|a, i| lat.plane(a, i), lo, hi);
         let (axis, t) = argmin3::<f64, false>(exits);
-        assert_eq!(w.advance::<false>(&lat, &line, t, axis, v, lo, hi), None);
-        assert_eq!(w.advance_ties(&lat, &line, t, exits, v, lo, hi), None);
+        assert_eq!(
+            w.advance::<false>(&lat, &line, &Exit { t, v, lo, hi }, axis),
+            None
+        );
+        assert_eq!(
+            w.advance_ties(&lat, &line, &Exit { t, v, lo, hi }, exits),
+            None
+        );
     }
 
     #[test]

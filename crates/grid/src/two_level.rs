@@ -70,32 +70,72 @@ fn sub_lattice<F: Real>(top: &Lattice<F>, v: [u32; 3], res: [u32; 3]) -> Lattice
     }
 }
 
-impl TwoLevelGrid {
-    /// Build over `tris` (parallel with rayon): the top level, then every top cell's grid.
-    pub fn build(tris: &Arc<[Triangle]>, p: &TwoLevelParams) -> Result<TwoLevelGrid, AccelError> {
-        let t = Instant::now();
-        let bounds = grid_bounds(tris);
-        let ext = bounds.extent().to_array().map(f64::from);
-        let res = resolution(
-            ext,
-            tris.len(),
-            p.densities.lambda_1 as f64,
-            p.densities.rounding,
-            MAX_AXIS_RES,
-            p.max_cells as u64,
-        );
-        // The reference bound on the top level first (its references are the leaves' least).
-        let precision = p.walk.precision;
-        let (res, top_scale) = bounded_res(&bounds, res, tris, precision);
-        let top = Lattice::new(&bounds, res, precision);
-        let (tstart, trefs) = bin_uniform(&top, tris)?;
-        let n_top = top.count();
-        let t_top = t.elapsed().as_secs_f64() * 1e3;
-        let t = Instant::now();
+/// The top level (Kalojanov et al. 2011 §3): equation 1's resolution at density λ_1, lowered
+/// first by the reference bound (the top level's references are the leaves' least), and the
+/// triangles binned to its cells; with the bound's scale of the resolution.
+fn top_level(tris: &[Triangle], p: &TwoLevelParams) -> Result<(Binned, f64), AccelError> {
+    let bounds = grid_bounds(tris);
+    let ext = bounds.extent().to_array().map(f64::from);
+    let res = resolution(
+        ext,
+        tris.len(),
+        p.densities.lambda_1 as f64,
+        p.densities.rounding,
+        MAX_AXIS_RES,
+        p.max_cells as u64,
+    );
+    let precision = p.walk.precision;
+    let (res, top_scale) = bounded_res(&bounds, res, tris, precision);
+    let top = Lattice::new(&bounds, res, precision);
+    let (start, refs) = bin_uniform(&top, tris)?;
+    Ok((Binned { top, start, refs }, top_scale))
+}
+
+/// The top cells (their first leaf and resolution) of the second-level resolutions `sub_res`,
+/// and the number of leaf cells; an error past `u32` leaf indices.
+fn top_cells(sub_res: &[[u32; 3]]) -> Result<(Vec<TopCell>, u64), AccelError> {
+    let mut tops = Vec::with_capacity(sub_res.len());
+    let mut n_leaves = 0u64;
+    for r in sub_res {
+        tops.push(TopCell {
+            first_leaf: n_leaves as u32,
+            res: r[0] | r[1] << 8 | r[2] << 16,
+        });
+        n_leaves += r.iter().map(|&x| x as u64).product::<u64>();
+        if n_leaves >= u32::MAX as u64 {
+            return Err(AccelError::TooLarge {
+                what: "two-level grid leaf cells",
+                count: n_leaves,
+                limit: u32::MAX as u64 - 1,
+            });
+        }
+    }
+    Ok((tops, n_leaves))
+}
+
+/// The top level and its binned references: `refs[start[c]..start[c + 1]]` are the
+/// triangles overlapping top cell `c`.
+struct Binned {
+    top: Lattice,
+    start: Vec<u32>,
+    refs: Vec<u32>,
+}
+
+impl Binned {
+    /// The triangles of top cell `c`.
+    fn of(&self, c: usize) -> &[u32] {
+        &self.refs[self.start[c] as usize..self.start[c + 1] as usize]
+    }
+
+    /// Each top cell's resolution (equation 1 at density λ_2 over the cell and its triangles,
+    /// at most `MAX_SUB` per axis), every one lowered by one factor while the triangles' boxes
+    /// cover too many leaf cells (the reference bound); with that factor.
+    fn sub_resolutions(&self, tris: &[Triangle], p: &TwoLevelParams) -> (Vec<[u32; 3]>, f64) {
+        let (top, n_top) = (&self.top, self.top.count());
         let sub_res: Vec<[u32; 3]> = (0..n_top)
             .into_par_iter()
             .map(|c| {
-                let n = (tstart[c + 1] - tstart[c]) as usize;
+                let n = (self.start[c + 1] - self.start[c]) as usize;
                 let d = &p.densities;
                 resolution(
                     top.size,
@@ -107,52 +147,37 @@ impl TwoLevelGrid {
                 )
             })
             .collect();
-        // The reference bound: every top cell's resolution lowered by one factor while the
-        // triangles' boxes cover too many leaf cells.
         let budget = MAX_REFS_PER_TRIANGLE * tris.len() as u64;
         let budget_scale = within_budget(&sub_res, budget, |r| {
             (0..n_top)
                 .into_par_iter()
-                .map(|c| {
-                    let sub = sub_lattice(&top, top.voxel_of(c), r[c]);
-                    box_refs(
-                        &sub,
-                        tris,
-                        &trefs[tstart[c] as usize..tstart[c + 1] as usize],
-                    )
-                })
+                .map(|c| box_refs(&sub_lattice(top, top.voxel_of(c), r[c]), tris, self.of(c)))
                 .sum()
         });
-        let sub_res = scale_res(&sub_res, budget_scale);
-        let mut tops = Vec::with_capacity(n_top);
-        let mut n_leaves = 0u64;
-        for r in &sub_res {
-            tops.push(TopCell {
-                first_leaf: n_leaves as u32,
-                res: r[0] | r[1] << 8 | r[2] << 16,
-            });
-            n_leaves += r.iter().map(|&x| x as u64).product::<u64>();
-            if n_leaves >= u32::MAX as u64 {
-                return Err(AccelError::TooLarge {
-                    what: "two-level grid leaf cells",
-                    count: n_leaves,
-                    limit: u32::MAX as u64 - 1,
-                });
-            }
-        }
-        // The (leaf, triangle) pairs sorted (the sort of Kalojanov et al. 2011), per run of top
-        // cells: a run's leaves are consecutive, so the runs in order are the global order,
-        // without one array of every pair beside its sorted copy.
+        (scale_res(&sub_res, budget_scale), budget_scale)
+    }
+
+    /// The (leaf, triangle) pairs (`leaf << 32 | triangle`) of every leaf cell a triangle of
+    /// its top cell overlaps, sorted (the sort of Kalojanov et al. 2011), per run of top cells:
+    /// a run's leaves are consecutive, so the runs in order are the global order, without one
+    /// array of every pair beside its sorted copy.
+    fn leaf_pairs(
+        &self,
+        tris: &[Triangle],
+        sub_res: &[[u32; 3]],
+        tops: &[TopCell],
+    ) -> Vec<Vec<u64>> {
         const TOPS: usize = 64;
-        let runs: Vec<Vec<u64>> = (0..n_top.div_ceil(TOPS))
+        let (top, n_top) = (&self.top, self.top.count());
+        (0..n_top.div_ceil(TOPS))
             .into_par_iter()
             .map(|run| {
                 let mut out = Vec::new();
                 for c in run * TOPS..n_top.min((run + 1) * TOPS) {
                     let v = top.voxel_of(c);
-                    let sub = sub_lattice(&top, v, sub_res[c]);
+                    let sub = sub_lattice(top, v, sub_res[c]);
                     let first = tops[c].first_leaf as u64;
-                    for &i in &trefs[tstart[c] as usize..tstart[c + 1] as usize] {
+                    for &i in self.of(c) {
                         let tri = &tris[i as usize];
                         let (lo, hi) = sub.range(&tri.bounds());
                         let single = lo == hi;
@@ -172,15 +197,30 @@ impl TwoLevelGrid {
                 out.shrink_to_fit();
                 out
             })
-            .collect();
-        drop((tstart, trefs));
+            .collect()
+    }
+}
+
+impl TwoLevelGrid {
+    /// Build over `tris` (parallel with rayon): the top level, then every top cell's grid.
+    pub fn build(tris: &Arc<[Triangle]>, p: &TwoLevelParams) -> Result<TwoLevelGrid, AccelError> {
+        let t = Instant::now();
+        let (binned, top_scale) = top_level(tris, p)?;
+        let t_top = t.elapsed().as_secs_f64() * 1e3;
+        let t = Instant::now();
+        let (sub_res, budget_scale) = binned.sub_resolutions(tris, p);
+        let (tops, n_leaves) = top_cells(&sub_res)?;
+        let runs = binned.leaf_pairs(tris, &sub_res, &tops);
+        let top = binned.top;
+        drop(binned);
         let (start, refs) = crate::lattice::flatten(runs, n_leaves as usize);
+        let n_top = top.count();
         let mut figures = vec![
             ("build_top_ms".into(), t_top),
             ("build_leaves_ms".into(), t.elapsed().as_secs_f64() * 1e3),
-            ("top_res_x".into(), res[0] as f64),
-            ("top_res_y".into(), res[1] as f64),
-            ("top_res_z".into(), res[2] as f64),
+            ("top_res_x".into(), top.res[0] as f64),
+            ("top_res_y".into(), top.res[1] as f64),
+            ("top_res_z".into(), top.res[2] as f64),
             ("top_cells".into(), n_top as f64),
             ("leaf_cells".into(), n_leaves as f64),
             ("refs".into(), refs.len() as f64),
@@ -198,7 +238,7 @@ impl TwoLevelGrid {
         Ok(TwoLevelGrid {
             top,
             top32: top.cast(),
-            precision,
+            precision: p.walk.precision,
             tops,
             start,
             refs,

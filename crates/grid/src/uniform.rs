@@ -2,7 +2,7 @@
 //! Woo 1987), optionally with macro regions (Devillers 1989): the baseline of Table 5 of
 //! Pérard-Gayot et al. 2017.
 
-use crate::common::cell_walk;
+use crate::common::{cell_walk, GridView};
 use crate::lattice::{
     bin_uniform, bounded_res, grid_bounds, planes_for, resolution, Lattice, Planes, Real,
     MAX_AXIS_RES,
@@ -111,7 +111,13 @@ impl UniformGrid {
         ray: &Ray,
         c: &mut C,
     ) -> HitRecord {
-        cell_walk::<T, C, ANY, false, F>(ray, lat, planes, &self.tris, &self.refs, c, |v| {
+        let grid = GridView {
+            lat,
+            planes,
+            tris: &self.tris,
+            refs: &self.refs,
+        };
+        cell_walk::<T, C, ANY, false, F>(ray, &grid, c, |v| {
             let i = lat.index(v);
             let r = self.start[i] as usize..self.start[i + 1] as usize;
             if r.is_empty() && !self.macros.is_empty() {

@@ -14,6 +14,13 @@ pub(super) struct Work {
     pub(super) flat: bool,
 }
 
+/// The binned references of the top level (§4.1): `refs[start[c]..start[c + 1]]` are the
+/// triangles overlapping top cell `c`, sorted.
+pub(super) struct Binned {
+    pub(super) start: Vec<u32>,
+    pub(super) refs: Vec<u32>,
+}
+
 /// SAH cost of a cell with `n` references and box `lo..hi` (§4.2, without the division by the
 /// scene's area): `(C_i |T| + C_t) · SA(B)`.
 pub(super) fn cost(
@@ -47,79 +54,120 @@ pub(super) fn plan_merge(
     refs: &[u32],
     p: &IrregularParams,
 ) -> (Vec<u32>, Vec<u32>) {
-    // (1) Candidates: `link[c]` is the neighbour across the upper face or NONE.
-    let mut link: Vec<u32> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let (lo, hi, r) = cell(i);
-            if hi[axis] >= base.res[axis] {
-                return NONE;
-            }
-            let mut v = lo;
-            v[axis] = hi[axis];
-            let j = at(v);
-            let (nlo, nhi, nr) = cell(j as usize);
-            let same = (0..3).all(|a| a == axis || (nlo[a] == lo[a] && nhi[a] == hi[a]));
-            if !same || nlo[axis] != hi[axis] {
-                return NONE;
-            }
-            let (ra, rb) = (&refs[r], &refs[nr]);
-            let mut mhi = hi;
-            mhi[axis] = nhi[axis];
-            let merged = cost(base, union_len(ra, rb), lo, mhi, p);
-            let apart = cost(base, ra.len(), lo, hi, p) + cost(base, rb.len(), nlo, nhi, p);
-            if apart > merged {
-                j
-            } else {
-                NONE
-            }
-        })
-        .collect();
-    // (2) Chains, walked from their heads (one bit per cell): a head is a candidate that its
-    // lower neighbour does not target. Even positions merge with their successor: `link[c]`
-    // stays the partner `t`, and `link[t]` becomes `ABSORBED | c`.
-    let heads: Vec<u64> = {
-        let link = &link;
-        let head = |i: usize| {
-            if link[i] == NONE {
-                return false;
-            }
-            let (lo, _, _) = cell(i);
-            if lo[axis] == 0 {
-                return true;
-            }
-            let mut v = lo;
-            v[axis] -= 1;
-            link[at(v) as usize] != i as u32
-        };
-        (0..n.div_ceil(64))
-            .into_par_iter()
-            .map(|b| (0..64.min(n - 64 * b)).fold(0u64, |m, k| m | (head(64 * b + k) as u64) << k))
-            .collect()
+    let pass = MergePlan {
+        base,
+        n,
+        axis,
+        cell,
+        at,
+        refs,
     };
-    for (b, &bits) in heads.iter().enumerate() {
-        let mut bits = bits;
-        while bits != 0 {
-            let mut c = (64 * b + bits.trailing_zeros() as usize) as u32;
-            bits &= bits - 1;
-            loop {
-                let t = link[c as usize];
-                if t == NONE {
-                    break;
+    let mut link = pass.candidates(p);
+    pass.pair_chains(&mut link);
+    let new_refs = pass.kept_refs(&link);
+    (link, new_refs)
+}
+
+/// The cells a merge pass plans over ([`plan_merge`]'s arguments but the costs).
+struct MergePlan<'a, C, A> {
+    base: &'a Lattice,
+    n: usize,
+    axis: usize,
+    cell: C,
+    at: A,
+    refs: &'a [u32],
+}
+
+impl<C, A> MergePlan<'_, C, A>
+where
+    C: Fn(usize) -> CellView + Sync,
+    A: Fn([u32; 3]) -> u32 + Sync,
+{
+    /// (1) Candidates: per cell, the neighbour across its upper face where the two merge
+    /// (same extent on the other axes, lower SAH cost merged), or NONE.
+    fn candidates(&self, p: &IrregularParams) -> Vec<u32> {
+        let (base, axis, refs) = (self.base, self.axis, self.refs);
+        (0..self.n)
+            .into_par_iter()
+            .map(|i| {
+                let (lo, hi, r) = (self.cell)(i);
+                if hi[axis] >= base.res[axis] {
+                    return NONE;
                 }
-                let next = link[t as usize];
-                link[t as usize] = ABSORBED | c;
-                if next == NONE {
-                    break;
+                let mut v = lo;
+                v[axis] = hi[axis];
+                let j = (self.at)(v);
+                let (nlo, nhi, nr) = (self.cell)(j as usize);
+                let same = (0..3).all(|a| a == axis || (nlo[a] == lo[a] && nhi[a] == hi[a]));
+                if !same || nlo[axis] != hi[axis] {
+                    return NONE;
                 }
-                c = next;
+                let (ra, rb) = (&refs[r], &refs[nr]);
+                let mut mhi = hi;
+                mhi[axis] = nhi[axis];
+                let merged = cost(base, union_len(ra, rb), lo, mhi, p);
+                let apart = cost(base, ra.len(), lo, hi, p) + cost(base, rb.len(), nlo, nhi, p);
+                if apart > merged {
+                    j
+                } else {
+                    NONE
+                }
+            })
+            .collect()
+    }
+
+    /// (2) Chains, walked from their heads (one bit per cell): a head is a candidate that its
+    /// lower neighbour does not target. Even positions merge with their successor: `link[c]`
+    /// stays the partner `t`, and `link[t]` becomes `ABSORBED | c`.
+    fn pair_chains(&self, link: &mut [u32]) {
+        let (n, axis) = (self.n, self.axis);
+        let heads: Vec<u64> = {
+            let link = &*link;
+            let head = |i: usize| {
+                if link[i] == NONE {
+                    return false;
+                }
+                let (lo, _, _) = (self.cell)(i);
+                if lo[axis] == 0 {
+                    return true;
+                }
+                let mut v = lo;
+                v[axis] -= 1;
+                link[(self.at)(v) as usize] != i as u32
+            };
+            (0..n.div_ceil(64))
+                .into_par_iter()
+                .map(|b| {
+                    (0..64.min(n - 64 * b)).fold(0u64, |m, k| m | (head(64 * b + k) as u64) << k)
+                })
+                .collect()
+        };
+        for (b, &bits) in heads.iter().enumerate() {
+            let mut bits = bits;
+            while bits != 0 {
+                let mut c = (64 * b + bits.trailing_zeros() as usize) as u32;
+                bits &= bits - 1;
+                loop {
+                    let t = link[c as usize];
+                    if t == NONE {
+                        break;
+                    }
+                    let next = link[t as usize];
+                    link[t as usize] = ABSORBED | c;
+                    if next == NONE {
+                        break;
+                    }
+                    c = next;
+                }
             }
         }
     }
-    // (3) The references of the kept cells in order, written block by block in parallel.
-    const BLOCK: usize = 1 << 14;
-    let new_refs = {
-        let link = &link;
+
+    /// (3) The references of the kept cells in order (merged pairs united), written block by
+    /// block in parallel.
+    fn kept_refs(&self, link: &[u32]) -> Vec<u32> {
+        const BLOCK: usize = 1 << 14;
+        let (n, refs, cell) = (self.n, self.refs, &self.cell);
         let size = |i: usize| match partner(link[i]) {
             Some(t) => union_len(&refs[cell(i).2], &refs[cell(t).2]),
             None if link[i] == NONE => cell(i).2.len(),
@@ -152,8 +200,7 @@ pub(super) fn plan_merge(
             }
         });
         new_refs
-    };
-    (link, new_refs)
+    }
 }
 
 /// The partner a merge candidate absorbs (`link` of [`plan_merge`]).
@@ -245,19 +292,15 @@ pub(super) fn merge_pass(
 }
 
 /// The first merge pass along x of a grid whose initial cells are its voxels (`dmax = 0`: a
-/// uniform initial grid, Table 5), made from the binned references `start` / `refs` without
-/// those cells: the kept cells, their references and a flat voxel map (the pass's `link`,
-/// each voxel's new cell; [`unflatten`] adds the top words at the end). The same cells,
-/// references and map as [`initial`] followed by [`merge_pass`] along x, without the 32-byte
-/// cell per voxel, and the binned references freed before the kept cells are made: the build's
+/// uniform initial grid, Table 5), made from the `binned` references without those cells: the
+/// kept cells, their references and a flat voxel map (the pass's `link`, each voxel's new
+/// cell; [`unflatten`] adds the top words at the end). The same cells, references and map as
+/// the initial subdivision (`Subdivision::initial`) followed by [`merge_pass`] along x,
+/// without the 32-byte cell per voxel, and the binned references freed before the kept cells are made: the build's
 /// peak on Conference at λ = 5 went from 8.3x the final structure to 2.7x (the second pass's,
 /// now the largest).
-pub(super) fn merge_first_x(
-    base: &Lattice,
-    start: Vec<u32>,
-    refs: Vec<u32>,
-    p: &IrregularParams,
-) -> Work {
+pub(super) fn merge_first_x(base: &Lattice, binned: Binned, p: &IrregularParams) -> Work {
+    let Binned { start, refs } = binned;
     let n = base.count();
     // The kept cells' reference counts (merged pairs united), so that the binned references
     // are freed before the cells are made.

@@ -2,7 +2,7 @@
 //! irregular grids" (Eurographics): build (§4: initial subdivision, SAH cell merging, cell
 //! expansion) and the traversal of §5.
 
-use crate::common::cell_walk;
+use crate::common::{cell_walk, GridView};
 use crate::lattice::{
     bin_uniform, bounded_res, grid_bounds, is_subset, planes_for, resolution, union_into,
     union_len, Lattice, Planes, Real, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
@@ -144,7 +144,13 @@ impl IrregularGrid {
         ray: &Ray,
         c: &mut C,
     ) -> HitRecord {
-        cell_walk::<T, C, ANY, TIES, F>(ray, base, planes, &self.tris, &self.refs, c, |v| {
+        let grid = GridView {
+            lat: base,
+            planes,
+            tris: &self.tris,
+            refs: &self.refs,
+        };
+        cell_walk::<T, C, ANY, TIES, F>(ray, &grid, c, |v| {
             let cell = &self.cells[self.lookup(v) as usize];
             (cell.range(), cell.lo, cell.hi)
         })
@@ -352,10 +358,18 @@ mod tests {
             let top = Lattice::new(&bounds, res, Precision::F32);
             let base = top.refined(1);
             let (start, refs) = bin_uniform(&top, tris).unwrap();
+            let binned = Binned { start, refs };
             let depth = vec![0; top.count()];
-            let mut made = initial(&top, &base, 0, &depth, &start, &refs, tris);
+            let mut made = Subdivision {
+                top: &top,
+                base: &base,
+                dmax: 0,
+                depth: &depth,
+                tris,
+            }
+            .initial(&binned);
             merge_pass(&base, 0, &mut made, 0, &p);
-            let implicit = merge_first_x(&base, start, refs, &p);
+            let implicit = merge_first_x(&base, binned, &p);
             merged_somewhere |= implicit.cells.len() < top.count();
             let name = &scene.source;
             assert_eq!(made.cells, implicit.cells, "{name}: cells");
