@@ -82,7 +82,7 @@ impl Ordered<'_> {
             // SAFETY: pushed indices are children of interior nodes (see above).
             node = unsafe { nodes.get_unchecked(idx as usize) };
         }
-        best.record(&bvh.prim_ids)
+        best.record_mapped(&bvh.prim_ids)
     }
 }
 

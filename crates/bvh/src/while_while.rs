@@ -90,7 +90,7 @@ impl WhileWhile<'_> {
                 None => break 'outer,
             }
         }
-        best.record(&bvh.prim_ids)
+        best.record_mapped(&bvh.prim_ids)
     }
 }
 

@@ -5,13 +5,17 @@
 
 use crate::{Counter, HitRecord, Ray, TriTest, Triangle};
 
-/// The closest hit found so far: its distance and its slot in the leaf-ordered triangles
-/// (`usize::MAX`: none yet), `u`, `v`.
+/// The closest hit found so far, one record for every structure: its distance, the index that
+/// names its triangle (`u32::MAX`: none yet) and `u`, `v`. The index is what the structure's
+/// leaves hold: a slot of a leaf-ordered triangle array ([`Best::record_mapped`] maps it back to
+/// the scene index: the binary BVH, CWBVH, R-tree) or the scene index itself ([`Best::record`]:
+/// the kd family, whose leaves reference scene triangles, and the wide BVH, whose leaf blocks
+/// carry them).
 #[derive(Clone, Copy, Debug)]
 pub struct Best {
     /// Distance of the closest hit so far (`tmax` before any hit).
     pub t: f32,
-    slot: usize,
+    id: u32,
     u: f32,
     v: f32,
 }
@@ -22,21 +26,50 @@ impl Best {
     pub fn new(tmax: f32) -> Best {
         Best {
             t: tmax,
-            slot: usize::MAX,
+            id: u32::MAX,
             u: 0.0,
             v: 0.0,
         }
     }
 
-    /// The hit record, its triangle named by the scene index `prim_ids[slot]`.
+    /// Keep a hit at `t` (closer than [`Best::t`]: the triangle tests are given `t` as their
+    /// upper bound) of the triangle the leaf names `id`, at barycentrics `u`, `v`.
     #[inline(always)]
-    pub fn record(&self, prim_ids: &[u32]) -> HitRecord {
-        if self.slot == usize::MAX {
+    pub fn hit(&mut self, t: f32, id: u32, u: f32, v: f32) {
+        *self = Best { t, id, u, v };
+    }
+
+    /// Whether a triangle was hit.
+    #[inline(always)]
+    pub fn found(&self) -> bool {
+        self.id != u32::MAX
+    }
+
+    /// The hit record when the index is the scene's triangle index; [`HitRecord::MISS`] while
+    /// no triangle was hit.
+    #[inline(always)]
+    pub fn record(&self) -> HitRecord {
+        if !self.found() {
             return HitRecord::MISS;
         }
         HitRecord {
             t: self.t,
-            prim: prim_ids[self.slot],
+            prim: self.id,
+            u: self.u,
+            v: self.v,
+        }
+    }
+
+    /// The hit record when the index is a slot of leaf-ordered triangles, whose scene indices
+    /// are `prim_ids`.
+    #[inline(always)]
+    pub fn record_mapped(&self, prim_ids: &[u32]) -> HitRecord {
+        if !self.found() {
+            return HitRecord::MISS;
+        }
+        HitRecord {
+            t: self.t,
+            prim: prim_ids[self.id as usize],
             u: self.u,
             v: self.v,
         }
@@ -80,12 +113,7 @@ pub unsafe fn test_range<T: TriTest, C: Counter, const ANY: bool>(
         c.prims(count);
         for (k, tri) in leaf.iter().enumerate() {
             if let Some((t, u, v)) = T::intersect(pre, ray, tri, best.t) {
-                *best = Best {
-                    t,
-                    slot: first + k,
-                    u,
-                    v,
-                };
+                best.hit(t, (first + k) as u32, u, v);
             }
         }
     }

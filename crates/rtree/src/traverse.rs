@@ -139,7 +139,7 @@ impl<const SKIP_EMPTY: bool> Stackless<'_, SKIP_EMPTY> {
                 n = parent;
             }
         }
-        best.record(&tree.prim_ids)
+        best.record_mapped(&tree.prim_ids)
     }
 }
 
@@ -211,7 +211,7 @@ impl<const POP_CULL: bool> Ordered<'_, POP_CULL> {
                 stacks[l].clear();
             }
         }
-        best.record(&tree.prim_ids)
+        best.record_mapped(&tree.prim_ids)
     }
 }
 
@@ -268,7 +268,7 @@ impl Stack<'_> {
             n = child as usize;
             c.steps(1);
         }
-        best.record(&tree.prim_ids)
+        best.record_mapped(&tree.prim_ids)
     }
 }
 

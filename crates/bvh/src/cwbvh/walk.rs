@@ -116,7 +116,7 @@ impl NodeGroups<'_> {
                 }
             };
         }
-        best.record(&cw.prim_ids)
+        best.record_mapped(&cw.prim_ids)
     }
 }
 

@@ -1,6 +1,7 @@
 //! The `ordered` traversal of a wide tree: all child boxes of a node tested at once (SSE, AVX or a lane loop), the hit children visited nearest first (Wald, Benthin and Boulos 2008).
 
 use super::*;
+use tb_core::leaves::Best;
 
 /// Which instruction set tests a node's child boxes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -308,12 +309,7 @@ impl<const N: usize> Wide<'_, N> {
             return HitRecord::MISS;
         }
         let pre = T::prepare(ray);
-        let mut best = Closest {
-            t: ray.tmax,
-            prim: None,
-            u: 0.0,
-            v: 0.0,
-        };
+        let mut best = Best::new(ray.tmax);
         let mut stack = Stack::<Entry, WIDE_STACK_SIZE>::new();
         let mut cur = Entry {
             index: 0,
@@ -358,25 +354,8 @@ impl<const N: usize> Wide<'_, N> {
             };
             cur = e;
         }
-        match best.prim {
-            None => HitRecord::MISS,
-            Some(prim) => HitRecord {
-                t: best.t,
-                prim,
-                u: best.u,
-                v: best.v,
-            },
-        }
+        best.record()
     }
-}
-
-/// The closest hit so far: its distance (the ray's `tmax` before any) and, once there is
-/// one, its triangle and barycentrics.
-struct Closest {
-    t: f32,
-    prim: Option<u32>,
-    u: f32,
-    v: f32,
 }
 
 /// The next entry after a node whose children `mask` were hit (at entry distances `tn`;
@@ -477,7 +456,7 @@ fn closest_hit_leaf<B: BoxTest<N>, T: TriTest, const N: usize>(
     ray: &Ray,
     leaf: &[LeafBlock],
     count: usize,
-    best: &mut Closest,
+    best: &mut Best,
 ) {
     for (j, b) in leaf.iter().enumerate() {
         let lanes = (count - 4 * j).min(4);
@@ -495,24 +474,14 @@ fn closest_hit_leaf<B: BoxTest<N>, T: TriTest, const N: usize>(
                     None
                 };
                 if let Some((t, u, v)) = h {
-                    *best = Closest {
-                        t,
-                        prim: Some(b.prim[i]),
-                        u,
-                        v,
-                    };
+                    best.hit(t, b.prim[i], u, v);
                 }
             }
         } else {
             for i in 0..lanes {
                 let tri = b.tris.lane(i);
                 if let Some((t, u, v)) = T::intersect(pre, ray, &tri, best.t) {
-                    *best = Closest {
-                        t,
-                        prim: Some(b.prim[i]),
-                        u,
-                        v,
-                    };
+                    best.hit(t, b.prim[i], u, v);
                 }
             }
         }

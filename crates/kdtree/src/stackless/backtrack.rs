@@ -5,6 +5,7 @@
 //! above a leaf start node: the walk is done).
 
 use super::restarts::Restarts;
+use super::RestartSteps;
 use super::BACKTRACK;
 use crate::traverse::{Best, Setup, Tree};
 use crate::view::BackNode;

@@ -5,7 +5,7 @@
 //! hands it to `restart` where a point cannot decide.
 
 use super::{restart, RESTART};
-use crate::traverse::{leaf, start, Best, Setup, Tree, SLACK};
+use crate::traverse::{capped, leaf, start, Best, Setup, Tree, SLACK};
 use crate::Layout;
 use tb_core::{Counter, HitRecord, Ray, TriTest};
 
@@ -299,14 +299,7 @@ impl<L: Layout> PointWalk<'_, '_, L> {
     ) -> bool {
         let v = &self.w.v;
         self.steps += 1;
-        if leaf::<T, C, ANY>(v, v.nodes[idx], pre, ray, best, c) {
-            return true;
-        }
-        if self.steps >= v.step_cap {
-            c.capped();
-            return true;
-        }
-        false
+        leaf::<T, C, ANY>(v, v.nodes[idx], pre, ray, best, c) || capped(self.steps, v.step_cap, c)
     }
 
     /// Leave the cell `min..max` (one box): through the nearest far plane that is not a

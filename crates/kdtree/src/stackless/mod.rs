@@ -65,6 +65,7 @@ mod sequential;
 mod short_stack;
 
 pub use locate::{passes, Cell, Exit, ExitFaces, Located};
+pub use restart::{restart_loop, RestartSteps};
 
 use crate::traverse::{start, Setup, Tree};
 use crate::view::{Aux, BackNode};

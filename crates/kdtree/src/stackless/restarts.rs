@@ -6,8 +6,10 @@
 //! algorithm's file composes them; `K` (one of [`RESTART`], [`PUSH_DOWN`], [`SHORT_STACK`],
 //! [`BACKTRACK`]) decides at compile time what the shared steps keep.
 
-use super::{below, cell_interval, BACKTRACK, MAX_SHORT_STACK, PUSH_DOWN, SHORT_STACK};
-use crate::traverse::{decide, leaf, Best, Kind, Setup, Tree};
+use super::{
+    below, cell_interval, RestartSteps, BACKTRACK, MAX_SHORT_STACK, PUSH_DOWN, SHORT_STACK,
+};
+use crate::traverse::{capped, decide, leaf, Best, Kind, Setup, Tree};
 use crate::view::BackNode;
 use crate::Layout;
 use tb_core::{Counter, Ray, TriTest};
@@ -95,11 +97,81 @@ impl<'t, 'a, L: Layout, const K: u8> Restarts<'t, 'a, L, K> {
         }
     }
 
+    /// `short-stack`: continue in the newest kept far child that starts before the closest hit
+    /// `best_t` (any-hit queries: the newest); `false` when the stack runs dry.
+    #[inline(always)]
+    pub(super) fn pop<const ANY: bool>(&mut self, best_t: f32) -> bool {
+        while self.count > 0 {
+            self.top = if self.top == 0 {
+                self.size - 1
+            } else {
+                self.top - 1
+            };
+            self.count -= 1;
+            let (i, a, b, at) = self.stack[self.top];
+            if ANY || a <= best_t {
+                (self.idx, self.tn, self.tf) = (i as usize, a, b);
+                (self.depth, self.both, self.path) = below(self.both, self.path, at);
+                return true;
+            }
+        }
+        false
+    }
+
+    /// The current node is the start node (a leaf start: nothing to climb to).
+    #[inline(always)]
+    pub(super) fn at_start(&self) -> bool {
+        self.idx == self.w.from.node as usize
+    }
+
+    /// `backtrack`: climb the parent links `back` from the leaf, recomputing each node's
+    /// interval from its cell (one node, plane, box and step each), up to the first node where
+    /// the walk went both ways from the near child and whose far side starts before the
+    /// closest hit `best_t`: its far child is next. `None` above the start node.
+    #[inline(always)]
+    pub(super) fn climb<C: Counter, const ANY: bool>(
+        &mut self,
+        back: &[BackNode],
+        best_t: f32,
+        c: &mut C,
+    ) -> Option<Next> {
+        let (nodes, root) = (self.w.v.nodes, self.w.from.node as usize);
+        let mut child = self.idx;
+        let mut x = back[child].parent as usize;
+        loop {
+            c.interior();
+            c.steps(1);
+            c.planes(1);
+            c.boxes(1);
+            self.steps += 1;
+            let (xn, xf) = cell_interval(&self.w.from.cell, &self.s, &back[x]);
+            let d = decide(self.w.l, nodes[x], x, &self.s, xn, xf);
+            if d.kind == Kind::Both && child == d.near && (ANY || d.far_tn <= best_t) {
+                return Some(Next {
+                    node: d.far,
+                    tn: d.far_tn,
+                    tf: xf,
+                    alone: false,
+                    at: 0,
+                });
+            }
+            if x == root {
+                return None;
+            }
+            child = x;
+            x = back[x].parent as usize;
+        }
+    }
+}
+
+impl<L: Layout, const K: u8> RestartSteps for Restarts<'_, '_, L, K> {
+    type Next = Next;
+
     /// Descend to the first leaf of the current subtree, near child first, each interior node
     /// counted (one node, one plane, one step); `short-stack` keeps the far children, and the
     /// pushed-down node follows while the walk visits one child only.
     #[inline(always)]
-    pub(super) fn descend<C: Counter>(&mut self, c: &mut C) {
+    fn descend<C: Counter>(&mut self, c: &mut C) {
         let nodes = self.w.v.nodes;
         loop {
             let n = nodes[self.idx];
@@ -162,7 +234,7 @@ impl<'t, 'a, L: Layout, const K: u8> Restarts<'t, 'a, L, K> {
     /// sent the ray both ways; not for a ray lying in a split plane, whose children both span
     /// that node's whole interval), or the step cap reached.
     #[inline(always)]
-    pub(super) fn leaf<T: TriTest, C: Counter, const ANY: bool>(
+    fn leaf<T: TriTest, C: Counter, const ANY: bool>(
         &mut self,
         pre: &T::Pre,
         ray: &Ray,
@@ -171,44 +243,9 @@ impl<'t, 'a, L: Layout, const K: u8> Restarts<'t, 'a, L, K> {
     ) -> bool {
         self.steps += 1;
         let n = self.w.v.nodes[self.idx];
-        if leaf::<T, C, ANY>(&self.w.v, n, pre, ray, best, c) {
-            return true;
-        }
-        if best.t < self.tf && !self.in_plane {
-            return true;
-        }
-        if self.steps >= self.w.v.step_cap {
-            c.capped();
-            return true;
-        }
-        false
-    }
-
-    /// `short-stack`: continue in the newest kept far child that starts before the closest hit
-    /// `best_t` (any-hit queries: the newest); `false` when the stack runs dry.
-    #[inline(always)]
-    pub(super) fn pop<const ANY: bool>(&mut self, best_t: f32) -> bool {
-        while self.count > 0 {
-            self.top = if self.top == 0 {
-                self.size - 1
-            } else {
-                self.top - 1
-            };
-            self.count -= 1;
-            let (i, a, b, at) = self.stack[self.top];
-            if ANY || a <= best_t {
-                (self.idx, self.tn, self.tf) = (i as usize, a, b);
-                (self.depth, self.both, self.path) = below(self.both, self.path, at);
-                return true;
-            }
-        }
-        false
-    }
-
-    /// The current node is the start node (a leaf start: nothing to climb to).
-    #[inline(always)]
-    pub(super) fn at_start(&self) -> bool {
-        self.idx == self.w.from.node as usize
+        leaf::<T, C, ANY>(&self.w.v, n, pre, ray, best, c)
+            || (best.t < self.tf && !self.in_plane)
+            || capped(self.steps, self.w.v.step_cap, c)
     }
 
     /// Restart: descend from the pushed-down node toward the last leaf, down to the deepest
@@ -217,11 +254,7 @@ impl<'t, 'a, L: Layout, const K: u8> Restarts<'t, 'a, L, K> {
     /// child of the deepest one whose far side starts before the closest hit `best_t`. `None`
     /// when there is none below the pushed-down node: the ray is done.
     #[inline(always)]
-    pub(super) fn restart<C: Counter, const ANY: bool>(
-        &mut self,
-        best_t: f32,
-        c: &mut C,
-    ) -> Option<Next> {
+    fn restart<C: Counter, const ANY: bool>(&mut self, best_t: f32, c: &mut C) -> Option<Next> {
         let (nodes, l, last) = (self.w.v.nodes, self.w.l, self.idx);
         let live = if self.pd_depth >= 64 {
             0
@@ -278,49 +311,10 @@ impl<'t, 'a, L: Layout, const K: u8> Restarts<'t, 'a, L, K> {
         })
     }
 
-    /// `backtrack`: climb the parent links `back` from the leaf, recomputing each node's
-    /// interval from its cell (one node, plane, box and step each), up to the first node where
-    /// the walk went both ways from the near child and whose far side starts before the
-    /// closest hit `best_t`: its far child is next. `None` above the start node.
-    #[inline(always)]
-    pub(super) fn climb<C: Counter, const ANY: bool>(
-        &mut self,
-        back: &[BackNode],
-        best_t: f32,
-        c: &mut C,
-    ) -> Option<Next> {
-        let (nodes, root) = (self.w.v.nodes, self.w.from.node as usize);
-        let mut child = self.idx;
-        let mut x = back[child].parent as usize;
-        loop {
-            c.interior();
-            c.steps(1);
-            c.planes(1);
-            c.boxes(1);
-            self.steps += 1;
-            let (xn, xf) = cell_interval(&self.w.from.cell, &self.s, &back[x]);
-            let d = decide(self.w.l, nodes[x], x, &self.s, xn, xf);
-            if d.kind == Kind::Both && child == d.near && (ANY || d.far_tn <= best_t) {
-                return Some(Next {
-                    node: d.far,
-                    tn: d.far_tn,
-                    tf: xf,
-                    alone: false,
-                    at: 0,
-                });
-            }
-            if x == root {
-                return None;
-            }
-            child = x;
-            x = back[x].parent as usize;
-        }
-    }
-
     /// Continue in `next`: its depth and path bits from its parent's, and the pushed-down node
     /// there where it is the only subtree pending (`push-down`, `short-stack`).
     #[inline(always)]
-    pub(super) fn enter(&mut self, next: Next) {
+    fn enter(&mut self, next: Next) {
         (self.idx, self.tn, self.tf) = (next.node, next.tn, next.tf);
         if Self::TRACK {
             (self.depth, self.both, self.path) = below(self.both, self.path, next.at);

@@ -4,6 +4,7 @@
 //! ([`Restarts::pop`]), and a restart from the pushed-down node only when the stack runs dry.
 
 use super::restarts::Restarts;
+use super::RestartSteps;
 use super::SHORT_STACK;
 use crate::traverse::{Best, Setup, Tree};
 use crate::Layout;

@@ -13,9 +13,10 @@
 //!
 //! One file per stack walk (`recursive_direction`, `havran`, `recursive_origin`,
 //! `branchless`, `stack_spilling`); this module holds what they share: [`Tree`], [`start`],
-//! [`Best`] and [`leaf`], the node decision ([`decide`]) and the stack walk itself.
+//! [`Best`], [`leaf`] and [`capped`], the node decision ([`decide`]) and the stack walk itself.
 
 use crate::{KdNode, KdStart, KdView, Layout};
+pub use tb_core::leaves::Best;
 use tb_core::slab::{max_num, min_num};
 pub(crate) use tb_core::stack::Stack;
 use tb_core::{Counter, HitRecord, Ray, TriTest};
@@ -203,45 +204,15 @@ fn setup<L>(w: &Tree<'_, L>, ray: &Ray) -> Option<Setup> {
     })
 }
 
-/// The closest hit so far of one ray: distance, primitive (`u32::MAX`: none yet) and
-/// barycentrics; shared with the kernels built on the kd-tree (sparse boxes).
-pub struct Best {
-    /// Distance of the closest hit so far (`tmax` while there is none).
-    pub t: f32,
-    /// Triangle index of the closest hit (`u32::MAX`: none yet).
-    pub prim: u32,
-    /// First barycentric coordinate of the closest hit.
-    pub u: f32,
-    /// Second barycentric coordinate of the closest hit.
-    pub v: f32,
-}
-
-impl Best {
-    /// No hit yet, the closest distance so far `tmax` (the ray's end).
-    #[inline(always)]
-    pub fn new(tmax: f32) -> Self {
-        Best {
-            t: tmax,
-            prim: u32::MAX,
-            u: 0.0,
-            v: 0.0,
-        }
+/// Whether a walk of `steps` steps has reached the step cap `cap`: then the ray is counted as
+/// capped and its walk ends (the stackless walks' guard against an endless loop).
+#[inline(always)]
+pub fn capped<C: Counter>(steps: u32, cap: u32, c: &mut C) -> bool {
+    let done = steps >= cap;
+    if done {
+        c.capped();
     }
-
-    /// The hit as a [`HitRecord`]; [`HitRecord::MISS`] while no triangle was hit.
-    #[inline(always)]
-    pub fn record(&self) -> HitRecord {
-        if self.prim == u32::MAX {
-            HitRecord::MISS
-        } else {
-            HitRecord {
-                t: self.t,
-                prim: self.prim,
-                u: self.u,
-                v: self.v,
-            }
-        }
-    }
+    done
 }
 
 /// Test the triangles of leaf `n` against `[ray.tmin, best.t)`, updating `best`; with `ANY`,
@@ -270,7 +241,7 @@ pub fn leaf<T: TriTest, C: Counter, const ANY: bool>(
         // `validate`), and a view's triangles are those of its tree.
         let tri = unsafe { v.tris.get_unchecked(id as usize) };
         if let Some((t, u, v)) = T::intersect(pre, ray, tri, best.t) {
-            *best = Best { t, prim: id, u, v };
+            best.hit(t, id, u, v);
             if ANY {
                 return true;
             }

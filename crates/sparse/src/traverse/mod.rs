@@ -96,8 +96,8 @@ use tb_core::{
     Aabb, Answers, Batch, Counter, HitRecord, MollerTrumbore, NoStats, Query, Ray, TraversalStats,
     TriTest, TriTestKind, Vec3, Watertight,
 };
-use tb_kdtree::stackless::{passes, Cell, Exit, ExitFaces};
-use tb_kdtree::traverse::{leaf, Setup};
+use tb_kdtree::stackless::{passes, restart_loop, Cell, Exit, ExitFaces, RestartSteps};
+use tb_kdtree::traverse::{capped, leaf, Setup};
 use tb_kdtree::NodeRank;
 use tb_kdtree::{
     split_decision, Best, Decision, DepthFirst, KdNode, KdView, Kind, Located, SLACK, STACK_SIZE,

@@ -7,7 +7,7 @@
 //! parent links (`TraverseUp`) to a box holding the shifted point. A point that cannot be
 //! placed hands the ray to `sltr-mask` ([`super::sltr_mask`]).
 
-use super::sltr_mask::{self, MaskWalk};
+use super::sltr_mask::MaskWalk;
 use super::*;
 
 impl Ctx<'_> {
@@ -53,7 +53,7 @@ impl Ctx<'_> {
         c.restart();
         c.handover();
         let k = MaskWalk::new(self, &s, 0, steps, c);
-        sltr_mask::walk::<T, C, ANY>(k, ray, &pre, best, c)
+        restart_loop::<_, T, C, ANY>(k, ray, &pre, best, c)
     }
 }
 
@@ -240,14 +240,7 @@ impl<'c, 'a> SltrWalk<'c, 'a> {
     ) -> bool {
         let cx = self.cx;
         self.steps += 1;
-        if leaf::<T, C, ANY>(&cx.kd, cx.nodes[idx], pre, ray, best, c) {
-            return true;
-        }
-        if self.steps >= cx.cap {
-            c.capped();
-            return true;
-        }
-        false
+        leaf::<T, C, ANY>(&cx.kd, cx.nodes[idx], pre, ray, best, c) || capped(self.steps, cx.cap, c)
     }
 
     /// Leave the leaf's cell `min..max` (one box, its exit `texit`): through its nearest far
@@ -274,7 +267,7 @@ impl<'c, 'a> SltrWalk<'c, 'a> {
         c.boxes(1);
         let x = ExitFaces::of(s, r, min, max);
         let (tf, face) = (x.tf, x.face);
-        if best.prim != u32::MAX && best.t <= tf {
+        if best.found() && best.t <= tf {
             return Exit::Done;
         }
         if face == 3 || tf > s.t1 * SLACK {

@@ -6,7 +6,8 @@
 //! steps [`MaskWalk::descend`] to the next leaf, [`MaskWalk::leaf`], [`MaskWalk::restart`]
 //! (from the last augmented node toward the last leaf, after [`MaskWalk::climb`]ing the parent
 //! links to it; [`MaskWalk::widen`] above the part of the tree the walk knows) and
-//! [`MaskWalk::enter`] the next subtree; [`walk`] composes them.
+//! [`MaskWalk::enter`] the next subtree ([`RestartSteps`]); tb-kdtree's [`restart_loop`]
+//! composes them.
 
 use super::*;
 
@@ -25,30 +26,7 @@ impl Ctx<'_> {
         let pre = T::prepare(ray);
         let st = self.start(ray, hint);
         let k = MaskWalk::new(self, &s, st, 0, c);
-        walk::<T, C, ANY>(k, ray, &pre, Best::new(ray.tmax), c)
-    }
-}
-
-/// The walk of `sltr-mask` `k`, with the closest hit so far `best` (the paper's `sltr` hands
-/// it a ray whose point location cannot decide, from the root).
-#[inline(always)]
-pub(super) fn walk<T: TriTest, C: Counter, const ANY: bool>(
-    mut k: MaskWalk,
-    ray: &Ray,
-    pre: &T::Pre,
-    mut best: Best,
-    c: &mut C,
-) -> HitRecord {
-    loop {
-        k.descend(c);
-        if k.leaf::<T, C, ANY>(pre, ray, &mut best, c) {
-            return best.record();
-        }
-        c.restart();
-        match k.restart::<C, ANY>(best.t, c) {
-            Some(next) => k.enter(next),
-            None => return best.record(),
-        }
+        restart_loop::<_, T, C, ANY>(k, ray, &pre, Best::new(ray.tmax), c)
     }
 }
 
@@ -137,110 +115,6 @@ impl<'c, 'a> MaskWalk<'c, 'a> {
             phase: depth % cx.period,
             both: 0,
             in_plane: false,
-        }
-    }
-
-    /// `TraverseDown` to a leaf, the near child first where the ray goes both ways (its bit
-    /// set), each interior node counted (one node, one plane, one step); every augmented node
-    /// passed becomes `last`.
-    #[inline(always)]
-    fn descend<C: Counter>(&mut self, c: &mut C) {
-        let (nodes, p) = (self.cx.nodes, self.cx.period);
-        loop {
-            let n = nodes[self.idx];
-            if n.is_leaf() {
-                return;
-            }
-            if self.phase == 0 && self.idx != self.last.node {
-                self.last = LastBox {
-                    node: self.idx,
-                    rec: NONE,
-                    depth: self.depth,
-                    tn: self.tn,
-                    tf: self.tf,
-                };
-            }
-            c.interior();
-            c.steps(1);
-            c.planes(1);
-            self.steps += 1;
-            let d = decide(n, self.idx, self.s, self.tn, self.tf);
-            match d.kind {
-                Kind::NearOnly => self.idx = d.near,
-                Kind::FarOnly => self.idx = d.far,
-                Kind::Both => {
-                    self.in_plane |= d.far_tn < d.near_tf;
-                    self.both |= 1 << self.depth;
-                    self.idx = d.near;
-                    self.tf = d.near_tf;
-                }
-            }
-            self.depth += 1;
-            self.phase += 1;
-            if self.phase == p {
-                self.phase = 0;
-            }
-        }
-    }
-
-    /// Test the leaf reached (one step); `true` when the ray is done: an any-hit found, a hit
-    /// before the leaf's exit (every cell still to visit starts at or beyond it; not for a ray
-    /// lying in a split plane, whose both children span the interval), or the step cap reached.
-    #[inline(always)]
-    fn leaf<T: TriTest, C: Counter, const ANY: bool>(
-        &mut self,
-        pre: &T::Pre,
-        ray: &Ray,
-        best: &mut Best,
-        c: &mut C,
-    ) -> bool {
-        let cx = self.cx;
-        self.steps += 1;
-        if leaf::<T, C, ANY>(&cx.kd, cx.nodes[self.idx], pre, ray, best, c) {
-            return true;
-        }
-        if best.t < self.tf && !self.in_plane {
-            return true;
-        }
-        if self.steps >= cx.cap {
-            c.capped();
-            return true;
-        }
-        false
-    }
-
-    /// `RestartTraversal` after the leaf reached: the far child of the deepest node still to
-    /// come back to, found from the augmented node above it ([`Self::climb`],
-    /// [`Self::retrace`]), or above the known part ([`Self::widen`]) when no such node is left
-    /// there; one whose far side starts beyond the closest hit `best_t` is passed over. `None`:
-    /// none is left below the root, the ray is done.
-    #[inline(always)]
-    fn restart<C: Counter, const ANY: bool>(&mut self, best_t: f32, c: &mut C) -> Option<Next> {
-        let (lf, p) = (self.idx, self.cx.period);
-        loop {
-            let live = if self.dtop >= 64 {
-                0
-            } else {
-                self.both >> self.dtop << self.dtop
-            };
-            if live != 0 {
-                let k = 63 - live.leading_zeros();
-                self.both &= (1u64 << k) - 1;
-                self.climb(k / p * p, c);
-                match self.retrace(lf, k, c) {
-                    Some(next) if ANY || next.tn <= best_t => return Some(next),
-                    _ => continue,
-                }
-            }
-            if self.top == 0 {
-                return None;
-            }
-            if let Some((next, k)) = self.widen(lf, c) {
-                if ANY || next.tn <= best_t {
-                    self.both &= (1u64 << k) - 1;
-                    return Some(next);
-                }
-            }
         }
     }
 
@@ -370,6 +244,106 @@ impl<'c, 'a> MaskWalk<'c, 'a> {
         let d = decide(n, x, self.s, xn, xf);
         let toward = if lf < n.link() { x + 1 } else { n.link() };
         (d, toward)
+    }
+}
+
+impl RestartSteps for MaskWalk<'_, '_> {
+    type Next = Next;
+
+    /// `TraverseDown` to a leaf, the near child first where the ray goes both ways (its bit
+    /// set), each interior node counted (one node, one plane, one step); every augmented node
+    /// passed becomes `last`.
+    #[inline(always)]
+    fn descend<C: Counter>(&mut self, c: &mut C) {
+        let (nodes, p) = (self.cx.nodes, self.cx.period);
+        loop {
+            let n = nodes[self.idx];
+            if n.is_leaf() {
+                return;
+            }
+            if self.phase == 0 && self.idx != self.last.node {
+                self.last = LastBox {
+                    node: self.idx,
+                    rec: NONE,
+                    depth: self.depth,
+                    tn: self.tn,
+                    tf: self.tf,
+                };
+            }
+            c.interior();
+            c.steps(1);
+            c.planes(1);
+            self.steps += 1;
+            let d = decide(n, self.idx, self.s, self.tn, self.tf);
+            match d.kind {
+                Kind::NearOnly => self.idx = d.near,
+                Kind::FarOnly => self.idx = d.far,
+                Kind::Both => {
+                    self.in_plane |= d.far_tn < d.near_tf;
+                    self.both |= 1 << self.depth;
+                    self.idx = d.near;
+                    self.tf = d.near_tf;
+                }
+            }
+            self.depth += 1;
+            self.phase += 1;
+            if self.phase == p {
+                self.phase = 0;
+            }
+        }
+    }
+
+    /// Test the leaf reached (one step); `true` when the ray is done: an any-hit found, a hit
+    /// before the leaf's exit (every cell still to visit starts at or beyond it; not for a ray
+    /// lying in a split plane, whose both children span the interval), or the step cap reached.
+    #[inline(always)]
+    fn leaf<T: TriTest, C: Counter, const ANY: bool>(
+        &mut self,
+        pre: &T::Pre,
+        ray: &Ray,
+        best: &mut Best,
+        c: &mut C,
+    ) -> bool {
+        let cx = self.cx;
+        self.steps += 1;
+        leaf::<T, C, ANY>(&cx.kd, cx.nodes[self.idx], pre, ray, best, c)
+            || (best.t < self.tf && !self.in_plane)
+            || capped(self.steps, cx.cap, c)
+    }
+
+    /// `RestartTraversal` after the leaf reached: the far child of the deepest node still to
+    /// come back to, found from the augmented node above it ([`Self::climb`],
+    /// [`Self::retrace`]), or above the known part ([`Self::widen`]) when no such node is left
+    /// there; one whose far side starts beyond the closest hit `best_t` is passed over. `None`:
+    /// none is left below the root, the ray is done.
+    #[inline(always)]
+    fn restart<C: Counter, const ANY: bool>(&mut self, best_t: f32, c: &mut C) -> Option<Next> {
+        let (lf, p) = (self.idx, self.cx.period);
+        loop {
+            let live = if self.dtop >= 64 {
+                0
+            } else {
+                self.both >> self.dtop << self.dtop
+            };
+            if live != 0 {
+                let k = 63 - live.leading_zeros();
+                self.both &= (1u64 << k) - 1;
+                self.climb(k / p * p, c);
+                match self.retrace(lf, k, c) {
+                    Some(next) if ANY || next.tn <= best_t => return Some(next),
+                    _ => continue,
+                }
+            }
+            if self.top == 0 {
+                return None;
+            }
+            if let Some((next, k)) = self.widen(lf, c) {
+                if ANY || next.tn <= best_t {
+                    self.both &= (1u64 << k) - 1;
+                    return Some(next);
+                }
+            }
+        }
     }
 
     /// Continue in `next` (its depth's phase computed).
