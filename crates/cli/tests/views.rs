@@ -224,8 +224,9 @@ fn bad_views_are_refused_with_one_line() {
 
 /// Named views (`views_file`, `view = NAME`): a table or a `views` entry naming a view gets
 /// its eye, target, up, fov and light, under what the table or entry gives itself; the
-/// project's configs read `configs/views.toml`; unknown names, a missing file and a view
-/// without `views_file` are refused with one line naming the key.
+/// project's configs read `configs/views.toml`; unknown names, a missing file, a view
+/// without `views_file`, an unknown key and a NaN or infinite number in the views file are
+/// refused with one line naming the key.
 #[test]
 fn named_views_fill_the_camera_under_the_tables_own_keys() {
     use tb_harness::experiment::config::{self, Overrides};
@@ -338,6 +339,20 @@ fn named_views_fill_the_camera_under_the_tables_own_keys() {
         .unwrap()
         .to_string();
     assert!(e.contains("v.toml") && e.contains("zoom"), "{e}");
+    // A NaN or infinite number in the views file is refused naming that file and its key.
+    for bad in ["nan", "inf", "-inf"] {
+        fs::write(
+            t.path().join("v.toml"),
+            format!("[far]\neye = [0, 1, 9]\ntarget = [0, 1, 0]\nfov = {bad}\n[near]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\n"),
+        )
+        .unwrap();
+        let e = config::parse(&cfg, text, &Overrides::default(), &mut |_| {})
+            .err()
+            .unwrap_or_else(|| panic!("fov = {bad} should be refused"))
+            .to_string();
+        assert!(e.contains("v.toml") && e.contains("fov"), "{bad}: {e}");
+        assert_eq!(e.trim().lines().count(), 1, "{bad}: one line: {e}");
+    }
     // The project's configs name their paper scenes' views from configs/views.toml.
     let views = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/views.toml");
     let named: toml::Table = toml::from_str(&fs::read_to_string(views).unwrap()).unwrap();

@@ -222,6 +222,13 @@ macro_rules! multikd_walks {
             }
         }
 
+        /// `trace_row` of a `NAME-sorted` row: the batch arranged by tree first.
+        fn trace_sorted(m: &MultiKdTree, name: &str, b: Batch<'_>, out: Answers<'_>) {
+            let mut order = Vec::new();
+            m.arrange(b.rays, &mut order);
+            trace_row(m, name, b, Some(&order), out)
+        }
+
         /// `trace_row` in layout `l`: the kd kernel named `name` per header entry.
         fn trace_in<L: Layout>(m: &MultiKdTree, l: L, name: &str, c: $crate::traverse::Chunk<'_, '_>) {
             match name {
@@ -251,9 +258,7 @@ macro_rules! multikd_walks {
                     ..TraversalInfo::new($name, $paper, $doc) $($info)*
                 },
                 trace: tb_core::kernel!(|m: &MultiKdTree, batch, out| {
-                    let mut order = Vec::new();
-                    m.arrange(batch.rays, &mut order);
-                    trace_row(m, $name, batch, Some(&order), out)
+                    trace_sorted(m, $name, batch, out)
                 }),
                 gpu: $crate::traverse::gpu_of($name)[1],
                 hints: None,
@@ -268,11 +273,7 @@ macro_rules! multikd_walks {
                 trace: tb_core::kernel!(|m: &MultiKdTree, batch, out| {
                     match batch.hints {
                         Some(order) => trace_row(m, $name, batch, Some(order), out),
-                        None => {
-                            let mut order = Vec::new();
-                            m.arrange(batch.rays, &mut order);
-                            trace_row(m, $name, batch, Some(&order), out)
-                        }
+                        None => trace_sorted(m, $name, batch, out),
                     }
                 }),
                 gpu: $crate::traverse::gpu_of($name)[2],

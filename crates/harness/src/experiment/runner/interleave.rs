@@ -43,15 +43,7 @@ impl Run<'_> {
                     if t.is_empty() {
                         continue;
                     }
-                    let base = base_row(spec, tris, st, &params_s);
-                    self.after_build(spec, st, &built, &params_s)?;
-                    let src = RowSource {
-                        spec,
-                        batches: g.batches,
-                        st,
-                        built: &built,
-                        base: &base,
-                    };
+                    let src = self.view_source(spec, g.batches, tris, st, &built, &params_s)?;
                     for c in t {
                         let row = self.measure_row(&src, oracle, c, false)?;
                         let awaits = row.hit_rate.is_some();

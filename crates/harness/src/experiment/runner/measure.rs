@@ -5,13 +5,35 @@ use super::*;
 
 /// What the rows of one build are measured from ([`Run::measure_row`]): the scene table and
 /// view, its ray batches, the structure table, the build and the row its rows start from.
-#[derive(Clone, Copy)]
 pub(super) struct RowSource<'a> {
     pub(super) spec: &'a SceneSpec,
     pub(super) batches: &'a [RayBatch],
     pub(super) st: &'a StructureSpec,
     pub(super) built: &'a Built,
-    pub(super) base: &'a Row,
+    pub(super) base: Row,
+}
+
+impl Run<'_> {
+    /// The source of the rows of build `built` on view `spec` (its base row from `tris`,
+    /// `st` and `params_s`), after the build's heat maps and renders for that view.
+    pub(super) fn view_source<'a>(
+        &mut self,
+        spec: &'a SceneSpec,
+        batches: &'a [RayBatch],
+        tris: &Arc<[Triangle]>,
+        st: &'a StructureSpec,
+        built: &'a Built,
+        params_s: &str,
+    ) -> Result<RowSource<'a>, HarnessError> {
+        self.after_build(spec, st, built, params_s)?;
+        Ok(RowSource {
+            spec,
+            batches,
+            st,
+            built,
+            base: base_row(spec, tris, st, params_s),
+        })
+    }
 }
 
 impl Run<'_> {
@@ -30,7 +52,7 @@ impl Run<'_> {
             st,
             built,
             base,
-        } = *src;
+        } = src;
         let b = &batches[c.bi];
         let info = st.infos[c.ti];
         let mut row = row_of(base, st, &c, b);

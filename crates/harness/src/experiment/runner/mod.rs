@@ -12,8 +12,6 @@ mod measure;
 pub mod plan;
 pub mod table;
 
-use measure::RowSource;
-
 pub use table::table;
 
 use crate::error::HarnessError;
@@ -443,15 +441,7 @@ impl<'a> Run<'a> {
             if t.is_empty() {
                 continue;
             }
-            let base = base_row(spec, tris, st, &params_s);
-            self.after_build(spec, st, &built, &params_s)?;
-            let src = RowSource {
-                spec,
-                batches: g.batches,
-                st,
-                built: &built,
-                base: &base,
-            };
+            let src = self.view_source(spec, g.batches, tris, st, &built, &params_s)?;
             for c in t {
                 let row = self.measure_row(&src, oracle, c, true)?;
                 self.emit(row)?;
