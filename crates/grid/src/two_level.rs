@@ -4,8 +4,8 @@
 
 use crate::common::{enter, test_refs, walk, Visit};
 use crate::lattice::{
-    bin_uniform, bounded_res, box_refs, grid_bounds, resolution, scale_res, within_budget, Lattice,
-    Real, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
+    bin_uniform, box_refs, resolution, scale_res, within_budget, Lattice, Real,
+    MAX_REFS_PER_TRIANGLE,
 };
 use crate::params::{Precision, TwoLevelParams};
 use rayon::prelude::*;
@@ -74,19 +74,8 @@ fn sub_lattice<F: Real>(top: &Lattice<F>, v: [u32; 3], res: [u32; 3]) -> Lattice
 /// first by the reference bound (the top level's references are the leaves' least), and the
 /// triangles binned to its cells; with the bound's scale of the resolution.
 fn top_level(tris: &[Triangle], p: &TwoLevelParams) -> Result<(Binned, f64), AccelError> {
-    let bounds = grid_bounds(tris);
-    let ext = bounds.extent().to_array().map(f64::from);
-    let res = resolution(
-        ext,
-        tris.len(),
-        p.densities.lambda_1 as f64,
-        p.densities.rounding,
-        MAX_AXIS_RES,
-        p.max_cells as u64,
-    );
-    let precision = p.walk.precision;
-    let (res, top_scale) = bounded_res(&bounds, res, tris, precision);
-    let top = Lattice::new(&bounds, res, precision);
+    let (top, top_scale) =
+        crate::lattice::top_level(tris, &p.densities, p.max_cells as u64, p.walk.precision);
     let (start, refs) = bin_uniform(&top, tris)?;
     Ok((Binned { top, start, refs }, top_scale))
 }

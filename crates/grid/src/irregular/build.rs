@@ -53,22 +53,11 @@ impl Builder<'_> {
     /// binned to its cells.
     fn top_level(&mut self) -> Result<(Lattice, Binned), AccelError> {
         let (tris, p) = (self.tris, self.p);
-        let bounds = grid_bounds(tris);
-        let ext = bounds.extent().to_array().map(f64::from);
-        let res = resolution(
-            ext,
-            tris.len(),
-            p.densities.lambda_1 as f64,
-            p.densities.rounding,
-            MAX_AXIS_RES,
-            p.max_cells as u64,
-        );
-        let precision = p.walk.precision;
-        let (res, top_scale) = bounded_res(&bounds, res, tris, precision);
+        let (top, top_scale) =
+            crate::lattice::top_level(tris, &p.densities, p.max_cells as u64, p.walk.precision);
         if top_scale < 1.0 {
             self.fig.push(("ref_budget_top_scale".into(), top_scale));
         }
-        let top = Lattice::new(&bounds, res, precision);
         let (start, refs) = bin_uniform(&top, tris)?;
         Ok((top, Binned { start, refs }))
     }

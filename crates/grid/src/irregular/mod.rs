@@ -4,8 +4,8 @@
 
 use crate::common::{cell_walk, GridView};
 use crate::lattice::{
-    bin_uniform, bounded_res, grid_bounds, is_subset, planes_for, resolution, union_into,
-    union_len, Lattice, Planes, Real, MAX_AXIS_RES, MAX_REFS_PER_TRIANGLE,
+    bin_uniform, is_subset, planes_for, resolution, union_into, union_len, Lattice, Planes, Real,
+    MAX_REFS_PER_TRIANGLE,
 };
 use crate::params::{Initial, IrregularParams, Precision};
 
@@ -327,6 +327,7 @@ mod tests {
     use super::build::*;
     use super::merge::*;
     use super::*;
+    use crate::lattice::{grid_bounds, MAX_AXIS_RES};
     use crate::params::Densities;
 
     /// On every scene of the shared suite (stress and procedural scenes), the uniform initial
