@@ -91,7 +91,8 @@ pub static FAMILY: Family = Family::new::<Bvh, BvhParams>(
      Ylitie et al. 2017)",
 )
 .with_rules::<BvhParams>()
-.with_persist::<Bvh>();
+.with_persist::<Bvh>()
+.with_method(1, tb_core::FIRST_METHOD);
 
 /// A binned SAH BVH over triangles (see the crate doc for the papers).
 ///

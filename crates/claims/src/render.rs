@@ -17,6 +17,9 @@ pub struct Tally {
     pub inconclusive: usize,
     /// Results whose verdict is `undecidable`.
     pub undecidable: usize,
+    /// Results whose verdict is `stale` (rows of an older method only): counted apart.
+    #[serde(default)]
+    pub stale: usize,
 }
 
 impl Tally {
@@ -35,6 +38,7 @@ impl Tally {
                 Verdict::Disagree => t.disagree += 1,
                 Verdict::Inconclusive => t.inconclusive += 1,
                 Verdict::Undecidable => t.undecidable += 1,
+                Verdict::Stale => t.stale += 1,
             }
         }
         t
@@ -42,7 +46,7 @@ impl Tally {
 
     /// Results counted.
     pub fn total(&self) -> usize {
-        self.agree + self.disagree + self.inconclusive + self.undecidable
+        self.agree + self.disagree + self.inconclusive + self.undecidable + self.stale
     }
 }
 
@@ -55,6 +59,9 @@ impl std::fmt::Display for Tally {
         )?;
         if self.undecidable > 0 {
             write!(f, ", {} undecidable", self.undecidable)?;
+        }
+        if self.stale > 0 {
+            write!(f, " ({} stale apart, not tallied)", self.stale)?;
         }
         Ok(())
     }
@@ -100,21 +107,60 @@ pub fn section(kind: ClaimKind) -> (&'static str, &'static str) {
     }
 }
 
-/// The results of each kind present, in the order claims, observations, invariants.
-fn by_kind(rs: &[ClaimResult]) -> Vec<(ClaimKind, Vec<&ClaimResult>)> {
-    ClaimKind::ALL
-        .iter()
-        .map(|k| (*k, rs.iter().filter(|r| r.kind == *k).collect::<Vec<_>>()))
-        .filter(|(k, v)| *k == ClaimKind::Claim || !v.is_empty())
-        .collect()
+/// The stale results' section title and what it holds.
+pub const STALE_SECTION: (&str, &str) = (
+    "Stale",
+    "not tallied: every row that would decide them was made by an older method than this \
+     binary's (the rows' `method`); the reason names the commit that made them and the command \
+     that renews them",
+);
+
+/// A section of the verdicts: one kind's results that are not stale, or the stale ones.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Section {
+    Kind(ClaimKind),
+    Stale,
 }
 
-/// The count line of one kind's section (`tally` for claims).
-fn count_line(kind: ClaimKind, rs: &[ClaimResult]) -> String {
-    let t = Tally::of_kind(rs, kind);
-    match kind {
-        ClaimKind::Claim => t.to_string(),
-        k => format!("{} (not tallied, {}): {t}", section(k).0, t.total()),
+/// The results of each kind present, in the order claims, observations, invariants, then the
+/// stale results of every kind apart.
+fn by_kind(rs: &[ClaimResult]) -> Vec<(Section, Vec<&ClaimResult>)> {
+    let fresh = |r: &&ClaimResult| r.verdict != Verdict::Stale;
+    let mut v: Vec<(Section, Vec<&ClaimResult>)> = ClaimKind::ALL
+        .iter()
+        .map(|k| {
+            let of: Vec<&ClaimResult> = rs.iter().filter(|r| r.kind == *k).filter(fresh).collect();
+            (Section::Kind(*k), of)
+        })
+        .filter(|(k, v)| *k == Section::Kind(ClaimKind::Claim) || !v.is_empty())
+        .collect();
+    let stale: Vec<&ClaimResult> = rs.iter().filter(|r| !fresh(r)).collect();
+    if !stale.is_empty() {
+        v.push((Section::Stale, stale));
+    }
+    v
+}
+
+/// A section's title and what it holds.
+fn section_of(s: Section) -> (&'static str, &'static str) {
+    match s {
+        Section::Kind(k) => section(k),
+        Section::Stale => STALE_SECTION,
+    }
+}
+
+/// The count line of one section (`tally` for claims).
+fn count_line(s: Section, rs: &[ClaimResult]) -> String {
+    match s {
+        Section::Kind(ClaimKind::Claim) => Tally::of_kind(rs, ClaimKind::Claim).to_string(),
+        Section::Kind(k) => {
+            let t = Tally::of_kind(rs, k);
+            format!("{} (not tallied, {}): {t}", section(k).0, t.total())
+        }
+        Section::Stale => {
+            let n = rs.iter().filter(|r| r.verdict == Verdict::Stale).count();
+            format!("Stale (not tallied): {n}")
+        }
     }
 }
 
@@ -134,7 +180,7 @@ pub fn text(rs: &[ClaimResult], width: u16) -> String {
     let mut out = String::new();
     for (kind, v) in &kinds {
         if kinds.len() > 1 {
-            let (title, what) = section(*kind);
+            let (title, what) = section_of(*kind);
             out.push_str(&format!("{title} ({what})\n"));
         }
         let mut t = comfy_table::Table::new();
@@ -167,6 +213,7 @@ pub fn md_verdict(v: Verdict) -> &'static str {
         Verdict::Disagree => "**disagree**",
         Verdict::Inconclusive => "*inconclusive*",
         Verdict::Undecidable => "*undecidable*",
+        Verdict::Stale => "*stale*",
     }
 }
 
@@ -177,7 +224,7 @@ pub fn markdown(rs: &[ClaimResult]) -> String {
     let mut s = String::new();
     for (kind, v) in &kinds {
         if kinds.len() > 1 {
-            let (title, what) = section(*kind);
+            let (title, what) = section_of(*kind);
             s.push_str(&format!("**{title}** ({what}):\n\n"));
         }
         s.push_str("| claim | where | paper | ours | verdict | why |\n|---|---|---|---|---|---|\n");

@@ -17,6 +17,8 @@ pub struct Row {
     cells: Vec<String>,
     /// From a CSV with the columns trace-bench writes (results, dynamic, weights, …).
     ours: bool,
+    /// The commit that made it (its run's `results.json`, `meta.build.commit`), where known.
+    made_by: Option<Arc<str>>,
 }
 
 impl Row {
@@ -44,6 +46,31 @@ impl Row {
             .split(';')
             .filter_map(|x| x.trim().parse().ok())
             .collect()
+    }
+
+    /// The commit of the binary that made the row (`-dirty` with uncommitted changes), read
+    /// from its run's `results.json` beside the CSV; `None` where there is none.
+    pub fn made_by(&self) -> Option<&str> {
+        self.made_by.as_deref()
+    }
+
+    /// Whether the row was made by the current `methods` (see
+    /// [`crate::eval::Options::methods`]): every `NAME=VERSION` of its `method` column at
+    /// `methods`' version for that name (a name `methods` does not know, such as a family
+    /// this binary lacks, is not held against it). A results row without a `method` is of
+    /// version 0 of every method, so never current; rows of other CSVs are not checked, nor
+    /// any row where `methods` is empty.
+    pub fn current(&self, methods: &BTreeMap<String, u32>) -> bool {
+        if methods.is_empty() || self.file != "results" {
+            return true;
+        }
+        let cell = self.get("method").unwrap_or("").trim();
+        !cell.is_empty()
+            && kv(cell).iter().all(|(k, v)| {
+                methods
+                    .get(*k)
+                    .is_none_or(|cur| v.trim().parse::<u32>().ok() == Some(*cur))
+            })
     }
 
     /// The build a row's figures come from: scene table x structure x params.
@@ -279,6 +306,7 @@ fn read_csv(f: &Path, origin: &Arc<PathBuf>) -> Result<Vec<Row>, Error> {
         // NaN: refused naming the row, never read as a missing figure).
         tb_results::output::read_csv(f)?;
     }
+    let made_by = made_by(f);
     let mut out = Vec::new();
     for (i, rec) in rd.records().enumerate() {
         let rec = rec.map_err(|e| Error::io(f, format!("row {}: {e}", i + 2)))?;
@@ -291,7 +319,23 @@ fn read_csv(f: &Path, origin: &Arc<PathBuf>) -> Result<Vec<Row>, Error> {
             header: header.clone(),
             cells: rec.iter().map(str::to_owned).collect(),
             ours,
+            made_by: made_by.clone(),
         });
     }
     Ok(out)
+}
+
+/// The commit that made the rows of CSV `f`: `meta.build.commit` of the `results.json` beside
+/// it (`-dirty` where the tree had uncommitted changes); `None` without one.
+fn made_by(f: &Path) -> Option<Arc<str>> {
+    let text = std::fs::read_to_string(f.with_file_name("results.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    let b = v.get("meta")?.get("build")?;
+    let commit = b.get("commit")?.as_str()?;
+    let dirty = b.get("dirty").and_then(|d| d.as_bool()) == Some(true);
+    Some(if dirty {
+        format!("{commit}-dirty").into()
+    } else {
+        commit.into()
+    })
 }

@@ -1014,7 +1014,14 @@ fn a_claim_undecidable_by_construction_says_so() {
     // The floor decides: at ±5 % the same band [1.7, 2.0] can hold an interval.
     let file = claims::parse(Path::new("t.toml"), &c("min = 1.7, max = 2.0")).unwrap();
     let rows = RowSet::read(std::slice::from_ref(&r)).unwrap();
-    let v = claims::evaluate_with(&file, &rows, &claims::Options { time_floor: 0.05 });
+    let v = claims::evaluate_with(
+        &file,
+        &rows,
+        &claims::Options {
+            time_floor: 0.05,
+            ..Default::default()
+        },
+    );
     assert_eq!(v[0].verdict, Verdict::Inconclusive, "{v:?}");
     // Counters have no floor: the same band on a counter is decided.
     let counter = c("min = 1.7, max = 2.0").replace("\"time\"", "\"interior_per_ray\"");

@@ -32,7 +32,11 @@ impl ClaimsArgs {
                 rows.replaced
             );
         }
-        let mut verdicts = claims::evaluate_with(&file, &rows, &claims::Options { time_floor });
+        let opts = claims::Options {
+            time_floor,
+            methods: tb_harness::registry::Registry::builtin().methods(),
+        };
+        let mut verdicts = claims::evaluate_with(&file, &rows, &opts);
         if !only.is_empty() {
             verdicts.retain(|v| only.contains(&v.id));
         }
@@ -140,6 +144,7 @@ impl ReproduceArgs {
             deadline_s,
             write_anywhere,
             quiet,
+            methods: tb_harness::registry::Registry::builtin().methods(),
         };
         let reports = reproduce::reproduce(&opts, &HarnessRuns)?;
         for r in &reports {

@@ -565,7 +565,19 @@ pub struct Family {
     /// ([`Family::with_stage`]): the build cache then keeps the first stage under that
     /// family's own key, so structures that share it build it once.
     pub stage: Option<Stage>,
+    /// Its method version ([`Family::with_method`]): raised with every change of a paper rule
+    /// in its builder or its traversals (CPU or GPU), so that a row made by an older method
+    /// is told apart (the `method` column; a claim reads only rows of the current methods).
+    /// 0: not declared.
+    pub method: u32,
+    /// What the current method version changed (`trace-bench list` shows it).
+    pub method_change: &'static str,
 }
+
+/// The change of a family's method version 1 ([`Family::with_method`]): versions begin with
+/// the builders and traversals of 2026-12-08; rows made before carry no `method` and read as
+/// made by version 0.
+pub const FIRST_METHOD: &str = "method versions begin (2026-12-08): rows made before carry none";
 
 /// A build in two stages: first the whole structure of family `base` with the parameters
 /// `params` names, then `finish` over it (sparse boxes: the kd-tree, then its augmented nodes,
@@ -600,7 +612,17 @@ impl Family {
             densities: None,
             codec: None,
             stage: None,
+            method: 0,
+            method_change: "",
         }
+    }
+
+    /// This family at method version `version`, whose change from the one before is
+    /// `change` (see [`Family::method`]).
+    pub const fn with_method(mut self, version: u32, change: &'static str) -> Family {
+        self.method = version;
+        self.method_change = change;
+        self
     }
 
     /// This family built in two stages, the first another family's structure ([`Stage`]).

@@ -34,7 +34,7 @@ pub mod tri;
 pub use accel::{
     build_with, dispatch, Accel, AccelError, Answers, Batch, BuildFn, BuildReport, Codec, Family,
     FinishFn, HintFn, Kernel, MemoryReport, Query, Stage, Structure, TraceFn, Traversal,
-    TraversalInfo,
+    TraversalInfo, FIRST_METHOD,
 };
 pub use compare::{
     compare, compare_any, compare_closest, hex_f32, t_tolerance, Mismatch, MismatchKind, T_REL_TOL,

@@ -34,7 +34,8 @@ crate::params! {
 pub static FAMILY: Family = Family::new::<BruteForce, NoParams>(
     "every ray against every triangle: the oracle",
     |tris, set| build_with(set, |_: &NoParams| Ok(BruteForce::shared(tris.clone()))),
-);
+)
+.with_method(1, crate::FIRST_METHOD);
 
 impl BruteForce {
     /// Brute force over a copy of `tris`.

@@ -76,6 +76,12 @@ use tb_core::TraversalStats;
 /// Threads per workgroup of every kernel (one ray per thread).
 pub const WORKGROUP: u32 = 64;
 
+/// The GPU driver's method version: how programs are dispatched (persistent threads, ray
+/// order) and timed (timestamp queries, sustained timing), written as `gpu=N` in every GPU
+/// row's `method` (the kernels themselves are their families'). 1: method versions begin
+/// (2026-12-08).
+pub const METHOD: u32 = 1;
+
 /// Environment variable that makes the GPU tests fail, rather than skip, without an adapter.
 pub const REQUIRE_GPU_ENV: &str = "TRACE_BENCH_REQUIRE_GPU";
 

@@ -101,7 +101,8 @@ pub static UNIFORM_FAMILY: Family = Family::new::<UniformGrid, UniformParams>(
     |tris, set| build_with(set, |p: &UniformParams| UniformGrid::build(tris, p)),
 )
 .with_summary("uniform grid, optional macro regions (Amanatides and Woo 1987; Devillers 1989)")
-.with_persist::<UniformGrid>();
+.with_persist::<UniformGrid>()
+.with_method(1, tb_core::FIRST_METHOD);
 
 /// The two-level grid in the registry.
 pub static TWO_LEVEL_FAMILY: Family = Family::new::<TwoLevelGrid, TwoLevelParams>(
@@ -110,7 +111,8 @@ pub static TWO_LEVEL_FAMILY: Family = Family::new::<TwoLevelGrid, TwoLevelParams
     |tris, set| build_with(set, |p: &TwoLevelParams| TwoLevelGrid::build(tris, p)),
 )
 .with_densities(DENSITIES)
-.with_persist::<TwoLevelGrid>();
+.with_persist::<TwoLevelGrid>()
+.with_method(1, tb_core::FIRST_METHOD);
 
 /// The irregular grid in the registry.
 pub static IRREGULAR_FAMILY: Family = Family::new::<IrregularGrid, IrregularParams>(
@@ -123,4 +125,5 @@ pub static IRREGULAR_FAMILY: Family = Family::new::<IrregularGrid, IrregularPara
     "irregular grid: voxelization, SAH cell merging, cell expansion (Pérard-Gayot et al. 2017)",
 )
 .with_densities(DENSITIES)
-.with_persist::<IrregularGrid>();
+.with_persist::<IrregularGrid>()
+.with_method(1, tb_core::FIRST_METHOD);

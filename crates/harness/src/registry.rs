@@ -5,6 +5,7 @@
 //! doc, parameter table, traversal table, builder); add one line to `FAMILIES` and the crate
 //! to `Cargo.toml`. Nothing else in the harness, the GPU crate or the tests names a structure.
 
+use std::collections::BTreeMap;
 use tb_core::{Accel, Family, ParamKind, TraversalInfo, Triangle};
 
 /// Every registered structure family, in listing order.
@@ -26,6 +27,28 @@ static FAMILIES: &[&Family] = &[
     #[cfg(feature = "bvh-rs")]
     &tb_peers::bvh_rs::FAMILY,
 ];
+
+/// The harness's method version: how rays are generated (cameras, views, shadow, AO and path
+/// rays), and how rows are timed and counted. Raised with every change of those that moves a
+/// row's figures; written in every row's `method` as `harness=N` ([`method_of`]).
+/// 1: method versions begin (2026-12-08).
+pub const HARNESS_METHOD: u32 = 1;
+
+/// The methods that make a row of family `f` (`gpu`: a GPU row), as its `method` column holds
+/// them: `NAME=VERSION;…`, the family's own version first, then its first stage's family (a
+/// structure built over another's, `sparse-boxes=1;kdtree=1`), the harness's
+/// ([`HARNESS_METHOD`]) and on the GPU the GPU driver's ([`tb_gpu::METHOD`]).
+pub fn method_of(f: &Family, gpu: bool) -> String {
+    let mut s = format!("{}={}", f.name, f.method);
+    if let Some(st) = &f.stage {
+        s.push_str(&format!(";{}={}", st.base.name, st.base.method));
+    }
+    s.push_str(&format!(";harness={HARNESS_METHOD}"));
+    if gpu {
+        s.push_str(&format!(";gpu={}", tb_gpu::METHOD));
+    }
+    s
+}
 
 /// A set of structure families a config is resolved against: [`Registry::builtin`] (what the
 /// binary offers) or that plus test-only families.
@@ -59,6 +82,19 @@ impl Registry {
         &self.families
     }
 
+    /// The current version of every method a row's `method` names (each family's, the
+    /// harness's and the GPU driver's): what `claims` reads rows against.
+    pub fn methods(&self) -> BTreeMap<String, u32> {
+        let mut m: BTreeMap<String, u32> = self
+            .families
+            .iter()
+            .map(|f| (f.name.to_owned(), f.method))
+            .collect();
+        m.insert("harness".into(), HARNESS_METHOD);
+        m.insert("gpu".into(), tb_gpu::METHOD);
+        m
+    }
+
     /// The family named `name`.
     pub fn find(&self, name: &str) -> Option<&'static Family> {
         self.families.iter().copied().find(|f| f.name == name)
@@ -70,6 +106,15 @@ impl Registry {
         let mut s = String::new();
         for f in &self.families {
             s.push_str(&format!("{:<14} {}\n", f.name, f.doc));
+            s.push_str(&format!(
+                "  method {} ({})\n",
+                f.method,
+                if f.method_change.is_empty() {
+                    "not declared"
+                } else {
+                    f.method_change
+                }
+            ));
             for t in (f.traversals)() {
                 s.push_str(&format!("  traversal {:<20} {}", t.name, t.doc));
                 let tags = tags(t);
@@ -193,6 +238,11 @@ impl Registry {
         let mut s = String::new();
         for (f, programs) in self.programs()? {
             s.push_str(&format!("### `{}`\n\n{}\n\n", f.name, cell(f.doc)));
+            s.push_str(&format!(
+                "Method version {} (the rows' `method`): {}.\n\n",
+                f.method,
+                cell(f.method_change)
+            ));
             s.push_str("| traversal | what | GPU program |\n|---|---|---|\n");
             for (t, p) in (f.traversals)().iter().zip(&programs) {
                 let what = match tags(t) {
@@ -248,4 +298,34 @@ pub mod weights {
     /// The columns of `weights.csv` (`trace-bench weights --csv`), in the order of
     /// [`weight_rows`]' fields, each with whether it holds numbers (kept with the other CSVs' rows).
     pub use tb_results::tables::WEIGHTS_COLUMNS as CSV_COLUMNS;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every family declares its method version (a row of an undeclared one would carry
+    /// `NAME=0`, read as older than any), and a row's `method` names each method `methods`
+    /// knows at its version: such a row is current, and one of version 0 is not.
+    #[test]
+    fn every_family_declares_its_method_and_rows_name_it() {
+        let reg = Registry::builtin();
+        let methods = reg.methods();
+        for f in reg.families() {
+            assert!(f.method >= 1, "{} declares no method version", f.name);
+            assert!(!f.method_change.is_empty(), "{}: no method change", f.name);
+            for gpu in [false, true] {
+                let m = method_of(f, gpu);
+                for (k, v) in tb_results::pairs::pairs(&m) {
+                    assert_eq!(methods.get(k).map(|x| x.to_string()), Some(v.into()), "{m}");
+                }
+                assert_eq!(m.contains(";gpu="), gpu, "{m}");
+            }
+        }
+        let sparse = reg.find("sparse-boxes").expect("sparse boxes registered");
+        assert!(
+            method_of(sparse, false).contains(";kdtree="),
+            "the first stage is named"
+        );
+    }
 }

@@ -116,7 +116,8 @@ pub static FAMILY: Family = Family::new::<KdTree, KdParams>(
     "SAH kd-tree with perfect splits and the kd-tree review's traversals (Hapala and Havran 2011)",
 )
 .with_rules::<KdParams>()
-.with_persist::<KdTree>();
+.with_persist::<KdTree>()
+.with_method(1, tb_core::FIRST_METHOD);
 
 impl tb_core::Persist for KdTree {
     fn attach(

@@ -96,7 +96,8 @@ pub static FAMILY: Family = Family::new::<MultiKdTree, MultiKdParams>(
      (Torres et al. 2012)",
 )
 .with_rules::<MultiKdParams>()
-.with_persist::<MultiKdTree>();
+.with_persist::<MultiKdTree>()
+.with_method(1, tb_core::FIRST_METHOD);
 
 impl tb_core::Persist for MultiKdTree {
     fn attach(

@@ -15,7 +15,8 @@ use tb_core::{
 pub static FAMILY: Family = Family::new::<BvhRsPeer, NoParams>(
     "peer: the `bvh` crate (svenstaro), closest hit from its candidates (feature `bvh-rs`)",
     |tris, set| build_with(set, |_: &NoParams| Ok(BvhRsPeer::build(tris))),
-);
+)
+.with_method(1, tb_core::FIRST_METHOD);
 
 /// A triangle as a `bvh` shape.
 struct Shape {

@@ -14,7 +14,8 @@ use tb_core::{
 pub static FAMILY: Family = Family::new::<EmbreePeer, EmbreeParams>(
     "peer: Intel Embree 3 single rays (feature `embree`)",
     |tris, set| build_with(set, |p: &EmbreeParams| EmbreePeer::build(tris, p)),
-);
+)
+.with_method(1, tb_core::FIRST_METHOD);
 
 tb_core::choice! {
     /// `RTC_BUILD_QUALITY_*`.

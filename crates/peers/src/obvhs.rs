@@ -16,7 +16,8 @@ use tb_core::{
 pub static FAMILY: Family = Family::new::<ObvhsPeer, ObvhsParams>(
     "peer: obvhs PLOC-built compressed wide BVH8 (feature `obvhs`)",
     |tris, set| build_with(set, |p: &ObvhsParams| Ok(ObvhsPeer::build(tris, p.preset))),
-);
+)
+.with_method(1, tb_core::FIRST_METHOD);
 
 tb_core::choice! {
     /// obvhs build presets (`BvhBuildParams::*_build`).

@@ -54,6 +54,12 @@ macro_rules! define_row {
             pub structure: String,
             /// The full parameter set, `k=v;k=v`.
             pub params: String,
+            /// The methods the row was made by, `NAME=VERSION;…`: its structure family's
+            /// method version (and the first stage's family, for a structure built over
+            /// another), the harness's (rays, views, timing) and, on a GPU row, the GPU
+            /// driver's ([`tb_core::Family::method`]). A claim reads only rows of the current
+            /// methods; empty in rows made before the column (version 0 of every method).
+            pub method: String,
             /// The traversal algorithm's name.
             pub traversal: String,
             /// `cpu` or `gpu`.

@@ -54,7 +54,8 @@ pub static FAMILY: Family = Family::new::<Rtree, RtreeParams>(
     "R-tree by insertion (R* and others) or STR, packed level-order layout (Feldmann 2015)",
 )
 .with_rules::<RtreeParams>()
-.with_persist::<Rtree>();
+.with_persist::<Rtree>()
+.with_method(1, tb_core::FIRST_METHOD);
 
 impl tb_core::Persist for Rtree {
     fn attach(

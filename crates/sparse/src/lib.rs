@@ -125,7 +125,13 @@ pub static FAMILY: Family = Family::new::<SparseBoxes, SparseParams>(
             })?;
         build_with(set, |p: &SparseParams| Ok(SparseBoxes::over(kd.clone(), p)))
     },
-});
+})
+.with_method(
+    2,
+    "BTR's TraverseUp climbs from lastAugmentedNode, the deepest augmented node on the last \
+     leaf's path (Alg. 2), testing every parent's box up to the root's, where version 1 \
+     climbed from the finished subtree's root and ended at the root without a test",
+);
 
 impl tb_core::Persist for SparseBoxes {
     fn attach(
@@ -280,11 +286,13 @@ impl Structure for SparseBoxes {
             TraversalInfo::new(
                 "htr",
                 "Havran & Bittner 2007 §5.1, Alg. 1",
-                "HTR: the kd-tree's recursive-direction traversal from the root over the same \
-                 tree (Havran & Bittner 2007 §5.1, Alg. 1); no boxes read",
+                "HTR: the stack traversal from the root over the same tree (Havran & Bittner \
+                 2007 §5.1, Alg. 1) in BTR's kernel without its climb, so that BTR and HTR are \
+                 timed in one kernel; the kd-tree's recursive-direction decisions, leaves and \
+                 counts; no boxes read but the root's",
             ),
             tb_core::kernel!(|s: &SparseBoxes, batch, out| {
-                s.kd.trace(kd_row("recursive-direction"), batch, out)
+                traverse::trace::<{ traverse::HTR }>(s, batch, false, out)
             }),
         ),
         Traversal::cpu(

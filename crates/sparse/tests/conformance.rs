@@ -82,7 +82,10 @@ fn traced(
     (hits, stats)
 }
 
-/// BTR from the root is HTR (the same stack walk: same nodes, leaves and tests, ray by ray);
+/// HTR, run in BTR's kernel, is the kd-tree's `recursive-direction` over the same tree (same
+/// hits, nodes, planes, steps, leaves and tests, ray by ray); BTR from the root is HTR and
+/// then its climb to the root from the last augmented node (Alg. 2's `TraverseUp`: the same
+/// nodes but the parent links, the same leaves and tests);
 /// `sltr-mask` from the root visits HTR's leaves in HTR's order (same leaves and triangle
 /// tests, more interior nodes), closest hit, on the suite's scenes and every ray kind; no ray
 /// of SLTR, `sltr-mask` or SEQ ends on the step cap; the start-node variants give the same
@@ -96,12 +99,30 @@ fn root_walks_visit_htr_leaves() {
         for b in tb_scene::conformance::batches(&scene, TriTestKind::Watertight) {
             let q = b.kind.query();
             let (h0, s0) = traced(&s, htr, q, &b.rays);
+            let mut kd_stats = vec![TraversalStats::default(); b.rays.len()];
+            let mut kd_hits = vec![HitRecord::MISS; b.rays.len()];
+            let batch = Batch::new(q, TriTestKind::Watertight, &b.rays);
+            let rd = <tb_kdtree::KdTree as Structure>::TRAVERSALS
+                .iter()
+                .position(|t| t.info.name == "recursive-direction")
+                .unwrap();
+            Accel::trace(
+                s.kd(),
+                rd,
+                batch,
+                Answers::new(&mut kd_hits, Some(&mut kd_stats)),
+            );
+            assert_eq!(h0, kd_hits, "{}", scene.source);
+            for (a, k) in s0.iter().zip(&kd_stats) {
+                let of = |x: &TraversalStats| (x.interior, x.planes, x.steps, x.leaves, x.prims);
+                assert_eq!(of(a), of(k), "{}", scene.source);
+            }
             let (h1, s1) = traced(&s, btr_root, q, &b.rays);
             assert_eq!(h0, h1, "{}", scene.source);
             for (a, c) in s0.iter().zip(&s1) {
                 assert_eq!(
                     (a.interior, a.leaves, a.prims),
-                    (c.interior, c.leaves, c.prims),
+                    (c.interior - c.ups, c.leaves, c.prims),
                     "{}",
                     scene.source
                 );

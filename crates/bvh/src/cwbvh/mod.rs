@@ -195,7 +195,8 @@ pub static FAMILY: Family = Family::new::<Cwbvh, CwbvhParams>(
 )
 .with_summary("compressed 8-wide BVH, 80-byte quantized nodes (Ylitie, Karras and Laine 2017)")
 .with_rules::<CwbvhParams>()
-.with_persist::<Cwbvh>();
+.with_persist::<Cwbvh>()
+.with_method(1, tb_core::FIRST_METHOD);
 
 impl tb_core::Persist for Cwbvh {
     fn attach(

@@ -215,7 +215,9 @@ pub(super) fn all_of(vs: impl IntoIterator<Item = Verdict>) -> Verdict {
     for v in vs {
         match v {
             Verdict::Disagree => return Verdict::Disagree,
-            Verdict::Inconclusive | Verdict::Undecidable => out = Verdict::Inconclusive,
+            Verdict::Inconclusive | Verdict::Undecidable | Verdict::Stale => {
+                out = Verdict::Inconclusive
+            }
             Verdict::Agree => {}
         }
     }
@@ -363,7 +365,7 @@ pub(super) fn banded(
             band_text(min, max),
             fmt(100.0 * cmp.floor)
         ),
-        Verdict::Inconclusive | Verdict::Undecidable => {
+        Verdict::Inconclusive | Verdict::Undecidable | Verdict::Stale => {
             format!("interval straddles {}", band_text(min, max))
         }
     };

@@ -75,11 +75,12 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
             .filter(|n| seen.insert(*n))
             .collect()
     };
-    let base: Vec<&Row> = set
+    // Rows of an older method are left out; they only say why a claim is `stale`.
+    let (base, old): (Vec<&Row>, Vec<&Row>) = set
         .rows
         .iter()
         .filter(|r| filter_matches(c, device, r))
-        .collect();
+        .partition(|r| r.current(&opts.methods));
     let (by, groups) = group_rows(c, &names, &base);
     let mut results: Vec<GroupResult> = groups
         .iter()
@@ -111,6 +112,15 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
         Some(r) => (verdict, format!("{why}; undecidable by construction: {r}")),
         None => (verdict, why),
     };
+    let stale = stale_rows(c, &names, &by, &old, &opts.methods);
+    let (verdict, why) = match stale {
+        Some(s) if verdict == Verdict::Inconclusive => (Verdict::Stale, format!("stale: {s}")),
+        _ if !old.is_empty() => (
+            verdict,
+            format!("{why}; {} rows of an older method left out", old.len()),
+        ),
+        _ => (verdict, why),
+    };
     ClaimResult {
         id: c.id.clone(),
         place: c.place.clone(),
@@ -130,6 +140,71 @@ fn evaluate_claim(c: &Claim, device: &str, set: &RowSet, opts: &Options) -> Clai
         effect: claim_effect,
         groups: results,
     }
+}
+
+/// Why claim `c` is stale, if it is: a selector of `names` with no rows of the current
+/// methods in any group (`by`) but rows of an older one (`old`); the reason names those
+/// selectors, how many rows, the commits that made them, their methods and the current ones,
+/// and the command that would renew them.
+fn stale_rows(
+    c: &Claim,
+    names: &[&str],
+    by: &BTreeMap<&str, BTreeMap<String, Vec<&Row>>>,
+    old: &[&Row],
+    methods: &BTreeMap<String, u32>,
+) -> Option<String> {
+    let mut lacking = Vec::new();
+    let mut rows: Vec<&Row> = Vec::new();
+    for n in names {
+        if by.get(n).is_some_and(|g| !g.is_empty()) {
+            continue;
+        }
+        let s = &c.rows[*n];
+        let m: Vec<&Row> = old
+            .iter()
+            .copied()
+            .filter(|r| selector_matches(s, r))
+            .collect();
+        if !m.is_empty() {
+            lacking.push(format!("`{n}`"));
+            rows.extend(m);
+        }
+    }
+    if lacking.is_empty() {
+        return None;
+    }
+    let set = |f: &dyn Fn(&Row) -> String| -> String {
+        let v: BTreeSet<String> = rows.iter().map(|r| f(r)).collect();
+        v.into_iter().collect::<Vec<_>>().join(", ")
+    };
+    let commits = set(&|r| r.made_by().unwrap_or("an unknown commit").to_owned());
+    let made = set(&|r| match r.get("method").map(str::trim) {
+        Some(m) if !m.is_empty() => m.to_owned(),
+        _ => "none (before method versions)".to_owned(),
+    });
+    let gpu = rows.iter().any(|r| r.get("device") == Some("gpu"));
+    let mut now: BTreeSet<String> = rows
+        .iter()
+        .filter_map(|r| r.get("structure"))
+        .chain(["harness"])
+        .chain(gpu.then_some("gpu"))
+        .filter_map(|k| methods.get(k).map(|v| format!("{k}={v}")))
+        .collect();
+    if now.is_empty() {
+        now.insert("—".into());
+    }
+    let renew = if gpu {
+        "`scripts/gpu-reference.sh` on a machine with a GPU"
+    } else {
+        "`trace-bench reproduce` of this paper"
+    };
+    Some(format!(
+        "{} only in rows of an older method ({} rows, made by {commits}; method {made}, now {}); \
+         renew them with {renew}",
+        lacking.join(", "),
+        rows.len(),
+        now.into_iter().collect::<Vec<_>>().join(";")
+    ))
 }
 
 /// The rows each selector of `names` matches among `base`, by group.
@@ -401,7 +476,7 @@ fn combine(
                 format!("{disagree} of {n} groups disagree: {s}")
             }
         }
-        Verdict::Inconclusive | Verdict::Undecidable => {
+        Verdict::Inconclusive | Verdict::Undecidable | Verdict::Stale => {
             let s = list(Verdict::Inconclusive);
             if n == 1 || count(Verdict::Inconclusive) == 0 {
                 if s.is_empty() {

@@ -17,6 +17,10 @@ pub enum Verdict {
     /// Cannot be decided by construction (the claim's `undecidable`, or a time band narrower
     /// than the floor between runs): shown instead of `inconclusive`, not tallied with it.
     Undecidable,
+    /// Every row that would decide it was made by an older method than this binary's (the
+    /// rows' `method`, [`Options::methods`]): shown apart with the commit that made them and
+    /// the command that would renew them, never tallied.
+    Stale,
 }
 
 impl Verdict {
@@ -27,6 +31,7 @@ impl Verdict {
             Verdict::Disagree => "disagree",
             Verdict::Inconclusive => "inconclusive",
             Verdict::Undecidable => "undecidable",
+            Verdict::Stale => "stale",
         }
     }
 }
@@ -78,16 +83,22 @@ pub struct Value {
 pub const TIME_FLOOR: f64 = 0.2;
 
 /// How claims are evaluated.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Options {
     /// [`TIME_FLOOR`] unless changed (`claims --time-floor`).
     pub time_floor: f64,
+    /// The current version of each method a row's `method` column names (the binary's
+    /// structure families, `harness`, `gpu`): a results row is read only when each method it
+    /// names is at its current version, and a row without the column is of version 0. Empty:
+    /// every row is read (no method check).
+    pub methods: BTreeMap<String, u32>,
 }
 
 impl Default for Options {
     fn default() -> Self {
         Options {
             time_floor: TIME_FLOOR,
+            methods: BTreeMap::new(),
         }
     }
 }

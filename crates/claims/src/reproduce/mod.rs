@@ -11,7 +11,7 @@
 //! rows' times between them ([`Spread`]).
 
 use super::deviations::{self, Resolved};
-use super::eval::{evaluate, ClaimResult, Verdict};
+use super::eval::{evaluate_with, ClaimResult, Verdict};
 use super::figures::{self, Figure};
 use super::render::{self, Kinds, Tally};
 use super::rows::RowSet;
@@ -68,6 +68,9 @@ pub struct Options {
     pub write_anywhere: bool,
     /// Print no progress on stderr (failures are still said).
     pub quiet: bool,
+    /// The current method versions the claims read rows against
+    /// ([`crate::eval::Options::methods`]; empty: no method check).
+    pub methods: std::collections::BTreeMap<String, u32>,
 }
 
 /// The folder of the plotting scripts, relative to where reproduce runs (the repository root,
@@ -393,7 +396,11 @@ pub fn reproduce(opts: &Options, runner: &dyn Runs) -> Result<Vec<PaperReport>, 
         } else {
             RowSet::read(&sources)?
         };
-        let claims = evaluate(&file, &rows);
+        let eval = crate::eval::Options {
+            methods: opts.methods.clone(),
+            ..Default::default()
+        };
+        let claims = evaluate_with(&file, &rows, &eval);
         let figures = match &plot {
             Some(Ok(py)) => {
                 let labels: Vec<(String, PathBuf)> = runs
@@ -664,6 +671,7 @@ mod tests {
             deadline_s: None,
             write_anywhere: false,
             quiet: true,
+            methods: Default::default(),
         }
     }
 

@@ -9,9 +9,11 @@
 use super::*;
 
 impl Ctx<'_> {
-    /// BTR (Alg. 2) from record `hint` (see the module doc).
+    /// BTR (Alg. 2) from record `hint` (see the module doc); without `CLIMB`, HTR (§5.1,
+    /// Alg. 1): the same stack traversal from the root, ended when its stack runs dry, so
+    /// the two are timed in one kernel.
     #[inline(always)]
-    pub(super) fn btr<T: TriTest, C: Counter, const ANY: bool>(
+    pub(super) fn btr<T: TriTest, C: Counter, const ANY: bool, const CLIMB: bool>(
         &self,
         ray: &Ray,
         hint: u32,
@@ -35,7 +37,7 @@ impl Ctx<'_> {
                     }
                 }
             }
-            if !k.climb::<C, ANY>(best.t, c) {
+            if !CLIMB || !k.climb::<C, ANY>(best.t, c) {
                 return best.record();
             }
         }
@@ -54,11 +56,14 @@ struct BtrWalk<'c, 'a> {
     /// The node whose subtree is finished ([`NONE`] yet), and where the ray leaves it.
     done: u32,
     done_exit: f32,
-    /// Pending far children: node (its top bit: on the path to the finished subtree) and
-    /// interval.
-    stack: Stack<(u32, f32, f32), STACK_SIZE>,
-    /// The current node and its interval.
+    /// Pending far children: node (its top bit: on the path to the finished subtree), the
+    /// record of the last augmented node above it (Alg. 2's stack entries carry
+    /// `lastAugmentedNode`) and interval.
+    stack: Stack<(u32, u32, f32, f32), STACK_SIZE>,
+    /// The current node, the record of the last augmented node passed on its path
+    /// (`lastAugmentedNode`), and its interval.
     idx: usize,
+    last: u32,
     tn: f32,
     tf: f32,
     /// Whether `idx` is an ancestor of the finished subtree.
@@ -78,6 +83,7 @@ impl<'c, 'a> BtrWalk<'c, 'a> {
             done_exit: f32::NEG_INFINITY,
             stack: Stack::new(),
             idx: 0,
+            last: 0,
             tn: 0.0,
             tf: 0.0,
             path: false,
@@ -95,6 +101,7 @@ impl<'c, 'a> BtrWalk<'c, 'a> {
         };
         self.stack.clear();
         (self.idx, self.tn, self.tf) = (a.node as usize, t0, t1);
+        self.last = self.sa as u32;
         self.path = self.done != NONE;
         true
     }
@@ -103,7 +110,8 @@ impl<'c, 'a> BtrWalk<'c, 'a> {
     /// each interior node counted (one node, one plane, one step). On the path toward the
     /// finished subtree, a node whose near child holds it and ends where the ray leaves it
     /// goes to its far child only (Alg. 2's shifted entry `t_exit + eps`, decided here without
-    /// the shift).
+    /// the shift). Each augmented node passed becomes `lastAugmentedNode` (`TraverseDown`),
+    /// carried by the children pushed below it.
     #[inline(always)]
     fn descend<C: Counter>(&mut self, c: &mut C) {
         let nodes = self.cx.nodes;
@@ -115,6 +123,9 @@ impl<'c, 'a> BtrWalk<'c, 'a> {
             c.interior();
             c.steps(1);
             c.planes(1);
+            if let Some(r) = self.cx.rank.find(self.idx as u32) {
+                self.last = r as u32;
+            }
             let d = decide(n, self.idx, &self.s, self.tn, self.tf);
             // The child toward the finished subtree.
             let toward = if (self.done as usize) < n.link() {
@@ -139,7 +150,7 @@ impl<'c, 'a> BtrWalk<'c, 'a> {
                 Kind::Both => {
                     let far_path = self.path && d.far == toward;
                     let far = (far_path as u32) << 31 | d.far as u32;
-                    self.stack.push((far, d.far_tn, self.tf));
+                    self.stack.push((far, self.last, d.far_tn, self.tf));
                     self.path &= d.near == toward;
                     self.idx = d.near;
                     self.tf = d.near_tf;
@@ -166,42 +177,47 @@ impl<'c, 'a> BtrWalk<'c, 'a> {
     /// (any-hit queries: the newest); `false` when the stack runs dry.
     #[inline(always)]
     fn pop<const ANY: bool>(&mut self, best_t: f32) -> bool {
-        let Some((i, tn, tf)) = self.stack.pop_until(|e| ANY || e.1 <= best_t) else {
+        let Some((i, last, tn, tf)) = self.stack.pop_until(|e| ANY || e.2 <= best_t) else {
             return false;
         };
         self.path = i >> 31 == 1;
-        (self.idx, self.tn, self.tf) = ((i & !(1 << 31)) as usize, tn, tf);
+        (self.idx, self.last, self.tn, self.tf) = ((i & !(1 << 31)) as usize, last, tn, tf);
         true
     }
 
-    /// `TraverseUp` once the subtree of `sa` is finished: the ray is done at the root, or
-    /// (closest-hit queries) with a hit before the box's exit, since every cell not yet
-    /// visited lies beyond it (`false`); else one restart, and up the parent links (one box
-    /// test each above the first, `ComputeMaxT`) to the first augmented node whose box
-    /// extends beyond that exit, whose subtree is walked next with the finished one skipped.
+    /// `TraverseUp` once the subtree of `sa` is finished: the ray is done (closest-hit
+    /// queries) with a hit before the box's exit, since every cell not yet visited lies beyond
+    /// it (`false`); else from `lastAugmentedNode` (the deepest augmented
+    /// node on the last leaf's path, as Alg. 2 climbs) up the parent links, one box test each
+    /// (`ComputeMaxT`), the root's included, to the first augmented node whose box extends
+    /// beyond that exit, whose subtree is walked next with the finished one skipped (one
+    /// restart); none
+    /// (the exit is the root box's) ends the ray (`false`). The links between
+    /// `lastAugmentedNode` and `sa` lead to boxes inside the finished one: each is tested
+    /// and passed, as the paper's loop does.
     #[inline(always)]
     fn climb<C: Counter, const ANY: bool>(&mut self, best_t: f32, c: &mut C) -> bool {
-        if self.sa == 0 {
-            return false;
-        }
         let (cx, aug) = (self.cx, self.cx.aug);
         let a = &aug[self.sa];
         let exit = cx.exit(&self.s, a);
         if !ANY && best_t * SLACK < exit {
             return false;
         }
-        c.restart();
-        let mut p = a.parent as usize;
-        parent_link(c);
-        while p != 0 {
+        let mut node = self.last as usize;
+        let found = loop {
+            if node == 0 {
+                return false;
+            }
+            let p = aug[node].parent as usize;
+            parent_link(c);
             c.boxes(1);
             if cx.exit(&self.s, &aug[p]) > exit {
-                break;
+                break p;
             }
-            p = aug[p].parent as usize;
-            parent_link(c);
-        }
-        (self.done, self.done_exit, self.sa) = (a.node, exit, p);
+            node = p;
+        };
+        c.restart();
+        (self.done, self.done_exit, self.sa) = (a.node, exit, found);
         true
     }
 }

@@ -19,16 +19,19 @@
 //! shifted point held exactly on the face it crossed, so no epsilon is needed and no cell,
 //! however thin, is skipped:
 //!
-//! - **BTR**: the stack traversal of the start subtree (Alg. 2, inner loop). When the stack
-//!   runs dry with no hit before the subtree's exit, climb the parent links (one box test
-//!   each, `ComputeMaxT`) to the first augmented node whose box extends beyond the finished
-//!   box's exit (Alg. 2's `TraverseUp`) and run the stack traversal of its subtree over its
+//! - **BTR**: the stack traversal of the start subtree (Alg. 2, inner loop; each stack entry
+//!   carries the last augmented node above it, `lastAugmentedNode`). When the stack runs dry
+//!   with no hit before the subtree's exit, climb the parent links from `lastAugmentedNode`
+//!   (the deepest augmented node on the last leaf's path, Alg. 2's `node =
+//!   lastAugmentedNode`; one box test each, `ComputeMaxT`, the root's included) to the first
+//!   augmented node whose box extends beyond the finished box's exit (Alg. 2's `TraverseUp`;
+//!   none: the ray leaves the root box, and ends) and run the stack traversal of its subtree over its
 //!   whole clipped interval with the finished subtree *skipped* by its node index, instead of
 //!   from the shifted entry `t_exit + eps`. On the way down toward the finished subtree
 //!   (tracked by node index ranges), a node whose near child holds it and ends where the ray
 //!   leaves it (`near exit <= finished exit`: the split plane is the finished box's exit face)
 //!   goes to its far child only, as the shifted entry would make it; the other nodes on that
-//!   path are visited again (and counted). The root ends the walk.
+//!   path are visited again (and counted).
 //! - **SLTR** (`sltr`, the paper's Algorithm 3; the traversal the paper's configs and claims
 //!   read): down from the start node to the leaf holding the ray origin (`TraverseDown`:
 //!   the child holding the point); after each leaf, `tentry = texit + eps` shifts the point
@@ -111,6 +114,8 @@ pub(crate) const BTR: u8 = 0;
 pub(crate) const SLTR: u8 = 1;
 pub(crate) const SLTR_MASK: u8 = 2;
 pub(crate) const SLTR_HANDOVER: u8 = 3;
+/// HTR in BTR's kernel: its stack traversal from the root, no climb.
+pub(crate) const HTR: u8 = 4;
 
 /// "Not looked up yet" for a record index.
 const NONE: u32 = u32::MAX;
@@ -299,8 +304,10 @@ fn run<T: TriTest, C: Counter, const ALG: u8>(
     c: &mut C,
 ) -> HitRecord {
     match (ALG, q) {
-        (BTR, Query::Closest) => cx.btr::<T, C, false>(ray, h, c),
-        (BTR, Query::Any) => cx.btr::<T, C, true>(ray, h, c),
+        (BTR, Query::Closest) => cx.btr::<T, C, false, true>(ray, h, c),
+        (BTR, Query::Any) => cx.btr::<T, C, true, true>(ray, h, c),
+        (HTR, Query::Closest) => cx.btr::<T, C, false, false>(ray, 0, c),
+        (HTR, Query::Any) => cx.btr::<T, C, true, false>(ray, 0, c),
         (SLTR, Query::Closest) => cx.sltr::<T, C, false, false>(ray, h, c),
         (SLTR, Query::Any) => cx.sltr::<T, C, true, false>(ray, h, c),
         (SLTR_HANDOVER, Query::Closest) => cx.sltr::<T, C, false, true>(ray, h, c),

@@ -595,6 +595,7 @@ fn base_row(spec: &SceneSpec, tris: &Arc<[Triangle]>, st: &StructureSpec, params
         triangles: tris.len() as u64,
         structure: st.family.name.to_string(),
         params: params_s.to_owned(),
+        method: crate::registry::method_of(st.family, false),
         host: tb_results::meta::host_name(),
         ..Default::default()
     }
@@ -643,6 +644,7 @@ pub fn must_conform(info: &TraversalInfo, tri: TriTestKind, row: &Row) -> bool {
 fn row_of(base: &Row, st: &StructureSpec, c: &Combo, b: &RayBatch) -> Row {
     Row {
         traversal: st.infos[c.ti].name.to_string(),
+        method: crate::registry::method_of(st.family, c.dev.name() == "gpu"),
         device: c.dev.name().into(),
         threads: c.threads as u32,
         triangle_test: c.tri.name().into(),
