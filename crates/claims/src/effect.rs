@@ -166,10 +166,8 @@ pub fn paper_effect(t: &Test) -> Option<(f64, &'static str)> {
         Test::Value { .. } => None,
         Test::Ratio { min, max, .. } | Test::Speedup { min, max, .. } => one_sided(min.or(*max)?),
         Test::Gain { min, max, .. } => one_sided(1.0 - min.or(*max)? / 100.0),
-        Test::Order { strict, margin, .. } => one_sided(before_bound(*strict, *margin)),
-        Test::Least {
-            margin, direction, ..
-        } => one_sided(least_bound(*direction, *margin)),
+        Test::Order { .. } => one_sided(before_bound(t.is_strict(), t.margin())),
+        Test::Least { direction, .. } => one_sided(least_bound(*direction, t.margin())),
         Test::Equal { tolerance, .. } if *tolerance < 1.0 => {
             Some((((1.0 + tolerance) / (1.0 - tolerance)).sqrt() - 1.0, "band"))
         }
@@ -305,14 +303,26 @@ mod tests {
         );
         let (e, _) = paper_effect(&gain(Some(2.0), Some(8.0))).unwrap();
         assert!((e - (0.98f64 / 0.92).sqrt() + 1.0).abs() < 1e-12);
-        let order = |strict, margin| Test::Order {
+        let order = |strict, margin, gap| Test::Order {
             rows: vec!["a".into(), "b".into()],
             strict,
             margin,
+            gap,
         };
-        assert_eq!(paper_effect(&order(true, 0.0)), Some((0.0, "direction")));
-        let (e, from) = paper_effect(&order(true, 0.2)).unwrap();
+        assert_eq!(
+            paper_effect(&order(true, Some(0.0), None)),
+            Some((0.0, "direction"))
+        );
+        assert_eq!(
+            paper_effect(&order(false, None, None)),
+            Some((0.0, "direction"))
+        );
+        let (e, from) = paper_effect(&order(true, Some(0.2), None)).unwrap();
         assert!((e - 0.25).abs() < 1e-12 && from == "bound");
+        // A printed gap: strict with the margin GAP_SHARE · gap.
+        let (e, from) = paper_effect(&order(false, None, Some(0.4))).unwrap();
+        let m = crate::schema::GAP_SHARE * 0.4;
+        assert!((e - (1.0 / (1.0 - m) - 1.0)).abs() < 1e-12 && from == "bound");
         // No point of no effect for a one-sided value band.
         let value = Test::Value {
             of: "a".into(),

@@ -39,6 +39,7 @@ pub use eval::{
 pub use rows::RowSet;
 pub use schema::{
     Claim, ClaimKind, ClaimsFile, Direction, FigureSpec, Need, Pool, RunSpec, Selector, Test,
+    GAP_SHARE,
 };
 
 use std::path::Path;

@@ -306,6 +306,20 @@ pub enum Direction {
     Highest,
 }
 
+/// The share of the paper's printed gap an ordering must hold by: an `order` or `least` test
+/// whose paper prints the figures it orders gives their smallest relative gap (`gap`), and
+/// our values must differ by at least `GAP_SHARE · gap` (half of it). One rule for every such
+/// claim, fixed before measuring: a gap of 0.1 % no longer passes where the paper prints 3 %,
+/// and a real effect half the paper's size still does (claims/README.md, "Margins from the
+/// paper's gap").
+pub const GAP_SHARE: f64 = 0.5;
+
+/// The margin of an ordering: [`GAP_SHARE`]` · gap` where the paper prints a gap, else the
+/// explicit `margin` (default 0).
+fn margin_of(margin: Option<f64>, gap: Option<f64>) -> f64 {
+    gap.map_or(margin.unwrap_or(0.0), |g| GAP_SHARE * g)
+}
+
 /// A claim's test; bands are inclusive, either bound optional.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
@@ -352,16 +366,23 @@ pub enum Test {
         /// Upper bound of the speedup (inclusive), if any.
         max: Option<f64>,
     },
-    /// `v(a) <= v(b) <= …` (strict: `v(a) < v(b)·(1 − margin)`).
+    /// `v(a) <= v(b) <= …` (strict: `v(a) < v(b)·(1 − margin)`; with a `gap`, strict with
+    /// the margin [`GAP_SHARE`]` · gap`: [`Test::margin`]).
     Order {
         /// The selectors, in ascending order of value.
         rows: Vec<String>,
-        /// `v(a) < v(b)·(1 − margin)` for each neighbour pair instead of `v(a) <= v(b)`.
+        /// `v(a) < v(b)·(1 − margin)` for each neighbour pair instead of `v(a) <= v(b)`
+        /// (implied by `gap`).
         #[serde(default)]
         strict: bool,
-        /// Relative margin of a strict order (unused unless `strict`; default 0).
-        #[serde(default)]
-        margin: f64,
+        /// Relative margin of a strict order where the paper states a threshold but prints
+        /// no figures (unused unless `strict`; default 0; not with `gap`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        margin: Option<f64>,
+        /// The smallest relative gap the paper prints between neighbours, `(pb − pa) / pb`
+        /// (`0 < gap < 1`): the order is then strict with the margin `GAP_SHARE · gap`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        gap: Option<f64>,
     },
     /// `v(best)` below (above) every `v(o)` by the margin.
     Least {
@@ -369,9 +390,15 @@ pub enum Test {
         best: String,
         /// The selectors it is compared against.
         of: Vec<String>,
-        /// Relative margin by which `best` must beat each (default 0).
-        #[serde(default)]
-        margin: f64,
+        /// Relative margin by which `best` must beat each where the paper states a threshold
+        /// but prints no figures (default 0; not with `gap`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        margin: Option<f64>,
+        /// The relative gap the paper prints between `best` and its nearest rival (`(pb − pa)
+        /// / pb`, `(pa − pb) / pa` for `highest`; `0 < gap < 1`): the margin is then
+        /// `GAP_SHARE · gap`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        gap: Option<f64>,
         /// Whether `best` must be the lowest (default) or the highest.
         #[serde(default)]
         direction: Direction,
@@ -400,6 +427,26 @@ impl Test {
                 .chain(of.iter().map(String::as_str))
                 .collect(),
             Test::Equal { a, b, .. } => vec![a, b],
+        }
+    }
+
+    /// The relative margin an ordering (`order`, `least`) must hold by: [`GAP_SHARE`]` · gap`
+    /// where the paper prints a gap, else `margin` (default 0); 0 for other tests.
+    pub fn margin(&self) -> f64 {
+        match self {
+            Test::Order { margin, gap, .. } | Test::Least { margin, gap, .. } => {
+                margin_of(*margin, *gap)
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Whether an `order` is strict (`strict = true`, or a `gap`); a `least` always is.
+    pub fn is_strict(&self) -> bool {
+        match self {
+            Test::Order { strict, gap, .. } => *strict || gap.is_some(),
+            Test::Least { .. } => true,
+            _ => false,
         }
     }
 
@@ -538,17 +585,36 @@ fn check_test(c: &Claim) -> Result<(), String> {
             _ => {}
         }
     }
+    let negative = |m: &Option<f64>| m.is_some_and(|m| m < 0.0);
     match &c.test {
-        Test::Order { rows, margin, .. } if rows.len() < 2 || *margin < 0.0 => {
+        Test::Order { rows, margin, .. } if rows.len() < 2 || negative(margin) => {
             return Err("order needs two rows or more, margin >= 0".into())
         }
-        Test::Least { of, margin, .. } if of.is_empty() || *margin < 0.0 => {
+        Test::Least { of, margin, .. } if of.is_empty() || negative(margin) => {
             return Err("least needs `of` rows, margin >= 0".into())
         }
         Test::Equal { tolerance, .. } if *tolerance < 0.0 => {
             return Err("tolerance must be >= 0".into())
         }
         _ => {}
+    }
+    Ok(())
+}
+
+/// An ordering's `gap`: a relative gap `0 < gap < 1`, and not beside a `margin` (the margin
+/// then comes from the one rule, [`GAP_SHARE`]` · gap`).
+fn check_gap(margin: Option<f64>, gap: Option<f64>) -> Result<(), String> {
+    let Some(g) = gap else { return Ok(()) };
+    if margin.is_some() {
+        return Err(format!(
+            "give gap or margin, not both (with the paper's gap the margin is \
+             GAP_SHARE · gap = {GAP_SHARE} · {g})"
+        ));
+    }
+    if !(g > 0.0 && g < 1.0) {
+        return Err(format!(
+            "{g} is not a relative gap (0 < gap < 1: (pb − pa) / pb of the paper's figures)"
+        ));
     }
     Ok(())
 }
@@ -631,6 +697,9 @@ impl ClaimsFile {
                 s.check().map_err(|m| err(&format!("rows.{name}"), m))?;
             }
             check_test(c).map_err(|m| err("test", m))?;
+            if let Test::Order { margin, gap, .. } | Test::Least { margin, gap, .. } = &c.test {
+                check_gap(*margin, *gap).map_err(|m| err("test.gap", m))?;
+            }
             let m = super::measure::Measure::parse(&c.measure).map_err(|m| err("measure", m))?;
             m.check_columns().map_err(|m| err("measure", m))?;
             for p in &c.per {

@@ -173,6 +173,118 @@ fn every_test_kind_decides_counters() {
     }
 }
 
+/// Counters for the gap rule: in scene `s6`, `a` is 6 % below `b`; in `s2`, 2 % below.
+fn gap_results(dir: &Path) -> PathBuf {
+    let d = dir.join("gap");
+    std::fs::create_dir_all(&d).unwrap();
+    let r = |scene: &str, tr: &str, v: f64| {
+        row(scene, tr, "k=1", "primary", 100, 10.0, 0.01, 9, false, v)
+    };
+    write(
+        &d,
+        "results.csv",
+        &[
+            HEAD.to_string(),
+            r("s6", "a", 94.0),
+            r("s6", "b", 100.0),
+            r("s2", "a", 98.0),
+            r("s2", "b", 100.0),
+        ],
+    );
+    d
+}
+
+/// An ordering whose paper prints a gap holds by `GAP_SHARE` of it: with `gap = 0.1` (the
+/// margin 5 %) `a` 6 % below `b` agrees and 2 % below disagrees, for `order` (strict without
+/// saying so) and `least`, lowest and highest; without the gap both agree.
+#[test]
+fn an_ordering_holds_by_half_the_papers_gap() {
+    assert_eq!(claims::GAP_SHARE, 0.5);
+    let t = tempfile::tempdir().unwrap();
+    let r = gap_results(t.path());
+    let f = |scene: &str, test: &str| {
+        claim(&format!(
+            "measure = \"interior_per_ray\"\nfilter = {{ scene = \"{scene}\" }}\nrows.a = {{ traversal = \"a\" }}\nrows.b = {{ traversal = \"b\" }}\n{test}"
+        ))
+    };
+    let order = "test = { kind = \"order\", rows = [\"a\", \"b\"], gap = 0.1 }";
+    let least = "test = { kind = \"least\", best = \"a\", of = [\"b\"], gap = 0.1 }";
+    let highest =
+        "test = { kind = \"least\", best = \"b\", of = [\"a\"], direction = \"highest\", gap = 0.1 }";
+    for test in [order, least, highest] {
+        let six = eval(&f("s6", test), std::slice::from_ref(&r));
+        assert_eq!(six[0].verdict, claims::Verdict::Agree, "{test}: {six:?}");
+        assert!(six[0].why.contains("by 5 %"), "{}", six[0].why);
+        let two = eval(&f("s2", test), std::slice::from_ref(&r));
+        assert_eq!(two[0].verdict, claims::Verdict::Disagree, "{test}: {two:?}");
+        // Without the paper's gap the 2 % passes.
+        let bare = test.replace(", gap = 0.1", "");
+        let two = eval(&f("s2", &bare), std::slice::from_ref(&r));
+        assert_eq!(two[0].verdict, claims::Verdict::Agree, "{bare}: {two:?}");
+    }
+    // The margin is the one rule's: the test reads GAP_SHARE · gap.
+    let file = claims::parse(Path::new("t.toml"), &f("s6", order)).unwrap();
+    let t = &file.claims[0].test;
+    assert!((t.margin() - claims::GAP_SHARE * 0.1).abs() < 1e-15 && t.is_strict());
+}
+
+/// A `gap` beside a `margin` is refused (the margin comes from the one rule), and so is a gap
+/// that is not a relative one (0 < gap < 1); one line naming the file, the claim and the key.
+#[test]
+fn a_gap_with_a_margin_or_out_of_range_is_refused() {
+    let body = |test: &str| {
+        claim(&format!(
+            "measure = \"interior_per_ray\"\nrows.a = {{ traversal = \"a\" }}\nrows.b = {{ traversal = \"b\" }}\n{test}"
+        ))
+    };
+    let order = |extra: &str| {
+        body(&format!(
+            "test = {{ kind = \"order\", rows = [\"a\", \"b\"]{extra} }}"
+        ))
+    };
+    let least = |extra: &str| {
+        body(&format!(
+            "test = {{ kind = \"least\", best = \"a\", of = [\"b\"]{extra} }}"
+        ))
+    };
+    claims::parse(Path::new("x.toml"), &order(", gap = 0.5")).expect("a gap alone loads");
+    claims::parse(Path::new("x.toml"), &order(", strict = true, margin = 0.2"))
+        .expect("a margin alone loads");
+    let cases = [
+        (
+            order(", strict = true, margin = 0.05, gap = 0.1"),
+            "x.toml:3: claim c: test.gap: give gap or margin, not both",
+        ),
+        (
+            least(", margin = 0, gap = 0.1"),
+            "x.toml:3: claim c: test.gap: give gap or margin, not both",
+        ),
+        (
+            order(", gap = 0"),
+            "x.toml:3: claim c: test.gap: 0 is not a relative gap",
+        ),
+        (
+            order(", gap = 1"),
+            "x.toml:3: claim c: test.gap: 1 is not a relative gap",
+        ),
+        (
+            least(", gap = -0.1"),
+            "x.toml:3: claim c: test.gap: -0.1 is not a relative gap",
+        ),
+        (
+            least(", gap = 12"),
+            "x.toml:3: claim c: test.gap: 12 is not a relative gap",
+        ),
+    ];
+    for (text, want) in cases {
+        let e = claims::parse(Path::new("x.toml"), &text)
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with(want), "{e}\nwanted: {want}");
+        assert!(!e.contains('\n'), "{e}");
+    }
+}
+
 #[test]
 fn time_needs_a_clear_interval_and_quiet_rows() {
     let t = tempfile::tempdir().unwrap();

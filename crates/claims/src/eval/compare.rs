@@ -269,17 +269,13 @@ pub(super) fn run_test(
             ];
             banded(g, *min, *max, true)
         }
-        Test::Order {
-            rows,
-            strict,
-            margin,
-        } => order_test(rows, *strict, *margin, vals, &cmp),
+        Test::Order { rows, .. } => order_test(rows, test.is_strict(), test.margin(), vals, &cmp),
         Test::Least {
             best,
             of,
-            margin,
             direction,
-        } => least_test(best, of, *margin, *direction, vals, &cmp),
+            ..
+        } => least_test(best, of, test.margin(), *direction, vals, &cmp),
         Test::Equal { a, b, tolerance } => equal_test(a, b, *tolerance, vals, &cmp),
     };
     match cmp.said() {
@@ -305,27 +301,23 @@ pub(super) fn compared(
     let cmp = Cmp::new(floor, timed);
     let r = |a: &str, b: &str| cmp.ratio(&vals[a], &vals[b]);
     match test {
-        Test::Order {
-            rows,
-            strict,
-            margin,
-        } => rows
+        Test::Order { rows, .. } => rows
             .windows(2)
             .map(|w| Compared {
                 iv: r(&w[0], &w[1]),
-                bounds: vec![effect::before_bound(*strict, *margin)],
+                bounds: vec![effect::before_bound(test.is_strict(), test.margin())],
             })
             .collect(),
         Test::Least {
             best,
             of,
-            margin,
             direction,
+            ..
         } => of
             .iter()
             .map(|o| Compared {
                 iv: r(best, o),
-                bounds: vec![effect::least_bound(*direction, *margin)],
+                bounds: vec![effect::least_bound(*direction, test.margin())],
             })
             .collect(),
         Test::Equal { tolerance, .. } => derived
@@ -417,6 +409,7 @@ pub(super) fn order_test(
     } else {
         broken.join("; ")
     };
+    let why = format!("{why}{}", by_margin(strict, margin));
     (all_of(verdicts), shown, None, why)
 }
 
@@ -484,7 +477,17 @@ pub(super) fn least_test(
     } else {
         why
     };
+    let why = format!("{why}{}", by_margin(true, margin));
     (all_of(verdicts.into_iter().map(|x| x.0)), shown, None, why)
+}
+
+/// An ordering's margin in its reason (`, by 5 %`), nothing without one.
+fn by_margin(strict: bool, margin: f64) -> String {
+    if strict && margin > 0.0 {
+        format!(", by {} %", fmt(100.0 * margin))
+    } else {
+        String::new()
+    }
 }
 
 /// The `equal` test: `a` and `b` within the tolerance of each other.
