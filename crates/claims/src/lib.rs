@@ -31,6 +31,7 @@ pub mod reproduce;
 pub mod rows;
 mod runs;
 mod schema;
+mod selector;
 pub mod stability;
 
 pub use eval::{
