@@ -127,10 +127,12 @@ pub static FAMILY: Family = Family::new::<SparseBoxes, SparseParams>(
     },
 })
 .with_method(
-    2,
-    "BTR's TraverseUp climbs from lastAugmentedNode, the deepest augmented node on the last \
-     leaf's path (Alg. 2), testing every parent's box up to the root's, where version 1 \
-     climbed from the finished subtree's root and ended at the root without a test",
+    3,
+    "HTR runs in BTR's kernel without its climb and SEQ in SLTR's with no augmented node but \
+     the root (its hand-over to kd-restart kept), so that each pair is timed in one kernel, \
+     their counts unchanged; version 2: BTR's TraverseUp climbs from \
+     lastAugmentedNode, the deepest augmented node on the last leaf's path (Alg. 2), testing \
+     every parent's box up to the root's",
 );
 
 impl tb_core::Persist for SparseBoxes {
@@ -263,14 +265,6 @@ impl SparseBoxes {
     }
 }
 
-/// Index of kd-tree traversal `name` (the kd rows of this table).
-fn kd_row(name: &str) -> usize {
-    KdTree::TRAVERSALS
-        .iter()
-        .position(|t| t.info.name == name)
-        .unwrap_or_else(|| panic!("kd-tree traversal {name}"))
-}
-
 /// Start hints of the start-node rows.
 fn hints(s: &SparseBoxes, _: Query, rays: &[Ray]) -> Vec<u32> {
     s.start_nodes(rays)
@@ -279,8 +273,9 @@ fn hints(s: &SparseBoxes, _: Query, rays: &[Ray]) -> Vec<u32> {
 impl Structure for SparseBoxes {
     const NAME: &'static str = "sparse-boxes";
 
-    /// HTR and SEQ (the kd-tree's), BTR and SLTR from the start node (hints) and from the
-    /// root (Havran and Bittner 2007 Table 1).
+    /// HTR and SEQ (in BTR's and SLTR's kernels, so that each pair is timed in one kernel),
+    /// BTR and SLTR from the start node (hints) and from the root (Havran and Bittner 2007
+    /// Table 1).
     const TRAVERSALS: &'static [Traversal<Self>] = &[
         Traversal::cpu(
             TraversalInfo::new(
@@ -405,12 +400,14 @@ impl Structure for SparseBoxes {
             TraversalInfo::new(
                 "seq",
                 "Havran & Bittner 2007 §6 (Kaplan 1985)",
-                "SEQ: the kd-tree's sequential traversal (Kaplan 1985) over the same tree; no \
-                 boxes read",
+                "SEQ: the sequential traversal (Kaplan 1985) over the same tree in SLTR's kernel \
+                 with no augmented node but the root (every point located from the root, a point \
+                 rounding cannot place handed to kd-restart), so that SLTR and SEQ are timed in \
+                 one kernel; the kd-tree's `sequential` counts; no boxes read",
             )
             .capped(),
             tb_core::kernel!(|s: &SparseBoxes, batch, out| {
-                s.kd.trace(kd_row("sequential"), batch, out)
+                traverse::trace::<{ traverse::SEQ }>(s, batch, false, out)
             }),
         ),
     ];

@@ -449,3 +449,67 @@ fn nested_dmin_boxes_are_subsets() {
         assert!(!nodes(get(e)).is_subset(&nodes(get(d))), "{d}, {e}");
     }
 }
+
+/// SEQ, run in SLTR's kernel with no augmented node but the root, is the kd-tree's
+/// `sequential` over the same tree: the same hits on every ray of the suite, and the same
+/// leaves, triangle tests, interior nodes, restarts and hand-overs (a point that rounding
+/// cannot place goes to kd-restart in both), no parent link followed; the rays handed over
+/// are few.
+#[test]
+fn seq_is_the_kd_trees_sequential() {
+    let seq = index("seq");
+    let kd_seq = <tb_kdtree::KdTree as Structure>::TRAVERSALS
+        .iter()
+        .position(|t| t.info.name == "sequential")
+        .unwrap();
+    let (mut n, mut handed, mut differ) = (0usize, 0usize, 0usize);
+    for scene in tb_scene::conformance::suite_scenes() {
+        let s = SparseBoxes::build(&scene.triangles, &SparseParams::default());
+        for b in tb_scene::conformance::batches(&scene, TriTestKind::Watertight) {
+            let q = b.kind.query();
+            let (h0, s0) = traced(&s, seq, q, &b.rays);
+            let mut kd_stats = vec![TraversalStats::default(); b.rays.len()];
+            let mut kd_hits = vec![HitRecord::MISS; b.rays.len()];
+            let batch = Batch::new(q, TriTestKind::Watertight, &b.rays);
+            Accel::trace(
+                s.kd(),
+                kd_seq,
+                batch,
+                Answers::new(&mut kd_hits, Some(&mut kd_stats)),
+            );
+            for i in 0..b.rays.len() {
+                assert_eq!(
+                    h0[i].is_hit(),
+                    kd_hits[i].is_hit(),
+                    "{} ray {i}",
+                    scene.source
+                );
+                if q == Query::Closest {
+                    assert_eq!(h0[i].t, kd_hits[i].t, "{} ray {i}", scene.source);
+                }
+                let (a, k) = (&s0[i], &kd_stats[i]);
+                handed += (a.handovers + k.handovers > 0) as usize;
+                let of = |x: &TraversalStats| {
+                    (
+                        x.leaves,
+                        x.prims,
+                        x.interior,
+                        x.restarts,
+                        x.handovers,
+                        x.ups,
+                    )
+                };
+                if of(a) != of(k) {
+                    differ += 1;
+                    if differ < 5 {
+                        println!("{} ray {i}: {a:?} vs {k:?}", scene.source);
+                    }
+                }
+                n += 1;
+            }
+        }
+    }
+    println!("{n} rays, {handed} handed over, {differ} differ");
+    assert_eq!(differ, 0);
+    assert!(handed * 20 < n, "{handed} of {n}");
+}

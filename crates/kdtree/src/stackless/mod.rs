@@ -73,6 +73,22 @@ use crate::Layout;
 use tb_core::slab::{max_num, min_num};
 use tb_core::{Counter, HitRecord, Ray, TriTest};
 
+/// kd-restart (review §5.1) from `w`'s start node over `s`, keeping the closest hit `best` and
+/// the `steps` already taken: the walk `sequential` hands a ray to when rounding cannot place
+/// its point, and sparse boxes' SEQ hands it to the same way.
+#[inline(always)]
+pub fn restart_from<T: TriTest, C: Counter, L: Layout, const ANY: bool>(
+    w: &Tree<'_, L>,
+    s: &Setup,
+    ray: &Ray,
+    pre: &T::Pre,
+    best: crate::Best,
+    steps: u32,
+    c: &mut C,
+) -> HitRecord {
+    restart::walk::<T, C, L, ANY, RESTART>(w, s, ray, pre, best, steps, c)
+}
+
 /// The default per-ray step cap ([`crate::KdParams::step_cap`]): steps (nodes visited,
 /// backtracking steps included) after which a restart-type walk ends a ray.
 pub const STEP_CAP: u32 = 100_000;

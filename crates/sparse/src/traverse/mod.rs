@@ -99,7 +99,9 @@ use tb_core::{
     Aabb, Answers, Batch, Counter, HitRecord, MollerTrumbore, NoStats, Query, Ray, TraversalStats,
     TriTest, TriTestKind, Vec3, Watertight,
 };
-use tb_kdtree::stackless::{passes, restart_loop, Cell, Exit, ExitFaces, RestartSteps};
+use tb_kdtree::stackless::{
+    passes, restart_from, restart_loop, Cell, Exit, ExitFaces, RestartSteps,
+};
 use tb_kdtree::traverse::{capped, leaf, Setup};
 use tb_kdtree::NodeRank;
 use tb_kdtree::{
@@ -116,6 +118,8 @@ pub(crate) const SLTR_MASK: u8 = 2;
 pub(crate) const SLTR_HANDOVER: u8 = 3;
 /// HTR in BTR's kernel: its stack traversal from the root, no climb.
 pub(crate) const HTR: u8 = 4;
+/// SEQ in SLTR's kernel: every point located from the root.
+pub(crate) const SEQ: u8 = 5;
 
 /// "Not looked up yet" for a record index.
 const NONE: u32 = u32::MAX;
@@ -308,10 +312,12 @@ fn run<T: TriTest, C: Counter, const ALG: u8>(
         (BTR, Query::Any) => cx.btr::<T, C, true, true>(ray, h, c),
         (HTR, Query::Closest) => cx.btr::<T, C, false, false>(ray, 0, c),
         (HTR, Query::Any) => cx.btr::<T, C, true, false>(ray, 0, c),
-        (SLTR, Query::Closest) => cx.sltr::<T, C, false, false>(ray, h, c),
-        (SLTR, Query::Any) => cx.sltr::<T, C, true, false>(ray, h, c),
-        (SLTR_HANDOVER, Query::Closest) => cx.sltr::<T, C, false, true>(ray, h, c),
-        (SLTR_HANDOVER, Query::Any) => cx.sltr::<T, C, true, true>(ray, h, c),
+        (SLTR, Query::Closest) => cx.sltr::<T, C, false, false, true>(ray, h, c),
+        (SLTR, Query::Any) => cx.sltr::<T, C, true, false, true>(ray, h, c),
+        (SLTR_HANDOVER, Query::Closest) => cx.sltr::<T, C, false, true, true>(ray, h, c),
+        (SLTR_HANDOVER, Query::Any) => cx.sltr::<T, C, true, true, true>(ray, h, c),
+        (SEQ, Query::Closest) => cx.sltr::<T, C, false, false, false>(ray, 0, c),
+        (SEQ, Query::Any) => cx.sltr::<T, C, true, false, false>(ray, 0, c),
         (_, Query::Closest) => cx.sltr_mask::<T, C, false>(ray, h, c),
         (_, Query::Any) => cx.sltr_mask::<T, C, true>(ray, h, c),
     }

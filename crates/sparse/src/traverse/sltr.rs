@@ -16,9 +16,17 @@ impl Ctx<'_> {
     /// (`ComputeMaxT`, one box each) while the point lies beyond a node's box. A ray lying in
     /// a split plane is walked once per side of it as `seq` walks it (`HAND == false`, `sltr`),
     /// or handed to `sltr-mask` (`HAND == true`, `sltr-handover`); a point the rounding cannot
-    /// place is handed to `sltr-mask` in both.
+    /// place is handed to `sltr-mask` in both. Without `AUG`, SEQ (Kaplan's sequential
+    /// traversal) in the same kernel: no augmented node but the root is recorded, so every
+    /// point is located from the root, and no start node is used.
     #[inline(always)]
-    pub(super) fn sltr<T: TriTest, C: Counter, const ANY: bool, const HAND: bool>(
+    pub(super) fn sltr<
+        T: TriTest,
+        C: Counter,
+        const ANY: bool,
+        const HAND: bool,
+        const AUG: bool,
+    >(
         &self,
         ray: &Ray,
         hint: u32,
@@ -29,7 +37,7 @@ impl Ctx<'_> {
         };
         let pre = T::prepare(ray);
         let mut best = Best::new(ray.tmax);
-        let st = self.start(ray, hint);
+        let st = if AUG { self.start(ray, hint) } else { 0 };
         if st != 0 {
             // ComputeMinMaxT(ray, startNode).
             c.boxes(1);
@@ -39,7 +47,7 @@ impl Ctx<'_> {
         let (mut steps, mut handover) = (0u32, false);
         passes(&s, |mask| {
             let mut w = SltrWalk::new(self, &s, st, mask, steps);
-            let done = crawl::<T, C, ANY, HAND>(&mut w, ray, &pre, &mut best, c);
+            let done = crawl::<T, C, ANY, HAND, AUG>(&mut w, ray, &pre, &mut best, c);
             steps = w.steps;
             handover = done.is_none();
             (done.unwrap_or(true), w.seen)
@@ -52,6 +60,11 @@ impl Ctx<'_> {
         // former to kd-restart).
         c.restart();
         c.handover();
+        if !AUG {
+            // SEQ hands it to kd-restart, as the kd-tree's `sequential` does.
+            let w = tb_kdtree::traverse::Tree::new(self.kd, DepthFirst, self.kd.root());
+            return restart_from::<T, C, DepthFirst, ANY>(&w, &s, ray, &pre, best, steps, c);
+        }
         let k = MaskWalk::new(self, &s, 0, steps, c);
         restart_loop::<_, T, C, ANY>(k, ray, &pre, best, c)
     }
@@ -61,14 +74,14 @@ impl Ctx<'_> {
 /// done (an any-hit found, the step cap reached), `Some(false)` when it left the root or hit
 /// before a leaf's exit, `None` where a point could not be placed.
 #[inline(always)]
-fn crawl<T: TriTest, C: Counter, const ANY: bool, const HAND: bool>(
+fn crawl<T: TriTest, C: Counter, const ANY: bool, const HAND: bool, const AUG: bool>(
     w: &mut SltrWalk,
     ray: &Ray,
     pre: &T::Pre,
     best: &mut Best,
     c: &mut C,
 ) -> Option<bool> {
-    let (mut idx, mut min, mut max) = w.locate::<C, HAND>(c);
+    let (mut idx, mut min, mut max) = w.locate::<C, HAND, AUG>(c);
     loop {
         if w.ambiguous {
             return None;
@@ -83,7 +96,7 @@ fn crawl<T: TriTest, C: Counter, const ANY: bool, const HAND: bool>(
         };
         c.restart();
         w.climb(face, c);
-        (idx, min, max) = w.locate::<C, HAND>(c);
+        (idx, min, max) = w.locate::<C, HAND, AUG>(c);
     }
 }
 
@@ -162,7 +175,7 @@ impl<'c, 'a> SltrWalk<'c, 'a> {
     /// of the face just crossed the point's coordinate is that face's exactly, other planes
     /// behind it only by more than the rounding [`SLACK`], the origin itself at `tn = 0`; a
     /// plane within rounding sets `ambiguous`; a plane holding the ray is passed on the side
-    /// `mask` gives, or, `HAND`, sets `ambiguous`). Every augmented node passed becomes `last`
+    /// `mask` gives, or, `HAND`, sets `ambiguous`). Every augmented node passed (`AUG`) becomes `last`
     /// (`lastAugmentedNode`, its record looked up only when a climb needs it). Returns the
     /// leaf and its cell.
     ///
@@ -170,7 +183,7 @@ impl<'c, 'a> SltrWalk<'c, 'a> {
     /// cannot call: it also records each augmented node passed, and `sltr-handover` stops at a
     /// plane holding the ray.
     #[inline(always)]
-    fn locate<C: Counter, const HAND: bool>(&mut self, c: &mut C) -> Cell {
+    fn locate<C: Counter, const HAND: bool, const AUG: bool>(&mut self, c: &mut C) -> Cell {
         let (s, nodes, period) = (self.s, self.cx.nodes, self.cx.period);
         let l = &self.last;
         let (mut idx, mut min, mut max, mut depth) = (l.node, l.min, l.max, l.depth);
@@ -181,7 +194,7 @@ impl<'c, 'a> SltrWalk<'c, 'a> {
             if n.is_leaf() {
                 return (idx, min, max);
             }
-            if phase == 0 && idx != self.last.node {
+            if AUG && phase == 0 && idx != self.last.node {
                 let rec = NONE;
                 self.last = Last {
                     rec,
