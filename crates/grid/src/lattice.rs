@@ -185,26 +185,21 @@ pub fn bounded_res(
     (scale_res(&[res], f)[0], f)
 }
 
-/// The top level of a two-level subdivision (Kalojanov et al. 2011 §3; Pérard-Gayot et al.
-/// 2017 §4.1): equation 1's resolution at density λ_1 of `d` over the scene's box (at most
-/// `max_cells` cells), lowered by the reference bound ([`bounded_res`]); the lattice and the
-/// bound's factor (1: unchanged).
+/// A grid over the scene's box at density `lambda` (the uniform grid's, or λ_1 for the top
+/// level of a two-level subdivision: Kalojanov et al. 2011 §3; Pérard-Gayot et al. 2017
+/// §4.1): equation 1's resolution rounded by `rounding` (at most `max_cells` cells), lowered
+/// by the reference bound ([`bounded_res`]); the lattice and the bound's factor (1:
+/// unchanged).
 pub fn top_level(
     tris: &[Triangle],
-    d: &crate::params::Densities,
+    lambda: f64,
+    rounding: Rounding,
     max_cells: u64,
     precision: Precision,
 ) -> (Lattice, f64) {
     let bounds = grid_bounds(tris);
     let ext = bounds.extent().to_array().map(f64::from);
-    let res = resolution(
-        ext,
-        tris.len(),
-        d.lambda_1 as f64,
-        d.rounding,
-        MAX_AXIS_RES,
-        max_cells,
-    );
+    let res = resolution(ext, tris.len(), lambda, rounding, MAX_AXIS_RES, max_cells);
     let (res, scale) = bounded_res(&bounds, res, tris, precision);
     (Lattice::new(&bounds, res, precision), scale)
 }

@@ -74,8 +74,13 @@ fn sub_lattice<F: Real>(top: &Lattice<F>, v: [u32; 3], res: [u32; 3]) -> Lattice
 /// first by the reference bound (the top level's references are the leaves' least), and the
 /// triangles binned to its cells; with the bound's scale of the resolution.
 fn top_level(tris: &[Triangle], p: &TwoLevelParams) -> Result<(Binned, f64), AccelError> {
-    let (top, top_scale) =
-        crate::lattice::top_level(tris, &p.densities, p.max_cells as u64, p.walk.precision);
+    let (top, top_scale) = crate::lattice::top_level(
+        tris,
+        p.densities.lambda_1 as f64,
+        p.densities.rounding,
+        p.max_cells as u64,
+        p.walk.precision,
+    );
     let (start, refs) = bin_uniform(&top, tris)?;
     Ok((Binned { top, start, refs }, top_scale))
 }

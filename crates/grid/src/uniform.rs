@@ -3,10 +3,7 @@
 //! Pérard-Gayot et al. 2017.
 
 use crate::common::{cell_walk, GridView};
-use crate::lattice::{
-    bin_uniform, bounded_res, grid_bounds, planes_for, resolution, Lattice, Planes, Real,
-    MAX_AXIS_RES,
-};
+use crate::lattice::{bin_uniform, planes_for, Lattice, Planes, Real};
 use crate::params::{Precision, UniformParams};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -51,20 +48,16 @@ impl UniformGrid {
     /// Build the grid over `tris` (parallel with rayon).
     pub fn build(tris: &Arc<[Triangle]>, p: &UniformParams) -> Result<UniformGrid, AccelError> {
         let t = Instant::now();
-        let bounds = grid_bounds(tris);
-        let ext = bounds.extent().to_array().map(f64::from);
-        let res = resolution(
-            ext,
-            tris.len(),
+        let precision = p.walk.precision;
+        // Equation 1 at λ over the scene's box, lowered by the reference bound while the
+        // boxes cover too many voxels.
+        let (lat, budget_scale) = crate::lattice::top_level(
+            tris,
             p.lambda as f64,
             p.rounding,
-            MAX_AXIS_RES,
             p.max_cells as u64,
+            precision,
         );
-        // The reference bound: lower the resolution while the boxes cover too many voxels.
-        let precision = p.walk.precision;
-        let (res, budget_scale) = bounded_res(&bounds, res, tris, precision);
-        let lat = Lattice::new(&bounds, res, precision);
         let (start, refs) = bin_uniform(&lat, tris)?;
         let t_bin = t.elapsed().as_secs_f64() * 1e3;
         let t = Instant::now();

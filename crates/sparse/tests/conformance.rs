@@ -82,6 +82,24 @@ fn traced(
     (hits, stats)
 }
 
+/// The hits and counters of the kd-tree's traversal `name` over the tree below `s`.
+fn kd_traced(
+    s: &SparseBoxes,
+    name: &str,
+    q: Query,
+    rays: &[Ray],
+) -> (Vec<HitRecord>, Vec<TraversalStats>) {
+    let ti = <tb_kdtree::KdTree as Structure>::TRAVERSALS
+        .iter()
+        .position(|t| t.info.name == name)
+        .unwrap();
+    let mut stats = vec![TraversalStats::default(); rays.len()];
+    let mut hits = vec![HitRecord::MISS; rays.len()];
+    let batch = Batch::new(q, TriTestKind::Watertight, rays);
+    Accel::trace(s.kd(), ti, batch, Answers::new(&mut hits, Some(&mut stats)));
+    (hits, stats)
+}
+
 /// HTR, run in BTR's kernel, is the kd-tree's `recursive-direction` over the same tree (same
 /// hits, nodes, planes, steps, leaves and tests, ray by ray); BTR from the root is HTR and
 /// then its climb to the root from the last augmented node (Alg. 2's `TraverseUp`: the same
@@ -99,19 +117,7 @@ fn root_walks_visit_htr_leaves() {
         for b in tb_scene::conformance::batches(&scene, TriTestKind::Watertight) {
             let q = b.kind.query();
             let (h0, s0) = traced(&s, htr, q, &b.rays);
-            let mut kd_stats = vec![TraversalStats::default(); b.rays.len()];
-            let mut kd_hits = vec![HitRecord::MISS; b.rays.len()];
-            let batch = Batch::new(q, TriTestKind::Watertight, &b.rays);
-            let rd = <tb_kdtree::KdTree as Structure>::TRAVERSALS
-                .iter()
-                .position(|t| t.info.name == "recursive-direction")
-                .unwrap();
-            Accel::trace(
-                s.kd(),
-                rd,
-                batch,
-                Answers::new(&mut kd_hits, Some(&mut kd_stats)),
-            );
+            let (kd_hits, kd_stats) = kd_traced(&s, "recursive-direction", q, &b.rays);
             assert_eq!(h0, kd_hits, "{}", scene.source);
             for (a, k) in s0.iter().zip(&kd_stats) {
                 let of = |x: &TraversalStats| (x.interior, x.planes, x.steps, x.leaves, x.prims);
@@ -458,25 +464,13 @@ fn nested_dmin_boxes_are_subsets() {
 #[test]
 fn seq_is_the_kd_trees_sequential() {
     let seq = index("seq");
-    let kd_seq = <tb_kdtree::KdTree as Structure>::TRAVERSALS
-        .iter()
-        .position(|t| t.info.name == "sequential")
-        .unwrap();
     let (mut n, mut handed, mut differ) = (0usize, 0usize, 0usize);
     for scene in tb_scene::conformance::suite_scenes() {
         let s = SparseBoxes::build(&scene.triangles, &SparseParams::default());
         for b in tb_scene::conformance::batches(&scene, TriTestKind::Watertight) {
             let q = b.kind.query();
             let (h0, s0) = traced(&s, seq, q, &b.rays);
-            let mut kd_stats = vec![TraversalStats::default(); b.rays.len()];
-            let mut kd_hits = vec![HitRecord::MISS; b.rays.len()];
-            let batch = Batch::new(q, TriTestKind::Watertight, &b.rays);
-            Accel::trace(
-                s.kd(),
-                kd_seq,
-                batch,
-                Answers::new(&mut kd_hits, Some(&mut kd_stats)),
-            );
+            let (kd_hits, kd_stats) = kd_traced(&s, "sequential", q, &b.rays);
             for i in 0..b.rays.len() {
                 assert_eq!(
                     h0[i].is_hit(),

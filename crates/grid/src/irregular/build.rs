@@ -53,8 +53,13 @@ impl Builder<'_> {
     /// binned to its cells.
     fn top_level(&mut self) -> Result<(Lattice, Binned), AccelError> {
         let (tris, p) = (self.tris, self.p);
-        let (top, top_scale) =
-            crate::lattice::top_level(tris, &p.densities, p.max_cells as u64, p.walk.precision);
+        let (top, top_scale) = crate::lattice::top_level(
+            tris,
+            p.densities.lambda_1 as f64,
+            p.densities.rounding,
+            p.max_cells as u64,
+            p.walk.precision,
+        );
         if top_scale < 1.0 {
             self.fig.push(("ref_budget_top_scale".into(), top_scale));
         }
